@@ -1,0 +1,80 @@
+#pragma once
+
+// Measured BRDF samples: the dataset that acquisition writes and fitting reads.
+//
+// On disk (docs/file-formats.md): CSV with a header; required columns
+// theta_i,phi_i,theta_o,phi_o,r,g,b (radians; BRDF in 1/sr); optional sigma_r,sigma_g,sigma_b
+// (one-sigma uncertainty, 1/sr), weight (>= 0) and flag (unsigned integer bit set, see SampleFlag).
+// Columns may come in any order; unknown columns are an error. Lines starting with '#' are
+// comments.
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "gonio/brdf/coords.h"
+#include "gonio/brdf/error.h"
+
+namespace gonio::brdf {
+
+/// Bits of Sample::flags.
+enum SampleFlag : std::uint32_t {
+    kFlagSaturated =
+        1u << 0,  ///< Some pixels saturated even at the shortest exposure (value is a lower bound).
+    kFlagHdr = 1u << 1,  ///< Value merged from an exposure bracket.
+    kFlagReference =
+        1u << 2,  ///< Re-measurement of the drift reference configuration (not a BRDF sample).
+    kFlagRoi = 1u << 3,  ///< Inside the region of interest of the requesting scene.
+};
+
+struct Sample {
+    double theta_i = 0, phi_i = 0, theta_o = 0, phi_o = 0;  ///< radians
+    Rgbd value = Rgbd::Zero();                              ///< BRDF, 1/sr
+    Rgbd sigma = Rgbd::Zero();  ///< one-sigma uncertainty, 1/sr (0 if unknown)
+    double weight = 1.0;        ///< relative weight in a fit, >= 0
+    std::uint32_t flags = 0;
+    std::size_t line = 0;  ///< source line (1-based) when read from a file, else 0
+
+    Vec3d wi() const { return spherical_to_cartesian(theta_i, phi_i); }
+    Vec3d wo() const { return spherical_to_cartesian(theta_o, phi_o); }
+};
+
+/// A row that was read but not accepted, with the reason ("theta_i = 1.7 below the horizon").
+struct RejectedRow {
+    std::size_t line = 0;
+    std::string reason;
+};
+
+struct Dataset {
+    std::string source;  ///< file path or a description
+    std::vector<Sample> samples;
+    bool has_sigma = false;
+    bool has_weight = false;
+    bool has_flags = false;
+    std::vector<RejectedRow> rejected;  ///< rows dropped while reading, never used
+};
+
+/// Checks one sample against the rules of a valid measurement: finite values, value >= 0, sigma >=
+/// 0, weight >= 0, theta in [0, pi/2) for both directions (at or below the horizon is rejected),
+/// phi in
+/// [-2 pi, 2 pi]. Returns an empty string when valid, else the reason naming the field.
+std::string validate_sample(const Sample& s);
+
+/// Reads a dataset CSV. Structural problems (missing file, missing or unknown column, wrong column
+/// count) are errors naming file and line; rows that parse but break validate_sample() (or do not
+/// parse as numbers) are collected in Dataset::rejected with their line numbers.
+Expected<Dataset> read_dataset_csv(const std::string& path);
+
+/// Writes a dataset CSV with full double precision (%.17g); sigma/weight/flag columns when the
+/// dataset has them. Writes to path + ".tmp" and renames, so a reader never sees a half-written
+/// file.
+Expected<void> write_dataset_csv(const std::string& path, const Dataset& data);
+
+/// Formats one sample as a CSV row (no newline) with the columns write_dataset_csv() chooses for
+/// `data`.
+std::string format_sample_row(const Sample& s, const Dataset& layout);
+/// The header line matching format_sample_row().
+std::string dataset_csv_header(const Dataset& layout);
+
+}  // namespace gonio::brdf

@@ -1,0 +1,45 @@
+# gonio_add_module(<name> [PUBLIC_DEPS ...] [PRIVATE_DEPS ...] [PUBLIC_INCLUDES ...] [PRIVATE_INCLUDES ...])
+# Builds gonio_<name> from <name>/src/*.cpp with public headers in <name>/include, aliased gonio::<name>.
+function(gonio_add_module name)
+  cmake_parse_arguments(ARG "" "" "PUBLIC_DEPS;PRIVATE_DEPS;PUBLIC_INCLUDES;PRIVATE_INCLUDES" ${ARGN})
+  file(GLOB sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/src/*.cpp)
+  if(NOT sources)
+    # Header-only so far.
+    add_library(gonio_${name} INTERFACE)
+    add_library(gonio::${name} ALIAS gonio_${name})
+    target_include_directories(gonio_${name} SYSTEM INTERFACE ${ARG_PUBLIC_INCLUDES})
+    target_include_directories(gonio_${name} INTERFACE ${CMAKE_CURRENT_SOURCE_DIR}/include
+                                                       ${PROJECT_BINARY_DIR}/generated)
+    target_link_libraries(gonio_${name} INTERFACE ${ARG_PUBLIC_DEPS})
+    return()
+  endif()
+  add_library(gonio_${name} STATIC ${sources})
+  add_library(gonio::${name} ALIAS gonio_${name})
+  target_include_directories(gonio_${name} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include
+                                                  ${PROJECT_BINARY_DIR}/generated)
+  target_include_directories(gonio_${name} SYSTEM PUBLIC ${ARG_PUBLIC_INCLUDES})
+  target_include_directories(gonio_${name} SYSTEM PRIVATE ${ARG_PRIVATE_INCLUDES})
+  target_link_libraries(gonio_${name} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE gonio_warnings ${ARG_PRIVATE_DEPS})
+  set_target_properties(gonio_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+endfunction()
+
+# gonio_add_tests(<module> DEPS ...)
+# Every tests/<module>/<label>_*_test.cpp joins the executable gonio_<module>_<label>_tests; each GoogleTest
+# case becomes its own ctest entry labelled <label> and <module>.
+function(gonio_add_tests module)
+  cmake_parse_arguments(ARG "" "" "DEPS" ${ARGN})
+  foreach(label unit property stress integration fault)
+    file(GLOB sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/${label}_*_test.cpp)
+    if(sources)
+      set(exe gonio_${module}_${label}_tests)
+      add_executable(${exe} ${sources})
+      target_link_libraries(${exe} PRIVATE ${ARG_DEPS} GTest::gtest_main GTest::gmock gonio_warnings)
+      target_compile_definitions(${exe} PRIVATE
+        GONIO_SOURCE_DIR="${PROJECT_SOURCE_DIR}" GONIO_BINARY_DIR="${PROJECT_BINARY_DIR}")
+      gtest_discover_tests(${exe}
+        TEST_PREFIX "${module}."
+        PROPERTIES LABELS "${label};${module}" TIMEOUT 300
+        DISCOVERY_TIMEOUT 60)
+    endif()
+  endforeach()
+endfunction()

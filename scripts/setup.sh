@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Installs what is missing (Debian 12 packages), configures and builds gonio.
+# Environment: BUILD_DIR (default build), GONIO_SANITIZE (ON/OFF), GONIO_BUILD_BENCH (ON/OFF),
+# GONIO_WERROR (default ON), JOBS (default: number of cores).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+packages=(cmake make g++ pkg-config git
+  libceres-dev libeigen3-dev libopencv-dev libopenexr-dev libmodbus-dev libusb-1.0-0-dev
+  googletest libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev
+  libspdlog-dev libfmt-dev libexpected-dev zlib1g-dev)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing ${missing[*]}"
+  sudo_cmd=()
+  [ "$(id -u)" -eq 0 ] || sudo_cmd=(sudo)
+  "${sudo_cmd[@]}" apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+build_dir=${BUILD_DIR:-build}
+jobs=${JOBS:-$(nproc)}
+cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=${BUILD_TYPE:-RelWithDebInfo} \
+  -DGONIO_WERROR=${GONIO_WERROR:-ON} -DGONIO_SANITIZE=${GONIO_SANITIZE:-OFF} \
+  -DGONIO_BUILD_BENCH=${GONIO_BUILD_BENCH:-OFF} >/dev/null
+cmake --build "$build_dir" -j "$jobs"
