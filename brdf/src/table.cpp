@@ -1,0 +1,267 @@
+#include "gonio/brdf/table.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include "gonio/brdf/check.h"
+
+namespace gonio::brdf {
+namespace {
+
+constexpr double kHalfPi = kPi / 2;
+
+// floor(x) clamped into [0, n - 1]; NaN and negatives give 0.
+int clamp_bin(double x, int n) {
+    if (!(x > 0)) {
+        // x <= 0, or NaN: first bin.
+        return 0;
+    }
+    if (x >= static_cast<double>(n - 1)) {
+        return n - 1;
+    }
+    return static_cast<int>(x);
+}
+
+std::string fmt(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.6g", v);
+    return buf;
+}
+
+}  // namespace
+
+double fold_phi_d(double phi_d) {
+    if (phi_d < 0) {
+        // Reciprocity: (theta_d, phi_d) and (theta_d, phi_d + pi) are the same pair with wi and wo
+        // swapped.
+        phi_d += kPi;
+    }
+    return phi_d;
+}
+
+int TableGrid::theta_h_index(double theta_h) const {
+    if (!(theta_h > 0)) {
+        // theta_h = 0 (the mirror direction) and rounding noise below it: first bin. Also NaN.
+        return 0;
+    }
+    return clamp_bin(std::sqrt(theta_h / kHalfPi) * n_theta_h, n_theta_h);
+}
+
+int TableGrid::theta_d_index(double theta_d) const {
+    return clamp_bin(theta_d / kHalfPi * n_theta_d, n_theta_d);
+}
+
+int TableGrid::phi_d_index(double phi_d) const {
+    return clamp_bin(fold_phi_d(phi_d) / kPi * n_phi_d, n_phi_d);
+}
+
+double TableGrid::theta_h_centre(int i_h) const {
+    const double u = (i_h + 0.5) / n_theta_h;
+    return u * u * kHalfPi;
+}
+
+double TableGrid::theta_d_centre(int i_d) const {
+    return (i_d + 0.5) / n_theta_d * kHalfPi;
+}
+
+double TableGrid::phi_d_centre(int i_p) const {
+    return (i_p + 0.5) / n_phi_d * kPi;
+}
+
+std::array<double, 3> TableGrid::continuous_index(double theta_h,
+                                                  double theta_d,
+                                                  double phi_d) const {
+    // theta_h below 0 only from rounding noise: treat as 0 so sqrt stays defined.
+    const double th = theta_h > 0 ? theta_h : 0.0;
+    return {std::sqrt(th / kHalfPi) * n_theta_h - 0.5,
+            theta_d / kHalfPi * n_theta_d - 0.5,
+            fold_phi_d(phi_d) / kPi * n_phi_d - 0.5};
+}
+
+std::pair<Vec3d, Vec3d> TableGrid::centre_directions(int i_h, int i_d, int i_p) const {
+    return from_half_diff(
+        HalfDiff<double>{theta_h_centre(i_h), 0.0, theta_d_centre(i_d), phi_d_centre(i_p)});
+}
+
+TabulatedBrdf::TabulatedBrdf(TableGrid grid,
+                             std::array<double, 3> scale,
+                             std::vector<double> raw,
+                             std::string source)
+    : grid_(grid), scale_(scale), raw_(std::move(raw)), source_(std::move(source)) {
+    GONIO_CHECK_MSG(grid_.n_theta_h > 0 && grid_.n_theta_d > 0 && grid_.n_phi_d > 0,
+                    "grid " << grid_.n_theta_h << "x" << grid_.n_theta_d << "x" << grid_.n_phi_d);
+    const std::size_t n = grid_.size();
+    GONIO_CHECK_MSG(raw_.size() == 3 * n, "raw has " << raw_.size() << " entries, grid " << 3 * n);
+    for (double s : scale_) {
+        GONIO_CHECK_MSG(std::isfinite(s) && s > 0, "scale " << s);
+    }
+    valid_.assign(n, 1);
+    for (int c = 0; c < 3; ++c) {
+        const double* block = raw_.data() + c * n;
+        for (std::size_t k = 0; k < n; ++k) {
+            GONIO_CHECK_MSG(std::isfinite(block[k]), "raw[" << c * n + k << "] = " << block[k]);
+            if (block[k] < 0) {
+                valid_[k] = 0;
+            }
+        }
+    }
+}
+
+TabulatedBrdf TabulatedBrdf::empty(TableGrid grid,
+                                   std::array<double, 3> scale,
+                                   std::string source) {
+    std::vector<double> raw(3 * grid.size(), -1.0);
+    return TabulatedBrdf(grid, scale, std::move(raw), std::move(source));
+}
+
+Rgbd TabulatedBrdf::bin_value(std::size_t flat) const {
+    const std::size_t n = grid_.size();
+    return Rgbd(raw_[flat] * scale_[0], raw_[n + flat] * scale_[1], raw_[2 * n + flat] * scale_[2]);
+}
+
+void TabulatedBrdf::set_bin(std::size_t flat, const Rgbd& value) {
+    GONIO_CHECK(flat < valid_.size());
+    GONIO_CHECK_MSG(value.isFinite().all() && (value >= 0).all(), "value " << value.transpose());
+    const std::size_t n = grid_.size();
+    for (int c = 0; c < 3; ++c) {
+        raw_[c * n + flat] = value[c] / scale_[c];
+    }
+    valid_[flat] = 1;
+}
+
+void TabulatedBrdf::set_bin_invalid(std::size_t flat) {
+    GONIO_CHECK(flat < valid_.size());
+    const std::size_t n = grid_.size();
+    for (int c = 0; c < 3; ++c) {
+        raw_[c * n + flat] = -1.0;
+    }
+    valid_[flat] = 0;
+}
+
+TableLookup TabulatedBrdf::lookup_nearest(double theta_h, double theta_d, double phi_d) const {
+    const std::size_t flat = grid_.index(
+        grid_.theta_h_index(theta_h), grid_.theta_d_index(theta_d), grid_.phi_d_index(phi_d));
+    if (!valid_[flat]) {
+        // Not measured: no value, flagged.
+        return {};
+    }
+    return {bin_value(flat), true};
+}
+
+TableLookup TabulatedBrdf::lookup_trilinear(double theta_h, double theta_d, double phi_d) const {
+    const std::array<double, 3> u = grid_.continuous_index(theta_h, theta_d, phi_d);
+    const int n[3] = {grid_.n_theta_h, grid_.n_theta_d, grid_.n_phi_d};
+    int lo[3];
+    int hi[3];
+    double t[3];
+    for (int a = 0; a < 3; ++a) {
+        double x = u[a];
+        if (!std::isfinite(x)) {
+            // Only from non-finite angles: use the first bin.
+            x = 0;
+        }
+        if (a < 2) {
+            // theta_h, theta_d: constant beyond the first and last centres.
+            x = std::min(std::max(x, 0.0), static_cast<double>(n[a] - 1));
+            lo[a] = std::min(static_cast<int>(std::floor(x)), n[a] - 1);
+            hi[a] = std::min(lo[a] + 1, n[a] - 1);
+            t[a] = x - lo[a];
+        } else {
+            // phi_d: periodic with period pi, so the last centre neighbours the first.
+            const double f = std::floor(x);
+            t[a] = x - f;
+            int i = static_cast<int>(f) % n[a];
+            if (i < 0) {
+                i += n[a];
+            }
+            lo[a] = i;
+            hi[a] = (i + 1) % n[a];
+        }
+    }
+    Rgbd sum = Rgbd::Zero();
+    double weight = 0;
+    for (int corner = 0; corner < 8; ++corner) {
+        const int ih = (corner & 1) ? hi[0] : lo[0];
+        const int id = (corner & 2) ? hi[1] : lo[1];
+        const int ip = (corner & 4) ? hi[2] : lo[2];
+        const double w = ((corner & 1) ? t[0] : 1 - t[0]) * ((corner & 2) ? t[1] : 1 - t[1]) *
+                         ((corner & 4) ? t[2] : 1 - t[2]);
+        const std::size_t flat = grid_.index(ih, id, ip);
+        if (w > 0 && valid_[flat]) {
+            sum += w * bin_value(flat);
+            weight += w;
+        }
+    }
+    if (weight <= 0) {
+        // No valid corner with a positive weight: no value, flagged.
+        return {};
+    }
+    return {sum / weight, true};
+}
+
+TableLookup TabulatedBrdf::lookup_half_diff(double theta_h, double theta_d, double phi_d) const {
+    return interpolation_ == Interpolation::kNearest ? lookup_nearest(theta_h, theta_d, phi_d)
+                                                     : lookup_trilinear(theta_h, theta_d, phi_d);
+}
+
+TableLookup TabulatedBrdf::lookup(const Vec3d& wi, const Vec3d& wo) const {
+    if (!(wi.z() > 0) || !(wo.z() > 0)) {
+        // At or below the horizon (or NaN): the BRDF is zero there.
+        return {};
+    }
+    const HalfDiff<double> hd = to_half_diff(wi, wo);
+    return lookup_half_diff(hd.theta_h, hd.theta_d, hd.phi_d);
+}
+
+Rgbd TabulatedBrdf::eval(const Vec3d& wi, const Vec3d& wo) const {
+    return lookup(wi, wo).value;
+}
+
+std::string TabulatedBrdf::describe() const {
+    return "table " + source_ + " (" + std::to_string(grid_.n_theta_h) + " x " +
+           std::to_string(grid_.n_theta_d) + " x " + std::to_string(grid_.n_phi_d) +
+           " theta_h x theta_d x phi_d, " +
+           (interpolation_ == Interpolation::kNearest ? "nearest" : "trilinear") + ")";
+}
+
+TableStatistics TabulatedBrdf::compute_statistics() const {
+    TableStatistics s;
+    s.bins = grid_.size();
+    s.min = Rgbd::Constant(std::numeric_limits<double>::infinity());
+    s.max = Rgbd::Zero();
+    Rgbd sum = Rgbd::Zero();
+    for (std::size_t k = 0; k < s.bins; ++k) {
+        if (!valid_[k]) {
+            continue;
+        }
+        const Rgbd v = bin_value(k);
+        ++s.valid_bins;
+        s.min = s.min.min(v);
+        s.max = s.max.max(v);
+        sum += v;
+    }
+    if (s.valid_bins == 0) {
+        // No data at all: report zeros rather than +inf minima.
+        s.min = Rgbd::Zero();
+        return s;
+    }
+    s.mean = sum / static_cast<double>(s.valid_bins);
+    return s;
+}
+
+std::string TabulatedBrdf::statistics() const {
+    const TableStatistics s = compute_statistics();
+    std::string out =
+        "valid bins: " + std::to_string(s.valid_bins) + " of " + std::to_string(s.bins) + " (" +
+        fmt(100.0 * static_cast<double>(s.valid_bins) / static_cast<double>(s.bins)) + " %)\n";
+    const char* names[3] = {"r", "g", "b"};
+    for (int c = 0; c < 3; ++c) {
+        out += std::string(names[c]) + ": min " + fmt(s.min[c]) + " max " + fmt(s.max[c]) +
+               " mean " + fmt(s.mean[c]) + " 1/sr\n";
+    }
+    return out;
+}
+
+}  // namespace gonio::brdf
