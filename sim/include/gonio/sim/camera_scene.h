@@ -1,0 +1,41 @@
+#pragma once
+
+// What the simulated camera looks at, supplied by whoever builds the virtual rig through a
+// callback (the rig reads its simulated motor controllers and shutter to fill it in).
+
+#include <functional>
+
+#include "gonio/brdf/coords.h"
+
+namespace gonio::sim {
+
+/// Shape of the sample in front of the detector.
+enum class SampleShape {
+    kFlatPatch,  ///< point mode: a flat patch filling the field stop (one geometry for all pixels)
+    kSphere,     ///< image mode: a sphere imaged by an orthographic camera, one geometry per pixel
+};
+
+/// The state of the rig at the moment of an exposure.
+struct SceneState {
+    /// Direction toward the light, unit, in the sample frame (z = sample normal).
+    brdf::Vec3d wi{0, 0, 1};
+    /// Direction toward the detector, unit, in the sample frame.
+    brdf::Vec3d wo{0, 0, 1};
+    /// False while the light's shutter is closed (dark frame: only dark current and noise).
+    bool shutter_open = true;
+    /// Irradiance of the collimated beam on a plane perpendicular to it, W/m^2.
+    double irradiance_w_m2 = 1.0;
+    /// Spectral weights of the filter in front of the mono sensor: the pixel sees
+    /// filter . f_rgb. (1,0,0) renders the red channel; the default is the mean of R, G and B.
+    brdf::Rgbd filter{1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0};
+    /// Sample shape. For kSphere, wi and wo are given in the camera-aligned world frame
+    /// (camera looking along -wo); see docs/camera.md.
+    SampleShape shape = SampleShape::kFlatPatch;
+    /// kSphere only: sphere radius as a fraction of min(sensor width, height) / 2.
+    double sphere_radius_fraction = 0.9;
+};
+
+/// Called at each exposure to learn the rig's state.
+using SceneFn = std::function<SceneState()>;
+
+}  // namespace gonio::sim
