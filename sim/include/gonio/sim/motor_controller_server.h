@@ -1,0 +1,113 @@
+#pragma once
+
+// Simulated motor controllers: a Modbus server (libmodbus) that implements the drive profiles of
+// data/devices register for register, with several units (drives) behind one address, over TCP on
+// 127.0.0.1 (port 0 = ephemeral) or over RTU on a pseudo-terminal pair. Each unit runs a MotorSim;
+// a unit may also carry a shutter coil. Faults are injected from C++ (inject()) or over Modbus
+// through the fault registers (kFaultRegister...). All public functions are thread-safe.
+
+#include <chrono>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "gonio/brdf/error.h"
+#include "gonio/devices/axis_profile.h"
+#include "gonio/sim/motor_sim.h"
+
+namespace gonio::sim {
+
+/// Injectable faults.
+enum class FaultKind {
+    kDelayReply,      ///< Replies `count` requests `delay` late (the reply is still sent).
+    kDropConnection,  ///< Closes the TCP connection (RTU: stays silent) on the next `count`
+                      ///< requests.
+    kException,       ///< Answers `count` requests with Modbus exception `exception_code`.
+    kAlarmMidMove,  ///< The next move stops at `fraction` of its distance with alarm `alarm_code`.
+    kStall,         ///< The next move freezes at `fraction` while still reporting "moving".
+};
+
+struct Fault {
+    FaultKind kind = FaultKind::kDelayReply;
+    int unit = 0;   ///< 0 = whichever unit is addressed next (reply faults) / every unit (motion).
+    int count = 1;  ///< Requests affected (reply faults).
+    std::chrono::milliseconds delay{0};
+    int exception_code = 6;  ///< 6 = slave (server) busy, 2 = illegal data address.
+    int alarm_code = 0;      ///< 0 = the profile's overload code.
+    double fraction = 0.5;
+};
+
+/// Fault registers present on every unit (wire addresses). Writing the kind register (after the
+/// others) injects the fault: kind = 1 + FaultKind, count, delay ms, exception or alarm code,
+/// fraction in 1/1000.
+constexpr int kFaultRegister = 0xFF00;
+constexpr int kFaultRegisterCount = 5;
+
+enum class Transport {
+    kTcp,  ///< Modbus TCP on 127.0.0.1.
+    kRtu,  ///< Modbus RTU on a pseudo-terminal; clients open device_path().
+};
+
+struct ServerOptions {
+    Transport transport = Transport::kTcp;
+    int port = 0;  ///< TCP: 0 = ephemeral (see port()).
+    int baud = 115200;
+};
+
+/// State of one unit at one instant.
+struct UnitSnapshot {
+    double position_deg = 0;  ///< Physical load angle (what the optics see), degrees.
+    double motor_deg = 0;     ///< Physical motor angle, degrees.
+    double counter_deg = 0;   ///< What the drive reports, degrees.
+    bool moving = false;
+    bool homed = false;
+    int alarm_code = 0;
+    bool shutter_open = false;
+};
+
+class MotorControllerServer {
+  public:
+    MotorControllerServer();
+    ~MotorControllerServer();  ///< Stops the server.
+    MotorControllerServer(const MotorControllerServer&) = delete;
+    MotorControllerServer& operator=(const MotorControllerServer&) = delete;
+
+    /// Adds a drive (before or after start()). Errors on a duplicate or invalid unit id (1..247).
+    Expected<void> add_unit(int unit,
+                            const devices::AxisProfile& profile,
+                            const MotorSimConfig& cfg = {});
+    /// Adds a shutter coil (wire address) to `unit`; a unit without a drive is created if needed.
+    Expected<void> add_shutter(int unit, int coil);
+
+    /// Binds and starts the server thread.
+    Expected<void> start(const ServerOptions& options = {});
+    void stop();
+    bool running() const;
+
+    int port() const;                 ///< TCP port (after start()).
+    std::string device_path() const;  ///< RTU: pseudo-terminal path clients open.
+    /// The address a client connects to: "tcp://127.0.0.1:PORT" or "rtu:/dev/pts/N?baud=...".
+    std::string address() const;
+
+    void inject(const Fault& f);
+    void clear_faults();
+
+    /// Physical load angle of a unit's stage, degrees (NaN for an unknown unit).
+    double position_deg(int unit) const;
+    std::map<int, double> positions_deg() const;
+    Expected<UnitSnapshot> snapshot(int unit) const;
+    bool shutter_open(int unit) const;
+
+    /// Requests received for `unit` (0 = all units), including ones answered with exceptions.
+    std::uint64_t request_count(int unit = 0) const;
+
+    /// Changes the time scale of every unit (applies from now on).
+    void set_time_scale(double time_scale);
+
+  private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace gonio::sim
