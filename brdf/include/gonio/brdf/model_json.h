@@ -1,0 +1,31 @@
+#pragma once
+
+// Reading and writing analytic models as JSON (schema: docs/model-schema.md). Example:
+//   {"diffuse": [0.1, 0.1, 0.1],
+//    "lobes": [{"distribution": "ggx", "alpha": 0.2, "shadowing": "smith-correlated",
+//               "fresnel": {"type": "schlick", "f0": [0.04, 0.04, 0.04]}, "scale": [1, 1, 1]}]}
+// Unknown keys, missing keys, wrong types and out-of-domain values are rejected with the key path
+// and the rule: "model.json: lobes[0].alpha = -0.1: must be > 0".
+
+#include <string>
+
+#include "gonio/brdf/error.h"
+#include "gonio/brdf/model.h"
+
+namespace gonio::brdf {
+
+/// Parses a model from JSON text; source_name prefixes every message (a file name or "<stdin>").
+Expected<ModelD> parse_model_json(const std::string& text, const std::string& source_name);
+
+/// Reads and parses a model file; the error names the path.
+Expected<ModelD> load_model_json(const std::string& path);
+
+/// Pretty JSON (4-space indent) of a model. Numbers are written with the shortest representation
+/// that reads back to the same double, so parse_model_json(model_to_json(m)) == m exactly.
+/// A conductor is written with its numeric eta and k (the material name is not kept).
+std::string model_to_json(const ModelD& m);
+
+/// One line summary: "diffuse [0.1 0.1 0.1] + ggx(alpha 0.2, smith-correlated, schlick)".
+std::string describe_model(const ModelD& m);
+
+}  // namespace gonio::brdf

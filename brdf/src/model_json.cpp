@@ -1,0 +1,425 @@
+// Model JSON reading and writing (schema: docs/model-schema.md).
+
+#include "gonio/brdf/model_json.h"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <initializer_list>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "gonio/brdf/ior.h"
+
+namespace gonio::brdf {
+
+namespace {
+
+using Json = nlohmann::json;
+using OrderedJson = nlohmann::ordered_json;
+
+/// Internal to this file: carries the first problem up to parse_model_json, which turns it into an
+/// Error. Never leaves this translation unit.
+struct ParseFailure {
+    std::string message;
+};
+
+[[noreturn]] void fail(const std::string& message) {
+    throw ParseFailure{message};
+}
+
+std::string type_name(const Json& j) {
+    if (j.is_number()) {
+        return "number";
+    }
+    return j.type_name();
+}
+
+std::string key_path(const std::string& parent, const std::string& key) {
+    return parent.empty() ? key : parent + "." + key;
+}
+
+/// Rejects every key of `obj` that is not in `allowed`.
+void check_keys(const Json& obj,
+                const std::string& path,
+                std::initializer_list<const char*> allowed) {
+    for (auto it = obj.begin(); it != obj.end(); ++it) {
+        bool known = false;
+        for (const char* a : allowed) {
+            known = known || it.key() == a;
+        }
+        if (!known) {
+            std::string list;
+            for (const char* a : allowed) {
+                list += list.empty() ? "" : ", ";
+                list += a;
+            }
+            fail(key_path(path, it.key()) + ": unknown key (allowed here: " + list + ")");
+        }
+    }
+}
+
+const Json& require(const Json& obj, const std::string& path, const char* key) {
+    auto it = obj.find(key);
+    if (it == obj.end()) {
+        fail((path.empty() ? std::string("top level") : path) + ": missing key \"" + key + "\"");
+    }
+    return *it;
+}
+
+void require_object(const Json& j, const std::string& path) {
+    if (!j.is_object()) {
+        fail((path.empty() ? std::string("top level") : path) + ": expected an object, got " +
+             type_name(j));
+    }
+}
+
+std::string get_string(const Json& j, const std::string& path) {
+    if (!j.is_string()) {
+        fail(path + ": expected a string, got " + type_name(j));
+    }
+    return j.get<std::string>();
+}
+
+double get_number(const Json& j, const std::string& path) {
+    if (!j.is_number()) {
+        fail(path + ": expected a number, got " + type_name(j));
+    }
+    const double v = j.get<double>();
+    if (!std::isfinite(v)) {
+        fail(path + " = " + j.dump() + ": must be finite");
+    }
+    return v;
+}
+
+std::string show(double v) {
+    return Json(v).dump();
+}
+
+enum class Rule { kPositive, kNonNegative, kUnit };
+
+void check_rule(double v, const std::string& path, Rule rule) {
+    switch (rule) {
+        case Rule::kPositive:
+            if (!(v > 0)) {
+                fail(path + " = " + show(v) + ": must be > 0");
+            }
+            break;
+        case Rule::kNonNegative:
+            if (!(v >= 0)) {
+                fail(path + " = " + show(v) + ": must be >= 0");
+            }
+            break;
+        case Rule::kUnit:
+            if (!(v >= 0 && v <= 1)) {
+                fail(path + " = " + show(v) + ": must be in [0, 1]");
+            }
+            break;
+    }
+}
+
+double get_scalar(const Json& j, const std::string& path, Rule rule) {
+    const double v = get_number(j, path);
+    check_rule(v, path, rule);
+    return v;
+}
+
+/// A number (same value in the three channels) or an array of three numbers.
+Rgbd get_rgb(const Json& j, const std::string& path, Rule rule) {
+    if (j.is_number()) {
+        return Rgbd::Constant(get_scalar(j, path, rule));
+    }
+    if (!j.is_array() || j.size() != 3) {
+        fail(path + ": expected a number or an array of 3 numbers, got " +
+             (j.is_array() ? "an array of " + std::to_string(j.size()) : type_name(j)));
+    }
+    Rgbd out;
+    for (int c = 0; c < 3; ++c) {
+        out[c] = get_scalar(j[c], path + "[" + std::to_string(c) + "]", rule);
+    }
+    return out;
+}
+
+const IorEntry& get_material(const Json& j, const std::string& path) {
+    const std::string name = get_string(j, path);
+    const IorEntry* e = find_ior(name);
+    if (e == nullptr) {
+        fail(path + " = \"" + name + "\": unknown material (known: " + ior_names() + ")");
+    }
+    return *e;
+}
+
+Fresnel<double> parse_fresnel(const Json& j, const std::string& path) {
+    require_object(j, path);
+    Fresnel<double> f;
+    const std::string type = get_string(require(j, path, "type"), path + ".type");
+    if (type == "none") {
+        check_keys(j, path, {"type"});
+        f.type = FresnelType::kNone;
+    } else if (type == "schlick") {
+        check_keys(j, path, {"type", "f0"});
+        f.type = FresnelType::kSchlick;
+        f.f0 = get_rgb(require(j, path, "f0"), path + ".f0", Rule::kUnit);
+    } else if (type == "dielectric") {
+        check_keys(j, path, {"type", "eta", "material"});
+        f.type = FresnelType::kDielectric;
+        const bool has_eta = j.contains("eta");
+        const bool has_material = j.contains("material");
+        if (has_eta == has_material) {
+            fail(path + ": give exactly one of \"eta\" and \"material\"");
+        }
+        if (has_eta) {
+            f.eta = get_scalar(j["eta"], path + ".eta", Rule::kPositive);
+        } else {
+            const IorEntry& e = get_material(j["material"], path + ".material");
+            if (e.conductor) {
+                fail(path + ".material = \"" + e.name +
+                     "\": is a conductor, use \"type\": \"conductor\"");
+            }
+            f.eta = e.eta[0];
+        }
+    } else if (type == "conductor") {
+        check_keys(j, path, {"type", "eta", "k", "material"});
+        f.type = FresnelType::kConductor;
+        const bool has_material = j.contains("material");
+        if (has_material) {
+            if (j.contains("eta") || j.contains("k")) {
+                fail(path + ": give either \"material\" or \"eta\" and \"k\", not both");
+            }
+            const IorEntry& e = get_material(j["material"], path + ".material");
+            f.eta_rgb = e.eta;
+            f.k = e.k;
+        } else {
+            f.eta_rgb = get_rgb(require(j, path, "eta"), path + ".eta", Rule::kPositive);
+            f.k = get_rgb(require(j, path, "k"), path + ".k", Rule::kNonNegative);
+        }
+    } else {
+        fail(path + ".type = \"" + type +
+             "\": must be one of schlick, dielectric, conductor, none");
+    }
+    return f;
+}
+
+Lobe<double> parse_lobe(const Json& j, const std::string& path) {
+    require_object(j, path);
+    check_keys(j,
+               path,
+               {"distribution",
+                "alpha",
+                "alpha_x",
+                "alpha_y",
+                "exponent",
+                "shadowing",
+                "fresnel",
+                "scale"});
+    Lobe<double> lobe;
+    const std::string dist = get_string(require(j, path, "distribution"), path + ".distribution");
+    if (dist == "ggx") {
+        lobe.distribution = Distribution::kGgx;
+    } else if (dist == "beckmann") {
+        lobe.distribution = Distribution::kBeckmann;
+    } else if (dist == "blinn-phong") {
+        lobe.distribution = Distribution::kBlinnPhong;
+    } else {
+        fail(path + ".distribution = \"" + dist + "\": must be one of ggx, beckmann, blinn-phong");
+    }
+    const bool microfacet = lobe.distribution != Distribution::kBlinnPhong;
+    if (microfacet) {
+        if (j.contains("exponent")) {
+            fail(path + ".exponent: only for blinn-phong lobes (" + dist + " uses alpha)");
+        }
+        const bool has_alpha = j.contains("alpha");
+        const bool has_x = j.contains("alpha_x");
+        const bool has_y = j.contains("alpha_y");
+        if (has_alpha && (has_x || has_y)) {
+            fail(path + ": give either \"alpha\" or \"alpha_x\" and \"alpha_y\", not both");
+        }
+        if (has_alpha) {
+            lobe.anisotropic = false;
+            lobe.alpha_x = get_scalar(j["alpha"], path + ".alpha", Rule::kPositive);
+            lobe.alpha_y = lobe.alpha_x;
+        } else if (has_x || has_y) {
+            lobe.anisotropic = true;
+            lobe.alpha_x =
+                get_scalar(require(j, path, "alpha_x"), path + ".alpha_x", Rule::kPositive);
+            lobe.alpha_y =
+                get_scalar(require(j, path, "alpha_y"), path + ".alpha_y", Rule::kPositive);
+        } else {
+            fail(path + ": missing key \"alpha\" (or \"alpha_x\" and \"alpha_y\")");
+        }
+    } else {
+        for (const char* key : {"alpha", "alpha_x", "alpha_y"}) {
+            if (j.contains(key)) {
+                fail(key_path(path, key) +
+                     ": not used by blinn-phong lobes (they take \"exponent\")");
+            }
+        }
+        lobe.exponent =
+            get_scalar(require(j, path, "exponent"), path + ".exponent", Rule::kPositive);
+    }
+    // Shadowing and Fresnel: required for microfacet lobes; a Blinn-Phong lobe has neither unless
+    // it asks for them.
+    if (microfacet || j.contains("shadowing")) {
+        const std::string s = get_string(require(j, path, "shadowing"), path + ".shadowing");
+        if (s == "smith-correlated") {
+            lobe.shadowing = Shadowing::kSmithCorrelated;
+        } else if (s == "smith-separable") {
+            lobe.shadowing = Shadowing::kSmithSeparable;
+        } else if (s == "v-groove") {
+            lobe.shadowing = Shadowing::kVGroove;
+        } else if (s == "none") {
+            lobe.shadowing = Shadowing::kNone;
+        } else {
+            fail(path + ".shadowing = \"" + s +
+                 "\": must be one of smith-correlated, smith-separable, v-groove, none");
+        }
+    } else {
+        lobe.shadowing = Shadowing::kNone;
+    }
+    if (microfacet || j.contains("fresnel")) {
+        lobe.fresnel = parse_fresnel(require(j, path, "fresnel"), path + ".fresnel");
+    } else {
+        lobe.fresnel.type = FresnelType::kNone;
+    }
+    if (j.contains("scale")) {
+        lobe.scale = get_rgb(j["scale"], path + ".scale", Rule::kNonNegative);
+    } else {
+        lobe.scale = Rgbd::Ones();
+    }
+    return lobe;
+}
+
+ModelD parse_model(const Json& j) {
+    require_object(j, "");
+    check_keys(j, "", {"diffuse", "lobes"});
+    ModelD m;
+    if (j.contains("diffuse")) {
+        m.has_diffuse = true;
+        m.diffuse = get_rgb(j["diffuse"], "diffuse", Rule::kNonNegative);
+    } else {
+        m.has_diffuse = false;
+        m.diffuse = Rgbd::Zero();
+    }
+    const Json& lobes = require(j, "", "lobes");
+    if (!lobes.is_array()) {
+        fail("lobes: expected an array, got " + type_name(lobes));
+    }
+    for (std::size_t i = 0; i < lobes.size(); ++i) {
+        m.lobes.push_back(parse_lobe(lobes[i], "lobes[" + std::to_string(i) + "]"));
+    }
+    return m;
+}
+
+OrderedJson rgb_json(const Rgbd& v) {
+    return OrderedJson::array({v[0], v[1], v[2]});
+}
+
+std::string fmt_rgb(const Rgbd& v) {
+    if (v[0] == v[1] && v[1] == v[2]) {
+        return show(v[0]);
+    }
+    return "[" + show(v[0]) + " " + show(v[1]) + " " + show(v[2]) + "]";
+}
+
+}  // namespace
+
+Expected<ModelD> parse_model_json(const std::string& text, const std::string& source_name) {
+    Json j;
+    try {
+        j = Json::parse(text);
+    } catch (const Json::parse_error& e) {
+        std::string what = e.what();
+        // Drop nlohmann's "[json.exception.parse_error.101] " prefix; keep line and column.
+        const auto pos = what.find("] ");
+        if (pos != std::string::npos) {
+            what = what.substr(pos + 2);
+        }
+        return make_error(source_name + ": " + what);
+    }
+    try {
+        return parse_model(j);
+    } catch (const ParseFailure& f) {
+        return make_error(source_name + ": " + f.message);
+    }
+}
+
+Expected<ModelD> load_model_json(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) {
+        return make_error(path + ": cannot open model file");
+    }
+    std::ostringstream text;
+    text << in.rdbuf();
+    if (in.bad()) {
+        return make_error(path + ": read error");
+    }
+    return parse_model_json(text.str(), path);
+}
+
+std::string model_to_json(const ModelD& m) {
+    OrderedJson j = OrderedJson::object();
+    if (m.has_diffuse) {
+        j["diffuse"] = rgb_json(m.diffuse);
+    }
+    OrderedJson lobes = OrderedJson::array();
+    for (const Lobe<double>& l : m.lobes) {
+        OrderedJson o = OrderedJson::object();
+        o["distribution"] = to_string(l.distribution);
+        if (l.distribution == Distribution::kBlinnPhong) {
+            o["exponent"] = l.exponent;
+        } else if (l.anisotropic) {
+            o["alpha_x"] = l.alpha_x;
+            o["alpha_y"] = l.alpha_y;
+        } else {
+            o["alpha"] = l.alpha_x;
+        }
+        o["shadowing"] = to_string(l.shadowing);
+        OrderedJson f = OrderedJson::object();
+        f["type"] = to_string(l.fresnel.type);
+        switch (l.fresnel.type) {
+            case FresnelType::kSchlick:
+                f["f0"] = rgb_json(l.fresnel.f0);
+                break;
+            case FresnelType::kDielectric:
+                f["eta"] = l.fresnel.eta;
+                break;
+            case FresnelType::kConductor:
+                f["eta"] = rgb_json(l.fresnel.eta_rgb);
+                f["k"] = rgb_json(l.fresnel.k);
+                break;
+            case FresnelType::kNone:
+                break;
+        }
+        o["fresnel"] = f;
+        o["scale"] = rgb_json(l.scale);
+        lobes.push_back(o);
+    }
+    j["lobes"] = lobes;
+    return j.dump(4) + "\n";
+}
+
+std::string describe_model(const ModelD& m) {
+    std::string out;
+    if (m.has_diffuse) {
+        out = "diffuse " + fmt_rgb(m.diffuse);
+    }
+    for (const Lobe<double>& l : m.lobes) {
+        out += out.empty() ? "" : " + ";
+        out += std::string(to_string(l.distribution)) + "(";
+        if (l.distribution == Distribution::kBlinnPhong) {
+            out += "exponent " + show(l.exponent);
+        } else if (l.anisotropic) {
+            out += "alpha_x " + show(l.alpha_x) + " alpha_y " + show(l.alpha_y);
+        } else {
+            out += "alpha " + show(l.alpha_x);
+        }
+        out += ", " + std::string(to_string(l.shadowing)) + ", " + to_string(l.fresnel.type);
+        if (!(l.scale == Rgbd::Ones()).all()) {
+            out += ", scale " + fmt_rgb(l.scale);
+        }
+        out += ")";
+    }
+    return out.empty() ? std::string("zero BRDF (no diffuse, no lobes)") : out;
+}
+
+}  // namespace gonio::brdf
