@@ -5,7 +5,9 @@
 
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/brdf.h"
+#include "gonio/brdf/merl.h"
 #include "gonio/brdf/model_json.h"
+#include "gonio/brdf/table.h"
 
 namespace gonio::brdf {
 
@@ -24,13 +26,26 @@ Expected<std::unique_ptr<Brdf>> load_model(const std::string& path) {
     return std::unique_ptr<Brdf>(std::make_unique<AnalyticBrdf>(std::move(*m), path));
 }
 
+Expected<std::unique_ptr<Brdf>> load_table(const std::string& path) {
+    Expected<TabulatedBrdf> t = read_table_file(path);
+    if (!t) {
+        return tl::unexpected(t.error());
+    }
+    return std::unique_ptr<Brdf>(std::make_unique<TabulatedBrdf>(std::move(*t)));
+}
+
 }  // namespace
 
 Expected<std::unique_ptr<Brdf>> load_brdf(const std::string& path) {
     if (has_suffix(path, ".json")) {
         return load_model(path);
     }
-    return make_error(path + ": unknown BRDF file type (expected a model *.json)");
+    if (is_table_path(path)) {
+        return load_table(path);
+    }
+    return make_error(path +
+                      ": unknown BRDF file type (expected a model *.json or a table *.binary, "
+                      "*.merl, *.gtab)");
 }
 
 }  // namespace gonio::brdf
