@@ -1,0 +1,118 @@
+#pragma once
+
+// Geometry of a spherical sample seen by the calibrated camera (camera_model.h): the sphere's
+// centre from its silhouette, then for every pixel on it the surface point, the normal, the view
+// direction and the local frame in which wi and wo are expressed.
+//
+// Silhouette: threshold of a frame lit from near the camera, largest external contour, algebraic
+// circle fit (I. Kasa, "A circle fitting procedure and its error analysis", IEEE Trans. Instrum.
+// Meas. IM-25(1), 1976: minimise sum (x^2 + y^2 + D x + E y + F)^2, linear in D, E, F), then a
+// geometric refinement in 3D: every contour pixel's back-projected ray is tangent to the sphere,
+// so the distance from the centre S to the ray (origin o, unit direction d),
+//   dist(S) = |(S - o) - ((S - o) . d) d|,
+// equals the radius R. Gauss-Newton on r_k = dist_k(S) - R with the analytic Jacobian
+// d dist / dS = p / |p| (p the perpendicular part above). Contour points lying more than a few
+// pixels inside the circle (where the lit region ends at the shadow terminator rather than at the
+// limb) are trimmed between iterations. For a perspective camera R is the known physical radius
+// (it fixes the distance); for an orthographic camera the depth of S along the axis is undefined
+// and S is placed in the plane through the world origin perpendicular to the optical axis, R from
+// the fit.
+//
+// Per pixel: the first intersection of the pixel's ray with the sphere, x = o + s d with
+// s = -(w . d) - sqrt((w . d)^2 - (|w|^2 - R^2)), w = o - S; normal n = (x - S) / R;
+// wo = -d (toward the camera). Local frame: z = n, x = the reference direction (world +z, the
+// rig's vertical) projected on the tangent plane, y = z cross x; where the reference is parallel
+// to n (within 1e-6) world +y is used instead. For an isotropic material only the angle between
+// the projections of wi and wo matters, so the choice does not change the binned values.
+
+#include <cstdint>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "gonio/acquisition/camera_model.h"
+#include "gonio/brdf/coords.h"
+#include "gonio/brdf/error.h"
+
+namespace gonio::acquisition {
+
+/// A circle in the image, pixels.
+struct ImageCircle {
+    double cx = 0;
+    double cy = 0;
+    double r = 0;
+};
+
+/// Kasa's algebraic circle fit through at least three points not on a line; error otherwise.
+Expected<ImageCircle> fit_circle_algebraic(const std::vector<cv::Point2d>& points);
+
+struct SphereGeometry {
+    brdf::Vec3d centre{0, 0, 0};  ///< World frame, metres.
+    double radius_m = 0;
+    ImageCircle silhouette;      ///< The silhouette circle in the image (for the edge margin).
+    double rms_residual_px = 0;  ///< RMS of the final fit's residuals, in pixels.
+    int contour_points = 0;      ///< Contour points kept in the final fit.
+};
+
+struct SilhouetteOptions {
+    /// Threshold as a fraction of the 99.5th percentile of the frame's values.
+    double threshold_fraction = 0.25;
+    /// Physical radius of the sphere, metres (perspective cameras: fixes the distance).
+    double radius_m = 0.02;
+    /// Contour points deeper than this inside the fitted silhouette are trimmed (terminator).
+    double trim_inside_px = 1.5;
+    int iterations = 20;
+};
+
+/// Finds the sphere in a frame (any single-channel type; dark-subtracted or not) lit from close to
+/// the camera. Errors: empty frame, nothing above the threshold, a contour too small (< 20
+/// points), or a fit that does not converge, each named.
+Expected<SphereGeometry> detect_sphere(const cv::Mat& frame,
+                                       const CameraModel& camera,
+                                       const SilhouetteOptions& options);
+
+/// Rules that exclude pixels from measurement (radians; each exclusion is counted).
+struct ExclusionRules {
+    double max_theta_o = 80.0 * brdf::kPi / 180.0;  ///< Grazing view beyond this is excluded.
+    double max_theta_i = 80.0 * brdf::kPi / 180.0;  ///< Grazing light beyond this is excluded.
+    double edge_margin_px = 2.0;  ///< Pixels closer than this to the silhouette are excluded.
+};
+
+/// One pixel on the sphere: what the geometry says, independent of the light.
+struct SpherePixel {
+    int x = 0;
+    int y = 0;
+    brdf::Vec3d normal;    ///< World frame, unit.
+    brdf::Vec3d wo_world;  ///< Toward the camera, unit.
+    brdf::Vec3d tangent;   ///< Local x axis in the world frame (reference direction), unit.
+};
+
+/// Counts of the pixels of one frame by fate.
+struct PixelCounts {
+    std::uint64_t on_sphere = 0;      ///< Pixels whose ray meets the sphere.
+    std::uint64_t edge = 0;           ///< Within the edge margin of the silhouette.
+    std::uint64_t grazing_view = 0;   ///< theta_o > max_theta_o.
+    std::uint64_t shadow = 0;         ///< n . l <= 0: in the sphere's own shadow.
+    std::uint64_t grazing_light = 0;  ///< 0 < n . l but theta_i > max_theta_i.
+    std::uint64_t saturated = 0;      ///< Saturated even at the shortest exposure.
+    std::uint64_t nonfinite = 0;      ///< A non-finite value (never expected; counted, not used).
+    std::uint64_t used = 0;           ///< Turned into a BRDF sample.
+
+    PixelCounts& operator+=(const PixelCounts& o);
+};
+
+/// Pixels of the image whose ray meets the sphere, outside the edge margin and with theta_o within
+/// the limit; the others are counted into `counts` (on_sphere, edge, grazing_view).
+std::vector<SpherePixel> sphere_pixels(const CameraModel& camera,
+                                       const SphereGeometry& sphere,
+                                       const ExclusionRules& rules,
+                                       PixelCounts* counts);
+
+/// wi and wo in a pixel's local frame (z = normal, x = tangent) for a light direction in the
+/// world frame (unit, toward the light).
+std::pair<brdf::Vec3d, brdf::Vec3d> local_directions(const SpherePixel& p,
+                                                     const brdf::Vec3d& light_world);
+
+/// The tangent reference direction for a normal (file comment).
+brdf::Vec3d reference_tangent(const brdf::Vec3d& normal);
+
+}  // namespace gonio::acquisition
