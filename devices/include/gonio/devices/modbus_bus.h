@@ -80,8 +80,9 @@ class ModbusBus {
 
     BusStats stats() const;
 
+    struct Impl;  ///< The libmodbus context and its lock (opaque).
+
   private:
-    struct Impl;
     explicit ModbusBus(BusAddress address);
     BusAddress address_;
     std::unique_ptr<Impl> impl_;
