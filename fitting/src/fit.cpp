@@ -1,0 +1,709 @@
+// The fit: validation, reduction, initialisation, bounded solve, uncertainties and metrics.
+
+#include "gonio/fitting/fit.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <random>
+#include <thread>
+
+#include "gonio/brdf/model_eval.h"
+#include "gonio/fitting/cost.h"
+#include "gonio/fitting/reduction.h"
+
+namespace gonio::fitting {
+
+namespace {
+
+using brdf::ModelD;
+using brdf::Rgbd;
+using brdf::Sample;
+
+constexpr std::size_t kBatch = 256;          // samples per residual block (without robust loss)
+constexpr std::size_t kScoreSamples = 4000;  // samples used to score multi-start candidates
+constexpr std::size_t kMaxRejectedLines = 100;
+
+int thread_count(int requested) {
+    if (requested > 0) {
+        return requested;
+    }
+    const unsigned hw = std::thread::hardware_concurrency();
+    return hw == 0 ? 1 : static_cast<int>(hw);
+}
+
+/// Runs body(thread_index, begin, end) over [0, n) split across `threads` threads.
+template <class Body>
+void parallel_for(std::size_t n, int threads, Body body) {
+    if (threads <= 1 || n < 4096) {
+        body(0, std::size_t{0}, n);
+        return;
+    }
+    std::vector<std::thread> pool;
+    const std::size_t chunk = (n + threads - 1) / threads;
+    for (int t = 0; t < threads; ++t) {
+        const std::size_t b = t * chunk;
+        const std::size_t e = std::min(n, b + chunk);
+        if (b < e) {
+            pool.emplace_back(body, t, b, e);
+        }
+    }
+    for (std::thread& th : pool) {
+        th.join();
+    }
+}
+
+/// Objective value (1/2 sum of squared residuals, as Ceres reports it) of a model on samples.
+double objective(const ParameterMap& map,
+                 const std::vector<double>& x,
+                 const std::vector<Sample>& samples,
+                 const CostOptions& co) {
+    auto map_ptr = std::make_shared<const ParameterMap>(map);
+    auto cost = make_batch_cost(map_ptr, samples, co);
+    std::vector<double> r(3 * samples.size());
+    const double* params[] = {x.data()};
+    if (!cost->Evaluate(params, r.data(), nullptr)) {
+        return std::numeric_limits<double>::infinity();
+    }
+    double s = 0;
+    for (double v : r) {
+        s += v * v;
+    }
+    return 0.5 * s;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Initialisation
+
+/// Percentile (0..1) of a vector (copied).
+double percentile(std::vector<double> v, double q) {
+    if (v.empty()) {
+        return 0;
+    }
+    const std::size_t k = std::min(v.size() - 1, static_cast<std::size_t>(q * (v.size() - 1)));
+    std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
+    return v[k];
+}
+
+/// Alpha estimated from the width of the specular peak above the diffuse floor: the largest
+/// tan(theta_h) whose excess is at least half the peak's, divided by the half-maximum point of
+/// the distribution in units of alpha (GGX: (1 + t^2/a^2)^-2 = 1/2 at t = a sqrt(sqrt 2 - 1);
+/// Beckmann: exp(-t^2/a^2) = 1/2 at t = a sqrt(ln 2)). Returns 0 when there is no peak.
+double estimate_alpha(const std::vector<Sample>& samples, const Rgbd& floor, brdf::Distribution d) {
+    std::vector<double> excess(samples.size());
+    std::vector<double> tan_h(samples.size());
+    double peak = 0;
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+        const brdf::Vec3d wi = samples[i].wi();
+        const brdf::Vec3d wo = samples[i].wo();
+        brdf::Vec3d h = wi + wo;
+        const double norm = h.norm();
+        if (norm == 0) {
+            // Opposite directions: no half vector, no information on the lobe.
+            tan_h[i] = 1e9;
+            excess[i] = 0;
+            continue;
+        }
+        h /= norm;
+        const double cos_h = std::max(h.z(), 1e-9);
+        tan_h[i] = std::sqrt(std::max(0.0, 1 - cos_h * cos_h)) / cos_h;
+        // Projected-area form: D times 4 cos_i cos_o removes the 1/(cos cos) foreshortening.
+        excess[i] = ((samples[i].value - floor * brdf::kInvPi).sum() / 3) * wi.z() * wo.z();
+        peak = std::max(peak, excess[i]);
+    }
+    if (!(peak > 0)) {
+        return 0;
+    }
+    double t_half = 0;
+    double t_min = 1e9;
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+        if (excess[i] >= 0.5 * peak) {
+            t_half = std::max(t_half, tan_h[i]);
+        }
+        if (tan_h[i] > 0) {
+            t_min = std::min(t_min, tan_h[i]);
+        }
+    }
+    if (t_half <= 0) {
+        // Only the exact mirror sample is above half: the peak is narrower than the grid.
+        t_half = 0.5 * t_min;
+    }
+    const double unit = d == brdf::Distribution::kBeckmann ? 0.8326 : 0.6436;
+    return t_half / unit;
+}
+
+/// Sets the shape of lobe `i` from alpha (alpha_x = alpha_y = alpha or the Blinn-Phong exponent
+/// 2 / alpha^2 - 2, the usual correspondence of the two lobes' widths), within the bounds.
+void set_shape(ModelD& m, const ParameterMap& map, int lobe, double alpha) {
+    for (const ScalarParam& s : map.scalars()) {
+        if (s.lobe != lobe || !s.free) {
+            continue;
+        }
+        double v;
+        if (s.field == Field::kAlphaX || s.field == Field::kAlphaY) {
+            v = alpha;
+        } else if (s.field == Field::kExponent) {
+            v = 2.0 / (alpha * alpha) - 2.0;
+        } else {
+            continue;
+        }
+        ParameterMap::set(m, s, std::clamp(v, s.lower, s.upper));
+    }
+}
+
+const ScalarParam* find_free(const ParameterMap& map, Field f, int lobe, int channel) {
+    for (const ScalarParam& s : map.scalars()) {
+        if (s.free && s.field == f && s.lobe == lobe && (s.channel == channel || s.channel < 0)) {
+            return &s;
+        }
+    }
+    return nullptr;
+}
+
+/// Linear least squares of the terms that enter the model linearly, per channel, given the
+/// shapes: the diffuse albedo and lobe 0's amplitude (its scale, or Schlick's f0 when the scale is
+/// fixed: F = x^5 + f0 (1 - x^5) is linear in f0). Relative weights 1 / (d + floor)^2 so that the
+/// peak does not decide alone. A negative solution puts that term at its lower bound and solves
+/// for the other; results are brought inside the bounds (these are start values, not results).
+void linear_init(ModelD& m,
+                 const ParameterMap& map,
+                 const std::vector<Sample>& samples,
+                 double floor) {
+    const ScalarParam* rho[3];
+    const ScalarParam* amp[3];
+    bool amp_is_f0 = false;
+    for (int c = 0; c < 3; ++c) {
+        rho[c] = find_free(map, Field::kDiffuse, -1, c);
+        amp[c] = m.lobes.empty() ? nullptr : find_free(map, Field::kScale, 0, c);
+        if (amp[c] == nullptr && !m.lobes.empty() &&
+            m.lobes[0].fresnel.type == brdf::FresnelType::kSchlick) {
+            amp[c] = find_free(map, Field::kF0, 0, c);
+            amp_is_f0 = amp[c] != nullptr;
+        }
+    }
+    // Basis values: the model without diffuse and with lobe 0's amplitude at 0 and at 1.
+    ModelD m0 = m;
+    m0.has_diffuse = false;
+    ModelD m1 = m0;
+    if (!m.lobes.empty()) {
+        if (amp_is_f0) {
+            m0.lobes[0].fresnel.f0 = Rgbd::Zero();
+            m1.lobes[0].fresnel.f0 = Rgbd::Ones();
+        } else {
+            m0.lobes[0].scale = Rgbd::Zero();
+            m1.lobes[0].scale = Rgbd::Ones();
+        }
+    }
+    Eigen::Matrix2d a[3];
+    Eigen::Vector2d b[3];
+    for (int c = 0; c < 3; ++c) {
+        a[c].setZero();
+        b[c].setZero();
+    }
+    for (const Sample& s : samples) {
+        const brdf::Vec3d wi = s.wi();
+        const brdf::Vec3d wo = s.wo();
+        const Rgbd f0 = brdf::eval_model(m0, wi, wo);
+        const Rgbd f1 = brdf::eval_model(m1, wi, wo);
+        for (int c = 0; c < 3; ++c) {
+            const double w = s.weight / ((s.value[c] + floor) * (s.value[c] + floor));
+            const Eigen::Vector2d basis(brdf::kInvPi, f1[c] - f0[c]);
+            a[c] += w * basis * basis.transpose();
+            b[c] += w * basis * (s.value[c] - f0[c]);
+        }
+    }
+    double u_rho[3] = {0, 0, 0};
+    double u_amp[3] = {0, 0, 0};
+    for (int c = 0; c < 3; ++c) {
+        const bool use_rho = rho[c] != nullptr;
+        const bool use_amp = amp[c] != nullptr;
+        u_rho[c] = use_rho ? map.value_of(m, *rho[c]) : 0;
+        u_amp[c] = use_amp ? map.value_of(m, *amp[c]) : 0;
+        auto solve1 = [&](int k, double fixed_other) {
+            const int o = 1 - k;
+            const double rhs = b[c][k] - a[c](k, o) * fixed_other;
+            return a[c](k, k) > 0 ? rhs / a[c](k, k) : 0.0;
+        };
+        if (use_rho && use_amp) {
+            const double det = a[c].determinant();
+            if (std::abs(det) > 1e-300) {
+                const Eigen::Vector2d u = a[c].inverse() * b[c];
+                u_rho[c] = u[0];
+                u_amp[c] = u[1];
+            }
+            if (u_rho[c] < 0) {
+                u_rho[c] = 0;
+                u_amp[c] = solve1(1, 0);
+            } else if (u_amp[c] < 0) {
+                u_amp[c] = 0;
+                u_rho[c] = solve1(0, 0);
+            }
+        } else if (use_rho) {
+            // The lobe as it is (amplitude fixed) is part of the prediction.
+            double fixed_amp = 0;
+            if (!m.lobes.empty()) {
+                fixed_amp = amp_is_f0 ? m.lobes[0].fresnel.f0[c] : m.lobes[0].scale[c];
+            }
+            u_rho[c] = solve1(0, fixed_amp);
+        } else if (use_amp) {
+            u_amp[c] = solve1(1, m.has_diffuse ? m.diffuse[c] : 0.0);
+        }
+    }
+    // A shared parameter (one value for the three channels) starts at the channels' mean.
+    auto store = [&](const ScalarParam* const* p, const double* u) {
+        if (p[0] == nullptr) {
+            return;
+        }
+        for (int c = 0; c < 3; ++c) {
+            const double v = p[c]->channel < 0 ? (u[0] + u[1] + u[2]) / 3 : u[c];
+            if (std::isfinite(v)) {
+                ParameterMap::set(m, *p[c], std::clamp(v, p[c]->lower, p[c]->upper));
+            }
+        }
+    };
+    store(rho, u_rho);
+    store(amp, u_amp);
+}
+
+/// Every free scalar brought inside its bounds (start values only).
+std::vector<double> clamp_start(const ParameterMap& map, std::vector<double> x) {
+    for (int k = 0; k < map.size(); ++k) {
+        const ScalarParam& s = map.scalars()[map.free()[k]];
+        x[k] = std::clamp(x[k], s.lower, s.upper);
+    }
+    return x;
+}
+
+struct Candidate {
+    std::vector<double> x;
+    double cost = 0;
+};
+
+/// Data-driven starts scored by the objective, best first.
+std::vector<Candidate> initial_candidates(const ParameterMap& map,
+                                          const std::vector<Sample>& samples,
+                                          const FitOptions& o,
+                                          const CostOptions& co) {
+    const std::vector<Sample> score_set = stratified_reduce(samples, kScoreSamples, o.seed);
+    ModelD m = map.base();
+    std::vector<Candidate> out;
+    if (m.lobes.empty()) {
+        linear_init(m, map, score_set, o.relative_floor);
+        Candidate c{clamp_start(map, map.values_of(m)), 0};
+        c.cost = objective(map, c.x, score_set, co);
+        out.push_back(c);
+        return out;
+    }
+    // Off-specular floor: a low percentile of each channel among samples far from the mirror
+    // direction (theta_h > 45 degrees), or of all samples when there are none.
+    Rgbd floor = Rgbd::Zero();
+    for (int c = 0; c < 3; ++c) {
+        std::vector<double> far;
+        std::vector<double> all;
+        for (const Sample& s : score_set) {
+            const brdf::HalfDiff<double> hd = brdf::to_half_diff(s.wi(), s.wo());
+            all.push_back(s.value[c]);
+            if (hd.theta_h > brdf::kPi / 4) {
+                far.push_back(s.value[c]);
+            }
+        }
+        floor[c] = brdf::kPi * percentile(far.size() >= 10 ? far : all, 0.2);
+    }
+    double alpha = estimate_alpha(score_set, floor, m.lobes[0].distribution);
+    if (!(alpha > 0) || !std::isfinite(alpha)) {
+        alpha = 0.3;
+    }
+    alpha = std::clamp(alpha, 1e-3, 1.5);
+    std::vector<double> alphas = {alpha, 0.5 * alpha, 2 * alpha};
+    std::mt19937_64 rng(o.seed);
+    std::uniform_real_distribution<double> log_alpha(std::log(1e-3), std::log(1.0));
+    while (static_cast<int>(alphas.size()) < std::max(1, o.starts)) {
+        alphas.push_back(std::exp(log_alpha(rng)));
+    }
+    alphas.resize(std::max(1, o.starts));
+    for (double a : alphas) {
+        ModelD mc = m;
+        for (int i = 0; i < static_cast<int>(mc.lobes.size()); ++i) {
+            // Further lobes start wider, by a factor of 3 each.
+            set_shape(mc, map, i, a * std::pow(3.0, i));
+        }
+        linear_init(mc, map, score_set, o.relative_floor);
+        Candidate c{clamp_start(map, map.values_of(mc)), 0};
+        c.cost = objective(map, c.x, score_set, co);
+        out.push_back(c);
+    }
+    std::stable_sort(out.begin(), out.end(), [](const Candidate& a, const Candidate& b) {
+        return a.cost < b.cost;  // NaN/Inf costs sort last
+    });
+    return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Solve
+
+struct SolveOutcome {
+    std::vector<double> x;
+    ceres::Solver::Summary summary;
+};
+
+std::unique_ptr<ceres::Problem> build_problem(std::shared_ptr<const ParameterMap> map,
+                                              const std::vector<Sample>& samples,
+                                              const FitOptions& o,
+                                              const CostOptions& co,
+                                              std::vector<double>& x) {
+    ceres::Problem::Options po;
+    po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+    po.loss_function_ownership = ceres::TAKE_OWNERSHIP;
+    auto problem = std::make_unique<ceres::Problem>(po);
+    // A robust loss acts on each sample's own squared residual, so each sample is then its own
+    // block; otherwise samples are batched to amortise the per-block overhead.
+    const std::size_t batch = o.loss == LossKind::kNone ? kBatch : 1;
+    for (std::size_t b = 0; b < samples.size(); b += batch) {
+        const std::vector<Sample> part(
+            samples.begin() + static_cast<long>(b),
+            samples.begin() + static_cast<long>(std::min(samples.size(), b + batch)));
+        ceres::LossFunction* loss = nullptr;
+        if (o.loss == LossKind::kHuber) {
+            loss = new ceres::HuberLoss(o.loss_scale);
+        } else if (o.loss == LossKind::kCauchy) {
+            loss = new ceres::CauchyLoss(o.loss_scale);
+        }
+        problem->AddResidualBlock(make_batch_cost(map, part, co).release(), loss, x.data());
+    }
+    for (int k = 0; k < map->size(); ++k) {
+        const ScalarParam& s = map->scalars()[map->free()[k]];
+        problem->SetParameterLowerBound(x.data(), k, s.lower);
+        problem->SetParameterUpperBound(x.data(), k, s.upper);
+    }
+    return problem;
+}
+
+SolveOutcome solve(std::shared_ptr<const ParameterMap> map,
+                   const std::vector<Sample>& samples,
+                   const FitOptions& o,
+                   const CostOptions& co,
+                   std::vector<double> x0) {
+    SolveOutcome out;
+    out.x = std::move(x0);
+    auto problem = build_problem(map, samples, o, co, out.x);
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+    so.max_num_iterations = o.max_iterations;
+    so.num_threads = thread_count(o.num_threads);
+    so.function_tolerance = 1e-12;
+    so.gradient_tolerance = 1e-14;
+    so.parameter_tolerance = 1e-12;
+    so.check_gradients = o.check_gradients;
+    so.logging_type = ceres::SILENT;
+    ceres::Solve(so, problem.get(), &out.summary);
+    return out;
+}
+
+std::string termination_name(ceres::TerminationType t) {
+    return ceres::TerminationTypeToString(t);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Uncertainties
+
+/// Fills sigma / identifiable of the free parameters. The Jacobian J at the solution is evaluated
+/// once; the column-scaled normal matrix A = D J^T J D (unit diagonal) is decomposed: eigenvectors
+/// whose eigenvalue is below 1e-10 of the largest span directions the data do not constrain, and
+/// every parameter with a component above 0.1 in one of them is reported as not identifiable
+/// (a parameter whose column is zero too). Otherwise ceres::Covariance gives the covariance
+/// (J^T J)^-1, scaled by the reduced chi-square when the data carry no sigma.
+void uncertainties(std::shared_ptr<const ParameterMap> map,
+                   const std::vector<Sample>& samples,
+                   const FitOptions& o,
+                   const CostOptions& co,
+                   std::vector<double> x,
+                   double final_cost,
+                   bool absolute_sigma,
+                   std::vector<FittedParameter>& params,
+                   std::vector<std::string>& not_identifiable) {
+    const int n = map->size();
+    // Same problem without robust loss weighting for conditioning; the covariance below uses the
+    // problem as solved.
+    auto problem = build_problem(map, samples, o, co, x);
+    ceres::CRSMatrix jac;
+    ceres::Problem::EvaluateOptions eo;
+    eo.num_threads = thread_count(o.num_threads);
+    if (!problem->Evaluate(eo, nullptr, nullptr, nullptr, &jac)) {
+        for (int k = 0; k < n; ++k) {
+            not_identifiable.push_back(map->scalars()[map->free()[k]].name);
+        }
+        return;
+    }
+    Eigen::MatrixXd jtj = Eigen::MatrixXd::Zero(n, n);
+    for (int r = 0; r < jac.num_rows; ++r) {
+        for (int a = jac.rows[r]; a < jac.rows[r + 1]; ++a) {
+            for (int b = jac.rows[r]; b < jac.rows[r + 1]; ++b) {
+                jtj(jac.cols[a], jac.cols[b]) += jac.values[a] * jac.values[b];
+            }
+        }
+    }
+    std::vector<bool> ident(n, true);
+    Eigen::VectorXd scale(n);
+    for (int k = 0; k < n; ++k) {
+        if (!(jtj(k, k) > 0) || !std::isfinite(jtj(k, k))) {
+            // The objective does not depend on this parameter at the solution.
+            ident[k] = false;
+            scale[k] = 1;
+        } else {
+            scale[k] = 1 / std::sqrt(jtj(k, k));
+        }
+    }
+    const Eigen::MatrixXd a = scale.asDiagonal() * jtj * scale.asDiagonal();
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(a);
+    const double lmax = eig.eigenvalues().maxCoeff();
+    for (int e = 0; e < n; ++e) {
+        if (eig.eigenvalues()[e] < 1e-10 * lmax) {
+            for (int k = 0; k < n; ++k) {
+                if (std::abs(eig.eigenvectors()(k, e)) > 0.1) {
+                    ident[k] = false;
+                }
+            }
+        }
+    }
+    bool all_ident = true;
+    for (int k = 0; k < n; ++k) {
+        all_ident = all_ident && ident[k];
+    }
+    std::vector<double> sigma(n, -1);
+    if (all_ident) {
+        ceres::Covariance::Options cov_o;
+        cov_o.algorithm_type = ceres::DENSE_SVD;
+        cov_o.num_threads = thread_count(o.num_threads);
+        cov_o.min_reciprocal_condition_number = 1e-14;
+        ceres::Covariance cov(cov_o);
+        std::vector<std::pair<const double*, const double*>> blocks = {{x.data(), x.data()}};
+        bool ok = false;
+        if (static_cast<std::size_t>(jac.num_rows) <= 300000) {
+            ok = cov.Compute(blocks, problem.get());
+        }
+        Eigen::MatrixXd c(n, n);
+        if (ok) {
+            ok = cov.GetCovarianceBlock(x.data(), x.data(), c.data());
+            c.transposeInPlace();  // Ceres writes row-major
+        } else {
+            // Too many rows for a dense SVD of J (or Ceres refused): invert the normal matrix,
+            // which the eigen-decomposition above found well conditioned.
+            const Eigen::MatrixXd inv_a = eig.eigenvectors() *
+                                          eig.eigenvalues().cwiseInverse().asDiagonal() *
+                                          eig.eigenvectors().transpose();
+            c = scale.asDiagonal() * inv_a * scale.asDiagonal();
+            ok = true;
+        }
+        const double dof = static_cast<double>(jac.num_rows) - n;
+        const double s2 = absolute_sigma || dof <= 0 ? 1.0 : 2 * final_cost / dof;
+        for (int k = 0; k < n; ++k) {
+            sigma[k] = std::sqrt(std::max(0.0, c(k, k) * s2));
+        }
+    }
+    for (int k = 0; k < n; ++k) {
+        const std::string& name = map->scalars()[map->free()[k]].name;
+        for (FittedParameter& p : params) {
+            if (p.name != name) {
+                continue;
+            }
+            p.identifiable = ident[k];
+            if (ident[k] && sigma[k] >= 0 && std::isfinite(sigma[k])) {
+                p.sigma = sigma[k];
+            }
+        }
+        if (!ident[k]) {
+            not_identifiable.push_back(name);
+        }
+    }
+}
+
+}  // namespace
+
+Metrics evaluate_metrics(const ModelD& model,
+                         const std::vector<Sample>& samples,
+                         double relative_floor) {
+    Metrics m;
+    if (samples.empty()) {
+        return m;
+    }
+    const int threads = thread_count(0);
+    std::vector<Eigen::Array<double, 3, 3>> partial(std::max(1, threads),
+                                                    Eigen::Array<double, 3, 3>::Zero());
+    auto body = [&](int t, std::size_t b, std::size_t e) {
+        Eigen::Array<double, 3, 3> acc = Eigen::Array<double, 3, 3>::Zero();
+        for (std::size_t i = b; i < e; ++i) {
+            const brdf::Vec3d wi = samples[i].wi();
+            const brdf::Vec3d wo = samples[i].wo();
+            const Rgbd f = brdf::eval_model(model, wi, wo);
+            for (int c = 0; c < 3; ++c) {
+                const double d = samples[i].value[c];
+                const double abs_r = f[c] - d;
+                const double rel_r =
+                    channel_residual(ResidualForm::kRelative, f[c], d, wi.z(), relative_floor);
+                const double log_r = channel_residual(ResidualForm::kLog, f[c], d, wi.z(), 0);
+                acc(0, c) += abs_r * abs_r;
+                acc(1, c) += rel_r * rel_r;
+                acc(2, c) += log_r * log_r;
+            }
+        }
+        partial[t] += acc;
+    };
+    parallel_for(samples.size(), threads, body);
+    Eigen::Array<double, 3, 3> total = Eigen::Array<double, 3, 3>::Zero();
+    for (const auto& p : partial) {
+        total += p;
+    }
+    const double n = static_cast<double>(samples.size());
+    for (int c = 0; c < 3; ++c) {
+        m.rmse[c] = std::sqrt(total(0, c) / n);
+        m.rel_rmse[c] = std::sqrt(total(1, c) / n);
+        m.log_rmse[c] = std::sqrt(total(2, c) / n);
+    }
+    return m;
+}
+
+std::vector<std::string> parameter_names(const FitSpec& spec) {
+    std::vector<std::string> out;
+    Expected<ParameterMap> map = ParameterMap::make(spec);
+    if (map) {
+        for (const ScalarParam& s : map->scalars()) {
+            out.push_back(s.name);
+        }
+    }
+    return out;
+}
+
+Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const FitOptions& o = spec.options;
+    Expected<ParameterMap> map_or = ParameterMap::make(spec);
+    if (!map_or) {
+        return make_error(map_or.error().message);
+    }
+    if (o.starts < 1 || o.max_iterations < 1 || !(o.relative_floor > 0) || !(o.loss_scale > 0)) {
+        return make_error(
+            "fit options: starts >= 1, max_iterations >= 1, relative_floor > 0 and loss_scale > 0 "
+            "are required");
+    }
+    FitResult result;
+    result.data = data.source;
+    result.residual = o.residual;
+    result.loss = o.loss;
+
+    // Validity: rows rejected while reading plus samples that break the rules now (a dataset
+    // built in memory has not been through the reader), reference re-measurements and saturated
+    // samples (their value is only a lower bound).
+    std::vector<Sample> valid;
+    valid.reserve(data.samples.size());
+    std::vector<std::size_t> rejected_lines;
+    for (const brdf::RejectedRow& r : data.rejected) {
+        rejected_lines.push_back(r.line);
+    }
+    std::size_t rejected_here = 0;
+    for (std::size_t i = 0; i < data.samples.size(); ++i) {
+        const Sample& s = data.samples[i];
+        const bool bad = !brdf::validate_sample(s).empty() ||
+                         (s.flags & (brdf::kFlagReference | brdf::kFlagSaturated)) != 0 ||
+                         !(s.wi().z() > 0) || !(s.wo().z() > 0);
+        if (bad) {
+            ++rejected_here;
+            rejected_lines.push_back(s.line != 0 ? s.line : i + 1);
+            continue;
+        }
+        valid.push_back(s);
+        if (!o.use_sigma || !data.has_sigma) {
+            valid.back().sigma = Rgbd::Zero();
+        }
+    }
+    std::sort(rejected_lines.begin(), rejected_lines.end());
+    result.samples.input = data.samples.size() + data.rejected.size();
+    result.samples.valid = valid.size();
+    result.samples.rejected = data.rejected.size() + rejected_here;
+    rejected_lines.resize(std::min(rejected_lines.size(), kMaxRejectedLines));
+    result.samples.rejected_lines = rejected_lines;
+    if (valid.empty()) {
+        return make_error(data.source + ": no valid sample to fit (" +
+                          std::to_string(result.samples.rejected) + " rejected)");
+    }
+    const std::vector<Sample> used = stratified_reduce(valid, o.max_samples, o.seed);
+    result.samples.used = used.size();
+
+    auto map = std::make_shared<ParameterMap>(*map_or);
+    CostOptions co;
+    co.residual = o.residual;
+    co.relative_floor = o.relative_floor;
+    co.use_sigma = o.use_sigma && data.has_sigma;
+
+    std::vector<Candidate> candidates;
+    if (o.auto_init) {
+        candidates = initial_candidates(*map, used, o, co);
+    } else {
+        candidates.push_back({map->values_of(spec.model), 0});
+        for (int k = 0; k < map->size(); ++k) {
+            const ScalarParam& s = map->scalars()[map->free()[k]];
+            if (candidates[0].x[k] < s.lower || candidates[0].x[k] > s.upper) {
+                return make_error("start value of " + s.name + " = " +
+                                  std::to_string(candidates[0].x[k]) + " outside its bounds [" +
+                                  std::to_string(s.lower) + ", " + std::to_string(s.upper) + "]");
+            }
+        }
+    }
+    result.solver.starts = static_cast<int>(candidates.size());
+
+    // Solve from the best start; when it does not converge, from the next ones (at most three).
+    SolveOutcome best;
+    bool have = false;
+    for (std::size_t c = 0; c < candidates.size() && c < 3; ++c) {
+        SolveOutcome s = solve(map, used, o, co, candidates[c].x);
+        const bool converged = s.summary.termination_type == ceres::CONVERGENCE;
+        if (!have || (converged && best.summary.termination_type != ceres::CONVERGENCE) ||
+            (converged && s.summary.final_cost < best.summary.final_cost)) {
+            best = s;
+            have = true;
+        }
+        if (converged) {
+            break;
+        }
+    }
+    const ceres::Solver::Summary& sum = best.summary;
+    result.solver.iterations = static_cast<int>(sum.iterations.size()) - 1;
+    result.solver.termination = termination_name(sum.termination_type);
+    result.solver.message = sum.message;
+    result.solver.initial_cost = sum.initial_cost;
+    result.solver.final_cost = sum.final_cost;
+    bool finite = true;
+    for (double v : best.x) {
+        finite = finite && std::isfinite(v);
+    }
+    result.solver.usable = sum.termination_type == ceres::CONVERGENCE && finite;
+    if (!finite) {
+        result.solver.message += " (non-finite parameter values)";
+    }
+
+    result.model = map->model<double>(best.x.data());
+    for (const ScalarParam& s : map->scalars()) {
+        FittedParameter p;
+        p.name = s.name;
+        p.value = map->value_of(result.model, s);
+        p.free = s.free;
+        result.parameters.push_back(p);
+    }
+    if (result.solver.usable && o.covariance) {
+        uncertainties(map,
+                      used,
+                      o,
+                      co,
+                      best.x,
+                      sum.final_cost,
+                      co.use_sigma,
+                      result.parameters,
+                      result.not_identifiable);
+    }
+    result.metrics = evaluate_metrics(result.model, valid, o.relative_floor);
+    result.solver.wall_time_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return result;
+}
+
+}  // namespace gonio::fitting

@@ -1,0 +1,269 @@
+// Fit reports: JSON on disk and the human-readable summary.
+
+#include "gonio/fitting/report.h"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "gonio/brdf/model_json.h"
+
+namespace gonio::fitting {
+
+namespace {
+
+using nlohmann::json;
+
+json rgb_json(const brdf::Rgbd& v) {
+    return json::array({v[0], v[1], v[2]});
+}
+
+/// A number, or null when it is not finite (JSON has no NaN; no NaN leaves silently).
+json number_or_null(double v) {
+    return std::isfinite(v) ? json(v) : json(nullptr);
+}
+
+Expected<void> write_text(const std::string& path, const std::string& text) {
+    const std::string tmp = path + ".tmp";
+    {
+        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+        if (!out) {
+            return make_error(path + ": cannot open for writing");
+        }
+        out << text;
+        out.flush();
+        if (!out) {
+            return make_error(path + ": write failed");
+        }
+    }
+    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+        std::remove(tmp.c_str());
+        return make_error(path + ": cannot rename the temporary file into place");
+    }
+    return {};
+}
+
+Expected<brdf::Rgbd> read_rgb(const json& j, const std::string& at) {
+    if (!j.is_array() || j.size() != 3) {
+        return make_error(at + ": expected [r, g, b]");
+    }
+    brdf::Rgbd v;
+    for (int c = 0; c < 3; ++c) {
+        if (!j[c].is_number()) {
+            return make_error(at + "[" + std::to_string(c) + "]: expected a number");
+        }
+        v[c] = j[c].get<double>();
+    }
+    return v;
+}
+
+}  // namespace
+
+std::string report_path_for(const std::string& model_path) {
+    const std::string ext = ".json";
+    if (model_path.size() > ext.size() &&
+        model_path.compare(model_path.size() - ext.size(), ext.size(), ext) == 0) {
+        return model_path.substr(0, model_path.size() - ext.size()) + ".report.json";
+    }
+    return model_path + ".report.json";
+}
+
+std::string fit_report_json(const FitResult& r) {
+    json j;
+    j["model"] = json::parse(brdf::model_to_json(r.model));
+    json params = json::array();
+    for (const FittedParameter& p : r.parameters) {
+        params.push_back({{"name", p.name},
+                          {"value", number_or_null(p.value)},
+                          {"sigma", p.sigma ? number_or_null(*p.sigma) : json(nullptr)},
+                          {"free", p.free},
+                          {"identifiable", p.identifiable}});
+    }
+    j["parameters"] = params;
+    j["not_identifiable"] = r.not_identifiable;
+    j["metrics"] = {{"rmse", rgb_json(r.metrics.rmse)},
+                    {"rel_rmse", rgb_json(r.metrics.rel_rmse)},
+                    {"log_rmse", rgb_json(r.metrics.log_rmse)}};
+    j["samples"] = {{"input", r.samples.input},
+                    {"valid", r.samples.valid},
+                    {"used", r.samples.used},
+                    {"rejected", r.samples.rejected},
+                    {"rejected_lines", r.samples.rejected_lines}};
+    j["residual"] = to_string(r.residual);
+    j["loss"] = to_string(r.loss);
+    j["solver"] = {{"iterations", r.solver.iterations},
+                   {"termination", r.solver.termination},
+                   {"message", r.solver.message},
+                   {"usable", r.solver.usable},
+                   {"wall_time_s", r.solver.wall_time_s},
+                   {"initial_cost", number_or_null(r.solver.initial_cost)},
+                   {"final_cost", number_or_null(r.solver.final_cost)},
+                   {"starts", r.solver.starts}};
+    j["data"] = r.data;
+    if (r.ground_truth) {
+        j["ground_truth"] = json::parse(brdf::model_to_json(*r.ground_truth));
+    }
+    return j.dump(2) + "\n";
+}
+
+Expected<void> write_fit_report(const std::string& model_path, const FitResult& result) {
+    const std::string report_path = report_path_for(model_path);
+    Expected<void> w = write_text(report_path, fit_report_json(result));
+    if (!w) {
+        return w;
+    }
+    if (!result.usable()) {
+        return make_error("fit did not converge (" + result.solver.termination + ": " +
+                          result.solver.message + "); " + model_path + " not written, see " +
+                          report_path);
+    }
+    return write_text(model_path, brdf::model_to_json(result.model));
+}
+
+Expected<FitResult> read_fit_report(const std::string& path) {
+    std::ifstream in(path);
+    if (!in) {
+        return make_error(path + ": cannot open the fit report");
+    }
+    std::stringstream ss;
+    ss << in.rdbuf();
+    json j;
+    try {
+        j = json::parse(ss.str());
+    } catch (const json::exception& e) {
+        return make_error(path + ": not JSON: " + e.what());
+    }
+    FitResult r;
+    try {
+        for (const char* key : {"model", "parameters", "metrics", "samples", "solver"}) {
+            if (!j.contains(key)) {
+                return make_error(path + ": missing key \"" + key + "\"");
+            }
+        }
+        Expected<brdf::ModelD> model = brdf::parse_model_json(j["model"].dump(), path + ": model");
+        if (!model) {
+            return make_error(model.error().message);
+        }
+        r.model = *model;
+        if (j.contains("ground_truth")) {
+            Expected<brdf::ModelD> gt =
+                brdf::parse_model_json(j["ground_truth"].dump(), path + ": ground_truth");
+            if (!gt) {
+                return make_error(gt.error().message);
+            }
+            r.ground_truth = *gt;
+        }
+        for (const json& p : j.at("parameters")) {
+            FittedParameter fp;
+            fp.name = p.at("name").get<std::string>();
+            fp.value = p.at("value").is_null() ? std::nan("") : p.at("value").get<double>();
+            if (!p.at("sigma").is_null()) {
+                fp.sigma = p.at("sigma").get<double>();
+            }
+            fp.free = p.at("free").get<bool>();
+            fp.identifiable = p.at("identifiable").get<bool>();
+            r.parameters.push_back(fp);
+        }
+        if (j.contains("not_identifiable")) {
+            r.not_identifiable = j["not_identifiable"].get<std::vector<std::string>>();
+        }
+        const json& m = j.at("metrics");
+        for (auto [key, dst] : {std::make_pair("rmse", &r.metrics.rmse),
+                                std::make_pair("rel_rmse", &r.metrics.rel_rmse),
+                                std::make_pair("log_rmse", &r.metrics.log_rmse)}) {
+            Expected<brdf::Rgbd> v = read_rgb(m.at(key), path + ": metrics." + key);
+            if (!v) {
+                return make_error(v.error().message);
+            }
+            *dst = *v;
+        }
+        const json& s = j.at("samples");
+        r.samples.input = s.at("input").get<std::size_t>();
+        r.samples.valid = s.at("valid").get<std::size_t>();
+        r.samples.used = s.at("used").get<std::size_t>();
+        r.samples.rejected = s.at("rejected").get<std::size_t>();
+        r.samples.rejected_lines = s.at("rejected_lines").get<std::vector<std::size_t>>();
+        Expected<ResidualForm> form = parse_residual(j.value("residual", std::string("log")));
+        Expected<LossKind> loss = parse_loss(j.value("loss", std::string("none")));
+        if (!form || !loss) {
+            return make_error(path + ": " + (!form ? form.error().message : loss.error().message));
+        }
+        r.residual = *form;
+        r.loss = *loss;
+        const json& sv = j.at("solver");
+        r.solver.iterations = sv.at("iterations").get<int>();
+        r.solver.termination = sv.at("termination").get<std::string>();
+        r.solver.message = sv.at("message").get<std::string>();
+        r.solver.usable = sv.at("usable").get<bool>();
+        r.solver.wall_time_s = sv.at("wall_time_s").get<double>();
+        if (sv.contains("initial_cost") && sv["initial_cost"].is_number()) {
+            r.solver.initial_cost = sv["initial_cost"].get<double>();
+        }
+        if (sv.contains("final_cost") && sv["final_cost"].is_number()) {
+            r.solver.final_cost = sv["final_cost"].get<double>();
+        }
+        r.solver.starts = sv.value("starts", 0);
+        r.data = j.value("data", std::string());
+    } catch (const json::exception& e) {
+        return make_error(path + ": malformed fit report: " + e.what());
+    }
+    return r;
+}
+
+std::string format_summary(const FitResult& r) {
+    std::ostringstream o;
+    char buf[256];
+    o << "data: " << r.data << "\n";
+    o << "samples: " << r.samples.input << " input, " << r.samples.valid << " valid, "
+      << r.samples.used << " used, " << r.samples.rejected << " rejected";
+    if (!r.samples.rejected_lines.empty()) {
+        o << " (lines";
+        for (std::size_t i = 0; i < r.samples.rejected_lines.size() && i < 10; ++i) {
+            o << " " << r.samples.rejected_lines[i];
+        }
+        o << (r.samples.rejected_lines.size() > 10 ? " ...)" : ")");
+    }
+    o << "\n";
+    std::snprintf(buf,
+                  sizeof buf,
+                  "solver: %s after %d iterations, %d starts, %.3f s (residual %s, loss %s)\n",
+                  r.solver.termination.c_str(),
+                  r.solver.iterations,
+                  r.solver.starts,
+                  r.solver.wall_time_s,
+                  to_string(r.residual),
+                  to_string(r.loss));
+    o << buf;
+    if (!r.usable()) {
+        o << "FIT DID NOT CONVERGE: " << r.solver.message << "\n"
+          << "its parameters are not a result and are not shown\n";
+        return o.str();
+    }
+    o << "parameters:\n";
+    for (const FittedParameter& p : r.parameters) {
+        std::snprintf(buf, sizeof buf, "  %-26s %14.8g", p.name.c_str(), p.value);
+        o << buf;
+        if (!p.free) {
+            o << "  (fixed)";
+        } else if (!p.identifiable) {
+            o << "  (not identifiable from these data)";
+        } else if (p.sigma) {
+            std::snprintf(buf, sizeof buf, "  +- %.3g", *p.sigma);
+            o << buf;
+        }
+        o << "\n";
+    }
+    auto rgb = [&](const char* name, const brdf::Rgbd& v) {
+        std::snprintf(buf, sizeof buf, "  %-9s %.6g %.6g %.6g\n", name, v[0], v[1], v[2]);
+        o << buf;
+    };
+    o << "metrics on all " << r.samples.valid << " valid samples (r g b):\n";
+    rgb("rmse", r.metrics.rmse);
+    rgb("rel_rmse", r.metrics.rel_rmse);
+    rgb("log_rmse", r.metrics.log_rmse);
+    return o.str();
+}
+
+}  // namespace gonio::fitting

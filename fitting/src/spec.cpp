@@ -1,0 +1,398 @@
+// Fit specifications: parsing of names, default parameter rules and JSON fit templates.
+
+#include "gonio/fitting/spec.h"
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "gonio/brdf/model_json.h"
+
+namespace gonio::fitting {
+
+namespace {
+
+using brdf::Distribution;
+using brdf::FresnelType;
+
+/// Bounds of each field. They hold the model in its domain of definition (alpha > 0, f0 in [0, 1],
+/// eta > 1 so that the dielectric reflects), with room far beyond real materials.
+std::pair<double, double> default_bounds(Field f) {
+    switch (f) {
+        case Field::kDiffuse:
+            return {0.0, 10.0};
+        case Field::kAlphaX:
+        case Field::kAlphaY:
+            return {1e-4, 4.0};
+        case Field::kExponent:
+            return {1e-1, 1e7};
+        case Field::kScale:
+            return {0.0, 1e4};
+        case Field::kF0:
+            return {0.0, 1.0};
+        case Field::kEta:
+            return {1.01, 5.0};
+        case Field::kEtaRgb:
+            return {0.01, 10.0};
+        case Field::kK:
+            return {0.0, 20.0};
+    }
+    return {0.0, 1.0};
+}
+
+ParamSpec make_param(Field f, int lobe, bool free, bool shared) {
+    ParamSpec p;
+    p.field = f;
+    p.lobe = lobe;
+    p.free = free;
+    p.shared = shared;
+    std::tie(p.lower, p.upper) = default_bounds(f);
+    return p;
+}
+
+}  // namespace
+
+bool is_rgb(Field f) {
+    return f == Field::kDiffuse || f == Field::kScale || f == Field::kF0 || f == Field::kEtaRgb ||
+           f == Field::kK;
+}
+
+std::string field_path(Field f, int lobe) {
+    const std::string prefix = "lobes[" + std::to_string(lobe) + "].";
+    switch (f) {
+        case Field::kDiffuse:
+            return "diffuse";
+        case Field::kAlphaX:
+            return prefix + "alpha_x";
+        case Field::kAlphaY:
+            return prefix + "alpha_y";
+        case Field::kExponent:
+            return prefix + "exponent";
+        case Field::kScale:
+            return prefix + "scale";
+        case Field::kF0:
+            return prefix + "fresnel.f0";
+        case Field::kEta:
+            return prefix + "fresnel.eta";
+        case Field::kEtaRgb:
+            return prefix + "fresnel.eta_rgb";
+        case Field::kK:
+            return prefix + "fresnel.k";
+    }
+    return "?";
+}
+
+Expected<Distribution> parse_distribution(const std::string& name) {
+    if (name == "ggx") {
+        return Distribution::kGgx;
+    }
+    if (name == "beckmann") {
+        return Distribution::kBeckmann;
+    }
+    if (name == "blinn-phong") {
+        return Distribution::kBlinnPhong;
+    }
+    return make_error("model \"" + name + "\": expected ggx, beckmann or blinn-phong");
+}
+
+Expected<std::pair<FresnelType, bool>> parse_fresnel(const std::string& name) {
+    if (name == "schlick") {
+        return std::make_pair(FresnelType::kSchlick, false);
+    }
+    if (name == "schlick-rgb") {
+        return std::make_pair(FresnelType::kSchlick, true);
+    }
+    if (name == "dielectric") {
+        return std::make_pair(FresnelType::kDielectric, false);
+    }
+    if (name == "conductor") {
+        return std::make_pair(FresnelType::kConductor, true);
+    }
+    if (name == "none") {
+        return std::make_pair(FresnelType::kNone, false);
+    }
+    return make_error("fresnel \"" + name +
+                      "\": expected schlick, schlick-rgb, dielectric, conductor or none");
+}
+
+Expected<brdf::Shadowing> parse_shadowing(const std::string& name) {
+    if (name == "smith-correlated" || name == "smith") {
+        return brdf::Shadowing::kSmithCorrelated;
+    }
+    if (name == "smith-separable") {
+        return brdf::Shadowing::kSmithSeparable;
+    }
+    if (name == "v-groove") {
+        return brdf::Shadowing::kVGroove;
+    }
+    if (name == "none") {
+        return brdf::Shadowing::kNone;
+    }
+    return make_error("shadowing \"" + name +
+                      "\": expected smith-correlated, smith-separable, v-groove or none");
+}
+
+Expected<ResidualForm> parse_residual(const std::string& name) {
+    if (name == "absolute") {
+        return ResidualForm::kAbsolute;
+    }
+    if (name == "relative") {
+        return ResidualForm::kRelative;
+    }
+    if (name == "log") {
+        return ResidualForm::kLog;
+    }
+    if (name == "cosine") {
+        return ResidualForm::kCosine;
+    }
+    if (name == "cbrt") {
+        return ResidualForm::kCubeRoot;
+    }
+    return make_error("residual \"" + name +
+                      "\": expected absolute, relative, log, cosine or cbrt");
+}
+
+Expected<LossKind> parse_loss(const std::string& name) {
+    if (name == "none") {
+        return LossKind::kNone;
+    }
+    if (name == "huber") {
+        return LossKind::kHuber;
+    }
+    if (name == "cauchy") {
+        return LossKind::kCauchy;
+    }
+    return make_error("loss \"" + name + "\": expected none, huber or cauchy");
+}
+
+const char* to_string(ResidualForm r) {
+    switch (r) {
+        case ResidualForm::kAbsolute:
+            return "absolute";
+        case ResidualForm::kRelative:
+            return "relative";
+        case ResidualForm::kLog:
+            return "log";
+        case ResidualForm::kCosine:
+            return "cosine";
+        case ResidualForm::kCubeRoot:
+            return "cbrt";
+    }
+    return "?";
+}
+
+const char* to_string(LossKind l) {
+    switch (l) {
+        case LossKind::kNone:
+            return "none";
+        case LossKind::kHuber:
+            return "huber";
+        case LossKind::kCauchy:
+            return "cauchy";
+    }
+    return "?";
+}
+
+std::vector<ParamSpec> default_params(const brdf::ModelD& model, bool fresnel_rgb) {
+    std::vector<ParamSpec> out;
+    if (model.has_diffuse) {
+        out.push_back(make_param(Field::kDiffuse, -1, true, false));
+    }
+    for (int i = 0; i < static_cast<int>(model.lobes.size()); ++i) {
+        const brdf::Lobe<double>& l = model.lobes[i];
+        if (l.distribution == Distribution::kBlinnPhong) {
+            out.push_back(make_param(Field::kExponent, i, true, false));
+        } else {
+            out.push_back(make_param(Field::kAlphaX, i, true, false));
+            if (l.anisotropic) {
+                out.push_back(make_param(Field::kAlphaY, i, true, false));
+            }
+        }
+        // The colour of the lobe comes either from its Fresnel term (Schlick RGB, conductor) or
+        // from its scale; letting both carry it makes scale and F trade off freely.
+        bool colour_in_fresnel = false;
+        switch (l.fresnel.type) {
+            case FresnelType::kNone:
+                break;
+            case FresnelType::kSchlick:
+                out.push_back(make_param(Field::kF0, i, true, !fresnel_rgb));
+                colour_in_fresnel = fresnel_rgb;
+                break;
+            case FresnelType::kDielectric:
+                out.push_back(make_param(Field::kEta, i, true, false));
+                break;
+            case FresnelType::kConductor:
+                out.push_back(make_param(Field::kEtaRgb, i, true, false));
+                out.push_back(make_param(Field::kK, i, true, false));
+                colour_in_fresnel = true;
+                break;
+        }
+        out.push_back(make_param(Field::kScale, i, !colour_in_fresnel, false));
+    }
+    return out;
+}
+
+Expected<FitSpec> make_fit_spec(const ModelOptions& o) {
+    if (o.lobes < 0 || o.lobes > 4) {
+        return make_error("--lobes " + std::to_string(o.lobes) + ": expected 0 to 4");
+    }
+    if (o.lobes == 0 && !o.diffuse) {
+        return make_error("model has neither a diffuse term nor a lobe: nothing to fit");
+    }
+    FitSpec spec;
+    spec.model.has_diffuse = o.diffuse;
+    spec.model.diffuse = brdf::Rgbd::Constant(o.diffuse ? 0.2 : 0.0);
+    for (int i = 0; i < o.lobes; ++i) {
+        brdf::Lobe<double> l;
+        l.distribution = o.distribution;
+        l.anisotropic = o.anisotropic && o.distribution != Distribution::kBlinnPhong;
+        l.alpha_x = l.alpha_y = 0.1 * (i + 1);
+        l.exponent = 2.0 / (l.alpha_x * l.alpha_x) - 2.0;
+        l.shadowing = o.shadowing;
+        l.fresnel.type = o.fresnel;
+        l.fresnel.f0 = brdf::Rgbd::Constant(0.04);
+        l.fresnel.eta = 1.5;
+        // A generic metal start: F(0) = ((n-1)^2 + k^2) / ((n+1)^2 + k^2) = 0.61 for n = 1.5, k
+        // = 3.
+        l.fresnel.eta_rgb = brdf::Rgbd::Constant(1.5);
+        l.fresnel.k = brdf::Rgbd::Constant(3.0);
+        l.scale = brdf::Rgbd::Ones();
+        spec.model.lobes.push_back(l);
+    }
+    spec.params = default_params(spec.model, o.fresnel_rgb);
+    return spec;
+}
+
+namespace {
+
+/// Finds the rule for a path ("lobes[0].alpha_x", "diffuse"); nullptr when the path is unknown.
+ParamSpec* find_param(std::vector<ParamSpec>& params, const std::string& path) {
+    for (ParamSpec& p : params) {
+        if (field_path(p.field, p.lobe) == path) {
+            return &p;
+        }
+    }
+    return nullptr;
+}
+
+std::string known_paths(const std::vector<ParamSpec>& params) {
+    std::string s;
+    for (const ParamSpec& p : params) {
+        s += (s.empty() ? "" : ", ") + field_path(p.field, p.lobe);
+    }
+    return s;
+}
+
+}  // namespace
+
+Expected<FitSpec> parse_fit_template(const std::string& json_text, const std::string& source) {
+    nlohmann::json j;
+    try {
+        j = nlohmann::json::parse(json_text);
+    } catch (const nlohmann::json::exception& e) {
+        return make_error(source + ": not JSON: " + e.what());
+    }
+    if (!j.is_object() || !j.contains("model")) {
+        return make_error(source + ": a fit template is an object with a \"model\" key");
+    }
+    for (auto it = j.begin(); it != j.end(); ++it) {
+        const std::string& key = it.key();
+        if (key != "model" && key != "free" && key != "fixed" && key != "shared" &&
+            key != "bounds") {
+            return make_error(source + ": unknown key \"" + key +
+                              "\" (expected model, free, fixed, shared, bounds)");
+        }
+    }
+    Expected<brdf::ModelD> model = brdf::parse_model_json(j["model"].dump(), source + ": model");
+    if (!model) {
+        return make_error(model.error().message);
+    }
+    FitSpec spec;
+    spec.model = *model;
+    // Schlick f0 per channel unless "shared" says otherwise below.
+    spec.params = default_params(spec.model, true);
+    auto path_list = [&](const char* key, auto apply) -> Expected<void> {
+        if (!j.contains(key)) {
+            return {};
+        }
+        if (!j[key].is_array()) {
+            return make_error(source + ": \"" + key + "\" must be an array of parameter paths");
+        }
+        for (std::size_t i = 0; i < j[key].size(); ++i) {
+            const nlohmann::json& v = j[key][i];
+            if (!v.is_string()) {
+                return make_error(source + ": " + key + "[" + std::to_string(i) +
+                                  "] must be a string");
+            }
+            ParamSpec* p = find_param(spec.params, v.get<std::string>());
+            if (p == nullptr) {
+                return make_error(source + ": " + key + "[" + std::to_string(i) + "] = \"" +
+                                  v.get<std::string>() + "\" is not a parameter of this model (" +
+                                  known_paths(spec.params) + ")");
+            }
+            Expected<void> r = apply(*p, std::string(key) + "[" + std::to_string(i) + "]");
+            if (!r) {
+                return r;
+            }
+        }
+        return {};
+    };
+    Expected<void> r = path_list("free", [](ParamSpec& p, const std::string&) -> Expected<void> {
+        p.free = true;
+        return {};
+    });
+    if (r) {
+        r = path_list("fixed", [](ParamSpec& p, const std::string&) -> Expected<void> {
+            p.free = false;
+            return {};
+        });
+    }
+    if (r) {
+        r = path_list("shared", [&](ParamSpec& p, const std::string& at) -> Expected<void> {
+            if (!is_rgb(p.field)) {
+                return make_error(source + ": " + at + ": " + field_path(p.field, p.lobe) +
+                                  " is a scalar; only RGB parameters can be shared");
+            }
+            p.shared = true;
+            return {};
+        });
+    }
+    if (!r) {
+        return make_error(r.error().message);
+    }
+    if (j.contains("bounds")) {
+        if (!j["bounds"].is_object()) {
+            return make_error(source + ": \"bounds\" must be an object {path: [lower, upper]}");
+        }
+        for (auto it = j["bounds"].begin(); it != j["bounds"].end(); ++it) {
+            ParamSpec* p = find_param(spec.params, it.key());
+            const std::string at = source + ": bounds." + it.key();
+            if (p == nullptr) {
+                return make_error(at + ": not a parameter of this model (" +
+                                  known_paths(spec.params) + ")");
+            }
+            const nlohmann::json& b = it.value();
+            if (!b.is_array() || b.size() != 2 || !b[0].is_number() || !b[1].is_number()) {
+                return make_error(at + ": expected [lower, upper]");
+            }
+            p->lower = b[0].get<double>();
+            p->upper = b[1].get<double>();
+            if (!(p->lower < p->upper)) {
+                return make_error(at + ": lower bound must be below the upper bound");
+            }
+        }
+    }
+    return spec;
+}
+
+Expected<FitSpec> load_fit_template(const std::string& path) {
+    std::ifstream in(path);
+    if (!in) {
+        return make_error(path + ": cannot open the fit template");
+    }
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return parse_fit_template(ss.str(), path);
+}
+
+}  // namespace gonio::fitting
