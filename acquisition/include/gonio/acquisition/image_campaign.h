@@ -1,0 +1,136 @@
+#pragma once
+
+// An image-mode campaign: a sphere of the material on the sample holder, the camera on the
+// detector arm, the light arm moved to the positions the coverage planner chooses; every pixel on
+// the sphere becomes a BRDF sample binned into the half/difference table.
+//
+// Per light position and colour channel (filter):
+// - HDR capture: the base exposure first; pixels at or above saturation_fraction of the frame's
+//   saturation level are taken again at exposure / bracket_factor, up to max_brackets exposures
+//   (as in P. Debevec, J. Malik, "Recovering High Dynamic Range Radiance Maps from Photographs",
+//   SIGGRAPH 1997, with a linear sensor: each pixel from the longest unsaturated exposure).
+//   Dark frames (shutter closed, dark_frames averaged) are cached per exposure and subtracted.
+//   Signal s = (counts - dark) / exposure_us, variance from the linear sensor model (EMVA 1288):
+//     var(counts) = (counts - black) / K_e + sigma_read^2 (1 + 1/N_dark) + 1/12
+//   with K_e electrons per count, sigma_read the read noise in counts, divided by exposure^2.
+// - Calibration against a white reference sphere of known Lambertian albedo rho (captured first,
+//   same optics): its signal is s = C_c (rho / pi) cos(theta_i), so the per-channel constant
+//   C_c = median over its pixels of s / ((rho / pi) cos(theta_i)) converts any later signal into
+//   the BRDF: f = s / (C_c cos(theta_i)) [1/sr]. C_c lumps irradiance, optics and sensor gain.
+// - Each usable pixel (not on the edge, not grazing, lit, unsaturated in every channel) gives
+//   (wi, wo) in its local frame (sphere_geometry.h) and f with its model variance, added to the
+//   Welford table (image_binning.h).
+//
+// The devices are reached through a capture function (a light-arm move, a shutter state, a filter
+// and an exposure in; a frame out), so that the same campaign runs on a real rig
+// (make_device_capture) or on the simulator.
+
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "gonio/acquisition/camera_model.h"
+#include "gonio/acquisition/image_binning.h"
+#include "gonio/acquisition/image_planner.h"
+#include "gonio/acquisition/sphere_geometry.h"
+#include "gonio/brdf/error.h"
+#include "gonio/devices/axis.h"
+#include "gonio/devices/camera.h"
+
+namespace gonio::acquisition {
+
+/// What one capture needs from the rig.
+struct CaptureRequest {
+    double light_arm_rad = 0;  ///< Light arm position (rig_geometry.h angle).
+    int channel = 1;           ///< Colour filter: 0 red, 1 green, 2 blue.
+    double exposure_us = 0;
+    bool shutter_open = true;   ///< False: dark frame.
+    bool reference = false;     ///< True: the white reference sphere is in place of the sample.
+};
+
+using CaptureFn = std::function<Expected<devices::Frame>(const CaptureRequest&)>;
+
+struct ImageCampaignConfig {
+    CameraModel camera;
+    TableLayout layout = coarse_layout(2);
+    double detector_arm_rad = 0;
+    LightRange lights;
+    double coverage_target = 0.9;  ///< Covered fraction of the valid bins that ends the campaign.
+    int max_frames = 200;          ///< Light positions at most.
+    std::uint32_t min_count = 1;   ///< Samples a bin needs to count as covered.
+    ExclusionRules rules;
+    SilhouetteOptions silhouette;
+    int plan_pixel_stride = 2;  ///< Pixel subsampling of the coverage prediction.
+
+    double exposure_us = 20000;      ///< Base (longest) exposure.
+    double min_exposure_us = 10;     ///< Bracketing never goes below this.
+    double bracket_factor = 4;       ///< Exposure ratio between brackets, > 1.
+    int max_brackets = 5;            ///< Exposures per channel and position at most.
+    double saturation_fraction = 0.9;  ///< Of Frame::saturation_level (counts above black).
+    int dark_frames = 4;             ///< Dark frames averaged per exposure.
+
+    double electrons_per_count = 1;  ///< Sensor conversion gain at the gain used, e-/count.
+    double read_noise_counts = 0;    ///< Read noise, counts.
+
+    double reference_albedo = 0.99;  ///< Lambertian albedo of the white reference sphere.
+    double reference_max_theta = 60 * brdf::kPi / 180;  ///< Reference pixels used up to this angle.
+    std::chrono::milliseconds capture_timeout{5000};
+};
+
+/// One light position of the campaign.
+struct FrameRecord {
+    double light_arm_rad = 0;
+    PixelCounts counts;
+    std::array<int, 3> exposures{};  ///< Exposures used per channel (1 = no bracketing).
+    double coverage_after = 0;       ///< Covered fraction of the valid bins after this frame.
+};
+
+struct ImageCampaignResult {
+    BinnedTable table;
+    CoverageMap coverage;
+    SphereGeometry sphere;
+    SphereGeometry reference_sphere;
+    std::array<double, 3> calibration{};  ///< C_c per channel, (counts/us) per (1/sr).
+    PixelCounts counts;                   ///< Summed over frames.
+    std::vector<FrameRecord> frames;
+    std::vector<CoverageHole> holes;
+    std::size_t reachable_bins = 0;
+    bool target_met = false;
+    bool bracketed = false;  ///< Some pixel needed a shorter exposure.
+    std::uint64_t captures = 0;  ///< Frames captured (dark frames included).
+    double exposure_time_s = 0;  ///< Sum of exposure times (the shutter-open and dark frames).
+};
+
+/// Called after each light position: index, record.
+using ImageProgressFn = std::function<void(std::size_t, const FrameRecord&)>;
+
+/// Runs the campaign (file comment). Errors from the capture function are returned with the
+/// request that failed.
+Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
+                                                 const ImageCampaignConfig& config,
+                                                 const ImageProgressFn& progress = {});
+
+/// Writes the campaign's outputs into `dir` (created if missing): dataset.csv (one sample per
+/// filled bin, dataset.h schema with sigma and flags), dataset.json (metadata: camera, sphere,
+/// calibration, counts, lights, holes, `extra` merged in), table.binary (MERL layout 90 x 90 x 180)
+/// or table.gtab (any other layout), coverage.png.
+Expected<void> write_image_campaign(const std::string& dir, const ImageCampaignResult& result,
+                                    const ImageCampaignConfig& config,
+                                    const std::string& extra_json = "{}");
+
+/// A capture function over real devices: moves the light arm (wait at most `move_timeout`), sets
+/// the shutter and the exposure, selects the filter through `select_filter` (when given; else every
+/// channel is the same monochrome measurement) and captures. Reference captures need the white
+/// sphere mounted: `swap_target` is called with true before the first reference capture and with
+/// false before the first sample capture (a prompt to the operator, or a sample changer).
+CaptureFn make_device_capture(devices::Camera& camera, devices::Light& light,
+                              devices::Axis& light_arm,
+                              std::function<Expected<void>(int)> select_filter,
+                              std::function<Expected<void>(bool)> swap_target,
+                              std::chrono::milliseconds move_timeout);
+
+}  // namespace gonio::acquisition

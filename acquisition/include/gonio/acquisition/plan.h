@@ -1,0 +1,109 @@
+#pragma once
+
+// Sampling plans: which (wi, wo) configurations a campaign measures. Isotropic plans live in the
+// canonical space (theta_i, theta_r, delta_phi) with theta_i <= theta_r (reciprocity) and
+// delta_phi in [0, pi] (isotropy); every configuration in a plan is distinct in that space.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "gonio/acquisition/kinematics.h"
+#include "gonio/brdf/coords.h"
+#include "gonio/brdf/error.h"
+
+namespace gonio::acquisition {
+
+struct PlannedConfig {
+    std::uint32_t index = 0;  ///< Position in its pass, stable across resumes.
+    brdf::Vec3d wi;           ///< Target directions, sample frame.
+    brdf::Vec3d wo;
+    bool isotropic = true;
+    std::uint32_t flags = 0;  ///< brdf::SampleFlag bits the measurement will carry (kFlagRoi).
+    double weight = 1.0;      ///< Fit weight the measurement will carry.
+};
+
+struct UnreachableConfig {
+    brdf::Vec3d wi;
+    brdf::Vec3d wo;
+    std::string reason;
+};
+
+struct Plan {
+    std::string kind;  ///< "uniform", "half-diff", "refine"
+    std::vector<PlannedConfig> configs;
+    std::vector<UnreachableConfig>
+        unreachable;                ///< Listed with their reason, never dropped silently.
+    std::uint64_t naive_count = 0;  ///< Size of the naive 4D grid of the same angular resolution.
+    std::uint64_t outside_roi = 0;  ///< Configurations the scene did not need (not measured).
+};
+
+/// Canonical key of a configuration (isotropic + reciprocal folding), for redundancy checks.
+brdf::Canonical<double> canonical_of(const PlannedConfig& c);
+
+/// Uniform grid: theta_i, theta_r on n_theta values over [0, theta_max], delta_phi on n_dphi values
+/// over [0, pi]; only theta_i <= theta_r; where theta_i = 0 the azimuth is meaningless and only
+/// delta_phi = 0 is kept. The naive grid it replaces samples (theta_i, phi_i, theta_o, phi_o) with
+/// phi over [0, 2 pi) at the same step: n_theta^2 (2 (n_dphi - 1))^2.
+struct UniformGridSpec {
+    int n_theta = 10;
+    double theta_max = 1.3963;  ///< rad (80 deg)
+    int n_dphi = 7;
+};
+Expected<Plan> plan_uniform(const UniformGridSpec& spec);
+
+/// Half/difference grid after the MERL layout (Matusik et al. 2003, "A Data-Driven Reflectance
+/// Model"): theta_h = (i / n_theta_h)^2 pi/2 (dense near the specular peak), theta_d uniform on
+/// [0, pi/2), phi_d uniform on [0, pi) (reciprocity), phi_h = 0 (isotropy). Pairs with a direction
+/// beyond theta_max are skipped; duplicates after canonical folding are removed.
+struct HalfDiffSpec {
+    int n_theta_h = 8;
+    int n_theta_d = 8;
+    int n_phi_d = 6;
+    double theta_max = 1.3963;
+};
+Expected<Plan> plan_half_diff(const HalfDiffSpec& spec);
+
+/// A region of interest read from a scene description (docs/operator-guide.md):
+/// {"name": "...", "margin_deg": 5,
+///  "pairs": [{"light": {"theta_deg": 30, "phi_deg": 0}, "view": {"theta_deg": 45, "phi_deg":
+///  180}}], "theta_i_deg": [0, 40], "theta_r_deg": [0, 60]}
+/// A configuration is inside when both its directions lie within the margin of a listed pair
+/// (either way round, after aligning phi_i), or when its theta_i and theta_r lie within the given
+/// ranges widened by the margin.
+struct Scene {
+    std::string name;
+    double margin = 0.0873;
+    std::vector<std::pair<brdf::Vec3d, brdf::Vec3d>> pairs;
+    bool has_ranges = false;
+    double theta_i_min = 0, theta_i_max = 0, theta_r_min = 0, theta_r_max = 0;
+};
+Expected<Scene> read_scene(const std::string& path);
+bool in_roi(const Scene& scene, const PlannedConfig& c);
+/// Keeps only the configurations inside the scene's ROI, flagged kFlagRoi; counts the rest.
+void apply_roi(const Scene& scene, Plan* plan);
+
+/// Moves the configurations that the rig cannot reach into plan->unreachable with the reason.
+void remove_unreachable(const RigLimits& lim, Plan* plan);
+
+/// A measured point for adaptive refinement: canonical coordinates and a scalar value (luminance).
+struct MeasuredPoint {
+    brdf::Canonical<double> c;
+    double value = 0;
+};
+
+/// Adaptive refinement: each measured point is linked to its nearest neighbours in canonical space;
+/// each link scores |log(v_a + eps) - log(v_b + eps)| (the change of the value in decades, so the
+/// specular peak, retro-reflection and grazing rise all score high); the midpoints of the
+/// highest-scoring links are proposed, at most `budget`, skipping links that score below
+/// `threshold` (the error estimate met) or whose midpoint is closer than `min_spacing` (rad) to an
+/// existing point. Deterministic for a given input order.
+struct RefineSpec {
+    int budget = 60;
+    double threshold = 0.05;
+    double min_spacing = 0.02;
+    int neighbours = 6;
+};
+Plan plan_refine(const std::vector<MeasuredPoint>& measured, const RefineSpec& spec);
+
+}  // namespace gonio::acquisition

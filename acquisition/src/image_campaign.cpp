@@ -1,0 +1,559 @@
+#include "gonio/acquisition/image_campaign.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+
+#include "gonio/brdf/check.h"
+#include "gonio/brdf/rig_geometry.h"
+#include "gonio/brdf/merl.h"
+
+namespace gonio::acquisition {
+namespace {
+
+constexpr const char* kChannelName[3] = {"red", "green", "blue"};
+
+std::string describe(const CaptureRequest& r) {
+    char buf[160];
+    std::snprintf(buf,
+                  sizeof(buf),
+                  "capture (light arm %.3f deg, %s filter, %.1f us, shutter %s%s)",
+                  r.light_arm_rad * 180 / brdf::kPi,
+                  kChannelName[std::clamp(r.channel, 0, 2)],
+                  r.exposure_us,
+                  r.shutter_open ? "open" : "closed",
+                  r.reference ? ", white reference" : "");
+    return buf;
+}
+
+/// A pixel's value as double for any supported frame depth.
+double pixel(const cv::Mat& m, int x, int y) {
+    switch (m.depth()) {
+        case CV_8U:
+            return m.at<std::uint8_t>(y, x);
+        case CV_16U:
+            return m.at<std::uint16_t>(y, x);
+        case CV_32F:
+            return m.at<float>(y, x);
+        case CV_64F:
+            return m.at<double>(y, x);
+        default:
+            GONIO_CHECK_MSG(false, "unsupported frame depth " << m.depth());
+    }
+    return 0;
+}
+
+/// Runs the capture function and checks the frame against the camera model.
+class Rig {
+  public:
+    Rig(const CaptureFn& capture, const ImageCampaignConfig& config, ImageCampaignResult* result)
+        : capture_(capture), config_(config), result_(result) {}
+
+    Expected<devices::Frame> grab(const CaptureRequest& r) {
+        auto f = capture_(r);
+        if (!f) {
+            return make_error(describe(r) + ": " + f.error().message);
+        }
+        ++result_->captures;
+        result_->exposure_time_s += r.exposure_us * 1e-6;
+        const CameraIntrinsics& k = config_.camera.intrinsics;
+        if (f->image.cols != k.width || f->image.rows != k.height || f->image.channels() != 1) {
+            return make_error(describe(r) + ": frame is " + std::to_string(f->image.cols) + "x" +
+                              std::to_string(f->image.rows) + "x" +
+                              std::to_string(f->image.channels()) +
+                              ", the camera model says " + std::to_string(k.width) + "x" +
+                              std::to_string(k.height) + " single channel");
+        }
+        if (!f->linear) {
+            return make_error(describe(r) + ": frame is not linear (gamma-encoded), not radiometric");
+        }
+        return f;
+    }
+
+    /// Mean of config.dark_frames dark frames at this exposure (cached), CV_64F.
+    Expected<cv::Mat> dark(double exposure_us, bool reference) {
+        auto it = dark_.find(exposure_us);
+        if (it != dark_.end()) {
+            return it->second;
+        }
+        cv::Mat sum;
+        const int n = std::max(1, config_.dark_frames);
+        for (int i = 0; i < n; ++i) {
+            CaptureRequest r;
+            r.light_arm_rad = last_light_;
+            r.exposure_us = exposure_us;
+            r.shutter_open = false;
+            r.reference = reference;
+            auto f = grab(r);
+            if (!f) {
+                return tl::unexpected(f.error());
+            }
+            cv::Mat d;
+            f->image.convertTo(d, CV_64F);
+            if (sum.empty()) {
+                sum = d;
+            } else {
+                sum += d;
+            }
+        }
+        sum /= n;
+        dark_[exposure_us] = sum;
+        return sum;
+    }
+
+    void set_light(double a) { last_light_ = a; }
+
+  private:
+    const CaptureFn& capture_;
+    const ImageCampaignConfig& config_;
+    ImageCampaignResult* result_;
+    std::map<double, cv::Mat> dark_;
+    double last_light_ = 0;
+};
+
+/// Per-pixel HDR signal over a pixel list.
+struct HdrSamples {
+    std::vector<double> signal;    ///< counts / us, dark subtracted
+    std::vector<double> variance;  ///< (counts / us)^2
+    std::vector<std::uint8_t> ok;  ///< 0 = saturated at every exposure
+    int exposures = 0;
+};
+
+Expected<HdrSamples> capture_hdr(Rig& rig, const ImageCampaignConfig& cfg, CaptureRequest req,
+                                 const std::vector<SpherePixel>& pixels,
+                                 const std::vector<std::uint8_t>& wanted) {
+    HdrSamples h;
+    h.signal.assign(pixels.size(), 0.0);
+    h.variance.assign(pixels.size(), 0.0);
+    h.ok.assign(pixels.size(), 0);
+    std::vector<std::uint8_t> pending = wanted;
+    double exposure = cfg.exposure_us;
+    const double n_dark = std::max(1, cfg.dark_frames);
+    for (int b = 0; b < std::max(1, cfg.max_brackets); ++b) {
+        req.exposure_us = exposure;
+        req.shutter_open = true;
+        auto frame = rig.grab(req);
+        if (!frame) {
+            return tl::unexpected(frame.error());
+        }
+        auto dark = rig.dark(exposure, req.reference);
+        if (!dark) {
+            return tl::unexpected(dark.error());
+        }
+        ++h.exposures;
+        const double black = frame->black_level;
+        const double sat = black + cfg.saturation_fraction * (frame->saturation_level - black);
+        std::size_t left = 0;
+        for (std::size_t i = 0; i < pixels.size(); ++i) {
+            if (!pending[i]) {
+                continue;
+            }
+            const double counts = pixel(frame->image, pixels[i].x, pixels[i].y);
+            if (counts >= sat) {
+                // Saturated at this exposure: try the next, shorter one.
+                ++left;
+                continue;
+            }
+            const double d = dark->at<double>(pixels[i].y, pixels[i].x);
+            const double var_counts = std::max(counts - black, 0.0) / cfg.electrons_per_count +
+                                      cfg.read_noise_counts * cfg.read_noise_counts *
+                                          (1.0 + 1.0 / n_dark) +
+                                      1.0 / 12.0;
+            h.signal[i] = (counts - d) / exposure;
+            h.variance[i] = var_counts / (exposure * exposure);
+            h.ok[i] = 1;
+            pending[i] = 0;
+        }
+        const double next = exposure / cfg.bracket_factor;
+        if (left == 0 || next < cfg.min_exposure_us) {
+            break;
+        }
+        exposure = next;
+    }
+    return h;
+}
+
+/// Which pixels the light reaches usefully (theta_i within the limit), counting the others.
+std::vector<std::uint8_t> lit_pixels(const std::vector<SpherePixel>& pixels,
+                                     const brdf::Vec3d& l, const ExclusionRules& rules,
+                                     PixelCounts* counts) {
+    const double cos_max_i = std::cos(rules.max_theta_i);
+    std::vector<std::uint8_t> lit(pixels.size(), 0);
+    for (std::size_t i = 0; i < pixels.size(); ++i) {
+        const double cos_i = pixels[i].normal.dot(l);
+        if (cos_i <= 0) {
+            // In the sphere's own shadow.
+            ++counts->shadow;
+        } else if (cos_i < cos_max_i) {
+            // Lit at a grazing angle: too sensitive to the normal's error.
+            ++counts->grazing_light;
+        } else {
+            lit[i] = 1;
+        }
+    }
+    return lit;
+}
+
+brdf::Vec3d light_direction(double a) { return {std::cos(a), std::sin(a), 0.0}; }
+
+/// The allowed light position closest to the detector (front lighting for the silhouette).
+double front_light(const ImageCampaignConfig& cfg) {
+    const LightRange& r = cfg.lights;
+    double best = r.min_rad;
+    double best_sep = 1e9;
+    const int steps = static_cast<int>(std::floor((r.max_rad - r.min_rad) / r.step_rad + 1e-9));
+    for (int k = 0; k <= steps; ++k) {
+        const double a = r.min_rad + k * r.step_rad;
+        const double sep = brdf::arm_separation(a, cfg.detector_arm_rad);
+        if (sep >= r.blind_zone_rad && sep < best_sep) {
+            best = a;
+            best_sep = sep;
+        }
+    }
+    return best;
+}
+
+Expected<SphereGeometry> find_sphere(Rig& rig, const ImageCampaignConfig& cfg, double light,
+                                     bool reference) {
+    CaptureRequest r;
+    r.light_arm_rad = light;
+    r.channel = 1;
+    r.exposure_us = cfg.exposure_us;
+    r.reference = reference;
+    auto frame = rig.grab(r);
+    if (!frame) {
+        return tl::unexpected(frame.error());
+    }
+    auto g = detect_sphere(frame->image, cfg.camera, cfg.silhouette);
+    if (!g) {
+        return make_error(std::string(reference ? "white reference" : "sample") + ": " +
+                          g.error().message);
+    }
+    return g;
+}
+
+Expected<std::array<double, 3>> calibrate(Rig& rig, const ImageCampaignConfig& cfg, double light,
+                                          SphereGeometry* sphere_out) {
+    if (!(cfg.reference_albedo > 0 && cfg.reference_albedo <= 1)) {
+        return make_error("reference_albedo = " + std::to_string(cfg.reference_albedo) +
+                          " outside (0, 1]");
+    }
+    auto sphere = find_sphere(rig, cfg, light, true);
+    if (!sphere) {
+        return tl::unexpected(sphere.error());
+    }
+    *sphere_out = *sphere;
+    ExclusionRules rules = cfg.rules;
+    rules.max_theta_o = std::min(rules.max_theta_o, cfg.reference_max_theta);
+    rules.max_theta_i = std::min(rules.max_theta_i, cfg.reference_max_theta);
+    const std::vector<SpherePixel> pixels = sphere_pixels(cfg.camera, *sphere, rules, nullptr);
+    const brdf::Vec3d l = light_direction(light);
+    PixelCounts ignored;
+    const std::vector<std::uint8_t> lit = lit_pixels(pixels, l, rules, &ignored);
+    std::array<double, 3> c{};
+    for (int ch = 0; ch < 3; ++ch) {
+        CaptureRequest r;
+        r.light_arm_rad = light;
+        r.channel = ch;
+        r.reference = true;
+        auto h = capture_hdr(rig, cfg, r, pixels, lit);
+        if (!h) {
+            return tl::unexpected(h.error());
+        }
+        std::vector<double> ratios;
+        for (std::size_t i = 0; i < pixels.size(); ++i) {
+            if (h->ok[i]) {
+                const double cos_i = pixels[i].normal.dot(l);
+                ratios.push_back(h->signal[i] / (cfg.reference_albedo / brdf::kPi * cos_i));
+            }
+        }
+        if (ratios.size() < 100) {
+            return make_error(std::string("white reference, ") + kChannelName[ch] +
+                              " channel: " + std::to_string(ratios.size()) +
+                              " usable pixels, need at least 100");
+        }
+        std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
+        c[ch] = ratios[ratios.size() / 2];
+        if (!(c[ch] > 0) || !std::isfinite(c[ch])) {
+            return make_error(std::string("white reference, ") + kChannelName[ch] +
+                              " channel: calibration constant " + std::to_string(c[ch]) +
+                              " is not positive (no light, or shutter stuck closed?)");
+        }
+    }
+    return c;
+}
+
+}  // namespace
+
+Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
+                                                 const ImageCampaignConfig& cfg,
+                                                 const ImageProgressFn& progress) {
+    if (!(cfg.bracket_factor > 1) || !(cfg.exposure_us > 0) || !(cfg.electrons_per_count > 0) ||
+        !(cfg.lights.step_rad > 0)) {
+        return make_error(
+            "image campaign: exposure_us, electrons_per_count and lights.step_rad must be > 0 "
+            "and bracket_factor > 1");
+    }
+    ImageCampaignResult result{BinnedTable(cfg.layout), CoverageMap(cfg.layout)};
+    Rig rig(capture, cfg, &result);
+    const double front = front_light(cfg);
+    rig.set_light(front);
+
+    // 1. White reference: calibration constants per channel.
+    auto cal = calibrate(rig, cfg, front, &result.reference_sphere);
+    if (!cal) {
+        return tl::unexpected(cal.error());
+    }
+    result.calibration = *cal;
+
+    // 2. The sample sphere and its pixels.
+    auto sphere = find_sphere(rig, cfg, front, false);
+    if (!sphere) {
+        return tl::unexpected(sphere.error());
+    }
+    result.sphere = *sphere;
+    PixelCounts geometry_counts;
+    const std::vector<SpherePixel> pixels =
+        sphere_pixels(cfg.camera, result.sphere, cfg.rules, &geometry_counts);
+
+    // 3. Candidate light positions and their predicted bins.
+    std::vector<LightCandidate> candidates =
+        light_candidates(cfg.camera, result.sphere, cfg.rules, cfg.layout, cfg.detector_arm_rad,
+                         cfg.lights, std::max(1, cfg.plan_pixel_stride));
+    {
+        CoverageMap reach(cfg.layout);
+        for (const LightCandidate& c : candidates) {
+            for (std::uint32_t b : c.bins) {
+                reach.cover(b);
+            }
+        }
+        result.reachable_bins = reach.covered_bins();
+    }
+    const std::vector<LightCandidate> all_candidates = candidates;
+
+    // 4. Frames until the coverage target.
+    double current = front;
+    while (static_cast<int>(result.frames.size()) < cfg.max_frames &&
+           result.coverage.fraction() < cfg.coverage_target) {
+        const int next = next_light(candidates, result.coverage, current);
+        if (next < 0) {
+            break;
+        }
+        const double a = candidates[next].light_arm_rad;
+        candidates.erase(candidates.begin() + next);
+        current = a;
+        rig.set_light(a);
+        FrameRecord rec;
+        rec.light_arm_rad = a;
+        rec.counts = geometry_counts;
+        const brdf::Vec3d l = light_direction(a);
+        const std::vector<std::uint8_t> lit = lit_pixels(pixels, l, cfg.rules, &rec.counts);
+        std::array<HdrSamples, 3> hdr;
+        for (int ch = 0; ch < 3; ++ch) {
+            CaptureRequest r;
+            r.light_arm_rad = a;
+            r.channel = ch;
+            auto h = capture_hdr(rig, cfg, r, pixels, lit);
+            if (!h) {
+                return tl::unexpected(h.error());
+            }
+            hdr[ch] = std::move(*h);
+            rec.exposures[ch] = hdr[ch].exposures;
+            result.bracketed = result.bracketed || hdr[ch].exposures > 1;
+        }
+        for (std::size_t i = 0; i < pixels.size(); ++i) {
+            if (!lit[i]) {
+                continue;
+            }
+            if (!hdr[0].ok[i] || !hdr[1].ok[i] || !hdr[2].ok[i]) {
+                // Saturated at the shortest exposure in some channel.
+                ++rec.counts.saturated;
+                continue;
+            }
+            const auto [wi, wo] = local_directions(pixels[i], l);
+            const double cos_i = wi.z();
+            brdf::Rgbd value;
+            brdf::Rgbd var;
+            for (int ch = 0; ch < 3; ++ch) {
+                const double k = result.calibration[ch] * cos_i;
+                value[ch] = hdr[ch].signal[i] / k;
+                var[ch] = hdr[ch].variance[i] / (k * k);
+            }
+            if (!value.allFinite() || !var.allFinite()) {
+                // Cannot happen with cos_i >= cos(max_theta_i) > 0 and finite frames; counted.
+                ++rec.counts.nonfinite;
+                continue;
+            }
+            result.table.add(wi, wo, value, var);
+            ++rec.counts.used;
+        }
+        result.coverage.cover_from(result.table, cfg.min_count);
+        rec.coverage_after = result.coverage.fraction();
+        result.counts += rec.counts;
+        result.frames.push_back(rec);
+        if (progress) {
+            progress(result.frames.size() - 1, rec);
+        }
+    }
+    result.target_met = result.coverage.fraction() >= cfg.coverage_target;
+    result.holes = coverage_holes(result.coverage, all_candidates, cfg.lights.blind_zone_rad);
+    return result;
+}
+
+Expected<void> write_image_campaign(const std::string& dir, const ImageCampaignResult& result,
+                                    const ImageCampaignConfig& config,
+                                    const std::string& extra_json) {
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+    if (ec) {
+        return make_error(dir + ": cannot create directory: " + ec.message());
+    }
+    const std::string base = (std::filesystem::path(dir) / "").string();
+    const brdf::Dataset data =
+        result.table.to_dataset("image-mode campaign", config.min_count, result.bracketed);
+    if (auto r = brdf::write_dataset_csv(base + "dataset.csv", data); !r) {
+        return r;
+    }
+    const TableLayout& l = config.layout;
+    const bool merl = l.n_theta_h == 90 && l.n_theta_d == 90 && l.n_phi_d == 180;
+    const std::string table_name = merl ? "table.binary" : "table.gtab";
+    if (auto r = brdf::write_merl(base + table_name,
+                                  to_tabulated(result.table, config.min_count,
+                                               "image-mode campaign"));
+        !r) {
+        return r;
+    }
+    if (auto r = write_coverage_png(base + "coverage.png",
+                                    coverage_cells(result.table, config.min_count), l);
+        !r) {
+        return r;
+    }
+    nlohmann::json j;
+    j["mode"] = "image";
+    j["camera_model"] = nlohmann::json::parse(camera_model_to_json(config.camera));
+    j["sphere"] = {{"centre_m", {result.sphere.centre.x(), result.sphere.centre.y(),
+                                 result.sphere.centre.z()}},
+                   {"radius_m", result.sphere.radius_m},
+                   {"silhouette_px", {result.sphere.silhouette.cx, result.sphere.silhouette.cy,
+                                      result.sphere.silhouette.r}},
+                   {"fit_rms_px", result.sphere.rms_residual_px}};
+    j["calibration_counts_per_us_per_inv_sr"] = result.calibration;
+    j["reference_albedo"] = config.reference_albedo;
+    j["table"] = {{"n_theta_h", l.n_theta_h}, {"n_theta_d", l.n_theta_d}, {"n_phi_d", l.n_phi_d},
+                  {"file", table_name}};
+    j["coverage"] = {{"target", config.coverage_target},
+                     {"achieved", result.coverage.fraction()},
+                     {"target_met", result.target_met},
+                     {"valid_bins", result.coverage.valid_bins()},
+                     {"covered_bins", result.coverage.covered_bins()},
+                     {"reachable_bins", result.reachable_bins}};
+    const PixelCounts& c = result.counts;
+    j["pixels"] = {{"on_sphere", c.on_sphere},   {"edge", c.edge},
+                   {"grazing_view", c.grazing_view}, {"shadow", c.shadow},
+                   {"grazing_light", c.grazing_light}, {"saturated", c.saturated},
+                   {"nonfinite", c.nonfinite},   {"used", c.used}};
+    nlohmann::json frames = nlohmann::json::array();
+    for (const FrameRecord& f : result.frames) {
+        frames.push_back({{"light_arm_deg", f.light_arm_rad * 180 / brdf::kPi},
+                          {"used_pixels", f.counts.used},
+                          {"saturated_pixels", f.counts.saturated},
+                          {"exposures", f.exposures},
+                          {"coverage_after", f.coverage_after}});
+    }
+    j["frames"] = frames;
+    nlohmann::json holes = nlohmann::json::array();
+    for (const CoverageHole& h : result.holes) {
+        holes.push_back({{"theta_d_deg", {h.theta_d_min * 180 / brdf::kPi,
+                                          h.theta_d_max * 180 / brdf::kPi}},
+                         {"theta_h_deg", {h.theta_h_min * 180 / brdf::kPi,
+                                          h.theta_h_max * 180 / brdf::kPi}},
+                         {"bins", h.bins},
+                         {"reason", h.reason}});
+    }
+    j["holes"] = holes;
+    j["captures"] = result.captures;
+    j["exposure_time_s"] = result.exposure_time_s;
+    try {
+        const nlohmann::json extra = nlohmann::json::parse(extra_json);
+        if (extra.is_object()) {
+            j.update(extra);
+        }
+    } catch (const nlohmann::json::exception& e) {
+        return make_error(std::string("dataset.json extra metadata: ") + e.what());
+    }
+    const std::string path = base + "dataset.json";
+    {
+        std::ofstream out(path + ".tmp", std::ios::trunc);
+        out << j.dump(2) << "\n";
+        out.flush();
+        if (!out) {
+            return make_error(path + ".tmp: write failed");
+        }
+    }
+    std::filesystem::rename(path + ".tmp", path, ec);
+    if (ec) {
+        return make_error(path + ": cannot rename into place: " + ec.message());
+    }
+    return {};
+}
+
+CaptureFn make_device_capture(devices::Camera& camera, devices::Light& light,
+                              devices::Axis& light_arm,
+                              std::function<Expected<void>(int)> select_filter,
+                              std::function<Expected<void>(bool)> swap_target,
+                              std::chrono::milliseconds move_timeout) {
+    struct State {
+        bool have_position = false;
+        double position_deg = 0;
+        int filter = -1;
+        int target = -1;  // 1 reference, 0 sample
+        double exposure_us = -1;
+        int shutter = -1;
+    };
+    auto state = std::make_shared<State>();
+    return [&camera, &light, &light_arm, select_filter, swap_target, move_timeout,
+            state](const CaptureRequest& r) -> Expected<devices::Frame> {
+        const int target = r.reference ? 1 : 0;
+        if (swap_target && state->target != target) {
+            if (auto s = swap_target(r.reference); !s) {
+                return tl::unexpected(s.error());
+            }
+            state->target = target;
+        }
+        const double deg = r.light_arm_rad * 180 / brdf::kPi;
+        if (!state->have_position || std::abs(state->position_deg - deg) > 1e-9) {
+            if (auto m = light_arm.move_to(deg, move_timeout); !m) {
+                return tl::unexpected(m.error());
+            }
+            state->have_position = true;
+            state->position_deg = deg;
+        }
+        if (select_filter && state->filter != r.channel) {
+            if (auto f = select_filter(r.channel); !f) {
+                return tl::unexpected(f.error());
+            }
+            state->filter = r.channel;
+        }
+        const int shutter = r.shutter_open ? 1 : 0;
+        if (state->shutter != shutter) {
+            if (auto s = light.set_shutter_open(r.shutter_open); !s) {
+                return tl::unexpected(s.error());
+            }
+            state->shutter = shutter;
+        }
+        if (state->exposure_us != r.exposure_us) {
+            if (auto e = camera.set_exposure_us(r.exposure_us); !e) {
+                return tl::unexpected(e.error());
+            }
+            state->exposure_us = r.exposure_us;
+        }
+        const auto timeout =
+            std::chrono::milliseconds(2000 + static_cast<std::int64_t>(r.exposure_us / 1000));
+        return camera.capture(timeout);
+    };
+}
+
+}  // namespace gonio::acquisition

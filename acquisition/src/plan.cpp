@@ -1,0 +1,332 @@
+#include "gonio/acquisition/plan.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <tuple>
+
+#include "gonio/brdf/dataset.h"
+
+namespace gonio::acquisition {
+
+using brdf::Canonical;
+using brdf::kPi;
+using brdf::Vec3d;
+
+namespace {
+
+constexpr double kDeg = kPi / 180.0;
+
+/// Rounded canonical key so that numerically equal configurations compare equal.
+std::tuple<long long, long long, long long> key_of(const Canonical<double>& c) {
+    const double q = 1e-7;
+    // At theta_i = 0 (or theta_r = 0) the azimuth difference is meaningless.
+    const double dphi = (c.theta_i < 1e-9 || c.theta_r < 1e-9) ? 0.0 : c.delta_phi;
+    return {std::llround(c.theta_i / q), std::llround(c.theta_r / q), std::llround(dphi / q)};
+}
+
+PlannedConfig make_config(const Canonical<double>& c) {
+    PlannedConfig p;
+    const auto [wi, wo] = brdf::from_canonical(c);
+    p.wi = wi;
+    p.wo = wo;
+    p.isotropic = true;
+    return p;
+}
+
+void renumber(Plan* plan) {
+    for (std::size_t k = 0; k < plan->configs.size(); ++k) {
+        plan->configs[k].index = static_cast<std::uint32_t>(k);
+    }
+}
+
+Vec3d dir_from_json(const nlohmann::json& j, const std::string& where) {
+    if (j.is_array() && j.size() == 3) {
+        Vec3d v(j[0].get<double>(), j[1].get<double>(), j[2].get<double>());
+        if (!(v.norm() > 0)) {
+            throw std::runtime_error(where + ": zero vector");
+        }
+        return v.normalized();
+    }
+    if (!j.contains("theta_deg")) {
+        throw std::runtime_error(where + ": expected [x, y, z] or {\"theta_deg\", \"phi_deg\"}");
+    }
+    const double theta = j.at("theta_deg").get<double>() * kDeg;
+    const double phi = j.value("phi_deg", 0.0) * kDeg;
+    if (!(theta >= 0 && theta < kPi / 2)) {
+        throw std::runtime_error(where + ".theta_deg: outside [0, 90)");
+    }
+    return brdf::spherical_to_cartesian(theta, phi);
+}
+
+/// Distance between two canonical configurations: the larger of the angles between their light
+/// directions and between their view directions, both pairs aligned to phi_i = 0.
+double canonical_distance(const Canonical<double>& a, const Canonical<double>& b) {
+    const auto [ai, ao] = brdf::from_canonical(a);
+    const auto [bi, bo] = brdf::from_canonical(b);
+    return std::max(brdf::angle_between(ai, bi), brdf::angle_between(ao, bo));
+}
+
+std::array<double, 6> embed(const Canonical<double>& c) {
+    const auto [wi, wo] = brdf::from_canonical(c);
+    return {wi.x(), wi.y(), wi.z(), wo.x(), wo.y(), wo.z()};
+}
+
+}  // namespace
+
+Canonical<double> canonical_of(const PlannedConfig& c) {
+    return brdf::to_canonical(c.wi, c.wo);
+}
+
+Expected<Plan> plan_uniform(const UniformGridSpec& s) {
+    if (s.n_theta < 2 || s.n_dphi < 2) {
+        return make_error("uniform plan: n_theta = " + std::to_string(s.n_theta) +
+                          ", n_dphi = " + std::to_string(s.n_dphi) + " (both must be >= 2)");
+    }
+    if (!(s.theta_max > 0 && s.theta_max < kPi / 2)) {
+        return make_error("uniform plan: theta_max outside (0, 90) deg");
+    }
+    Plan plan;
+    plan.kind = "uniform";
+    for (int a = 0; a < s.n_theta; ++a) {
+        const double theta_i = s.theta_max * a / (s.n_theta - 1);
+        for (int b = a; b < s.n_theta; ++b) {  // reciprocity: theta_i <= theta_r
+            const double theta_r = s.theta_max * b / (s.n_theta - 1);
+            for (int c = 0; c < s.n_dphi; ++c) {
+                if (a == 0 && c > 0) {
+                    // theta_i = 0: wi is the normal, the azimuth difference is meaningless.
+                    break;
+                }
+                const double dphi = kPi * c / (s.n_dphi - 1);
+                plan.configs.push_back(make_config({theta_i, theta_r, dphi}));
+            }
+        }
+    }
+    const std::uint64_t n_phi = 2 * static_cast<std::uint64_t>(s.n_dphi - 1);
+    const std::uint64_t n_t = static_cast<std::uint64_t>(s.n_theta);
+    plan.naive_count = n_t * n_t * n_phi * n_phi;
+    renumber(&plan);
+    return plan;
+}
+
+Expected<Plan> plan_half_diff(const HalfDiffSpec& s) {
+    if (s.n_theta_h < 1 || s.n_theta_d < 1 || s.n_phi_d < 1) {
+        return make_error("half-diff plan: every count must be >= 1");
+    }
+    Plan plan;
+    plan.kind = "half-diff";
+    std::set<std::tuple<long long, long long, long long>> seen;
+    for (int a = 0; a < s.n_theta_h; ++a) {
+        const double u = static_cast<double>(a) / s.n_theta_h;
+        const double theta_h = u * u * kPi / 2;
+        for (int b = 0; b < s.n_theta_d; ++b) {
+            const double theta_d = (kPi / 2) * b / s.n_theta_d;
+            for (int c = 0; c < s.n_phi_d; ++c) {
+                const double phi_d = kPi * c / s.n_phi_d;
+                const auto [wi, wo] =
+                    brdf::from_half_diff(brdf::HalfDiff<double>{theta_h, 0.0, theta_d, phi_d});
+                const double ti = std::acos(std::clamp(wi.z(), -1.0, 1.0));
+                const double to = std::acos(std::clamp(wo.z(), -1.0, 1.0));
+                if (!(ti <= s.theta_max && to <= s.theta_max)) {
+                    // Below the horizon or beyond the largest polar angle: not a measurable pair.
+                    continue;
+                }
+                const Canonical<double> canon = brdf::to_canonical(wi, wo);
+                if (!seen.insert(key_of(canon)).second) {
+                    continue;
+                }
+                plan.configs.push_back(make_config(canon));
+            }
+        }
+    }
+    const std::uint64_t n = static_cast<std::uint64_t>(s.n_theta_h) * s.n_theta_d * s.n_phi_d;
+    // The naive grid at this resolution: all of phi_h in [0, 2 pi) and phi_d in [0, 2 pi).
+    plan.naive_count = n * 2 * static_cast<std::uint64_t>(s.n_phi_d) * 2;
+    renumber(&plan);
+    return plan;
+}
+
+Expected<Scene> read_scene(const std::string& path) {
+    std::ifstream in(path);
+    if (!in) {
+        return make_error(path + ": cannot open");
+    }
+    Scene sc;
+    try {
+        nlohmann::json j = nlohmann::json::parse(in);
+        sc.name = j.value("name", path);
+        sc.margin = j.value("margin_deg", 5.0) * kDeg;
+        if (!(sc.margin >= 0)) {
+            return make_error(path + ": margin_deg must be >= 0");
+        }
+        if (j.contains("pairs")) {
+            int k = 0;
+            for (const auto& p : j.at("pairs")) {
+                const std::string w = "pairs[" + std::to_string(k++) + "]";
+                sc.pairs.emplace_back(dir_from_json(p.at("light"), path + ": " + w + ".light"),
+                                      dir_from_json(p.at("view"), path + ": " + w + ".view"));
+                if (sc.pairs.back().first.z() <= 0 || sc.pairs.back().second.z() <= 0) {
+                    return make_error(path + ": " + w + ": direction at or below the horizon");
+                }
+            }
+        }
+        if (j.contains("theta_i_deg") || j.contains("theta_r_deg")) {
+            const auto ti = j.at("theta_i_deg");
+            const auto tr = j.at("theta_r_deg");
+            sc.has_ranges = true;
+            sc.theta_i_min = ti.at(0).get<double>() * kDeg;
+            sc.theta_i_max = ti.at(1).get<double>() * kDeg;
+            sc.theta_r_min = tr.at(0).get<double>() * kDeg;
+            sc.theta_r_max = tr.at(1).get<double>() * kDeg;
+            if (sc.theta_i_min > sc.theta_i_max || sc.theta_r_min > sc.theta_r_max) {
+                return make_error(path + ": theta ranges must be [min, max]");
+            }
+        }
+    } catch (const std::exception& e) {
+        return make_error(path + ": " + e.what());
+    }
+    if (sc.pairs.empty() && !sc.has_ranges) {
+        return make_error(path + ": a scene needs \"pairs\" or \"theta_i_deg\"/\"theta_r_deg\"");
+    }
+    return sc;
+}
+
+bool in_roi(const Scene& sc, const PlannedConfig& c) {
+    const Canonical<double> cc = canonical_of(c);
+    for (const auto& [l, v] : sc.pairs) {
+        const Canonical<double> sp = brdf::to_canonical(l, v);
+        if (canonical_distance(cc, sp) <= sc.margin) {
+            return true;
+        }
+    }
+    if (sc.has_ranges) {
+        const double m = sc.margin;
+        auto inside = [&](double ti, double tr) {
+            return ti >= sc.theta_i_min - m && ti <= sc.theta_i_max + m &&
+                   tr >= sc.theta_r_min - m && tr <= sc.theta_r_max + m;
+        };
+        // Reciprocity: the canonical pair may be the scene's pair either way round.
+        if (inside(cc.theta_i, cc.theta_r) || inside(cc.theta_r, cc.theta_i)) {
+            return true;
+        }
+    }
+    return false;
+}
+
+void apply_roi(const Scene& sc, Plan* plan) {
+    std::vector<PlannedConfig> kept;
+    for (PlannedConfig c : plan->configs) {
+        if (in_roi(sc, c)) {
+            c.flags |= brdf::kFlagRoi;
+            kept.push_back(c);
+        } else {
+            ++plan->outside_roi;
+        }
+    }
+    plan->configs = std::move(kept);
+    renumber(plan);
+}
+
+void remove_unreachable(const RigLimits& lim, Plan* plan) {
+    std::vector<PlannedConfig> kept;
+    const std::array<AxisDynamics, kNumAxes> dyn{};
+    const brdf::RigPosed rest{};
+    for (const PlannedConfig& c : plan->configs) {
+        Target t{c.wi, c.wo, c.isotropic, true};
+        auto s = solve(t, lim, dyn, rest);
+        if (s) {
+            kept.push_back(c);
+        } else {
+            plan->unreachable.push_back({c.wi, c.wo, s.error().message});
+        }
+    }
+    plan->configs = std::move(kept);
+    renumber(plan);
+}
+
+Plan plan_refine(const std::vector<MeasuredPoint>& measured, const RefineSpec& spec) {
+    Plan plan;
+    plan.kind = "refine";
+    const std::size_t n = measured.size();
+    std::vector<std::array<double, 6>> emb(n);
+    for (std::size_t k = 0; k < n; ++k) {
+        emb[k] = embed(measured[k].c);
+    }
+    auto dist2 = [&](std::size_t a, std::size_t b) {
+        double d = 0;
+        for (int q = 0; q < 6; ++q) {
+            d += (emb[a][q] - emb[b][q]) * (emb[a][q] - emb[b][q]);
+        }
+        return d;
+    };
+    // Scale of the values: a small floor keeps log() finite at zero (black regions, grazing).
+    double vmax = 0;
+    for (const MeasuredPoint& m : measured) {
+        vmax = std::max(vmax, m.value);
+    }
+    const double eps = std::max(vmax * 1e-4, 1e-12);
+    struct Link {
+        double score;
+        std::size_t a, b;
+    };
+    std::vector<Link> links;
+    std::set<std::pair<std::size_t, std::size_t>> seen_links;
+    for (std::size_t a = 0; a < n; ++a) {
+        std::vector<std::pair<double, std::size_t>> nb;
+        for (std::size_t b = 0; b < n; ++b) {
+            if (b != a) {
+                nb.emplace_back(dist2(a, b), b);
+            }
+        }
+        const std::size_t kn = std::min<std::size_t>(nb.size(), spec.neighbours);
+        std::partial_sort(nb.begin(), nb.begin() + kn, nb.end());
+        for (std::size_t q = 0; q < kn; ++q) {
+            const std::size_t b = nb[q].second;
+            const auto key = std::minmax(a, b);
+            if (!seen_links.insert(key).second) {
+                continue;
+            }
+            const double score =
+                std::abs(std::log(measured[a].value + eps) - std::log(measured[b].value + eps));
+            links.push_back({score, key.first, key.second});
+        }
+    }
+    std::stable_sort(
+        links.begin(), links.end(), [](const Link& x, const Link& y) { return x.score > y.score; });
+    std::vector<Canonical<double>> placed;
+    for (const MeasuredPoint& m : measured) {
+        placed.push_back(m.c);
+    }
+    for (const Link& l : links) {
+        if (static_cast<int>(plan.configs.size()) >= spec.budget || l.score < spec.threshold) {
+            break;
+        }
+        const Canonical<double>& ca = measured[l.a].c;
+        const Canonical<double>& cb = measured[l.b].c;
+        Canonical<double> mid{(ca.theta_i + cb.theta_i) / 2,
+                              (ca.theta_r + cb.theta_r) / 2,
+                              (ca.delta_phi + cb.delta_phi) / 2};
+        if (mid.theta_i > mid.theta_r) {
+            std::swap(mid.theta_i, mid.theta_r);
+        }
+        bool close = false;
+        for (const Canonical<double>& p : placed) {
+            if (canonical_distance(p, mid) < spec.min_spacing) {
+                close = true;
+                break;
+            }
+        }
+        if (close) {
+            continue;
+        }
+        placed.push_back(mid);
+        plan.configs.push_back(make_config(mid));
+    }
+    renumber(&plan);
+    return plan;
+}
+
+}  // namespace gonio::acquisition

@@ -1,0 +1,245 @@
+#include "gonio/acquisition/rig_config.h"
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "gonio/devices/camera_factory.h"
+#include "gonio/devices/modbus_axis.h"
+#include "gonio/devices/modbus_light.h"
+
+namespace gonio::acquisition {
+
+using brdf::kPi;
+using nlohmann::json;
+
+namespace {
+
+constexpr double kDeg = kPi / 180.0;
+
+CoilConfig parse_coil(const json& j) {
+    CoilConfig c;
+    c.address = j.at("address").get<std::string>();
+    c.unit = j.at("unit").get<int>();
+    c.coil = j.at("coil").get<int>();
+    return c;
+}
+
+json coil_json(const CoilConfig& c) {
+    return json{{"address", c.address}, {"unit", c.unit}, {"coil", c.coil}};
+}
+
+}  // namespace
+
+Expected<RigConfig> parse_rig_config(const std::string& text, const std::string& source) {
+    RigConfig rig;
+    rig.source = source;
+    rig.json = text;
+    std::string at = "";
+    try {
+        const json j = json::parse(text);
+        rig.name = j.value("name", source);
+        bool seen[kNumAxes] = {false, false, false, false};
+        at = "axes";
+        const json& axes = j.at("axes");
+        for (std::size_t k = 0; k < axes.size(); ++k) {
+            at = "axes[" + std::to_string(k) + "]";
+            const json& a = axes[k];
+            const std::string role = a.at("role").get<std::string>();
+            int r = -1;
+            for (int q = 0; q < kNumAxes; ++q) {
+                if (role == to_string(static_cast<AxisRole>(q))) {
+                    r = q;
+                }
+            }
+            if (r < 0) {
+                return make_error(source + ": " + at + ".role: \"" + role +
+                                  "\" is not one of light, detector, tilt, spin");
+            }
+            if (seen[r]) {
+                return make_error(source + ": " + at + ".role: \"" + role + "\" given twice");
+            }
+            seen[r] = true;
+            AxisConfig& ax = rig.axes[r];
+            ax.name = a.value("name", role);
+            ax.address = a.at("address").get<std::string>();
+            ax.unit = a.at("unit").get<int>();
+            ax.profile = a.value("profile", std::string("generic"));
+            const json& lim = a.at("limits_deg");
+            ax.limits.min_deg = lim.at(0).get<double>();
+            ax.limits.max_deg = lim.at(1).get<double>();
+            if (!(ax.limits.min_deg < ax.limits.max_deg)) {
+                return make_error(source + ": " + at + ".limits_deg: min must be < max");
+            }
+            ax.motion.speed_deg_per_s = a.value("speed_deg_per_s", 20.0);
+            ax.motion.accel_deg_per_s2 = a.value("accel_deg_per_s2", 40.0);
+            ax.motion.settle_ms = a.value("settle_ms", 50.0);
+            if (!(ax.motion.speed_deg_per_s > 0) || !(ax.motion.accel_deg_per_s2 > 0) ||
+                !(ax.motion.settle_ms >= 0)) {
+                return make_error(source + ": " + at +
+                                  ": speed and acceleration must be > 0, settle >= 0");
+            }
+        }
+        for (int q = 0; q < kNumAxes; ++q) {
+            if (!seen[q]) {
+                return make_error(source + ": axes: no axis with role \"" +
+                                  to_string(static_cast<AxisRole>(q)) + "\"");
+            }
+        }
+        at = "camera";
+        rig.camera_address = j.at("camera").at("address").get<std::string>();
+        at = "shutter";
+        rig.shutter = parse_coil(j.at("shutter"));
+        if (j.contains("reference_changer")) {
+            at = "reference_changer";
+            rig.reference_changer = parse_coil(j.at("reference_changer"));
+        }
+        at = "geometry";
+        if (j.contains("geometry")) {
+            const json& g = j.at("geometry");
+            rig.blind_angle_deg = g.value("blind_angle_deg", rig.blind_angle_deg);
+            rig.max_theta_deg = g.value("max_theta_deg", rig.max_theta_deg);
+        }
+        if (!(rig.blind_angle_deg >= 0 && rig.blind_angle_deg < 90) ||
+            !(rig.max_theta_deg > 0 && rig.max_theta_deg < 90)) {
+            return make_error(source +
+                              ": geometry: blind_angle_deg in [0, 90), max_theta_deg in (0, 90)");
+        }
+        at = "white_reference";
+        if (j.contains("white_reference")) {
+            const json& w = j.at("white_reference");
+            rig.white_reflectance = w.value("reflectance", rig.white_reflectance);
+            rig.white_theta_i_deg = w.value("theta_i_deg", rig.white_theta_i_deg);
+            rig.white_theta_o_deg = w.value("theta_o_deg", rig.white_theta_o_deg);
+        }
+        if (!(rig.white_reflectance > 0 && rig.white_reflectance <= 1)) {
+            return make_error(source + ": white_reference.reflectance must be in (0, 1]");
+        }
+        at = "noise";
+        if (j.contains("noise")) {
+            rig.noise.e_per_count = j.at("noise").value("e_per_count", rig.noise.e_per_count);
+            rig.noise.read_noise_counts =
+                j.at("noise").value("read_noise_counts", rig.noise.read_noise_counts);
+        }
+        at = "capture";
+        if (j.contains("capture")) {
+            const json& c = j.at("capture");
+            CaptureConfig& cc = rig.capture;
+            cc.target_fraction = c.value("target_fraction", cc.target_fraction);
+            cc.min_exposure_us = c.value("min_exposure_us", cc.min_exposure_us);
+            cc.max_exposure_us = c.value("max_exposure_us", cc.max_exposure_us);
+            cc.max_brackets = c.value("max_brackets", cc.max_brackets);
+            cc.bracket_ratio = c.value("bracket_ratio", cc.bracket_ratio);
+            cc.hdr_low_fraction = c.value("hdr_low_fraction", cc.hdr_low_fraction);
+            cc.dark_frames = c.value("dark_frames", cc.dark_frames);
+            cc.roi_fraction = c.value("roi_fraction", cc.roi_fraction);
+            cc.gain = c.value("gain", cc.gain);
+            cc.timeout_ms = c.value("timeout_ms", cc.timeout_ms);
+            if (!(cc.target_fraction > 0 && cc.target_fraction < 1) ||
+                !(cc.min_exposure_us > 0 && cc.min_exposure_us < cc.max_exposure_us) ||
+                cc.max_brackets < 1 || !(cc.bracket_ratio > 1) || cc.dark_frames < 1 ||
+                !(cc.roi_fraction > 0 && cc.roi_fraction <= 1) || !(cc.gain > 0)) {
+                return make_error(source +
+                                  ": capture: target_fraction in (0, 1), 0 < "
+                                  "min_exposure_us < max_exposure_us, max_brackets >= 1, "
+                                  "bracket_ratio > 1, dark_frames >= 1, roi_fraction in "
+                                  "(0, 1], gain > 0");
+            }
+        }
+        rig.move_timeout_ms = j.value("move_timeout_ms", rig.move_timeout_ms);
+        rig.retries = j.value("retries", rig.retries);
+    } catch (const std::exception& e) {
+        return make_error(source + ": " + (at.empty() ? "" : at + ": ") + e.what());
+    }
+    return rig;
+}
+
+Expected<RigConfig> read_rig_config(const std::string& path) {
+    std::ifstream in(path);
+    if (!in) {
+        return make_error(path + ": cannot open the rig description");
+    }
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return parse_rig_config(ss.str(), path);
+}
+
+RigConfig with_addresses(const RigConfig& rig,
+                         const std::string& motor_address,
+                         const std::string& camera_address) {
+    RigConfig out = rig;
+    json j = json::parse(rig.json);
+    for (auto& a : out.axes) {
+        a.address = motor_address;
+    }
+    for (auto& a : j.at("axes")) {
+        a["address"] = motor_address;
+    }
+    out.shutter.address = motor_address;
+    j["shutter"] = coil_json(out.shutter);
+    if (out.reference_changer) {
+        out.reference_changer->address = motor_address;
+        j["reference_changer"] = coil_json(*out.reference_changer);
+    }
+    if (!camera_address.empty()) {
+        out.camera_address = camera_address;
+        j["camera"]["address"] = camera_address;
+    }
+    out.json = j.dump(2);
+    return out;
+}
+
+RigLimits rig_limits(const RigConfig& rig) {
+    RigLimits l;
+    for (int k = 0; k < kNumAxes; ++k) {
+        l.range[k].min = rig.axes[k].limits.min_deg * kDeg;
+        l.range[k].max = rig.axes[k].limits.max_deg * kDeg;
+    }
+    l.blind_angle = rig.blind_angle_deg * kDeg;
+    l.max_theta = rig.max_theta_deg * kDeg;
+    return l;
+}
+
+std::array<AxisDynamics, kNumAxes> rig_dynamics(const RigConfig& rig) {
+    std::array<AxisDynamics, kNumAxes> d;
+    for (int k = 0; k < kNumAxes; ++k) {
+        d[k].speed = rig.axes[k].motion.speed_deg_per_s * kDeg;
+        d[k].accel = rig.axes[k].motion.accel_deg_per_s2 * kDeg;
+        d[k].settle_s = rig.axes[k].motion.settle_ms / 1000.0;
+    }
+    return d;
+}
+
+Expected<RigDevices> open_rig(const RigConfig& rig) {
+    RigDevices d;
+    for (int k = 0; k < kNumAxes; ++k) {
+        const AxisConfig& a = rig.axes[k];
+        auto ax = devices::open_axis(a.name, a.address, a.unit, a.profile, a.limits, a.motion);
+        if (!ax) {
+            return make_error("axis \"" + a.name + "\" (" + a.address + " unit " +
+                              std::to_string(a.unit) + "): " + ax.error().message);
+        }
+        d.axes[k] = std::move(*ax);
+    }
+    auto cam = devices::open_camera(rig.camera_address);
+    if (!cam) {
+        return make_error("camera " + rig.camera_address + ": " + cam.error().message);
+    }
+    d.camera = std::move(*cam);
+    auto sh = devices::open_modbus_light(rig.shutter.address, rig.shutter.unit, rig.shutter.coil);
+    if (!sh) {
+        return make_error("shutter: " + sh.error().message);
+    }
+    d.shutter = std::move(*sh);
+    if (rig.reference_changer) {
+        const CoilConfig& c = *rig.reference_changer;
+        auto rc = devices::open_modbus_light(c.address, c.unit, c.coil);
+        if (!rc) {
+            return make_error("reference changer: " + rc.error().message);
+        }
+        d.reference_changer = std::move(*rc);
+    }
+    return d;
+}
+
+}  // namespace gonio::acquisition
