@@ -1,0 +1,88 @@
+#pragma once
+
+// Plots of measured BRDF samples and of a fitted (or tabulated) BRDF: in-plane polar slices,
+// delta_phi slices, residual maps over (theta_h, theta_d) and the coverage of the angular domain.
+// Every plot carries a title, axes with tick labels and units, and a legend; the default size is
+// readable at 800 px wide. Plotted quantity: luminance Y (Rec. 709 weights) of the RGB BRDF, 1/sr.
+
+#include <string>
+#include <vector>
+
+#include "gonio/brdf/brdf.h"
+#include "gonio/brdf/dataset.h"
+#include "gonio/report/image.h"
+
+namespace gonio::report {
+
+struct PlotOptions {
+    int width = 800;         ///< picture width, px (>= 400)
+    bool log_scale = false;  ///< logarithmic BRDF axis (base 10)
+    /// In-plane slices: incidence angles to show, degrees. Empty: chosen from the data (up to 5
+    /// distinct theta_i with in-plane samples), or 0, 20, 40, 60 when only a fit is given.
+    std::vector<double> theta_i_deg;
+    double angle_tolerance_deg = 1.0;  ///< how far a sample may lie from a slice, degrees
+};
+
+/// Geometry of an in-plane polar plot, for callers that place marks on it: the polar origin (the
+/// point on the sample surface) in pixels and the radius, in pixels, of the largest ring.
+/// Outgoing direction theta_o is drawn at angle theta_o from the upward vertical, positive
+/// (forward, specular side: delta_phi = pi) to the right, negative (back toward the light:
+/// delta_phi = 0) to the left; distance from the origin grows with the BRDF value.
+struct PolarLayout {
+    double origin_x = 0, origin_y = 0;
+    double radius_px = 0;
+    /// Colour of the fitted curve and markers of each slice, in slice order.
+    std::vector<Color> slice_colors;
+    std::vector<double> theta_i_deg;  ///< the slices drawn
+};
+
+/// In-plane polar plot: measured samples (markers with radial error bars of +-1 sigma) and the fit
+/// (curves) at several theta_i. `fit` may be null (data only); the dataset may be empty when a fit
+/// is given (curves only). Error when there is nothing to draw.
+Expected<Image> plot_in_plane(const brdf::Dataset& data,
+                              const brdf::Brdf* fit,
+                              const PlotOptions& options,
+                              PolarLayout* layout = nullptr);
+
+/// BRDF against delta_phi = phi_o - phi_i (degrees, 0 = back toward the light, 180 = forward) at
+/// fixed (theta_i, theta_o) pairs found in the data (or theta_i = theta_o = 20, 40, 60 degrees for
+/// a fit alone). Error when there is nothing to draw.
+Expected<Image> plot_delta_phi(const brdf::Dataset& data,
+                               const brdf::Brdf* fit,
+                               const PlotOptions& options);
+
+/// Residual map: log10(measured / fitted) luminance averaged in 5-degree bins of (theta_h,
+/// theta_d) (Rusinkiewicz half/difference angles), on a diverging colour scale with a colour bar.
+/// Samples whose measured or fitted luminance is not positive are counted and skipped. Error when
+/// the dataset has no sample.
+Expected<Image> plot_residual_map(const brdf::Dataset& data,
+                                  const brdf::Brdf& fit,
+                                  const PlotOptions& options);
+
+/// Coverage of the angular domain: left, every measured (wi, wo) pair's outgoing direction wo
+/// projected on the unit disk (x = sin theta cos phi, y = sin theta sin phi), coloured by theta_i;
+/// right, the samples in (theta_h, theta_d). Error when the dataset has no sample.
+Expected<Image> plot_coverage(const brdf::Dataset& data, const PlotOptions& options);
+
+/// A picture that was written, with its path and a caption.
+struct WrittenPlot {
+    std::string path;
+    std::string caption;
+};
+
+/// What write_plots() produced: the pictures written and, for each plot that had nothing to show,
+/// the reason it was left out.
+struct PlotSet {
+    std::vector<WrittenPlot> written;
+    std::vector<std::string> skipped;
+};
+
+/// Writes in_plane.png, delta_phi.png and, with a fit, residuals.png into out_dir (created if
+/// missing). Error on an empty dataset (nothing is written), when no plot has anything
+/// to show, or when a file cannot be written. `data.source` names the data in titles.
+Expected<PlotSet> write_plots(const brdf::Dataset& data,
+                              const brdf::Brdf* fit,
+                              const PlotOptions& options,
+                              const std::string& out_dir);
+
+}  // namespace gonio::report

@@ -1,0 +1,209 @@
+// BRDF against the azimuth difference delta_phi at fixed (theta_i, theta_o).
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <opencv2/imgproc.hpp>
+#include <set>
+
+#include "canvas.h"
+#include "gonio/report/plot.h"
+#include "image_cv.h"
+#include "plot_common.h"
+
+namespace gonio::report {
+
+namespace {
+
+constexpr double kDeg = brdf::kPi / 180.0;
+
+struct AzPoint {
+    double dphi_deg;
+    double y;
+    double sigma;
+};
+
+struct AzSlice {
+    double theta_i_deg = 0, theta_o_deg = 0, phi_i = 0;
+    std::vector<AzPoint> points;
+    std::vector<double> curve;
+};
+
+}  // namespace
+
+Expected<Image> plot_delta_phi(const brdf::Dataset& data,
+                               const brdf::Brdf* fit,
+                               const PlotOptions& options) {
+    // Group samples by (theta_i, theta_o) rounded to the tolerance grid.
+    const double q = std::max(options.angle_tolerance_deg, 0.1);
+    std::map<std::pair<long, long>, std::vector<const brdf::Sample*>> groups;
+    for (const brdf::Sample& s : data.samples) {
+        groups[{std::lround(s.theta_i / kDeg / q), std::lround(s.theta_o / kDeg / q)}].push_back(
+            &s);
+    }
+    struct Candidate {
+        std::pair<long, long> key;
+        std::size_t azimuths;
+    };
+    std::vector<Candidate> cands;
+    for (const auto& [key, members] : groups) {
+        std::set<long> az;
+        for (const brdf::Sample* s : members) {
+            az.insert(std::lround(std::abs(brdf::wrap_pi(s->phi_o - s->phi_i)) / kDeg));
+        }
+        if (az.size() >= 3 && key.second != 0) {
+            cands.push_back({key, az.size()});
+        }
+    }
+    std::stable_sort(cands.begin(), cands.end(), [](const Candidate& a, const Candidate& b) {
+        return a.azimuths > b.azimuths;
+    });
+    if (cands.size() > 4) {
+        cands.resize(4);
+    }
+    std::sort(cands.begin(), cands.end(), [](const Candidate& a, const Candidate& b) {
+        return a.key < b.key;
+    });
+
+    std::vector<AzSlice> slices;
+    for (const Candidate& c : cands) {
+        AzSlice sl;
+        const auto& members = groups[c.key];
+        double ti = 0, to = 0;
+        std::vector<double> phis;
+        for (const brdf::Sample* s : members) {
+            ti += s->theta_i;
+            to += s->theta_o;
+            phis.push_back(s->phi_i);
+            sl.points.push_back({std::abs(brdf::wrap_pi(s->phi_o - s->phi_i)) / kDeg,
+                                 luminance(s->value),
+                                 luminance_sigma(s->sigma)});
+        }
+        sl.theta_i_deg = ti / members.size() / kDeg;
+        sl.theta_o_deg = to / members.size() / kDeg;
+        std::nth_element(phis.begin(), phis.begin() + phis.size() / 2, phis.end());
+        sl.phi_i = phis[phis.size() / 2];
+        slices.push_back(std::move(sl));
+    }
+    if (slices.empty() && fit != nullptr) {
+        for (double t : {20.0, 40.0, 60.0}) {
+            AzSlice sl;
+            sl.theta_i_deg = t;
+            sl.theta_o_deg = t;
+            slices.push_back(sl);
+        }
+    }
+    if (slices.empty()) {
+        return make_error(
+            data.source +
+            ": no delta_phi slice to plot (no (theta_i, theta_o) pair measured at 3 or "
+            "more azimuths, and no fit)");
+    }
+
+    std::vector<double> grid;
+    for (double d = 0; d <= 180.0 + 1e-9; d += 0.5) {
+        grid.push_back(d);
+    }
+    double vmax = 0;
+    double vmin_pos = std::numeric_limits<double>::infinity();
+    auto track = [&](double v) {
+        if (std::isfinite(v)) {
+            vmax = std::max(vmax, v);
+            if (v > 0) {
+                vmin_pos = std::min(vmin_pos, v);
+            }
+        }
+    };
+    for (AzSlice& sl : slices) {
+        for (const AzPoint& p : sl.points) {
+            track(p.y + p.sigma);
+            track(p.y);
+        }
+        if (fit != nullptr) {
+            const brdf::Vec3d wi = brdf::spherical_to_cartesian(sl.theta_i_deg * kDeg, sl.phi_i);
+            for (double d : grid) {
+                const brdf::Vec3d wo =
+                    brdf::spherical_to_cartesian(sl.theta_o_deg * kDeg, sl.phi_i + d * kDeg);
+                sl.curve.push_back(luminance(fit->eval(wi, wo)));
+                track(sl.curve.back());
+            }
+        }
+    }
+    if (!(vmax > 0)) {
+        return make_error(data.source +
+                          ": delta_phi slices hold only zero values; nothing to plot");
+    }
+
+    const int W = std::max(400, options.width);
+    const int H = W * 3 / 5 + 40;
+    cv::Mat img = draw::blank(
+        W,
+        H,
+        "BRDF against azimuth (luminance Y) - " + plot_detail::short_name(data.source),
+        std::string(options.log_scale ? "log" : "linear") +
+            " scale; markers: measured +-1 sigma; curves: " + (fit ? "fit" : "(no fit given)"));
+    draw::Axes ax;
+    ax.area = cv::Rect(90, 60, W - 90 - 30, H - 60 - 60);
+    ax.x0 = 0;
+    ax.x1 = 180;
+    ax.log_y = options.log_scale;
+    if (ax.log_y) {
+        ax.y0 = plot_detail::log_floor(vmin_pos, vmax);
+        ax.y1 = std::pow(10.0, std::ceil(std::log10(vmax) - 1e-9));
+    } else {
+        ax.y0 = 0;
+        const std::vector<double> t = draw::nice_ticks(0, vmax, 6);
+        ax.y1 = t.back() >= vmax ? t.back() : t.back() + (t.size() > 1 ? t[1] - t[0] : vmax);
+    }
+    ax.draw(img,
+            "delta_phi = phi_o - phi_i [deg] (0: back toward the light, 180: forward)",
+            "BRDF luminance Y [1/sr]");
+
+    std::vector<draw::LegendEntry> entries;
+    for (std::size_t k = 0; k < slices.size(); ++k) {
+        const AzSlice& sl = slices[k];
+        const cv::Scalar col = draw::series_color(static_cast<int>(k));
+        if (!sl.curve.empty()) {
+            std::vector<cv::Point2d> pts;
+            for (std::size_t j = 0; j < grid.size(); ++j) {
+                const double v = sl.curve[j];
+                if (std::isfinite(v) && ax.inside_y(v)) {
+                    pts.emplace_back(ax.px(grid[j]), ax.py(v));
+                } else {
+                    pts.emplace_back(std::nan(""), std::nan(""));
+                }
+            }
+            draw::polyline(img, pts, col, 2);
+        }
+        for (const AzPoint& p : sl.points) {
+            if (!ax.inside_y(p.y)) {
+                continue;
+            }
+            if (p.sigma > 0) {
+                const double lo = std::max(p.y - p.sigma, ax.log_y ? ax.y0 : 0.0);
+                cv::line(img,
+                         ax.pt(p.dphi_deg, lo),
+                         ax.pt(p.dphi_deg, std::min(p.y + p.sigma, ax.y1)),
+                         col,
+                         1,
+                         cv::LINE_AA);
+            }
+            draw::marker(img, ax.pt(p.dphi_deg, p.y), col, 3);
+        }
+        char label[96];
+        std::snprintf(label,
+                      sizeof label,
+                      "theta_i = %.1f, theta_o = %.1f deg (%zu pts)",
+                      sl.theta_i_deg,
+                      sl.theta_o_deg,
+                      sl.points.size());
+        entries.push_back({col, label, !sl.curve.empty(), !sl.points.empty()});
+    }
+    // Top left: the forward (specular) peak sits at the right end.
+    draw::legend(img, entries, {ax.area.x + 4, ax.area.y + 4}, true);
+    return from_mat(img);
+}
+
+}  // namespace gonio::report

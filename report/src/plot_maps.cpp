@@ -1,0 +1,194 @@
+// Residual map over (theta_h, theta_d) and coverage of the angular domain.
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <opencv2/imgproc.hpp>
+
+#include "canvas.h"
+#include "gonio/report/plot.h"
+#include "image_cv.h"
+#include "plot_common.h"
+
+namespace gonio::report {
+
+namespace {
+
+constexpr double kDeg = brdf::kPi / 180.0;
+
+/// A vertical colour bar at `area` for values in [lo, hi] drawn with colour(t), t in [0, 1].
+template <class ColorFn>
+void color_bar(
+    cv::Mat& img, cv::Rect area, double lo, double hi, ColorFn colour, const std::string& label) {
+    for (int y = 0; y < area.height; ++y) {
+        const double t = 1.0 - (y + 0.5) / area.height;
+        cv::line(img, {area.x, area.y + y}, {area.x + area.width - 1, area.y + y}, colour(t), 1);
+    }
+    cv::rectangle(img, area, draw::kAxis, 1);
+    for (double v : draw::nice_ticks(lo, hi, 6)) {
+        const int y = area.y + area.height -
+                      static_cast<int>(std::lround((v - lo) / (hi - lo) * area.height));
+        cv::line(img, {area.x + area.width, y}, {area.x + area.width + 4, y}, draw::kAxis, 1);
+        draw::text(img, draw::format_tick(v), {area.x + area.width + 7, y}, 0.45);
+    }
+    draw::text_vertical(img, label, {area.x + area.width + 58, area.y + area.height / 2}, 0.5);
+}
+
+}  // namespace
+
+Expected<Image> plot_residual_map(const brdf::Dataset& data,
+                                  const brdf::Brdf& fit,
+                                  const PlotOptions& options) {
+    if (data.samples.empty()) {
+        return make_error(data.source + ": empty dataset: no residual to map");
+    }
+    constexpr int kBins = 18;  // 5-degree bins over [0, 90] degrees
+    std::vector<double> sum(kBins * kBins, 0.0);
+    std::vector<int> count(kBins * kBins, 0);
+    std::size_t skipped = 0;
+    double sum_sq = 0;
+    std::size_t used = 0;
+    for (const brdf::Sample& s : data.samples) {
+        const double measured = luminance(s.value);
+        const double model = luminance(fit.eval(s.wi(), s.wo()));
+        if (!(measured > 0) || !(model > 0) || !std::isfinite(model)) {
+            // log residual undefined: counted and skipped.
+            ++skipped;
+            continue;
+        }
+        const double r = std::log10(measured / model);
+        const brdf::HalfDiff<double> hd = brdf::to_half_diff(s.wi(), s.wo());
+        const int ih = std::clamp(static_cast<int>(hd.theta_h / kDeg / 5.0), 0, kBins - 1);
+        const int id = std::clamp(static_cast<int>(hd.theta_d / kDeg / 5.0), 0, kBins - 1);
+        sum[id * kBins + ih] += r;
+        ++count[id * kBins + ih];
+        sum_sq += r * r;
+        ++used;
+    }
+    std::vector<double> cell_abs;
+    for (int i = 0; i < kBins * kBins; ++i) {
+        if (count[i] > 0) {
+            cell_abs.push_back(std::abs(sum[i] / count[i]));
+        }
+    }
+    double range = 0.05;
+    if (!cell_abs.empty()) {
+        std::sort(cell_abs.begin(), cell_abs.end());
+        const double p95 = cell_abs[std::min(cell_abs.size() - 1, cell_abs.size() * 95 / 100)];
+        for (double r : {0.05, 0.1, 0.2, 0.5, 1.0, 2.0}) {
+            range = r;
+            if (p95 <= r) {
+                break;
+            }
+        }
+    }
+
+    const int W = std::max(400, options.width);
+    const int H = W * 3 / 4;
+    char sub[240];
+    std::snprintf(sub,
+                  sizeof sub,
+                  "%zu samples used, rms log10 residual %.3g; %zu skipped (zero measured or fitted "
+                  "value); grey: no sample",
+                  used,
+                  used ? std::sqrt(sum_sq / used) : 0.0,
+                  skipped);
+    cv::Mat img = draw::blank(
+        W, H, "Residuals log10(measured / fit) - " + plot_detail::short_name(data.source), sub);
+    const int side = std::min(W - 90 - 140, H - 60 - 70);
+    draw::Axes ax;
+    ax.area = cv::Rect(90, 60, side, side);
+    ax.x0 = 0;
+    ax.x1 = 90;
+    ax.y0 = 0;
+    ax.y1 = 90;
+    for (int id = 0; id < kBins; ++id) {
+        for (int ih = 0; ih < kBins; ++ih) {
+            const int i = id * kBins + ih;
+            const cv::Point a = ax.pt(ih * 5.0, (id + 1) * 5.0);
+            const cv::Point b = ax.pt((ih + 1) * 5.0, id * 5.0);
+            const cv::Scalar c = count[i] > 0 ? draw::diverging(sum[i] / count[i] / range)
+                                              : cv::Scalar(200, 200, 200);
+            cv::rectangle(img, cv::Rect(a, b), c, cv::FILLED);
+        }
+    }
+    ax.draw(img, "theta_h [deg] (half vector from the normal)", "theta_d [deg] (difference angle)");
+    color_bar(
+        img,
+        cv::Rect(ax.area.x + ax.area.width + 24, ax.area.y, 22, ax.area.height),
+        -range,
+        range,
+        [](double t) { return draw::diverging(2 * t - 1); },
+        "log10(measured / fit); red: data above fit");
+    return from_mat(img);
+}
+
+Expected<Image> plot_coverage(const brdf::Dataset& data, const PlotOptions& options) {
+    if (data.samples.empty()) {
+        return make_error(data.source + ": empty dataset: no coverage to plot");
+    }
+    const int W = std::max(400, options.width);
+    const int panel = (W - 3 * 70) / 2;
+    const int H = 60 + panel + 70;
+    char sub[160];
+    std::snprintf(sub,
+                  sizeof sub,
+                  "%zu samples; colour: theta_i [deg] (scale at right)",
+                  data.samples.size());
+    cv::Mat img = draw::blank(
+        W, H, "Coverage of the angular domain - " + plot_detail::short_name(data.source), sub);
+    auto colour_of = [](double theta_i) { return draw::sequential(theta_i / (brdf::kPi / 2)); };
+
+    // Left: projected hemisphere of outgoing directions.
+    const cv::Point c(60 + panel / 2, 60 + panel / 2);
+    const double R = panel / 2.0 - 4;
+    for (int t : {30, 60, 90}) {
+        const int r = static_cast<int>(std::lround(R * std::sin(t * kDeg)));
+        cv::circle(img, c, r, t == 90 ? draw::kAxis : draw::kGrid, 1, cv::LINE_AA);
+        draw::text(img, std::to_string(t), {c.x + r - 10, c.y - 8}, 0.42, draw::kAxis);
+    }
+    cv::line(img, {c.x - int(R), c.y}, {c.x + int(R), c.y}, draw::kGrid, 1);
+    cv::line(img, {c.x, c.y - int(R)}, {c.x, c.y + int(R)}, draw::kGrid, 1);
+    draw::text(img, "phi = 0", {c.x + int(R) + 4, c.y + 14}, 0.42, draw::kAxis);
+    draw::text(img, "90", {c.x + 4, c.y - int(R) - 8}, 0.42, draw::kAxis);
+    for (const brdf::Sample& s : data.samples) {
+        const double r = R * std::sin(s.theta_o);
+        const cv::Point p(c.x + int(std::lround(r * std::cos(s.phi_o))),
+                          c.y - int(std::lround(r * std::sin(s.phi_o))));
+        cv::circle(img, p, 2, colour_of(s.theta_i), cv::FILLED, cv::LINE_AA);
+    }
+    draw::text(img,
+               "wo projected: (sin theta_o cos phi_o, sin theta_o sin phi_o); rings: theta_o [deg]",
+               {c.x, 60 + panel + 22},
+               0.42,
+               draw::kBlack,
+               draw::Align::kCenter);
+
+    // Right: (theta_h, theta_d).
+    draw::Axes ax;
+    ax.area = cv::Rect(60 + panel + 70, 60, panel - 40, panel);
+    ax.x0 = 0;
+    ax.x1 = 90;
+    ax.y0 = 0;
+    ax.y1 = 90;
+    ax.draw(img, "theta_h [deg]", "theta_d [deg]");
+    for (const brdf::Sample& s : data.samples) {
+        const brdf::HalfDiff<double> hd = brdf::to_half_diff(s.wi(), s.wo());
+        cv::circle(img,
+                   ax.pt(hd.theta_h / kDeg, hd.theta_d / kDeg),
+                   2,
+                   colour_of(s.theta_i),
+                   cv::FILLED,
+                   cv::LINE_AA);
+    }
+    color_bar(
+        img,
+        cv::Rect(W - 62, 60, 14, panel),
+        0,
+        90,
+        [](double t) { return draw::sequential(t); },
+        "");
+    return from_mat(img);
+}
+
+}  // namespace gonio::report
