@@ -8,8 +8,8 @@
 #include <nlohmann/json.hpp>
 
 #include "gonio/brdf/check.h"
-#include "gonio/brdf/rig_geometry.h"
 #include "gonio/brdf/merl.h"
+#include "gonio/brdf/rig_geometry.h"
 
 namespace gonio::acquisition {
 namespace {
@@ -63,12 +63,13 @@ class Rig {
         if (f->image.cols != k.width || f->image.rows != k.height || f->image.channels() != 1) {
             return make_error(describe(r) + ": frame is " + std::to_string(f->image.cols) + "x" +
                               std::to_string(f->image.rows) + "x" +
-                              std::to_string(f->image.channels()) +
-                              ", the camera model says " + std::to_string(k.width) + "x" +
-                              std::to_string(k.height) + " single channel");
+                              std::to_string(f->image.channels()) + ", the camera model says " +
+                              std::to_string(k.width) + "x" + std::to_string(k.height) +
+                              " single channel");
         }
         if (!f->linear) {
-            return make_error(describe(r) + ": frame is not linear (gamma-encoded), not radiometric");
+            return make_error(describe(r) +
+                              ": frame is not linear (gamma-encoded), not radiometric");
         }
         return f;
     }
@@ -122,7 +123,9 @@ struct HdrSamples {
     int exposures = 0;
 };
 
-Expected<HdrSamples> capture_hdr(Rig& rig, const ImageCampaignConfig& cfg, CaptureRequest req,
+Expected<HdrSamples> capture_hdr(Rig& rig,
+                                 const ImageCampaignConfig& cfg,
+                                 CaptureRequest req,
                                  const std::vector<SpherePixel>& pixels,
                                  const std::vector<std::uint8_t>& wanted) {
     HdrSamples h;
@@ -158,10 +161,9 @@ Expected<HdrSamples> capture_hdr(Rig& rig, const ImageCampaignConfig& cfg, Captu
                 continue;
             }
             const double d = dark->at<double>(pixels[i].y, pixels[i].x);
-            const double var_counts = std::max(counts - black, 0.0) / cfg.electrons_per_count +
-                                      cfg.read_noise_counts * cfg.read_noise_counts *
-                                          (1.0 + 1.0 / n_dark) +
-                                      1.0 / 12.0;
+            const double var_counts =
+                std::max(counts - black, 0.0) / cfg.electrons_per_count +
+                cfg.read_noise_counts * cfg.read_noise_counts * (1.0 + 1.0 / n_dark) + 1.0 / 12.0;
             h.signal[i] = (counts - d) / exposure;
             h.variance[i] = var_counts / (exposure * exposure);
             h.ok[i] = 1;
@@ -178,7 +180,8 @@ Expected<HdrSamples> capture_hdr(Rig& rig, const ImageCampaignConfig& cfg, Captu
 
 /// Which pixels the light reaches usefully (theta_i within the limit), counting the others.
 std::vector<std::uint8_t> lit_pixels(const std::vector<SpherePixel>& pixels,
-                                     const brdf::Vec3d& l, const ExclusionRules& rules,
+                                     const brdf::Vec3d& l,
+                                     const ExclusionRules& rules,
                                      PixelCounts* counts) {
     const double cos_max_i = std::cos(rules.max_theta_i);
     std::vector<std::uint8_t> lit(pixels.size(), 0);
@@ -197,7 +200,9 @@ std::vector<std::uint8_t> lit_pixels(const std::vector<SpherePixel>& pixels,
     return lit;
 }
 
-brdf::Vec3d light_direction(double a) { return {std::cos(a), std::sin(a), 0.0}; }
+brdf::Vec3d light_direction(double a) {
+    return {std::cos(a), std::sin(a), 0.0};
+}
 
 /// The allowed light position closest to the detector (front lighting for the silhouette).
 double front_light(const ImageCampaignConfig& cfg) {
@@ -216,7 +221,9 @@ double front_light(const ImageCampaignConfig& cfg) {
     return best;
 }
 
-Expected<SphereGeometry> find_sphere(Rig& rig, const ImageCampaignConfig& cfg, double light,
+Expected<SphereGeometry> find_sphere(Rig& rig,
+                                     const ImageCampaignConfig& cfg,
+                                     double light,
                                      bool reference) {
     CaptureRequest r;
     r.light_arm_rad = light;
@@ -235,7 +242,9 @@ Expected<SphereGeometry> find_sphere(Rig& rig, const ImageCampaignConfig& cfg, d
     return g;
 }
 
-Expected<std::array<double, 3>> calibrate(Rig& rig, const ImageCampaignConfig& cfg, double light,
+Expected<std::array<double, 3>> calibrate(Rig& rig,
+                                          const ImageCampaignConfig& cfg,
+                                          double light,
                                           SphereGeometry* sphere_out) {
     if (!(cfg.reference_albedo > 0 && cfg.reference_albedo <= 1)) {
         return make_error("reference_albedo = " + std::to_string(cfg.reference_albedo) +
@@ -271,9 +280,8 @@ Expected<std::array<double, 3>> calibrate(Rig& rig, const ImageCampaignConfig& c
             }
         }
         if (ratios.size() < 100) {
-            return make_error(std::string("white reference, ") + kChannelName[ch] +
-                              " channel: " + std::to_string(ratios.size()) +
-                              " usable pixels, need at least 100");
+            return make_error(std::string("white reference, ") + kChannelName[ch] + " channel: " +
+                              std::to_string(ratios.size()) + " usable pixels, need at least 100");
         }
         std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
         c[ch] = ratios[ratios.size() / 2];
@@ -297,7 +305,7 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
             "image campaign: exposure_us, electrons_per_count and lights.step_rad must be > 0 "
             "and bracket_factor > 1");
     }
-    ImageCampaignResult result{BinnedTable(cfg.layout), CoverageMap(cfg.layout)};
+    ImageCampaignResult result(cfg.layout);
     Rig rig(capture, cfg, &result);
     const double front = front_light(cfg);
     rig.set_light(front);
@@ -320,9 +328,13 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
         sphere_pixels(cfg.camera, result.sphere, cfg.rules, &geometry_counts);
 
     // 3. Candidate light positions and their predicted bins.
-    std::vector<LightCandidate> candidates =
-        light_candidates(cfg.camera, result.sphere, cfg.rules, cfg.layout, cfg.detector_arm_rad,
-                         cfg.lights, std::max(1, cfg.plan_pixel_stride));
+    std::vector<LightCandidate> candidates = light_candidates(cfg.camera,
+                                                              result.sphere,
+                                                              cfg.rules,
+                                                              cfg.layout,
+                                                              cfg.detector_arm_rad,
+                                                              cfg.lights,
+                                                              std::max(1, cfg.plan_pixel_stride));
     {
         CoverageMap reach(cfg.layout);
         for (const LightCandidate& c : candidates) {
@@ -403,7 +415,8 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
     return result;
 }
 
-Expected<void> write_image_campaign(const std::string& dir, const ImageCampaignResult& result,
+Expected<void> write_image_campaign(const std::string& dir,
+                                    const ImageCampaignResult& result,
                                     const ImageCampaignConfig& config,
                                     const std::string& extra_json) {
     std::error_code ec;
@@ -420,29 +433,31 @@ Expected<void> write_image_campaign(const std::string& dir, const ImageCampaignR
     const TableLayout& l = config.layout;
     const bool merl = l.n_theta_h == 90 && l.n_theta_d == 90 && l.n_phi_d == 180;
     const std::string table_name = merl ? "table.binary" : "table.gtab";
-    if (auto r = brdf::write_merl(base + table_name,
-                                  to_tabulated(result.table, config.min_count,
-                                               "image-mode campaign"));
+    if (auto r = brdf::write_merl(
+            base + table_name, to_tabulated(result.table, config.min_count, "image-mode campaign"));
         !r) {
         return r;
     }
-    if (auto r = write_coverage_png(base + "coverage.png",
-                                    coverage_cells(result.table, config.min_count), l);
+    if (auto r = write_coverage_png(
+            base + "coverage.png", coverage_cells(result.table, config.min_count), l);
         !r) {
         return r;
     }
     nlohmann::json j;
     j["mode"] = "image";
     j["camera_model"] = nlohmann::json::parse(camera_model_to_json(config.camera));
-    j["sphere"] = {{"centre_m", {result.sphere.centre.x(), result.sphere.centre.y(),
-                                 result.sphere.centre.z()}},
-                   {"radius_m", result.sphere.radius_m},
-                   {"silhouette_px", {result.sphere.silhouette.cx, result.sphere.silhouette.cy,
-                                      result.sphere.silhouette.r}},
-                   {"fit_rms_px", result.sphere.rms_residual_px}};
+    j["sphere"] = {
+        {"centre_m",
+         {result.sphere.centre.x(), result.sphere.centre.y(), result.sphere.centre.z()}},
+        {"radius_m", result.sphere.radius_m},
+        {"silhouette_px",
+         {result.sphere.silhouette.cx, result.sphere.silhouette.cy, result.sphere.silhouette.r}},
+        {"fit_rms_px", result.sphere.rms_residual_px}};
     j["calibration_counts_per_us_per_inv_sr"] = result.calibration;
     j["reference_albedo"] = config.reference_albedo;
-    j["table"] = {{"n_theta_h", l.n_theta_h}, {"n_theta_d", l.n_theta_d}, {"n_phi_d", l.n_phi_d},
+    j["table"] = {{"n_theta_h", l.n_theta_h},
+                  {"n_theta_d", l.n_theta_d},
+                  {"n_phi_d", l.n_phi_d},
                   {"file", table_name}};
     j["coverage"] = {{"target", config.coverage_target},
                      {"achieved", result.coverage.fraction()},
@@ -451,10 +466,14 @@ Expected<void> write_image_campaign(const std::string& dir, const ImageCampaignR
                      {"covered_bins", result.coverage.covered_bins()},
                      {"reachable_bins", result.reachable_bins}};
     const PixelCounts& c = result.counts;
-    j["pixels"] = {{"on_sphere", c.on_sphere},   {"edge", c.edge},
-                   {"grazing_view", c.grazing_view}, {"shadow", c.shadow},
-                   {"grazing_light", c.grazing_light}, {"saturated", c.saturated},
-                   {"nonfinite", c.nonfinite},   {"used", c.used}};
+    j["pixels"] = {{"on_sphere", c.on_sphere},
+                   {"edge", c.edge},
+                   {"grazing_view", c.grazing_view},
+                   {"shadow", c.shadow},
+                   {"grazing_light", c.grazing_light},
+                   {"saturated", c.saturated},
+                   {"nonfinite", c.nonfinite},
+                   {"used", c.used}};
     nlohmann::json frames = nlohmann::json::array();
     for (const FrameRecord& f : result.frames) {
         frames.push_back({{"light_arm_deg", f.light_arm_rad * 180 / brdf::kPi},
@@ -466,12 +485,11 @@ Expected<void> write_image_campaign(const std::string& dir, const ImageCampaignR
     j["frames"] = frames;
     nlohmann::json holes = nlohmann::json::array();
     for (const CoverageHole& h : result.holes) {
-        holes.push_back({{"theta_d_deg", {h.theta_d_min * 180 / brdf::kPi,
-                                          h.theta_d_max * 180 / brdf::kPi}},
-                         {"theta_h_deg", {h.theta_h_min * 180 / brdf::kPi,
-                                          h.theta_h_max * 180 / brdf::kPi}},
-                         {"bins", h.bins},
-                         {"reason", h.reason}});
+        holes.push_back(
+            {{"theta_d_deg", {h.theta_d_min * 180 / brdf::kPi, h.theta_d_max * 180 / brdf::kPi}},
+             {"theta_h_deg", {h.theta_h_min * 180 / brdf::kPi, h.theta_h_max * 180 / brdf::kPi}},
+             {"bins", h.bins},
+             {"reason", h.reason}});
     }
     j["holes"] = holes;
     j["captures"] = result.captures;
@@ -500,7 +518,8 @@ Expected<void> write_image_campaign(const std::string& dir, const ImageCampaignR
     return {};
 }
 
-CaptureFn make_device_capture(devices::Camera& camera, devices::Light& light,
+CaptureFn make_device_capture(devices::Camera& camera,
+                              devices::Light& light,
                               devices::Axis& light_arm,
                               std::function<Expected<void>(int)> select_filter,
                               std::function<Expected<void>(bool)> swap_target,
@@ -514,8 +533,8 @@ CaptureFn make_device_capture(devices::Camera& camera, devices::Light& light,
         int shutter = -1;
     };
     auto state = std::make_shared<State>();
-    return [&camera, &light, &light_arm, select_filter, swap_target, move_timeout,
-            state](const CaptureRequest& r) -> Expected<devices::Frame> {
+    return [&camera, &light, &light_arm, select_filter, swap_target, move_timeout, state](
+               const CaptureRequest& r) -> Expected<devices::Frame> {
         const int target = r.reference ? 1 : 0;
         if (swap_target && state->target != target) {
             if (auto s = swap_target(r.reference); !s) {

@@ -29,7 +29,8 @@ std::vector<LightCandidate> light_candidates(const CameraModel& camera,
     }
     const double cos_max_i = std::cos(rules.max_theta_i);
     std::vector<LightCandidate> out;
-    const int steps = static_cast<int>(std::floor((range.max_rad - range.min_rad) / range.step_rad + 1e-9));
+    const int steps =
+        static_cast<int>(std::floor((range.max_rad - range.min_rad) / range.step_rad + 1e-9));
     for (int k = 0; k <= steps; ++k) {
         const double a = range.min_rad + k * range.step_rad;
         if (brdf::arm_separation(a, detector_arm_rad) < range.blind_zone_rad) {
@@ -101,7 +102,8 @@ std::size_t CoverageMap::gain(const std::vector<std::uint32_t>& bins) const {
     return g;
 }
 
-int next_light(const std::vector<LightCandidate>& candidates, const CoverageMap& coverage,
+int next_light(const std::vector<LightCandidate>& candidates,
+               const CoverageMap& coverage,
                double current_light_rad) {
     int best = -1;
     std::size_t best_gain = 0;
@@ -203,8 +205,10 @@ std::vector<CoverageHole> coverage_holes(const CoverageMap& coverage,
     return holes;
 }
 
-Expected<void> write_coverage_png(const std::string& path, const std::vector<double>& cells,
-                                  const TableLayout& layout, int scale) {
+Expected<void> write_coverage_png(const std::string& path,
+                                  const std::vector<double>& cells,
+                                  const TableLayout& layout,
+                                  int scale) {
     if (cells.size() != static_cast<std::size_t>(layout.n_theta_h) * layout.n_theta_d ||
         scale < 1) {
         return make_error(path + ": coverage has " + std::to_string(cells.size()) +

@@ -48,8 +48,8 @@ struct CaptureRequest {
     double light_arm_rad = 0;  ///< Light arm position (rig_geometry.h angle).
     int channel = 1;           ///< Colour filter: 0 red, 1 green, 2 blue.
     double exposure_us = 0;
-    bool shutter_open = true;   ///< False: dark frame.
-    bool reference = false;     ///< True: the white reference sphere is in place of the sample.
+    bool shutter_open = true;  ///< False: dark frame.
+    bool reference = false;    ///< True: the white reference sphere is in place of the sample.
 };
 
 using CaptureFn = std::function<Expected<devices::Frame>(const CaptureRequest&)>;
@@ -66,12 +66,12 @@ struct ImageCampaignConfig {
     SilhouetteOptions silhouette;
     int plan_pixel_stride = 2;  ///< Pixel subsampling of the coverage prediction.
 
-    double exposure_us = 20000;      ///< Base (longest) exposure.
-    double min_exposure_us = 10;     ///< Bracketing never goes below this.
-    double bracket_factor = 4;       ///< Exposure ratio between brackets, > 1.
-    int max_brackets = 5;            ///< Exposures per channel and position at most.
+    double exposure_us = 20000;        ///< Base (longest) exposure.
+    double min_exposure_us = 10;       ///< Bracketing never goes below this.
+    double bracket_factor = 4;         ///< Exposure ratio between brackets, > 1.
+    int max_brackets = 5;              ///< Exposures per channel and position at most.
     double saturation_fraction = 0.9;  ///< Of Frame::saturation_level (counts above black).
-    int dark_frames = 4;             ///< Dark frames averaged per exposure.
+    int dark_frames = 4;               ///< Dark frames averaged per exposure.
 
     double electrons_per_count = 1;  ///< Sensor conversion gain at the gain used, e-/count.
     double read_noise_counts = 0;    ///< Read noise, counts.
@@ -90,6 +90,8 @@ struct FrameRecord {
 };
 
 struct ImageCampaignResult {
+    explicit ImageCampaignResult(const TableLayout& layout) : table(layout), coverage(layout) {}
+
     BinnedTable table;
     CoverageMap coverage;
     SphereGeometry sphere;
@@ -100,7 +102,7 @@ struct ImageCampaignResult {
     std::vector<CoverageHole> holes;
     std::size_t reachable_bins = 0;
     bool target_met = false;
-    bool bracketed = false;  ///< Some pixel needed a shorter exposure.
+    bool bracketed = false;      ///< Some pixel needed a shorter exposure.
     std::uint64_t captures = 0;  ///< Frames captured (dark frames included).
     double exposure_time_s = 0;  ///< Sum of exposure times (the shutter-open and dark frames).
 };
@@ -118,7 +120,8 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
 /// filled bin, dataset.h schema with sigma and flags), dataset.json (metadata: camera, sphere,
 /// calibration, counts, lights, holes, `extra` merged in), table.binary (MERL layout 90 x 90 x 180)
 /// or table.gtab (any other layout), coverage.png.
-Expected<void> write_image_campaign(const std::string& dir, const ImageCampaignResult& result,
+Expected<void> write_image_campaign(const std::string& dir,
+                                    const ImageCampaignResult& result,
                                     const ImageCampaignConfig& config,
                                     const std::string& extra_json = "{}");
 
@@ -127,7 +130,8 @@ Expected<void> write_image_campaign(const std::string& dir, const ImageCampaignR
 /// channel is the same monochrome measurement) and captures. Reference captures need the white
 /// sphere mounted: `swap_target` is called with true before the first reference capture and with
 /// false before the first sample capture (a prompt to the operator, or a sample changer).
-CaptureFn make_device_capture(devices::Camera& camera, devices::Light& light,
+CaptureFn make_device_capture(devices::Camera& camera,
+                              devices::Light& light,
                               devices::Axis& light_arm,
                               std::function<Expected<void>(int)> select_filter,
                               std::function<Expected<void>(bool)> swap_target,
