@@ -1,10 +1,10 @@
 #pragma once
 
 // Opens a camera from an address string:
-//   u3v-tcp://127.0.0.1:PORT  a USB3 Vision device served over TCP (the simulator in another process)
-//   u3v-mem:NAME              an in-process device registered under NAME (the simulator registers it)
-//   usb:SERIAL | usb:BUS-ADDR a USB3 Vision camera on libusb
-//   uvc:INDEX                 a UVC webcam via OpenCV (not radiometric)
+//   u3v-tcp://127.0.0.1:PORT  a USB3 Vision device served over TCP (the simulator in another
+//   process) u3v-mem:NAME              an in-process device registered under NAME (the simulator
+//   registers it) usb:SERIAL | usb:BUS-ADDR a USB3 Vision camera on libusb uvc:INDEX a UVC webcam
+//   via OpenCV (not radiometric)
 
 #include <functional>
 #include <memory>

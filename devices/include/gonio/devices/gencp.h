@@ -4,12 +4,14 @@
 // (U3V 1.x, ch. 5): pure bytes <-> struct codecs, no I/O.
 //
 // Every message starts with a 12-byte prefix, all fields little-endian:
-//   command: magic "U3VC" (0x43563355) u32, flags u16, command_id u16, scd_length u16, request_id u16
-//   ack:     magic "U3VC" (0x43563355) u32, status u16, command_id u16, scd_length u16, request_id u16
+//   command: magic "U3VC" (0x43563355) u32, flags u16, command_id u16, scd_length u16, request_id
+//   u16 ack:     magic "U3VC" (0x43563355) u32, status u16, command_id u16, scd_length u16,
+//   request_id u16
 // followed by the command-specific data (SCD) of scd_length bytes:
 //   READMEM_CMD  : address u64, reserved u16, read_length u16      -> READMEM_ACK : data
 //   WRITEMEM_CMD : address u64, data                               -> WRITEMEM_ACK: reserved u16,
-//                                                                                   length_written u16
+//                                                                                   length_written
+//                                                                                   u16
 //   PENDING_ACK  : reserved u16, temporary_timeout_ms u16 (the device needs more time; the host
 //                  extends its deadline and keeps waiting for the real ack of the same request_id)
 

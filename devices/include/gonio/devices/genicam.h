@@ -4,8 +4,8 @@
 // resolved by name through their nodes down to device registers.
 //
 // Supported nodes: Integer, Float, Enumeration (+EnumEntry), Command, Boolean, String (via
-// StringReg), IntReg, MaskedIntReg, FloatReg, StringReg, Category (listed only). A feature's value is
-// <Value> or <pValue> naming another node; limits <Min>/<Max> or <pMin>/<pMax>; registers have
+// StringReg), IntReg, MaskedIntReg, FloatReg, StringReg, Category (listed only). A feature's value
+// is <Value> or <pValue> naming another node; limits <Min>/<Max> or <pMin>/<pMax>; registers have
 // <Address> (decimal or 0x hex), <Length>, <AccessMode> (RO/WO/RW), <Endianess> (LittleEndian
 // default), <Sign>, and <LSB>/<MSB> for MaskedIntReg (bit numbers in the register's own order).
 

@@ -34,8 +34,8 @@ struct U3vStats {
     std::uint64_t retries = 0;
     std::uint64_t pending_acks = 0;
     std::uint64_t frames = 0;
-    std::uint64_t bad_frames = 0;      ///< leader/trailer/payload inconsistent
-    std::uint64_t stray_packets = 0;   ///< stream packets skipped while resynchronising
+    std::uint64_t bad_frames = 0;     ///< leader/trailer/payload inconsistent
+    std::uint64_t stray_packets = 0;  ///< stream packets skipped while resynchronising
 };
 
 class U3vCamera : public Camera {

@@ -28,7 +28,8 @@ class U3vTransport {
     /// Sends one command transfer on the control channel.
     virtual Expected<void> control_out(const Bytes& bytes, std::chrono::milliseconds timeout) = 0;
     /// Receives one acknowledge transfer (at most max_bytes).
-    virtual Expected<Bytes> control_in(std::size_t max_bytes, std::chrono::milliseconds timeout) = 0;
+    virtual Expected<Bytes> control_in(std::size_t max_bytes,
+                                       std::chrono::milliseconds timeout) = 0;
     /// Receives one stream transfer (leader, a payload piece or trailer; at most max_bytes).
     virtual Expected<Bytes> stream_in(std::size_t max_bytes, std::chrono::milliseconds timeout) = 0;
     /// Clears a stalled stream endpoint / discards queued stream bytes.

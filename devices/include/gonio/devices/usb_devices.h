@@ -1,8 +1,8 @@
 #pragma once
 
-// USB discovery with libusb: U3V cameras (interface class 0xEF, subclass 0x05: protocol 0 = control,
-// 1 = event, 2 = streaming) and USB-serial adapters used for RS-485 motor buses (FTDI, CP210x,
-// CH340/CH9102, PL2303), with the reason when a device cannot be opened.
+// USB discovery with libusb: U3V cameras (interface class 0xEF, subclass 0x05: protocol 0 =
+// control, 1 = event, 2 = streaming) and USB-serial adapters used for RS-485 motor buses (FTDI,
+// CP210x, CH340/CH9102, PL2303), with the reason when a device cannot be opened.
 
 #include <cstdint>
 #include <string>
@@ -19,8 +19,8 @@ inline constexpr std::uint8_t kU3vProtocolEvent = 0x01;
 inline constexpr std::uint8_t kU3vProtocolStream = 0x02;
 
 enum class UsbDeviceKind {
-    kU3vCamera,   ///< has a U3V control interface
-    kUsbSerial,   ///< a known USB-serial bridge
+    kU3vCamera,  ///< has a U3V control interface
+    kUsbSerial,  ///< a known USB-serial bridge
 };
 
 struct UsbDeviceEntry {

@@ -54,7 +54,7 @@ class SensorModel {
     double mean_counts(double radiance, const ExposureSettings& s) const;
     /// Variance of the counts (shot + dark + read + quantisation) for a pixel seeing radiance L.
     double variance_counts(double radiance, const ExposureSettings& s) const;
-    /// One noisy exposure of a radiance image (CV_32F); returns CV_16U counts (CV_8U for Mono8).
+    /// One noisy exposure of a radiance image (CV_32F); returns CV_16U counts (at most 2^b - 1).
     cv::Mat expose(const cv::Mat& radiance, const ExposureSettings& s);
     /// Restarts the noise sequence.
     void reseed(std::uint64_t seed);
