@@ -58,6 +58,8 @@ class MotorSim {
     /// `code` (alarm) or freezes while still reporting motion (stall, code ignored).
     void arm_alarm(double fraction, int code);
     void arm_stall(double fraction, int deviation_alarm_code);
+    /// Forgets an armed fault.
+    void disarm() { armed_ = Armed::kNone; }
     /// Raises an alarm now (stops at once).
     void raise_alarm(int code);
     void set_overtravel_code(int code) { overtravel_code_ = code; }

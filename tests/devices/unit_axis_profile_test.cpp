@@ -1,0 +1,118 @@
+// Profile files and connection addresses: what is accepted, and that every error names the key and
+// the rule.
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "gonio/devices/address.h"
+#include "gonio/devices/axis.h"
+#include "gonio/devices/axis_profile.h"
+
+namespace {
+
+using gonio::devices::BusKind;
+using gonio::devices::parse_axis_profile;
+using gonio::devices::parse_bus_address;
+
+TEST(AxisProfile, ShippedProfilesLoadWithSources) {
+    for (const char* name : {"generic", "oriental-az", "leadshine"}) {
+        auto p = gonio::devices::load_axis_profile(name);
+        ASSERT_TRUE(p) << p.error().message;
+        EXPECT_EQ(p->name, name);
+        EXPECT_FALSE(p->source.empty());
+        EXPECT_TRUE(p->move.supported());
+        EXPECT_TRUE(p->home.supported());
+        EXPECT_TRUE(p->stop.supported());
+        EXPECT_TRUE(p->reset_alarm.supported());
+        EXPECT_GE(p->status.in_position, 0);
+        EXPECT_GE(p->status.alarm, 0);
+        EXPECT_GE(p->status.homed, 0);
+    }
+}
+
+TEST(AxisProfile, UnknownProfileNamesThePlacesTried) {
+    auto p = gonio::devices::load_axis_profile("no-such-drive");
+    ASSERT_FALSE(p);
+    EXPECT_NE(p.error().message.find("no-such-drive"), std::string::npos);
+}
+
+std::string minimal(const std::string& position_field) {
+    return R"({"name": "t", "registers": {"position": )" + position_field +
+           R"(, "status": {"address": 10}, "alarm_code": {"address": 11}},
+        "status_bits": {"in_position": 1},
+        "actions": {"move": {"block": {"address": 0, "slots": [{"quantity": "target"}]}},
+                    "stop": {"trigger": {"kind": "write_value", "address": 20, "value": 1}}}})";
+}
+
+TEST(AxisProfile, MinimalProfileParses) {
+    auto p = parse_axis_profile(minimal(R"({"address": 12, "width": 32})"), "t.json");
+    ASSERT_TRUE(p) << p.error().message;
+    EXPECT_EQ(p->position.width, 32);
+    EXPECT_EQ(p->move.block.register_count(), 2);
+}
+
+TEST(AxisProfile, ErrorsNameTheKeyPath) {
+    auto w = parse_axis_profile(minimal(R"({"address": 12, "width": 24})"), "t.json");
+    ASSERT_FALSE(w);
+    EXPECT_NE(w.error().message.find("t.json: registers.position.width: 24 not in {16, 32}"),
+              std::string::npos)
+        << w.error().message;
+    auto a = parse_axis_profile(minimal(R"({"address": "0xZZ"})"), "t.json");
+    ASSERT_FALSE(a);
+    EXPECT_NE(a.error().message.find("registers.position.address"), std::string::npos)
+        << a.error().message;
+    auto j = parse_axis_profile("{\"name\": ", "t.json");
+    ASSERT_FALSE(j);
+    EXPECT_NE(j.error().message.find("t.json: JSON parse error"), std::string::npos);
+}
+
+TEST(AxisProfile, AddressBelowTheBaseIsRejected) {
+    std::string text = minimal(R"({"address": 12})");
+    text.insert(1, R"("address_base": 40001, )");
+    auto p = parse_axis_profile(text, "t.json");
+    ASSERT_FALSE(p);
+    EXPECT_NE(p.error().message.find("address_base"), std::string::npos) << p.error().message;
+}
+
+TEST(AxisAddress, TcpAndRtuForms) {
+    auto t = parse_bus_address("tcp://127.0.0.1:1502");
+    ASSERT_TRUE(t);
+    EXPECT_EQ(t->kind, BusKind::kTcp);
+    EXPECT_EQ(t->host, "127.0.0.1");
+    EXPECT_EQ(t->port, 1502);
+    auto r = parse_bus_address("rtu:/dev/ttyUSB0?baud=19200&parity=E&stop_bits=2");
+    ASSERT_TRUE(r) << r.error().message;
+    EXPECT_EQ(r->kind, BusKind::kRtu);
+    EXPECT_EQ(r->device, "/dev/ttyUSB0");
+    EXPECT_EQ(r->baud, 19200);
+    EXPECT_EQ(r->parity, 'E');
+    EXPECT_EQ(r->stop_bits, 2);
+    // Canonical strings parse back to the same address.
+    auto r2 = parse_bus_address(gonio::devices::to_string(*r));
+    ASSERT_TRUE(r2);
+    EXPECT_EQ(r2->baud, 19200);
+    EXPECT_EQ(r2->parity, 'E');
+    EXPECT_EQ(gonio::devices::to_string(*r2), gonio::devices::to_string(*r));
+}
+
+TEST(AxisAddress, BadAddressesSayWhy) {
+    for (const char* bad : {"tcp://127.0.0.1:0",
+                            "tcp://127.0.0.1:x",
+                            "tcp://:502",
+                            "rtu:?baud=9600",
+                            "rtu:/dev/x?parity=Q",
+                            "rtu:/dev/x?speed=1",
+                            "udp://1.2.3.4"}) {
+        auto a = parse_bus_address(bad);
+        ASSERT_FALSE(a) << bad;
+        EXPECT_NE(a.error().message.find(bad), std::string::npos) << a.error().message;
+    }
+}
+
+TEST(AxisState, NamesForMessages) {
+    EXPECT_STREQ(gonio::devices::to_string(gonio::devices::AxisState::kAlarm), "alarm");
+    EXPECT_STREQ(gonio::devices::to_string(gonio::devices::AxisState::kIdle), "idle");
+}
+
+}  // namespace
