@@ -7,6 +7,7 @@
 #include <cmath>
 #include <memory>
 #include <string>
+#include <thread>
 #include <tuple>
 
 #include "gonio/devices/axis_profile.h"
