@@ -31,13 +31,13 @@ struct U3vDeviceConfig {
 
 /// Faults armed for the next events; each counter is decremented as the fault fires.
 struct U3vFaults {
-    int drop_frames = 0;         ///< next N frames are never sent
-    int corrupt_trailers = 0;    ///< next N trailers have a bad magic
-    int pending_acks = 0;        ///< next N commands get a PENDING_ACK before their ack
+    int drop_frames = 0;       ///< next N frames are never sent
+    int corrupt_trailers = 0;  ///< next N trailers have a bad magic
+    int pending_acks = 0;      ///< next N commands get a PENDING_ACK before their ack
     std::uint16_t pending_ms = 50;
-    int lose_acks = 0;           ///< next N commands get no acknowledge at all
+    int lose_acks = 0;                   ///< next N commands get no acknowledge at all
     int never_answer_after_pending = 0;  ///< next N commands: PENDING_ACK, then nothing
-    bool disappeared = false;    ///< the device is gone: no acknowledges, no frames
+    bool disappeared = false;            ///< the device is gone: no acknowledges, no frames
 };
 
 class U3vDevice {
