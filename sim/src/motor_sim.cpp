@@ -28,8 +28,11 @@ std::vector<MotionPhase> plan_trapezoid(
     const double t_dec = v / decel;
     const double d_acc = v * v / (2 * accel);
     const double d_dec = v * v / (2 * decel);
-    // Cruise distance; rounding can make it slightly negative for a triangular profile.
-    const double d_cruise = std::max(0.0, distance - d_acc - d_dec);
+    // Cruise distance; for a triangular profile rounding leaves a few ulps either side of 0.
+    double d_cruise = distance - d_acc - d_dec;
+    if (d_cruise < 1e-9 * distance) {
+        d_cruise = 0;
+    }
     const double t_cruise = d_cruise / v;
     double t = t0;
     phases.push_back({t, p0, 0, s * accel, t_acc});
