@@ -107,53 +107,113 @@ Expected<RoiStats> roi_stats(const devices::Frame& f,
     return st;
 }
 
-Expected<SignalRate> merge_bracket(const std::vector<BracketShot>& shots) {
-    if (shots.empty()) {
-        return make_error("empty exposure bracket");
+Expected<SignalRate> merge_hdr(const std::vector<devices::Frame>& frames,
+                               const std::vector<cv::Mat>& darks,
+                               const PixelRoi& roi,
+                               const NoiseModel& noise) {
+    if (frames.empty() || frames.size() != darks.size()) {
+        return make_error("HDR merge: " + std::to_string(frames.size()) + " frames and " +
+                          std::to_string(darks.size()) + " dark frames");
+    }
+    const cv::Mat& first = frames[0].image;
+    const int ch = first.channels();
+    for (std::size_t k = 0; k < frames.size(); ++k) {
+        const cv::Mat& im = frames[k].image;
+        if (im.empty() || im.size() != first.size() || im.channels() != ch ||
+            (im.depth() != CV_16U && im.depth() != CV_32F) || (ch != 1 && ch != 3)) {
+            return make_error("HDR merge: frame " + std::to_string(k) +
+                              " has another size or an unsupported type");
+        }
+        if (darks[k].size() != im.size() || darks[k].type() != CV_MAKETYPE(CV_32F, ch)) {
+            return make_error("HDR merge: dark frame " + std::to_string(k) +
+                              " does not match its frame");
+        }
+        if (!(frames[k].exposure_us > 0) || !(frames[k].gain > 0)) {
+            return make_error("HDR merge: frame " + std::to_string(k) + " has no exposure or gain");
+        }
+    }
+    if (roi.width <= 0 || roi.height <= 0 || roi.x < 0 || roi.y < 0 ||
+        roi.x + roi.width > first.cols || roi.y + roi.height > first.rows) {
+        return make_error("HDR merge: ROI outside the frame");
     }
     SignalRate out;
-    out.hdr = shots.size() > 1;
-    brdf::Rgbd wsum = brdf::Rgbd::Zero();
-    brdf::Rgbd acc = brdf::Rgbd::Zero();
-    bool any = false;
-    for (const BracketShot& s : shots) {
-        if (s.stats.saturated > 0 || s.stats.valid == 0) {
-            continue;
+    out.hdr = frames.size() > 1;
+    std::size_t longest = 0;
+    std::size_t shortest = 0;
+    for (std::size_t k = 0; k < frames.size(); ++k) {
+        const double tg = frames[k].exposure_us * frames[k].gain;
+        if (tg > frames[longest].exposure_us * frames[longest].gain) {
+            longest = k;
         }
-        const double scale = 1.0 / (s.exposure_us * s.gain);
-        any = true;
-        out.exposure_us = std::max(out.exposure_us, s.exposure_us);
-        for (int c = 0; c < 3; ++c) {
-            const double r = s.stats.mean[c] * scale;
-            const double sg = s.stats.sigma[c] * scale;
-            // A zero sigma (perfectly flat synthetic frame) would take all the weight: floor it.
-            const double w = 1.0 / std::max(sg * sg, 1e-300);
-            acc[c] += w * r;
-            wsum[c] += w;
+        if (tg < frames[shortest].exposure_us * frames[shortest].gain) {
+            shortest = k;
         }
     }
-    if (!any) {
-        // Every shot has clipped pixels: the shortest with valid pixels is a lower bound.
-        const BracketShot* best = nullptr;
-        for (const BracketShot& s : shots) {
-            if (s.stats.valid > 0 && (!best || s.exposure_us < best->exposure_us)) {
-                best = &s;
+    double sum[3] = {0, 0, 0};
+    double sum2[3] = {0, 0, 0};
+    std::size_t n = 0;
+    std::size_t clipped = 0;
+    for (int y = roi.y; y < roi.y + roi.height; ++y) {
+        for (int x = roi.x; x < roi.x + roi.width; ++x) {
+            for (int c = 0; c < ch; ++c) {
+                double wsum = 0;
+                double acc = 0;
+                double fallback = 0;
+                for (std::size_t k = 0; k < frames.size(); ++k) {
+                    const cv::Mat& im = frames[k].image;
+                    const double raw =
+                        im.depth() == CV_16U
+                            ? static_cast<double>(im.ptr<std::uint16_t>(y)[x * ch + c])
+                            : static_cast<double>(im.ptr<float>(y)[x * ch + c]);
+                    if (!std::isfinite(raw)) {
+                        return make_error("HDR merge: non-finite pixel at (" + std::to_string(x) +
+                                          ", " + std::to_string(y) + ")");
+                    }
+                    const double tg = frames[k].exposure_us * frames[k].gain;
+                    const double r = (raw - darks[k].ptr<float>(y)[x * ch + c]) / tg;
+                    if (k == shortest) {
+                        fallback = r;
+                    }
+                    if (raw >= frames[k].saturation_level) {
+                        // Clipped in this frame: no information beyond a lower bound.
+                        continue;
+                    }
+                    wsum += tg;
+                    acc += tg * r;
+                }
+                double r = 0;
+                if (wsum > 0) {
+                    r = acc / wsum;
+                } else {
+                    // Clipped at every exposure: keep the shortest frame's lower bound.
+                    r = fallback;
+                    ++clipped;
+                }
+                sum[c] += r;
+                sum2[c] += r * r;
             }
+            ++n;
         }
-        if (!best) {
-            return make_error("every pixel of the ROI saturated at every exposure of the bracket");
-        }
-        const double scale = 1.0 / (best->exposure_us * best->gain);
-        out.rate = best->stats.mean * scale;
-        out.sigma = best->stats.sigma * scale;
-        out.saturated = true;
-        out.exposure_us = best->exposure_us;
-        return out;
     }
+    const double dn = static_cast<double>(n);
+    const devices::Frame& fl = frames[longest];
+    const double tg_long = fl.exposure_us * fl.gain;
     for (int c = 0; c < 3; ++c) {
-        out.rate[c] = acc[c] / wsum[c];
-        out.sigma[c] = std::sqrt(1.0 / wsum[c]);
+        const int src = ch == 1 ? 0 : c;
+        const double mean = sum[src] / dn;
+        const double var_pix = n > 1 ? std::max(0.0, (sum2[src] - dn * mean * mean) / (dn - 1)) : 0;
+        // Noise model for the longest frame, in counts^2, then in rate units.
+        double var_model = 2 * noise.read_noise_counts * noise.read_noise_counts;
+        if (noise.e_per_count > 0) {
+            var_model += std::max(mean * tg_long, 0.0) * fl.gain / noise.e_per_count;
+        }
+        var_model /= tg_long * tg_long;
+        out.rate[c] = mean;
+        out.sigma[c] = std::sqrt(std::max(var_pix, var_model) / dn);
     }
+    out.saturated = clipped > 0;
+    out.exposure_us = fl.exposure_us;
+    out.pixels = n;
     return out;
 }
 

@@ -51,13 +51,6 @@ Expected<RoiStats> roi_stats(const devices::Frame& f,
                              const PixelRoi& roi,
                              const NoiseModel& noise);
 
-/// One exposure of a bracket, already reduced to the ROI: rate = mean / (t * gain), in counts/us.
-struct BracketShot {
-    double exposure_us = 0;
-    double gain = 1;
-    RoiStats stats;
-};
-
 /// Result of a (possibly single-exposure) measurement: the signal rate at unit gain, counts/us.
 struct SignalRate {
     brdf::Rgbd rate = brdf::Rgbd::Zero();
@@ -65,13 +58,21 @@ struct SignalRate {
     bool saturated = false;  ///< Some ROI pixels saturated even at the shortest exposure.
     bool hdr = false;        ///< Merged from more than one exposure.
     double exposure_us = 0;  ///< Longest exposure used.
+    std::size_t pixels = 0;  ///< ROI pixels merged.
 };
 
-/// HDR merge of a bracket: each shot gives rate_k = mean_k / (t_k g_k) with sigma_k = sd_k / (t_k
-/// g_k); shots with saturated ROI pixels are dropped unless every shot saturates (then the shortest
-/// is kept and the result flagged); the rest combine by inverse-variance weighting (the longest
-/// exposures dominate, as their relative shot noise is lowest). Error if the bracket is empty.
-Expected<SignalRate> merge_bracket(const std::vector<BracketShot>& shots);
+/// HDR merge of an exposure bracket, per pixel: each frame k gives the rate r_k = (c - d_k) / (t_k
+/// g_k) (counts per microsecond at unit gain) where its pixel is below the saturation level; the
+/// rates of a pixel combine with weights t_k g_k (inverse variance when shot noise dominates, whose
+/// variance in rate units falls as 1 / (t g)). A pixel saturated in every frame keeps its shortest
+/// frame's (clipped) rate and the result is flagged saturated (a lower bound). The ROI mean of the
+/// merged rates is returned; its uncertainty is the larger of the pixel scatter / sqrt(N) and the
+/// noise model's prediction for the longest frame / sqrt(N). `darks[k]` is the float dark frame of
+/// frame k. Errors: empty bracket, mismatched sizes, ROI outside the frames, non-finite pixels.
+Expected<SignalRate> merge_hdr(const std::vector<devices::Frame>& frames,
+                               const std::vector<cv::Mat>& darks,
+                               const PixelRoi& roi,
+                               const NoiseModel& noise);
 
 /// Auto exposure: the exposure that puts the ROI's 99th percentile at `target` of the usable range,
 /// from a shot at `exposure_us` whose 99th percentile sits at `high_fraction` (the response is

@@ -1,0 +1,97 @@
+#pragma once
+
+// A measurement campaign: its description (campaign.json), its folder (the description and the rig
+// description as used, the journal, the dataset CSV, the JSON sidecar), and the runner that turns
+// the plan into journal records, resumable after any stop.
+
+#include <atomic>
+#include <cstdio>
+#include <functional>
+#include <optional>
+#include <string>
+
+#include "gonio/acquisition/calibration.h"
+#include "gonio/acquisition/plan.h"
+#include "gonio/acquisition/rig_config.h"
+#include "gonio/acquisition/schedule.h"
+
+namespace gonio::acquisition {
+
+/// campaign.json (docs/operator-guide.md).
+struct CampaignSpec {
+    std::string sample = "sample";  ///< Material or sample name (the folder name uses it).
+    std::string operator_name;
+    std::string notes;
+    std::string rig;                    ///< Rig description path (relative to the campaign file).
+    std::string scene;                  ///< Optional scene (ROI) path.
+    std::string plan_kind = "uniform";  ///< "uniform" or "half-diff".
+    UniformGridSpec uniform;
+    HalfDiffSpec half_diff;
+    bool adaptive = false;
+    int adaptive_passes = 1;
+    RefineSpec refine;
+    int drift_every = 50;  ///< Re-measure the drift reference every N measurements (0 = never).
+    double drift_threshold = 0.05;  ///< Relative change that pauses the campaign.
+    double drift_theta_i_deg = 30;  ///< Drift reference configuration on the sample.
+    double drift_theta_r_deg = 30;
+    double drift_delta_phi_deg = 90;
+    double schedule_budget_s = 0.5;
+    std::string json;  ///< The JSON text.
+};
+
+Expected<CampaignSpec> parse_campaign_spec(const std::string& json_text, const std::string& source);
+Expected<CampaignSpec> read_campaign_spec(const std::string& path);
+std::string campaign_spec_json(const CampaignSpec& spec);
+
+/// Builds the plan of pass 0 (grid, then scene ROI, then reachability).
+Expected<Plan> build_plan(const CampaignSpec& spec, const RigConfig& rig);
+
+/// "2026-11-22T01-02-03_<sample>" under `parent`, unique (a suffix is added if it exists).
+std::string auto_campaign_dir(const std::string& parent, const std::string& sample);
+
+/// Creates the folder with campaign.json and rig.json (the descriptions used, so that a resume
+/// needs nothing else). Refuses a folder that already holds a campaign.
+Expected<void> create_campaign_dir(const std::string& dir,
+                                   const CampaignSpec& spec,
+                                   const RigConfig& rig);
+
+enum class Outcome {
+    kCompleted,    ///< Every configuration measured.
+    kInterrupted,  ///< Stopped on request (Ctrl-C) after finishing a measurement.
+    kPaused,       ///< Stopped by a device fault after the retries, or by lamp drift.
+};
+
+struct RunResult {
+    Outcome outcome = Outcome::kCompleted;
+    std::string message;
+    std::size_t measured_now = 0;    ///< Measurements taken by this run.
+    std::size_t measured_total = 0;  ///< Plan configurations in the journal.
+    std::size_t planned_total = 0;
+};
+
+/// What the runner needs from its surroundings.
+struct RunHooks {
+    /// Set (e.g. by SIGINT) to stop after the current measurement.
+    const std::atomic<bool>* stop = nullptr;
+    /// Progress and messages go here; a terminal gets a redrawn progress bar.
+    std::FILE* out = stdout;
+    /// Without a reference changer: asks the operator to mount the white reference (true) or the
+    /// sample (false) and waits. Null means no way to swap: the run errors.
+    std::function<Expected<void>(bool white)> mount;
+    /// Accept a drift found at resume: the drift reference is re-baselined and measurement goes on.
+    bool accept_drift = false;
+    /// Home axes that report not homed before the first move.
+    bool home = true;
+};
+
+/// Runs (or resumes) the campaign in `dir` on the rig's devices until completed, interrupted or
+/// paused. The journal makes it exact: a configuration in the journal is never measured again; one
+/// not in it is measured. Errors are for conditions that prevent starting (unreadable folder,
+/// corrupt journal, unreachable drift reference).
+Expected<RunResult> run_campaign(const std::string& dir, RigDevices& dev, const RunHooks& hooks);
+
+/// Rebuilds dataset.csv from the journal (atomically replaced). Reference re-measurements are
+/// included with kFlagReference.
+Expected<std::size_t> write_campaign_dataset(const std::string& dir);
+
+}  // namespace gonio::acquisition

@@ -1,0 +1,899 @@
+#include "gonio/acquisition/campaign.h"
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "gonio/acquisition/capture_session.h"
+#include "gonio/acquisition/journal.h"
+#include "gonio/acquisition/progress.h"
+#include "gonio/brdf/dataset.h"
+#include "gonio/version.h"
+
+namespace gonio::acquisition {
+
+using brdf::kPi;
+using brdf::RigPosed;
+using brdf::Vec3d;
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kDeg = kPi / 180.0;
+
+double now_s() {
+    return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
+        .count();
+}
+
+std::string iso_time(double t, bool for_path) {
+    const std::time_t tt = static_cast<std::time_t>(t);
+    std::tm tm{};
+    gmtime_r(&tt, &tm);
+    char buf[40];
+    std::strftime(buf, sizeof buf, for_path ? "%Y-%m-%dT%H-%M-%S" : "%Y-%m-%dT%H:%M:%SZ", &tm);
+    return buf;
+}
+
+Expected<std::string> read_text(const std::string& path) {
+    std::ifstream in(path);
+    if (!in) {
+        return make_error(path + ": cannot open");
+    }
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+Expected<void> write_text_atomic(const std::string& path, const std::string& text) {
+    const std::string tmp = path + ".tmp";
+    {
+        std::ofstream out(tmp, std::ios::trunc);
+        if (!out) {
+            return make_error(tmp + ": cannot write");
+        }
+        out << text;
+        out.flush();
+        if (!out) {
+            return make_error(tmp + ": write failed");
+        }
+    }
+    std::error_code ec;
+    fs::rename(tmp, path, ec);
+    if (ec) {
+        return make_error(path + ": rename failed: " + ec.message());
+    }
+    return {};
+}
+
+double luminance(const brdf::Rgbd& v) {
+    return (v[0] + v[1] + v[2]) / 3;
+}
+
+std::array<double, 4> pose_deg(const RigPosed& p) {
+    return {p.light / kDeg, p.detector / kDeg, p.tilt / kDeg, p.spin / kDeg};
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Campaign description
+
+Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::string& source) {
+    CampaignSpec s;
+    s.json = text;
+    std::string at;
+    try {
+        const json j = json::parse(text);
+        s.sample = j.value("sample", s.sample);
+        s.operator_name = j.value("operator", s.operator_name);
+        s.notes = j.value("notes", s.notes);
+        s.rig = j.value("rig", s.rig);
+        s.scene = j.value("scene", s.scene);
+        if (j.contains("plan")) {
+            at = "plan";
+            const json& p = j.at("plan");
+            s.plan_kind = p.value("kind", s.plan_kind);
+            if (s.plan_kind == "uniform") {
+                s.uniform.n_theta = p.value("n_theta", s.uniform.n_theta);
+                s.uniform.n_dphi = p.value("n_dphi", s.uniform.n_dphi);
+                s.uniform.theta_max = p.value("theta_max_deg", s.uniform.theta_max / kDeg) * kDeg;
+            } else if (s.plan_kind == "half-diff") {
+                s.half_diff.n_theta_h = p.value("n_theta_h", s.half_diff.n_theta_h);
+                s.half_diff.n_theta_d = p.value("n_theta_d", s.half_diff.n_theta_d);
+                s.half_diff.n_phi_d = p.value("n_phi_d", s.half_diff.n_phi_d);
+                s.half_diff.theta_max =
+                    p.value("theta_max_deg", s.half_diff.theta_max / kDeg) * kDeg;
+            } else {
+                return make_error(source + ": plan.kind: \"" + s.plan_kind +
+                                  "\" is not \"uniform\" or \"half-diff\"");
+            }
+        }
+        if (j.contains("adaptive")) {
+            at = "adaptive";
+            const json& a = j.at("adaptive");
+            s.adaptive = a.value("enabled", true);
+            s.adaptive_passes = a.value("passes", s.adaptive_passes);
+            s.refine.budget = a.value("budget", s.refine.budget);
+            s.refine.threshold = a.value("threshold", s.refine.threshold);
+            s.refine.min_spacing = a.value("min_spacing_deg", s.refine.min_spacing / kDeg) * kDeg;
+            if (s.adaptive_passes < 0 || s.refine.budget < 0) {
+                return make_error(source + ": adaptive: passes and budget must be >= 0");
+            }
+        }
+        if (j.contains("drift")) {
+            at = "drift";
+            const json& d = j.at("drift");
+            s.drift_every = d.value("every", s.drift_every);
+            s.drift_threshold = d.value("threshold", s.drift_threshold);
+            s.drift_theta_i_deg = d.value("theta_i_deg", s.drift_theta_i_deg);
+            s.drift_theta_r_deg = d.value("theta_r_deg", s.drift_theta_r_deg);
+            s.drift_delta_phi_deg = d.value("delta_phi_deg", s.drift_delta_phi_deg);
+            if (s.drift_every < 0 || !(s.drift_threshold > 0)) {
+                return make_error(source + ": drift: every >= 0, threshold > 0");
+            }
+        }
+        s.schedule_budget_s = j.value("schedule_budget_s", s.schedule_budget_s);
+    } catch (const std::exception& e) {
+        return make_error(source + ": " + (at.empty() ? "" : at + ": ") + e.what());
+    }
+    return s;
+}
+
+Expected<CampaignSpec> read_campaign_spec(const std::string& path) {
+    auto text = read_text(path);
+    if (!text) {
+        return tl::unexpected(text.error());
+    }
+    return parse_campaign_spec(*text, path);
+}
+
+std::string campaign_spec_json(const CampaignSpec& s) {
+    json j;
+    j["sample"] = s.sample;
+    j["operator"] = s.operator_name;
+    j["notes"] = s.notes;
+    j["rig"] = s.rig;
+    if (!s.scene.empty()) {
+        j["scene"] = s.scene;
+    }
+    if (s.plan_kind == "uniform") {
+        j["plan"] = {{"kind", "uniform"},
+                     {"n_theta", s.uniform.n_theta},
+                     {"n_dphi", s.uniform.n_dphi},
+                     {"theta_max_deg", s.uniform.theta_max / kDeg}};
+    } else {
+        j["plan"] = {{"kind", "half-diff"},
+                     {"n_theta_h", s.half_diff.n_theta_h},
+                     {"n_theta_d", s.half_diff.n_theta_d},
+                     {"n_phi_d", s.half_diff.n_phi_d},
+                     {"theta_max_deg", s.half_diff.theta_max / kDeg}};
+    }
+    if (s.adaptive) {
+        j["adaptive"] = {{"enabled", true},
+                         {"passes", s.adaptive_passes},
+                         {"budget", s.refine.budget},
+                         {"threshold", s.refine.threshold},
+                         {"min_spacing_deg", s.refine.min_spacing / kDeg}};
+    }
+    j["drift"] = {{"every", s.drift_every},
+                  {"threshold", s.drift_threshold},
+                  {"theta_i_deg", s.drift_theta_i_deg},
+                  {"theta_r_deg", s.drift_theta_r_deg},
+                  {"delta_phi_deg", s.drift_delta_phi_deg}};
+    j["schedule_budget_s"] = s.schedule_budget_s;
+    return j.dump(2) + "\n";
+}
+
+Expected<Plan> build_plan(const CampaignSpec& spec, const RigConfig& rig) {
+    Expected<Plan> plan =
+        spec.plan_kind == "half-diff" ? plan_half_diff(spec.half_diff) : plan_uniform(spec.uniform);
+    if (!plan) {
+        return plan;
+    }
+    if (!spec.scene.empty()) {
+        auto scene = read_scene(spec.scene);
+        if (!scene) {
+            return tl::unexpected(scene.error());
+        }
+        apply_roi(*scene, &*plan);
+    }
+    remove_unreachable(rig_limits(rig), &*plan);
+    return plan;
+}
+
+std::string auto_campaign_dir(const std::string& parent, const std::string& sample) {
+    std::string clean;
+    for (char c : sample) {
+        clean.push_back(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' ? c
+                                                                                            : '-');
+    }
+    const std::string base = (fs::path(parent) / (iso_time(now_s(), true) + "_" + clean)).string();
+    std::string dir = base;
+    for (int k = 2; fs::exists(dir); ++k) {
+        dir = base + "-" + std::to_string(k);
+    }
+    return dir;
+}
+
+Expected<void> create_campaign_dir(const std::string& dir,
+                                   const CampaignSpec& spec,
+                                   const RigConfig& rig) {
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (ec) {
+        return make_error(dir + ": cannot create: " + ec.message());
+    }
+    if (fs::exists(fs::path(dir) / "journal.log") || fs::exists(fs::path(dir) / "campaign.json")) {
+        return make_error(dir + ": already holds a campaign (use --resume " + dir + ")");
+    }
+    // The scene is copied in as well: a resume must not depend on files outside the folder.
+    CampaignSpec stored = spec;
+    stored.rig = "rig.json";
+    if (!spec.scene.empty()) {
+        auto text = read_text(spec.scene);
+        if (!text) {
+            return tl::unexpected(text.error());
+        }
+        if (auto w = write_text_atomic((fs::path(dir) / "scene.json").string(), *text); !w) {
+            return w;
+        }
+        stored.scene = "scene.json";
+    }
+    if (auto w = write_text_atomic((fs::path(dir) / "rig.json").string(), rig.json); !w) {
+        return w;
+    }
+    return write_text_atomic((fs::path(dir) / "campaign.json").string(),
+                             campaign_spec_json(stored));
+}
+
+Expected<std::size_t> write_campaign_dataset(const std::string& dir) {
+    auto jn = Journal::open((fs::path(dir) / "journal.log").string());
+    if (!jn) {
+        return tl::unexpected(jn.error());
+    }
+    brdf::Dataset ds;
+    ds.source = dir;
+    ds.has_sigma = ds.has_weight = ds.has_flags = true;
+    for (const JournalRecord& r : jn->records()) {
+        if (r.type != RecordType::kMeasurement && r.type != RecordType::kReference) {
+            continue;
+        }
+        brdf::Sample s;
+        const auto si = brdf::cartesian_to_spherical(r.wi);
+        const auto so = brdf::cartesian_to_spherical(r.wo);
+        s.theta_i = si.theta;
+        s.phi_i = si.phi;
+        s.theta_o = so.theta;
+        s.phi_o = so.phi;
+        s.value = r.value;
+        s.sigma = r.sigma;
+        s.weight = r.weight;
+        s.flags = r.flags;
+        ds.samples.push_back(s);
+    }
+    if (auto w = brdf::write_dataset_csv((fs::path(dir) / "dataset.csv").string(), ds); !w) {
+        return tl::unexpected(w.error());
+    }
+    return ds.samples.size();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Runner
+
+namespace {
+
+class Runner {
+  public:
+    Runner(std::string dir, RigDevices& dev, const RunHooks& hooks)
+        : dir_(std::move(dir)), dev_(dev), hooks_(hooks) {}
+
+    Expected<RunResult> run();
+
+  private:
+    std::string path(const char* name) const { return (fs::path(dir_) / name).string(); }
+    void say(const std::string& s) const {
+        if (hooks_.out) {
+            std::fprintf(hooks_.out, "%s\n", s.c_str());
+            std::fflush(hooks_.out);
+        }
+    }
+    bool stop_requested() const { return hooks_.stop && hooks_.stop->load(); }
+
+    Expected<RigPosed> read_pose();
+    Expected<void> move_to(const RigPosed& p);
+    Expected<void> home_if_needed();
+    /// Moves and measures with bounded retries; a drive alarm pauses at once.
+    struct Shot {
+        RigPosed pose;  ///< As read back from the axes.
+        Vec3d wi, wo;
+        SignalRate rate;
+    };
+    Expected<Shot> attempt(const RigPosed& target, const std::string& what, std::string* pause);
+    Expected<Shot> measure_once(const RigPosed& target);
+    Expected<void> white_calibration(std::string* pause);
+    /// Measures the drift reference; sets *pause on drift beyond the threshold.
+    Expected<void> drift_check(bool baseline, std::string* pause);
+    JournalRecord record_of(RecordType type, const Shot& s, const BrdfValue& v) const;
+    Expected<void> write_metadata(const std::string& state, const Plan& plan);
+    Expected<RunResult> finish(Outcome o, const std::string& msg, const Plan& plan);
+
+    std::string dir_;
+    RigDevices& dev_;
+    RunHooks hooks_;
+    CampaignSpec spec_;
+    RigConfig rig_;
+    RigLimits lim_;
+    std::array<AxisDynamics, kNumAxes> dyn_;
+    std::optional<Journal> journal_;
+    std::optional<CaptureSession> session_;
+    WhiteCalibration white_;
+    RigPosed current_;
+    std::size_t since_reference_ = 0;
+    std::optional<JournalRecord> baseline_;
+    RunResult result_;
+    double started_ = 0;
+};
+
+Expected<RigPosed> Runner::read_pose() {
+    double v[kNumAxes];
+    for (int k = 0; k < kNumAxes; ++k) {
+        auto p = dev_.axes[k]->position_deg();
+        if (!p) {
+            return tl::unexpected(p.error());
+        }
+        v[k] = *p * kDeg;
+    }
+    return RigPosed{v[0], v[1], v[2], v[3]};
+}
+
+Expected<void> Runner::home_if_needed() {
+    for (int k = 0; k < kNumAxes; ++k) {
+        auto st = dev_.axes[k]->status();
+        if (!st) {
+            return tl::unexpected(st.error());
+        }
+        if (st->state == devices::AxisState::kAlarm) {
+            return make_error("axis \"" + dev_.axes[k]->name() + "\" in alarm (code " +
+                              std::to_string(st->alarm_code) +
+                              "): clear the cause, then reset the drive");
+        }
+        if (!st->homed) {
+            say("homing axis \"" + dev_.axes[k]->name() + "\"");
+            if (auto h = dev_.axes[k]->home(std::chrono::milliseconds(rig_.move_timeout_ms)); !h) {
+                return h;
+            }
+        }
+    }
+    return {};
+}
+
+Expected<void> Runner::move_to(const RigPosed& p) {
+    const double target[kNumAxes] = {p.light, p.detector, p.tilt, p.spin};
+    const double cur[kNumAxes] = {current_.light, current_.detector, current_.tilt, current_.spin};
+    bool moved[kNumAxes] = {false, false, false, false};
+    for (int k = 0; k < kNumAxes; ++k) {
+        if (std::abs(target[k] - cur[k]) < 1e-7) {
+            continue;
+        }
+        if (auto r = dev_.axes[k]->start_move(target[k] / kDeg); !r) {
+            return r;
+        }
+        moved[k] = true;
+    }
+    double settle_ms = 0;
+    for (int k = 0; k < kNumAxes; ++k) {
+        if (!moved[k]) {
+            continue;
+        }
+        if (auto r = dev_.axes[k]->wait_done(std::chrono::milliseconds(rig_.move_timeout_ms)); !r) {
+            return r;
+        }
+        settle_ms = std::max(settle_ms, rig_.axes[k].motion.settle_ms);
+    }
+    // Mechanical settling after the drives report in position (a physical time, not a wait for
+    // a state that could be polled).
+    if (settle_ms > 0) {
+        std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(settle_ms));
+    }
+    current_ = p;
+    return {};
+}
+
+Expected<Runner::Shot> Runner::measure_once(const RigPosed& target) {
+    if (auto m = move_to(target); !m) {
+        return tl::unexpected(m.error());
+    }
+    auto pose = read_pose();
+    if (!pose) {
+        return tl::unexpected(pose.error());
+    }
+    auto rate = session_->measure();
+    if (!rate) {
+        return tl::unexpected(rate.error());
+    }
+    Shot s;
+    s.pose = *pose;
+    const auto [wi, wo] = brdf::rig_forward(*pose);
+    s.wi = wi;
+    s.wo = wo;
+    s.rate = *rate;
+    return s;
+}
+
+Expected<Runner::Shot> Runner::attempt(const RigPosed& target,
+                                       const std::string& what,
+                                       std::string* pause) {
+    std::string last;
+    for (int a = 0; a <= rig_.retries; ++a) {
+        auto s = measure_once(target);
+        if (s) {
+            return s;
+        }
+        last = s.error().message;
+        // A drive alarm is a safety stop: never retried automatically.
+        for (int k = 0; k < kNumAxes; ++k) {
+            auto st = dev_.axes[k]->status();
+            if (st && st->state == devices::AxisState::kAlarm) {
+                *pause = "axis \"" + dev_.axes[k]->name() + "\" raised alarm code " +
+                         std::to_string(st->alarm_code) + " during " + what + " (" + last +
+                         "); the campaign is paused with its state saved: clear the cause, reset "
+                         "the drive, then resume";
+                return make_error(*pause);
+            }
+        }
+        say("device error during " + what + " (attempt " + std::to_string(a + 1) + "/" +
+            std::to_string(rig_.retries + 1) + "): " + last);
+        // The position is unknown after a failed move: read it back before the next attempt.
+        if (auto p = read_pose(); p) {
+            current_ = *p;
+        }
+        session_->clear_dark_cache();
+    }
+    *pause = "device fault during " + what + " after " + std::to_string(rig_.retries + 1) +
+             " attempts: " + last + "; the campaign is paused with its state saved";
+    return make_error(*pause);
+}
+
+JournalRecord Runner::record_of(RecordType type, const Shot& s, const BrdfValue& v) const {
+    JournalRecord r;
+    r.type = type;
+    r.wi = s.wi;
+    r.wo = s.wo;
+    r.pose_deg = pose_deg(s.pose);
+    r.value = v.value;
+    r.sigma = v.sigma;
+    r.rate = s.rate.rate;
+    r.rate_sigma = s.rate.sigma;
+    r.exposure_us = s.rate.exposure_us;
+    r.time_s = now_s();
+    if (s.rate.saturated) {
+        r.flags |= brdf::kFlagSaturated;
+    }
+    if (s.rate.hdr) {
+        r.flags |= brdf::kFlagHdr;
+    }
+    return r;
+}
+
+Expected<void> Runner::white_calibration(std::string* pause) {
+    say("white reference: measuring (reflectance " + std::to_string(rig_.white_reflectance) + ")");
+    auto mount = [&](bool white) -> Expected<void> {
+        if (dev_.reference_changer) {
+            return dev_.reference_changer->set_shutter_open(white);
+        }
+        if (hooks_.mount) {
+            return hooks_.mount(white);
+        }
+        return make_error("the rig has no reference changer and no operator prompt is available");
+    };
+    if (auto m = mount(true); !m) {
+        return m;
+    }
+    const Vec3d wi = brdf::spherical_to_cartesian(rig_.white_theta_i_deg * kDeg, 0.0);
+    const Vec3d wo = brdf::spherical_to_cartesian(rig_.white_theta_o_deg * kDeg, kPi);
+    auto sol = solve(Target{wi, wo, true, true}, lim_, dyn_, current_);
+    if (!sol) {
+        (void)mount(false);
+        return make_error("white reference geometry unreachable: " + sol.error().message);
+    }
+    auto s = attempt(sol->pose, "the white reference", pause);
+    if (auto m = mount(false); !m) {
+        return m;
+    }
+    if (!s) {
+        return tl::unexpected(s.error());
+    }
+    WhiteCalibration w;
+    w.reflectance = rig_.white_reflectance;
+    w.cos_theta_w = s->wi.z();
+    w.rate = s->rate.rate;
+    w.rate_sigma = s->rate.sigma;
+    if (s->rate.saturated) {
+        return make_error(
+            "white reference saturated at the shortest exposure: lower the lamp "
+            "power or the gain");
+    }
+    if (auto v = validate(w); !v) {
+        return v;
+    }
+    BrdfValue bv;
+    bv.value = brdf::Rgbd::Constant(w.reflectance / kPi);
+    JournalRecord r = record_of(RecordType::kWhite, *s, bv);
+    if (auto a = journal_->append(r); !a) {
+        return a;
+    }
+    white_ = w;
+    return {};
+}
+
+Expected<void> Runner::drift_check(bool baseline, std::string* pause) {
+    const Vec3d wi = brdf::spherical_to_cartesian(spec_.drift_theta_i_deg * kDeg, 0.0);
+    const Vec3d wo = brdf::spherical_to_cartesian(spec_.drift_theta_r_deg * kDeg,
+                                                  spec_.drift_delta_phi_deg * kDeg);
+    auto sol = solve(Target{wi, wo, true, true}, lim_, dyn_, current_);
+    if (!sol) {
+        return make_error("drift reference configuration unreachable: " + sol.error().message);
+    }
+    auto s = attempt(sol->pose, "the drift reference", pause);
+    if (!s) {
+        return tl::unexpected(s.error());
+    }
+    auto v = rate_to_brdf(white_, s->rate.rate, s->rate.sigma, s->wi.z());
+    if (!v) {
+        return tl::unexpected(v.error());
+    }
+    JournalRecord r = record_of(RecordType::kReference, *s, *v);
+    r.flags |= brdf::kFlagReference;
+    r.text = baseline ? "baseline" : "check";
+    if (auto a = journal_->append(r); !a) {
+        return a;
+    }
+    since_reference_ = 0;
+    if (baseline || !baseline_) {
+        baseline_ = r;
+        return {};
+    }
+    const double v0 = luminance(baseline_->value);
+    const double v1 = luminance(r.value);
+    const double rel = v0 > 0 ? std::abs(v1 / v0 - 1) : 0;
+    const double noise = (v0 > 0 && v1 > 0)
+                             ? std::hypot(luminance(baseline_->sigma) / v0, luminance(r.sigma) / v1)
+                             : 0;
+    if (rel > spec_.drift_threshold && rel > 3 * noise) {
+        char buf[400];
+        std::snprintf(buf,
+                      sizeof buf,
+                      "lamp drift: the reference configuration (theta_i %.0f, theta_r %.0f, "
+                      "delta_phi %.0f deg) reads %.4g 1/sr against %.4g at the baseline (%+.1f%%, "
+                      "threshold %.1f%%). The campaign is paused with its state saved: check the "
+                      "lamp, then resume (add --accept-drift to take the current level as the new "
+                      "baseline)",
+                      spec_.drift_theta_i_deg,
+                      spec_.drift_theta_r_deg,
+                      spec_.drift_delta_phi_deg,
+                      v1,
+                      v0,
+                      100 * (v1 / v0 - 1),
+                      100 * spec_.drift_threshold);
+        *pause = buf;
+        return make_error(*pause);
+    }
+    return {};
+}
+
+Expected<void> Runner::write_metadata(const std::string& state, const Plan& plan) {
+    json meta;
+    if (auto old = read_text(path("metadata.json")); old) {
+        try {
+            meta = json::parse(*old);
+        } catch (const std::exception&) {
+            meta = json::object();
+        }
+    }
+    meta["sample"] = spec_.sample;
+    meta["operator"] = spec_.operator_name;
+    meta["notes"] = spec_.notes;
+    meta["software"] = {{"name", "gonio"}, {"version", GONIO_VERSION_STRING}};
+    meta["rig"] = {{"name", rig_.name}, {"description", json::parse(rig_.json)}};
+    json unreachable = json::array();
+    for (const UnreachableConfig& u : plan.unreachable) {
+        const auto c = brdf::to_canonical(u.wi, u.wo);
+        unreachable.push_back({{"theta_i_deg", c.theta_i / kDeg},
+                               {"theta_r_deg", c.theta_r / kDeg},
+                               {"delta_phi_deg", c.delta_phi / kDeg},
+                               {"reason", u.reason}});
+    }
+    meta["plan"] = {{"kind", plan.kind},
+                    {"description", json::parse(spec_.json)},
+                    {"configurations", plan.configs.size()},
+                    {"naive_4d_grid", plan.naive_count},
+                    {"outside_roi", plan.outside_roi},
+                    {"unreachable", unreachable}};
+    meta["calibration"] = {
+        {"white_reflectance", white_.reflectance},
+        {"white_cos_theta_i", white_.cos_theta_w},
+        {"white_rate_counts_per_us", {white_.rate[0], white_.rate[1], white_.rate[2]}},
+        {"white_rate_sigma", {white_.rate_sigma[0], white_.rate_sigma[1], white_.rate_sigma[2]}},
+        {"method", "docs/calibration.md"}};
+    if (!meta.contains("created")) {
+        meta["created"] = iso_time(started_, false);
+    }
+    if (!meta.contains("runs")) {
+        meta["runs"] = json::array();
+    }
+    json run = {{"started", iso_time(started_, false)},
+                {"ended", iso_time(now_s(), false)},
+                {"state", state},
+                {"measured", result_.measured_now}};
+    // The run in progress is the last element while it lasts.
+    if (!meta["runs"].empty() && meta["runs"].back().value("state", "") == "running" &&
+        meta["runs"].back().value("started", "") == iso_time(started_, false)) {
+        meta["runs"].back() = run;
+    } else {
+        meta["runs"].push_back(run);
+    }
+    meta["state"] = state;
+    meta["measured"] = result_.measured_total;
+    meta["planned"] = result_.planned_total;
+    return write_text_atomic(path("metadata.json"), meta.dump(2) + "\n");
+}
+
+Expected<RunResult> Runner::finish(Outcome o, const std::string& msg, const Plan& plan) {
+    result_.outcome = o;
+    result_.message = msg;
+    const char* state = o == Outcome::kCompleted     ? "completed"
+                        : o == Outcome::kInterrupted ? "interrupted"
+                                                     : "paused";
+    if (o != Outcome::kCompleted) {
+        JournalRecord note;
+        note.type = RecordType::kNote;
+        note.text = std::string(state) + ": " + msg;
+        note.time_s = now_s();
+        (void)journal_->append(note);
+    }
+    auto n = write_campaign_dataset(dir_);
+    if (!n) {
+        return tl::unexpected(n.error());
+    }
+    if (auto m = write_metadata(state, plan); !m) {
+        return tl::unexpected(m.error());
+    }
+    return result_;
+}
+
+Expected<RunResult> Runner::run() {
+    started_ = now_s();
+    auto spec = read_campaign_spec(path("campaign.json"));
+    if (!spec) {
+        return tl::unexpected(spec.error());
+    }
+    spec_ = *spec;
+    if (!spec_.scene.empty() && fs::path(spec_.scene).is_relative()) {
+        spec_.scene = path(spec_.scene.c_str());
+    }
+    auto rig = read_rig_config(path("rig.json"));
+    if (!rig) {
+        return tl::unexpected(rig.error());
+    }
+    rig_ = *rig;
+    lim_ = rig_limits(rig_);
+    dyn_ = rig_dynamics(rig_);
+    auto plan0 = build_plan(spec_, rig_);
+    if (!plan0) {
+        return tl::unexpected(plan0.error());
+    }
+    auto jn = Journal::open(path("journal.log"));
+    if (!jn) {
+        return tl::unexpected(jn.error());
+    }
+    journal_.emplace(std::move(*jn));
+    if (journal_->torn_tail()) {
+        say("journal: the last record was cut short by the previous stop; its measurement will "
+            "be repeated");
+    }
+    // State from the journal.
+    std::set<std::pair<int, std::uint32_t>> done;
+    bool have_white = false;
+    for (const JournalRecord& r : journal_->records()) {
+        switch (r.type) {
+            case RecordType::kMeasurement:
+                done.insert({r.pass, r.index});
+                ++since_reference_;
+                break;
+            case RecordType::kWhite:
+                have_white = true;
+                white_.reflectance = rig_.white_reflectance;
+                white_.cos_theta_w = r.wi.z();
+                white_.rate = r.rate;
+                white_.rate_sigma = r.rate_sigma;
+                break;
+            case RecordType::kReference:
+                since_reference_ = 0;
+                if (!baseline_ || r.text == "baseline") {
+                    baseline_ = r;
+                }
+                break;
+            case RecordType::kNote:
+                break;
+        }
+    }
+    result_.measured_total = done.size();
+    const Plan& plan = *plan0;
+    say("plan: " + plan.kind + ", " + std::to_string(plan.configs.size()) +
+        " configurations (naive 4D grid of the same resolution: " +
+        std::to_string(plan.naive_count) + ", reduction x" +
+        std::to_string(plan.configs.empty() ? 0 : plan.naive_count / plan.configs.size()) + ")" +
+        (plan.outside_roi ? ", " + std::to_string(plan.outside_roi) + " outside the scene's ROI"
+                          : std::string()) +
+        (plan.unreachable.empty() ? std::string()
+                                  : ", " + std::to_string(plan.unreachable.size()) +
+                                        " unreachable (first: " + plan.unreachable.front().reason +
+                                        "; all listed in metadata.json)"));
+    if (!done.empty()) {
+        say("resuming: " + std::to_string(done.size()) + " measurements already in the journal");
+    }
+    // Devices.
+    if (hooks_.home) {
+        if (auto h = home_if_needed(); !h) {
+            return finish(Outcome::kPaused, h.error().message, plan);
+        }
+    }
+    auto pose = read_pose();
+    if (!pose) {
+        return finish(Outcome::kPaused, pose.error().message, plan);
+    }
+    current_ = *pose;
+    session_.emplace(dev_.camera.get(), dev_.shutter.get(), rig_.capture, rig_.noise);
+    if (auto p = session_->prepare(); !p) {
+        return finish(Outcome::kPaused, "camera: " + p.error().message, plan);
+    }
+    std::string pause;
+    if (!have_white) {
+        if (auto w = white_calibration(&pause); !w) {
+            return finish(Outcome::kPaused, w.error().message, plan);
+        }
+    }
+    if (spec_.drift_every > 0) {
+        const bool rebase = !baseline_ || hooks_.accept_drift;
+        if (auto d = drift_check(rebase, &pause); !d) {
+            return finish(Outcome::kPaused, d.error().message, plan);
+        }
+    }
+    // Passes: 0 is the plan; each adaptive pass refines where the values measured so far change
+    // fastest. Everything is derived from the journal, so a resume rebuilds the same passes.
+    std::size_t planned_total = plan.configs.size();
+    for (int pass = 0; pass <= (spec_.adaptive ? spec_.adaptive_passes : 0); ++pass) {
+        Plan pp;
+        if (pass == 0) {
+            pp = plan;
+        } else {
+            std::vector<std::pair<std::pair<int, std::uint32_t>, MeasuredPoint>> pts;
+            for (const JournalRecord& r : journal_->records()) {
+                if (r.type == RecordType::kMeasurement && r.pass < pass) {
+                    pts.push_back(
+                        {{r.pass, r.index},
+                         MeasuredPoint{brdf::to_canonical(r.wi, r.wo), luminance(r.value)}});
+                }
+            }
+            std::sort(pts.begin(), pts.end(), [](const auto& a, const auto& b) {
+                return a.first < b.first;
+            });
+            std::vector<MeasuredPoint> mp;
+            for (const auto& p : pts) {
+                mp.push_back(p.second);
+            }
+            pp = plan_refine(mp, spec_.refine);
+            if (!spec_.scene.empty()) {
+                auto scene = read_scene(spec_.scene);
+                if (scene) {
+                    apply_roi(*scene, &pp);
+                }
+            }
+            remove_unreachable(lim_, &pp);
+            planned_total += pp.configs.size();
+            say("adaptive pass " + std::to_string(pass) + ": " + std::to_string(pp.configs.size()) +
+                " configurations where the values change fastest");
+        }
+        result_.planned_total = planned_total;
+        // Remaining configurations, solved in plan order for continuity, then scheduled.
+        std::vector<const PlannedConfig*> todo;
+        std::vector<RigPosed> poses;
+        RigPosed prev = current_;
+        for (const PlannedConfig& c : pp.configs) {
+            if (done.count({pass, c.index})) {
+                continue;
+            }
+            auto sol = solve(Target{c.wi, c.wo, c.isotropic, true}, lim_, dyn_, prev);
+            if (!sol) {
+                // remove_unreachable() already kept only reachable ones.
+                continue;
+            }
+            todo.push_back(&c);
+            poses.push_back(sol->pose);
+            prev = sol->pose;
+        }
+        if (todo.empty()) {
+            continue;
+        }
+        ScheduleOptions so;
+        so.budget_s = spec_.schedule_budget_s;
+        const Schedule sch = schedule(poses, current_, dyn_, so);
+        say("pass " + std::to_string(pass) + ": " + std::to_string(todo.size()) +
+            " to measure; motion time planned " + format_duration(sch.planned_s) +
+            ", raster order " + format_duration(sch.raster_s) + ", lower bound " +
+            format_duration(sch.lower_bound_s));
+        const std::size_t done_before = done.size();
+        Progress progress(hooks_.out, done_before + todo.size(), done_before, sch.planned_s);
+        for (std::size_t q = 0; q < sch.order.size(); ++q) {
+            if (stop_requested()) {
+                progress.finish("stopped on request");
+                return finish(Outcome::kInterrupted,
+                              "stopped on request after " + std::to_string(result_.measured_now) +
+                                  " measurements; resume with --resume " + dir_,
+                              plan);
+            }
+            if (spec_.drift_every > 0 &&
+                since_reference_ >= static_cast<std::size_t>(spec_.drift_every)) {
+                if (auto d = drift_check(false, &pause); !d) {
+                    progress.finish("paused");
+                    return finish(Outcome::kPaused, d.error().message, plan);
+                }
+            }
+            const std::size_t k = sch.order[q];
+            const PlannedConfig& c = *todo[k];
+            auto s =
+                attempt(poses[k],
+                        "configuration " + std::to_string(pass) + ":" + std::to_string(c.index),
+                        &pause);
+            if (!s) {
+                progress.finish("paused");
+                return finish(Outcome::kPaused, s.error().message, plan);
+            }
+            auto v = rate_to_brdf(white_, s->rate.rate, s->rate.sigma, s->wi.z());
+            if (!v) {
+                progress.finish("paused");
+                return finish(Outcome::kPaused, v.error().message, plan);
+            }
+            JournalRecord r = record_of(RecordType::kMeasurement, *s, *v);
+            r.pass = pass;
+            r.index = c.index;
+            r.flags |= c.flags;
+            r.weight = c.weight;
+            if (auto a = journal_->append(r); !a) {
+                return tl::unexpected(a.error());
+            }
+            done.insert({pass, c.index});
+            ++since_reference_;
+            ++result_.measured_now;
+            result_.measured_total = done.size();
+            progress.step();
+        }
+        progress.finish("pass " + std::to_string(pass) + " complete");
+    }
+    result_.measured_total = done.size();
+    return finish(Outcome::kCompleted,
+                  "completed: " + std::to_string(done.size()) + " configurations measured",
+                  plan);
+}
+
+}  // namespace
+
+Expected<RunResult> run_campaign(const std::string& dir, RigDevices& dev, const RunHooks& hooks) {
+    Runner r(dir, dev, hooks);
+    return r.run();
+}
+
+}  // namespace gonio::acquisition
