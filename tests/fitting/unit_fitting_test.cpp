@@ -1,0 +1,365 @@
+// Residual forms and their derivatives, the stratified reduction, specs and reports.
+
+#include <ceres/gradient_checker.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <random>
+
+#include "fit_test_util.h"
+#include "gonio/brdf/model_json.h"
+#include "gonio/fitting/cost.h"
+#include "gonio/fitting/fit.h"
+#include "gonio/fitting/reduction.h"
+#include "gonio/fitting/report.h"
+
+namespace gonio::fitting {
+namespace {
+
+using brdf::Rgbd;
+using brdf::Sample;
+using testing::deg;
+
+Sample sample(double ti, double pi, double to, double po, Rgbd v) {
+    Sample s;
+    s.theta_i = ti;
+    s.phi_i = pi;
+    s.theta_o = to;
+    s.phi_o = po;
+    s.value = v;
+    return s;
+}
+
+TEST(Residual, FormsMatchTheirDefinitions) {
+    const double m = 0.7, d = 0.5, c = 0.6, fl = 1e-3;
+    EXPECT_DOUBLE_EQ(channel_residual(ResidualForm::kAbsolute, m, d, c, fl), 0.2);
+    EXPECT_DOUBLE_EQ(channel_residual(ResidualForm::kRelative, m, d, c, fl), 0.2 / 0.501);
+    EXPECT_DOUBLE_EQ(channel_residual(ResidualForm::kLog, m, d, c, fl),
+                     std::log(1.42) - std::log(1.3));
+    EXPECT_DOUBLE_EQ(channel_residual(ResidualForm::kCosine, m, d, c, fl), 0.2 * 0.6);
+    EXPECT_NEAR(channel_residual(ResidualForm::kCubeRoot, m, d, c, fl),
+                std::pow(0.700001, 1.0 / 3) - std::pow(0.500001, 1.0 / 3),
+                1e-15);
+}
+
+/// The batched cost's residuals equal channel_residual() of eval_model, weight and sigma applied.
+TEST(Residual, BatchCostMatchesScalarResidualWithWeightAndSigma) {
+    FitSpec spec = *make_fit_spec(ModelOptions{});
+    auto map = std::make_shared<const ParameterMap>(*ParameterMap::make(spec));
+    std::vector<Sample> samples = {sample(0.3, 0, 0.4, 3.0, Rgbd(0.5, 0.6, 0.7)),
+                                   sample(1.2, 1, 0.1, 2.0, Rgbd(0.1, 0.0, 2.0))};
+    samples[1].weight = 4;
+    samples[1].sigma = Rgbd(0.1, 0.2, 0.0);
+    const std::vector<double> x = map->values_of(spec.model);
+    const brdf::ModelD model = map->model<double>(x.data());
+    for (ResidualForm form : {ResidualForm::kAbsolute,
+                              ResidualForm::kRelative,
+                              ResidualForm::kLog,
+                              ResidualForm::kCosine,
+                              ResidualForm::kCubeRoot}) {
+        CostOptions co;
+        co.residual = form;
+        auto cost = make_batch_cost(map, samples, co);
+        std::vector<double> r(6);
+        const double* p[] = {x.data()};
+        ASSERT_TRUE(cost->Evaluate(p, r.data(), nullptr));
+        for (int i = 0; i < 2; ++i) {
+            const Sample& s = samples[i];
+            const Rgbd f = brdf::eval_model(model, s.wi(), s.wo());
+            for (int c = 0; c < 3; ++c) {
+                double expect = std::sqrt(s.weight) *
+                                channel_residual(form, f[c], s.value[c], s.wi().z(), 1e-3);
+                if (s.sigma[c] > 0) {
+                    // Normalised by the first-order sigma of the residual, g'(d) sigma:
+                    // g = identity (absolute, relative, cosine), log(1 + x cos_i), cbrt(x + 1e-6).
+                    const double d = s.value[c];
+                    const double ci = s.wi().z();
+                    double g_diff = f[c] - d;
+                    double dg = 1;
+                    if (form == ResidualForm::kLog) {
+                        g_diff = std::log(1 + f[c] * ci) - std::log(1 + d * ci);
+                        dg = ci / (1 + d * ci);
+                    } else if (form == ResidualForm::kCubeRoot) {
+                        g_diff = std::cbrt(f[c] + 1e-6) - std::cbrt(d + 1e-6);
+                        dg = 1 / (3 * std::pow(d + 1e-6, 2.0 / 3.0));
+                    }
+                    expect = std::sqrt(s.weight) * g_diff / (dg * s.sigma[c]);
+                }
+                EXPECT_NEAR(r[3 * i + c], expect, 1e-6 * std::abs(expect) + 1e-12)
+                    << to_string(form) << " sample " << i << " channel " << c;
+            }
+        }
+    }
+}
+
+/// ceres::GradientChecker of the automatic derivatives against central differences, for every
+/// residual form and model structure, at ordinary points and at edges (normal incidence, exact
+/// mirror direction, near grazing, narrow lobe, parameters at their bounds).
+TEST(Residual, GradientCheckerPassesForEveryFormAtOrdinaryAndEdgePoints) {
+    struct Point {
+        const char* label;
+        ModelOptions mo;
+        double alpha;
+        double diffuse;
+        double f0;
+    };
+    ModelOptions ggx;
+    ModelOptions beck = ggx;
+    beck.distribution = brdf::Distribution::kBeckmann;
+    beck.anisotropic = true;
+    ModelOptions diel = ggx;
+    diel.fresnel = brdf::FresnelType::kDielectric;
+    diel.fresnel_rgb = false;
+    ModelOptions cond = ggx;
+    cond.fresnel = brdf::FresnelType::kConductor;
+    ModelOptions bp = ggx;
+    bp.distribution = brdf::Distribution::kBlinnPhong;
+    ModelOptions scalar_f0 = ggx;
+    scalar_f0.fresnel_rgb = false;
+    scalar_f0.shadowing = brdf::Shadowing::kVGroove;
+    const std::vector<Point> points = {
+        {"ggx ordinary", ggx, 0.3, 0.4, 0.05},
+        {"ggx narrow, diffuse and f0 near their lower bound", ggx, 0.02, 1e-3, 1e-3},
+        {"ggx f0 at its upper bound", ggx, 0.1, 0.2, 1.0},
+        {"beckmann anisotropic", beck, 0.2, 0.3, 0.1},
+        {"dielectric", diel, 0.25, 0.1, 0.04},
+        {"conductor", cond, 0.15, 0.05, 0.04},
+        {"blinn-phong", bp, 0.1, 0.3, 0.05},
+        {"scalar f0 v-groove", scalar_f0, 0.3, 0.2, 0.3},
+    };
+    // Directions: ordinary, normal incidence, exact mirror, near grazing both ways, backscatter.
+    const std::vector<Sample> samples = {
+        sample(deg(30), 0, deg(40), deg(170), Rgbd(0.3, 0.4, 0.5)),
+        sample(0.0, 0, deg(20), deg(90), Rgbd(0.1, 0.1, 0.1)),
+        sample(deg(45), 0.3, deg(45), 0.3 + brdf::kPi, Rgbd(2.0, 1.5, 1.0)),
+        sample(deg(88), 0, deg(87), deg(180), Rgbd(5.0, 4.0, 3.0)),
+        sample(deg(60), 1.0, deg(60), 1.0, Rgbd(0.0, 0.0, 0.0)),
+    };
+    for (const Point& pt : points) {
+        FitSpec spec = *make_fit_spec(pt.mo);
+        brdf::Lobe<double>& l = spec.model.lobes[0];
+        l.alpha_x = pt.alpha;
+        l.alpha_y = 1.5 * pt.alpha;
+        l.exponent = 2 / (pt.alpha * pt.alpha) - 2;
+        l.fresnel.f0 = Rgbd::Constant(pt.f0);
+        l.fresnel.eta_rgb = Rgbd(0.2, 0.5, 1.3);
+        l.fresnel.k = Rgbd(3.5, 2.4, 1.8);
+        l.scale = Rgbd(1.0, 0.9, 0.8);
+        spec.model.diffuse = Rgbd::Constant(pt.diffuse);
+        auto map = std::make_shared<const ParameterMap>(*ParameterMap::make(spec));
+        std::vector<double> x = map->values_of(spec.model);
+        for (ResidualForm form : {ResidualForm::kAbsolute,
+                                  ResidualForm::kRelative,
+                                  ResidualForm::kLog,
+                                  ResidualForm::kCosine,
+                                  ResidualForm::kCubeRoot}) {
+            for (const Sample& s : samples) {
+                SCOPED_TRACE(std::string(pt.label) + ", " + to_string(form) + ", theta_i " +
+                             std::to_string(s.theta_i));
+                CostOptions co;
+                co.residual = form;
+                auto cost = make_batch_cost(map, {s}, co);
+                ceres::NumericDiffOptions nd;
+                // Ridders extrapolation from a small first step (the default 1e-2 relative step
+                // spans too much of a narrow lobe or of the steep cube root near 0).
+                nd.ridders_relative_initial_step_size = 1e-6;
+                const std::vector<const ceres::Manifold*>* no_manifolds = nullptr;
+                ceres::GradientChecker checker(cost.get(), no_manifolds, nd);
+                ceres::GradientChecker::ProbeResults results;
+                const double* p[] = {x.data()};
+                const bool ok = checker.Probe(p, 1e-4, &results);
+                EXPECT_TRUE(ok) << results.error_log;
+                for (int k = 0; k < map->size(); ++k) {
+                    for (int c = 0; c < 3; ++c) {
+                        ASSERT_TRUE(std::isfinite(results.jacobians[0](c, k)));
+                    }
+                }
+            }
+        }
+    }
+}
+
+TEST(Reduction, KeepsTheBudgetAndPreservesEachStratumsWeight) {
+    const auto grid = testing::measurement_grid();
+    std::vector<Sample> all;
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    for (int i = 0; i < 20000; ++i) {
+        all.push_back(sample(
+            u(rng) * 1.5, u(rng) * 6 - 3, u(rng) * 1.5, u(rng) * 6 - 3, Rgbd::Constant(u(rng))));
+    }
+    const std::vector<Sample> kept = stratified_reduce(all, 2000, 3);
+    EXPECT_GE(kept.size(), 1900u);
+    EXPECT_LE(kept.size(), 2100u);
+    // Total weight equals the input count (each stratum's n / m weights sum to n).
+    double w = 0;
+    double weighted_value = 0;
+    double full_value = 0;
+    for (const Sample& s : kept) {
+        w += s.weight;
+        weighted_value += s.weight * s.value[0];
+    }
+    for (const Sample& s : all) {
+        full_value += s.value[0];
+    }
+    EXPECT_NEAR(w, 20000.0, 1e-6);
+    // The weighted sum estimates the full sum (uniform values: standard error about 1 %).
+    EXPECT_NEAR(weighted_value / full_value, 1.0, 0.05);
+    // Deterministic with the seed; another seed picks other samples.
+    const std::vector<Sample> again = stratified_reduce(all, 2000, 3);
+    ASSERT_EQ(again.size(), kept.size());
+    for (std::size_t i = 0; i < kept.size(); ++i) {
+        ASSERT_EQ(again[i].theta_i, kept[i].theta_i);
+    }
+    const std::vector<Sample> other = stratified_reduce(all, 2000, 4);
+    int same = 0;
+    for (std::size_t i = 0; i < std::min(other.size(), kept.size()); ++i) {
+        same += other[i].theta_i == kept[i].theta_i;
+    }
+    EXPECT_LT(same, static_cast<int>(kept.size()) / 2);
+    // No reduction when the budget covers everything.
+    EXPECT_EQ(stratified_reduce(all, 0, 1).size(), all.size());
+    EXPECT_EQ(stratified_reduce(all, 50000, 1).size(), all.size());
+}
+
+TEST(Spec, DefaultsAreGgxLambertSchlickRgbWithScaleFixed) {
+    FitSpec spec = *make_fit_spec(ModelOptions{});
+    EXPECT_EQ(spec.options.residual, ResidualForm::kLog);
+    ASSERT_EQ(spec.model.lobes.size(), 1u);
+    EXPECT_EQ(spec.model.lobes[0].distribution, brdf::Distribution::kGgx);
+    EXPECT_TRUE(spec.model.has_diffuse);
+    const std::vector<std::string> names = parameter_names(spec);
+    const std::vector<std::string> expect = {"diffuse[0]",
+                                             "diffuse[1]",
+                                             "diffuse[2]",
+                                             "lobes[0].alpha_x",
+                                             "lobes[0].fresnel.f0[0]",
+                                             "lobes[0].fresnel.f0[1]",
+                                             "lobes[0].fresnel.f0[2]",
+                                             "lobes[0].scale[0]",
+                                             "lobes[0].scale[1]",
+                                             "lobes[0].scale[2]"};
+    EXPECT_EQ(names, expect);
+    const ParameterMap map = *ParameterMap::make(spec);
+    EXPECT_EQ(map.size(), 7);  // the scale is fixed: the colour is in f0
+}
+
+TEST(Spec, TemplateSetsFreeFixedSharedAndBounds) {
+    const std::string model = brdf::model_to_json(make_fit_spec(ModelOptions{})->model);
+    const std::string text = "{\"model\": " + model +
+                             ", \"fixed\": [\"diffuse\"], \"shared\": [\"lobes[0].fresnel.f0\"],"
+                             " \"free\": [\"lobes[0].scale\"],"
+                             " \"bounds\": {\"lobes[0].alpha_x\": [0.01, 0.5]}}";
+    Expected<FitSpec> spec = parse_fit_template(text, "t.json");
+    ASSERT_TRUE(spec) << spec.error().message;
+    const ParameterMap map = *ParameterMap::make(*spec);
+    std::map<std::string, ScalarParam> by_name;
+    for (const ScalarParam& s : map.scalars()) {
+        by_name[s.name] = s;
+    }
+    EXPECT_FALSE(by_name.at("diffuse[0]").free);
+    EXPECT_TRUE(by_name.count("lobes[0].fresnel.f0"));  // one shared scalar
+    EXPECT_TRUE(by_name.at("lobes[0].scale[1]").free);
+    EXPECT_EQ(by_name.at("lobes[0].alpha_x").lower, 0.01);
+    EXPECT_EQ(by_name.at("lobes[0].alpha_x").upper, 0.5);
+    EXPECT_EQ(map.size(), 1 + 1 + 3);
+}
+
+TEST(Spec, TemplateErrorsNameTheKey) {
+    const std::string model = brdf::model_to_json(make_fit_spec(ModelOptions{})->model);
+    auto err = [&](const std::string& extra) {
+        Expected<FitSpec> s = parse_fit_template("{\"model\": " + model + extra + "}", "t.json");
+        return s ? std::string() : s.error().message;
+    };
+    EXPECT_NE(err(", \"fixed\": [\"lobes[0].fresnel.eta\"]").find("fixed[0]"), std::string::npos);
+    EXPECT_NE(err(", \"bounds\": {\"lobes[0].alpha_x\": [1, 0.5]}").find("bounds.lobes[0].alpha_x"),
+              std::string::npos);
+    EXPECT_NE(err(", \"shared\": [\"lobes[0].alpha_x\"]").find("scalar"), std::string::npos);
+    EXPECT_NE(err(", \"frozen\": []").find("frozen"), std::string::npos);
+    EXPECT_FALSE(parse_fit_template("not json", "t.json"));
+}
+
+TEST(Spec, NamesParseAndUnknownNamesFail) {
+    EXPECT_EQ(*parse_distribution("beckmann"), brdf::Distribution::kBeckmann);
+    EXPECT_EQ(parse_fresnel("schlick")->second, false);
+    EXPECT_EQ(parse_fresnel("schlick-rgb")->second, true);
+    EXPECT_EQ(*parse_residual("cbrt"), ResidualForm::kCubeRoot);
+    EXPECT_EQ(*parse_loss("cauchy"), LossKind::kCauchy);
+    EXPECT_FALSE(parse_distribution("phong"));
+    EXPECT_FALSE(parse_fresnel("metal"));
+    EXPECT_FALSE(parse_residual("l1"));
+    ModelOptions none;
+    none.diffuse = false;
+    none.lobes = 0;
+    EXPECT_FALSE(make_fit_spec(none));
+}
+
+TEST(Report, RoundTripsThroughJsonAndRefusesModelOfUnusableFit) {
+    FitSpec spec = *make_fit_spec(ModelOptions{});
+    brdf::ModelD truth = spec.model;
+    truth.diffuse = Rgbd(0.3, 0.2, 0.1);
+    truth.lobes[0].alpha_x = truth.lobes[0].alpha_y = 0.2;
+    const brdf::Dataset data = testing::synthesize(truth, testing::measurement_grid());
+    FitResult r = *fit(data, spec);
+    ASSERT_TRUE(r.usable());
+    r.ground_truth = truth;
+    const std::string dir = GONIO_BINARY_DIR;
+    const std::string path = dir + "/unit_fit_report_test.json";
+    ASSERT_TRUE(write_fit_report(path, r));
+    EXPECT_EQ(report_path_for(path), dir + "/unit_fit_report_test.report.json");
+    Expected<brdf::ModelD> model = brdf::load_model_json(path);
+    ASSERT_TRUE(model) << model.error().message;
+    EXPECT_EQ(model->lobes[0].alpha_x, r.model.lobes[0].alpha_x);
+    Expected<FitResult> back = read_fit_report(report_path_for(path));
+    ASSERT_TRUE(back) << back.error().message;
+    EXPECT_EQ(back->parameters.size(), r.parameters.size());
+    for (std::size_t i = 0; i < r.parameters.size(); ++i) {
+        EXPECT_EQ(back->parameters[i].name, r.parameters[i].name);
+        EXPECT_EQ(back->parameters[i].value, r.parameters[i].value);
+        EXPECT_EQ(back->parameters[i].sigma.has_value(), r.parameters[i].sigma.has_value());
+    }
+    EXPECT_EQ(back->metrics.log_rmse[1], r.metrics.log_rmse[1]);
+    EXPECT_EQ(back->samples.valid, data.samples.size());
+    EXPECT_EQ(back->solver.termination, "CONVERGENCE");
+    ASSERT_TRUE(back->ground_truth);
+    EXPECT_EQ(back->ground_truth->diffuse[0], 0.3);
+
+    // A fit stopped by its iteration limit is not usable: the model file is refused.
+    spec.options.max_iterations = 1;
+    spec.options.starts = 1;
+    FitResult stopped = *fit(data, spec);
+    ASSERT_FALSE(stopped.usable());
+    const std::string path2 = dir + "/unit_fit_report_stopped.json";
+    std::remove(path2.c_str());
+    Expected<void> w = write_fit_report(path2, stopped);
+    EXPECT_FALSE(w);
+    EXPECT_FALSE(std::ifstream(path2).good());
+    Expected<FitResult> stopped_back = read_fit_report(report_path_for(path2));
+    ASSERT_TRUE(stopped_back);
+    EXPECT_FALSE(stopped_back->solver.usable);
+    EXPECT_NE(format_summary(stopped).find("DID NOT CONVERGE"), std::string::npos);
+    EXPECT_EQ(format_summary(stopped).find("parameters:"), std::string::npos);
+}
+
+TEST(Metrics, MatchTheirDefinitions) {
+    brdf::ModelD m;
+    m.has_diffuse = true;
+    m.diffuse = Rgbd::Constant(brdf::kPi);  // f = 1 everywhere
+    std::vector<Sample> s = {sample(0.0, 0, 0.5, 1, Rgbd(1.0, 2.0, 0.0)),
+                             sample(brdf::kPi / 3, 0, 0.5, 1, Rgbd(1.0, 0.0, 3.0))};
+    const Metrics met = evaluate_metrics(m, s, 1e-3);
+    EXPECT_NEAR(met.rmse[0], 0.0, 1e-15);
+    EXPECT_NEAR(met.rmse[1], std::sqrt((1.0 + 1.0) / 2), 1e-12);
+    EXPECT_NEAR(met.rmse[2], std::sqrt((1.0 + 4.0) / 2), 1e-12);
+    EXPECT_NEAR(met.rel_rmse[1], std::sqrt((1 / (2.001 * 2.001) + 1 / 1e-6) / 2), 1e-9);
+    // log: cos_i = 1 and 0.5.
+    const double l0 = std::log(2.0) - std::log(1.0);
+    const double l1 = std::log(1.5) - std::log(2.5);
+    EXPECT_NEAR(met.log_rmse[2], std::sqrt((l0 * l0 + l1 * l1) / 2), 1e-12);
+}
+
+}  // namespace
+}  // namespace gonio::fitting
