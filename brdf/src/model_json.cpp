@@ -92,27 +92,31 @@ double get_number(const Json& j, const std::string& path) {
     return v;
 }
 
+/// Short form for summaries (six significant digits).
 std::string show(double v) {
-    return Json(v).dump();
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.6g", v);
+    return buf;
 }
 
 enum class Rule { kPositive, kNonNegative, kUnit };
 
-void check_rule(double v, const std::string& path, Rule rule) {
+/// `shown` is the value as written in the document.
+void check_rule(double v, const std::string& path, const std::string& shown, Rule rule) {
     switch (rule) {
         case Rule::kPositive:
             if (!(v > 0)) {
-                fail(path + " = " + show(v) + ": must be > 0");
+                fail(path + " = " + shown + ": must be > 0");
             }
             break;
         case Rule::kNonNegative:
             if (!(v >= 0)) {
-                fail(path + " = " + show(v) + ": must be >= 0");
+                fail(path + " = " + shown + ": must be >= 0");
             }
             break;
         case Rule::kUnit:
             if (!(v >= 0 && v <= 1)) {
-                fail(path + " = " + show(v) + ": must be in [0, 1]");
+                fail(path + " = " + shown + ": must be in [0, 1]");
             }
             break;
     }
@@ -120,7 +124,7 @@ void check_rule(double v, const std::string& path, Rule rule) {
 
 double get_scalar(const Json& j, const std::string& path, Rule rule) {
     const double v = get_number(j, path);
-    check_rule(v, path, rule);
+    check_rule(v, path, j.dump(), rule);
     return v;
 }
 
@@ -327,7 +331,8 @@ Expected<ModelD> parse_model_json(const std::string& text, const std::string& so
     Json j;
     try {
         j = Json::parse(text);
-    } catch (const Json::parse_error& e) {
+    } catch (const Json::exception& e) {
+        // Syntax errors and numbers out of the double range.
         std::string what = e.what();
         // Drop nlohmann's "[json.exception.parse_error.101] " prefix; keep line and column.
         const auto pos = what.find("] ");

@@ -16,14 +16,22 @@ namespace gonio::brdf {
 /// "Microfacet Models for Refraction through Rough Surfaces", EGSR 2007, eq. 30:
 /// integral of D(h) cos(theta_h) dh over the hemisphere = (e + 2)/(e + 2) = 1.
 /// Inputs: h unit, exponent e > 0. Output in 1/sr. Edge behaviour: 0 for h_z <= 0.
+/// cos^e is evaluated as exp(e log1p(-(h_x^2 + h_y^2)/(1 + h_z))), using 1 - cos = sin^2/(1 + cos):
+/// with pow(h_z, e) the rounding of h_z would be multiplied by e (1e-9 relative at e = 1e7).
 template <class T>
 inline T D_blinn_phong(const Vec3<T>& h, const T& exponent) {
-    using std::pow;
+    using std::exp;
+    using std::log1p;
     if (h.z() <= T(0)) {
-        // Microfacet normals face outward only (and pow(0, e) would have an infinite log).
+        // Microfacet normals face outward only (and log(0) is -infinity).
         return T(0);
     }
-    return (exponent + T(2)) / T(2 * kPi) * pow(h.z(), exponent);
+    const T one_minus_cos = (h.x() * h.x() + h.y() * h.y()) / (T(1) + h.z());
+    if (one_minus_cos >= T(1)) {
+        // Only through rounding at h_z ~ 0: cos^e underflows to 0.
+        return T(0);
+    }
+    return (exponent + T(2)) / T(2 * kPi) * exp(exponent * log1p(-one_minus_cos));
 }
 
 /// The Beckmann slope parameter whose distribution matches the Blinn-Phong one near the normal:

@@ -80,33 +80,47 @@ inline T lobe_G(const Lobe<T>& lobe, const Vec3<T>& wi, const Vec3<T>& wo, const
 
 namespace detail {
 
-/// One lobe given the unit half vector and cos_i = wi.z > 0, cos_o = wo.z > 0.
+/// The reflection geometry shared by every lobe: unit half vector h, cos_d = wi . h and
+/// 1 - cos_d. For unit wi, wo: |wi + wo| = 2 cos_d and |wi - wo| = 2 sin_d, so
+/// cos_d = |wi + wo| / 2 and 1 - cos_d = sin_d^2 / (1 + cos_d) = |wi - wo|^2 / (4 (1 + cos_d)),
+/// which has no cancellation near the retro-reflection configuration (cos_d -> 1).
+template <class T>
+struct HalfGeometry {
+    Vec3<T> h;
+    T cos_d;
+    T one_minus_cos_d;
+};
+
+/// Both directions above the horizon: wi + wo has z > 0, so it is never the zero vector.
+template <class T>
+inline HalfGeometry<T> half_geometry(const Vec3<T>& wi, const Vec3<T>& wo) {
+    using std::sqrt;
+    const Vec3<T> s = wi + wo;
+    const T len = sqrt(s.squaredNorm());
+    HalfGeometry<T> g;
+    g.h = s / len;
+    g.cos_d = min_of(len / T(2), T(1));
+    g.one_minus_cos_d = (wi - wo).squaredNorm() / (T(4) * (T(1) + g.cos_d));
+    return g;
+}
+
+/// One lobe given the half-vector geometry and cos_i = wi.z > 0, cos_o = wo.z > 0.
 template <class T>
 inline Rgb<T> eval_lobe_half(const Lobe<T>& lobe,
                              const Vec3<T>& wi,
                              const Vec3<T>& wo,
-                             const Vec3<T>& h,
+                             const HalfGeometry<T>& g,
                              const T& cos_i,
                              const T& cos_o) {
-    const T D = lobe_D(lobe, h);
+    const T D = lobe_D(lobe, g.h);
     if (D == T(0)) {
         // No microfacet with this normal: the lobe contributes exactly zero (and F, G are not
         // needed; this also skips them in the far tail of sharp lobes).
         return Rgb<T>::Zero();
     }
-    const T cos_d = wi.dot(h);
-    const Rgb<T> F = eval_fresnel(lobe.fresnel, cos_d);
-    const T G = lobe_G(lobe, wi, wo, h);
+    const Rgb<T> F = eval_fresnel(lobe.fresnel, g.cos_d, g.one_minus_cos_d);
+    const T G = lobe_G(lobe, wi, wo, g.h);
     return lobe.scale * F * (D * G / (T(4) * cos_i * cos_o));
-}
-
-/// The unit half vector of two directions above the horizon (wi + wo has z > 0, so it is never
-/// the zero vector).
-template <class T>
-inline Vec3<T> half_vector(const Vec3<T>& wi, const Vec3<T>& wo) {
-    using std::sqrt;
-    const Vec3<T> s = wi + wo;
-    return s / sqrt(s.squaredNorm());
 }
 
 }  // namespace detail
@@ -121,7 +135,7 @@ inline Rgb<T> eval_lobe(const Lobe<T>& lobe, const Vec3<T>& wi, const Vec3<T>& w
         // At or below the horizon: no reflection (also keeps 1/(cos_i cos_o) finite).
         return Rgb<T>::Zero();
     }
-    return detail::eval_lobe_half(lobe, wi, wo, detail::half_vector(wi, wo), cos_i, cos_o);
+    return detail::eval_lobe_half(lobe, wi, wo, detail::half_geometry(wi, wo), cos_i, cos_o);
 }
 
 /// The whole model: diffuse / pi (when present) plus every lobe; RGB in 1/sr, zero when either
@@ -138,9 +152,9 @@ inline Rgb<T> eval_model(const Model<T>& m, const Vec3<T>& wi, const Vec3<T>& wo
     if (m.lobes.empty()) {
         return f;
     }
-    const Vec3<T> h = detail::half_vector(wi, wo);
+    const detail::HalfGeometry<T> g = detail::half_geometry(wi, wo);
     for (const Lobe<T>& lobe : m.lobes) {
-        f += detail::eval_lobe_half(lobe, wi, wo, h, cos_i, cos_o);
+        f += detail::eval_lobe_half(lobe, wi, wo, g, cos_i, cos_o);
     }
     return f;
 }

@@ -75,7 +75,9 @@ inline Vec3d sample_ggx_vndf(const Vec3d& v, double alpha_x, double alpha_y, dou
     // Section 2: an orthonormal basis around vh.
     const double len2 = vh.x() * vh.x() + vh.y() * vh.y();
     const Vec3d t1 = len2 > 0 ? Vec3d(-vh.y(), vh.x(), 0) / std::sqrt(len2) : Vec3d(1, 0, 0);
-    const Vec3d t2 = vh.cross(t1);
+    const Vec3d t2(vh.y() * t1.z() - vh.z() * t1.y(),
+                   vh.z() * t1.x() - vh.x() * t1.z(),
+                   vh.x() * t1.y() - vh.y() * t1.x());  // vh x t1
     // Section 3: a uniform point on the disk, warped onto the visible half of the projected
     // hemisphere.
     const double r = std::sqrt(u1);
@@ -142,7 +144,7 @@ inline DirectionSample sample_lobe(const Lobe<double>& lobe,
         return out;
     }
     const double ay = lobe_alpha_y(lobe);
-    Vec3d h;
+    Vec3d h(0, 0, 1);
     switch (lobe.distribution) {
         case Distribution::kGgx:
             h = sample_ggx_vndf(wi, lobe.alpha_x, ay, u1, u2);
