@@ -407,12 +407,16 @@ std::string termination_name(ceres::TerminationType t) {
 // ---------------------------------------------------------------------------------------------
 // Uncertainties
 
-/// Fills sigma / identifiable of the free parameters. The Jacobian J at the solution is evaluated
-/// once; the column-scaled normal matrix A = D J^T J D (unit diagonal) is decomposed: eigenvectors
-/// whose eigenvalue is below 1e-10 of the largest span directions the data do not constrain, and
-/// every parameter with a component above 0.1 in one of them is reported as not identifiable
-/// (a parameter whose column is zero too). Otherwise ceres::Covariance gives the covariance
-/// (J^T J)^-1, scaled by the reduced chi-square when the data carry no sigma.
+/// Fills sigma / identifiable of the free parameters from the Jacobian J at the solution.
+/// Not identifiable: (1) a parameter whose effect on the residuals over a step of its own size,
+/// |J_k| max(|x_k|, 1e-3 (upper - lower)), is below 1e-8 of the largest such effect (for example
+/// alpha of a lobe whose scale went to 0); (2) among the others, every parameter with a component
+/// above 0.1 in an eigenvector of the column-scaled normal matrix D J^T J D (unit diagonal) whose
+/// eigenvalue is below 1e-10 of the largest (a combination the data do not constrain). When all
+/// are identifiable the covariance (J^T J)^-1 comes from ceres::Covariance (dense SVD; above 300k
+/// residuals from the inverse of the normal matrix, already known to be well conditioned); it is
+/// scaled by the reduced chi-square when the data carry no sigma. When some are not, the others'
+/// sigmas are those of the sub-problem with the non-identifiable ones held fixed.
 void uncertainties(std::shared_ptr<const ParameterMap> map,
                    const std::vector<Sample>& samples,
                    const FitOptions& o,
@@ -423,82 +427,120 @@ void uncertainties(std::shared_ptr<const ParameterMap> map,
                    std::vector<FittedParameter>& params,
                    std::vector<std::string>& not_identifiable) {
     const int n = map->size();
-    // Same problem without robust loss weighting for conditioning; the covariance below uses the
-    // problem as solved.
     auto problem = build_problem(map, samples, o, co, x);
     ceres::CRSMatrix jac;
     ceres::Problem::EvaluateOptions eo;
     eo.num_threads = thread_count(o.num_threads);
-    if (!problem->Evaluate(eo, nullptr, nullptr, nullptr, &jac)) {
-        for (int k = 0; k < n; ++k) {
-            not_identifiable.push_back(map->scalars()[map->free()[k]].name);
-        }
-        return;
-    }
-    Eigen::MatrixXd jtj = Eigen::MatrixXd::Zero(n, n);
-    for (int r = 0; r < jac.num_rows; ++r) {
-        for (int a = jac.rows[r]; a < jac.rows[r + 1]; ++a) {
-            for (int b = jac.rows[r]; b < jac.rows[r + 1]; ++b) {
-                jtj(jac.cols[a], jac.cols[b]) += jac.values[a] * jac.values[b];
-            }
-        }
-    }
     std::vector<bool> ident(n, true);
-    Eigen::VectorXd scale(n);
-    for (int k = 0; k < n; ++k) {
-        if (!(jtj(k, k) > 0) || !std::isfinite(jtj(k, k))) {
-            // The objective does not depend on this parameter at the solution.
-            ident[k] = false;
-            scale[k] = 1;
-        } else {
-            scale[k] = 1 / std::sqrt(jtj(k, k));
-        }
-    }
-    const Eigen::MatrixXd a = scale.asDiagonal() * jtj * scale.asDiagonal();
-    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(a);
-    const double lmax = eig.eigenvalues().maxCoeff();
-    for (int e = 0; e < n; ++e) {
-        if (eig.eigenvalues()[e] < 1e-10 * lmax) {
-            for (int k = 0; k < n; ++k) {
-                if (std::abs(eig.eigenvectors()(k, e)) > 0.1) {
-                    ident[k] = false;
+    std::vector<double> sigma(n, -1);
+    if (!problem->Evaluate(eo, nullptr, nullptr, nullptr, &jac)) {
+        ident.assign(n, false);
+    } else {
+        Eigen::MatrixXd jtj = Eigen::MatrixXd::Zero(n, n);
+        for (int r = 0; r < jac.num_rows; ++r) {
+            for (int a = jac.rows[r]; a < jac.rows[r + 1]; ++a) {
+                for (int b = jac.rows[r]; b < jac.rows[r + 1]; ++b) {
+                    jtj(jac.cols[a], jac.cols[b]) += jac.values[a] * jac.values[b];
                 }
             }
         }
-    }
-    bool all_ident = true;
-    for (int k = 0; k < n; ++k) {
-        all_ident = all_ident && ident[k];
-    }
-    std::vector<double> sigma(n, -1);
-    if (all_ident) {
-        ceres::Covariance::Options cov_o;
-        cov_o.algorithm_type = ceres::DENSE_SVD;
-        cov_o.num_threads = thread_count(o.num_threads);
-        cov_o.min_reciprocal_condition_number = 1e-14;
-        ceres::Covariance cov(cov_o);
-        std::vector<std::pair<const double*, const double*>> blocks = {{x.data(), x.data()}};
-        bool ok = false;
-        if (static_cast<std::size_t>(jac.num_rows) <= 300000) {
-            ok = cov.Compute(blocks, problem.get());
+        // (1) Effect of each parameter over a step of its own size.
+        std::vector<double> effect(n);
+        double max_effect = 0;
+        for (int k = 0; k < n; ++k) {
+            const ScalarParam& s = map->scalars()[map->free()[k]];
+            const double step = std::max(std::abs(x[k]), 1e-3 * (s.upper - s.lower));
+            effect[k] = std::sqrt(std::max(0.0, jtj(k, k))) * step;
+            if (!std::isfinite(effect[k])) {
+                effect[k] = 0;
+            }
+            max_effect = std::max(max_effect, effect[k]);
         }
-        Eigen::MatrixXd c(n, n);
-        if (ok) {
-            ok = cov.GetCovarianceBlock(x.data(), x.data(), c.data());
-            c.transposeInPlace();  // Ceres writes row-major
-        } else {
-            // Too many rows for a dense SVD of J (or Ceres refused): invert the normal matrix,
-            // which the eigen-decomposition above found well conditioned.
-            const Eigen::MatrixXd inv_a = eig.eigenvectors() *
-                                          eig.eigenvalues().cwiseInverse().asDiagonal() *
-                                          eig.eigenvectors().transpose();
-            c = scale.asDiagonal() * inv_a * scale.asDiagonal();
-            ok = true;
+        std::vector<int> kept;
+        for (int k = 0; k < n; ++k) {
+            if (!(effect[k] > 1e-8 * max_effect)) {
+                // No visible effect on the fit: the data say nothing about this parameter.
+                ident[k] = false;
+            } else {
+                kept.push_back(k);
+            }
+        }
+        // (2) Unconstrained combinations among the kept ones.
+        const int m = static_cast<int>(kept.size());
+        Eigen::MatrixXd sub(m, m);
+        Eigen::VectorXd scale(m);
+        for (int a = 0; a < m; ++a) {
+            scale[a] = 1 / std::sqrt(jtj(kept[a], kept[a]));
+            for (int b = 0; b < m; ++b) {
+                sub(a, b) = jtj(kept[a], kept[b]);
+            }
+        }
+        // (Eigen's solver is not defined on an empty matrix: every branch below checks m, g > 0.)
+        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig;
+        bool well_conditioned = m > 0;
+        if (m > 0) {
+            eig.compute(scale.asDiagonal() * sub * scale.asDiagonal());
+            const double lmax = eig.eigenvalues().maxCoeff();
+            for (int e = 0; e < m; ++e) {
+                if (eig.eigenvalues()[e] < 1e-10 * lmax) {
+                    well_conditioned = false;
+                    for (int a = 0; a < m; ++a) {
+                        if (std::abs(eig.eigenvectors()(a, e)) > 0.1) {
+                            ident[kept[a]] = false;
+                        }
+                    }
+                }
+            }
         }
         const double dof = static_cast<double>(jac.num_rows) - n;
         const double s2 = absolute_sigma || dof <= 0 ? 1.0 : 2 * final_cost / dof;
-        for (int k = 0; k < n; ++k) {
-            sigma[k] = std::sqrt(std::max(0.0, c(k, k) * s2));
+        if (well_conditioned && m == n) {
+            ceres::Covariance::Options cov_o;
+            cov_o.algorithm_type = ceres::DENSE_SVD;
+            cov_o.num_threads = thread_count(o.num_threads);
+            cov_o.min_reciprocal_condition_number = 1e-14;
+            ceres::Covariance cov(cov_o);
+            std::vector<std::pair<const double*, const double*>> blocks = {{x.data(), x.data()}};
+            Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> c(n, n);
+            bool ok = static_cast<std::size_t>(jac.num_rows) <= 300000 &&
+                      cov.Compute(blocks, problem.get()) &&
+                      cov.GetCovarianceBlock(x.data(), x.data(), c.data());
+            if (!ok) {
+                const Eigen::MatrixXd inv = eig.eigenvectors() *
+                                            eig.eigenvalues().cwiseInverse().asDiagonal() *
+                                            eig.eigenvectors().transpose();
+                c = scale.asDiagonal() * inv * scale.asDiagonal();
+            }
+            for (int k = 0; k < n; ++k) {
+                sigma[k] = std::sqrt(std::max(0.0, c(k, k) * s2));
+            }
+        } else if (m > 0) {
+            // Sigmas of the identifiable ones with the others held at their values.
+            std::vector<int> good;
+            for (int a = 0; a < m; ++a) {
+                if (ident[kept[a]]) {
+                    good.push_back(a);
+                }
+            }
+            const int g = static_cast<int>(good.size());
+            Eigen::MatrixXd gg(g, g);
+            for (int a = 0; a < g; ++a) {
+                for (int b = 0; b < g; ++b) {
+                    gg(a, b) = sub(good[a], good[b]);
+                }
+            }
+            Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> ge;
+            if (g > 0) {
+                ge.compute(gg);
+            }
+            if (g > 0 && ge.eigenvalues().minCoeff() > 1e-12 * ge.eigenvalues().maxCoeff()) {
+                const Eigen::MatrixXd inv = ge.eigenvectors() *
+                                            ge.eigenvalues().cwiseInverse().asDiagonal() *
+                                            ge.eigenvectors().transpose();
+                for (int a = 0; a < g; ++a) {
+                    sigma[kept[good[a]]] = std::sqrt(std::max(0.0, inv(a, a) * s2));
+                }
+            }
         }
     }
     for (int k = 0; k < n; ++k) {
