@@ -1,5 +1,6 @@
 #include "gonio/report/preview.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>

@@ -4,6 +4,17 @@
 
 namespace gonio::report {
 
+brdf::Dataset without_reference_rows(const brdf::Dataset& data) {
+    brdf::Dataset out = data;
+    out.samples.clear();
+    for (const brdf::Sample& s : data.samples) {
+        if ((s.flags & brdf::kFlagReference) == 0) {
+            out.samples.push_back(s);
+        }
+    }
+    return out;
+}
+
 Expected<PlotSet> write_plots(const brdf::Dataset& data,
                               const brdf::Brdf* fit,
                               const PlotOptions& options,

@@ -64,6 +64,10 @@ Expected<Image> plot_residual_map(const brdf::Dataset& data,
 /// right, the samples in (theta_h, theta_d). Error when the dataset has no sample.
 Expected<Image> plot_coverage(const brdf::Dataset& data, const PlotOptions& options);
 
+/// The dataset without its drift-reference rows (flag kFlagReference): those re-measure one
+/// configuration to follow the lamp, they are not BRDF samples of the plan.
+brdf::Dataset without_reference_rows(const brdf::Dataset& data);
+
 /// A picture that was written, with its path and a caption.
 struct WrittenPlot {
     std::string path;

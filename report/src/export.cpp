@@ -1,0 +1,489 @@
+#include "gonio/report/export.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "gonio/brdf/blinn_phong.h"
+
+namespace gonio::report {
+
+namespace {
+
+using brdf::Distribution;
+using brdf::FresnelType;
+using brdf::Lobe;
+using brdf::ModelD;
+using brdf::Rgbd;
+using brdf::Shadowing;
+
+std::string num(double v) {
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.10g", v);
+    return buf;
+}
+
+bool finite(const Rgbd& v) {
+    return v.allFinite();
+}
+
+/// Checks the values an export relies on; names the key path.
+Expected<void> validate(const ModelD& m) {
+    if (m.has_diffuse && (!finite(m.diffuse) || (m.diffuse < 0).any())) {
+        return make_error("diffuse: must be finite and >= 0");
+    }
+    for (std::size_t i = 0; i < m.lobes.size(); ++i) {
+        const Lobe<double>& l = m.lobes[i];
+        const std::string p = "lobes[" + std::to_string(i) + "].";
+        if (l.distribution == Distribution::kBlinnPhong) {
+            if (!(l.exponent > 0) || !std::isfinite(l.exponent)) {
+                return make_error(p + "exponent = " + num(l.exponent) + ": must be finite and > 0");
+            }
+        } else {
+            if (!(l.alpha_x > 0) || !std::isfinite(l.alpha_x)) {
+                return make_error(p + "alpha_x = " + num(l.alpha_x) + ": must be finite and > 0");
+            }
+            if (l.anisotropic && (!(l.alpha_y > 0) || !std::isfinite(l.alpha_y))) {
+                return make_error(p + "alpha_y = " + num(l.alpha_y) + ": must be finite and > 0");
+            }
+        }
+        if (!finite(l.scale) || (l.scale < 0).any()) {
+            return make_error(p + "scale: must be finite and >= 0");
+        }
+        switch (l.fresnel.type) {
+            case FresnelType::kSchlick:
+                if (!finite(l.fresnel.f0) || (l.fresnel.f0 < 0).any() || (l.fresnel.f0 > 1).any()) {
+                    return make_error(p + "fresnel.f0: must lie in [0, 1]");
+                }
+                break;
+            case FresnelType::kDielectric:
+                if (!(l.fresnel.eta > 0) || !std::isfinite(l.fresnel.eta)) {
+                    return make_error(p + "fresnel.eta = " + num(l.fresnel.eta) + ": must be > 0");
+                }
+                break;
+            case FresnelType::kConductor:
+                if (!finite(l.fresnel.eta_rgb) || (l.fresnel.eta_rgb <= 0).any() ||
+                    !finite(l.fresnel.k) || (l.fresnel.k < 0).any()) {
+                    return make_error(p + "fresnel: eta must be > 0 and k >= 0, finite");
+                }
+                break;
+            case FresnelType::kNone:
+                break;
+        }
+    }
+    return {};
+}
+
+/// Slope parameters of a lobe as the renderers take them (Blinn-Phong through its Beckmann
+/// equivalent).
+std::pair<double, double> lobe_alphas(const Lobe<double>& l) {
+    if (l.distribution == Distribution::kBlinnPhong) {
+        const double a = brdf::blinn_phong_equivalent_alpha(l.exponent);
+        return {a, a};
+    }
+    return {l.alpha_x, l.anisotropic ? l.alpha_y : l.alpha_x};
+}
+
+bool is_grey(const Rgbd& v) {
+    const double mx = v.maxCoeff();
+    return mx <= 0 || (mx - v.minCoeff()) <= 1e-9 * mx;
+}
+
+/// Normal-incidence reflectance of a lobe's Fresnel term per channel.
+Rgbd normal_reflectance(const brdf::Fresnel<double>& f) {
+    switch (f.type) {
+        case FresnelType::kNone:
+            return Rgbd::Ones();
+        case FresnelType::kSchlick:
+            return f.f0;
+        case FresnelType::kDielectric: {
+            const double r = (f.eta - 1) / (f.eta + 1);
+            return Rgbd::Constant(r * r);
+        }
+        case FresnelType::kConductor: {
+            Rgbd out;
+            for (int c = 0; c < 3; ++c) {
+                const double n = f.eta_rgb[c];
+                const double k = f.k[c];
+                out[c] = ((n - 1) * (n - 1) + k * k) / ((n + 1) * (n + 1) + k * k);
+            }
+            return out;
+        }
+    }
+    return Rgbd::Ones();
+}
+
+std::string rgb_list(const Rgbd& v, const char* sep) {
+    return num(v[0]) + sep + num(v[1]) + sep + num(v[2]);
+}
+
+/// Comment text may not contain "--" in XML.
+std::string xml_comment_safe(std::string s) {
+    std::size_t p;
+    while ((p = s.find("--")) != std::string::npos) {
+        s.replace(p, 2, "- ");
+    }
+    return s;
+}
+
+std::string xml_escape(const std::string& s) {
+    std::string o;
+    for (char c : s) {
+        switch (c) {
+            case '&':
+                o += "&amp;";
+                break;
+            case '<':
+                o += "&lt;";
+                break;
+            case '>':
+                o += "&gt;";
+                break;
+            case '"':
+                o += "&quot;";
+                break;
+            default:
+                o += c;
+        }
+    }
+    return o;
+}
+
+void shadowing_notes(const ModelD& m,
+                     Shadowing renderer,
+                     const char* renderer_name,
+                     std::vector<std::string>& notes) {
+    for (std::size_t i = 0; i < m.lobes.size(); ++i) {
+        const Shadowing s = m.lobes[i].shadowing;
+        if (s == renderer) {
+            continue;
+        }
+        notes.push_back("lobes[" + std::to_string(i) + "]: shadowing " + brdf::to_string(s) +
+                        " replaced by " + renderer_name + "'s " + brdf::to_string(renderer) +
+                        " Smith G (differs mostly at grazing angles)");
+    }
+}
+
+}  // namespace
+
+double eta_from_f0(double f0) {
+    if (!(f0 > 0)) {
+        // No reflection at normal incidence: index matched.
+        return 1.0;
+    }
+    const double s = std::sqrt(std::min(f0, 1.0 - 1e-12));
+    return (1 + s) / (1 - s);
+}
+
+double k_from_f0(double f0) {
+    if (!(f0 > 0)) {
+        // No reflection: k = 0 with eta = 1.
+        return 0.0;
+    }
+    if (f0 >= 1.0 - 1e-8) {
+        // A perfect mirror needs k -> infinity; 1e4 gives F(0) = 1 - 4e-8.
+        return 1e4;
+    }
+    return 2 * std::sqrt(f0) / std::sqrt(1 - f0);
+}
+
+Expected<RendererExport> export_mitsuba(const ModelD& model, const std::string& id) {
+    if (auto v = validate(model); !v) {
+        return make_error(v.error().message);
+    }
+    RendererExport out;
+    std::vector<std::string>& notes = out.approximations;
+    shadowing_notes(model, Shadowing::kSmithSeparable, "Mitsuba 3", notes);
+
+    // Components: the diffuse term (when present and non-zero) and every lobe.
+    struct Component {
+        std::string xml_open;  // without the closing tag, indented by the caller
+        std::vector<std::string> params;
+    };
+    std::vector<Component> comps;
+    const bool diffuse = model.has_diffuse && model.diffuse.maxCoeff() > 0;
+    const int m = static_cast<int>(model.lobes.size()) + (diffuse ? 1 : 0);
+    const double factor = std::max(1, m);
+    if (m > 1) {
+        notes.push_back("the " + std::to_string(m) +
+                        " terms are combined with blendbsdf (each weighted 1/" + std::to_string(m) +
+                        ") and each term's reflectance multiplied by " + std::to_string(m) +
+                        "; reflectances above 1 need an RGB variant of Mitsuba (scalar_rgb, "
+                        "llvm_ad_rgb)");
+    }
+    if (diffuse) {
+        comps.push_back({"diffuse",
+                         {"<rgb name=\"reflectance\" value=\"" +
+                          rgb_list(model.diffuse * factor, ", ") + "\"/>"}});
+    }
+    if (m == 0) {
+        notes.push_back("the model has no term: exported as a black diffuse");
+        comps.push_back({"diffuse", {"<rgb name=\"reflectance\" value=\"0, 0, 0\"/>"}});
+    }
+    for (std::size_t i = 0; i < model.lobes.size(); ++i) {
+        const Lobe<double>& l = model.lobes[i];
+        const std::string p = "lobes[" + std::to_string(i) + "]";
+        Component c{"roughconductor", {}};
+        const char* dist = l.distribution == Distribution::kGgx ? "ggx" : "beckmann";
+        if (l.distribution == Distribution::kBlinnPhong) {
+            notes.push_back(p + ": Blinn-Phong exponent " + num(l.exponent) +
+                            " mapped to Beckmann alpha = sqrt(2 / (e + 2)) = " +
+                            num(lobe_alphas(l).first) + " (Walter et al. 2007, sec. 5.2)");
+        }
+        c.params.push_back(std::string("<string name=\"distribution\" value=\"") + dist + "\"/>");
+        const auto [ax, ay] = lobe_alphas(l);
+        if (l.anisotropic && l.distribution != Distribution::kBlinnPhong) {
+            c.params.push_back("<float name=\"alpha_u\" value=\"" + num(ax) + "\"/>");
+            c.params.push_back("<float name=\"alpha_v\" value=\"" + num(ay) + "\"/>");
+            notes.push_back(p +
+                            ": alpha_u runs along the shape's u tangent, which must follow "
+                            "the sample's x reference direction");
+        } else {
+            c.params.push_back("<float name=\"alpha\" value=\"" + num(ax) + "\"/>");
+        }
+        switch (l.fresnel.type) {
+            case FresnelType::kNone:
+                c.params.push_back("<string name=\"material\" value=\"none\"/>");
+                break;
+            case FresnelType::kConductor:
+                c.params.push_back("<rgb name=\"eta\" value=\"" +
+                                   rgb_list(l.fresnel.eta_rgb, ", ") + "\"/>");
+                c.params.push_back("<rgb name=\"k\" value=\"" + rgb_list(l.fresnel.k, ", ") +
+                                   "\"/>");
+                break;
+            case FresnelType::kDielectric:
+                c.params.push_back("<rgb name=\"eta\" value=\"" +
+                                   rgb_list(Rgbd::Constant(l.fresnel.eta), ", ") + "\"/>");
+                c.params.push_back("<rgb name=\"k\" value=\"0, 0, 0\"/>");
+                if (l.fresnel.eta < 1) {
+                    notes.push_back(p +
+                                    ": dielectric eta < 1 (total internal reflection) "
+                                    "written as a conductor with k = 0");
+                }
+                break;
+            case FresnelType::kSchlick: {
+                Rgbd eta;
+                for (int ch = 0; ch < 3; ++ch) {
+                    eta[ch] = eta_from_f0(l.fresnel.f0[ch]);
+                }
+                c.params.push_back("<rgb name=\"eta\" value=\"" + rgb_list(eta, ", ") + "\"/>");
+                c.params.push_back("<rgb name=\"k\" value=\"0, 0, 0\"/>");
+                notes.push_back(p + ": Schlick Fresnel (f0 " + rgb_list(l.fresnel.f0, " ") +
+                                ") replaced by the exact dielectric Fresnel with eta = (1 + "
+                                "sqrt f0) / (1 - sqrt f0): equal at normal incidence, differs "
+                                "toward grazing angles");
+                break;
+            }
+        }
+        c.params.push_back("<rgb name=\"specular_reflectance\" value=\"" +
+                           rgb_list(l.scale * factor, ", ") + "\"/>");
+        comps.push_back(c);
+    }
+
+    std::ostringstream os;
+    os << "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n";
+    os << "<!--\n  gonio model exported for Mitsuba 3. Reference it with <ref id=\""
+       << xml_comment_safe(id) << "\"/>.\n"
+       << "  Mapping: docs/file-formats.md (renderer exports).\n";
+    if (notes.empty()) {
+        os << "  Every term is mapped exactly.\n";
+    } else {
+        os << "  Not mapped exactly:\n";
+        for (const std::string& n : notes) {
+            os << "  - " << xml_comment_safe(n) << "\n";
+        }
+    }
+    os << "-->\n<scene version=\"3.0.0\">\n";
+    // Nested blends: blend(weight (r-1)/r, c_j, rest) gives c_j the share 1/r of what reaches it.
+    std::string indent = "    ";
+    const std::size_t n = comps.size();
+    for (std::size_t j = 0; j < n; ++j) {
+        const bool last = j + 1 == n;
+        const std::string id_attr = j == 0 ? " id=\"" + xml_escape(id) + "\"" : "";
+        if (!last) {
+            const double r = static_cast<double>(n - j);
+            os << indent << "<bsdf type=\"blendbsdf\"" << id_attr << ">\n";
+            indent += "    ";
+            os << indent << "<float name=\"weight\" value=\"" << num((r - 1) / r) << "\"/>\n";
+        }
+        os << indent << "<bsdf type=\"" << comps[j].xml_open << "\"" << (last ? id_attr : "")
+           << ">\n";
+        for (const std::string& p : comps[j].params) {
+            os << indent << "    " << p << "\n";
+        }
+        os << indent << "</bsdf>\n";
+    }
+    for (std::size_t j = 0; j + 1 < n; ++j) {
+        indent.resize(indent.size() - 4);
+        os << indent << "</bsdf>\n";
+    }
+    os << "</scene>\n";
+    out.text = os.str();
+    return out;
+}
+
+Expected<RendererExport> export_pbrt(const ModelD& model, const std::string& name) {
+    if (auto v = validate(model); !v) {
+        return make_error(v.error().message);
+    }
+    RendererExport out;
+    std::vector<std::string>& notes = out.approximations;
+    shadowing_notes(model, Shadowing::kSmithCorrelated, "pbrt-v4", notes);
+
+    struct Component {
+        std::string name;
+        double weight;
+        std::vector<std::string> params;  // after the type
+        std::string type;
+    };
+    std::vector<Component> comps;
+    double lobe_weights = 0;
+    for (std::size_t i = 0; i < model.lobes.size(); ++i) {
+        const Lobe<double>& l = model.lobes[i];
+        const std::string p = "lobes[" + std::to_string(i) + "]";
+        Component c{name + ".lobe" + std::to_string(i), l.scale.maxCoeff(), {}, "conductor"};
+        if (!(c.weight > 0)) {
+            notes.push_back(p + ": scale is zero; the lobe is left out");
+            continue;
+        }
+        lobe_weights += c.weight;
+        if (l.distribution == Distribution::kBeckmann) {
+            notes.push_back(p +
+                            ": Beckmann distribution replaced by Trowbridge-Reitz (GGX) with "
+                            "the same alpha (pbrt-v4 has only Trowbridge-Reitz)");
+        } else if (l.distribution == Distribution::kBlinnPhong) {
+            notes.push_back(
+                p + ": Blinn-Phong exponent " + num(l.exponent) +
+                " replaced by Trowbridge-Reitz (GGX) with alpha = sqrt(2 / (e + 2)) = " +
+                num(lobe_alphas(l).first));
+        }
+        const auto [ax, ay] = lobe_alphas(l);
+        if (l.anisotropic && l.distribution != Distribution::kBlinnPhong) {
+            c.params.push_back("\"float uroughness\" [ " + num(ax) + " ]");
+            c.params.push_back("\"float vroughness\" [ " + num(ay) + " ]");
+            notes.push_back(p +
+                            ": uroughness runs along dp/du, which must follow the sample's x "
+                            "reference direction");
+        } else {
+            c.params.push_back("\"float roughness\" [ " + num(ax) + " ]");
+        }
+        c.params.push_back("\"bool remaproughness\" [ false ]");
+        Rgbd eta = Rgbd::Ones();
+        Rgbd k = Rgbd::Zero();
+        const Rgbd ratio = l.scale / c.weight;
+        if (!is_grey(l.scale)) {
+            const Rgbd f0 = ratio * normal_reflectance(l.fresnel);
+            for (int ch = 0; ch < 3; ++ch) {
+                k[ch] = k_from_f0(f0[ch]);
+            }
+            notes.push_back(p + ": the colour of scale (" + rgb_list(l.scale, " ") +
+                            ") is folded into the Fresnel reflectance at normal incidence "
+                            "(eta = 1, k from f0 = " +
+                            rgb_list(f0, " ") +
+                            "); exact at normal incidence, the colour fades toward grazing");
+        } else {
+            switch (l.fresnel.type) {
+                case FresnelType::kNone:
+                    k = Rgbd::Constant(k_from_f0(1.0));
+                    notes.push_back(p + ": F = 1 written as eta = 1, k = 1e4 (F >= 1 - 4e-8)");
+                    break;
+                case FresnelType::kConductor:
+                    eta = l.fresnel.eta_rgb;
+                    k = l.fresnel.k;
+                    break;
+                case FresnelType::kDielectric:
+                    eta = Rgbd::Constant(l.fresnel.eta);
+                    if (l.fresnel.eta < 1) {
+                        notes.push_back(p +
+                                        ": dielectric eta < 1 written as a conductor with "
+                                        "k = 0");
+                    }
+                    break;
+                case FresnelType::kSchlick:
+                    for (int ch = 0; ch < 3; ++ch) {
+                        k[ch] = k_from_f0(l.fresnel.f0[ch]);
+                    }
+                    notes.push_back(p + ": Schlick Fresnel (f0 " + rgb_list(l.fresnel.f0, " ") +
+                                    ") replaced by the conductor Fresnel with eta = 1, k = 2 "
+                                    "sqrt(f0) / sqrt(1 - f0): equal at normal incidence, differs "
+                                    "toward grazing angles");
+                    break;
+            }
+        }
+        c.params.push_back("\"rgb eta\" [ " + rgb_list(eta, " ") + " ]");
+        c.params.push_back("\"rgb k\" [ " + rgb_list(k, " ") + " ]");
+        comps.push_back(c);
+    }
+    const double rho_max = model.has_diffuse ? model.diffuse.maxCoeff() : 0.0;
+    const double total = lobe_weights + rho_max;
+    double divide = 1.0;
+    if (total > 1.0) {
+        divide = total;
+        notes.push_back("the terms need a total mix weight of " + num(total) +
+                        " > 1: every weight is divided by " + num(total) +
+                        ", so the material reflects the model / " + num(total) +
+                        " (multiply the light by " + num(total) + " to compensate)");
+    }
+    for (Component& c : comps) {
+        c.weight /= divide;
+    }
+    const double w_d = 1.0 - lobe_weights / divide;
+    if (w_d > 1e-12) {
+        Component d{name + ".diffuse", w_d, {}, "diffuse"};
+        const Rgbd refl = model.has_diffuse ? Rgbd(model.diffuse / divide / w_d) : Rgbd::Zero();
+        d.params.push_back("\"rgb reflectance\" [ " + rgb_list(refl, " ") + " ]");
+        comps.insert(comps.begin(), d);
+    }
+    if (comps.size() > 1) {
+        notes.push_back(
+            "terms combined with nested \"mix\" materials: pbrt-v4 picks one per "
+            "shading point, equal to the sum in expectation (more noise per sample; "
+            "pbrt's GPU renderer does not take mixes of mixes)");
+    }
+
+    std::ostringstream os;
+    os << "# gonio model exported for pbrt-v4. Use with: NamedMaterial \"" << name << "\"\n";
+    os << "# Mapping: docs/file-formats.md (renderer exports).\n";
+    if (notes.empty()) {
+        os << "# Every term is mapped exactly.\n";
+    } else {
+        os << "# Not mapped exactly:\n";
+        for (const std::string& n : notes) {
+            os << "#  - " << n << "\n";
+        }
+    }
+    auto emit = [&](const std::string& nm,
+                    const std::string& type,
+                    const std::vector<std::string>& params) {
+        os << "MakeNamedMaterial \"" << nm << "\"\n    \"string type\" [ \"" << type << "\" ]\n";
+        for (const std::string& p : params) {
+            os << "    " << p << "\n";
+        }
+    };
+    if (comps.size() == 1) {
+        emit(name, comps[0].type, comps[0].params);
+    } else {
+        for (const Component& c : comps) {
+            emit(c.name, c.type, c.params);
+        }
+        // Mix chain from the innermost: mix_j = mix(c_j, mix_{j+1}), amount = P(second) = 1 -
+        // w_j / (w_j + ... + w_last).
+        std::string inner = comps.back().name;
+        double remaining = comps.back().weight;
+        for (std::size_t j = comps.size() - 1; j-- > 0;) {
+            remaining += comps[j].weight;
+            const std::string nm = j == 0 ? name : name + ".mix" + std::to_string(j);
+            const double amount = 1.0 - comps[j].weight / remaining;
+            emit(nm,
+                 "mix",
+                 {"\"string materials\" [ \"" + comps[j].name + "\" \"" + inner + "\" ]",
+                  "\"float amount\" [ " + num(amount) + " ]"});
+            inner = nm;
+        }
+    }
+    out.text = os.str();
+    return out;
+}
+
+}  // namespace gonio::report

@@ -1,0 +1,274 @@
+// Plots: drawn for every model type and for a table; the in-plane peak sits at the mirror angle;
+// an empty dataset is an error and writes nothing.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <random>
+
+#include "gonio/brdf/analytic_brdf.h"
+#include "gonio/brdf/resample.h"
+#include "gonio/report/plot.h"
+#include "test_models.h"
+
+namespace gonio::report {
+namespace {
+
+constexpr double kDeg = brdf::kPi / 180.0;
+
+int color_distance(Color a, Color b) {
+    return std::abs(a.r - b.r) + std::abs(a.g - b.g) + std::abs(a.b - b.b);
+}
+
+/// Angle from the upward vertical (degrees, positive to the right) of the pixel of colour c that
+/// lies farthest from the polar origin, inside the outer ring.
+double peak_angle_deg(const Image& img, const PolarLayout& lay, Color c, double* dist = nullptr) {
+    double best = -1;
+    double angle = std::nan("");
+    for (int y = 0; y < img.height; ++y) {
+        for (int x = 0; x < img.width; ++x) {
+            if (color_distance(img.at(x, y), c) > 12) {
+                continue;
+            }
+            const double dx = x + 0.5 - lay.origin_x;
+            const double dy = lay.origin_y - (y + 0.5);
+            const double r = std::hypot(dx, dy);
+            if (r > lay.radius_px + 1 || dy < 0) {
+                // Outside the plot: the light-direction marks and the legend.
+                continue;
+            }
+            if (r > best) {
+                best = r;
+                angle = std::atan2(dx, dy) / kDeg;
+            }
+        }
+    }
+    if (dist != nullptr) {
+        *dist = best;
+    }
+    return angle;
+}
+
+/// In-plane samples of a BRDF at theta_i (degrees), every 2 degrees of theta_o on both sides, with
+/// 3 % multiplicative noise (seeded) and matching sigma.
+brdf::Dataset in_plane_samples(const brdf::Brdf& b, double theta_i_deg, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> noise(0.0, 0.03);
+    brdf::Dataset d;
+    d.source = "synthetic.csv";
+    d.has_sigma = true;
+    for (int t = -88; t <= 88; t += 2) {
+        brdf::Sample s;
+        s.theta_i = theta_i_deg * kDeg;
+        s.phi_i = 0.3;
+        s.theta_o = std::abs(t) * kDeg;
+        s.phi_o = t >= 0 ? s.phi_i + brdf::kPi : s.phi_i;
+        const brdf::Rgbd f = b.eval(s.wi(), s.wo());
+        s.value = f * (1.0 + noise(rng));
+        s.sigma = 0.03 * f;
+        d.samples.push_back(s);
+    }
+    return d;
+}
+
+TEST(InPlanePlot, FittedCurvePeaksAtTheMirrorAngle) {
+    // Narrow lobes (alpha 0.02): the off-specular shift of the peak (Fresnel and the 1 / cos_o
+    // factor push it toward grazing, by about alpha^2 radians) stays far below a degree.
+    for (auto [name, model] : testing::every_model_type()) {
+        if (model.lobes.empty()) {
+            continue;
+        }
+        SCOPED_TRACE(name);
+        brdf::Lobe<double>& l = model.lobes[0];
+        l.alpha_y *= 0.02 / l.alpha_x;
+        l.alpha_x = 0.02;
+        l.exponent = 2.0 / (0.02 * 0.02) - 2.0;
+        const brdf::AnalyticBrdf fit(model);
+        PlotOptions o;
+        o.theta_i_deg = {25.0, 50.0};
+        PolarLayout lay;
+        auto img = plot_in_plane(brdf::Dataset{}, &fit, o, &lay);
+        ASSERT_TRUE(img) << img.error().message;
+        EXPECT_EQ(img->width, 800);
+        ASSERT_EQ(lay.slice_colors.size(), 2u);
+        EXPECT_NEAR(peak_angle_deg(*img, lay, lay.slice_colors[0]), 25.0, 1.5);
+        EXPECT_NEAR(peak_angle_deg(*img, lay, lay.slice_colors[1]), 50.0, 1.5);
+    }
+}
+
+TEST(InPlanePlot, MeasuredMarkersPeakAtTheMirrorAngleOnLogScale) {
+    const auto models = testing::every_model_type();
+    const brdf::AnalyticBrdf truth(models[0].second);
+    const unsigned seed = 20261122;
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    const brdf::Dataset d = in_plane_samples(truth, 40.0, seed);
+    PlotOptions o;
+    o.log_scale = true;
+    PolarLayout lay;
+    auto img = plot_in_plane(d, nullptr, o, &lay);
+    ASSERT_TRUE(img) << img.error().message;
+    ASSERT_EQ(lay.theta_i_deg.size(), 1u);  // the slice is found in the data
+    EXPECT_NEAR(lay.theta_i_deg[0], 40.0, 1e-9);
+    EXPECT_NEAR(peak_angle_deg(*img, lay, lay.slice_colors[0]), 40.0, 2.5);
+}
+
+TEST(InPlanePlot, LambertianCurveIsAHalfCircleOfConstantRadius) {
+    // f = rho / pi everywhere: every curve pixel lies at the same distance from the origin.
+    const brdf::AnalyticBrdf fit(testing::every_model_type().back().second);
+    PlotOptions o;
+    o.theta_i_deg = {30.0};
+    PolarLayout lay;
+    auto img = plot_in_plane(brdf::Dataset{}, &fit, o, &lay);
+    ASSERT_TRUE(img) << img.error().message;
+    double rmin = 1e9, rmax = 0;
+    for (int y = 0; y < img->height; ++y) {
+        for (int x = 0; x < img->width; ++x) {
+            if (color_distance(img->at(x, y), lay.slice_colors[0]) > 12) {
+                continue;
+            }
+            const double dx = x + 0.5 - lay.origin_x;
+            const double dy = lay.origin_y - (y + 0.5);
+            const double r = std::hypot(dx, dy);
+            if (r > lay.radius_px + 1 || dy < 2) {
+                continue;
+            }
+            rmin = std::min(rmin, r);
+            rmax = std::max(rmax, r);
+        }
+    }
+    ASSERT_GT(rmax, 0);
+    // A 2 px anti-aliased line drawn on the pixel grid: within +-2.5 px of one radius.
+    EXPECT_LT(rmax - rmin, 5.0);
+    EXPECT_GT(rmin, 0.5 * lay.radius_px);
+}
+
+TEST(Plots, EveryModelTypeAndATableGivesEveryPlot) {
+    auto models = testing::every_model_type();
+    std::vector<std::pair<std::string, std::unique_ptr<brdf::Brdf>>> brdfs;
+    for (auto& [name, m] : models) {
+        brdfs.push_back({name, brdf::make_analytic_brdf(m)});
+    }
+    brdf::TabulateOptions to;
+    to.grid = brdf::TableGrid{45, 45, 90};
+    to.threads = 1;
+    brdfs.push_back(
+        {"table", std::make_unique<brdf::TabulatedBrdf>(brdf::tabulate(*brdfs[0].second, to))});
+    for (const auto& [name, b] : brdfs) {
+        SCOPED_TRACE(name);
+        brdf::Dataset d = in_plane_samples(*b, 30.0, 7);
+        // Azimuthal samples at theta_i = theta_o = 45 degrees.
+        for (int a = 0; a <= 180; a += 15) {
+            brdf::Sample s;
+            s.theta_i = 45 * kDeg;
+            s.theta_o = 45 * kDeg;
+            s.phi_o = a * kDeg;
+            s.value = b->eval(s.wi(), s.wo());
+            d.samples.push_back(s);
+        }
+        for (bool log : {false, true}) {
+            PlotOptions o;
+            o.log_scale = log;
+            auto ip = plot_in_plane(d, b.get(), o);
+            ASSERT_TRUE(ip) << ip.error().message;
+            auto dp = plot_delta_phi(d, b.get(), o);
+            ASSERT_TRUE(dp) << dp.error().message;
+            auto rm = plot_residual_map(d, *b, o);
+            ASSERT_TRUE(rm) << rm.error().message;
+            auto cov = plot_coverage(d, o);
+            ASSERT_TRUE(cov) << cov.error().message;
+            for (const Image* im : {&*ip, &*dp, &*rm, &*cov}) {
+                EXPECT_EQ(im->width, 800);
+                EXPECT_GT(im->height, 300);
+            }
+        }
+        if (name != "table" && name != "lambert") {
+            PolarLayout lay;
+            PlotOptions o;
+            o.theta_i_deg = {30.0};
+            auto ip = plot_in_plane(d, b.get(), o, &lay);
+            ASSERT_TRUE(ip);
+            EXPECT_NEAR(peak_angle_deg(*ip, lay, lay.slice_colors[0]), 30.0, 2.5);
+        }
+    }
+}
+
+TEST(Plots, TablePeakAtTheMirrorAngle) {
+    const brdf::AnalyticBrdf model(testing::every_model_type()[0].second);
+    brdf::TabulateOptions to;
+    to.grid = brdf::TableGrid::merl();
+    to.threads = 2;
+    const brdf::TabulatedBrdf table = brdf::tabulate(model, to);
+    PlotOptions o;
+    o.theta_i_deg = {35.0};
+    PolarLayout lay;
+    auto img = plot_in_plane(brdf::Dataset{}, &table, o, &lay);
+    ASSERT_TRUE(img) << img.error().message;
+    EXPECT_NEAR(peak_angle_deg(*img, lay, lay.slice_colors[0]), 35.0, 2.0);
+}
+
+TEST(Plots, EmptyDatasetIsAClearErrorAndWritesNothing) {
+    const auto dir = std::filesystem::path(GONIO_BINARY_DIR) / "tests" / "report_empty_plots";
+    std::filesystem::remove_all(dir);
+    brdf::Dataset empty;
+    empty.source = "campaign/dataset.csv";
+    const brdf::AnalyticBrdf fit(testing::every_model_type()[0].second);
+    auto r = write_plots(empty, &fit, PlotOptions{}, dir.string());
+    ASSERT_FALSE(r);
+    EXPECT_NE(r.error().message.find("campaign/dataset.csv"), std::string::npos);
+    EXPECT_NE(r.error().message.find("empty dataset"), std::string::npos);
+    EXPECT_FALSE(std::filesystem::exists(dir));
+    EXPECT_FALSE(plot_residual_map(empty, fit, PlotOptions{}));
+    EXPECT_FALSE(plot_coverage(empty, PlotOptions{}));
+    EXPECT_FALSE(plot_in_plane(empty, nullptr, PlotOptions{}));
+}
+
+TEST(Plots, WritePlotsWritesTheThreePictures) {
+    const auto dir = std::filesystem::path(GONIO_BINARY_DIR) / "tests" / "report_write_plots";
+    std::filesystem::remove_all(dir);
+    const brdf::AnalyticBrdf fit(testing::every_model_type()[1].second);
+    const brdf::Dataset d = in_plane_samples(fit, 45.0, 11);
+    auto r = write_plots(d, &fit, PlotOptions{}, dir.string());
+    ASSERT_TRUE(r) << r.error().message;
+    // No azimuthal slice in these data, but the fit draws its own delta_phi curves.
+    ASSERT_EQ(r->written.size(), 3u);
+    for (const char* f : {"in_plane.png", "delta_phi.png", "residuals.png"}) {
+        auto img = read_png((dir / f).string());
+        ASSERT_TRUE(img) << f;
+        EXPECT_EQ(img->width, 800);
+    }
+}
+
+TEST(ResidualMap, ExactFitIsWhiteAndBiasedFitIsRed) {
+    // Data equal to the fit: every filled cell has residual 0 (the white centre of the scale);
+    // data twice the fit: log10(2) > 0, red cells (r > b).
+    const brdf::AnalyticBrdf fit(testing::every_model_type()[0].second);
+    brdf::Dataset d = in_plane_samples(fit, 30.0, 3);
+    for (brdf::Sample& s : d.samples) {
+        s.value = fit.eval(s.wi(), s.wo());
+    }
+    auto same = plot_residual_map(d, fit, PlotOptions{});
+    ASSERT_TRUE(same);
+    for (brdf::Sample& s : d.samples) {
+        s.value *= 2.0;
+    }
+    auto twice = plot_residual_map(d, fit, PlotOptions{});
+    ASSERT_TRUE(twice);
+    int white = 0, red = 0;
+    for (int y = 60; y < same->height - 80; ++y) {
+        for (int x = 92; x < 500; ++x) {
+            const Color a = same->at(x, y);
+            const Color b = twice->at(x, y);
+            if (a != b) {
+                // A cell filled in both: exact fit near white, doubled data red.
+                white += a.r > 235 && a.g > 235 && a.b > 235;
+                red += b.r > b.b + 60;
+            }
+        }
+    }
+    EXPECT_GT(white, 100);
+    EXPECT_GT(red, 100);
+}
+
+}  // namespace
+}  // namespace gonio::report
