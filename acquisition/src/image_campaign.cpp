@@ -221,20 +221,35 @@ double front_light(const ImageCampaignConfig& cfg) {
     return best;
 }
 
+/// The silhouette frame: lit from the allowed position closest to the camera and, when the arm
+/// can reach it, from its mirror image on the other side of the detector; the pixel-wise maximum
+/// of the two has no shadow crescent at the limb.
 Expected<SphereGeometry> find_sphere(Rig& rig,
                                      const ImageCampaignConfig& cfg,
                                      double light,
                                      bool reference) {
-    CaptureRequest r;
-    r.light_arm_rad = light;
-    r.channel = 1;
-    r.exposure_us = cfg.exposure_us;
-    r.reference = reference;
-    auto frame = rig.grab(r);
-    if (!frame) {
-        return tl::unexpected(frame.error());
+    const double mirrored = brdf::wrap_pi(2 * cfg.detector_arm_rad - light);
+    std::vector<double> lights = {light};
+    if (mirrored >= cfg.lights.min_rad && mirrored <= cfg.lights.max_rad &&
+        std::abs(mirrored - light) > 1e-9) {
+        lights.push_back(mirrored);
     }
-    auto g = detect_sphere(frame->image, cfg.camera, cfg.silhouette);
+    cv::Mat combined;
+    for (double a : lights) {
+        CaptureRequest r;
+        r.light_arm_rad = a;
+        r.channel = 1;
+        r.exposure_us = cfg.exposure_us;
+        r.reference = reference;
+        auto frame = rig.grab(r);
+        if (!frame) {
+            return tl::unexpected(frame.error());
+        }
+        cv::Mat f;
+        frame->image.convertTo(f, CV_32F);
+        combined = combined.empty() ? f : cv::max(combined, f);
+    }
+    auto g = detect_sphere(combined, cfg.camera, cfg.silhouette);
     if (!g) {
         return make_error(std::string(reference ? "white reference" : "sample") + ": " +
                           g.error().message);

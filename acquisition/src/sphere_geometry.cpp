@@ -99,14 +99,32 @@ Expected<SphereGeometry> detect_sphere(const cv::Mat& frame,
     }
     cv::Mat f;
     frame.convertTo(f, CV_32F);
-    // Remove the background level (the frame's median) so that the threshold is relative to it.
-    const double hi = high_percentile(f);
-    double lo = 0;
-    cv::minMaxLoc(f, &lo, nullptr);
-    if (!(hi > lo)) {
-        return make_error("sphere detection: the frame is uniform (nothing lit)");
+    // Background level and noise from the frame's border (robust: median and MAD), so that the
+    // threshold stays clear of the noise whatever the sphere's brightness.
+    std::vector<float> border;
+    for (int x = 0; x < f.cols; ++x) {
+        border.push_back(f.at<float>(0, x));
+        border.push_back(f.at<float>(f.rows - 1, x));
     }
-    const double threshold = lo + options.threshold_fraction * (hi - lo);
+    for (int y = 1; y + 1 < f.rows; ++y) {
+        border.push_back(f.at<float>(y, 0));
+        border.push_back(f.at<float>(y, f.cols - 1));
+    }
+    const auto median = [](std::vector<float> v) {
+        std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+        return static_cast<double>(v[v.size() / 2]);
+    };
+    const double lo = median(border);
+    for (float& b : border) {
+        b = static_cast<float>(std::abs(b - lo));
+    }
+    const double noise_sigma = 1.4826 * median(border);
+    const double hi = high_percentile(f);
+    if (!(hi > lo + 5 * noise_sigma) || !(hi > lo)) {
+        return make_error("sphere detection: the frame is uniform (nothing lit above the noise)");
+    }
+    const double threshold =
+        std::max(lo + options.threshold_fraction * (hi - lo), lo + 5 * noise_sigma);
     cv::Mat mask;
     cv::threshold(f, mask, threshold, 255, cv::THRESH_BINARY);
     mask.convertTo(mask, CV_8U);
@@ -127,43 +145,82 @@ Expected<SphereGeometry> detect_sphere(const cv::Mat& frame,
         return make_error("sphere detection: largest contour has " +
                           std::to_string(largest->size()) + " points, need at least 20");
     }
-    // Sub-pixel boundary: the contour runs through the first pixels above threshold; half a pixel
-    // outward (away from the contour's centroid) is the boundary between inside and outside pixels.
-    std::vector<cv::Point2d> pts;
-    double mx = 0;
-    double my = 0;
+    std::vector<cv::Point2d> pixel_pts;
     for (const cv::Point& p : *largest) {
-        mx += p.x;
-        my += p.y;
+        pixel_pts.emplace_back(p.x, p.y);
     }
-    mx /= largest->size();
-    my /= largest->size();
-    for (const cv::Point& p : *largest) {
-        const double dx = p.x - mx;
-        const double dy = p.y - my;
+    auto coarse = fit_circle_algebraic(pixel_pts);
+    if (!coarse) {
+        return make_error("sphere detection: " + coarse.error().message);
+    }
+    // Sub-pixel boundary: along the radial line through each contour pixel, the outermost place
+    // where the bilinearly interpolated frame crosses the threshold.
+    const auto sample = [&](double x, double y) {
+        const int x0 = static_cast<int>(std::floor(x));
+        const int y0 = static_cast<int>(std::floor(y));
+        if (x0 < 0 || y0 < 0 || x0 + 1 >= f.cols || y0 + 1 >= f.rows) {
+            return lo;
+        }
+        const double ax = x - x0;
+        const double ay = y - y0;
+        return (1 - ay) * ((1 - ax) * f.at<float>(y0, x0) + ax * f.at<float>(y0, x0 + 1)) +
+               ay * ((1 - ax) * f.at<float>(y0 + 1, x0) + ax * f.at<float>(y0 + 1, x0 + 1));
+    };
+    std::vector<cv::Point2d> pts;
+    for (const cv::Point2d& p : pixel_pts) {
+        const double dx = p.x - coarse->cx;
+        const double dy = p.y - coarse->cy;
         const double n = std::hypot(dx, dy);
-        pts.emplace_back(p.x + (n > 0 ? 0.5 * dx / n : 0), p.y + (n > 0 ? 0.5 * dy / n : 0));
+        if (!(n > 0)) {
+            // A contour pixel at the centre: no radial direction (a degenerate blob).
+            continue;
+        }
+        const double ux = dx / n;
+        const double uy = dy / n;
+        constexpr double kStep = 0.05;
+        double prev_s = 2.0;
+        double prev_v = sample(p.x + prev_s * ux, p.y + prev_s * uy);
+        for (double s = 2.0 - kStep; s >= -2.0; s -= kStep) {
+            const double v = sample(p.x + s * ux, p.y + s * uy);
+            if (v >= threshold && prev_v < threshold) {
+                const double t = (threshold - v) / (prev_v - v);
+                const double edge = s + t * (prev_s - s);
+                pts.emplace_back(p.x + edge * ux, p.y + edge * uy);
+                break;
+            }
+            prev_s = s;
+            prev_v = v;
+        }
     }
     auto circle = fit_circle_algebraic(pts);
     if (!circle) {
         return make_error("sphere detection: " + circle.error().message);
     }
-    // Trim points well inside the first circle (terminator) and refit algebraically.
-    std::vector<cv::Point2d> kept;
-    for (const auto& p : pts) {
-        if (std::hypot(p.x - circle->cx, p.y - circle->cy) > circle->r - options.trim_inside_px) {
-            kept.push_back(p);
+    // Trim points inside the circle (where the lit region ends at the shadow terminator rather
+    // than at the limb) and refit, a few times.
+    std::vector<cv::Point2d> kept = pts;
+    for (int round = 0; round < 5; ++round) {
+        std::vector<cv::Point2d> next;
+        for (const auto& p : pts) {
+            if (std::hypot(p.x - circle->cx, p.y - circle->cy) >
+                circle->r - options.trim_inside_px) {
+                next.push_back(p);
+            }
         }
-    }
-    if (kept.size() >= 20) {
-        if (auto c2 = fit_circle_algebraic(kept)) {
-            circle = c2;
+        if (next.size() < 20) {
+            break;
         }
+        auto c2 = fit_circle_algebraic(next);
+        if (!c2) {
+            break;
+        }
+        kept = std::move(next);
+        circle = c2;
     }
 
     SphereGeometry g;
     g.silhouette = *circle;
-    std::vector<Ray> rays = camera.pixel_rays(kept.size() >= 20 ? kept : pts);
+    std::vector<Ray> rays = camera.pixel_rays(kept);
     const Ray centre_ray = camera.pixel_ray(circle->cx, circle->cy);
     if (camera.projection == Projection::kOrthographic) {
         // Depth along the axis is unobservable: put the centre in the plane through the origin.

@@ -4,7 +4,8 @@
 // centre from its silhouette, then for every pixel on it the surface point, the normal, the view
 // direction and the local frame in which wi and wo are expressed.
 //
-// Silhouette: threshold of a frame lit from near the camera, largest external contour, algebraic
+// Silhouette: threshold of a frame lit from near the camera, largest external contour, each contour
+// pixel moved to the sub-pixel threshold crossing along its radial line, algebraic
 // circle fit (I. Kasa, "A circle fitting procedure and its error analysis", IEEE Trans. Instrum.
 // Meas. IM-25(1), 1976: minimise sum (x^2 + y^2 + D x + E y + F)^2, linear in D, E, F), then a
 // geometric refinement in 3D: every contour pixel's back-projected ray is tangent to the sphere,
@@ -54,17 +55,22 @@ struct SphereGeometry {
 };
 
 struct SilhouetteOptions {
-    /// Threshold as a fraction of the 99.5th percentile of the frame's values.
-    double threshold_fraction = 0.25;
+    /// Threshold between the background (median of the frame's border) and the 99.5th percentile,
+    /// at least 5 noise sigmas (MAD of the border) above the background. Low, because a sphere lit
+    /// from near the camera darkens toward its limb (the threshold contour lies inside the limb
+    /// by about r t^2 / 2 for a Lambertian sphere and fraction t).
+    double threshold_fraction = 0.05;
     /// Physical radius of the sphere, metres (perspective cameras: fixes the distance).
     double radius_m = 0.02;
     /// Contour points deeper than this inside the fitted silhouette are trimmed (terminator).
-    double trim_inside_px = 1.5;
+    double trim_inside_px = 0.5;
     int iterations = 20;
 };
 
 /// Finds the sphere in a frame (any single-channel type; dark-subtracted or not) lit from close to
-/// the camera. Errors: empty frame, nothing above the threshold, a contour too small (< 20
+/// the camera; where a side light leaves a shadow crescent, the pixel-wise maximum of frames lit
+/// from both sides of the camera has none (image_campaign does this). The frame's border must
+/// show background. Errors: empty frame, nothing above the threshold, a contour too small (< 20
 /// points), or a fit that does not converge, each named.
 Expected<SphereGeometry> detect_sphere(const cv::Mat& frame,
                                        const CameraModel& camera,
