@@ -511,6 +511,37 @@ struct MotorControllerServer::Impl {
     }
 };
 
+std::vector<std::uint16_t> fault_registers(const Fault& f) {
+    const auto clamp16 = [](long long v) {
+        return static_cast<std::uint16_t>(std::clamp<long long>(v, 0, 0xFFFF));
+    };
+    const int code = f.kind == FaultKind::kException ? f.exception_code : f.alarm_code;
+    return {clamp16(1 + static_cast<int>(f.kind)),
+            clamp16(f.count),
+            clamp16(f.delay.count()),
+            clamp16(code),
+            clamp16(std::llround(f.fraction * 1000))};
+}
+
+Expected<FaultKind> parse_fault_kind(const std::string& name) {
+    if (name == "delay") {
+        return FaultKind::kDelayReply;
+    }
+    if (name == "drop") {
+        return FaultKind::kDropConnection;
+    }
+    if (name == "exception") {
+        return FaultKind::kException;
+    }
+    if (name == "alarm") {
+        return FaultKind::kAlarmMidMove;
+    }
+    if (name == "stall") {
+        return FaultKind::kStall;
+    }
+    return make_error("fault \"" + name + "\" not one of delay, drop, exception, alarm, stall");
+}
+
 MotorControllerServer::MotorControllerServer() : impl_(new Impl) {}
 
 MotorControllerServer::~MotorControllerServer() {

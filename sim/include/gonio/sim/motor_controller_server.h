@@ -11,6 +11,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "gonio/brdf/error.h"
 #include "gonio/devices/axis_profile.h"
@@ -38,11 +39,17 @@ struct Fault {
     double fraction = 0.5;
 };
 
-/// Fault registers present on every unit (wire addresses). Writing the kind register (after the
+/// Fault registers present on every unit (wire addresses). Writing the kind register (in the same
+/// request as the others, or after the
 /// others) injects the fault: kind = 1 + FaultKind, count, delay ms, exception or alarm code,
 /// fraction in 1/1000.
 constexpr int kFaultRegister = 0xFF00;
 constexpr int kFaultRegisterCount = 5;
+
+/// The values of the fault registers for `f` (write them in one request to kFaultRegister).
+std::vector<std::uint16_t> fault_registers(const Fault& f);
+/// Parses a fault kind: delay, drop, exception, alarm, stall.
+Expected<FaultKind> parse_fault_kind(const std::string& name);
 
 enum class Transport {
     kTcp,  ///< Modbus TCP on 127.0.0.1.
