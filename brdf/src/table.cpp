@@ -24,6 +24,41 @@ int clamp_bin(double x, int n) {
     return static_cast<int>(x);
 }
 
+// Half/difference angles (theta_h, theta_d, phi_d) of a pair above the horizon, as to_half_diff()
+// in coords.h but with the rotation by -phi_h, -theta_h built from the components of h instead of
+// trigonometric calls: cos phi_h = h_x / rho, sin phi_h = h_y / rho, cos theta_h = h_z,
+// sin theta_h = rho, rho = |h_xy|.
+std::array<double, 3> half_diff_angles(const Vec3d& wi, const Vec3d& wo) {
+    Vec3d h = wi + wo;
+    const double norm = h.norm();
+    if (!(norm > 0)) {
+        // wi = -wo cannot happen above the horizon; keep to_half_diff's convention (h = z).
+        h = Vec3d(0, 0, 1);
+    } else {
+        h /= norm;
+    }
+    const double rho = std::hypot(h.x(), h.y());
+    double cp = 1;
+    double sp = 0;
+    if (rho > 0) {
+        cp = h.x() / rho;
+        sp = h.y() / rho;
+    }
+    // R_z(-phi_h) wi, then R_y(-theta_h).
+    const double x1 = cp * wi.x() + sp * wi.y();
+    const double y1 = -sp * wi.x() + cp * wi.y();
+    const double z1 = wi.z();
+    const double ct = h.z();
+    const double st = rho;
+    const Vec3d d(ct * x1 - st * z1, y1, st * x1 + ct * z1);
+    const double theta_h = std::atan2(rho, h.z());
+    const double d_rho = std::hypot(d.x(), d.y());
+    const double theta_d = std::atan2(d_rho, d.z());
+    // At the pole of d (d = z) the azimuth is 0 by convention, as in cartesian_to_spherical().
+    const double phi_d = d_rho > 0 ? std::atan2(d.y(), d.x()) : 0.0;
+    return {theta_h, theta_d, phi_d};
+}
+
 std::string fmt(double v) {
     char buf[32];
     std::snprintf(buf, sizeof buf, "%.6g", v);
@@ -211,8 +246,8 @@ TableLookup TabulatedBrdf::lookup(const Vec3d& wi, const Vec3d& wo) const {
         // At or below the horizon (or NaN): the BRDF is zero there.
         return {};
     }
-    const HalfDiff<double> hd = to_half_diff(wi, wo);
-    return lookup_half_diff(hd.theta_h, hd.theta_d, hd.phi_d);
+    const std::array<double, 3> a = half_diff_angles(wi, wo);
+    return lookup_half_diff(a[0], a[1], a[2]);
 }
 
 Rgbd TabulatedBrdf::eval(const Vec3d& wi, const Vec3d& wo) const {

@@ -253,6 +253,28 @@ TEST(TableLookup, StatisticsOverValidBins) {
     EXPECT_NE(t.statistics().find("valid bins: 3 of 4"), std::string::npos) << t.statistics();
 }
 
+// lookup(wi, wo) computes the half/difference angles its own way (no trigonometric rotation): it
+// must agree with to_half_diff() of coords.h.
+TEST(TableLookup, DirectionLookupAgreesWithHalfDiffCoordinates) {
+    const TableGrid g{40, 40, 80};
+    TabulatedBrdf t = TabulatedBrdf::empty(g, {1, 1, 1}, "index");
+    for (std::size_t flat = 0; flat < g.size(); ++flat) {
+        t.set_bin(flat, Rgbd::Constant(static_cast<double>(flat)));
+    }
+    t.set_interpolation(Interpolation::kTrilinear);
+    const unsigned seed = 5;
+    std::mt19937_64 rng(seed);
+    for (int k = 0; k < 5000; ++k) {
+        const Vec3d wi = random_direction(rng, 1.55);
+        const Vec3d wo = k % 10 == 0 ? reflect_z(wi) : random_direction(rng, 1.55);
+        const HalfDiff<double> hd = to_half_diff(wi, wo);
+        const TableLookup a = t.lookup(wi, wo);
+        const TableLookup b = t.lookup_half_diff(hd.theta_h, hd.theta_d, hd.phi_d);
+        ASSERT_TRUE(a.valid && b.valid);
+        ASSERT_NEAR(a.value[0], b.value[0], 1e-6) << "seed " << seed << " k " << k;
+    }
+}
+
 TEST(TableLookup, ReciprocalUnderTrilinear) {
     const AnalyticBrdf model(ggx_model(0.2));
     TabulateOptions opts;
