@@ -77,9 +77,6 @@ void BM_MerlLoad(benchmark::State& state) {
     }
     state.SetBytesProcessed(static_cast<int64_t>(state.iterations()) *
                             static_cast<int64_t>(merl_file_size(TableGrid::merl())));
-    state.counters["ms_per_load"] =
-        benchmark::Counter(static_cast<double>(state.iterations()) * 1e3,
-                           benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
     state.counters["entries_differing"] = static_cast<double>(mismatches);
 }
 BENCHMARK(BM_MerlLoad)->Unit(benchmark::kMillisecond);
