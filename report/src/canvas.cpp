@@ -170,6 +170,14 @@ void marker(cv::Mat& img, cv::Point p, cv::Scalar color, int radius) {
     cv::circle(img, p, radius, kAxis, 1, cv::LINE_AA);
 }
 
+cv::Size legend_size(const std::vector<LegendEntry>& entries) {
+    int w = 0;
+    for (const LegendEntry& e : entries) {
+        w = std::max(w, text_width(e.label));
+    }
+    return {w + 52, 20 * static_cast<int>(entries.size()) + 8};
+}
+
 void legend(cv::Mat& img,
             const std::vector<LegendEntry>& entries,
             cv::Point corner,
@@ -177,13 +185,10 @@ void legend(cv::Mat& img,
     if (entries.empty()) {
         return;
     }
-    int w = 0;
-    for (const LegendEntry& e : entries) {
-        w = std::max(w, text_width(e.label));
-    }
     const int row = 20;
-    const int box_w = w + 52;
-    const int box_h = row * static_cast<int>(entries.size()) + 8;
+    const cv::Size size = legend_size(entries);
+    const int box_w = size.width;
+    const int box_h = size.height;
     const cv::Rect box(anchor_left ? corner.x : corner.x - box_w, corner.y, box_w, box_h);
     cv::rectangle(img, box, kWhite, cv::FILLED);
     cv::rectangle(img, box, kAxis, 1);

@@ -79,6 +79,9 @@ void legend(cv::Mat& img,
             cv::Point corner,
             bool anchor_left = false);
 
+/// Size in pixels of the legend box legend() draws.
+cv::Size legend_size(const std::vector<LegendEntry>& entries);
+
 /// A filled circle marker with a dark outline.
 void marker(cv::Mat& img, cv::Point p, cv::Scalar color, int radius = 4);
 

@@ -148,9 +148,10 @@ Expected<Image> plot_in_plane(const brdf::Dataset& data,
 
     // Layout: a half disk, origin at the bottom centre.
     const int W = std::max(400, options.width);
-    const int top = 56;
+    const int top = 80;
     const int R = (W - 160) / 2;
-    const int H = top + R + 96;
+    // Below the baseline: ring values, two axis captions, then the legend (one row per slice).
+    const int H = top + R + 96 + 20 * static_cast<int>(thetas.size()) + 8 + 8;
     const cv::Point origin(W / 2, top + R + 8);
     char sub[200];
     std::snprintf(sub,
@@ -193,8 +194,8 @@ Expected<Image> plot_in_plane(const brdf::Dataset& data,
         const double c = std::cos(a * kDeg);
         const cv::Point end(origin.x + int(std::lround(R * s)), origin.y - int(std::lround(R * c)));
         cv::line(img, origin, end, draw::kGrid, 1, cv::LINE_AA);
-        const cv::Point lab(origin.x + int(std::lround((R + 20) * s)),
-                            origin.y - int(std::lround((R + 14) * c)));
+        const cv::Point lab(origin.x + int(std::lround((R + 32) * s)),
+                            origin.y - int(std::lround((R + 26) * c)));
         draw::text(img, std::to_string(a), lab, 0.45, draw::kBlack, draw::Align::kCenter);
     }
     cv::ellipse(img, origin, {R, R}, 0, 180, 360, draw::kAxis, 1, cv::LINE_AA);
@@ -263,7 +264,8 @@ Expected<Image> plot_in_plane(const brdf::Dataset& data,
         out.slice_colors.push_back({c[2], c[1], c[0]});
         out.theta_i_deg.push_back(sl.theta_i_deg);
     }
-    draw::legend(img, entries, {W - 6, 50});
+    const cv::Size ls = draw::legend_size(entries);
+    draw::legend(img, entries, {origin.x - ls.width / 2, origin.y + 72}, true);
     draw::text(img, "triangles: light direction", {8, 62}, 0.45, draw::kAxis);
     if (layout != nullptr) {
         *layout = out;

@@ -31,7 +31,7 @@ void color_bar(
         cv::line(img, {area.x + area.width, y}, {area.x + area.width + 4, y}, draw::kAxis, 1);
         draw::text(img, draw::format_tick(v), {area.x + area.width + 7, y}, 0.45);
     }
-    draw::text_vertical(img, label, {area.x + area.width + 58, area.y + area.height / 2}, 0.5);
+    draw::text_vertical(img, label, {area.x + area.width + 72, area.y + area.height / 2}, 0.5);
 }
 
 }  // namespace
@@ -88,14 +88,13 @@ Expected<Image> plot_residual_map(const brdf::Dataset& data,
     char sub[240];
     std::snprintf(sub,
                   sizeof sub,
-                  "%zu samples used, rms log10 residual %.3g; %zu skipped (zero measured or fitted "
-                  "value); grey: no sample",
+                  "%zu samples, rms log10 residual %.3g, %zu skipped (zero value); grey: no sample",
                   used,
                   used ? std::sqrt(sum_sq / used) : 0.0,
                   skipped);
     cv::Mat img = draw::blank(
         W, H, "Residuals log10(measured / fit) - " + plot_detail::short_name(data.source), sub);
-    const int side = std::min(W - 90 - 140, H - 60 - 70);
+    const int side = std::min(W - 90 - 190, H - 60 - 70);
     draw::Axes ax;
     ax.area = cv::Rect(90, 60, side, side);
     ax.x0 = 0;

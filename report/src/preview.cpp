@@ -214,20 +214,25 @@ Expected<Image> preview_sheet(const brdf::Brdf& a,
     const int band = 26;
     const int header = 64;
     const int rows = b ? 2 : 1;
-    const int W = std::max(2 * cell + 3 * margin, 420);
+    // Columns at least 220 px apart so that their titles never overlap.
+    const int column = std::max(cell, 220);
+    const int W = 2 * column + 3 * margin;
     const int H = header + rows * (band + cell + margin) + 22;
-    cv::Mat img = draw::blank(
-        W, H, "Sphere preview", "same exposure in every picture; filmic tone curve, sRGB");
-    const int x0 = (W - (2 * cell + margin)) / 2;
+    cv::Mat img =
+        draw::blank(W, H, "Sphere preview", "one exposure for all; filmic tone curve, sRGB");
+    const int cx0 = margin + column / 2;
+    const int cx1 = 2 * margin + column + column / 2;
+    const int x0 = cx0 - cell / 2;
+    const int x1 = cx1 - cell / 2;
     draw::text(img,
                "directional light",
-               {x0 + cell / 2, header - 8},
+               {cx0, header - 8},
                draw::kTextScale,
                draw::kBlack,
                draw::Align::kCenter);
     draw::text(img,
                "sky / ground environment",
-               {x0 + cell + margin + cell / 2, header - 8},
+               {cx1, header - 8},
                draw::kTextScale,
                draw::kBlack,
                draw::Align::kCenter);
@@ -248,7 +253,7 @@ Expected<Image> preview_sheet(const brdf::Brdf& a,
         const Image d = tone_map(render_directional(br, options), options.exposure, bg);
         const Image e = tone_map(render_environment(br, options), options.exposure, bg);
         to_mat(d).copyTo(img(cv::Rect(x0, y + band, cell, cell)));
-        to_mat(e).copyTo(img(cv::Rect(x0 + cell + margin, y + band, cell, cell)));
+        to_mat(e).copyTo(img(cv::Rect(x1, y + band, cell, cell)));
     }
     const Vec3d l = options.light_dir.normalized();
     char foot[160];

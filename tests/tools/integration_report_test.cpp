@@ -1,0 +1,173 @@
+// End to end through the gonio executable: plot, preview, export and report on files written here.
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "gonio/brdf/analytic_brdf.h"
+#include "gonio/brdf/dataset.h"
+#include "gonio/brdf/merl.h"
+#include "gonio/brdf/model_json.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+constexpr double kDeg = gonio::brdf::kPi / 180.0;
+
+struct Run {
+    int status = -1;
+    std::string out;
+};
+
+/// Runs the gonio binary with arguments; captures standard output (standard error goes to a file
+/// appended to out after a marker line).
+Run gonio(const std::string& args, const fs::path& dir) {
+    const fs::path err = dir / "stderr.txt";
+    const std::string cmd = std::string(GONIO_EXE) + " " + args + " 2>" + err.string();
+    Run r;
+    FILE* p = popen(cmd.c_str(), "r");
+    if (p == nullptr) {
+        return r;
+    }
+    char buf[4096];
+    std::size_t n;
+    while ((n = fread(buf, 1, sizeof buf, p)) > 0) {
+        r.out.append(buf, n);
+    }
+    const int st = pclose(p);
+    r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    std::ifstream e(err);
+    std::stringstream ss;
+    ss << e.rdbuf();
+    r.out += "\n--- stderr ---\n" + ss.str();
+    return r;
+}
+
+std::string slurp(const fs::path& p) {
+    std::ifstream f(p, std::ios::binary);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    return ss.str();
+}
+
+gonio::brdf::ModelD glossy_model() {
+    gonio::brdf::ModelD m;
+    m.has_diffuse = true;
+    m.diffuse = gonio::brdf::Rgbd(0.1, 0.08, 0.05);
+    gonio::brdf::Lobe<double> l;
+    l.distribution = gonio::brdf::Distribution::kGgx;
+    l.alpha_x = l.alpha_y = 0.1;
+    l.shadowing = gonio::brdf::Shadowing::kSmithCorrelated;
+    l.fresnel.type = gonio::brdf::FresnelType::kSchlick;
+    l.fresnel.f0 = gonio::brdf::Rgbd::Constant(0.05);
+    l.scale = gonio::brdf::Rgbd::Constant(0.5);
+    m.lobes.push_back(l);
+    return m;
+}
+
+class ReportCli : public ::testing::Test {
+  protected:
+    void SetUp() override {
+        dir_ = fs::path(GONIO_BINARY_DIR) / "tests" / "report_cli";
+        fs::remove_all(dir_);
+        fs::create_directories(dir_);
+        const auto model = glossy_model();
+        std::ofstream(dir_ / "fit.json") << gonio::brdf::model_to_json(model);
+        const gonio::brdf::AnalyticBrdf truth(model);
+        gonio::brdf::Dataset d;
+        for (int ti : {20, 45}) {
+            for (int to = 0; to <= 80; to += 4) {
+                for (int p : {0, 60, 120, 180}) {
+                    gonio::brdf::Sample s;
+                    s.theta_i = ti * kDeg;
+                    s.theta_o = to * kDeg;
+                    s.phi_o = p * kDeg;
+                    s.value = truth.eval(s.wi(), s.wo());
+                    d.samples.push_back(s);
+                }
+            }
+        }
+        ASSERT_TRUE(gonio::brdf::write_dataset_csv((dir_ / "dataset.csv").string(), d));
+        gonio::brdf::Dataset empty;
+        ASSERT_TRUE(gonio::brdf::write_dataset_csv((dir_ / "empty.csv").string(), empty));
+    }
+    fs::path dir_;
+};
+
+TEST_F(ReportCli, PlotWritesThePicturesAndRefusesAnEmptyDataset) {
+    const fs::path out = dir_ / "plots";
+    Run r = gonio("plot " + (dir_ / "dataset.csv").string() + " --fit " +
+                      (dir_ / "fit.json").string() + " --log --out " + out.string(),
+                  dir_);
+    ASSERT_EQ(r.status, 0) << r.out;
+    for (const char* f : {"in_plane.png", "delta_phi.png", "residuals.png"}) {
+        EXPECT_TRUE(fs::exists(out / f)) << f;
+        EXPECT_NE(r.out.find(f), std::string::npos);
+    }
+    const fs::path none = dir_ / "empty_plots";
+    r = gonio("plot " + (dir_ / "empty.csv").string() + " --out " + none.string(), dir_);
+    EXPECT_NE(r.status, 0);
+    EXPECT_NE(r.out.find("empty dataset"), std::string::npos) << r.out;
+    EXPECT_FALSE(fs::exists(none));
+}
+
+TEST_F(ReportCli, PreviewOfAModelAgainstItsMerlTable) {
+    const fs::path table = dir_ / "fit.binary";
+    Run r = gonio("export " + (dir_ / "fit.json").string() + " --to merl " + table.string(), dir_);
+    ASSERT_EQ(r.status, 0) << r.out;
+    auto t = gonio::brdf::read_merl(table.string());
+    ASSERT_TRUE(t) << t.error().message;
+    // The table holds the model at the bin centres (within the MERL quantisation of doubles: none).
+    const gonio::brdf::AnalyticBrdf truth(glossy_model());
+    const gonio::brdf::Vec3d wi = gonio::brdf::spherical_to_cartesian(0.5, 0.0);
+    const gonio::brdf::Vec3d wo = gonio::brdf::spherical_to_cartesian(0.9, 2.0);
+    EXPECT_NEAR(t->eval(wi, wo)[1], truth.eval(wi, wo)[1], 0.1 * truth.eval(wi, wo)[1]);
+
+    const fs::path png = dir_ / "preview.png";
+    r = gonio("preview " + (dir_ / "fit.json").string() + " --vs " + table.string() +
+                  " --size 64 --samples 24 --out " + png.string(),
+              dir_);
+    ASSERT_EQ(r.status, 0) << r.out;
+    const std::string bytes = slurp(png);
+    ASSERT_GT(bytes.size(), 8u);
+    EXPECT_EQ(bytes.substr(1, 3), "PNG");
+    r = gonio("preview " + (dir_ / "missing.json").string(), dir_);
+    EXPECT_NE(r.status, 0);
+    EXPECT_NE(r.out.find("missing.json"), std::string::npos) << r.out;
+}
+
+TEST_F(ReportCli, ExportsForMitsubaAndPbrt) {
+    Run r = gonio("export " + (dir_ / "fit.json").string() + " --to mitsuba --name paint", dir_);
+    ASSERT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("<scene version=\"3.0.0\">"), std::string::npos);
+    EXPECT_NE(r.out.find("id=\"paint\""), std::string::npos);
+    EXPECT_NE(r.out.find("<float name=\"alpha\" value=\"0.1\"/>"), std::string::npos) << r.out;
+    const fs::path pbrt = dir_ / "fit.pbrt";
+    r = gonio("export " + (dir_ / "fit.json").string() + " --to pbrt --out " + pbrt.string(), dir_);
+    ASSERT_EQ(r.status, 0) << r.out;
+    const std::string text = slurp(pbrt);
+    EXPECT_NE(text.find("MakeNamedMaterial \"gonio_fit\""), std::string::npos);
+    EXPECT_NE(text.find("\"float roughness\" [ 0.1 ]"), std::string::npos) << text;
+    r = gonio("export " + (dir_ / "fit.json").string() + " --to povray", dir_);
+    EXPECT_NE(r.status, 0);
+}
+
+TEST_F(ReportCli, ReportPrintsThePathOfASelfContainedPage) {
+    Run r = gonio("report " + dir_.string(), dir_);
+    ASSERT_EQ(r.status, 0) << r.out;
+    const fs::path html = dir_ / "report.html";
+    EXPECT_EQ(r.out.substr(0, r.out.find('\n')), html.string());
+    const std::string page = slurp(html);
+    EXPECT_NE(page.find("data:image/png;base64,"), std::string::npos);
+    EXPECT_NE(page.find("Coverage of the angular domain"), std::string::npos);
+    r = gonio("report " + (dir_ / "nowhere").string(), dir_);
+    EXPECT_NE(r.status, 0);
+    EXPECT_NE(r.out.find("not a folder"), std::string::npos);
+}
+
+}  // namespace

@@ -1,0 +1,124 @@
+// gonio export: a fitted model (or data) for renderers: Mitsuba 3, pbrt-v4, MERL binary.
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+
+#include "command.h"
+#include "gonio/brdf/brdf.h"
+#include "gonio/brdf/model_json.h"
+#include "gonio/brdf/samples_io.h"
+#include "gonio/report/export.h"
+
+namespace {
+
+struct Options {
+    std::string input;
+    std::string to;
+    std::string out;
+    std::string out_positional;
+    std::string name = "gonio_fit";
+};
+
+bool ends_with(const std::string& s, const std::string& suffix) {
+    return s.size() >= suffix.size() &&
+           s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+int write_text(const std::string& path, const std::string& text) {
+    if (path.empty() || path == "-") {
+        std::fwrite(text.data(), 1, text.size(), stdout);
+        return 0;
+    }
+    std::ofstream f(path, std::ios::binary);
+    f << text;
+    f.close();
+    if (!f) {
+        std::fprintf(stderr, "gonio export: %s: cannot write\n", path.c_str());
+        return 1;
+    }
+    std::printf("%s\n", path.c_str());
+    return 0;
+}
+
+}  // namespace
+
+GONIO_COMMAND(export) {
+    auto* cmd = app.add_subcommand(
+        "export", "Write a fitted model as a Mitsuba 3 or pbrt-v4 material, or a MERL table");
+    auto opts = std::make_shared<Options>();
+    cmd->add_option(
+           "input", opts->input, "model JSON (fit.json); for merl also a table or dataset CSV")
+        ->required();
+    cmd->add_option("out_file", opts->out_positional, "output file (same as --out)");
+    cmd->add_option("--to", opts->to, "mitsuba | pbrt | merl")
+        ->required()
+        ->check(CLI::IsMember({"mitsuba", "pbrt", "merl"}));
+    cmd->add_option("--out", opts->out, "output file (mitsuba, pbrt: standard output when absent)");
+    cmd->add_option("--name", opts->name, "material id / name in the renderer file")
+        ->capture_default_str();
+    return [opts]() -> int {
+        const std::string out = !opts->out.empty() ? opts->out : opts->out_positional;
+        if (opts->to == "merl") {
+            if (out.empty()) {
+                std::fprintf(stderr, "gonio export: --to merl needs an output file (*.binary)\n");
+                return 2;
+            }
+            if (ends_with(opts->input, ".csv")) {
+                auto data = gonio::brdf::load_samples(opts->input);
+                if (!data) {
+                    std::fprintf(stderr, "gonio export: %s\n", data.error().message.c_str());
+                    return 1;
+                }
+                auto rep = gonio::brdf::export_merl(out, *data);
+                if (!rep) {
+                    std::fprintf(stderr, "gonio export: %s\n", rep.error().message.c_str());
+                    return 1;
+                }
+                std::fprintf(stderr,
+                             "gonio export: %zu samples into %zu bins filled, %zu bins left "
+                             "without data (marked not measured)\n",
+                             rep->samples_used,
+                             rep->filled_bins,
+                             rep->empty_bins);
+            } else {
+                auto brdf = gonio::brdf::load_brdf(opts->input);
+                if (!brdf) {
+                    std::fprintf(stderr, "gonio export: %s\n", brdf.error().message.c_str());
+                    return 1;
+                }
+                auto rep = gonio::brdf::export_merl(out, **brdf);
+                if (!rep) {
+                    std::fprintf(stderr, "gonio export: %s\n", rep.error().message.c_str());
+                    return 1;
+                }
+                if (rep->non_finite > 0) {
+                    std::fprintf(stderr,
+                                 "gonio export: %zu bins non-finite (left invalid)\n",
+                                 rep->non_finite);
+                }
+            }
+            std::printf("%s\n", out.c_str());
+            return 0;
+        }
+        auto model = gonio::brdf::load_model_json(opts->input);
+        if (!model) {
+            std::fprintf(stderr, "gonio export: %s\n", model.error().message.c_str());
+            return 1;
+        }
+        auto result = opts->to == "mitsuba" ? gonio::report::export_mitsuba(*model, opts->name)
+                                            : gonio::report::export_pbrt(*model, opts->name);
+        if (!result) {
+            std::fprintf(stderr,
+                         "gonio export: %s: %s\n",
+                         opts->input.c_str(),
+                         result.error().message.c_str());
+            return 1;
+        }
+        for (const std::string& n : result->approximations) {
+            std::fprintf(stderr, "gonio export: not exact: %s\n", n.c_str());
+        }
+        return write_text(out, result->text);
+    };
+}

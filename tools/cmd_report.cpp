@@ -1,0 +1,42 @@
+// gonio report: the self-contained HTML page of a campaign folder.
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <memory>
+
+#include "command.h"
+#include "gonio/report/html_report.h"
+
+namespace {
+
+struct Options {
+    std::string dir;
+    bool regenerate = false;
+};
+
+}  // namespace
+
+GONIO_COMMAND(report) {
+    auto* cmd = app.add_subcommand(
+        "report", "Write DIR/report.html: metadata, coverage, calibration, fit, plots, previews");
+    auto opts = std::make_shared<Options>();
+    cmd->add_option("dir", opts->dir, "campaign folder")->required();
+    cmd->add_flag("--regenerate", opts->regenerate, "redraw plots and previews that already exist");
+    return [opts]() -> int {
+        gonio::report::ReportOptions ro;
+        ro.regenerate = opts->regenerate;
+        auto r = gonio::report::build_report(opts->dir, ro);
+        if (!r) {
+            std::fprintf(stderr, "gonio report: %s\n", r.error().message.c_str());
+            return 1;
+        }
+        for (const std::string& g : r->generated) {
+            std::fprintf(stderr, "gonio report: drew %s\n", g.c_str());
+        }
+        for (const std::string& n : r->notes) {
+            std::fprintf(stderr, "gonio report: note: %s\n", n.c_str());
+        }
+        std::printf("%s\n", r->html_path.c_str());
+        return 0;
+    };
+}
