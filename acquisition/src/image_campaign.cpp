@@ -363,10 +363,19 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
 
     // 4. Frames until the coverage target.
     double current = front;
-    while (static_cast<int>(result.frames.size()) < cfg.max_frames &&
-           result.coverage.fraction() < cfg.coverage_target) {
+    const std::size_t min_gain = std::max<std::size_t>(
+        1,
+        static_cast<std::size_t>(cfg.min_gain_fraction *
+                                 static_cast<double>(result.coverage.valid_bins())));
+    result.stop_reason = "frame limit";
+    while (static_cast<int>(result.frames.size()) < cfg.max_frames) {
+        if (result.coverage.fraction() >= cfg.coverage_target) {
+            result.stop_reason = "coverage target met";
+            break;
+        }
         const int next = next_light(candidates, result.coverage, current);
-        if (next < 0) {
+        if (next < 0 || result.coverage.gain(candidates[next].bins) < min_gain) {
+            result.stop_reason = "no light position adds enough bins";
             break;
         }
         const double a = candidates[next].light_arm_rad;
@@ -426,6 +435,9 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
         }
     }
     result.target_met = result.coverage.fraction() >= cfg.coverage_target;
+    if (result.target_met) {
+        result.stop_reason = "coverage target met";
+    }
     result.holes = coverage_holes(result.coverage, all_candidates, cfg.lights.blind_zone_rad);
     return result;
 }
@@ -477,6 +489,7 @@ Expected<void> write_image_campaign(const std::string& dir,
     j["coverage"] = {{"target", config.coverage_target},
                      {"achieved", result.coverage.fraction()},
                      {"target_met", result.target_met},
+                     {"stop_reason", result.stop_reason},
                      {"valid_bins", result.coverage.valid_bins()},
                      {"covered_bins", result.coverage.covered_bins()},
                      {"reachable_bins", result.reachable_bins}};

@@ -1,5 +1,6 @@
 #include "gonio/sim/sphere_render.h"
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <opencv2/calib3d.hpp>
 

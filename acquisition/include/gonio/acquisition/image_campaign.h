@@ -62,6 +62,9 @@ struct ImageCampaignConfig {
     double coverage_target = 0.9;  ///< Covered fraction of the valid bins that ends the campaign.
     int max_frames = 200;          ///< Light positions at most.
     std::uint32_t min_count = 1;   ///< Samples a bin needs to count as covered.
+    /// The campaign also stops when the best light position would add fewer new bins than this
+    /// fraction of the valid bins (diminishing returns: the rest are holes).
+    double min_gain_fraction = 0.002;
     ExclusionRules rules;
     SilhouetteOptions silhouette;
     int plan_pixel_stride = 2;  ///< Pixel subsampling of the coverage prediction.
@@ -102,7 +105,8 @@ struct ImageCampaignResult {
     std::vector<CoverageHole> holes;
     std::size_t reachable_bins = 0;
     bool target_met = false;
-    bool bracketed = false;      ///< Some pixel needed a shorter exposure.
+    std::string stop_reason;  ///< "coverage target met", "no light position adds enough bins", ...
+    bool bracketed = false;   ///< Some pixel needed a shorter exposure.
     std::uint64_t captures = 0;  ///< Frames captured (dark frames included).
     double exposure_time_s = 0;  ///< Sum of exposure times (the shutter-open and dark frames).
 };
