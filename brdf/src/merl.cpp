@@ -90,6 +90,14 @@ std::string check_finite(const double* v, const TableGrid& grid) {
     return {};
 }
 
+// "<name>: 204 bytes, dims 90 x 90 x 180 require 34992012 (truncated)".
+std::string size_message(const std::string& name, std::size_t size, const TableGrid& g) {
+    const std::size_t expected = merl_file_size(g);
+    return name + ": " + std::to_string(size) + " bytes, dims " + std::to_string(g.n_theta_h) +
+           " x " + std::to_string(g.n_theta_d) + " x " + std::to_string(g.n_phi_d) + " require " +
+           std::to_string(expected) + (size < expected ? " (truncated)" : " (trailing bytes)");
+}
+
 struct FileCloser {
     void operator()(std::FILE* f) const { std::fclose(f); }
 };
@@ -115,12 +123,8 @@ Expected<TabulatedBrdf> parse_merl(const std::uint8_t* data,
         return make_error(name + ": " + bad_dims);
     }
     const TableGrid grid{d[0], d[1], d[2]};
-    const std::size_t expected = merl_file_size(grid);
-    if (size != expected) {
-        return make_error(name + ": " + std::to_string(size) + " bytes, dims " +
-                          std::to_string(d[0]) + " x " + std::to_string(d[1]) + " x " +
-                          std::to_string(d[2]) + " require " + std::to_string(expected) +
-                          (size < expected ? " (truncated)" : " (trailing bytes)"));
+    if (size != merl_file_size(grid)) {
+        return make_error(size_message(name, size, grid));
     }
     std::vector<double> raw(3 * grid.size());
     std::memcpy(raw.data(), data + kHeaderBytes, raw.size() * sizeof(double));
@@ -144,6 +148,13 @@ Expected<TabulatedBrdf> read_merl(const std::string& path, MerlDims dims) {
     if (fs::is_directory(st)) {
         return make_error(path + ": is a directory, expected a MERL binary file");
     }
+    if (!fs::is_regular_file(st)) {
+        return make_error(path + ": not a regular file, expected a MERL binary file");
+    }
+    const std::uintmax_t file_size = fs::file_size(path, ec);
+    if (ec) {
+        return make_error(path + ": cannot read its size: " + ec.message());
+    }
     FilePtr f(std::fopen(path.c_str(), "rb"));
     if (!f) {
         return make_error(path + ": cannot open: " + std::strerror(errno));
@@ -161,6 +172,10 @@ Expected<TabulatedBrdf> read_merl(const std::string& path, MerlDims dims) {
         return make_error(path + ": " + bad_dims);
     }
     const TableGrid grid{d[0], d[1], d[2]};
+    if (file_size != merl_file_size(grid)) {
+        // Checked before allocating: the header alone must not decide how much memory is taken.
+        return make_error(size_message(path, static_cast<std::size_t>(file_size), grid));
+    }
     std::vector<double> raw(3 * grid.size());
     const std::size_t want = raw.size() * sizeof(double);
     const std::size_t got = std::fread(raw.data(), 1, want, f.get());
@@ -177,11 +192,8 @@ Expected<TabulatedBrdf> read_merl(const std::string& path, MerlDims dims) {
     }
     const std::size_t size = kHeaderBytes + got + trailing;
     if (got != want || trailing != 0) {
-        return make_error(path + ": " + std::to_string(size) + " bytes, dims " +
-                          std::to_string(d[0]) + " x " + std::to_string(d[1]) + " x " +
-                          std::to_string(d[2]) + " require " +
-                          std::to_string(merl_file_size(grid)) +
-                          (got != want ? " (truncated)" : " (trailing bytes)"));
+        // The file changed size while being read.
+        return make_error(size_message(path, size, grid));
     }
     if (!kHostLittleEndian) {
         swap_doubles(raw.data(), raw.size());

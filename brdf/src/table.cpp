@@ -162,6 +162,8 @@ void TabulatedBrdf::set_bin(std::size_t flat, const Rgbd& value) {
     const std::size_t n = grid_.size();
     for (int c = 0; c < 3; ++c) {
         raw_[c * n + flat] = value[c] / scale_[c];
+        GONIO_CHECK_MSG(std::isfinite(raw_[c * n + flat]),
+                        "value " << value[c] << " / scale " << scale_[c] << " overflows");
     }
     valid_[flat] = 1;
 }
@@ -266,7 +268,6 @@ TableStatistics TabulatedBrdf::compute_statistics() const {
     s.bins = grid_.size();
     s.min = Rgbd::Constant(std::numeric_limits<double>::infinity());
     s.max = Rgbd::Zero();
-    Rgbd sum = Rgbd::Zero();
     for (std::size_t k = 0; k < s.bins; ++k) {
         if (!valid_[k]) {
             continue;
@@ -275,14 +276,13 @@ TableStatistics TabulatedBrdf::compute_statistics() const {
         ++s.valid_bins;
         s.min = s.min.min(v);
         s.max = s.max.max(v);
-        sum += v;
+        // Running mean: cannot overflow where a plain sum of huge stored values would.
+        s.mean += (v - s.mean) / static_cast<double>(s.valid_bins);
     }
     if (s.valid_bins == 0) {
         // No data at all: report zeros rather than +inf minima.
         s.min = Rgbd::Zero();
-        return s;
     }
-    s.mean = sum / static_cast<double>(s.valid_bins);
     return s;
 }
 

@@ -150,7 +150,8 @@ class TabulatedBrdf : public Brdf {
     bool bin_valid(std::size_t flat) const { return valid_[flat] != 0; }
     /// Value of a bin in 1/sr (meaningful only when valid).
     Rgbd bin_value(std::size_t flat) const;
-    /// Stores a value in 1/sr (finite, >= 0, checked) and marks the bin valid.
+    /// Stores a value in 1/sr (finite, >= 0, value / scale finite: checked) and marks the bin
+    /// valid.
     void set_bin(std::size_t flat, const Rgbd& value);
     /// Marks a bin as not measured (raw -1 in every channel).
     void set_bin_invalid(std::size_t flat);
