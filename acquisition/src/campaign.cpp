@@ -152,6 +152,21 @@ Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::s
     return s;
 }
 
+CampaignSpec default_campaign_spec(const std::string& sample) {
+    CampaignSpec s;
+    s.sample = sample;
+    s.plan_kind = "uniform";
+    s.uniform.n_theta = 7;
+    s.uniform.n_dphi = 5;
+    s.uniform.theta_max = 75 * kDeg;
+    s.adaptive = true;
+    s.adaptive_passes = 1;
+    s.refine.budget = 30;
+    s.drift_every = 40;
+    s.json = campaign_spec_json(s);
+    return s;
+}
+
 Expected<CampaignSpec> read_campaign_spec(const std::string& path) {
     auto text = read_text(path);
     if (!text) {

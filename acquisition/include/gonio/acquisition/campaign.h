@@ -39,6 +39,10 @@ struct CampaignSpec {
     std::string json;  ///< The JSON text.
 };
 
+/// The default campaign (no description given): `sample` measured on a uniform grid of 7 polar x 5
+/// azimuth-difference values up to 75 deg, one adaptive pass of 30, drift check every 40.
+CampaignSpec default_campaign_spec(const std::string& sample);
+
 Expected<CampaignSpec> parse_campaign_spec(const std::string& json_text, const std::string& source);
 Expected<CampaignSpec> read_campaign_spec(const std::string& path);
 std::string campaign_spec_json(const CampaignSpec& spec);

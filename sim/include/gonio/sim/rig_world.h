@@ -1,0 +1,76 @@
+#pragma once
+
+// The virtual rig's world: what the simulated camera sees, derived from the simulated motor
+// controllers' stage angles through the four-axis geometry (gonio/brdf/rig_geometry.h), the lamp
+// shutter coil, and the reference changer coil that puts the white standard in place of the sample.
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+
+#include "gonio/brdf/brdf.h"
+#include "gonio/sim/camera_scene.h"
+#include "gonio/sim/motor_controller_server.h"
+
+namespace gonio::sim {
+
+/// Which unit drives which stage; which unit carries the shutter and the reference changer coils
+/// (0 = none).
+struct RigUnits {
+    int light = 1;
+    int detector = 2;
+    int tilt = 3;
+    int spin = 4;
+    int shutter = 5;
+    int reference_changer = 0;
+};
+
+/// A BRDF that is the sample's or the white standard's, whichever is in the beam.
+class MountedBrdf : public brdf::Brdf {
+  public:
+    MountedBrdf(std::shared_ptr<const brdf::Brdf> sample, double white_reflectance);
+    brdf::Rgbd eval(const brdf::Vec3d& wi, const brdf::Vec3d& wo) const override;
+    bool isotropic() const override;
+    std::string describe() const override;
+    void set_white(bool white) { white_.store(white); }
+    bool white() const { return white_.load(); }
+
+  private:
+    std::shared_ptr<const brdf::Brdf> sample_;
+    double white_reflectance_;
+    std::atomic<bool> white_{false};
+};
+
+class RigWorld {
+  public:
+    /// `server` must outlive the world.
+    RigWorld(const MotorControllerServer* server,
+             RigUnits units,
+             std::shared_ptr<MountedBrdf> mounted,
+             double irradiance_w_m2);
+
+    /// The state at this instant: wi, wo from the stage angles (radians = degrees * pi / 180 of
+    /// the physical load angles), the shutter, the irradiance times the lamp factor; also switches
+    /// the mounted BRDF to the white standard while the changer coil is on.
+    SceneState scene() const;
+    SceneFn scene_fn() const;
+    /// Multiplies the lamp's irradiance (1 = nominal): simulates lamp drift.
+    void set_lamp_factor(double f) { lamp_factor_.store(f); }
+    /// Called with the running count (1, 2, ...) at every exposure the camera asks the world
+    /// about, before the state is returned: lets tests act at an exact point of a campaign (change
+    /// the lamp, stop, kill the process). Set it before the camera is used.
+    void set_exposure_hook(std::function<void(std::uint64_t)> hook) { hook_ = std::move(hook); }
+    std::uint64_t exposures() const { return exposures_.load(); }
+
+  private:
+    const MotorControllerServer* server_;
+    RigUnits units_;
+    std::shared_ptr<MountedBrdf> mounted_;
+    double irradiance_;
+    std::atomic<double> lamp_factor_{1.0};
+    std::function<void(std::uint64_t)> hook_;
+    mutable std::atomic<std::uint64_t> exposures_{0};
+};
+
+}  // namespace gonio::sim

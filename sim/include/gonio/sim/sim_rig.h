@@ -1,0 +1,66 @@
+#pragma once
+
+// The whole virtual rig: simulated motor controllers for the four stages (one Modbus server, one
+// unit per drive, the lamp shutter and the reference changer as coils), a simulated USB3 Vision
+// camera rendering the mounted BRDF under the rig's geometry, and the world that ties them. It
+// reads the same rig description as acquisition (data/rigs/*.json: axes with role, unit, profile;
+// shutter; reference_changer) plus its "sim" section:
+//   "sim": {"material": "red-plastic" | "brdf": "model.json", "time_scale": 20,
+//           "sensor": {"width": 640, "height": 512}, "irradiance_w_m2": 1, "seed": 1,
+//           "initial_deg": {"light": 0, "detector": 45}}
+
+#include <memory>
+#include <string>
+
+#include "gonio/brdf/error.h"
+#include "gonio/sim/motor_controller_server.h"
+#include "gonio/sim/rig_world.h"
+#include "gonio/sim/u3v_device.h"
+
+namespace gonio::sim {
+
+struct SimRigOptions {
+    std::string material;          ///< Named material (overrides the rig's "sim" section).
+    std::string brdf_path;         ///< Model JSON or table (overrides material).
+    double time_scale = 0;         ///< > 0 overrides.
+    bool camera_over_tcp = false;  ///< Serve the camera on u3v-tcp (for another process).
+    std::string in_process_name = "simrig";
+    std::uint64_t seed = 0;  ///< > 0 overrides.
+};
+
+class SimRig {
+  public:
+    /// Builds and starts the rig from a rig description's JSON text.
+    static Expected<std::unique_ptr<SimRig>> start(const std::string& rig_json,
+                                                   const SimRigOptions& opt = {});
+    ~SimRig();
+    SimRig(const SimRig&) = delete;
+    SimRig& operator=(const SimRig&) = delete;
+
+    std::string motor_address() const;   ///< tcp://127.0.0.1:PORT
+    std::string camera_address() const;  ///< u3v-tcp://127.0.0.1:PORT or u3v-mem:NAME
+    std::string describe() const;        ///< Sample, units, addresses.
+
+    MotorControllerServer& motors() { return *motors_; }
+    U3vDevice& camera() { return *camera_; }
+    RigWorld& world() { return *world_; }
+    const RigUnits& units() const { return units_; }
+    /// The sample's ground truth (not the white standard).
+    std::shared_ptr<const brdf::Brdf> sample() const { return sample_; }
+
+    void stop();
+
+  private:
+    SimRig() = default;
+    std::unique_ptr<MotorControllerServer> motors_;
+    std::shared_ptr<MountedBrdf> mounted_;
+    std::shared_ptr<const brdf::Brdf> sample_;
+    std::unique_ptr<RigWorld> world_;
+    std::shared_ptr<U3vDevice> camera_;
+    std::unique_ptr<class U3vTcpServer> camera_server_;
+    std::string camera_address_;
+    std::string sample_name_;
+    RigUnits units_;
+};
+
+}  // namespace gonio::sim

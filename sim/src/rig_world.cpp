@@ -1,0 +1,68 @@
+#include "gonio/sim/rig_world.h"
+
+#include "gonio/brdf/rig_geometry.h"
+
+namespace gonio::sim {
+
+MountedBrdf::MountedBrdf(std::shared_ptr<const brdf::Brdf> sample, double white_reflectance)
+    : sample_(std::move(sample)), white_reflectance_(white_reflectance) {}
+
+brdf::Rgbd MountedBrdf::eval(const brdf::Vec3d& wi, const brdf::Vec3d& wo) const {
+    if (white_.load()) {
+        // The white standard: Lambertian, f = rho / pi above the horizon, 0 below.
+        if (wi.z() <= 0 || wo.z() <= 0) {
+            return brdf::Rgbd::Zero();
+        }
+        return brdf::Rgbd::Constant(white_reflectance_ * brdf::kInvPi);
+    }
+    return sample_ ? sample_->eval(wi, wo) : brdf::Rgbd::Zero();
+}
+
+bool MountedBrdf::isotropic() const {
+    return sample_ ? sample_->isotropic() : true;
+}
+
+std::string MountedBrdf::describe() const {
+    return (white_.load() ? std::string("white standard in the beam; sample: ")
+                          : std::string("sample: ")) +
+           (sample_ ? sample_->describe() : std::string("none"));
+}
+
+RigWorld::RigWorld(const MotorControllerServer* server,
+                   RigUnits units,
+                   std::shared_ptr<MountedBrdf> mounted,
+                   double irradiance_w_m2)
+    : server_(server), units_(units), mounted_(std::move(mounted)), irradiance_(irradiance_w_m2) {}
+
+SceneState RigWorld::scene() const {
+    constexpr double kDeg = brdf::kPi / 180.0;
+    const std::uint64_t n = ++exposures_;
+    if (hook_) {
+        hook_(n);
+    }
+    brdf::RigPosed p;
+    p.light = server_->position_deg(units_.light) * kDeg;
+    p.detector = server_->position_deg(units_.detector) * kDeg;
+    p.tilt = server_->position_deg(units_.tilt) * kDeg;
+    p.spin = server_->position_deg(units_.spin) * kDeg;
+    SceneState s;
+    const auto [wi, wo] = brdf::rig_forward(p);
+    s.wi = wi;
+    s.wo = wo;
+    s.shutter_open = units_.shutter > 0 ? server_->shutter_open(units_.shutter) : true;
+    s.irradiance_w_m2 = irradiance_ * lamp_factor_.load();
+    if (units_.reference_changer > 0) {
+        mounted_->set_white(server_->shutter_open(units_.reference_changer));
+    }
+    if (!s.wi.allFinite() || !s.wo.allFinite()) {
+        // An unknown unit reads NaN: the camera then sees darkness, never NaN.
+        s.wi = s.wo = brdf::Vec3d(0, 0, -1);
+    }
+    return s;
+}
+
+SceneFn RigWorld::scene_fn() const {
+    return [this]() { return scene(); };
+}
+
+}  // namespace gonio::sim

@@ -1,0 +1,154 @@
+#include "gonio/sim/sim_rig.h"
+
+#include <nlohmann/json.hpp>
+
+#include "gonio/brdf/analytic_brdf.h"
+#include "gonio/brdf/brdf.h"
+#include "gonio/brdf/material_library.h"
+#include "gonio/devices/axis_profile.h"
+#include "gonio/sim/u3v_tcp_server.h"
+
+namespace gonio::sim {
+
+using nlohmann::json;
+
+SimRig::~SimRig() {
+    stop();
+}
+
+void SimRig::stop() {
+    if (camera_server_) {
+        camera_server_->stop();
+        camera_server_.reset();
+    }
+    if (motors_) {
+        motors_->stop();
+    }
+}
+
+std::string SimRig::motor_address() const {
+    return motors_->address();
+}
+std::string SimRig::camera_address() const {
+    return camera_address_;
+}
+
+std::string SimRig::describe() const {
+    return "sample " + sample_name_ + " (" + (sample_ ? sample_->describe() : "") + ")";
+}
+
+Expected<std::unique_ptr<SimRig>> SimRig::start(const std::string& rig_json,
+                                                const SimRigOptions& opt) {
+    std::unique_ptr<SimRig> rig(new SimRig());
+    json j;
+    try {
+        j = json::parse(rig_json);
+    } catch (const std::exception& e) {
+        return make_error(std::string("sim rig: ") + e.what());
+    }
+    const json sim = j.value("sim", json::object());
+    double time_scale = opt.time_scale > 0 ? opt.time_scale : sim.value("time_scale", 20.0);
+    const std::uint64_t seed = opt.seed > 0 ? opt.seed : sim.value("seed", std::uint64_t{1});
+    if (!(time_scale > 0)) {
+        return make_error("sim rig: sim.time_scale must be > 0");
+    }
+    // Ground truth.
+    std::string brdf_path = opt.brdf_path;
+    std::string material = opt.material;
+    if (brdf_path.empty() && material.empty()) {
+        brdf_path = sim.value("brdf", std::string());
+        material = sim.value("material", std::string("red-plastic"));
+    }
+    if (!brdf_path.empty()) {
+        auto b = brdf::load_brdf(brdf_path);
+        if (!b) {
+            return make_error("sim rig: " + b.error().message);
+        }
+        rig->sample_ = std::shared_ptr<const brdf::Brdf>(std::move(*b));
+        rig->sample_name_ = brdf_path;
+    } else {
+        auto m = brdf::load_material(material);
+        if (!m) {
+            return make_error("sim rig: " + m.error().message);
+        }
+        rig->sample_ = std::shared_ptr<const brdf::Brdf>(brdf::make_analytic_brdf(*m));
+        rig->sample_name_ = material;
+    }
+    const double white = j.value("white_reference", json::object()).value("reflectance", 0.99);
+    rig->mounted_ = std::make_shared<MountedBrdf>(rig->sample_, white);
+    // Motor controllers.
+    rig->motors_ = std::make_unique<MotorControllerServer>();
+    const json initial = sim.value("initial_deg", json::object());
+    try {
+        for (const json& a : j.at("axes")) {
+            const std::string role = a.at("role").get<std::string>();
+            const int unit = a.at("unit").get<int>();
+            auto prof = devices::load_axis_profile(a.value("profile", std::string("generic")));
+            if (!prof) {
+                return make_error("sim rig: axis " + role + ": " + prof.error().message);
+            }
+            MotorSimConfig mc;
+            mc.time_scale = time_scale;
+            mc.seed = seed + static_cast<std::uint64_t>(unit);
+            mc.start_homed = sim.value("start_homed", true);
+            mc.initial_deg = initial.value(role, role == "detector" ? 45.0 : 0.0);
+            const json lim = a.at("limits_deg");
+            // Limit switches a little beyond the soft limits.
+            mc.limit_min_deg = lim.at(0).get<double>() - 5;
+            mc.limit_max_deg = lim.at(1).get<double>() + 5;
+            if (auto r = rig->motors_->add_unit(unit, *prof, mc); !r) {
+                return make_error("sim rig: axis " + role + ": " + r.error().message);
+            }
+            if (role == "light") {
+                rig->units_.light = unit;
+            } else if (role == "detector") {
+                rig->units_.detector = unit;
+            } else if (role == "tilt") {
+                rig->units_.tilt = unit;
+            } else if (role == "spin") {
+                rig->units_.spin = unit;
+            }
+        }
+        const json& sh = j.at("shutter");
+        rig->units_.shutter = sh.at("unit").get<int>();
+        if (auto r = rig->motors_->add_shutter(rig->units_.shutter, sh.at("coil").get<int>()); !r) {
+            return make_error("sim rig: shutter: " + r.error().message);
+        }
+        if (j.contains("reference_changer")) {
+            const json& rc = j.at("reference_changer");
+            rig->units_.reference_changer = rc.at("unit").get<int>();
+            if (auto r = rig->motors_->add_shutter(rig->units_.reference_changer,
+                                                   rc.at("coil").get<int>());
+                !r) {
+                return make_error("sim rig: reference changer: " + r.error().message);
+            }
+        }
+    } catch (const std::exception& e) {
+        return make_error(std::string("sim rig: ") + e.what());
+    }
+    if (auto r = rig->motors_->start(); !r) {
+        return make_error("sim rig: motor controllers: " + r.error().message);
+    }
+    // World and camera.
+    rig->world_ = std::make_unique<RigWorld>(
+        rig->motors_.get(), rig->units_, rig->mounted_, sim.value("irradiance_w_m2", 1.0));
+    U3vDeviceConfig cc;
+    const json sensor = sim.value("sensor", json::object());
+    cc.sensor.width = sensor.value("width", 640);
+    cc.sensor.height = sensor.value("height", 512);
+    cc.sensor.seed = seed;
+    rig->camera_ = std::make_shared<U3vDevice>(cc, rig->mounted_, rig->world_->scene_fn());
+    if (opt.camera_over_tcp) {
+        rig->camera_server_ = std::make_unique<U3vTcpServer>(rig->camera_);
+        if (auto r = rig->camera_server_->start(0); !r) {
+            return make_error("sim rig: camera server: " + r.error().message);
+        }
+        rig->camera_address_ = rig->camera_server_->address();
+    } else {
+        register_in_process_camera(opt.in_process_name, rig->camera_);
+        rig->camera_address_ = "u3v-mem:" + opt.in_process_name;
+    }
+    return rig;
+}
+
+}  // namespace gonio::sim

@@ -1,0 +1,263 @@
+// gonio acquire: run or resume a measurement campaign. With no description it measures a default
+// material on the embedded virtual rig; with campaign.json it uses the rig that description names
+// (a real rig, or a `gonio sim` process).
+
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "command.h"
+#include "gonio/acquisition/campaign.h"
+#include "gonio/acquisition/rig_config.h"
+#include "gonio/brdf/data_path.h"
+#include "gonio/sim/sim_rig.h"
+
+namespace {
+
+namespace acq = gonio::acquisition;
+namespace fs = std::filesystem;
+
+struct AcquireOptions {
+    std::string campaign;
+    std::string rig;
+    std::string out;
+    std::string resume;
+    std::string campaigns_dir = "campaigns";
+    std::string material;
+    std::string brdf;
+    std::string scene;
+    std::string sample;
+    std::string operator_name;
+    std::string plan;
+    int n_theta = 0;
+    int n_dphi = 0;
+    int adaptive = -1;
+    double time_scale = 0;
+    bool accept_drift = false;
+    bool plan_only = false;
+};
+
+std::atomic<bool> g_stop{false};
+
+extern "C" void on_sigint(int) {
+    g_stop.store(true);
+    // A second Ctrl-C ends the process at once.
+    std::signal(SIGINT, SIG_DFL);
+}
+
+int fail(const std::string& msg) {
+    std::fprintf(stderr, "gonio acquire: %s\n", msg.c_str());
+    return 1;
+}
+
+/// The rig description marks campaigns that ran on the embedded virtual rig, so a resume restarts
+/// it.
+bool is_embedded(const std::string& rig_json) {
+    const nlohmann::json j = nlohmann::json::parse(rig_json, nullptr, false);
+    return !j.is_discarded() && j.value("embedded_virtual_rig", false);
+}
+
+int run(const AcquireOptions& o) {
+    std::string dir;
+    acq::RigConfig rig;
+    std::unique_ptr<gonio::sim::SimRig> sim;
+    bool embedded = false;
+    // The virtual rig takes its ground truth and time scale from the stored rig description.
+    gonio::sim::SimRigOptions so;
+    if (!o.resume.empty()) {
+        dir = o.resume;
+        auto r = acq::read_rig_config((fs::path(dir) / "rig.json").string());
+        if (!r) {
+            return fail(r.error().message);
+        }
+        rig = *r;
+        embedded = is_embedded(rig.json);
+    } else {
+        acq::CampaignSpec spec;
+        if (!o.campaign.empty()) {
+            auto s = acq::read_campaign_spec(o.campaign);
+            if (!s) {
+                return fail(s.error().message);
+            }
+            spec = *s;
+            const fs::path base = fs::path(o.campaign).parent_path();
+            if (!spec.rig.empty() && fs::path(spec.rig).is_relative()) {
+                spec.rig = (base / spec.rig).string();
+            }
+            if (!spec.scene.empty() && fs::path(spec.scene).is_relative()) {
+                spec.scene = (base / spec.scene).string();
+            }
+        } else {
+            embedded = true;
+            spec = acq::default_campaign_spec(!o.brdf.empty() ? fs::path(o.brdf).stem().string()
+                                              : !o.material.empty() ? o.material
+                                                                    : "red-plastic");
+        }
+        if (!o.rig.empty()) {
+            spec.rig = o.rig;
+        }
+        if (spec.rig.empty()) {
+            auto p = gonio::find_data_file("rigs/sim4.json");
+            if (!p) {
+                return fail(p.error().message);
+            }
+            spec.rig = *p;
+        }
+        if (!o.scene.empty()) {
+            spec.scene = o.scene;
+        }
+        if (!o.sample.empty()) {
+            spec.sample = o.sample;
+        }
+        if (!o.operator_name.empty()) {
+            spec.operator_name = o.operator_name;
+        }
+        if (!o.plan.empty()) {
+            spec.plan_kind = o.plan;
+        }
+        if (o.n_theta > 0) {
+            spec.uniform.n_theta = o.n_theta;
+        }
+        if (o.n_dphi > 0) {
+            spec.uniform.n_dphi = o.n_dphi;
+        }
+        if (o.adaptive >= 0) {
+            spec.adaptive = o.adaptive > 0;
+            spec.adaptive_passes = o.adaptive;
+        }
+        auto r = acq::read_rig_config(spec.rig);
+        if (!r) {
+            return fail(r.error().message);
+        }
+        rig = *r;
+        if (o.plan_only) {
+            auto plan = acq::build_plan(spec, rig);
+            if (!plan) {
+                return fail(plan.error().message);
+            }
+            std::printf(
+                "%zu configurations, %zu unreachable, %llu outside the ROI, naive 4D grid %llu\n",
+                plan->configs.size(),
+                plan->unreachable.size(),
+                static_cast<unsigned long long>(plan->outside_roi),
+                static_cast<unsigned long long>(plan->naive_count));
+            for (const auto& u : plan->unreachable) {
+                std::printf("unreachable: %s\n", u.reason.c_str());
+            }
+            return 0;
+        }
+        dir = o.out.empty() ? acq::auto_campaign_dir(o.campaigns_dir, spec.sample) : o.out;
+        if (embedded) {
+            // Record that the virtual rig served this campaign, and its ground truth, so that a
+            // resume restarts the same world.
+            nlohmann::json j = nlohmann::json::parse(rig.json);
+            j["embedded_virtual_rig"] = true;
+            if (!o.brdf.empty()) {
+                j["sim"]["brdf"] = fs::absolute(o.brdf).string();
+                j["sim"].erase("material");
+            } else if (!o.material.empty()) {
+                j["sim"]["material"] = o.material;
+                j["sim"].erase("brdf");
+            }
+            if (o.time_scale > 0) {
+                j["sim"]["time_scale"] = o.time_scale;
+            }
+            auto rr = acq::parse_rig_config(j.dump(2), spec.rig);
+            if (!rr) {
+                return fail(rr.error().message);
+            }
+            rig = *rr;
+        }
+        if (auto c = acq::create_campaign_dir(dir, spec, rig); !c) {
+            return fail(c.error().message);
+        }
+    }
+    if (embedded) {
+        auto s = gonio::sim::SimRig::start(rig.json, so);
+        if (!s) {
+            return fail(s.error().message);
+        }
+        sim = std::move(*s);
+        std::printf("virtual rig: %s; motors %s, camera %s\n",
+                    sim->describe().c_str(),
+                    sim->motor_address().c_str(),
+                    sim->camera_address().c_str());
+        rig = acq::with_addresses(rig, sim->motor_address(), sim->camera_address());
+    }
+    std::printf("campaign folder: %s\n", dir.c_str());
+    std::fflush(stdout);
+    auto dev = acq::open_rig(rig);
+    if (!dev) {
+        return fail(dev.error().message);
+    }
+    acq::RunHooks hooks;
+    hooks.stop = &g_stop;
+    hooks.out = stdout;
+    hooks.accept_drift = o.accept_drift;
+    hooks.mount = [](bool white) -> gonio::Expected<void> {
+        std::printf(
+            "%s, then press Enter: ",
+            white ? "Mount the white reference in the sample holder" : "Mount the sample again");
+        std::fflush(stdout);
+        std::string line;
+        if (!std::getline(std::cin, line)) {
+            return gonio::make_error("no operator input (stdin closed)");
+        }
+        return {};
+    };
+    std::signal(SIGINT, on_sigint);
+    auto res = acq::run_campaign(dir, *dev, hooks);
+    std::signal(SIGINT, SIG_DFL);
+    if (!res) {
+        return fail(res.error().message);
+    }
+    std::printf("%s\ndataset: %s\n",
+                res->message.c_str(),
+                (fs::path(dir) / "dataset.csv").string().c_str());
+    switch (res->outcome) {
+        case acq::Outcome::kCompleted:
+            return 0;
+        case acq::Outcome::kInterrupted:
+            return 130;
+        case acq::Outcome::kPaused:
+            std::fprintf(stderr, "gonio acquire: paused: %s\n", res->message.c_str());
+            return 3;
+    }
+    return 1;
+}
+
+}  // namespace
+
+GONIO_COMMAND(acquire) {
+    auto* cmd = app.add_subcommand("acquire",
+                                   "run a measurement campaign (no arguments: a default material "
+                                   "on the embedded virtual rig)");
+    auto o = std::make_shared<AcquireOptions>();
+    cmd->add_option("campaign", o->campaign, "campaign description (campaign.json)");
+    cmd->add_option(
+        "--rig", o->rig, "rig description (default: the campaign's, else data/rigs/sim4.json)");
+    cmd->add_option("--out", o->out, "campaign folder (default: campaigns/<time>_<sample>)");
+    cmd->add_option("--campaigns-dir", o->campaigns_dir, "parent of automatically named folders");
+    cmd->add_option("--resume", o->resume, "continue the campaign in this folder");
+    cmd->add_option("--material", o->material, "virtual rig: named material (data/materials)");
+    cmd->add_option("--brdf", o->brdf, "virtual rig: ground-truth model JSON or table");
+    cmd->add_option("--scene", o->scene, "measure only the region of interest of this scene");
+    cmd->add_option("--sample", o->sample, "sample name");
+    cmd->add_option("--operator", o->operator_name, "operator name");
+    cmd->add_option("--plan", o->plan, "uniform or half-diff");
+    cmd->add_option("--n-theta", o->n_theta, "uniform plan: polar angles");
+    cmd->add_option("--n-dphi", o->n_dphi, "uniform plan: azimuth differences");
+    cmd->add_option("--adaptive", o->adaptive, "adaptive refinement passes (0 = none)");
+    cmd->add_option("--time-scale", o->time_scale, "virtual rig: motion time scale");
+    cmd->add_flag("--accept-drift",
+                  o->accept_drift,
+                  "resume: take the lamp's current level as the new baseline");
+    cmd->add_flag("--plan-only", o->plan_only, "print the plan (and unreachable targets) and exit");
+    return [o]() { return run(*o); };
+}
