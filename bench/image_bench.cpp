@@ -1,0 +1,207 @@
+// Image mode against point mode on the same simulated material and rig speeds: samples per second,
+// rig time to a coverage of the half/difference table, and the fit error reached for the time
+// spent. Rig time = light-arm moves (trapezoidal profile + settle, acquisition/kinematics.h
+// defaults: 20 deg/s, 40 deg/s^2, 50 ms) + every exposure taken (brackets, dark frames, white
+// reference); camera readout and transfer are not counted, in either mode.
+
+#include <benchmark/benchmark.h>
+
+#include <chrono>
+#include <random>
+
+#include "../tools/acquire_image_mode.cpp"
+#include "gonio/acquisition/kinematics.h"
+#include "gonio/acquisition/schedule.h"
+#include "gonio/brdf/analytic_brdf.h"
+#include "gonio/fitting/fit.h"
+#include "gonio/fitting/spec.h"
+
+namespace {
+
+using namespace gonio;
+using brdf::kPi;
+
+brdf::ModelD truth_model() {
+    brdf::ModelD m;
+    m.diffuse = brdf::Rgbd(0.35, 0.22, 0.12);
+    brdf::Lobe<double> l;
+    l.distribution = brdf::Distribution::kGgx;
+    l.alpha_x = l.alpha_y = 0.3;
+    l.fresnel.type = brdf::FresnelType::kNone;
+    l.scale = brdf::Rgbd::Constant(0.12);
+    m.lobes.push_back(l);
+    return m;
+}
+
+/// Relative error of the fitted alpha and the largest relative error of the diffuse albedo.
+std::pair<double, double> fit_errors(const brdf::Dataset& data) {
+    fitting::ModelOptions mo;
+    mo.fresnel = brdf::FresnelType::kNone;
+    auto spec = fitting::make_fit_spec(mo);
+    spec->options.seed = 1;
+    spec->options.num_threads = 1;
+    spec->options.max_samples = 6000;
+    auto fit = fitting::fit(data, *spec);
+    if (!fit || !fit->usable() || fit->model.lobes.empty()) {
+        return {1.0, 1.0};
+    }
+    const brdf::ModelD t = truth_model();
+    const double e_alpha =
+        std::abs(fit->model.lobes[0].alpha_x - t.lobes[0].alpha_x) / t.lobes[0].alpha_x;
+    const double e_diffuse = ((fit->model.diffuse - t.diffuse).abs() / t.diffuse).maxCoeff();
+    return {e_alpha, e_diffuse};
+}
+
+double light_moves_s(const std::vector<acquisition::FrameRecord>& frames, double start) {
+    const acquisition::AxisDynamics d;
+    double t = 0;
+    double at = start;
+    for (const auto& f : frames) {
+        t += acquisition::trapezoid_time(std::abs(f.light_arm_rad - at), d.speed, d.accel) +
+             d.settle_s;
+        at = f.light_arm_rad;
+    }
+    return t;
+}
+
+/// Image mode: campaign on a 200 px sphere image, 30 x 30 x 60 table, at most range(0) frames.
+void BM_ImageModeCampaign(benchmark::State& state) {
+    const int max_frames = static_cast<int>(state.range(0));
+    for (auto _ : state) {
+        auto truth = std::shared_ptr<const brdf::Brdf>(brdf::make_analytic_brdf(truth_model()));
+        auto rig = tools::make_simulated_image_rig(truth, nullptr, 200, false, 7);
+        rig->scene.supersample = 1;
+        auto cfg = tools::simulated_campaign_config(*rig, 3, 0.99, max_frames);
+        const auto t0 = std::chrono::steady_clock::now();
+        auto r = acquisition::run_image_campaign(tools::simulated_capture(rig), cfg);
+        const double wall =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        if (!r) {
+            state.SkipWithError(r.error().message.c_str());
+            return;
+        }
+        const double rig_s = r->exposure_time_s + light_moves_s(r->frames, 0.0);
+        const auto [e_alpha, e_diffuse] = fit_errors(r->table.to_dataset("bench", 3, true));
+        state.counters["frames"] = static_cast<double>(r->frames.size());
+        state.counters["pixel_samples"] = static_cast<double>(r->counts.used);
+        state.counters["coverage"] = r->coverage.fraction();
+        state.counters["covered_bins"] = static_cast<double>(r->coverage.covered_bins());
+        state.counters["samples_per_wall_s"] = r->counts.used / wall;
+        state.counters["rig_s"] = rig_s;
+        state.counters["bins_per_rig_s"] = r->coverage.covered_bins() / rig_s;
+        state.counters["alpha_rel_err"] = e_alpha;
+        state.counters["diffuse_rel_err"] = e_diffuse;
+    }
+}
+BENCHMARK(BM_ImageModeCampaign)
+    ->Arg(4)
+    ->Arg(8)
+    ->Arg(16)
+    ->Arg(60)
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond);
+
+/// Point mode: range(0) configurations at the centres of valid bins of the same table (seeded
+/// subset), one per bin, scheduled with the acquisition scheduler; each configuration costs its
+/// move plus three 10 ms exposures (one per colour filter). Values are the ground truth plus the
+/// noise of a 64-pixel patch mean through the same sensor model.
+void BM_PointModeCampaign(benchmark::State& state) {
+    const std::size_t n = static_cast<std::size_t>(state.range(0));
+    for (auto _ : state) {
+        const acquisition::TableLayout l = acquisition::coarse_layout(3);
+        std::vector<std::size_t> valid;
+        for (std::size_t b = 0; b < l.size(); ++b) {
+            if (acquisition::bin_valid(l, b)) {
+                const auto [wi, wo] = brdf::from_half_diff(acquisition::bin_centre(l, b));
+                // The same limits as image mode: 80 degrees, blind zone 5 degrees.
+                if (wi.z() > std::cos(80 * kPi / 180) && wo.z() > std::cos(80 * kPi / 180) &&
+                    std::acos(std::clamp(wi.dot(wo), -1.0, 1.0)) >= 5 * kPi / 180) {
+                    valid.push_back(b);
+                }
+            }
+        }
+        std::mt19937_64 rng(11);
+        std::shuffle(valid.begin(), valid.end(), rng);
+        valid.resize(std::min(n, valid.size()));
+        const acquisition::RigLimits lim;
+        const std::array<acquisition::AxisDynamics, acquisition::kNumAxes> dyn{};
+        std::vector<brdf::RigPosed> poses;
+        brdf::Dataset data;
+        data.has_sigma = true;
+        const auto truth = brdf::make_analytic_brdf(truth_model());
+        sim::SensorParams p;
+        sim::SensorModel sensor(p);
+        sim::ExposureSettings s;
+        std::normal_distribution<double> n01(0, 1);
+        brdf::RigPosed at;
+        for (std::size_t b : valid) {
+            const auto [wi, wo] = brdf::from_half_diff(acquisition::bin_centre(l, b));
+            auto sol = acquisition::solve({wi, wo, true, true}, lim, dyn, at);
+            if (!sol) {
+                continue;
+            }
+            poses.push_back(sol->pose);
+            brdf::Sample smp;
+            const auto si = brdf::cartesian_to_spherical(wi);
+            const auto so = brdf::cartesian_to_spherical(wo);
+            smp.theta_i = si.theta;
+            smp.phi_i = si.phi;
+            smp.theta_o = so.theta;
+            smp.phi_o = so.phi;
+            const brdf::Rgbd f = truth->eval(wi, wo);
+            for (int c = 0; c < 3; ++c) {
+                const double radiance = f[c] * wi.z();
+                const double to_f =
+                    sensor.e_per_count(s) / (p.responsivity_e_per_s * 0.01 * wi.z());
+                const double sigma = std::sqrt(sensor.variance_counts(radiance, s) / 64) * to_f;
+                smp.value[c] = std::max(0.0, f[c] + sigma * n01(rng));
+                smp.sigma[c] = sigma;
+            }
+            data.samples.push_back(smp);
+        }
+        const auto t0 = std::chrono::steady_clock::now();
+        const acquisition::Schedule sch = acquisition::schedule(poses, brdf::RigPosed{}, dyn);
+        const double plan_wall =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const double rig_s = sch.planned_s + poses.size() * 3 * 0.01;
+        const auto [e_alpha, e_diffuse] = fit_errors(data);
+        state.counters["configurations"] = static_cast<double>(poses.size());
+        state.counters["covered_bins"] = static_cast<double>(poses.size());
+        state.counters["rig_s"] = rig_s;
+        state.counters["bins_per_rig_s"] = poses.size() / rig_s;
+        state.counters["schedule_wall_s"] = plan_wall;
+        state.counters["alpha_rel_err"] = e_alpha;
+        state.counters["diffuse_rel_err"] = e_diffuse;
+    }
+}
+BENCHMARK(BM_PointModeCampaign)
+    ->Arg(100)
+    ->Arg(1000)
+    ->Arg(10000)
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond);
+
+/// Per-frame pipeline throughput: HDR merge + geometry + binning of one light position (three
+/// channels) on a 512 px sphere image, against the rendering of the same frames.
+void BM_ImageFrameThroughput(benchmark::State& state) {
+    auto truth = std::shared_ptr<const brdf::Brdf>(brdf::make_analytic_brdf(truth_model()));
+    auto rig = tools::make_simulated_image_rig(truth, nullptr, 512, false, 3);
+    rig->scene.supersample = 1;
+    auto cfg = tools::simulated_campaign_config(*rig, 1, 1.0, 1);
+    std::uint64_t samples = 0;
+    for (auto _ : state) {
+        auto r = acquisition::run_image_campaign(tools::simulated_capture(rig), cfg);
+        if (!r) {
+            state.SkipWithError(r.error().message.c_str());
+            return;
+        }
+        samples += r->counts.used;
+    }
+    state.counters["pixel_samples_per_s"] =
+        benchmark::Counter(static_cast<double>(samples), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_ImageFrameThroughput)->Iterations(2)->Unit(benchmark::kSecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
