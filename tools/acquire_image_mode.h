@@ -19,11 +19,14 @@ struct AcquireImageOptions {
     std::string out_dir;  ///< Output folder; empty: a new folder image-<material>-<n>.
     std::string material = "red-plastic";  ///< Ground truth by name (data/materials/).
     std::string brdf_path;                 ///< Or a model JSON / table file (takes precedence).
-    std::string rig_path;          ///< Rig description with a "camera_model"; empty: default.
-    double coverage_target = 0.9;  ///< Fraction of the valid bins.
+    std::string rig_path;  ///< Rig description with a "camera_model"; empty: default.
+    /// Fraction of the valid bins. What a sphere image can reach depends on its size in pixels
+    /// (the smallest theta_h bins) and on the 80-degree limits: the default camera reaches about
+    /// 60% of a 30 x 30 x 60 table.
+    double coverage_target = 0.55;
     int max_frames = 200;
-    int table_factor = 2;      ///< 1 = MERL 90 x 90 x 180, 2 = 45 x 45 x 90, ...
-    int image_size = 200;      ///< Default camera's sensor size (square), px.
+    int table_factor = 3;      ///< 1 = MERL 90 x 90 x 180, 2 = 45 x 45 x 90, 3 = 30 x 30 x 60
+    int image_size = 256;      ///< Default camera sensor size (square), px.
     bool perspective = false;  ///< Default camera: perspective at 0.5 m instead of telecentric.
     std::uint64_t seed = 1;
     bool quiet = false;
