@@ -21,12 +21,12 @@ using brdf::Vec3d;
 
 CameraIntrinsics truth_intrinsics() {
     CameraIntrinsics k;
-    k.width = 640;
-    k.height = 480;
-    k.fx = 820;
-    k.fy = 815;
-    k.cx = 327.5;
-    k.cy = 236.0;
+    k.width = 480;
+    k.height = 360;
+    k.fx = 615;
+    k.fy = 611;
+    k.cx = 245.5;
+    k.cy = 177.0;
     k.pixel_size_um = 4.8;
     k.distortion = {-0.12, 0.06, 0.0005, -0.0004, 0.0};
     return k;
@@ -93,7 +93,7 @@ TEST(ImageCameraModel, JsonRoundTripKeepsOtherRigKeys) {
     auto back = read_camera_model(path);
     ASSERT_TRUE(back) << back.error().message;
     EXPECT_EQ(back->projection, Projection::kPerspective);
-    EXPECT_DOUBLE_EQ(back->intrinsics.fx, 820);
+    EXPECT_DOUBLE_EQ(back->intrinsics.fx, 615);
     EXPECT_DOUBLE_EQ(back->intrinsics.distortion[1], 0.06);
     EXPECT_LT((back->rotation - cam.rotation).norm(), 1e-15);
     EXPECT_LT((back->translation - cam.translation).norm(), 1e-15);
@@ -216,7 +216,7 @@ TEST(ImageCameraModel, CalibrationRecoversIntrinsicsAndPose) {
     for (int v = 0; v < 8; ++v) {
         const Eigen::Matrix3d r = rot(tilts[v][0], tilts[v][1], tilts[v][2]);
         const Eigen::Vector3d t =
-            Eigen::Vector3d(shifts[v][0], shifts[v][1], 0.45) - r * board_centre;
+            Eigen::Vector3d(shifts[v][0], shifts[v][1], 0.5) - r * board_centre;
         views.push_back(render_board(k, target, r, t));
     }
     // A view without a board is reported, not fatal.
