@@ -89,6 +89,7 @@ struct OrthoCase {
     double noise;
     double tol_px;
     bool two_sided;  // pixel-wise max with the image lit from the mirrored side
+    const char* name;
 };
 
 class SphereDetection : public ::testing::TestWithParam<OrthoCase> {};
@@ -125,14 +126,29 @@ INSTANTIATE_TEST_SUITE_P(
     SphereDetection,
     ::testing::Values(
         // Front lit, no noise.
-        OrthoCase{101.3, 88.7, 70.4, Vec3d(0, 0, -1), 0.0, 0.15, false},
+        OrthoCase{101.3, 88.7, 70.4, Vec3d(0, 0, -1), 0.0, 0.15, false, "FrontLit"},
         // Front lit with noise (1% of the peak).
-        OrthoCase{95.0, 92.25, 60.0, Vec3d(0, 0, -1), 10.0, 0.2, false},
+        OrthoCase{95.0, 92.25, 60.0, Vec3d(0, 0, -1), 10.0, 0.2, false, "FrontLitNoisy"},
         // Lit 8 degrees off the axis from both sides in turn (as the campaign does): no crescent;
         // the limb is a step there, so the threshold crossing sits a little outside it.
-        OrthoCase{100.0, 90.0, 65.0, Vec3d(std::sin(0.14), 0, -std::cos(0.14)), 2.0, 0.35, true},
+        OrthoCase{100.0,
+                  90.0,
+                  65.0,
+                  Vec3d(std::sin(0.14), 0, -std::cos(0.14)),
+                  2.0,
+                  0.35,
+                  true,
+                  "TwoSidedSideLight"},
         // One side only: the terminator crescent (0.6 px deep) is trimmed, a bias remains.
-        OrthoCase{100.0, 90.0, 65.0, Vec3d(std::sin(0.09), 0, -std::cos(0.09)), 0.0, 0.5, false}));
+        OrthoCase{100.0,
+                  90.0,
+                  65.0,
+                  Vec3d(std::sin(0.09), 0, -std::cos(0.09)),
+                  0.0,
+                  0.5,
+                  false,
+                  "OneSidedTerminator"}),
+    [](const ::testing::TestParamInfo<OrthoCase>& info) { return std::string(info.param.name); });
 
 TEST(SphereGeometry, DetectionErrorsAreNamed) {
     const CameraModel cam =
