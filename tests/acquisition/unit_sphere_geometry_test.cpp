@@ -92,6 +92,10 @@ struct OrthoCase {
     const char* name;
 };
 
+void PrintTo(const OrthoCase& c, std::ostream* os) {
+    *os << c.name;
+}
+
 class SphereDetection : public ::testing::TestWithParam<OrthoCase> {};
 
 TEST_P(SphereDetection, OrthographicSilhouetteFoundToSubpixel) {
