@@ -325,6 +325,43 @@ std::string fmt_rgb(const Rgbd& v) {
     return "[" + show(v[0]) + " " + show(v[1]) + " " + show(v[2]) + "]";
 }
 
+/// Puts arrays of numbers on one line ("[0.1, 0.2, 0.3]") in nlohmann's indented output; arrays of
+/// objects keep their layout. The model's arrays hold numbers only, never strings.
+std::string compact_number_arrays(const std::string& s) {
+    std::string out;
+    out.reserve(s.size());
+    std::size_t i = 0;
+    while (i < s.size()) {
+        if (s[i] == '[') {
+            const std::size_t j = s.find(']', i);
+            const std::string inner = s.substr(i + 1, j - i - 1);
+            if (j != std::string::npos && inner.find_first_of("{[") == std::string::npos) {
+                out += '[';
+                std::string item;
+                bool first = true;
+                for (std::size_t k = 0; k <= inner.size(); ++k) {
+                    if (k == inner.size() || inner[k] == ',') {
+                        const auto b = item.find_first_not_of(" \n");
+                        if (b != std::string::npos) {
+                            out += first ? "" : ", ";
+                            out += item.substr(b, item.find_last_not_of(" \n") - b + 1);
+                            first = false;
+                        }
+                        item.clear();
+                    } else {
+                        item += inner[k];
+                    }
+                }
+                out += ']';
+                i = j + 1;
+                continue;
+            }
+        }
+        out += s[i++];
+    }
+    return out;
+}
+
 }  // namespace
 
 Expected<ModelD> parse_model_json(const std::string& text, const std::string& source_name) {
@@ -400,7 +437,7 @@ std::string model_to_json(const ModelD& m) {
         lobes.push_back(o);
     }
     j["lobes"] = lobes;
-    return j.dump(4) + "\n";
+    return compact_number_arrays(j.dump(4)) + "\n";
 }
 
 std::string describe_model(const ModelD& m) {
