@@ -1,0 +1,167 @@
+// `gonio fit` end to end: a dataset CSV on disk, the command, the model and report files.
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+
+#include "../fitting/fit_test_util.h"
+#include "gonio/brdf/brdf.h"
+#include "gonio/brdf/dataset.h"
+#include "gonio/brdf/model_json.h"
+
+namespace {
+
+using gonio::brdf::Rgbd;
+
+struct CliRun {
+    int status = -1;
+    std::string out;
+};
+
+CliRun run_gonio(const std::string& args) {
+    CliRun r;
+    const std::string cmd = std::string(GONIO_EXE) + " " + args + " 2>&1";
+    FILE* p = popen(cmd.c_str(), "r");
+    if (p == nullptr) {
+        return r;
+    }
+    char buf[4096];
+    std::size_t n;
+    while ((n = fread(buf, 1, sizeof buf, p)) > 0) {
+        r.out.append(buf, n);
+    }
+    const int st = pclose(p);
+    r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    return r;
+}
+
+std::string dir() {
+    return std::string(GONIO_BINARY_DIR) + "/integration_fit";
+}
+
+gonio::brdf::ModelD ggx_truth() {
+    gonio::brdf::ModelD m;
+    m.has_diffuse = true;
+    m.diffuse = Rgbd(0.4, 0.3, 0.2);
+    gonio::brdf::Lobe<double> l;
+    l.distribution = gonio::brdf::Distribution::kGgx;
+    l.alpha_x = l.alpha_y = 0.15;
+    l.fresnel.type = gonio::brdf::FresnelType::kSchlick;
+    l.fresnel.f0 = Rgbd(0.05, 0.06, 0.07);
+    l.scale = Rgbd::Ones();
+    m.lobes.push_back(l);
+    return m;
+}
+
+/// Writes the synthetic dataset with two broken rows appended (NaN value, theta_o below the
+/// horizon).
+std::string write_data() {
+    std::system(("mkdir -p " + dir()).c_str());
+    const std::string path = dir() + "/ggx.csv";
+    gonio::brdf::Dataset d = gonio::fitting::testing::synthesize(
+        ggx_truth(), gonio::fitting::testing::measurement_grid());
+    EXPECT_TRUE(gonio::brdf::write_dataset_csv(path, d));
+    std::ofstream out(path, std::ios::app);
+    out << "0.3,0,0.4,3.1,nan,0.1,0.1\n";
+    out << "0.3,0,1.7,3.1,0.1,0.1,0.1\n";
+    return path;
+}
+
+TEST(GonioFit, FitsACsvAndWritesModelAndReport) {
+    const std::string data = write_data();
+    const std::string out = dir() + "/fit.json";
+    std::remove(out.c_str());
+    CliRun r = run_gonio("fit " + data + " --model ggx --out " + out);
+    ASSERT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("CONVERGENCE"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("lobes[0].alpha_x"), std::string::npos) << r.out;
+    // The model file is a model: the loader of `gonio eval` reads it.
+    auto model = gonio::brdf::load_model_json(out);
+    ASSERT_TRUE(model) << model.error().message;
+    EXPECT_NEAR(model->lobes[0].alpha_x, 0.15, 1e-6);
+    EXPECT_NEAR(model->diffuse[1], 0.3, 1e-6);
+    auto brdf = gonio::brdf::load_brdf(out);
+    ASSERT_TRUE(brdf) << brdf.error().message;
+    // The report: keys other tools read.
+    std::ifstream in(dir() + "/fit.report.json");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    const nlohmann::json j = nlohmann::json::parse(ss.str());
+    for (const char* key : {"model",
+                            "parameters",
+                            "not_identifiable",
+                            "metrics",
+                            "samples",
+                            "residual",
+                            "loss",
+                            "solver",
+                            "data"}) {
+        EXPECT_TRUE(j.contains(key)) << key;
+    }
+    EXPECT_EQ(j["samples"]["rejected"].get<int>(), 2);
+    const std::size_t n = gonio::fitting::testing::measurement_grid().size();
+    EXPECT_EQ(j["samples"]["valid"].get<std::size_t>(), n);
+    EXPECT_EQ(j["samples"]["rejected_lines"].size(), 2u);
+    EXPECT_EQ(j["samples"]["rejected_lines"][0].get<std::size_t>(), n + 2);
+    EXPECT_EQ(j["residual"], "log");
+    EXPECT_TRUE(j["solver"]["usable"].get<bool>());
+    EXPECT_EQ(j["model"], nlohmann::json::parse(gonio::brdf::model_to_json(*model)));
+}
+
+TEST(GonioFit, CompareRanksTheGeneratingModelFirst) {
+    const std::string data = write_data();
+    CliRun r = run_gonio("fit --compare blinn-phong,beckmann,ggx " + data);
+    ASSERT_EQ(r.status, 0) << r.out;
+    const std::size_t first = r.out.find("\n1 ");
+    ASSERT_NE(first, std::string::npos) << r.out;
+    EXPECT_EQ(r.out.substr(first + 1, 40).find("ggx"), 5u) << r.out;
+    EXPECT_NE(r.out.find("beckmann"), std::string::npos);
+    EXPECT_NE(r.out.find("blinn-phong"), std::string::npos);
+}
+
+TEST(GonioFit, ANonConvergedFitExitsNonZeroAndWritesNoModel) {
+    const std::string data = write_data();
+    const std::string out = dir() + "/stopped.json";
+    std::remove(out.c_str());
+    CliRun r = run_gonio("fit " + data + " --max-iterations 1 --starts 1 --out " + out);
+    EXPECT_NE(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("DID NOT CONVERGE"), std::string::npos) << r.out;
+    EXPECT_EQ(r.out.find("parameters:"), std::string::npos) << r.out;
+    EXPECT_FALSE(std::ifstream(out).good());
+    EXPECT_TRUE(std::ifstream(dir() + "/stopped.report.json").good());
+}
+
+TEST(GonioFit, BadInputsAreClearErrors) {
+    CliRun missing = run_gonio("fit " + dir() + "/does-not-exist.csv");
+    EXPECT_NE(missing.status, 0);
+    EXPECT_NE(missing.out.find("does-not-exist.csv"), std::string::npos) << missing.out;
+    const std::string data = write_data();
+    CliRun bad_model = run_gonio("fit " + data + " --model phong");
+    EXPECT_NE(bad_model.status, 0);
+    EXPECT_NE(bad_model.out.find("phong"), std::string::npos) << bad_model.out;
+}
+
+TEST(GonioFit, ReductionAndTemplateOptionsWork) {
+    const std::string data = write_data();
+    const std::string tmpl = dir() + "/template.json";
+    {
+        gonio::brdf::ModelD start = ggx_truth();
+        start.lobes[0].alpha_x = start.lobes[0].alpha_y = 0.3;
+        std::ofstream t(tmpl);
+        t << "{\"model\": " << gonio::brdf::model_to_json(start)
+          << ", \"shared\": [\"diffuse\"], \"bounds\": {\"lobes[0].alpha_x\": [0.01, 0.5]}}";
+    }
+    CliRun r =
+        run_gonio("fit " + data + " --template " + tmpl + " --max-samples 300 --residual cosine");
+    ASSERT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("used"), std::string::npos);
+    // The shared diffuse is one parameter named without a channel index.
+    EXPECT_NE(r.out.find("  diffuse "), std::string::npos) << r.out;
+    EXPECT_EQ(r.out.find("diffuse[0]"), std::string::npos) << r.out;
+}
+
+}  // namespace
