@@ -57,6 +57,9 @@ Expected<devices::Frame> CaptureSession::grab(double exposure_us) {
         return f;
     }
     ++frames_taken_;
+    // Beyond the linear range (full well) a pixel is as good as clipped.
+    f->saturation_level =
+        f->black_level + cfg_.linear_max_fraction * (f->saturation_level - f->black_level);
     if (!f->linear) {
         return make_error(
             "camera frames are not linear (gamma-encoded): no radiometric measurement");
@@ -134,9 +137,14 @@ Expected<SignalRate> CaptureSession::measure() {
         s = std::move(*sh);
         const double hf =
             s.stats.saturated > 0 ? std::max(s.stats.high_fraction, 1.0) : s.stats.high_fraction;
-        const bool good = hf < 1.0 && hf >= cfg_.target_fraction / 2.5;
-        const double next = quantise_exposure(next_exposure_us(
-            t, hf, cfg_.target_fraction, cfg_.min_exposure_us, cfg_.max_exposure_us));
+        // hf is relative to the linear range; 1 = clipped.
+        const bool good = hf < 0.95 && hf >= cfg_.target_fraction / cfg_.linear_max_fraction / 2.5;
+        const double next =
+            quantise_exposure(next_exposure_us(t,
+                                               hf,
+                                               cfg_.target_fraction / cfg_.linear_max_fraction,
+                                               cfg_.min_exposure_us,
+                                               cfg_.max_exposure_us));
         if (good || next == t) {
             // Within range, or at an end of the exposure range: nothing better is possible.
             break;

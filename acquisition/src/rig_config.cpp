@@ -126,6 +126,7 @@ Expected<RigConfig> parse_rig_config(const std::string& text, const std::string&
             const json& c = j.at("capture");
             CaptureConfig& cc = rig.capture;
             cc.target_fraction = c.value("target_fraction", cc.target_fraction);
+            cc.linear_max_fraction = c.value("linear_max_fraction", cc.linear_max_fraction);
             cc.min_exposure_us = c.value("min_exposure_us", cc.min_exposure_us);
             cc.max_exposure_us = c.value("max_exposure_us", cc.max_exposure_us);
             cc.max_brackets = c.value("max_brackets", cc.max_brackets);
@@ -135,7 +136,8 @@ Expected<RigConfig> parse_rig_config(const std::string& text, const std::string&
             cc.roi_fraction = c.value("roi_fraction", cc.roi_fraction);
             cc.gain = c.value("gain", cc.gain);
             cc.timeout_ms = c.value("timeout_ms", cc.timeout_ms);
-            if (!(cc.target_fraction > 0 && cc.target_fraction < 1) ||
+            if (!(cc.target_fraction > 0 && cc.target_fraction < cc.linear_max_fraction &&
+                  cc.linear_max_fraction <= 1) ||
                 !(cc.min_exposure_us > 0 && cc.min_exposure_us < cc.max_exposure_us) ||
                 cc.max_brackets < 1 || !(cc.bracket_ratio > 1) || cc.dark_frames < 1 ||
                 !(cc.roi_fraction > 0 && cc.roi_fraction <= 1) || !(cc.gain > 0)) {

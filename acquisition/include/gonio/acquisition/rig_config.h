@@ -35,6 +35,9 @@ struct CoilConfig {
 
 struct CaptureConfig {
     double target_fraction = 0.6;  ///< Auto exposure puts the ROI's 99th percentile here.
+    /// Counts above this fraction of the range are treated as clipped: sensors leave the linear
+    /// range (full well) before the digital maximum the frame reports.
+    double linear_max_fraction = 0.85;
     double min_exposure_us = 20;
     double max_exposure_us = 200000;
     int max_brackets = 3;
