@@ -52,12 +52,9 @@ GONIO_COMMAND(preview) {
         gonio::report::PreviewOptions po;
         po.size_px = opts->size;
         po.env_samples = opts->samples;
-        auto sheet =
-            gonio::report::preview_sheet(**a,
-                                         opts->brdf + ": " + (*a)->describe(),
-                                         b.get(),
-                                         b ? opts->vs + ": " + b->describe() : std::string(),
-                                         po);
+        // describe() names the file and what it holds.
+        auto sheet = gonio::report::preview_sheet(
+            **a, (*a)->describe(), b.get(), b ? b->describe() : std::string(), po);
         if (!sheet) {
             std::fprintf(stderr, "gonio preview: %s\n", sheet.error().message.c_str());
             return 1;

@@ -218,8 +218,8 @@ Expected<Image> preview_sheet(const brdf::Brdf& a,
     const int column = std::max(cell, 220);
     const int W = 2 * column + 3 * margin;
     const int H = header + rows * (band + cell + margin) + 22;
-    cv::Mat img =
-        draw::blank(W, H, "Sphere preview", "one exposure for all; filmic tone curve, sRGB");
+    cv::Mat img = draw::blank(
+        W, H, "Sphere preview", "one exposure for all pictures; filmic tone curve, sRGB");
     const int cx0 = margin + column / 2;
     const int cx1 = 2 * margin + column + column / 2;
     const int x0 = cx0 - cell / 2;
@@ -237,6 +237,8 @@ Expected<Image> preview_sheet(const brdf::Brdf& a,
                draw::kBlack,
                draw::Align::kCenter);
     const Color bg{48, 48, 48};
+    std::vector<RadianceImage> renders;
+    std::vector<int> rows_y;
     for (int row = 0; row < rows; ++row) {
         const brdf::Brdf& br = row == 0 ? a : *b;
         std::string label = row == 0 ? label_a : label_b;
@@ -250,16 +252,41 @@ Expected<Image> preview_sheet(const brdf::Brdf& a,
                    draw::kTextScale,
                    draw::kBlack,
                    draw::Align::kCenter);
-        const Image d = tone_map(render_directional(br, options), options.exposure, bg);
-        const Image e = tone_map(render_environment(br, options), options.exposure, bg);
-        to_mat(d).copyTo(img(cv::Rect(x0, y + band, cell, cell)));
-        to_mat(e).copyTo(img(cv::Rect(x1, y + band, cell, cell)));
+        renders.push_back(render_directional(br, options));
+        renders.push_back(render_environment(br, options));
+        rows_y.push_back(y);
+    }
+    double exposure = options.exposure;
+    if (!(exposure > 0)) {
+        // Automatic: the median sphere pixel of the whole sheet becomes mid grey.
+        std::vector<double> lum;
+        for (const RadianceImage& r : renders) {
+            for (std::size_t i = 0; i < r.pixels.size(); ++i) {
+                if (r.covered[i]) {
+                    lum.push_back(luminance(r.pixels[i]));
+                }
+            }
+        }
+        double median = 0;
+        if (!lum.empty()) {
+            std::nth_element(lum.begin(), lum.begin() + lum.size() / 2, lum.end());
+            median = lum[lum.size() / 2];
+        }
+        exposure = median > 0 ? std::clamp(0.18 / median, 0.25, 100.0) : 1.0;
+    }
+    for (std::size_t row = 0; row < rows_y.size(); ++row) {
+        const int y = rows_y[row];
+        to_mat(tone_map(renders[2 * row], exposure, bg))
+            .copyTo(img(cv::Rect(x0, y + band, cell, cell)));
+        to_mat(tone_map(renders[2 * row + 1], exposure, bg))
+            .copyTo(img(cv::Rect(x1, y + band, cell, cell)));
     }
     const Vec3d l = options.light_dir.normalized();
     char foot[160];
     std::snprintf(foot,
                   sizeof foot,
-                  "light toward (%.2f, %.2f, %.2f): x right, y up, z to the viewer",
+                  "exposure x%.3g; light toward (%.2f, %.2f, %.2f); x right, y up, z to viewer",
+                  exposure,
                   l.x(),
                   l.y(),
                   l.z());

@@ -19,17 +19,17 @@ namespace {
 namespace fs = std::filesystem;
 constexpr double kDeg = gonio::brdf::kPi / 180.0;
 
-struct Run {
+struct CliRun {
     int status = -1;
     std::string out;
 };
 
 /// Runs the gonio binary with arguments; captures standard output (standard error goes to a file
 /// appended to out after a marker line).
-Run gonio(const std::string& args, const fs::path& dir) {
+CliRun gonio(const std::string& args, const fs::path& dir) {
     const fs::path err = dir / "stderr.txt";
     const std::string cmd = std::string(GONIO_EXE) + " " + args + " 2>" + err.string();
-    Run r;
+    CliRun r;
     FILE* p = popen(cmd.c_str(), "r");
     if (p == nullptr) {
         return r;
@@ -101,9 +101,9 @@ class ReportCli : public ::testing::Test {
 
 TEST_F(ReportCli, PlotWritesThePicturesAndRefusesAnEmptyDataset) {
     const fs::path out = dir_ / "plots";
-    Run r = gonio("plot " + (dir_ / "dataset.csv").string() + " --fit " +
-                      (dir_ / "fit.json").string() + " --log --out " + out.string(),
-                  dir_);
+    CliRun r = gonio("plot " + (dir_ / "dataset.csv").string() + " --fit " +
+                         (dir_ / "fit.json").string() + " --log --out " + out.string(),
+                     dir_);
     ASSERT_EQ(r.status, 0) << r.out;
     for (const char* f : {"in_plane.png", "delta_phi.png", "residuals.png"}) {
         EXPECT_TRUE(fs::exists(out / f)) << f;
@@ -118,7 +118,8 @@ TEST_F(ReportCli, PlotWritesThePicturesAndRefusesAnEmptyDataset) {
 
 TEST_F(ReportCli, PreviewOfAModelAgainstItsMerlTable) {
     const fs::path table = dir_ / "fit.binary";
-    Run r = gonio("export " + (dir_ / "fit.json").string() + " --to merl " + table.string(), dir_);
+    CliRun r =
+        gonio("export " + (dir_ / "fit.json").string() + " --to merl " + table.string(), dir_);
     ASSERT_EQ(r.status, 0) << r.out;
     auto t = gonio::brdf::read_merl(table.string());
     ASSERT_TRUE(t) << t.error().message;
@@ -142,7 +143,7 @@ TEST_F(ReportCli, PreviewOfAModelAgainstItsMerlTable) {
 }
 
 TEST_F(ReportCli, ExportsForMitsubaAndPbrt) {
-    Run r = gonio("export " + (dir_ / "fit.json").string() + " --to mitsuba --name paint", dir_);
+    CliRun r = gonio("export " + (dir_ / "fit.json").string() + " --to mitsuba --name paint", dir_);
     ASSERT_EQ(r.status, 0) << r.out;
     EXPECT_NE(r.out.find("<scene version=\"3.0.0\">"), std::string::npos);
     EXPECT_NE(r.out.find("id=\"paint\""), std::string::npos);
@@ -158,7 +159,7 @@ TEST_F(ReportCli, ExportsForMitsubaAndPbrt) {
 }
 
 TEST_F(ReportCli, ReportPrintsThePathOfASelfContainedPage) {
-    Run r = gonio("report " + dir_.string(), dir_);
+    CliRun r = gonio("report " + dir_.string(), dir_);
     ASSERT_EQ(r.status, 0) << r.out;
     const fs::path html = dir_ / "report.html";
     EXPECT_EQ(r.out.substr(0, r.out.find('\n')), html.string());

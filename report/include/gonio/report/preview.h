@@ -30,7 +30,9 @@ struct PreviewOptions {
     double light_irradiance = brdf::kPi;
     int env_samples = 192;   ///< directions per pixel for the environment (multiple importance)
     std::uint64_t seed = 1;  ///< seed of the per-pixel sample rotations
-    double exposure = 1.0;   ///< multiplies radiance before tone mapping
+    /// Multiplies radiance before tone mapping; 0 = automatic: 0.18 / (median luminance of the
+    /// sphere pixels of every picture of the sheet), clamped to [0.25, 100], shared by all.
+    double exposure = 0.0;
 };
 
 /// Where the sphere lies in a picture of PreviewOptions::size_px: centre and radius in pixels.
@@ -57,7 +59,8 @@ RadianceImage render_environment(const brdf::Brdf& brdf, const PreviewOptions& o
 brdf::Rgbd environment_radiance(const brdf::Vec3d& w);
 
 /// A labelled sheet: one row per BRDF (a, and b when not null), columns "directional light" and
-/// "sky/ground environment"; tone mapped (filmic) and sRGB encoded, same exposure for every cell.
+/// "sky/ground environment"; tone mapped (filmic) and sRGB encoded, one exposure for every cell
+/// (stated on the sheet).
 Expected<Image> preview_sheet(const brdf::Brdf& a,
                               const std::string& label_a,
                               const brdf::Brdf* b,
