@@ -38,4 +38,14 @@ struct SceneState {
 /// Called at each exposure to learn the rig's state.
 using SceneFn = std::function<SceneState()>;
 
+/// A fixed point-mode scene from spherical angles (radians; theta from the normal, phi from x).
+inline SceneState scene_from_angles(
+    double theta_i, double phi_i, double theta_o, double phi_o, double irradiance_w_m2) {
+    SceneState s;
+    s.wi = brdf::spherical_to_cartesian(theta_i, phi_i);
+    s.wo = brdf::spherical_to_cartesian(theta_o, phi_o);
+    s.irradiance_w_m2 = irradiance_w_m2;
+    return s;
+}
+
 }  // namespace gonio::sim

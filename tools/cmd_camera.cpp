@@ -1,0 +1,315 @@
+// gonio camera: inspect a camera, capture an OpenEXR frame, or serve a simulated U3V camera.
+//   gonio camera --connect ADDRESS info
+//   gonio camera --connect ADDRESS capture --exposure-us N out.exr
+//   gonio camera serve [--port 0] [--material NAME | --brdf PATH] [--zipped]
+
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfDoubleAttribute.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfIntAttribute.h>
+#include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfStandardAttributes.h>
+#include <OpenEXR/ImfStringAttribute.h>
+#include <signal.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "command.h"
+#include "gonio/brdf/analytic_brdf.h"
+#include "gonio/brdf/brdf.h"
+#include "gonio/brdf/material_library.h"
+#include "gonio/devices/camera_factory.h"
+#include "gonio/devices/pixel_format.h"
+#include "gonio/devices/uvc_camera.h"
+#include "gonio/sim/u3v_device.h"
+#include "gonio/sim/u3v_tcp_server.h"
+
+namespace {
+
+struct CameraOptions {
+    std::string connect;
+    // capture
+    double exposure_us = 10000;
+    double gain = 1;
+    std::string format = "Mono16";
+    int timeout_ms = 5000;
+    std::string output;
+    // serve
+    int port = 0;
+    std::string material = "white-lambert";
+    std::string brdf_path;
+    bool zipped = false;
+    int width = 1280;
+    int height = 1024;
+    std::uint64_t seed = 1;
+    double theta_i_deg = 30, phi_i_deg = 0, theta_o_deg = 30, phi_o_deg = 180;
+    double irradiance = 1.0;
+};
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+/// The ground truth: a model JSON or table, a named material, or an ideal white diffuser.
+gonio::Expected<std::shared_ptr<const gonio::brdf::Brdf>> load_truth(const CameraOptions& o) {
+    if (!o.brdf_path.empty()) {
+        auto b = gonio::brdf::load_brdf(o.brdf_path);
+        if (!b) {
+            return tl::unexpected(b.error());
+        }
+        return std::shared_ptr<const gonio::brdf::Brdf>(std::move(*b));
+    }
+    if (o.material == "white-lambert") {
+        gonio::brdf::ModelD m;
+        m.diffuse = gonio::brdf::Rgbd::Constant(1.0);
+        return std::shared_ptr<const gonio::brdf::Brdf>(gonio::brdf::make_analytic_brdf(m));
+    }
+    auto m = gonio::brdf::load_material(o.material);
+    if (!m) {
+        return tl::unexpected(m.error());
+    }
+    return std::shared_ptr<const gonio::brdf::Brdf>(gonio::brdf::make_analytic_brdf(*m));
+}
+
+gonio::Expected<std::shared_ptr<gonio::sim::U3vDevice>> make_sim_device(const CameraOptions& o) {
+    auto truth = load_truth(o);
+    if (!truth) {
+        return tl::unexpected(truth.error());
+    }
+    gonio::sim::U3vDeviceConfig cfg;
+    cfg.sensor.width = o.width;
+    cfg.sensor.height = o.height;
+    cfg.sensor.seed = o.seed;
+    cfg.zipped_xml = o.zipped;
+    const gonio::sim::SceneState scene = gonio::sim::scene_from_angles(o.theta_i_deg * kDeg,
+                                                                       o.phi_i_deg * kDeg,
+                                                                       o.theta_o_deg * kDeg,
+                                                                       o.phi_o_deg * kDeg,
+                                                                       o.irradiance);
+    return std::make_shared<gonio::sim::U3vDevice>(cfg, *truth, [scene] { return scene; });
+}
+
+int write_exr(const gonio::devices::Frame& f, const std::string& path) {
+    const int w = f.image.cols, h = f.image.rows;
+    std::vector<float> pixels(static_cast<std::size_t>(w) * h);
+    for (int y = 0; y < h; ++y) {
+        for (int x = 0; x < w; ++x) {
+            pixels[static_cast<std::size_t>(y) * w + x] =
+                f.image.type() == CV_32F ? f.image.at<float>(y, x)
+                                         : static_cast<float>(f.image.at<std::uint16_t>(y, x));
+        }
+    }
+    try {
+        Imf::Header header(w, h);
+        header.channels().insert("Y", Imf::Channel(Imf::FLOAT));
+        Imf::addExpTime(header, static_cast<float>(f.exposure_us * 1e-6));
+        header.insert("gonio.exposure_us", Imf::DoubleAttribute(f.exposure_us));
+        header.insert("gonio.gain", Imf::DoubleAttribute(f.gain));
+        header.insert("gonio.black_level", Imf::DoubleAttribute(f.black_level));
+        header.insert("gonio.saturation_level", Imf::DoubleAttribute(f.saturation_level));
+        header.insert("gonio.bit_depth", Imf::IntAttribute(f.bit_depth));
+        header.insert("gonio.timestamp_ns", Imf::StringAttribute(std::to_string(f.timestamp_ns)));
+        header.insert("gonio.linear", Imf::IntAttribute(f.linear ? 1 : 0));
+        Imf::OutputFile file(path.c_str(), header);
+        Imf::FrameBuffer fb;
+        fb.insert("Y",
+                  Imf::Slice(Imf::FLOAT,
+                             reinterpret_cast<char*>(pixels.data()),
+                             sizeof(float),
+                             sizeof(float) * static_cast<std::size_t>(w)));
+        file.setFrameBuffer(fb);
+        file.writePixels(h);
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "gonio camera: writing %s: %s\n", path.c_str(), e.what());
+        return 1;
+    }
+    return 0;
+}
+
+gonio::Expected<std::unique_ptr<gonio::devices::Camera>> connect(const CameraOptions& o,
+                                                                 std::shared_ptr<void>* keep) {
+    if (o.connect.empty()) {
+        return gonio::make_error(
+            "--connect ADDRESS is required (u3v-tcp://127.0.0.1:PORT, "
+            "usb:SERIAL, uvc:INDEX, or sim for an embedded simulated camera)");
+    }
+    if (o.connect == "sim" || o.connect.rfind("sim:", 0) == 0) {
+        CameraOptions so = o;
+        if (o.connect.size() > 4) {
+            so.material = o.connect.substr(4);
+        }
+        auto dev = make_sim_device(so);
+        if (!dev) {
+            return tl::unexpected(dev.error());
+        }
+        gonio::sim::register_in_process_camera("cli", *dev);
+        *keep = *dev;
+        return gonio::devices::open_camera("u3v-mem:cli");
+    }
+    if (o.connect.rfind("uvc:", 0) == 0) {
+        std::fprintf(stderr, "%s\n", gonio::devices::uvc_radiometry_warning());
+    }
+    return gonio::devices::open_camera(o.connect);
+}
+
+int run_info(const CameraOptions& o) {
+    std::shared_ptr<void> keep;
+    auto cam = connect(o, &keep);
+    if (!cam) {
+        std::fprintf(stderr, "gonio camera: %s\n", cam.error().message.c_str());
+        return 1;
+    }
+    auto info = (*cam)->info();
+    if (!info) {
+        std::fprintf(stderr, "gonio camera: %s\n", info.error().message.c_str());
+        return 1;
+    }
+    auto e = (*cam)->exposure_us();
+    std::printf("vendor: %s\nmodel: %s\nserial: %s\nversion: %s\nsensor: %d x %d\nbit_depth: %d\n",
+                info->vendor.c_str(),
+                info->model.c_str(),
+                info->serial.c_str(),
+                info->version.c_str(),
+                info->sensor_width,
+                info->sensor_height,
+                info->bit_depth);
+    if (e) {
+        std::printf("exposure_us: %g\n", *e);
+    }
+    return 0;
+}
+
+int run_capture(const CameraOptions& o) {
+    std::shared_ptr<void> keep;
+    auto cam = connect(o, &keep);
+    if (!cam) {
+        std::fprintf(stderr, "gonio camera: %s\n", cam.error().message.c_str());
+        return 1;
+    }
+    auto& c = **cam;
+    auto fmt = gonio::devices::pixel_format_from_string(o.format);
+    if (!fmt) {
+        std::fprintf(
+            stderr, "gonio camera: --format %s is not Mono8, Mono12 or Mono16\n", o.format.c_str());
+        return 2;
+    }
+    for (auto r :
+         {c.set_pixel_format(*fmt), c.set_exposure_us(o.exposure_us), c.set_gain(o.gain)}) {
+        if (!r) {
+            std::fprintf(stderr, "gonio camera: %s\n", r.error().message.c_str());
+            return 1;
+        }
+    }
+    auto frame = c.capture(std::chrono::milliseconds(o.timeout_ms));
+    if (!frame) {
+        std::fprintf(stderr, "gonio camera: %s\n", frame.error().message.c_str());
+        return 1;
+    }
+    if (int rc = write_exr(*frame, o.output); rc != 0) {
+        return rc;
+    }
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(frame->image, &lo, &hi);
+    std::printf("%s: %d x %d, %d bits, exposure %g us, gain %g, black %g, counts %g..%g%s\n",
+                o.output.c_str(),
+                frame->image.cols,
+                frame->image.rows,
+                frame->bit_depth,
+                frame->exposure_us,
+                frame->gain,
+                frame->black_level,
+                lo,
+                hi,
+                frame->linear ? "" : " (not radiometric)");
+    return 0;
+}
+
+int run_serve(const CameraOptions& o) {
+    auto dev = make_sim_device(o);
+    if (!dev) {
+        std::fprintf(stderr, "gonio camera serve: %s\n", dev.error().message.c_str());
+        return 1;
+    }
+    // Block the termination signals before starting the server thread so that only sigwait
+    // receives them.
+    sigset_t set;
+    sigemptyset(&set);
+    sigaddset(&set, SIGINT);
+    sigaddset(&set, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &set, nullptr);
+    gonio::sim::U3vTcpServer server(*dev);
+    if (auto r = server.start(static_cast<std::uint16_t>(o.port)); !r) {
+        std::fprintf(stderr, "gonio camera serve: %s\n", r.error().message.c_str());
+        return 1;
+    }
+    std::printf("%s\n", server.address().c_str());
+    std::fflush(stdout);
+    int sig = 0;
+    sigwait(&set, &sig);
+    server.stop();
+    return 0;
+}
+
+}  // namespace
+
+GONIO_COMMAND(camera) {
+    auto* cmd = app.add_subcommand("camera",
+                                   "inspect a camera, capture an OpenEXR frame, or "
+                                   "serve a simulated USB3 Vision camera");
+    auto o = std::make_shared<CameraOptions>();
+    cmd->add_option("--connect",
+                    o->connect,
+                    "camera address: u3v-tcp://127.0.0.1:PORT, usb:SERIAL, usb:BUS-ADDR, "
+                    "uvc:INDEX, sim or sim:MATERIAL (embedded simulated camera)");
+    cmd->require_subcommand(1);
+    auto* info = cmd->add_subcommand("info", "print vendor, model, serial, sensor size");
+    auto* capture = cmd->add_subcommand("capture", "capture one frame into an OpenEXR file");
+    capture->add_option("--exposure-us", o->exposure_us, "exposure time in microseconds")
+        ->check(CLI::PositiveNumber);
+    capture->add_option("--gain", o->gain, "linear gain factor (1 = unity)")
+        ->check(CLI::PositiveNumber);
+    capture->add_option("--format", o->format, "Mono8, Mono12 or Mono16");
+    capture->add_option("--timeout-ms", o->timeout_ms, "frame timeout")->check(CLI::PositiveNumber);
+    capture->add_option("output", o->output, "output .exr")->required();
+    auto* serve = cmd->add_subcommand(
+        "serve", "serve a simulated U3V camera on 127.0.0.1 and print its address");
+    serve->add_option("--port", o->port, "TCP port (0 = any free port)")
+        ->check(CLI::Range(0, 65535));
+    serve->add_option("--material",
+                      o->material,
+                      "material name from data/materials (default: white-lambert, rho = 1)");
+    serve->add_option("--brdf",
+                      o->brdf_path,
+                      "ground-truth model JSON or table (overrides "
+                      "--material)");
+    serve->add_flag("--zipped", o->zipped, "serve the GenICam XML zipped");
+    for (CLI::App* sub : {capture, serve}) {
+        sub->add_option("--width", o->width, "sensor width (simulated)")
+            ->check(CLI::Range(16, 16384));
+        sub->add_option("--height", o->height, "sensor height (simulated)")
+            ->check(CLI::Range(16, 16384));
+        sub->add_option("--seed", o->seed, "noise seed (simulated)");
+        sub->add_option("--theta-i-deg", o->theta_i_deg, "light polar angle (simulated)");
+        sub->add_option("--phi-i-deg", o->phi_i_deg, "light azimuth (simulated)");
+        sub->add_option("--theta-o-deg", o->theta_o_deg, "detector polar angle (simulated)");
+        sub->add_option("--phi-o-deg", o->phi_o_deg, "detector azimuth (simulated)");
+        sub->add_option("--irradiance", o->irradiance, "beam irradiance W/m^2 (simulated)");
+    }
+    return [o, info, capture, serve]() -> int {
+        if (info->parsed()) {
+            return run_info(*o);
+        }
+        if (capture->parsed()) {
+            return run_capture(*o);
+        }
+        if (serve->parsed()) {
+            return run_serve(*o);
+        }
+        return 2;
+    };
+}
