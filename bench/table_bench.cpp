@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <random>
 #include <string>
@@ -80,6 +81,29 @@ void BM_MerlLoad(benchmark::State& state) {
     state.counters["entries_differing"] = static_cast<double>(mismatches);
 }
 BENCHMARK(BM_MerlLoad)->Unit(benchmark::kMillisecond);
+
+// Baseline: the same file read into memory with one fread, no decoding or checks.
+void BM_RawFileRead(benchmark::State& state) {
+    const std::string& path = full_file();
+    const std::size_t size = merl_file_size(TableGrid::merl());
+    for (auto _ : state) {
+        std::vector<unsigned char> bytes(size);
+        std::FILE* f = std::fopen(path.c_str(), "rb");
+        if (f == nullptr) {
+            state.SkipWithError("cannot open the benchmark file");
+            return;
+        }
+        const std::size_t got = std::fread(bytes.data(), 1, size, f);
+        std::fclose(f);
+        if (got != size) {
+            state.SkipWithError("short read");
+            return;
+        }
+        benchmark::DoNotOptimize(bytes.data());
+    }
+    state.SetBytesProcessed(static_cast<int64_t>(state.iterations()) * static_cast<int64_t>(size));
+}
+BENCHMARK(BM_RawFileRead)->Unit(benchmark::kMillisecond);
 
 struct Pairs {
     std::vector<Vec3d> wi, wo;
