@@ -12,6 +12,7 @@
 #include <map>
 #include <random>
 #include <set>
+#include <thread>
 
 #include "gonio/acquisition/campaign.h"
 #include "gonio/acquisition/journal.h"
@@ -261,7 +262,8 @@ TEST(Campaign, DriveAlarmPausesThenResumesAfterReset) {
 TEST(Campaign, DroppedConnectionsAndFramesAreRecovered) {
     Fixture f = make_campaign("faults", 4, 3, 0);
     LiveRig r = start_rig(f);
-    r.sim->world().set_exposure_hook([&r](std::uint64_t n) {
+    std::thread arm;
+    r.sim->world().set_exposure_hook([&r, &arm](std::uint64_t n) {
         if (n == 15) {
             sim::Fault fault;
             fault.kind = sim::FaultKind::kDropConnection;
@@ -269,12 +271,20 @@ TEST(Campaign, DroppedConnectionsAndFramesAreRecovered) {
             r.sim->motors().inject(fault);
         }
         if (n == 30) {
-            sim::U3vFaults cf;
-            cf.drop_frames = 2;
-            r.sim->camera().set_faults(cf);
+            // The hook runs inside the camera's frame rendering, which holds the device: arm the
+            // dropped frames from another thread, effective from the next frames on.
+            arm = std::thread([&r]() {
+                sim::U3vFaults cf;
+                cf.drop_frames = 2;
+                r.sim->camera().set_faults(cf);
+            });
         }
     });
     auto res = run_campaign(f.dir, r.dev, quiet());
+    if (arm.joinable()) {
+        arm.join();
+    }
+    EXPECT_GE(r.sim->world().exposures(), 30u);
     ASSERT_TRUE(res) << res.error().message;
     EXPECT_EQ(res->outcome, Outcome::kCompleted) << res->message;
     expect_exact(f);
