@@ -127,45 +127,54 @@ Expected<Image> plot_coverage(const brdf::Dataset& data, const PlotOptions& opti
         return make_error(data.source + ": empty dataset: no coverage to plot");
     }
     const int W = std::max(400, options.width);
-    const int panel = (W - 3 * 70) / 2;
-    const int H = 60 + panel + 70;
+    // Left third and a bit: the projected hemisphere; right: (theta_h, theta_d); far right: the
+    // colour bar of theta_i.
+    const int R = std::max(60, (W * 3) / 16);
+    const int top = 64;
+    const int H = top + 2 * R + 84;
     char sub[160];
-    std::snprintf(sub,
-                  sizeof sub,
-                  "%zu samples; colour: theta_i [deg] (scale at right)",
-                  data.samples.size());
+    std::snprintf(
+        sub, sizeof sub, "%zu samples; colour: theta_i [deg] (bar at right)", data.samples.size());
     cv::Mat img = draw::blank(
         W, H, "Coverage of the angular domain - " + plot_detail::short_name(data.source), sub);
     auto colour_of = [](double theta_i) { return draw::sequential(theta_i / (brdf::kPi / 2)); };
 
-    // Left: projected hemisphere of outgoing directions.
-    const cv::Point c(60 + panel / 2, 60 + panel / 2);
-    const double R = panel / 2.0 - 4;
+    // Left: outgoing directions seen from above the sample.
+    const cv::Point c(W / 20 + R, top + R);
     for (int t : {30, 60, 90}) {
         const int r = static_cast<int>(std::lround(R * std::sin(t * kDeg)));
         cv::circle(img, c, r, t == 90 ? draw::kAxis : draw::kGrid, 1, cv::LINE_AA);
-        draw::text(img, std::to_string(t), {c.x + r - 10, c.y - 8}, 0.42, draw::kAxis);
+        draw::text(img,
+                   std::to_string(t),
+                   {c.x + int(std::lround(r * 0.707)) + 4, c.y - int(std::lround(r * 0.707)) - 6},
+                   0.4,
+                   draw::kAxis);
     }
-    cv::line(img, {c.x - int(R), c.y}, {c.x + int(R), c.y}, draw::kGrid, 1);
-    cv::line(img, {c.x, c.y - int(R)}, {c.x, c.y + int(R)}, draw::kGrid, 1);
-    draw::text(img, "phi = 0", {c.x + int(R) + 4, c.y + 14}, 0.42, draw::kAxis);
-    draw::text(img, "90", {c.x + 4, c.y - int(R) - 8}, 0.42, draw::kAxis);
+    cv::line(img, {c.x - R, c.y}, {c.x + R, c.y}, draw::kGrid, 1);
+    cv::line(img, {c.x, c.y - R}, {c.x, c.y + R}, draw::kGrid, 1);
     for (const brdf::Sample& s : data.samples) {
         const double r = R * std::sin(s.theta_o);
         const cv::Point p(c.x + int(std::lround(r * std::cos(s.phi_o))),
                           c.y - int(std::lround(r * std::sin(s.phi_o))));
-        cv::circle(img, p, 2, colour_of(s.theta_i), cv::FILLED, cv::LINE_AA);
+        cv::circle(img, p, 3, colour_of(s.theta_i), cv::FILLED, cv::LINE_AA);
     }
     draw::text(img,
-               "wo projected: (sin theta_o cos phi_o, sin theta_o sin phi_o); rings: theta_o [deg]",
-               {c.x, 60 + panel + 22},
-               0.42,
+               "outgoing directions seen from above",
+               {c.x, c.y + R + 22},
+               0.45,
+               draw::kBlack,
+               draw::Align::kCenter);
+    draw::text(img,
+               "rings: theta_o [deg]; phi_o = 0 to the right",
+               {c.x, c.y + R + 42},
+               0.45,
                draw::kBlack,
                draw::Align::kCenter);
 
     // Right: (theta_h, theta_d).
     draw::Axes ax;
-    ax.area = cv::Rect(60 + panel + 70, 60, panel - 40, panel);
+    const int ax_x = c.x + R + 110;
+    ax.area = cv::Rect(ax_x, top, std::max(80, W - ax_x - 90), 2 * R);
     ax.x0 = 0;
     ax.x1 = 90;
     ax.y0 = 0;
@@ -175,18 +184,15 @@ Expected<Image> plot_coverage(const brdf::Dataset& data, const PlotOptions& opti
         const brdf::HalfDiff<double> hd = brdf::to_half_diff(s.wi(), s.wo());
         cv::circle(img,
                    ax.pt(hd.theta_h / kDeg, hd.theta_d / kDeg),
-                   2,
+                   3,
                    colour_of(s.theta_i),
                    cv::FILLED,
                    cv::LINE_AA);
     }
+    const cv::Rect bar(W - 56, top, 14, 2 * R);
     color_bar(
-        img,
-        cv::Rect(W - 62, 60, 14, panel),
-        0,
-        90,
-        [](double t) { return draw::sequential(t); },
-        "");
+        img, bar, 0, 90, [](double t) { return draw::sequential(t); }, "");
+    draw::text(img, "theta_i", {bar.x + 7, top - 12}, 0.45, draw::kBlack, draw::Align::kCenter);
     return from_mat(img);
 }
 
