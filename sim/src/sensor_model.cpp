@@ -56,6 +56,9 @@ cv::Mat SensorModel::expose(const cv::Mat& radiance, const ExposureSettings& s) 
     const double sat = saturation_level(s.format);
     const double dark_e = p_.dark_current_e_per_s * t;
     std::normal_distribution<double> normal(0.0, 1.0);
+    // Pixels of the same radiance share one Poisson distribution (its set-up dominates otherwise).
+    double poisson_mean = -1;
+    std::poisson_distribution<long> poisson(1.0);
     cv::Mat out(radiance.rows, radiance.cols, CV_16U);
     for (int y = 0; y < radiance.rows; ++y) {
         const float* L = radiance.ptr<float>(y);
@@ -66,9 +69,16 @@ cv::Mat SensorModel::expose(const cv::Mat& radiance, const ExposureSettings& s) 
             const double mu_e = p_.responsivity_e_per_s * l * t + dark_e;
             double e;
             if (mu_e < 30) {
-                // Small means: exact Poisson draw.
-                std::poisson_distribution<long> poisson(mu_e);
-                e = mu_e > 0 ? static_cast<double>(poisson(rng_)) : 0.0;
+                // Small means: exact Poisson draw (a zero mean gives zero electrons).
+                if (mu_e <= 0) {
+                    e = 0;
+                } else {
+                    if (mu_e != poisson_mean) {
+                        poisson = std::poisson_distribution<long>(mu_e);
+                        poisson_mean = mu_e;
+                    }
+                    e = static_cast<double>(poisson(rng_));
+                }
             } else {
                 // Large means: the Poisson distribution's normal limit (relative skew 1/sqrt(mu)).
                 e = std::max(0.0, mu_e + std::sqrt(mu_e) * normal(rng_));
