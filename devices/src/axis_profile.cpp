@@ -366,6 +366,11 @@ Expected<AxisProfile> parse_axis_profile(const std::string& json_text,
         }
         *act = *a;
     }
+    if (p.home.supported() && p.status.homed < 0) {
+        return make_error(s +
+                          ": status_bits.homed: required when actions.home is given (homing "
+                          "ends on the drive's homed flag)");
+    }
     bool has_target = false;
     for (const BlockSlot& slot : p.move.block.slots) {
         has_target = has_target || slot.quantity == Quantity::kTarget;

@@ -216,6 +216,7 @@ Expected<void> ModbusAxis::wait_flag(bool homing, std::chrono::steady_clock::tim
     const StatusBits& sb = profile_.status;
     std::int64_t last_steps = 0;
     bool have_last = false;
+    bool seen_moving = false;
     auto last_change = std::chrono::steady_clock::now();
     const auto stall = std::chrono::milliseconds(profile_.timeouts.stall_ms);
     const auto poll = std::chrono::milliseconds(profile_.timeouts.poll_ms);
@@ -240,7 +241,13 @@ Expected<void> ModbusAxis::wait_flag(bool homing, std::chrono::steady_clock::tim
         }
         const bool moving = sb.moving >= 0 ? bit(w, sb.moving) : !bit(w, sb.in_position);
         const bool in_pos = sb.in_position >= 0 ? bit(w, sb.in_position) : !moving;
-        const bool done = homing ? (!moving && bit(w, sb.homed)) : (!moving && in_pos);
+        seen_moving = seen_moving || moving;
+        // A drive may still show the previous move's in-position flag for a moment after a new
+        // command: accept "done" only once motion was seen or the stage is at the target.
+        const bool at_target =
+            std::fabs(at_deg - commanded_deg_) <= 1.5 / profile_.steps_per_degree;
+        const bool done = homing ? (!moving && bit(w, sb.homed))
+                                 : (!moving && in_pos && (seen_moving || at_target));
         if (done) {
             return {};
         }
