@@ -373,7 +373,7 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
             result.stop_reason = "coverage target met";
             break;
         }
-        const int next = next_light(candidates, result.coverage, current);
+        const int next = next_light(candidates, result.coverage, current, cfg.light_gain_fraction);
         if (next < 0 || result.coverage.gain(candidates[next].bins) < min_gain) {
             result.stop_reason = "no light position adds enough bins";
             break;

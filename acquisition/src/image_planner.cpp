@@ -104,16 +104,32 @@ std::size_t CoverageMap::gain(const std::vector<std::uint32_t>& bins) const {
 
 int next_light(const std::vector<LightCandidate>& candidates,
                const CoverageMap& coverage,
-               double current_light_rad) {
-    int best = -1;
+               double current_light_rad,
+               double gain_fraction) {
+    GONIO_CHECK(gain_fraction > 0 && gain_fraction <= 1);
+    std::vector<std::size_t> gains(candidates.size());
     std::size_t best_gain = 0;
+    for (std::size_t i = 0; i < candidates.size(); ++i) {
+        gains[i] = coverage.gain(candidates[i].bins);
+        best_gain = std::max(best_gain, gains[i]);
+    }
+    if (best_gain == 0) {
+        // Nothing left that any candidate can add.
+        return -1;
+    }
+    const double threshold = gain_fraction * static_cast<double>(best_gain);
+    int best = -1;
+    std::size_t chosen_gain = 0;
     double best_move = 0;
     for (std::size_t i = 0; i < candidates.size(); ++i) {
-        const std::size_t g = coverage.gain(candidates[i].bins);
+        if (gains[i] == 0 || static_cast<double>(gains[i]) < threshold) {
+            continue;
+        }
+        // With gain_fraction = 1 only the largest gains pass: "largest gain, then shortest move".
         const double move = std::abs(candidates[i].light_arm_rad - current_light_rad);
-        if (g > best_gain || (g == best_gain && g > 0 && move < best_move)) {
+        if (best < 0 || move < best_move || (move == best_move && gains[i] > chosen_gain)) {
             best = static_cast<int>(i);
-            best_gain = g;
+            chosen_gain = gains[i];
             best_move = move;
         }
     }

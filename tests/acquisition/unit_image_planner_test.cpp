@@ -98,6 +98,9 @@ TEST(ImagePlanner, NextLightPrefersGainThenShortMove) {
     EXPECT_EQ(next_light(c, map, -0.8), 1);
     map.cover(valid[0]);
     EXPECT_EQ(next_light(c, map, 0.9), 1);  // larger gain wins
+    // Accepting half the best gain: the nearest candidate with gain >= 1 (of best 2).
+    EXPECT_EQ(next_light(c, map, 0.9, 0.5), 0);
+    EXPECT_EQ(next_light(c, map, 1.9, 0.5), 2);
     map.cover(valid[2]);
     map.cover(valid[3]);
     map.cover(valid[1]);

@@ -65,6 +65,9 @@ struct ImageCampaignConfig {
     /// The campaign also stops when the best light position would add fewer new bins than this
     /// fraction of the valid bins (diminishing returns: the rest are holes).
     double min_gain_fraction = 0.002;
+    /// Next light: the nearest candidate adding at least this fraction of the best candidate's
+    /// new bins (image_planner.h: next_light).
+    double light_gain_fraction = 0.5;
     ExclusionRules rules;
     SilhouetteOptions silhouette;
     int plan_pixel_stride = 2;  ///< Pixel subsampling of the coverage prediction.

@@ -9,9 +9,11 @@
 //
 // Greedy coverage: the coverage map holds which valid bins (image_binning.h: bin_valid) already
 // have data; the next light position is the candidate that adds the most uncovered valid bins
-// (where coverage is poorest), ties broken by the smallest light-arm move. Planning stops when the
-// covered fraction of the valid bins reaches the target, when no candidate adds a bin, or at the
-// frame limit. Valid bins that stay empty are reported as holes with their reason.
+// (where coverage is poorest), ties broken by the smallest light-arm move; the campaign may instead
+// take the nearest candidate adding nearly as many (light-arm moves dominate its duration).
+// Planning stops when the covered fraction of the valid bins reaches the target, when no candidate
+// adds a bin, or at the frame limit. Valid bins that stay empty are reported as holes with their
+// reason.
 
 #include <cstdint>
 #include <string>
@@ -75,11 +77,14 @@ class CoverageMap {
     std::size_t covered_count_ = 0;
 };
 
-/// Index into `candidates` of the next light position (largest gain, then smallest move from
-/// `current_light_rad`), or -1 when no candidate adds a bin.
+/// Index into `candidates` of the next light position, or -1 when no candidate adds a bin. Among
+/// the candidates whose gain is at least `gain_fraction` (in (0, 1]) of the largest gain, the one
+/// with the smallest light-arm move from `current_light_rad` (1: the largest gain, ties by the
+/// move; smaller values trade a little coverage per frame for much shorter moves).
 int next_light(const std::vector<LightCandidate>& candidates,
                const CoverageMap& coverage,
-               double current_light_rad);
+               double current_light_rad,
+               double gain_fraction = 1.0);
 
 struct CoveragePlan {
     std::vector<double> light_arm_rad;       ///< In the order chosen.
