@@ -55,16 +55,18 @@ std::vector<std::uint8_t> encode(const Trailer& t) {
 }
 
 Expected<Leader> decode_leader(const std::uint8_t* data, std::size_t size) {
-    if (data == nullptr || size < 16) {
-        return make_error("U3V leader: " + std::to_string(size) + " bytes, shorter than 16");
+    // Magic, sizes, block id and payload type fill the first 20 bytes of every leader.
+    if (data == nullptr || size < 20) {
+        return make_error("U3V leader: " + std::to_string(size) + " bytes, shorter than 20");
     }
     if (get_u32(data) != kLeaderMagic) {
         return make_error("U3V leader: magic " + hex32(get_u32(data)) + " != 0x4C563355 (U3VL)");
     }
     const std::uint16_t leader_size = get_u16(data + 6);
-    if (leader_size > size) {
-        return make_error("U3V leader: leader_size " + std::to_string(leader_size) +
-                          " exceeds the " + std::to_string(size) + " bytes received");
+    if (leader_size > size || leader_size < 20) {
+        return make_error("U3V leader: leader_size " + std::to_string(leader_size) + " with " +
+                          std::to_string(size) +
+                          " bytes received (at least 20, at most what arrived)");
     }
     Leader l;
     l.block_id = get_u64(data + 8);
