@@ -199,8 +199,13 @@ GONIO_COMMAND(axis) {
     cmd->add_option("--timeout-ms", o->timeout_ms, "deadline for home/move");
     cmd->require_subcommand(1);
     auto action = std::make_shared<std::string>();
-    for (const char* name : {"status", "home", "stop", "reset"}) {
-        auto* sub = cmd->add_subcommand(name, std::string(name) + " the axis");
+    const std::pair<const char*, const char*> simple[] = {
+        {"status", "print state, position, homed flag and alarm code"},
+        {"home", "run the drive's homing and wait for its homed flag"},
+        {"stop", "decelerate to a stop"},
+        {"reset", "clear a drive alarm"}};
+    for (const auto& [name, help] : simple) {
+        auto* sub = cmd->add_subcommand(name, help);
         sub->fallthrough();
         sub->callback([action, name] { *action = name; });
     }
