@@ -204,8 +204,9 @@ GONIO_COMMAND(axis) {
         {"home", "run the drive's homing and wait for its homed flag"},
         {"stop", "decelerate to a stop"},
         {"reset", "clear a drive alarm"}};
-    for (const auto& [name, help] : simple) {
-        auto* sub = cmd->add_subcommand(name, help);
+    for (const auto& entry : simple) {
+        const char* name = entry.first;
+        auto* sub = cmd->add_subcommand(name, entry.second);
         sub->fallthrough();
         sub->callback([action, name] { *action = name; });
     }
