@@ -12,6 +12,8 @@ namespace {
 struct Options {
     std::string dir;
     bool regenerate = false;
+    int preview_size = 256;
+    int preview_samples = 192;
 };
 
 }  // namespace
@@ -22,9 +24,17 @@ GONIO_COMMAND(report) {
     auto opts = std::make_shared<Options>();
     cmd->add_option("dir", opts->dir, "campaign folder")->required();
     cmd->add_flag("--regenerate", opts->regenerate, "redraw plots and previews that already exist");
+    cmd->add_option("--preview-size", opts->preview_size, "sphere picture size in pixels")
+        ->capture_default_str()
+        ->check(CLI::Range(16, 2048));
+    cmd->add_option("--preview-samples", opts->preview_samples, "environment directions per pixel")
+        ->capture_default_str()
+        ->check(CLI::Range(6, 65536));
     return [opts]() -> int {
         gonio::report::ReportOptions ro;
         ro.regenerate = opts->regenerate;
+        ro.preview.size_px = opts->preview_size;
+        ro.preview.env_samples = opts->preview_samples;
         auto r = gonio::report::build_report(opts->dir, ro);
         if (!r) {
             std::fprintf(stderr, "gonio report: %s\n", r.error().message.c_str());

@@ -196,7 +196,7 @@ TEST(Plots, EveryModelTypeAndATableGivesEveryPlot) {
 TEST(Plots, TablePeakAtTheMirrorAngle) {
     const brdf::AnalyticBrdf model(testing::every_model_type()[0].second);
     brdf::TabulateOptions to;
-    to.grid = brdf::TableGrid::merl();
+    to.grid = brdf::TableGrid{90, 45, 90};
     to.threads = 2;
     const brdf::TabulatedBrdf table = brdf::tabulate(model, to);
     PlotOptions o;

@@ -159,7 +159,7 @@ TEST_F(ReportCli, ExportsForMitsubaAndPbrt) {
 }
 
 TEST_F(ReportCli, ReportPrintsThePathOfASelfContainedPage) {
-    CliRun r = gonio("report " + dir_.string(), dir_);
+    CliRun r = gonio("report " + dir_.string() + " --preview-size 48 --preview-samples 12", dir_);
     ASSERT_EQ(r.status, 0) << r.out;
     const fs::path html = dir_ / "report.html";
     EXPECT_EQ(r.out.substr(0, r.out.find('\n')), html.string());
