@@ -98,6 +98,7 @@ std::string fit_report_json(const FitResult& r) {
                    {"message", r.solver.message},
                    {"usable", r.solver.usable},
                    {"wall_time_s", r.solver.wall_time_s},
+                   {"solve_time_s", r.solver.solve_time_s},
                    {"initial_cost", number_or_null(r.solver.initial_cost)},
                    {"final_cost", number_or_null(r.solver.final_cost)},
                    {"starts", r.solver.starts}};
@@ -205,6 +206,7 @@ Expected<FitResult> read_fit_report(const std::string& path) {
             r.solver.final_cost = sv["final_cost"].get<double>();
         }
         r.solver.starts = sv.value("starts", 0);
+        r.solver.solve_time_s = sv.value("solve_time_s", 0.0);
         r.data = j.value("data", std::string());
     } catch (const json::exception& e) {
         return make_error(path + ": malformed fit report: " + e.what());

@@ -45,8 +45,9 @@ struct SolverInfo {
     int iterations = 0;
     std::string termination;  ///< "CONVERGENCE", "NO_CONVERGENCE", "FAILURE", "USER_SUCCESS", ...
     std::string message;
-    bool usable = false;  ///< True only for CONVERGENCE: the parameters are a result.
-    double wall_time_s = 0;
+    bool usable = false;      ///< True only for CONVERGENCE: the parameters are a result.
+    double wall_time_s = 0;   ///< The whole fit: validation, reduction, start, solve, metrics.
+    double solve_time_s = 0;  ///< The Ceres solves alone (coarse and full).
     double initial_cost = 0;
     double final_cost = 0;
     int starts = 0;  ///< Multi-start candidates scored.
