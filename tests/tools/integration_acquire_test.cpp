@@ -1,0 +1,144 @@
+// gonio acquire and gonio sim end to end through the binary: a campaign on the embedded virtual
+// rig, its resume, the plan listing, errors; a campaign run against a separate `gonio sim` process.
+
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "gonio/brdf/dataset.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string run(const std::string& args, int* status) {
+    const std::string cmd = std::string(GONIO_EXE) + " " + args + " 2>&1";
+    FILE* p = popen(cmd.c_str(), "r");
+    std::string out;
+    char buf[4096];
+    while (std::fgets(buf, sizeof buf, p)) {
+        out += buf;
+    }
+    const int st = pclose(p);
+    *status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    return out;
+}
+
+std::string temp_dir(const char* name) {
+    const std::string d = std::string(GONIO_BINARY_DIR) + "/test_tools_acquire/" + name + "_" +
+                          std::to_string(::getpid());
+    fs::remove_all(d);
+    fs::create_directories(fs::path(d).parent_path());
+    return d;
+}
+
+TEST(AcquireCli, EmbeddedCampaignThenResumeMeasuresNothingTwice) {
+    const std::string dir = temp_dir("embedded");
+    int st = 0;
+    const std::string out =
+        run("acquire --out " + dir + " --n-theta 4 --n-dphi 3 --adaptive 0 --time-scale 500", &st);
+    ASSERT_EQ(st, 0) << out;
+    EXPECT_NE(out.find("completed"), std::string::npos) << out;
+    EXPECT_NE(out.find("raster order"), std::string::npos) << out;
+    auto ds = gonio::brdf::read_dataset_csv(dir + "/dataset.csv");
+    ASSERT_TRUE(ds) << ds.error().message;
+    EXPECT_TRUE(ds->rejected.empty());
+    // 4 x 3 grid: 4 at theta_i = 0, (3 + 2 + 1) x 3 = 18 more, less 4 retro-reflections.
+    std::size_t brdf_samples = 0;
+    for (const auto& s : ds->samples) {
+        brdf_samples += (s.flags & gonio::brdf::kFlagReference) ? 0 : 1;
+    }
+    EXPECT_EQ(brdf_samples, 18u);
+    const std::string again = run("acquire --resume " + dir, &st);
+    ASSERT_EQ(st, 0) << again;
+    auto ds2 = gonio::brdf::read_dataset_csv(dir + "/dataset.csv");
+    ASSERT_TRUE(ds2);
+    std::size_t brdf_samples2 = 0;
+    for (const auto& s : ds2->samples) {
+        brdf_samples2 += (s.flags & gonio::brdf::kFlagReference) ? 0 : 1;
+    }
+    EXPECT_EQ(brdf_samples2, 18u);
+    std::ifstream meta(dir + "/metadata.json");
+    std::stringstream ss;
+    ss << meta.rdbuf();
+    EXPECT_NE(ss.str().find("\"software\""), std::string::npos);
+    EXPECT_NE(ss.str().find("\"unreachable\""), std::string::npos);
+}
+
+TEST(AcquireCli, PlanOnlyListsUnreachableTargetsWithReasons) {
+    int st = 0;
+    const std::string out = run("acquire --plan-only --n-theta 4 --n-dphi 3", &st);
+    ASSERT_EQ(st, 0) << out;
+    EXPECT_NE(out.find("18 configurations, 4 unreachable"), std::string::npos) << out;
+    EXPECT_NE(out.find("blind zone"), std::string::npos) << out;
+}
+
+TEST(AcquireCli, ErrorsNameTheProblem) {
+    int st = 0;
+    const std::string out = run("acquire --rig /nonexistent/rig.json --out x", &st);
+    EXPECT_EQ(st, 1);
+    EXPECT_NE(out.find("/nonexistent/rig.json"), std::string::npos) << out;
+    const std::string out2 = run("acquire --resume /nonexistent/campaign", &st);
+    EXPECT_EQ(st, 1);
+}
+
+TEST(AcquireCli, CampaignAgainstASeparateSimProcess) {
+    const std::string dir = temp_dir("separate");
+    fs::create_directories(dir);
+    const std::string live = dir + "/live-rig.json";
+    int pipefd[2];
+    ASSERT_EQ(pipe(pipefd), 0);
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+        dup2(pipefd[1], 1);
+        close(pipefd[0]);
+        execl(GONIO_EXE,
+              GONIO_EXE,
+              "sim",
+              "--rig-out",
+              live.c_str(),
+              "--time-scale",
+              "500",
+              static_cast<char*>(nullptr));
+        _exit(127);
+    }
+    close(pipefd[1]);
+    // Read the sim's output until it says where its rig description is (written before that line).
+    FILE* in = fdopen(pipefd[0], "r");
+    char line[1024];
+    bool ready = false;
+    while (std::fgets(line, sizeof line, in)) {
+        if (std::string(line).find("rig description with these addresses") != std::string::npos) {
+            ready = true;
+            break;
+        }
+    }
+    ASSERT_TRUE(ready);
+    {
+        std::ofstream c(dir + "/campaign.json");
+        c << R"({"sample": "separate", "rig": "live-rig.json",
+                 "plan": {"kind": "uniform", "n_theta": 3, "n_dphi": 3, "theta_max_deg": 60},
+                 "drift": {"every": 0}})";
+    }
+    int st = 0;
+    const std::string out = run("acquire " + dir + "/campaign.json --out " + dir + "/run", &st);
+    EXPECT_EQ(st, 0) << out;
+    kill(pid, SIGINT);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+    std::fclose(in);
+    auto ds = gonio::brdf::read_dataset_csv(dir + "/run/dataset.csv");
+    ASSERT_TRUE(ds) << ds.error().message;
+    EXPECT_GT(ds->samples.size(), 5u);
+}
+
+}  // namespace
