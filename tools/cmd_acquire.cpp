@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "acquire_image_mode.h"
 #include "command.h"
 #include "gonio/acquisition/campaign.h"
 #include "gonio/acquisition/rig_config.h"
@@ -41,6 +42,9 @@ struct AcquireOptions {
     double time_scale = 0;
     bool accept_drift = false;
     bool plan_only = false;
+    std::string mode = "point";
+    double coverage_target = 0;
+    int max_frames = 0;
 };
 
 std::atomic<bool> g_stop{false};
@@ -63,7 +67,28 @@ bool is_embedded(const std::string& rig_json) {
     return !j.is_discarded() && j.value("embedded_virtual_rig", false);
 }
 
+/// Image mode: a curved sample, thousands of samples per frame (docs/image-acquisition.md).
+int run_image(const AcquireOptions& o) {
+    gonio::tools::AcquireImageOptions io;
+    io.out_dir = o.out;
+    if (!o.material.empty()) {
+        io.material = o.material;
+    }
+    io.brdf_path = o.brdf;
+    io.rig_path = o.rig;
+    if (o.coverage_target > 0) {
+        io.coverage_target = o.coverage_target;
+    }
+    if (o.max_frames > 0) {
+        io.max_frames = o.max_frames;
+    }
+    return gonio::tools::run_acquire_image_mode(io);
+}
+
 int run(const AcquireOptions& o) {
+    if (o.mode == "image") {
+        return run_image(o);
+    }
     std::string dir;
     acq::RigConfig rig;
     std::unique_ptr<gonio::sim::SimRig> sim;
@@ -258,6 +283,12 @@ GONIO_COMMAND(acquire) {
     cmd->add_flag("--accept-drift",
                   o->accept_drift,
                   "resume: take the lamp's current level as the new baseline");
+    cmd->add_option(
+           "--mode", o->mode, "point (one configuration per frame) or image (curved sample)")
+        ->check(CLI::IsMember({"point", "image"}));
+    cmd->add_option(
+        "--coverage-target", o->coverage_target, "image mode: fraction of valid table bins");
+    cmd->add_option("--max-frames", o->max_frames, "image mode: most light positions");
     cmd->add_flag("--plan-only", o->plan_only, "print the plan (and unreachable targets) and exit");
     return [o]() { return run(*o); };
 }
