@@ -72,6 +72,35 @@ TEST(AcquireCli, EmbeddedCampaignThenResumeMeasuresNothingTwice) {
     EXPECT_NE(ss.str().find("\"unreachable\""), std::string::npos);
 }
 
+double param(const std::string& out, const std::string& name) {
+    const auto at = out.find(name);
+    if (at == std::string::npos) {
+        return -1;
+    }
+    return std::stod(out.substr(at + name.size()));
+}
+
+TEST(AcquireCli, AcquireThenFitRecoversTheGroundTruth) {
+    // GGX + Lambert ground truth, acquired on the virtual rig, fitted with the same model family.
+    const std::string dir = temp_dir("fit");
+    const std::string model = dir + "_model.json";
+    std::ofstream(model) << R"({"diffuse": [0.3, 0.3, 0.3], "lobes": [{"distribution": "ggx",
+        "alpha": 0.25, "shadowing": "smith-correlated",
+        "fresnel": {"type": "schlick", "f0": [0.04, 0.04, 0.04]}, "scale": [1, 1, 1]}]})";
+    int st = 0;
+    const std::string acq = run("acquire --brdf " + model + " --out " + dir +
+                                    " --n-theta 6 --n-dphi 5 --adaptive 0 --time-scale 500",
+                                &st);
+    ASSERT_EQ(st, 0) << acq;
+    const std::string fit = run("fit " + dir + "/dataset.csv", &st);
+    ASSERT_EQ(st, 0) << fit;
+    // The measurement noise is about 1e-5 relative (the fit reports ~2e-6 standard errors); 1e-3
+    // leaves room for the stages' step quantisation.
+    EXPECT_NEAR(param(fit, "diffuse[0]"), 0.3, 1e-3) << fit;
+    EXPECT_NEAR(param(fit, "lobes[0].alpha_x"), 0.25, 1e-3) << fit;
+    EXPECT_NEAR(param(fit, "lobes[0].fresnel.f0[0]"), 0.04, 1e-3) << fit;
+}
+
 TEST(AcquireCli, PlanOnlyListsUnreachableTargetsWithReasons) {
     int st = 0;
     const std::string out = run("acquire --plan-only --n-theta 4 --n-dphi 3", &st);
