@@ -1,0 +1,54 @@
+// The virtual rig's world: the camera sees the directions the stages' angles give through the
+// documented four-axis geometry, the shutter and the reference changer coils switch what it sees.
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+
+#include "gonio/devices/modbus_light.h"
+#include "gonio/sim/sim_rig.h"
+
+namespace gonio::sim {
+namespace {
+
+std::string sim4_json() {
+    std::ifstream in(std::string(GONIO_SOURCE_DIR) + "/data/rigs/sim4.json");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+TEST(RigWorld, SceneFollowsTheStagesAndCoils) {
+    SimRigOptions o;
+    o.in_process_name = "rig-world-test";
+    auto rig = SimRig::start(sim4_json(), o);
+    ASSERT_TRUE(rig) << rig.error().message;
+    // Power-up: light arm at 0 (along the sample normal), detector arm at 45 deg: wo lies in the
+    // sample's x-z plane at 45 deg from the normal.
+    SceneState s = (*rig)->world().scene();
+    EXPECT_NEAR((s.wi - brdf::Vec3d(0, 0, 1)).norm(), 0, 1e-9);
+    const double h = std::sqrt(0.5);
+    EXPECT_NEAR((s.wo - brdf::Vec3d(h, 0, h)).norm(), 0, 1e-9);
+    EXPECT_FALSE(s.shutter_open);
+    // The shutter and the reference changer are coils on the Modbus server.
+    auto shutter = devices::open_modbus_light((*rig)->motor_address(), 5, 0);
+    ASSERT_TRUE(shutter) << shutter.error().message;
+    ASSERT_TRUE((*shutter)->set_shutter_open(true));
+    EXPECT_TRUE((*rig)->world().scene().shutter_open);
+    auto changer = devices::open_modbus_light((*rig)->motor_address(), 6, 0);
+    ASSERT_TRUE(changer);
+    const brdf::Vec3d wi(0, 0, 1), wo(h, 0, h);
+    const double sample_value = (*rig)->sample()->eval(wi, wo).mean();
+    ASSERT_TRUE((*changer)->set_shutter_open(true));
+    (*rig)->world().scene();  // the world switches the mounted BRDF at each exposure
+    auto dev_brdf = std::make_shared<MountedBrdf>((*rig)->sample(), 0.99);
+    EXPECT_NEAR(dev_brdf->eval(wi, wo).mean(), sample_value, 1e-15);
+    dev_brdf->set_white(true);
+    EXPECT_NEAR(dev_brdf->eval(wi, wo)[0], 0.99 / brdf::kPi, 1e-15);
+    EXPECT_EQ(dev_brdf->eval(brdf::Vec3d(0, 0, -1), wo)[0], 0.0);
+    EXPECT_EQ((*rig)->world().exposures(), 3u);
+}
+
+}  // namespace
+}  // namespace gonio::sim
