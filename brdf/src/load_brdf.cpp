@@ -5,6 +5,7 @@
 
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/brdf.h"
+#include "gonio/brdf/material_library.h"
 #include "gonio/brdf/merl.h"
 #include "gonio/brdf/model_json.h"
 #include "gonio/brdf/table.h"
@@ -37,6 +38,14 @@ Expected<std::unique_ptr<Brdf>> load_table(const std::string& path) {
 }  // namespace
 
 Expected<std::unique_ptr<Brdf>> load_brdf(const std::string& path) {
+    const std::string kMaterialPrefix = "material:";
+    if (path.compare(0, kMaterialPrefix.size(), kMaterialPrefix) == 0) {
+        Expected<ModelD> m = load_material(path.substr(kMaterialPrefix.size()));
+        if (!m) {
+            return tl::unexpected(m.error());
+        }
+        return std::unique_ptr<Brdf>(std::make_unique<AnalyticBrdf>(std::move(*m), path));
+    }
     if (has_suffix(path, ".json")) {
         return load_model(path);
     }
@@ -45,7 +54,7 @@ Expected<std::unique_ptr<Brdf>> load_brdf(const std::string& path) {
     }
     return make_error(path +
                       ": unknown BRDF file type (expected a model *.json or a table *.binary, "
-                      "*.merl, *.gtab)");
+                      "*.merl, *.gtab, or material:NAME from data/materials)");
 }
 
 }  // namespace gonio::brdf

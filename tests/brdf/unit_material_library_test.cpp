@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
+#include "gonio/brdf/brdf.h"
 #include "gonio/brdf/material_library.h"
+#include "gonio/brdf/model_eval.h"
 
 namespace gonio::brdf {
 namespace {
@@ -37,6 +39,26 @@ TEST(MaterialLibrary, UnknownNameSuggestsCloseOnes) {
     ASSERT_FALSE(m);
     EXPECT_NE(m.error().message.find("gold-metallic-paint3"), std::string::npos)
         << m.error().message;
+}
+
+}  // namespace
+}  // namespace gonio::brdf
+
+namespace gonio::brdf {
+namespace {
+
+TEST(MaterialLibrary, LoadBrdfAcceptsMaterialNames) {
+    auto b = load_brdf("material:gold-metallic-paint3");
+    ASSERT_TRUE(b) << b.error().message;
+    auto m = load_material("gold-metallic-paint3");
+    ASSERT_TRUE(m);
+    const Vec3d wi = spherical_to_cartesian(0.5, 0.0);
+    const Vec3d wo = spherical_to_cartesian(0.5, kPi);
+    const Rgbd direct = eval_model(*m, wi, wo);
+    const Rgbd through = (*b)->eval(wi, wo);
+    EXPECT_DOUBLE_EQ(direct[0], through[0]);
+    EXPECT_GT(direct[0], m->diffuse[0] / kPi);  // the specular peak adds to the diffuse floor
+    EXPECT_FALSE(load_brdf("material:no-such-material"));
 }
 
 }  // namespace

@@ -73,7 +73,10 @@ gonio::brdf::ModelD glossy_model() {
 class ReportCli : public ::testing::Test {
   protected:
     void SetUp() override {
-        dir_ = fs::path(GONIO_BINARY_DIR) / "tests" / "report_cli";
+        // One folder per test: ctest runs the tests of this fixture in parallel processes.
+        dir_ = fs::path(GONIO_BINARY_DIR) / "tests" /
+               (std::string("report_cli_") +
+                ::testing::UnitTest::GetInstance()->current_test_info()->name());
         fs::remove_all(dir_);
         fs::create_directories(dir_);
         const auto model = glossy_model();

@@ -21,7 +21,8 @@ class Brdf {
     virtual bool isotropic() const = 0;
     /// One line saying what this is (model summary or table path and resolution).
     virtual std::string describe() const = 0;
-    /// Extra lines for `gonio check` (a table's valid-bin count and per-channel min/max/mean); may be empty.
+    /// Extra lines for `gonio check` (a table's valid-bin count and per-channel min/max/mean); may
+    /// be empty.
     virtual std::string statistics() const { return {}; }
 };
 
