@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <random>
 #include <thread>
 
@@ -24,7 +25,13 @@ using brdf::Sample;
 constexpr std::size_t kBatch = 256;            // samples per residual block (without robust loss)
 constexpr std::size_t kScoreSamples = 4000;    // samples used to score multi-start candidates
 constexpr std::size_t kCoarseSamples = 20000;  // first solve of a large input
+constexpr std::size_t kScreenSamples = 1500;   // short solves that rank the best starts
+constexpr std::size_t kScreenStarts = 4;       // starts screened by a short solve
+constexpr int kScreenIterations = 15;          // iterations of a screening solve
 constexpr std::size_t kMaxRejectedLines = 100;
+constexpr double kVanishedShare = 1e-3;  // a lobe below this share of the reflectance vanished
+constexpr std::size_t kCovarianceRows =
+    300000;  // residuals above which ceres::Covariance is skipped
 
 int thread_count(int requested) {
     if (requested > 0) {
@@ -323,6 +330,14 @@ std::vector<Candidate> initial_candidates(const ParameterMap& map,
         alphas.push_back(std::exp(log_alpha(rng)));
     }
     alphas.resize(std::max(1, o.starts));
+    if (o.starts > 1) {
+        // A fixed log-spaced ladder over the range of real lobes as well: the width estimate
+        // fails when the peak is narrower than the angular grid (only exact mirror samples see
+        // it), and scoring a start costs one pass over the small scoring set.
+        for (double a = 2e-3; a < 1.2; a *= 2.5) {
+            alphas.push_back(a);
+        }
+    }
     for (double a : alphas) {
         ModelD mc = m;
         for (int i = 0; i < static_cast<int>(mc.lobes.size()); ++i) {
@@ -384,7 +399,8 @@ SolveOutcome solve(std::shared_ptr<const ParameterMap> map,
                    const std::vector<Sample>& samples,
                    const FitOptions& o,
                    const CostOptions& co,
-                   std::vector<double> x0) {
+                   std::vector<double> x0,
+                   double tolerance = 1e-12) {
     SolveOutcome out;
     out.x = std::move(x0);
     auto problem = build_problem(map, samples, o, co, out.x);
@@ -392,9 +408,9 @@ SolveOutcome solve(std::shared_ptr<const ParameterMap> map,
     so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
     so.max_num_iterations = o.max_iterations;
     so.num_threads = thread_count(o.num_threads);
-    so.function_tolerance = 1e-12;
-    so.gradient_tolerance = 1e-14;
-    so.parameter_tolerance = 1e-12;
+    so.function_tolerance = tolerance;
+    so.gradient_tolerance = 1e-2 * tolerance;
+    so.parameter_tolerance = tolerance;
     so.check_gradients = o.check_gradients;
     so.logging_type = ceres::SILENT;
     ceres::Solve(so, problem.get(), &out.summary);
@@ -407,6 +423,66 @@ std::string termination_name(ceres::TerminationType t) {
 
 // ---------------------------------------------------------------------------------------------
 // Uncertainties
+
+/// J^T J of the residuals of `samples` at x, accumulated per thread over batches of kBatch samples
+/// (the Jacobian is never stored whole). False when a residual or derivative is not finite.
+bool normal_matrix(const std::shared_ptr<const ParameterMap>& map,
+                   const std::vector<Sample>& samples,
+                   const CostOptions& co,
+                   const std::vector<double>& x,
+                   int threads,
+                   Eigen::MatrixXd& jtj) {
+    const int n = map->size();
+    const std::size_t batches = (samples.size() + kBatch - 1) / kBatch;
+    const int t_count = std::max(1, threads);
+    std::vector<Eigen::MatrixXd> partial(t_count, Eigen::MatrixXd::Zero(n, n));
+    std::vector<char> ok(t_count, 1);
+    auto body = [&](int t, std::size_t b0, std::size_t b1) {
+        using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+        RowMajor jac(3 * kBatch, n);
+        std::vector<double> r(3 * kBatch);
+        std::vector<Sample> part;
+        for (std::size_t b = b0; b < b1 && ok[t]; ++b) {
+            const std::size_t lo = b * kBatch;
+            const std::size_t hi = std::min(samples.size(), lo + kBatch);
+            part.assign(samples.begin() + static_cast<long>(lo),
+                        samples.begin() + static_cast<long>(hi));
+            auto cost = make_batch_cost(map, part, co);
+            const double* params[] = {x.data()};
+            double* jacs[] = {jac.data()};
+            if (!cost->Evaluate(params, r.data(), jacs)) {
+                ok[t] = 0;
+                break;
+            }
+            const long m = static_cast<long>(3 * part.size());
+            partial[t].noalias() += jac.topRows(m).transpose() * jac.topRows(m);
+        }
+    };
+    if (t_count <= 1 || batches < 2) {
+        body(0, 0, batches);
+    } else {
+        std::vector<std::thread> pool;
+        const std::size_t chunk = (batches + t_count - 1) / t_count;
+        for (int t = 0; t < t_count; ++t) {
+            const std::size_t b = t * chunk;
+            const std::size_t e = std::min(batches, b + chunk);
+            if (b < e) {
+                pool.emplace_back(body, t, b, e);
+            }
+        }
+        for (std::thread& th : pool) {
+            th.join();
+        }
+    }
+    jtj.setZero();
+    for (int t = 0; t < t_count; ++t) {
+        if (!ok[t]) {
+            return false;
+        }
+        jtj += partial[t];
+    }
+    return jtj.allFinite();
+}
 
 /// Fills sigma / identifiable of the free parameters from the Jacobian J at the solution.
 /// Not identifiable: (1) a parameter whose effect on the residuals over a step of its own size,
@@ -428,23 +504,35 @@ void uncertainties(std::shared_ptr<const ParameterMap> map,
                    std::vector<FittedParameter>& params,
                    std::vector<std::string>& not_identifiable) {
     const int n = map->size();
-    auto problem = build_problem(map, samples, o, co, x);
-    ceres::CRSMatrix jac;
-    ceres::Problem::EvaluateOptions eo;
-    eo.num_threads = thread_count(o.num_threads);
-    std::vector<bool> ident(n, true);
-    std::vector<double> sigma(n, -1);
-    if (!problem->Evaluate(eo, nullptr, nullptr, nullptr, &jac)) {
-        ident.assign(n, false);
+    const std::size_t rows = 3 * samples.size();
+    // Above kCovarianceRows residuals (and without a robust loss, whose curvature correction
+    // Ceres applies to the Jacobian) the normal matrix is accumulated here batch by batch over the
+    // threads, without a Ceres problem or a stored Jacobian; ceres::Covariance is not used there.
+    const bool direct = o.loss == LossKind::kNone && rows > kCovarianceRows;
+    std::unique_ptr<ceres::Problem> problem;
+    Eigen::MatrixXd jtj = Eigen::MatrixXd::Zero(n, n);
+    bool evaluated = false;
+    if (direct) {
+        evaluated = normal_matrix(map, samples, co, x, thread_count(o.num_threads), jtj);
     } else {
-        Eigen::MatrixXd jtj = Eigen::MatrixXd::Zero(n, n);
-        for (int r = 0; r < jac.num_rows; ++r) {
+        problem = build_problem(map, samples, o, co, x);
+        ceres::CRSMatrix jac;
+        ceres::Problem::EvaluateOptions eo;
+        eo.num_threads = thread_count(o.num_threads);
+        evaluated = problem->Evaluate(eo, nullptr, nullptr, nullptr, &jac);
+        for (int r = 0; evaluated && r < jac.num_rows; ++r) {
             for (int a = jac.rows[r]; a < jac.rows[r + 1]; ++a) {
                 for (int b = jac.rows[r]; b < jac.rows[r + 1]; ++b) {
                     jtj(jac.cols[a], jac.cols[b]) += jac.values[a] * jac.values[b];
                 }
             }
         }
+    }
+    std::vector<bool> ident(n, true);
+    std::vector<double> sigma(n, -1);
+    if (!evaluated) {
+        ident.assign(n, false);
+    } else {
         // (1) Effect of each parameter over a step of its own size.
         std::vector<double> effect(n);
         double max_effect = 0;
@@ -493,7 +581,7 @@ void uncertainties(std::shared_ptr<const ParameterMap> map,
                 }
             }
         }
-        const double dof = static_cast<double>(jac.num_rows) - n;
+        const double dof = static_cast<double>(rows) - n;
         const double s2 = absolute_sigma || dof <= 0 ? 1.0 : 2 * final_cost / dof;
         if (well_conditioned && m == n) {
             ceres::Covariance::Options cov_o;
@@ -503,7 +591,7 @@ void uncertainties(std::shared_ptr<const ParameterMap> map,
             ceres::Covariance cov(cov_o);
             std::vector<std::pair<const double*, const double*>> blocks = {{x.data(), x.data()}};
             Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> c(n, n);
-            bool ok = static_cast<std::size_t>(jac.num_rows) <= 300000 &&
+            bool ok = problem != nullptr && rows <= kCovarianceRows &&
                       cov.Compute(blocks, problem.get()) &&
                       cov.GetCovarianceBlock(x.data(), x.data(), c.data());
             if (!ok) {
@@ -559,6 +647,27 @@ void uncertainties(std::shared_ptr<const ParameterMap> map,
             not_identifiable.push_back(name);
         }
     }
+}
+
+/// Each lobe's share of the model's reflectance summed (weighted, channel mean) over `samples`:
+/// sum_i w_i mean_c lobe_l(i) / sum_i w_i mean_c model(i). All zero when the model is zero on
+/// every sample (nothing to share).
+std::vector<double> lobe_shares(const ModelD& model, const std::vector<Sample>& samples) {
+    std::vector<double> lobe_sum(model.lobes.size(), 0.0);
+    double total = 0;
+    for (const Sample& s : samples) {
+        const brdf::Vec3d wi = s.wi();
+        const brdf::Vec3d wo = s.wo();
+        total += s.weight * brdf::eval_model(model, wi, wo).mean();
+        for (std::size_t l = 0; l < model.lobes.size(); ++l) {
+            lobe_sum[l] += s.weight * brdf::eval_lobe(model.lobes[l], wi, wo).mean();
+        }
+    }
+    for (double& v : lobe_sum) {
+        // A zero model (all-zero data): every lobe has vanished.
+        v = total > 0 ? v / total : 0.0;
+    }
+    return lobe_sum;
 }
 
 }  // namespace
@@ -669,7 +778,13 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
         return make_error(data.source + ": no valid sample to fit (" +
                           std::to_string(result.samples.rejected) + " rejected)");
     }
-    const std::vector<Sample> used = stratified_reduce(valid, o.max_samples, o.seed);
+    // Without a reduction the solve works on `valid` itself (no copy of a million samples).
+    std::vector<Sample> reduced;
+    const bool reduce = o.max_samples > 0 && o.max_samples < valid.size();
+    if (reduce) {
+        reduced = stratified_reduce(valid, o.max_samples, o.seed);
+    }
+    const std::vector<Sample>& used = reduce ? reduced : valid;
     result.samples.used = used.size();
 
     auto map = std::make_shared<ParameterMap>(*map_or);
@@ -678,9 +793,16 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
     co.relative_floor = o.relative_floor;
     co.use_sigma = o.use_sigma && data.has_sigma;
 
+    // Coarse to fine: on a large input each candidate is first solved on a stratified subset of
+    // kCoarseSamples, and the full solve starts from there (a few iterations instead of tens). The
+    // starts are scored on a stratified subset of that subset (the product of the two reductions'
+    // weights still preserves each stratum's sum), so that only one pass goes over all samples.
+    const std::vector<Sample> coarse = used.size() > 2 * kCoarseSamples
+                                           ? stratified_reduce(used, kCoarseSamples, o.seed + 1)
+                                           : std::vector<Sample>{};
     std::vector<Candidate> candidates;
     if (o.auto_init) {
-        candidates = initial_candidates(*map, used, o, co);
+        candidates = initial_candidates(*map, coarse.empty() ? used : coarse, o, co);
     } else {
         candidates.push_back({map->values_of(spec.model), 0});
         for (int k = 0; k < map->size(); ++k) {
@@ -694,13 +816,38 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
     }
     result.solver.starts = static_cast<int>(candidates.size());
 
+    // Screening: short, loose solves from the best-scored starts on a small stratified subset;
+    // those starts are then ranked by the cost they reach and continue from where they stopped.
+    // A start's raw cost misleads when its width is right but its amplitudes are not (for
+    // example a narrow lobe under a grid that misses most of its peak), and a full solve from a
+    // wrong start ends in a local minimum: the tails of a wide lobe standing in for the diffuse
+    // term.
+    if (o.auto_init && candidates.size() > 1) {
+        const std::vector<Sample> screen =
+            stratified_reduce(coarse.empty() ? used : coarse, kScreenSamples, o.seed + 2);
+        FitOptions short_o = o;
+        short_o.max_iterations = std::min(o.max_iterations, kScreenIterations);
+        const std::size_t k = std::min(candidates.size(), kScreenStarts);
+        for (std::size_t c = 0; c < k; ++c) {
+            SolveOutcome s = solve(map, screen, short_o, co, candidates[c].x, 1e-6);
+            bool finite = s.summary.IsSolutionUsable() && std::isfinite(s.summary.final_cost);
+            for (double v : s.x) {
+                finite = finite && std::isfinite(v);
+            }
+            if (finite) {
+                candidates[c].x = s.x;
+                candidates[c].cost = s.summary.final_cost;
+            } else {
+                candidates[c].cost = std::numeric_limits<double>::infinity();
+            }
+        }
+        std::stable_sort(candidates.begin(),
+                         candidates.begin() + static_cast<long>(k),
+                         [](const Candidate& a, const Candidate& b) { return a.cost < b.cost; });
+    }
+
     // Solve from the best start; when it does not converge, from the next ones (at most three).
-    // Coarse to fine: on a large input each candidate is first solved on a stratified subset of
-    // kCoarseSamples, and the full solve starts from there (a few iterations instead of tens).
     const auto t_solve = std::chrono::steady_clock::now();
-    const std::vector<Sample> coarse = used.size() > 2 * kCoarseSamples
-                                           ? stratified_reduce(used, kCoarseSamples, o.seed + 1)
-                                           : std::vector<Sample>{};
     SolveOutcome best;
     bool have = false;
     for (std::size_t c = 0; c < candidates.size() && c < 3; ++c) {
@@ -746,6 +893,33 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
         p.value = map->value_of(result.model, s);
         p.free = s.free;
         result.parameters.push_back(p);
+    }
+    // Parameters on a bound, and lobes the fit has dropped: the report names both.
+    for (FittedParameter& p : result.parameters) {
+        for (const ScalarParam& s : map->scalars()) {
+            if (!s.free || s.name != p.name) {
+                continue;
+            }
+            const double tol = 1e-9 * std::max(s.upper - s.lower, 1e-300);
+            if (p.value <= s.lower + tol) {
+                p.at_bound = "lower";
+            } else if (p.value >= s.upper - tol) {
+                p.at_bound = "upper";
+            }
+            if (!p.at_bound.empty()) {
+                char buf[64];
+                std::snprintf(buf, sizeof buf, "%.6g", p.at_bound == "lower" ? s.lower : s.upper);
+                result.at_bounds.push_back(p.name + " (" + p.at_bound + " bound " + buf + ")");
+            }
+        }
+    }
+    if (!result.model.lobes.empty()) {
+        const std::vector<double> share = lobe_shares(result.model, coarse.empty() ? used : coarse);
+        for (std::size_t l = 0; l < share.size(); ++l) {
+            if (!(share[l] >= kVanishedShare)) {
+                result.vanished_lobes.push_back("lobes[" + std::to_string(l) + "]");
+            }
+        }
     }
     if (result.solver.usable && o.covariance) {
         uncertainties(map,

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <numeric>
 #include <random>
-#include <unordered_map>
+#include <thread>
 
 namespace gonio::fitting {
 
@@ -23,51 +23,94 @@ std::vector<brdf::Sample> stratified_reduce(const std::vector<brdf::Sample>& sam
     const int n_h = std::max(2, static_cast<int>(std::round(std::cbrt(cells_wanted) * 1.6)));
     const int n_d = std::max(2, static_cast<int>(std::round(std::cbrt(cells_wanted) * 0.9)));
     const int n_p = std::max(1, static_cast<int>(std::round(cells_wanted / (n_h * n_d))));
-    std::unordered_map<long, std::vector<std::size_t>> strata;
-    for (std::size_t i = 0; i < samples.size(); ++i) {
-        const brdf::HalfDiff<double> hd = brdf::to_half_diff(samples[i].wi(), samples[i].wo());
-        const double u_h = std::sqrt(std::clamp(hd.theta_h / (brdf::kPi / 2), 0.0, 1.0));
-        const double u_d = std::clamp(hd.theta_d / (brdf::kPi / 2), 0.0, 1.0);
-        double phi_d = std::fmod(hd.phi_d, brdf::kPi);
-        if (phi_d < 0) {
-            phi_d += brdf::kPi;
+    // Stratum of every sample (the half/difference transform dominates: split over threads),
+    // then a counting sort: the members of each stratum in increasing index order.
+    const std::size_t n = samples.size();
+    std::vector<std::uint32_t> cell_of(n);
+    auto classify = [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) {
+            const brdf::HalfDiff<double> hd = brdf::to_half_diff(samples[i].wi(), samples[i].wo());
+            const double u_h = std::sqrt(std::clamp(hd.theta_h / (brdf::kPi / 2), 0.0, 1.0));
+            const double u_d = std::clamp(hd.theta_d / (brdf::kPi / 2), 0.0, 1.0);
+            double phi_d = std::fmod(hd.phi_d, brdf::kPi);
+            if (phi_d < 0) {
+                phi_d += brdf::kPi;
+            }
+            const double u_p = phi_d / brdf::kPi;
+            const long ih = std::min(n_h - 1, static_cast<int>(u_h * n_h));
+            const long id = std::min(n_d - 1, static_cast<int>(u_d * n_d));
+            const long ip = std::min(n_p - 1, static_cast<int>(u_p * n_p));
+            cell_of[i] = static_cast<std::uint32_t>((ih * n_d + id) * n_p + ip);
         }
-        const double u_p = phi_d / brdf::kPi;
-        const long ih = std::min(n_h - 1, static_cast<int>(u_h * n_h));
-        const long id = std::min(n_d - 1, static_cast<int>(u_d * n_d));
-        const long ip = std::min(n_p - 1, static_cast<int>(u_p * n_p));
-        strata[(ih * n_d + id) * n_p + ip].push_back(i);
+    };
+    const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
+    if (n < 8192 || hw == 1) {
+        classify(0, n);
+    } else {
+        std::vector<std::thread> pool;
+        const std::size_t chunk = (n + hw - 1) / hw;
+        for (unsigned t = 0; t < hw; ++t) {
+            const std::size_t b = t * chunk;
+            const std::size_t e = std::min(n, b + chunk);
+            if (b < e) {
+                pool.emplace_back(classify, b, e);
+            }
+        }
+        for (std::thread& th : pool) {
+            th.join();
+        }
     }
-    // Deterministic order of the strata, then water-filling of the budget: small strata keep all
-    // their samples, the rest share what remains equally.
-    std::vector<std::pair<long, std::vector<std::size_t>*>> cells;
-    for (auto& kv : strata) {
-        cells.emplace_back(kv.first, &kv.second);
+    const std::size_t n_cells = static_cast<std::size_t>(n_h) * n_d * n_p;
+    std::vector<std::size_t> start(n_cells + 1, 0);
+    for (std::uint32_t c : cell_of) {
+        ++start[c + 1];
     }
-    std::sort(cells.begin(), cells.end(), [](const auto& a, const auto& b) {
-        return a.second->size() < b.second->size() ||
-               (a.second->size() == b.second->size() && a.first < b.first);
+    for (std::size_t c = 0; c < n_cells; ++c) {
+        start[c + 1] += start[c];
+    }
+    std::vector<std::size_t> members(n);
+    {
+        std::vector<std::size_t> fill(start.begin(), start.end() - 1);
+        for (std::size_t i = 0; i < n; ++i) {
+            members[fill[cell_of[i]]++] = i;
+        }
+    }
+    // Deterministic order of the non-empty strata (by size, then cell index), then water-filling
+    // of the budget: small strata keep all their samples, the rest share what remains equally.
+    struct Cell {
+        long key;
+        std::size_t begin, size;
+    };
+    std::vector<Cell> cells;
+    for (std::size_t c = 0; c < n_cells; ++c) {
+        if (start[c + 1] > start[c]) {
+            cells.push_back({static_cast<long>(c), start[c], start[c + 1] - start[c]});
+        }
+    }
+    std::sort(cells.begin(), cells.end(), [](const Cell& a, const Cell& b) {
+        return a.size < b.size || (a.size == b.size && a.key < b.key);
     });
     std::vector<std::size_t> keep(cells.size(), 0);
     std::size_t remaining = budget;
     for (std::size_t k = 0; k < cells.size(); ++k) {
         const std::size_t share = std::max<std::size_t>(1, remaining / (cells.size() - k));
-        keep[k] = std::min(cells[k].second->size(), share);
+        keep[k] = std::min(cells[k].size, share);
         remaining -= std::min(remaining, keep[k]);
     }
     std::mt19937_64 rng(seed);
     std::vector<brdf::Sample> out;
     out.reserve(budget + cells.size());
     for (std::size_t k = 0; k < cells.size(); ++k) {
-        std::vector<std::size_t>& idx = *cells[k].second;
+        std::size_t* idx = members.data() + cells[k].begin;
+        const std::size_t size = cells[k].size;
         const std::size_t m = keep[k];
         // Partial Fisher-Yates: the first m of a seeded permutation.
         for (std::size_t j = 0; j < m; ++j) {
-            std::uniform_int_distribution<std::size_t> pick(j, idx.size() - 1);
+            std::uniform_int_distribution<std::size_t> pick(j, size - 1);
             std::swap(idx[j], idx[pick(rng)]);
         }
-        std::sort(idx.begin(), idx.begin() + static_cast<long>(m));
-        const double w = static_cast<double>(idx.size()) / static_cast<double>(m);
+        std::sort(idx, idx + m);
+        const double w = static_cast<double>(size) / static_cast<double>(m);
         for (std::size_t j = 0; j < m; ++j) {
             brdf::Sample s = samples[idx[j]];
             s.weight *= w;

@@ -79,10 +79,13 @@ std::string fit_report_json(const FitResult& r) {
                           {"value", number_or_null(p.value)},
                           {"sigma", p.sigma ? number_or_null(*p.sigma) : json(nullptr)},
                           {"free", p.free},
-                          {"identifiable", p.identifiable}});
+                          {"identifiable", p.identifiable},
+                          {"at_bound", p.at_bound.empty() ? json(nullptr) : json(p.at_bound)}});
     }
     j["parameters"] = params;
     j["not_identifiable"] = r.not_identifiable;
+    j["at_bounds"] = r.at_bounds;
+    j["vanished_lobes"] = r.vanished_lobes;
     j["metrics"] = {{"rmse", rgb_json(r.metrics.rmse)},
                     {"rel_rmse", rgb_json(r.metrics.rel_rmse)},
                     {"log_rmse", rgb_json(r.metrics.log_rmse)}};
@@ -165,10 +168,19 @@ Expected<FitResult> read_fit_report(const std::string& path) {
             }
             fp.free = p.at("free").get<bool>();
             fp.identifiable = p.at("identifiable").get<bool>();
+            if (p.contains("at_bound") && p["at_bound"].is_string()) {
+                fp.at_bound = p["at_bound"].get<std::string>();
+            }
             r.parameters.push_back(fp);
         }
         if (j.contains("not_identifiable")) {
             r.not_identifiable = j["not_identifiable"].get<std::vector<std::string>>();
+        }
+        if (j.contains("at_bounds")) {
+            r.at_bounds = j["at_bounds"].get<std::vector<std::string>>();
+        }
+        if (j.contains("vanished_lobes")) {
+            r.vanished_lobes = j["vanished_lobes"].get<std::vector<std::string>>();
         }
         const json& m = j.at("metrics");
         for (auto [key, dst] : {std::make_pair("rmse", &r.metrics.rmse),
@@ -255,7 +267,24 @@ std::string format_summary(const FitResult& r) {
             std::snprintf(buf, sizeof buf, "  +- %.3g", *p.sigma);
             o << buf;
         }
+        if (!p.at_bound.empty()) {
+            o << "  AT " << p.at_bound << " BOUND";
+        }
         o << "\n";
+    }
+    if (!r.at_bounds.empty()) {
+        o << "warning: " << r.at_bounds.size()
+          << " parameter(s) ended on a bound (the data push them beyond it; the model or the "
+             "bounds may not suit these data):";
+        for (const std::string& b : r.at_bounds) {
+            o << " " << b;
+        }
+        o << "\n";
+    }
+    for (const std::string& l : r.vanished_lobes) {
+        o << "warning: " << l
+          << " vanished (below 1e-3 of the fitted reflectance): the fit describes these data "
+             "without it\n";
     }
     auto rgb = [&](const char* name, const brdf::Rgbd& v) {
         std::snprintf(buf, sizeof buf, "  %-9s %.6g %.6g %.6g\n", name, v[0], v[1], v[2]);

@@ -16,14 +16,17 @@ using brdf::Distribution;
 using brdf::FresnelType;
 
 /// Bounds of each field. They hold the model in its domain of definition (alpha > 0, f0 in [0, 1],
-/// eta > 1 so that the dielectric reflects), with room far beyond real materials.
+/// eta > 1 so that the dielectric reflects), with room far beyond real materials. Alpha stops at
+/// 1.5: measured glossy lobes lie well below 1, and a wider GGX/Beckmann lobe is nearly flat over
+/// the hemisphere, so that above 1.5 it only competes with the diffuse term (a fit that ends there
+/// reports the parameter as sitting on its bound).
 std::pair<double, double> default_bounds(Field f) {
     switch (f) {
         case Field::kDiffuse:
             return {0.0, 10.0};
         case Field::kAlphaX:
         case Field::kAlphaY:
-            return {1e-4, 4.0};
+            return {1e-4, 1.5};
         case Field::kExponent:
             return {1e-1, 1e7};
         case Field::kScale:

@@ -23,6 +23,9 @@ struct FittedParameter {
     std::optional<double> sigma;  ///< One-sigma uncertainty; empty when fixed or not identifiable.
     bool free = false;
     bool identifiable = true;
+    /// "lower" or "upper" when a free parameter ended on (within 1e-9 of the range of) a bound:
+    /// the optimum lies at or beyond the bound, the value is the bound's, not a free estimate.
+    std::string at_bound;
 };
 
 /// Error of a model against data, per channel, over a set of samples.
@@ -57,6 +60,11 @@ struct FitResult {
     brdf::ModelD model;
     std::vector<FittedParameter> parameters;
     std::vector<std::string> not_identifiable;
+    /// Free parameters that ended on a bound ("lobes[0].alpha_x (upper bound 1.5)").
+    std::vector<std::string> at_bounds;
+    /// Lobes whose share of the fitted reflectance over the samples of the solve is below 1e-3:
+    /// the fit has in effect dropped them ("lobes[0]").
+    std::vector<std::string> vanished_lobes;
     Metrics metrics;  ///< On all valid samples, even when the solve used a reduction.
     SampleCounts samples;
     ResidualForm residual = ResidualForm::kLog;

@@ -2,12 +2,12 @@
 
 // Fit reports on disk. A fit writes two files: `fit.json`, the model alone in the model schema
 // (brdf/model_json.h, readable by `gonio eval`), and `fit.report.json`:
-//   {"model": {...}, "parameters": [{"name", "value", "sigma" (or null), "free", "identifiable"}],
-//    "not_identifiable": [...], "metrics": {"rmse": [r,g,b], "rel_rmse": [...], "log_rmse": [...]},
-//    "samples": {"input", "valid", "used", "rejected", "rejected_lines": [first 100]},
-//    "residual": "log", "loss": "none",
-//    "solver": {"iterations", "termination", "message", "usable", "wall_time_s"},
-//    "data": "path", "ground_truth": {...} (optional)}
+//   {"model": {...}, "parameters": [{"name", "value", "sigma" (or null), "free", "identifiable",
+//    "at_bound" ("lower", "upper" or null)}], "not_identifiable": [...], "at_bounds": [...],
+//    "vanished_lobes": ["lobes[0]", ...], "metrics": {"rmse": [r,g,b], "rel_rmse": [...],
+//    "log_rmse": [...]}, "samples": {"input", "valid", "used", "rejected", "rejected_lines": [first
+//    100]}, "residual": "log", "loss": "none", "solver": {"iterations", "termination", "message",
+//    "usable", "wall_time_s"}, "data": "path", "ground_truth": {...} (optional)}
 
 #include <string>
 
