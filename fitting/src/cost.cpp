@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "gonio/brdf/check.h"
 #include "gonio/brdf/model_eval.h"
 
 namespace gonio::fitting {
@@ -167,6 +168,30 @@ class BatchCost final : public ceres::CostFunction {
         : map_(std::move(map)), form_(o.residual) {
         set_num_residuals(3 * static_cast<int>(samples.size()));
         mutable_parameter_block_sizes()->push_back(map_->size());
+        // Derivative slots: a scalar or shared parameter has its own slot; the three channels of
+        // a per-channel field (diffuse, scale, f0, eta_rgb, k) share one, since channel c of the
+        // model depends on such a field through its component c alone (every RGB field enters
+        // the model element-wise: brdf/model_eval.h, brdf/fresnel.h).
+        const int n = map_->size();
+        slot_.assign(n, -1);
+        channel_.assign(n, -1);
+        slots_ = 0;
+        for (int k = 0; k < n; ++k) {
+            const ScalarParam& s = map_->scalars()[map_->free()[k]];
+            channel_[k] = s.channel;
+            if (s.channel >= 0) {
+                for (int j = 0; j < k; ++j) {
+                    const ScalarParam& o = map_->scalars()[map_->free()[j]];
+                    if (o.channel >= 0 && o.field == s.field && o.lobe == s.lobe) {
+                        slot_[k] = slot_[j];
+                        break;
+                    }
+                }
+            }
+            if (slot_[k] < 0) {
+                slot_[k] = slots_++;
+            }
+        }
         prepared_.reserve(samples.size());
         for (const brdf::Sample& smp : samples) {
             Prepared p;
@@ -217,6 +242,12 @@ class BatchCost final : public ceres::CostFunction {
             const brdf::ModelD m = map_->model<double>(parameters[0]);
             return evaluate_values(m, residuals);
         }
+        if (slots_ <= 4) {
+            return evaluate_slots<4>(parameters[0], residuals, jacobians[0]);
+        }
+        if (slots_ <= 8) {
+            return evaluate_slots<8>(parameters[0], residuals, jacobians[0]);
+        }
         if (n <= 4) {
             return evaluate_jets<4>(parameters[0], residuals, jacobians[0]);
         }
@@ -252,6 +283,44 @@ class BatchCost final : public ceres::CostFunction {
                     return false;
                 }
                 residuals[3 * i + c] = r;
+            }
+        }
+        return true;
+    }
+
+    /// Derivatives in one pass with K >= slots_ derivative slots (see the constructor): a Jet of
+    /// the number of distinct slots instead of the number of free scalars (an RGB model with a
+    /// shared width has 2 to 4 slots for 7 to 10 scalars).
+    template <int K>
+    bool evaluate_slots(const double* x, double* residuals, double* jacobian) const {
+        using J = ceres::Jet<double, K>;
+        const int n = map_->size();
+        J xj[64];
+        GONIO_CHECK(n <= 64);
+        for (int k = 0; k < n; ++k) {
+            xj[k] = J(x[k], slot_[k]);
+        }
+        const brdf::Model<J> m = map_->model<J>(xj);
+        for (std::size_t i = 0; i < prepared_.size(); ++i) {
+            const Prepared& p = prepared_[i];
+            const brdf::Vec3<J> wi = p.wi.cast<J>();
+            const brdf::Vec3<J> wo = p.wo.cast<J>();
+            const brdf::Rgb<J> f = brdf::eval_model(m, wi, wo);
+            for (int c = 0; c < 3; ++c) {
+                const J r = J(p.s[c]) * (g(f[c], p.cos_i) - J(p.g_d[c]));
+                const std::size_t row = 3 * i + c;
+                if (!std::isfinite(r.a)) {
+                    return false;
+                }
+                residuals[row] = r.a;
+                double* out = jacobian + row * n;
+                for (int k = 0; k < n; ++k) {
+                    const double v = channel_[k] < 0 || channel_[k] == c ? r.v[slot_[k]] : 0.0;
+                    if (!std::isfinite(v)) {
+                        return false;
+                    }
+                    out[k] = v;
+                }
             }
         }
         return true;
@@ -301,6 +370,9 @@ class BatchCost final : public ceres::CostFunction {
     std::shared_ptr<const ParameterMap> map_;
     ResidualForm form_;
     std::vector<Prepared> prepared_;
+    std::vector<int> slot_;     ///< derivative slot of each free scalar
+    std::vector<int> channel_;  ///< its channel (0..2) or -1 (scalar or shared)
+    int slots_ = 0;
 };
 
 }  // namespace
