@@ -30,8 +30,9 @@ constexpr std::size_t kScreenStarts = 4;       // starts screened by a short sol
 constexpr int kScreenIterations = 15;          // iterations of a screening solve
 constexpr std::size_t kMaxRejectedLines = 100;
 constexpr double kVanishedShare = 1e-3;  // a lobe below this share of the reflectance vanished
-constexpr std::size_t kCovarianceRows =
-    300000;  // residuals above which ceres::Covariance is skipped
+// Residuals above which ceres::Covariance (dense SVD of J) gives way to the eigen decomposition
+// of the normal matrix accumulated over the threads.
+constexpr std::size_t kCovarianceRows = 30000;
 
 int thread_count(int requested) {
     if (requested > 0) {
@@ -490,8 +491,9 @@ bool normal_matrix(const std::shared_ptr<const ParameterMap>& map,
 /// alpha of a lobe whose scale went to 0); (2) among the others, every parameter with a component
 /// above 0.1 in an eigenvector of the column-scaled normal matrix D J^T J D (unit diagonal) whose
 /// eigenvalue is below 1e-10 of the largest (a combination the data do not constrain). When all
-/// are identifiable the covariance (J^T J)^-1 comes from ceres::Covariance (dense SVD; above 300k
-/// residuals from the inverse of the normal matrix, already known to be well conditioned); it is
+/// are identifiable the covariance (J^T J)^-1 comes from ceres::Covariance (dense SVD; above
+/// kCovarianceRows residuals from the inverse of the normal matrix, already known to be well
+/// conditioned); it is
 /// scaled by the reduced chi-square when the data carry no sigma. When some are not, the others'
 /// sigmas are those of the sub-problem with the non-identifiable ones held fixed.
 void uncertainties(std::shared_ptr<const ParameterMap> map,
@@ -753,12 +755,20 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
         rejected_lines.push_back(r.line);
     }
     std::size_t rejected_here = 0;
+    // The checks run over the threads; the copy keeps the input order. (wi.z = cos theta_i.)
+    std::vector<char> bad_flag(data.samples.size(), 0);
+    parallel_for(
+        data.samples.size(), thread_count(o.num_threads), [&](int, std::size_t b, std::size_t e) {
+            for (std::size_t i = b; i < e; ++i) {
+                const Sample& s = data.samples[i];
+                bad_flag[i] = !brdf::validate_sample(s).empty() ||
+                              (s.flags & (brdf::kFlagReference | brdf::kFlagSaturated)) != 0 ||
+                              !(std::cos(s.theta_i) > 0) || !(std::cos(s.theta_o) > 0);
+            }
+        });
     for (std::size_t i = 0; i < data.samples.size(); ++i) {
         const Sample& s = data.samples[i];
-        const bool bad = !brdf::validate_sample(s).empty() ||
-                         (s.flags & (brdf::kFlagReference | brdf::kFlagSaturated)) != 0 ||
-                         !(s.wi().z() > 0) || !(s.wo().z() > 0);
-        if (bad) {
+        if (bad_flag[i]) {
             ++rejected_here;
             rejected_lines.push_back(s.line != 0 ? s.line : i + 1);
             continue;
