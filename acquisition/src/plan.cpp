@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -194,33 +195,44 @@ Expected<Scene> read_scene(const std::string& path) {
     return sc;
 }
 
-bool in_roi(const Scene& sc, const PlannedConfig& c) {
+double roi_weight(const Scene& sc, const PlannedConfig& c) {
     const Canonical<double> cc = canonical_of(c);
+    // Distance (rad) from the region the scene names exactly: a listed pair, or the theta ranges.
+    double distance = std::numeric_limits<double>::infinity();
     for (const auto& [l, v] : sc.pairs) {
-        const Canonical<double> sp = brdf::to_canonical(l, v);
-        if (canonical_distance(cc, sp) <= sc.margin) {
-            return true;
-        }
+        distance = std::min(distance, canonical_distance(cc, brdf::to_canonical(l, v)));
     }
     if (sc.has_ranges) {
-        const double m = sc.margin;
-        auto inside = [&](double ti, double tr) {
-            return ti >= sc.theta_i_min - m && ti <= sc.theta_i_max + m &&
-                   tr >= sc.theta_r_min - m && tr <= sc.theta_r_max + m;
+        auto outside_by = [&](double ti, double tr) {
+            return std::max({0.0,
+                             sc.theta_i_min - ti,
+                             ti - sc.theta_i_max,
+                             sc.theta_r_min - tr,
+                             tr - sc.theta_r_max});
         };
         // Reciprocity: the canonical pair may be the scene's pair either way round.
-        if (inside(cc.theta_i, cc.theta_r) || inside(cc.theta_r, cc.theta_i)) {
-            return true;
-        }
+        distance = std::min(
+            {distance, outside_by(cc.theta_i, cc.theta_r), outside_by(cc.theta_r, cc.theta_i)});
     }
-    return false;
+    if (distance > sc.margin) {
+        return 0.0;
+    }
+    if (sc.margin <= 0) {
+        return 1.0;  // no margin: only the exact region, at full weight
+    }
+    return 1.0 - (1.0 - kRoiMarginEdgeWeight) * distance / sc.margin;
+}
+
+bool in_roi(const Scene& sc, const PlannedConfig& c) {
+    return roi_weight(sc, c) > 0;
 }
 
 void apply_roi(const Scene& sc, Plan* plan) {
     std::vector<PlannedConfig> kept;
     for (PlannedConfig c : plan->configs) {
-        if (in_roi(sc, c)) {
+        if (const double w = roi_weight(sc, c); w > 0) {
             c.flags |= brdf::kFlagRoi;
+            c.weight *= w;
             kept.push_back(c);
         } else {
             ++plan->outside_roi;

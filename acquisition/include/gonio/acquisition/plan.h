@@ -80,7 +80,15 @@ struct Scene {
 };
 Expected<Scene> read_scene(const std::string& path);
 bool in_roi(const Scene& scene, const PlannedConfig& c);
-/// Keeps only the configurations inside the scene's ROI, flagged kFlagRoi; counts the rest.
+/// Fit weight of the margin's far edge; the region the scene names exactly has weight 1.
+constexpr double kRoiMarginEdgeWeight = 0.25;
+/// The fit weight a configuration gets from the scene: 0 outside the ROI; 1 in the region the scene
+/// names exactly (a listed pair, or inside the theta ranges); falling linearly with the canonical
+/// distance to kRoiMarginEdgeWeight at the margin's edge, so the fit is driven by what the target
+/// rendering uses while the margin keeps the model continuous around it.
+double roi_weight(const Scene& scene, const PlannedConfig& c);
+/// Keeps only the configurations inside the scene's ROI, flagged kFlagRoi and weighted by
+/// roi_weight(); counts the rest (they cost no move and no exposure).
 void apply_roi(const Scene& scene, Plan* plan);
 
 /// Moves the configurations that the rig cannot reach into plan->unreachable with the reason.
