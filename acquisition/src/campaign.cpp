@@ -435,16 +435,37 @@ Expected<Runner::Shot> Runner::measure_once(const RigPosed& target) {
     if (!pose) {
         return tl::unexpected(pose.error());
     }
-    auto rate = session_->measure();
-    if (!rate) {
-        return tl::unexpected(rate.error());
-    }
     Shot s;
+    if (dev_.filter_wheel) {
+        // Colour through the filter changer: one full (auto-exposed, HDR, dark-subtracted)
+        // measurement per filter; channel c of the result is the rate behind filter c.
+        for (int c = 0; c < 3; ++c) {
+            if (auto f = dev_.filter_wheel->set_filter(c); !f) {
+                return tl::unexpected(f.error());
+            }
+            auto rate = session_->measure();
+            if (!rate) {
+                return tl::unexpected(rate.error());
+            }
+            s.rate.rate[c] = rate->rate[c];
+            s.rate.sigma[c] = rate->sigma[c];
+            s.rate.saturated = s.rate.saturated || rate->saturated;
+            s.rate.hdr = s.rate.hdr || rate->hdr;
+            s.rate.exposure_us = std::max(s.rate.exposure_us, rate->exposure_us);
+            s.rate.pixels = c == 0 ? rate->pixels : std::min(s.rate.pixels, rate->pixels);
+        }
+    } else {
+        // Monochrome detector: one unfiltered measurement, the same value in r, g and b.
+        auto rate = session_->measure();
+        if (!rate) {
+            return tl::unexpected(rate.error());
+        }
+        s.rate = *rate;
+    }
     s.pose = *pose;
     const auto [wi, wo] = brdf::rig_forward(*pose);
     s.wi = wi;
     s.wo = wo;
-    s.rate = *rate;
     return s;
 }
 
@@ -642,7 +663,8 @@ Expected<void> Runner::write_metadata(const std::string& state, const Plan& plan
         {"white_cos_theta_i", white_.cos_theta_w},
         {"white_rate_counts_per_us", {white_.rate[0], white_.rate[1], white_.rate[2]}},
         {"white_rate_sigma", {white_.rate_sigma[0], white_.rate_sigma[1], white_.rate_sigma[2]}},
-        {"method", "docs/calibration.md"}};
+        {"method", "docs/calibration.md"},
+        {"colour", dev_.filter_wheel ? "filter_wheel" : "mono"}};
     if (!meta.contains("created")) {
         meta["created"] = iso_time(started_, false);
     }

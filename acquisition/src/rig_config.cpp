@@ -94,6 +94,24 @@ Expected<RigConfig> parse_rig_config(const std::string& text, const std::string&
             at = "reference_changer";
             rig.reference_changer = parse_coil(j.at("reference_changer"));
         }
+        if (j.contains("filter_wheel")) {
+            at = "filter_wheel";
+            const json& fw = j.at("filter_wheel");
+            const json& filters = fw.at("filters");
+            if (!filters.is_array() || filters.size() != 3) {
+                return make_error(source +
+                                  ": filter_wheel.filters: three coils (red, green, blue) needed");
+            }
+            std::array<CoilConfig, 3> coils;
+            for (std::size_t c = 0; c < 3; ++c) {
+                at = "filter_wheel.filters[" + std::to_string(c) + "]";
+                // The filter coils share the shutter's bus unless an address is given.
+                coils[c].address = fw.value("address", rig.shutter.address);
+                coils[c].unit = filters.at(c).at("unit").get<int>();
+                coils[c].coil = filters.at(c).at("coil").get<int>();
+            }
+            rig.filter_wheel = coils;
+        }
         at = "geometry";
         if (j.contains("geometry")) {
             const json& g = j.at("geometry");
@@ -183,6 +201,12 @@ RigConfig with_addresses(const RigConfig& rig,
         out.reference_changer->address = motor_address;
         j["reference_changer"] = coil_json(*out.reference_changer);
     }
+    if (out.filter_wheel) {
+        for (CoilConfig& c : *out.filter_wheel) {
+            c.address = motor_address;
+        }
+        j["filter_wheel"]["address"] = motor_address;
+    }
     if (!camera_address.empty()) {
         out.camera_address = camera_address;
         j["camera"]["address"] = camera_address;
@@ -240,6 +264,18 @@ Expected<RigDevices> open_rig(const RigConfig& rig) {
             return make_error("reference changer: " + rc.error().message);
         }
         d.reference_changer = std::move(*rc);
+    }
+    if (rig.filter_wheel) {
+        std::array<devices::FilterCoil, 3> coils;
+        for (int c = 0; c < 3; ++c) {
+            coils[c].unit = (*rig.filter_wheel)[c].unit;
+            coils[c].coil = (*rig.filter_wheel)[c].coil;
+        }
+        auto fw = devices::open_modbus_filter_wheel((*rig.filter_wheel)[0].address, coils);
+        if (!fw) {
+            return make_error(fw.error().message);
+        }
+        d.filter_wheel = std::move(*fw);
     }
     return d;
 }

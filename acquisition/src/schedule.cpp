@@ -82,7 +82,9 @@ class BucketGrid {
         for (int r = 0;; ++r) {
             // Past this ring a linear scan is cheaper than enumerating empty cells.
             double ring_cells = std::pow(2.0 * r + 1, dims_);
-            if (ring_cells > 8.0 * static_cast<double>(alive_.size()) + 64) {
+            // dims_ == 0: every pose shares one cell, which need not be p's (p may be the start
+            // pose, off the grid), and the rings never grow: scan the remaining poses.
+            if (dims_ == 0 || ring_cells > 8.0 * static_cast<double>(alive_.size()) + 64) {
                 for (std::uint32_t i : alive_) {
                     consider(i);
                 }

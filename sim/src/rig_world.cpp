@@ -51,6 +51,13 @@ SceneState RigWorld::scene() const {
     s.wo = wo;
     s.shutter_open = units_.shutter > 0 ? server_->shutter_open(units_.shutter) : true;
     s.irradiance_w_m2 = irradiance_ * lamp_factor_.load();
+    for (int c = 0; c < 3; ++c) {
+        if (units_.filters[c] > 0 && server_->shutter_open(units_.filters[c])) {
+            s.filter = brdf::Rgbd::Zero();
+            s.filter[c] = 1.0;
+            break;
+        }
+    }
     if (units_.reference_changer > 0) {
         mounted_->set_white(server_->shutter_open(units_.reference_changer));
     }

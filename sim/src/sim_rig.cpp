@@ -123,6 +123,21 @@ Expected<std::unique_ptr<SimRig>> SimRig::start(const std::string& rig_json,
                 return make_error("sim rig: reference changer: " + r.error().message);
             }
         }
+        if (j.contains("filter_wheel")) {
+            const json& filters = j.at("filter_wheel").at("filters");
+            if (!filters.is_array() || filters.size() != 3) {
+                return make_error("sim rig: filter_wheel.filters: three coils needed");
+            }
+            for (std::size_t c = 0; c < 3; ++c) {
+                const int unit = filters.at(c).at("unit").get<int>();
+                rig->units_.filters[c] = unit;
+                if (auto r = rig->motors_->add_shutter(unit, filters.at(c).at("coil").get<int>());
+                    !r) {
+                    return make_error("sim rig: filter " + std::to_string(c) + ": " +
+                                      r.error().message);
+                }
+            }
+        }
     } catch (const std::exception& e) {
         return make_error(std::string("sim rig: ") + e.what());
     }

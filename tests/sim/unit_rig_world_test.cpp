@@ -1,11 +1,13 @@
 // The virtual rig's world: the camera sees the directions the stages' angles give through the
-// documented four-axis geometry, the shutter and the reference changer coils switch what it sees.
+// documented four-axis geometry, the shutter, the reference changer and the filter coils switch
+// what it sees.
 
 #include <gtest/gtest.h>
 
 #include <fstream>
 #include <sstream>
 
+#include "gonio/devices/filter_wheel.h"
 #include "gonio/devices/modbus_light.h"
 #include "gonio/sim/sim_rig.h"
 
@@ -48,6 +50,34 @@ TEST(RigWorld, SceneFollowsTheStagesAndCoils) {
     EXPECT_NEAR(dev_brdf->eval(wi, wo)[0], 0.99 / brdf::kPi, 1e-15);
     EXPECT_EQ(dev_brdf->eval(brdf::Vec3d(0, 0, -1), wo)[0], 0.0);
     EXPECT_EQ((*rig)->world().exposures(), 3u);
+}
+
+TEST(RigWorld, FilterWheelCoilsSelectTheCameraFilter) {
+    SimRigOptions o;
+    o.in_process_name = "rig-world-filter-test";
+    auto rig = SimRig::start(sim4_json(), o);
+    ASSERT_TRUE(rig) << rig.error().message;
+    // No filter in the beam at power-up: the unfiltered mean of R, G and B.
+    const brdf::Rgbd mono = brdf::Rgbd::Constant(1.0 / 3.0);
+    EXPECT_NEAR(((*rig)->world().scene().filter - mono).abs().maxCoeff(), 0, 1e-15);
+    // sim4.json: red, green, blue filter coils on units 7, 8, 9, coil 0.
+    auto wheel = devices::open_modbus_filter_wheel(
+        (*rig)->motor_address(),
+        {devices::FilterCoil{7, 0}, devices::FilterCoil{8, 0}, devices::FilterCoil{9, 0}});
+    ASSERT_TRUE(wheel) << wheel.error().message;
+    for (int c : {2, 0, 1}) {
+        ASSERT_TRUE((*wheel)->set_filter(c));
+        const SceneState s = (*rig)->world().scene();
+        for (int k = 0; k < 3; ++k) {
+            EXPECT_EQ(s.filter[k], k == c ? 1.0 : 0.0) << "filter " << c << " channel " << k;
+        }
+        // Exactly one coil on.
+        for (int u = 7; u <= 9; ++u) {
+            EXPECT_EQ((*rig)->motors().shutter_open(u), u - 7 == c) << "unit " << u;
+        }
+    }
+    EXPECT_FALSE((*wheel)->set_filter(3));
+    EXPECT_FALSE((*wheel)->set_filter(-1));
 }
 
 }  // namespace

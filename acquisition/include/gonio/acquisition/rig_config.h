@@ -14,6 +14,7 @@
 #include "gonio/brdf/error.h"
 #include "gonio/devices/axis.h"
 #include "gonio/devices/camera.h"
+#include "gonio/devices/filter_wheel.h"
 
 namespace gonio::acquisition {
 
@@ -57,6 +58,11 @@ struct RigConfig {
     std::string camera_address;
     CoilConfig shutter;
     std::optional<CoilConfig> reference_changer;  ///< Puts the white reference into the beam.
+    /// Colour filter changer: the coils of the red, green and blue filters ("filter_wheel":
+    /// {"address": ..., "filters": [{"unit", "coil"} x 3]}; the address defaults to the shutter's).
+    /// Without it the detector is measured unfiltered once per configuration and r = g = b
+    /// (monochrome dataset).
+    std::optional<std::array<CoilConfig, 3>> filter_wheel;
     double blind_angle_deg = 5;
     double max_theta_deg = 85;
     double white_reflectance = 0.99;  ///< Hemispherical reflectance of the white standard.
@@ -71,9 +77,9 @@ struct RigConfig {
 Expected<RigConfig> parse_rig_config(const std::string& json_text, const std::string& source);
 Expected<RigConfig> read_rig_config(const std::string& path);
 
-/// The same rig with its connections replaced: every axis, the shutter and the reference changer
-/// on `motor_address`; the camera at `camera_address` (empty keeps the value). The JSON text is
-/// updated too.
+/// The same rig with its connections replaced: every axis, the shutter, the reference changer and
+/// the filter wheel on `motor_address`; the camera at `camera_address` (empty keeps the value). The
+/// JSON text is updated too.
 RigConfig with_addresses(const RigConfig& rig,
                          const std::string& motor_address,
                          const std::string& camera_address);
@@ -86,7 +92,8 @@ struct RigDevices {
     std::array<std::unique_ptr<devices::Axis>, kNumAxes> axes;
     std::unique_ptr<devices::Camera> camera;
     std::unique_ptr<devices::Light> shutter;
-    std::unique_ptr<devices::Light> reference_changer;  ///< Null when the rig has none.
+    std::unique_ptr<devices::Light> reference_changer;   ///< Null when the rig has none.
+    std::unique_ptr<devices::FilterWheel> filter_wheel;  ///< Null when the rig has none.
 };
 
 /// Opens every device of the rig (nothing moves yet). The error names the device.

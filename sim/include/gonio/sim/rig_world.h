@@ -2,8 +2,10 @@
 
 // The virtual rig's world: what the simulated camera sees, derived from the simulated motor
 // controllers' stage angles through the four-axis geometry (gonio/brdf/rig_geometry.h), the lamp
-// shutter coil, and the reference changer coil that puts the white standard in place of the sample.
+// shutter coil, the reference changer coil that puts the white standard in place of the sample, and
+// the colour filter coils.
 
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <functional>
@@ -24,6 +26,9 @@ struct RigUnits {
     int spin = 4;
     int shutter = 5;
     int reference_changer = 0;
+    /// Units whose coil puts the red, green, blue filter in front of the camera (0 = no filter
+    /// wheel: the camera sees the unfiltered mean of R, G and B).
+    std::array<int, 3> filters{0, 0, 0};
 };
 
 /// A BRDF that is the sample's or the white standard's, whichever is in the beam.
@@ -51,8 +56,10 @@ class RigWorld {
              double irradiance_w_m2);
 
     /// The state at this instant: wi, wo from the stage angles (radians = degrees * pi / 180 of
-    /// the physical load angles), the shutter, the irradiance times the lamp factor; also switches
-    /// the mounted BRDF to the white standard while the changer coil is on.
+    /// the physical load angles), the shutter, the irradiance times the lamp factor, the filter
+    /// (channel c's unit vector while filter c's coil is on, the lowest such c; the unfiltered
+    /// mean while none is); also switches the mounted BRDF to the white standard while the
+    /// changer coil is on.
     SceneState scene() const;
     SceneFn scene_fn() const;
     /// Multiplies the lamp's irradiance (1 = nominal): simulates lamp drift.

@@ -1,10 +1,11 @@
 #pragma once
 
 // The whole virtual rig: simulated motor controllers for the four stages (one Modbus server, one
-// unit per drive, the lamp shutter and the reference changer as coils), a simulated USB3 Vision
-// camera rendering the mounted BRDF under the rig's geometry, and the world that ties them. It
+// unit per drive, the lamp shutter, the reference changer and the colour filters as coils), a
+// simulated USB3 Vision camera rendering the mounted BRDF under the rig's geometry, and the world
+// that ties them. It
 // reads the same rig description as acquisition (data/rigs/*.json: axes with role, unit, profile;
-// shutter; reference_changer) plus its "sim" section:
+// shutter; reference_changer; filter_wheel: one coil per colour filter) plus its "sim" section:
 //   "sim": {"material": "red-plastic" | "brdf": "model.json", "time_scale": 20,
 //           "sensor": {"width": 640, "height": 512}, "irradiance_w_m2": 1, "seed": 1,
 //           "initial_deg": {"light": 0, "detector": 45}}
