@@ -15,31 +15,14 @@
 #include <string>
 #include <vector>
 
+#include "cli_run.h"
+
 extern char** environ;
 
 namespace {
 
-struct CliRun {
-    int status = -1;
-    std::string out;
-};
-
-CliRun run_gonio(const std::string& args) {
-    CliRun r;
-    const std::string cmd = std::string(GONIO_EXE) + " " + args + " 2>&1";
-    FILE* p = popen(cmd.c_str(), "r");
-    if (p == nullptr) {
-        return r;
-    }
-    std::array<char, 4096> buf;
-    std::size_t n;
-    while ((n = std::fread(buf.data(), 1, buf.size(), p)) > 0) {
-        r.out.append(buf.data(), n);
-    }
-    const int st = pclose(p);
-    r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-    return r;
-}
+using gonio::testing::CliRun;
+using gonio::testing::run_gonio;
 
 // A served camera: child process whose first stdout line is its address.
 class ServedCamera {

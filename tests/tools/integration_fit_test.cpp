@@ -9,6 +9,7 @@
 #include <string>
 
 #include "../fitting/fit_test_util.h"
+#include "cli_run.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/dataset.h"
 #include "gonio/brdf/model_json.h"
@@ -17,30 +18,13 @@ namespace {
 
 using gonio::brdf::Rgbd;
 
-struct CliRun {
-    int status = -1;
-    std::string out;
-};
+using gonio::testing::CliRun;
+using gonio::testing::run_gonio;
 
-CliRun run_gonio(const std::string& args) {
-    CliRun r;
-    const std::string cmd = std::string(GONIO_EXE) + " " + args + " 2>&1";
-    FILE* p = popen(cmd.c_str(), "r");
-    if (p == nullptr) {
-        return r;
-    }
-    char buf[4096];
-    std::size_t n;
-    while ((n = fread(buf, 1, sizeof buf, p)) > 0) {
-        r.out.append(buf, n);
-    }
-    const int st = pclose(p);
-    r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-    return r;
-}
-
+/// The running test's own folder (created fresh on first use).
 std::string dir() {
-    return std::string(GONIO_BINARY_DIR) + "/integration_fit";
+    static const std::string d = gonio::testing::fresh_test_dir("integration_fit").string();
+    return d;
 }
 
 gonio::brdf::ModelD ggx_truth() {
@@ -60,7 +44,6 @@ gonio::brdf::ModelD ggx_truth() {
 /// Writes the synthetic dataset with two broken rows appended (NaN value, theta_o below the
 /// horizon).
 std::string write_data() {
-    std::system(("mkdir -p " + dir()).c_str());
     const std::string path = dir() + "/ggx.csv";
     gonio::brdf::Dataset d = gonio::fitting::testing::synthesize(
         ggx_truth(), gonio::fitting::testing::measurement_grid());

@@ -9,6 +9,7 @@
 #include <sstream>
 #include <string>
 
+#include "cli_run.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/dataset.h"
 #include "gonio/brdf/merl.h"
@@ -19,33 +20,11 @@ namespace {
 namespace fs = std::filesystem;
 constexpr double kDeg = gonio::brdf::kPi / 180.0;
 
-struct CliRun {
-    int status = -1;
-    std::string out;
-};
+using gonio::testing::CliRun;
 
-/// Runs the gonio binary with arguments; captures standard output (standard error goes to a file
-/// appended to out after a marker line).
+/// Runs the gonio binary with arguments; standard error is appended to out after a marker line.
 CliRun gonio(const std::string& args, const fs::path& dir) {
-    const fs::path err = dir / "stderr.txt";
-    const std::string cmd = std::string(GONIO_EXE) + " " + args + " 2>" + err.string();
-    CliRun r;
-    FILE* p = popen(cmd.c_str(), "r");
-    if (p == nullptr) {
-        return r;
-    }
-    char buf[4096];
-    std::size_t n;
-    while ((n = fread(buf, 1, sizeof buf, p)) > 0) {
-        r.out.append(buf, n);
-    }
-    const int st = pclose(p);
-    r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-    std::ifstream e(err);
-    std::stringstream ss;
-    ss << e.rdbuf();
-    r.out += "\n--- stderr ---\n" + ss.str();
-    return r;
+    return gonio::testing::run_gonio(args, (dir / "stderr.txt").string());
 }
 
 std::string slurp(const fs::path& p) {
@@ -73,12 +52,7 @@ gonio::brdf::ModelD glossy_model() {
 class ReportCli : public ::testing::Test {
   protected:
     void SetUp() override {
-        // One folder per test: ctest runs the tests of this fixture in parallel processes.
-        dir_ = fs::path(GONIO_BINARY_DIR) / "tests" /
-               (std::string("report_cli_") +
-                ::testing::UnitTest::GetInstance()->current_test_info()->name());
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
+        dir_ = gonio::testing::fresh_test_dir("report_cli");
         const auto model = glossy_model();
         std::ofstream(dir_ / "fit.json") << gonio::brdf::model_to_json(model);
         const gonio::brdf::AnalyticBrdf truth(model);

@@ -1,0 +1,58 @@
+#pragma once
+
+// Runs the gonio binary under test (GONIO_EXE) and gives each test a folder of its own: ctest runs
+// the tests of one executable as parallel processes, so nothing may be shared between them.
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace gonio::testing {
+
+struct CliRun {
+    int status = -1;  ///< exit status, -1 when the process did not exit normally
+    std::string out;  ///< standard output (and standard error, see run_gonio)
+};
+
+/// Runs `gonio ARGS`. Without `stderr_path` standard error is merged into `out`; with it, standard
+/// error goes to that file and is appended to `out` after a "--- stderr ---" line.
+inline CliRun run_gonio(const std::string& args, const std::string& stderr_path = "") {
+    const std::string redirect = stderr_path.empty() ? " 2>&1" : " 2>" + stderr_path;
+    const std::string cmd = std::string(GONIO_EXE) + " " + args + redirect;
+    CliRun r;
+    FILE* p = popen(cmd.c_str(), "r");
+    if (p == nullptr) {
+        return r;
+    }
+    char buf[4096];
+    std::size_t n;
+    while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) {
+        r.out.append(buf, n);
+    }
+    const int st = pclose(p);
+    r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    if (!stderr_path.empty()) {
+        std::ifstream e(stderr_path);
+        std::stringstream ss;
+        ss << e.rdbuf();
+        r.out += "\n--- stderr ---\n" + ss.str();
+    }
+    return r;
+}
+
+/// A fresh folder for the running test: GONIO_BINARY_DIR/tests/<prefix>_<test name>.
+inline std::filesystem::path fresh_test_dir(const std::string& prefix) {
+    const std::filesystem::path dir =
+        std::filesystem::path(GONIO_BINARY_DIR) / "tests" /
+        (prefix + "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    return dir;
+}
+
+}  // namespace gonio::testing
