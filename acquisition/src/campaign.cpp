@@ -846,7 +846,7 @@ Expected<RunResult> Runner::run() {
         }
         result_.planned_total = planned_total;
         // Remaining configurations, solved in plan order for continuity, then scheduled.
-        std::vector<const PlannedConfig*> todo;
+        std::vector<const PlannedConfig*> pending;
         std::vector<RigPosed> poses;
         RigPosed prev = current_;
         for (const PlannedConfig& c : pp.configs) {
@@ -858,22 +858,22 @@ Expected<RunResult> Runner::run() {
                 // remove_unreachable() already kept only reachable ones.
                 continue;
             }
-            todo.push_back(&c);
+            pending.push_back(&c);
             poses.push_back(sol->pose);
             prev = sol->pose;
         }
-        if (todo.empty()) {
+        if (pending.empty()) {
             continue;
         }
         ScheduleOptions so;
         so.budget_s = spec_.schedule_budget_s;
         const Schedule sch = schedule(poses, current_, dyn_, so);
-        say("pass " + std::to_string(pass) + ": " + std::to_string(todo.size()) +
+        say("pass " + std::to_string(pass) + ": " + std::to_string(pending.size()) +
             " to measure; motion time planned " + format_duration(sch.planned_s) +
             ", raster order " + format_duration(sch.raster_s) + ", lower bound " +
             format_duration(sch.lower_bound_s));
         const std::size_t done_before = done.size();
-        Progress progress(hooks_.out, done_before + todo.size(), done_before, sch.planned_s);
+        Progress progress(hooks_.out, done_before + pending.size(), done_before, sch.planned_s);
         for (std::size_t q = 0; q < sch.order.size(); ++q) {
             if (stop_requested()) {
                 progress.finish("stopped on request");
@@ -890,7 +890,7 @@ Expected<RunResult> Runner::run() {
                 }
             }
             const std::size_t k = sch.order[q];
-            const PlannedConfig& c = *todo[k];
+            const PlannedConfig& c = *pending[k];
             auto s =
                 attempt(poses[k],
                         "configuration " + std::to_string(pass) + ":" + std::to_string(c.index),

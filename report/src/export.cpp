@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "gonio/brdf/blinn_phong.h"
+#include "gonio/report/html_report.h"
 
 namespace gonio::report {
 
@@ -125,29 +126,6 @@ std::string xml_comment_safe(std::string s) {
         s.replace(p, 2, "- ");
     }
     return s;
-}
-
-std::string xml_escape(const std::string& s) {
-    std::string o;
-    for (char c : s) {
-        switch (c) {
-            case '&':
-                o += "&amp;";
-                break;
-            case '<':
-                o += "&lt;";
-                break;
-            case '>':
-                o += "&gt;";
-                break;
-            case '"':
-                o += "&quot;";
-                break;
-            default:
-                o += c;
-        }
-    }
-    return o;
 }
 
 void shadowing_notes(const ModelD& m,
@@ -300,7 +278,7 @@ Expected<RendererExport> export_mitsuba(const ModelD& model, const std::string& 
     const std::size_t n = comps.size();
     for (std::size_t j = 0; j < n; ++j) {
         const bool last = j + 1 == n;
-        const std::string id_attr = j == 0 ? " id=\"" + xml_escape(id) + "\"" : "";
+        const std::string id_attr = j == 0 ? " id=\"" + html_escape(id) + "\"" : "";
         if (!last) {
             const double r = static_cast<double>(n - j);
             os << indent << "<bsdf type=\"blendbsdf\"" << id_attr << ">\n";

@@ -36,14 +36,15 @@ std::size_t count(const std::string& s, const std::string& what) {
 /// Base64 decoding of the first `n` characters (for checking the embedded PNG signature).
 std::vector<unsigned char> b64_decode(const std::string& s) {
     std::vector<unsigned char> out;
-    int val = 0, bits = -8;
+    unsigned val = 0;
+    int bits = -8;
     for (char c : s) {
         const char* table = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
         const char* p = std::strchr(table, c);
         if (c == '=' || p == nullptr || c == '\0') {
             break;
         }
-        val = (val << 6) + static_cast<int>(p - table);
+        val = ((val << 6) | static_cast<unsigned>(p - table)) & 0xFFFFFFu;
         bits += 6;
         if (bits >= 0) {
             out.push_back(static_cast<unsigned char>((val >> bits) & 0xFF));

@@ -36,7 +36,7 @@ struct ReportResult {
 /// campaign.json nor fit.json, or when a file cannot be written.
 Expected<ReportResult> build_report(const std::string& dir, const ReportOptions& options = {});
 
-/// Escapes &, <, >, " and ' for HTML text and attribute values.
+/// Escapes &, <, >, " and ' for HTML (and XML) text and attribute values.
 std::string html_escape(const std::string& s);
 
 }  // namespace gonio::report
