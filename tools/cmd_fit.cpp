@@ -1,5 +1,6 @@
 // gonio fit DATA [--model ggx] [--out fit.json]      fit an analytic model to measured samples
 // gonio fit --compare ggx,beckmann,blinn-phong DATA  fit several models, table ranked by error
+// gonio fit --model auto DATA                        candidates ranked by BIC, the winner polished
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
@@ -25,7 +26,7 @@ struct FitCliOptions {
     std::string model = "ggx";
     std::string template_path;
     bool no_diffuse = false;
-    std::string fresnel = "schlick-rgb";
+    std::string fresnel = "schlick";
     std::string shadowing = "smith-correlated";
     bool anisotropic = false;
     int lobes = 1;
@@ -121,7 +122,10 @@ int run_compare(const FitCliOptions& o, const gonio::brdf::Dataset& data) {
             return 1;
         }
         if (!r->usable()) {
-            failed.push_back(name + ": " + r->solver.termination + " (" + r->solver.message + ")");
+            failed.push_back(name + ": " +
+                             (r->solver.converged
+                                  ? std::string("does not represent the data")
+                                  : r->solver.termination + " (" + r->solver.message + ")"));
             continue;
         }
         rows.push_back({name, *r});
@@ -152,7 +156,7 @@ int run_compare(const FitCliOptions& o, const gonio::brdf::Dataset& data) {
     std::printf("(errors are channel means over all %zu valid samples; ranked by log_rmse)\n",
                 rows.empty() ? std::size_t{0} : rows[0].result.samples.valid);
     for (const std::string& f : failed) {
-        std::printf("did not converge, not ranked: %s\n", f.c_str());
+        std::printf("not usable, not ranked: %s\n", f.c_str());
     }
     return failed.empty() ? 0 : 1;
 }
@@ -164,7 +168,10 @@ GONIO_COMMAND(fit) {
     auto o = std::make_shared<FitCliOptions>();
     cmd->add_option("data", o->data, "samples: dataset CSV or table (MERL .binary, .gtab)")
         ->required();
-    cmd->add_option("--model", o->model, "lobe distribution: ggx, beckmann, blinn-phong")
+    cmd->add_option("--model",
+                    o->model,
+                    "lobe distribution: ggx, beckmann, blinn-phong, or auto (candidates ranked by "
+                    "BIC on the reduction, the winner polished on all samples)")
         ->capture_default_str();
     cmd->add_option("--template",
                     o->template_path,
@@ -208,12 +215,36 @@ GONIO_COMMAND(fit) {
         if (!o->compare.empty()) {
             return run_compare(*o, *data);
         }
-        auto spec = build_spec(*o, o->model);
+        const bool automatic = o->model == "auto" && o->template_path.empty();
+        auto spec = build_spec(*o, automatic ? std::string("ggx") : o->model);
         if (!spec) {
             std::fprintf(stderr, "gonio fit: %s\n", spec.error().message.c_str());
             return 2;
         }
-        auto result = fitting::fit(*data, *spec);
+        gonio::Expected<fitting::FitResult> result = gonio::make_error("");
+        if (automatic) {
+            auto chosen = fitting::fit_auto(*data, fitting::auto_candidates(spec->options));
+            if (!chosen) {
+                std::fprintf(stderr, "gonio fit: %s\n", chosen.error().message.c_str());
+                return 1;
+            }
+            std::printf("model auto: %s\n", chosen->criterion.c_str());
+            std::printf("%-4s %-12s %6s %12s %16s\n", "rank", "model", "params", "log_rmse", "BIC");
+            for (std::size_t i = 0; i < chosen->ranking.size(); ++i) {
+                const fitting::RankedModel& m = chosen->ranking[i];
+                std::printf("%-4zu %-12s %6d %12.6g %16.8g%s\n",
+                            i + 1,
+                            m.name.c_str(),
+                            m.parameters,
+                            m.log_rmse,
+                            m.criterion,
+                            m.converged ? "" : "  (did not converge)");
+            }
+            std::printf("chosen: %s\n", chosen->chosen.c_str());
+            result = chosen->best;
+        } else {
+            result = fitting::fit(*data, *spec);
+        }
         if (!result) {
             std::fprintf(stderr, "gonio fit: %s\n", result.error().message.c_str());
             return 1;
@@ -236,11 +267,20 @@ GONIO_COMMAND(fit) {
             std::printf(
                 "wrote %s and %s\n", o->out.c_str(), fitting::report_path_for(o->out).c_str());
         }
-        if (!result->usable()) {
+        if (!result->solver.converged) {
             std::fprintf(stderr,
                          "gonio fit: the fit did not converge (%s): %s\n",
                          result->solver.termination.c_str(),
                          result->solver.message.c_str());
+            return 1;
+        }
+        if (!result->usable()) {
+            std::fprintf(stderr,
+                         "gonio fit: the model does not represent these data (%s); %s\n",
+                         result->goodness.warnings.empty()
+                             ? "see the report"
+                             : result->goodness.warnings.front().c_str(),
+                         result->goodness.suggestion.c_str());
             return 1;
         }
         return 0;

@@ -1,9 +1,274 @@
 #include "gonio/brdf/samples_io.h"
 
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <thread>
+
 #include "gonio/brdf/merl.h"
 
 namespace gonio::brdf {
 namespace {
+
+// ---------------------------------------------------------------------------------------------
+// Dataset CSV reader: the whole file is read at once, split at line boundaries into one chunk per
+// hardware thread, and each chunk is parsed in place (no per-line string, no per-field copy).
+// Numbers go through std::from_chars (correctly rounded, locale-free); a field it does not take
+// whole (for example "+1" or "0x1p3") is retried with strtod on a nul-terminated copy so that
+// every number strtod accepts is read.
+
+enum Col { kTi, kPhiI, kTo, kPo, kR, kG, kB, kSr, kSg, kSb, kW, kF, kNumCols };
+const char* const kColNames[kNumCols] = {"theta_i",
+                                         "phi_i",
+                                         "theta_o",
+                                         "phi_o",
+                                         "r",
+                                         "g",
+                                         "b",
+                                         "sigma_r",
+                                         "sigma_g",
+                                         "sigma_b",
+                                         "weight",
+                                         "flag"};
+
+/// Accepted range of each column and its wording in messages.
+struct Range {
+    double lo, hi;
+    bool hi_open;  ///< [lo, hi) instead of [lo, hi]
+    const char* text;
+};
+
+Range column_range(int c) {
+    switch (c) {
+        case kTi:
+        case kTo:
+            return {0.0, kPi / 2, true, "[0, pi/2)"};
+        case kPhiI:
+        case kPo:
+            return {-2 * kPi, 2 * kPi, false, "[-2 pi, 2 pi]"};
+        case kW:
+            return {0.0, kMaxSampleWeight, false, "[0, 1e9]"};
+        case kF:
+            return {0.0, 4294967295.0, false, "[0, 4294967295] (unsigned 32-bit integer)"};
+        default:
+            return {0.0, kMaxSampleValue, false, "[0, 1e9] 1/sr"};
+    }
+}
+
+bool is_space(char c) {
+    return c == ' ' || c == '\t' || c == '\r';
+}
+
+/// Parses [b, e) (already trimmed) as a whole number. False when it is not one.
+bool parse_number(const char* b, const char* e, double* out) {
+    if (b == e) {
+        return false;
+    }
+    const std::from_chars_result r = std::from_chars(b, e, *out);
+    if (r.ec == std::errc() && r.ptr == e) {
+        return true;
+    }
+    // Out of range for a double, or a form from_chars does not take (a leading '+', hex): strtod
+    // on a copy decides (its ERANGE overflow is a number outside every column's range anyway).
+    char buf[128];
+    const std::size_t n = static_cast<std::size_t>(e - b);
+    if (n >= sizeof buf) {
+        return false;
+    }
+    std::memcpy(buf, b, n);
+    buf[n] = 0;
+    char* end = nullptr;
+    const double v = std::strtod(buf, &end);
+    if (end != buf + n) {
+        return false;
+    }
+    *out = v;
+    return true;
+}
+
+std::string fmt_value(double v) {
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.17g", v);
+    return buf;
+}
+
+/// The layout of the columns, from the header.
+struct Layout {
+    int index[kNumCols];      ///< field position of each column, -1 when absent
+    int column_of[kNumCols];  ///< column of each field position
+    std::size_t num_fields = 0;
+};
+
+/// The first error of a chunk (the lowest line).
+struct ChunkResult {
+    std::vector<Sample> samples;
+    std::size_t error_line = 0;  ///< 0 = none
+    std::string error;
+};
+
+void parse_chunk(const char* p,
+                 const char* end,
+                 std::size_t first_line,
+                 const Layout& layout,
+                 const std::string& path,
+                 ChunkResult& out) {
+    std::size_t line_no = first_line;
+    out.samples.reserve(static_cast<std::size_t>(end - p) / 40 + 1);
+    double v[kNumCols];
+    while (p < end) {
+        const char* nl = static_cast<const char*>(std::memchr(p, '\n', end - p));
+        const char* le = nl == nullptr ? end : nl;
+        const char* next = nl == nullptr ? end : nl + 1;
+        // Blank lines (spaces, CR) and comment lines carry no data.
+        const char* q = p;
+        while (q < le && is_space(*q)) {
+            ++q;
+        }
+        if (q == le || *q == '#') {
+            p = next;
+            ++line_no;
+            continue;
+        }
+        v[kSr] = v[kSg] = v[kSb] = 0;
+        v[kW] = 1;
+        v[kF] = 0;
+        std::size_t field = 0;
+        const char* fb = p;
+        for (;;) {
+            const char* fe = static_cast<const char*>(std::memchr(fb, ',', le - fb));
+            const bool last = fe == nullptr;
+            if (last) {
+                fe = le;
+            }
+            if (field < layout.num_fields) {
+                const char* b = fb;
+                const char* e = fe;
+                while (b < e && is_space(*b)) {
+                    ++b;
+                }
+                while (e > b && is_space(e[-1])) {
+                    --e;
+                }
+                const int c = layout.column_of[field];
+                double x;
+                const std::string where =
+                    path + ":" + std::to_string(line_no) + ":" + std::to_string(field + 1) + ": ";
+                if (!parse_number(b, e, &x)) {
+                    out.error_line = line_no;
+                    out.error =
+                        where + kColNames[c] + " = \"" + std::string(b, e) + "\" is not a number";
+                    return;
+                }
+                const Range r = column_range(c);
+                if (!std::isfinite(x)) {
+                    out.error_line = line_no;
+                    out.error = where + kColNames[c] + " = " + std::string(b, e) +
+                                " is not finite (allowed " + r.text + ")";
+                    return;
+                }
+                if (x < r.lo || x > r.hi || (r.hi_open && x >= r.hi) ||
+                    (c == kF && x != std::floor(x))) {
+                    out.error_line = line_no;
+                    out.error = where + kColNames[c] + " = " + fmt_value(x) + " outside " + r.text;
+                    if ((c == kTi || c == kTo) && x >= r.hi) {
+                        out.error += " (at or below the horizon)";
+                    }
+                    return;
+                }
+                v[c] = x;
+            }
+            ++field;
+            if (last) {
+                break;
+            }
+            fb = fe + 1;
+        }
+        if (field != layout.num_fields) {
+            out.error_line = line_no;
+            out.error = path + ":" + std::to_string(line_no) + ": " + std::to_string(field) +
+                        " fields, the header has " + std::to_string(layout.num_fields);
+            return;
+        }
+        Sample s;
+        s.theta_i = v[kTi];
+        s.phi_i = v[kPhiI];
+        s.theta_o = v[kTo];
+        s.phi_o = v[kPo];
+        s.value = Rgbd(v[kR], v[kG], v[kB]);
+        s.sigma = Rgbd(v[kSr], v[kSg], v[kSb]);
+        s.weight = v[kW];
+        s.flags = static_cast<std::uint32_t>(v[kF]);
+        s.line = line_no;
+        out.samples.push_back(s);
+        p = next;
+        ++line_no;
+    }
+}
+
+/// Reads the header line's fields into `layout`.
+Expected<void> parse_header(
+    const char* b, const char* e, const std::string& where, Layout& layout, Dataset& data) {
+    for (int& i : layout.index) {
+        i = -1;
+    }
+    std::size_t f = 0;
+    const char* fb = b;
+    for (;;) {
+        const char* fe = static_cast<const char*>(std::memchr(fb, ',', e - fb));
+        const bool last = fe == nullptr;
+        if (last) {
+            fe = e;
+        }
+        const char* nb = fb;
+        const char* ne = fe;
+        while (nb < ne && is_space(*nb)) {
+            ++nb;
+        }
+        while (ne > nb && is_space(ne[-1])) {
+            --ne;
+        }
+        const std::string name(nb, ne);
+        int found = -1;
+        for (int c = 0; c < kNumCols; ++c) {
+            if (name == kColNames[c]) {
+                found = c;
+            }
+        }
+        if (found < 0) {
+            return make_error(where + ": unknown column \"" + name +
+                              "\" (expected theta_i,phi_i,theta_o,phi_o,r,g,b and optionally "
+                              "sigma_r,sigma_g,sigma_b,weight,flag)");
+        }
+        if (layout.index[found] >= 0) {
+            return make_error(where + ": column \"" + name + "\" appears twice");
+        }
+        layout.index[found] = static_cast<int>(f);
+        layout.column_of[f] = found;
+        ++f;
+        if (last) {
+            break;
+        }
+        fb = fe + 1;
+    }
+    for (int c = kTi; c <= kB; ++c) {
+        if (layout.index[c] < 0) {
+            return make_error(where + ": header lacks the required column \"" + kColNames[c] +
+                              "\"");
+        }
+    }
+    const int sig = (layout.index[kSr] >= 0) + (layout.index[kSg] >= 0) + (layout.index[kSb] >= 0);
+    if (sig != 0 && sig != 3) {
+        return make_error(where + ": sigma_r, sigma_g and sigma_b must come together");
+    }
+    data.has_sigma = sig == 3;
+    data.has_weight = layout.index[kW] >= 0;
+    data.has_flags = layout.index[kF] >= 0;
+    layout.num_fields = f;
+    return {};
+}
 
 bool ends_with(const std::string& s, const std::string& suffix) {
     return s.size() >= suffix.size() &&
@@ -11,6 +276,112 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 }
 
 }  // namespace
+
+Expected<Dataset> read_dataset_csv(const std::string& path) {
+    std::FILE* f = std::fopen(path.c_str(), "rb");
+    if (f == nullptr) {
+        return make_error(path + ": cannot open for reading");
+    }
+    std::string text;
+    {
+        char buf[1 << 16];
+        if (std::fseek(f, 0, SEEK_END) == 0) {
+            const long size = std::ftell(f);
+            if (size > 0) {
+                text.reserve(static_cast<std::size_t>(size));
+            }
+            std::rewind(f);
+        }
+        std::size_t n;
+        while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) {
+            text.append(buf, n);
+        }
+        const bool failed = std::ferror(f) != 0;
+        std::fclose(f);
+        if (failed) {
+            return make_error(path + ": read error");
+        }
+    }
+    Dataset data;
+    data.source = path;
+    const char* p = text.data();
+    const char* end = p + text.size();
+    // Header: the first line that is neither blank nor a comment.
+    std::size_t line_no = 1;
+    Layout layout;
+    bool have_header = false;
+    while (p < end && !have_header) {
+        const char* nl = static_cast<const char*>(std::memchr(p, '\n', end - p));
+        const char* le = nl == nullptr ? end : nl;
+        const char* q = p;
+        while (q < le && is_space(*q)) {
+            ++q;
+        }
+        if (q != le && *q != '#') {
+            Expected<void> h =
+                parse_header(p, le, path + ":" + std::to_string(line_no), layout, data);
+            if (!h) {
+                return make_error(h.error().message);
+            }
+            have_header = true;
+        }
+        p = nl == nullptr ? end : nl + 1;
+        ++line_no;
+    }
+    if (!have_header) {
+        return make_error(path +
+                          ": empty file, expected a header theta_i,phi_i,theta_o,phi_o,r,g,b");
+    }
+    // Chunks at line boundaries, one per thread for a large file.
+    const std::size_t bytes = static_cast<std::size_t>(end - p);
+    const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
+    const unsigned chunks = bytes < (1u << 20) ? 1u : std::min(hw, 16u);
+    std::vector<const char*> cut{p};
+    for (unsigned k = 1; k < chunks; ++k) {
+        const char* c = p + bytes * k / chunks;
+        c = std::max(c, cut.back());
+        const char* nl = static_cast<const char*>(std::memchr(c, '\n', end - c));
+        cut.push_back(nl == nullptr ? end : nl + 1);
+    }
+    cut.push_back(end);
+    std::vector<std::size_t> first_line(chunks);
+    std::vector<ChunkResult> results(chunks);
+    first_line[0] = line_no;
+    for (unsigned k = 1; k < chunks; ++k) {
+        first_line[k] =
+            first_line[k - 1] + static_cast<std::size_t>(std::count(cut[k - 1], cut[k], '\n'));
+    }
+    if (chunks == 1) {
+        parse_chunk(cut[0], cut[1], first_line[0], layout, path, results[0]);
+    } else {
+        std::vector<std::thread> pool;
+        for (unsigned k = 0; k < chunks; ++k) {
+            pool.emplace_back([&, k] {
+                parse_chunk(cut[k], cut[k + 1], first_line[k], layout, path, results[k]);
+            });
+        }
+        for (std::thread& t : pool) {
+            t.join();
+        }
+    }
+    std::size_t total = 0;
+    for (const ChunkResult& r : results) {
+        if (r.error_line != 0) {
+            return make_error(r.error);
+        }
+        total += r.samples.size();
+    }
+    if (chunks == 1) {
+        data.samples = std::move(results[0].samples);
+    } else {
+        data.samples.reserve(total);
+        for (ChunkResult& r : results) {
+            data.samples.insert(data.samples.end(), r.samples.begin(), r.samples.end());
+            std::vector<Sample>().swap(r.samples);
+        }
+    }
+    return data;
+}
 
 Expected<Dataset> load_samples(const std::string& path) {
     if (ends_with(path, ".csv")) {

@@ -4,14 +4,19 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
+#include <memory>
+#include <optional>
 #include <random>
 #include <thread>
 
 #include "gonio/brdf/model_eval.h"
 #include "gonio/fitting/cost.h"
+#include "gonio/fitting/prepared_samples.h"
 #include "gonio/fitting/reduction.h"
 
 namespace gonio::fitting {
@@ -22,17 +27,21 @@ using brdf::ModelD;
 using brdf::Rgbd;
 using brdf::Sample;
 
-constexpr std::size_t kBatch = 256;            // samples per residual block (without robust loss)
-constexpr std::size_t kScoreSamples = 4000;    // samples used to score multi-start candidates
-constexpr std::size_t kCoarseSamples = 20000;  // first solve of a large input
-constexpr std::size_t kScreenSamples = 1500;   // short solves that rank the best starts
-constexpr std::size_t kScreenStarts = 4;       // starts screened by a short solve
-constexpr int kScreenIterations = 15;          // iterations of a screening solve
+constexpr std::size_t kBatch = 256;           // samples per residual block (without robust loss)
+constexpr std::size_t kScoreSamples = 4000;   // samples used to score multi-start candidates
+constexpr std::size_t kScreenSamples = 1500;  // short solves that rank the best starts
+constexpr std::size_t kScreenStarts = 4;      // starts screened by a short solve
+constexpr int kScreenIterations = 15;         // iterations of a screening solve
 constexpr std::size_t kMaxRejectedLines = 100;
 constexpr double kVanishedShare = 1e-3;  // a lobe below this share of the reflectance vanished
-// Residuals above which ceres::Covariance (dense SVD of J) gives way to the eigen decomposition
-// of the normal matrix accumulated over the threads.
-constexpr std::size_t kCovarianceRows = 30000;
+// Goodness of fit: thresholds of a misfit far beyond measurement noise (docs/fitting-guide.md).
+constexpr double kLogRmseUnusable = 0.3;
+constexpr double kLogRmseWarn = 0.15;
+constexpr double kBandBiasUnusable = 0.3;
+constexpr double kBandBiasWarn = 0.15;
+constexpr double kChi2Unusable = 10;
+constexpr double kChi2Warn = 2;
+constexpr double kBandEdgesDeg[] = {0, 2, 5, 10, 20, 40, 90};
 
 int thread_count(int requested) {
     if (requested > 0) {
@@ -63,25 +72,15 @@ void parallel_for(std::size_t n, int threads, Body body) {
     }
 }
 
-/// Objective value (1/2 sum of squared residuals, as Ceres reports it) of a model on samples.
-double objective(const ParameterMap& map,
-                 const std::vector<double>& x,
-                 const std::vector<Sample>& samples,
-                 const CostOptions& co) {
-    auto map_ptr = std::make_shared<const ParameterMap>(map);
-    auto cost = make_batch_cost(map_ptr, samples, co);
-    std::vector<double> r(3 * samples.size());
-    const double* params[] = {x.data()};
-    if (!cost->Evaluate(params, r.data(), nullptr)) {
-        return std::numeric_limits<double>::infinity();
-    }
+/// Objective value (1/2 sum of squared residuals, as Ceres reports it) of a model on prepared
+/// samples; infinity when a residual is not finite.
+double objective(const PreparedSamples& ps, const std::vector<double>& x, int threads) {
     double s = 0;
-    for (double v : r) {
-        s += v * v;
+    if (!ps.sum_of_squares(x.data(), &s, threads)) {
+        return std::numeric_limits<double>::infinity();
     }
     return 0.5 * s;
 }
-
 // ---------------------------------------------------------------------------------------------
 // Initialisation
 
@@ -290,17 +289,20 @@ struct Candidate {
 };
 
 /// Data-driven starts scored by the objective, best first.
-std::vector<Candidate> initial_candidates(const ParameterMap& map,
+std::vector<Candidate> initial_candidates(const std::shared_ptr<const ParameterMap>& map_ptr,
                                           const std::vector<Sample>& samples,
                                           const FitOptions& o,
                                           const CostOptions& co) {
+    const ParameterMap& map = *map_ptr;
     const std::vector<Sample> score_set = stratified_reduce(samples, kScoreSamples, o.seed);
+    const PreparedSamples scorer(map_ptr, score_set, co);
+    const int threads = thread_count(o.num_threads);
     ModelD m = map.base();
     std::vector<Candidate> out;
     if (m.lobes.empty()) {
         linear_init(m, map, score_set, o.relative_floor);
         Candidate c{clamp_start(map, map.values_of(m)), 0};
-        c.cost = objective(map, c.x, score_set, co);
+        c.cost = objective(scorer, c.x, threads);
         out.push_back(c);
         return out;
     }
@@ -347,7 +349,7 @@ std::vector<Candidate> initial_candidates(const ParameterMap& map,
         }
         linear_init(mc, map, score_set, o.relative_floor);
         Candidate c{clamp_start(map, map.values_of(mc)), 0};
-        c.cost = objective(map, c.x, score_set, co);
+        c.cost = objective(scorer, c.x, threads);
         out.push_back(c);
     }
     std::stable_sort(out.begin(), out.end(), [](const Candidate& a, const Candidate& b) {
@@ -364,57 +366,101 @@ struct SolveOutcome {
     ceres::Solver::Summary summary;
 };
 
-std::unique_ptr<ceres::Problem> build_problem(std::shared_ptr<const ParameterMap> map,
-                                              const std::vector<Sample>& samples,
-                                              const FitOptions& o,
-                                              const CostOptions& co,
-                                              std::vector<double>& x) {
-    ceres::Problem::Options po;
-    po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
-    po.loss_function_ownership = ceres::TAKE_OWNERSHIP;
-    auto problem = std::make_unique<ceres::Problem>(po);
-    // A robust loss acts on each sample's own squared residual, so each sample is then its own
-    // block; otherwise samples are batched to amortise the per-block overhead.
-    const std::size_t batch = o.loss == LossKind::kNone ? kBatch : 1;
-    for (std::size_t b = 0; b < samples.size(); b += batch) {
-        const std::vector<Sample> part(
-            samples.begin() + static_cast<long>(b),
-            samples.begin() + static_cast<long>(std::min(samples.size(), b + batch)));
-        ceres::LossFunction* loss = nullptr;
-        if (o.loss == LossKind::kHuber) {
-            loss = new ceres::HuberLoss(o.loss_scale);
-        } else if (o.loss == LossKind::kCauchy) {
-            loss = new ceres::CauchyLoss(o.loss_scale);
-        }
-        problem->AddResidualBlock(make_batch_cost(map, part, co).release(), loss, x.data());
+ceres::LossFunction* make_loss(const FitOptions& o) {
+    if (o.loss == LossKind::kHuber) {
+        return new ceres::HuberLoss(o.loss_scale);
     }
-    for (int k = 0; k < map->size(); ++k) {
-        const ScalarParam& s = map->scalars()[map->free()[k]];
-        problem->SetParameterLowerBound(x.data(), k, s.lower);
-        problem->SetParameterUpperBound(x.data(), k, s.upper);
+    if (o.loss == LossKind::kCauchy) {
+        return new ceres::CauchyLoss(o.loss_scale);
     }
-    return problem;
+    return nullptr;
 }
 
-SolveOutcome solve(std::shared_ptr<const ParameterMap> map,
-                   const std::vector<Sample>& samples,
-                   const FitOptions& o,
-                   const CostOptions& co,
-                   std::vector<double> x0,
-                   double tolerance = 1e-12) {
-    SolveOutcome out;
-    out.x = std::move(x0);
-    auto problem = build_problem(map, samples, o, co, out.x);
+/// The samples prepared for a solve, with the robust loss of the options.
+std::shared_ptr<PreparedSamples> prepare(const std::shared_ptr<const ParameterMap>& map,
+                                         const std::vector<Sample>& samples,
+                                         const FitOptions& o,
+                                         const CostOptions& co) {
+    auto ps = std::make_shared<PreparedSamples>(map, samples, co);
+    ps->set_loss(std::shared_ptr<const ceres::LossFunction>(make_loss(o)));
+    return ps;
+}
+
+void set_bounds(ceres::Problem& problem, const ParameterMap& map, double* x) {
+    for (int k = 0; k < map.size(); ++k) {
+        const ScalarParam& s = map.scalars()[map.free()[k]];
+        problem.SetParameterLowerBound(x, k, s.lower);
+        problem.SetParameterUpperBound(x, k, s.upper);
+    }
+}
+
+ceres::Solver::Options solver_options(int max_iterations, double tolerance) {
     ceres::Solver::Options so;
-    so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
-    so.max_num_iterations = o.max_iterations;
-    so.num_threads = thread_count(o.num_threads);
+    so.linear_solver_type = ceres::DENSE_QR;
+    so.max_num_iterations = max_iterations;
+    // The cost function spreads each evaluation over the threads itself.
+    so.num_threads = 1;
     so.function_tolerance = tolerance;
     so.gradient_tolerance = 1e-2 * tolerance;
     so.parameter_tolerance = tolerance;
-    so.check_gradients = o.check_gradients;
     so.logging_type = ceres::SILENT;
-    ceres::Solve(so, problem.get(), &out.summary);
+    // A step that leaves the bounds is projected onto them and judged by its cost alone; Ceres'
+    // projected line search would evaluate gradients at up to 20 trial points per iteration
+    // (each a pass over all samples) when a parameter sits on its bound.
+    so.max_num_line_search_step_size_iterations = 0;
+    return so;
+}
+
+/// Levenberg-Marquardt (Ceres) on the normal-equation form of the prepared samples. With
+/// hold_bounds, free parameters that start on a bound are held there (the polish after a reduced
+/// solve: the reduction already put them there).
+SolveOutcome solve(const std::shared_ptr<const PreparedSamples>& ps,
+                   const FitOptions& o,
+                   std::vector<double> x0,
+                   int max_iterations,
+                   double tolerance = 1e-12,
+                   bool hold_bounds = false) {
+    SolveOutcome out;
+    out.x = std::move(x0);
+    ceres::Problem problem;
+    problem.AddResidualBlock(
+        new NormalEquationCost(ps, thread_count(o.num_threads)), nullptr, out.x.data());
+    set_bounds(problem, ps->map(), out.x.data());
+    if (hold_bounds) {
+        std::vector<int> held;
+        for (int k = 0; k < ps->map().size(); ++k) {
+            const ScalarParam& s = ps->map().scalars()[ps->map().free()[k]];
+            const double tol = 1e-9 * std::max(s.upper - s.lower, 1e-300);
+            if (out.x[k] <= s.lower + tol || out.x[k] >= s.upper - tol) {
+                held.push_back(k);
+            }
+        }
+        if (!held.empty() && static_cast<int>(held.size()) < ps->map().size()) {
+            problem.SetManifold(out.x.data(), new ceres::SubsetManifold(ps->map().size(), held));
+        }
+    }
+    ceres::Solve(solver_options(max_iterations, tolerance), &problem, &out.summary);
+    return out;
+}
+
+/// The same problem as one residual block per sample (per-sample robust loss as Ceres applies
+/// it), for Ceres' own gradient check (FitOptions::check_gradients): slow, for testing.
+SolveOutcome solve_checked(const std::shared_ptr<const ParameterMap>& map,
+                           const std::vector<Sample>& samples,
+                           const FitOptions& o,
+                           const CostOptions& co,
+                           std::vector<double> x0) {
+    SolveOutcome out;
+    out.x = std::move(x0);
+    ceres::Problem problem;
+    for (const Sample& s : samples) {
+        problem.AddResidualBlock(
+            make_batch_cost(map, {s}, co).release(), make_loss(o), out.x.data());
+    }
+    set_bounds(problem, *map, out.x.data());
+    ceres::Solver::Options so = solver_options(o.max_iterations, 1e-12);
+    so.check_gradients = true;
+    ceres::Solve(so, &problem, &out.summary);
     return out;
 }
 
@@ -422,114 +468,76 @@ std::string termination_name(ceres::TerminationType t) {
     return ceres::TerminationTypeToString(t);
 }
 
+bool all_finite(const std::vector<double>& x) {
+    for (double v : x) {
+        if (!std::isfinite(v)) {
+            return false;
+        }
+    }
+    return true;
+}
+
+int iterations_of(const ceres::Solver::Summary& s) {
+    return std::max(0, static_cast<int>(s.iterations.size()) - 1);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Uncertainties
 
-/// J^T J of the residuals of `samples` at x, accumulated per thread over batches of kBatch samples
-/// (the Jacobian is never stored whole). False when a residual or derivative is not finite.
-bool normal_matrix(const std::shared_ptr<const ParameterMap>& map,
-                   const std::vector<Sample>& samples,
-                   const CostOptions& co,
-                   const std::vector<double>& x,
-                   int threads,
-                   Eigen::MatrixXd& jtj) {
-    const int n = map->size();
-    const std::size_t batches = (samples.size() + kBatch - 1) / kBatch;
-    const int t_count = std::max(1, threads);
-    std::vector<Eigen::MatrixXd> partial(t_count, Eigen::MatrixXd::Zero(n, n));
-    std::vector<char> ok(t_count, 1);
-    auto body = [&](int t, std::size_t b0, std::size_t b1) {
-        using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-        RowMajor jac(3 * kBatch, n);
-        std::vector<double> r(3 * kBatch);
-        std::vector<Sample> part;
-        for (std::size_t b = b0; b < b1 && ok[t]; ++b) {
-            const std::size_t lo = b * kBatch;
-            const std::size_t hi = std::min(samples.size(), lo + kBatch);
-            part.assign(samples.begin() + static_cast<long>(lo),
-                        samples.begin() + static_cast<long>(hi));
-            auto cost = make_batch_cost(map, part, co);
-            const double* params[] = {x.data()};
-            double* jacs[] = {jac.data()};
-            if (!cost->Evaluate(params, r.data(), jacs)) {
-                ok[t] = 0;
-                break;
-            }
-            const long m = static_cast<long>(3 * part.size());
-            partial[t].noalias() += jac.topRows(m).transpose() * jac.topRows(m);
-        }
-    };
-    if (t_count <= 1 || batches < 2) {
-        body(0, 0, batches);
-    } else {
-        std::vector<std::thread> pool;
-        const std::size_t chunk = (batches + t_count - 1) / t_count;
-        for (int t = 0; t < t_count; ++t) {
-            const std::size_t b = t * chunk;
-            const std::size_t e = std::min(batches, b + chunk);
-            if (b < e) {
-                pool.emplace_back(body, t, b, e);
-            }
-        }
-        for (std::thread& th : pool) {
-            th.join();
-        }
+/// The inverse of a symmetric positive definite matrix by its eigen decomposition; false when it
+/// is not well conditioned (smallest eigenvalue below 1e-12 of the largest).
+bool spd_inverse(const Eigen::MatrixXd& a, Eigen::MatrixXd& inv) {
+    if (a.rows() == 0) {
+        inv.resize(0, 0);
+        return true;
     }
-    jtj.setZero();
-    for (int t = 0; t < t_count; ++t) {
-        if (!ok[t]) {
-            return false;
-        }
-        jtj += partial[t];
+    // Scale to unit diagonal first: parameters of very different magnitudes.
+    Eigen::VectorXd d = a.diagonal().cwiseSqrt().cwiseInverse();
+    if (!d.allFinite()) {
+        return false;
     }
-    return jtj.allFinite();
+    const Eigen::MatrixXd scaled = d.asDiagonal() * a * d.asDiagonal();
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(scaled);
+    if (!(es.eigenvalues().minCoeff() > 1e-12 * es.eigenvalues().maxCoeff())) {
+        return false;
+    }
+    inv = d.asDiagonal() *
+          (es.eigenvectors() * es.eigenvalues().cwiseInverse().asDiagonal() *
+           es.eigenvectors().transpose()) *
+          d.asDiagonal();
+    return inv.allFinite();
 }
 
-/// Fills sigma / identifiable of the free parameters from the Jacobian J at the solution.
+/// Fills sigma / identifiable of the free parameters at the solution x of the prepared samples.
 /// Not identifiable: (1) a parameter whose effect on the residuals over a step of its own size,
 /// |J_k| max(|x_k|, 1e-3 (upper - lower)), is below 1e-8 of the largest such effect (for example
 /// alpha of a lobe whose scale went to 0); (2) among the others, every parameter with a component
 /// above 0.1 in an eigenvector of the column-scaled normal matrix D J^T J D (unit diagonal) whose
-/// eigenvalue is below 1e-10 of the largest (a combination the data do not constrain). When all
-/// are identifiable the covariance (J^T J)^-1 comes from ceres::Covariance (dense SVD; above
-/// kCovarianceRows residuals from the inverse of the normal matrix, already known to be well
-/// conditioned); it is
-/// scaled by the reduced chi-square when the data carry no sigma. When some are not, the others'
-/// sigmas are those of the sub-problem with the non-identifiable ones held fixed.
-void uncertainties(std::shared_ptr<const ParameterMap> map,
-                   const std::vector<Sample>& samples,
+/// eigenvalue is below 1e-10 of the largest (a combination the data do not constrain).
+/// Parameters on a bound get no sigma (the estimate is the bound's value) and are held there.
+/// Covariance of the others:
+///   without sigmas: the sandwich H^-1 M H^-1, H = J^T J, M = sum over samples of g_i g_i^T with
+///     g_i = J_i^T r_i (White 1980, HC0): consistent when the noise differs from sample to
+///     sample (the log residual of multiplicative noise does) and when the model is not exact;
+///   with sigmas (residuals normalised by them): H^-1 max(1, chi2 / dof).
+void uncertainties(const PreparedSamples& ps,
                    const FitOptions& o,
-                   const CostOptions& co,
-                   std::vector<double> x,
-                   double final_cost,
-                   bool absolute_sigma,
+                   const std::vector<double>& x,
+                   bool with_sigma,
+                   const std::vector<bool>& at_bound,
                    std::vector<FittedParameter>& params,
-                   std::vector<std::string>& not_identifiable) {
-    const int n = map->size();
-    const std::size_t rows = 3 * samples.size();
-    // Above kCovarianceRows residuals (and without a robust loss, whose curvature correction
-    // Ceres applies to the Jacobian) the normal matrix is accumulated here batch by batch over the
-    // threads, without a Ceres problem or a stored Jacobian; ceres::Covariance is not used there.
-    const bool direct = o.loss == LossKind::kNone && rows > kCovarianceRows;
-    std::unique_ptr<ceres::Problem> problem;
-    Eigen::MatrixXd jtj = Eigen::MatrixXd::Zero(n, n);
-    bool evaluated = false;
-    if (direct) {
-        evaluated = normal_matrix(map, samples, co, x, thread_count(o.num_threads), jtj);
-    } else {
-        problem = build_problem(map, samples, o, co, x);
-        ceres::CRSMatrix jac;
-        ceres::Problem::EvaluateOptions eo;
-        eo.num_threads = thread_count(o.num_threads);
-        evaluated = problem->Evaluate(eo, nullptr, nullptr, nullptr, &jac);
-        for (int r = 0; evaluated && r < jac.num_rows; ++r) {
-            for (int a = jac.rows[r]; a < jac.rows[r + 1]; ++a) {
-                for (int b = jac.rows[r]; b < jac.rows[r + 1]; ++b) {
-                    jtj(jac.cols[a], jac.cols[b]) += jac.values[a] * jac.values[b];
-                }
-            }
-        }
+                   std::vector<std::string>& not_identifiable,
+                   std::optional<double>* reduced_chi2) {
+    const ParameterMap& map = ps.map();
+    const int n = map.size();
+    const int threads = thread_count(o.num_threads);
+    NormalEquations ne;
+    const bool evaluated = ps.normal_equations(x.data(), ne, threads);
+    const double dof = 3.0 * static_cast<double>(ps.size()) - n;
+    if (evaluated && with_sigma && dof > 0) {
+        *reduced_chi2 = ne.cost_sum / dof;
     }
+    const Eigen::MatrixXd& jtj = ne.jtj;
     std::vector<bool> ident(n, true);
     std::vector<double> sigma(n, -1);
     if (!evaluated) {
@@ -539,7 +547,7 @@ void uncertainties(std::shared_ptr<const ParameterMap> map,
         std::vector<double> effect(n);
         double max_effect = 0;
         for (int k = 0; k < n; ++k) {
-            const ScalarParam& s = map->scalars()[map->free()[k]];
+            const ScalarParam& s = map.scalars()[map.free()[k]];
             const double step = std::max(std::abs(x[k]), 1e-3 * (s.upper - s.lower));
             effect[k] = std::sqrt(std::max(0.0, jtj(k, k))) * step;
             if (!std::isfinite(effect[k])) {
@@ -558,23 +566,20 @@ void uncertainties(std::shared_ptr<const ParameterMap> map,
         }
         // (2) Unconstrained combinations among the kept ones.
         const int m = static_cast<int>(kept.size());
-        Eigen::MatrixXd sub(m, m);
-        Eigen::VectorXd scale(m);
-        for (int a = 0; a < m; ++a) {
-            scale[a] = 1 / std::sqrt(jtj(kept[a], kept[a]));
-            for (int b = 0; b < m; ++b) {
-                sub(a, b) = jtj(kept[a], kept[b]);
-            }
-        }
-        // (Eigen's solver is not defined on an empty matrix: every branch below checks m, g > 0.)
-        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig;
-        bool well_conditioned = m > 0;
         if (m > 0) {
-            eig.compute(scale.asDiagonal() * sub * scale.asDiagonal());
+            Eigen::MatrixXd sub(m, m);
+            Eigen::VectorXd scale(m);
+            for (int a = 0; a < m; ++a) {
+                scale[a] = 1 / std::sqrt(jtj(kept[a], kept[a]));
+                for (int b = 0; b < m; ++b) {
+                    sub(a, b) = jtj(kept[a], kept[b]);
+                }
+            }
+            Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scale.asDiagonal() * sub *
+                                                               scale.asDiagonal());
             const double lmax = eig.eigenvalues().maxCoeff();
             for (int e = 0; e < m; ++e) {
                 if (eig.eigenvalues()[e] < 1e-10 * lmax) {
-                    well_conditioned = false;
                     for (int a = 0; a < m; ++a) {
                         if (std::abs(eig.eigenvectors()(a, e)) > 0.1) {
                             ident[kept[a]] = false;
@@ -583,59 +588,45 @@ void uncertainties(std::shared_ptr<const ParameterMap> map,
                 }
             }
         }
-        const double dof = static_cast<double>(rows) - n;
-        const double s2 = absolute_sigma || dof <= 0 ? 1.0 : 2 * final_cost / dof;
-        if (well_conditioned && m == n) {
-            ceres::Covariance::Options cov_o;
-            cov_o.algorithm_type = ceres::DENSE_SVD;
-            cov_o.num_threads = thread_count(o.num_threads);
-            cov_o.min_reciprocal_condition_number = 1e-14;
-            ceres::Covariance cov(cov_o);
-            std::vector<std::pair<const double*, const double*>> blocks = {{x.data(), x.data()}};
-            Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> c(n, n);
-            bool ok = problem != nullptr && rows <= kCovarianceRows &&
-                      cov.Compute(blocks, problem.get()) &&
-                      cov.GetCovarianceBlock(x.data(), x.data(), c.data());
-            if (!ok) {
-                const Eigen::MatrixXd inv = eig.eigenvectors() *
-                                            eig.eigenvalues().cwiseInverse().asDiagonal() *
-                                            eig.eigenvectors().transpose();
-                c = scale.asDiagonal() * inv * scale.asDiagonal();
+        // Covariance of the identifiable parameters off their bounds, the others held.
+        std::vector<int> good;
+        for (int k = 0; k < n; ++k) {
+            if (ident[k] && !at_bound[k]) {
+                good.push_back(k);
             }
-            for (int k = 0; k < n; ++k) {
-                sigma[k] = std::sqrt(std::max(0.0, c(k, k) * s2));
+        }
+        const int g = static_cast<int>(good.size());
+        Eigen::MatrixXd h(g, g);
+        for (int a = 0; a < g; ++a) {
+            for (int b = 0; b < g; ++b) {
+                h(a, b) = jtj(good[a], good[b]);
             }
-        } else if (m > 0) {
-            // Sigmas of the identifiable ones with the others held at their values.
-            std::vector<int> good;
-            for (int a = 0; a < m; ++a) {
-                if (ident[kept[a]]) {
-                    good.push_back(a);
+        }
+        Eigen::MatrixXd h_inv;
+        if (g > 0 && spd_inverse(h, h_inv)) {
+            Eigen::MatrixXd cov;
+            if (with_sigma) {
+                const double s2 = reduced_chi2->has_value() ? std::max(1.0, **reduced_chi2) : 1.0;
+                cov = h_inv * s2;
+            } else {
+                Eigen::MatrixXd meat_full;
+                if (ps.score_outer_products(x.data(), meat_full, threads)) {
+                    Eigen::MatrixXd meat(g, g);
+                    for (int a = 0; a < g; ++a) {
+                        for (int b = 0; b < g; ++b) {
+                            meat(a, b) = meat_full(good[a], good[b]);
+                        }
+                    }
+                    cov = h_inv * meat * h_inv;
                 }
             }
-            const int g = static_cast<int>(good.size());
-            Eigen::MatrixXd gg(g, g);
-            for (int a = 0; a < g; ++a) {
-                for (int b = 0; b < g; ++b) {
-                    gg(a, b) = sub(good[a], good[b]);
-                }
-            }
-            Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> ge;
-            if (g > 0) {
-                ge.compute(gg);
-            }
-            if (g > 0 && ge.eigenvalues().minCoeff() > 1e-12 * ge.eigenvalues().maxCoeff()) {
-                const Eigen::MatrixXd inv = ge.eigenvectors() *
-                                            ge.eigenvalues().cwiseInverse().asDiagonal() *
-                                            ge.eigenvectors().transpose();
-                for (int a = 0; a < g; ++a) {
-                    sigma[kept[good[a]]] = std::sqrt(std::max(0.0, inv(a, a) * s2));
-                }
+            for (int a = 0; a < g && cov.rows() == g; ++a) {
+                sigma[good[a]] = std::sqrt(std::max(0.0, cov(a, a)));
             }
         }
     }
     for (int k = 0; k < n; ++k) {
-        const std::string& name = map->scalars()[map->free()[k]].name;
+        const std::string& name = map.scalars()[map.free()[k]].name;
         for (FittedParameter& p : params) {
             if (p.name != name) {
                 continue;
@@ -672,6 +663,88 @@ std::vector<double> lobe_shares(const ModelD& model, const std::vector<Sample>& 
     return lobe_sum;
 }
 
+/// Goodness of fit from the metrics (and the reduced chi-square when the data carry sigmas).
+GoodnessOfFit judge(const Metrics& m, std::optional<double> chi2, std::size_t valid) {
+    GoodnessOfFit g;
+    g.reduced_chi_square = chi2;
+    char buf[256];
+    const char* names[3] = {"r", "g", "b"};
+    for (int c = 0; c < 3; ++c) {
+        const double v = m.log_rmse[c];
+        if (!std::isfinite(v) || v > kLogRmseUnusable) {
+            g.represents = false;
+            std::snprintf(buf,
+                          sizeof buf,
+                          "log RMSE of channel %s = %.3g above %.2g: the model does not represent "
+                          "these data",
+                          names[c],
+                          v,
+                          kLogRmseUnusable);
+            g.warnings.push_back(buf);
+        } else if (v > kLogRmseWarn) {
+            std::snprintf(buf,
+                          sizeof buf,
+                          "log RMSE of channel %s = %.3g above %.2g: a visible misfit",
+                          names[c],
+                          v,
+                          kLogRmseWarn);
+            g.warnings.push_back(buf);
+        }
+    }
+    for (const BandResidual& b : m.bands) {
+        // Bands with under 1 % of the samples do not decide.
+        if (b.count * 100 < valid) {
+            continue;
+        }
+        for (int c = 0; c < 3; ++c) {
+            const double bias = b.mean_log[c];
+            const bool bad = !std::isfinite(bias) || std::abs(bias) > kBandBiasUnusable;
+            if (bad || std::abs(bias) > kBandBiasWarn) {
+                if (bad) {
+                    g.represents = false;
+                }
+                std::snprintf(buf,
+                              sizeof buf,
+                              "theta_h in [%g, %g) deg: mean log residual of channel %s = %+.3g "
+                              "(the model is %s there; limit +-%.2g)",
+                              b.theta_h_lo_deg,
+                              b.theta_h_hi_deg,
+                              names[c],
+                              bias,
+                              bias > 0 ? "too bright" : "too dark",
+                              bad ? kBandBiasUnusable : kBandBiasWarn);
+                g.warnings.push_back(buf);
+            }
+        }
+    }
+    if (chi2) {
+        if (!std::isfinite(*chi2) || *chi2 > kChi2Unusable) {
+            g.represents = false;
+            std::snprintf(buf,
+                          sizeof buf,
+                          "reduced chi-square = %.3g above %g: the misfit is far beyond the "
+                          "stated sigmas",
+                          *chi2,
+                          kChi2Unusable);
+            g.warnings.push_back(buf);
+        } else if (*chi2 > kChi2Warn) {
+            std::snprintf(buf,
+                          sizeof buf,
+                          "reduced chi-square = %.3g above %g: misfit beyond the stated sigmas "
+                          "(or sigmas too small)",
+                          *chi2,
+                          kChi2Warn);
+            g.warnings.push_back(buf);
+        }
+    }
+    if (!g.warnings.empty()) {
+        g.suggestion =
+            "try `--model auto` (ranks ggx, beckmann, blinn-phong and two lobes), a second lobe "
+            "(`--lobes 2`), another distribution (`--model beckmann`) or `--fresnel schlick-rgb`";
+    }
+    return g;
+}
+
 }  // namespace
 
 Metrics evaluate_metrics(const ModelD& model,
@@ -681,38 +754,79 @@ Metrics evaluate_metrics(const ModelD& model,
     if (samples.empty()) {
         return m;
     }
+    constexpr int kBands = static_cast<int>(sizeof kBandEdgesDeg / sizeof kBandEdgesDeg[0]) - 1;
     const int threads = thread_count(0);
-    std::vector<Eigen::Array<double, 3, 3>> partial(std::max(1, threads),
-                                                    Eigen::Array<double, 3, 3>::Zero());
+    struct Acc {
+        Eigen::Array<double, 3, 3> sq = Eigen::Array<double, 3, 3>::Zero();
+        Eigen::Array<double, kBands, 3> band_sum = Eigen::Array<double, kBands, 3>::Zero();
+        Eigen::Array<double, kBands, 3> band_sq = Eigen::Array<double, kBands, 3>::Zero();
+        std::array<std::size_t, kBands> band_n{};
+    };
+    std::vector<Acc> partial(std::max(1, threads));
+    double band_cos[kBands + 1];
+    for (int b = 0; b <= kBands; ++b) {
+        band_cos[b] = std::cos(kBandEdgesDeg[b] * brdf::kPi / 180);
+    }
     auto body = [&](int t, std::size_t b, std::size_t e) {
-        Eigen::Array<double, 3, 3> acc = Eigen::Array<double, 3, 3>::Zero();
+        Acc acc;
         for (std::size_t i = b; i < e; ++i) {
             const brdf::Vec3d wi = samples[i].wi();
             const brdf::Vec3d wo = samples[i].wo();
             const Rgbd f = brdf::eval_model(model, wi, wo);
+            const double cos_h = (wi.z() + wo.z()) / (wi + wo).norm();
+            int band = kBands - 1;
+            for (int k = 0; k < kBands; ++k) {
+                if (cos_h > band_cos[k + 1]) {
+                    band = k;
+                    break;
+                }
+            }
+            ++acc.band_n[band];
             for (int c = 0; c < 3; ++c) {
                 const double d = samples[i].value[c];
                 const double abs_r = f[c] - d;
                 const double rel_r =
                     channel_residual(ResidualForm::kRelative, f[c], d, wi.z(), relative_floor);
                 const double log_r = channel_residual(ResidualForm::kLog, f[c], d, wi.z(), 0);
-                acc(0, c) += abs_r * abs_r;
-                acc(1, c) += rel_r * rel_r;
-                acc(2, c) += log_r * log_r;
+                acc.sq(0, c) += abs_r * abs_r;
+                acc.sq(1, c) += rel_r * rel_r;
+                acc.sq(2, c) += log_r * log_r;
+                acc.band_sum(band, c) += log_r;
+                acc.band_sq(band, c) += log_r * log_r;
             }
         }
-        partial[t] += acc;
+        partial[t] = acc;
     };
     parallel_for(samples.size(), threads, body);
-    Eigen::Array<double, 3, 3> total = Eigen::Array<double, 3, 3>::Zero();
-    for (const auto& p : partial) {
-        total += p;
+    Acc total;
+    for (const Acc& p : partial) {
+        total.sq += p.sq;
+        total.band_sum += p.band_sum;
+        total.band_sq += p.band_sq;
+        for (int k = 0; k < kBands; ++k) {
+            total.band_n[k] += p.band_n[k];
+        }
     }
     const double n = static_cast<double>(samples.size());
     for (int c = 0; c < 3; ++c) {
-        m.rmse[c] = std::sqrt(total(0, c) / n);
-        m.rel_rmse[c] = std::sqrt(total(1, c) / n);
-        m.log_rmse[c] = std::sqrt(total(2, c) / n);
+        m.rmse[c] = std::sqrt(total.sq(0, c) / n);
+        m.rel_rmse[c] = std::sqrt(total.sq(1, c) / n);
+        m.log_rmse[c] = std::sqrt(total.sq(2, c) / n);
+    }
+    for (int k = 0; k < kBands; ++k) {
+        if (total.band_n[k] == 0) {
+            continue;
+        }
+        BandResidual b;
+        b.theta_h_lo_deg = kBandEdgesDeg[k];
+        b.theta_h_hi_deg = kBandEdgesDeg[k + 1];
+        b.count = total.band_n[k];
+        const double bn = static_cast<double>(b.count);
+        for (int c = 0; c < 3; ++c) {
+            b.mean_log[c] = total.band_sum(k, c) / bn;
+            b.log_rmse[c] = std::sqrt(total.band_sq(k, c) / bn);
+        }
+        m.bands.push_back(b);
     }
     return m;
 }
@@ -735,19 +849,22 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
     if (!map_or) {
         return make_error(map_or.error().message);
     }
-    if (o.starts < 1 || o.max_iterations < 1 || !(o.relative_floor > 0) || !(o.loss_scale > 0)) {
+    if (o.starts < 1 || o.max_iterations < 1 || !(o.relative_floor > 0) || !(o.loss_scale > 0) ||
+        o.polish_iterations < 0 || o.reweight_rounds < 0) {
         return make_error(
-            "fit options: starts >= 1, max_iterations >= 1, relative_floor > 0 and loss_scale > 0 "
-            "are required");
+            "fit options: starts >= 1, max_iterations >= 1, relative_floor > 0, loss_scale > 0, "
+            "polish_iterations >= 0 and reweight_rounds >= 0 are required");
     }
+    const int threads = thread_count(o.num_threads);
     FitResult result;
     result.data = data.source;
     result.residual = o.residual;
     result.loss = o.loss;
 
     // Validity: rows rejected while reading plus samples that break the rules now (a dataset
-    // built in memory has not been through the reader), reference re-measurements and saturated
-    // samples (their value is only a lower bound).
+    // built in memory has not been through the reader). Reference re-measurements are counted
+    // apart (they are not BRDF samples); saturated samples are left out (their value is only a
+    // lower bound).
     std::vector<Sample> valid;
     valid.reserve(data.samples.size());
     std::vector<std::size_t> rejected_lines;
@@ -755,22 +872,35 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
         rejected_lines.push_back(r.line);
     }
     std::size_t rejected_here = 0;
-    // The checks run over the threads; the copy keeps the input order. (wi.z = cos theta_i.)
-    std::vector<char> bad_flag(data.samples.size(), 0);
-    parallel_for(
-        data.samples.size(), thread_count(o.num_threads), [&](int, std::size_t b, std::size_t e) {
-            for (std::size_t i = b; i < e; ++i) {
-                const Sample& s = data.samples[i];
-                bad_flag[i] = !brdf::validate_sample(s).empty() ||
-                              (s.flags & (brdf::kFlagReference | brdf::kFlagSaturated)) != 0 ||
-                              !(std::cos(s.theta_i) > 0) || !(std::cos(s.theta_o) > 0);
+    // 0 valid, 1 invalid, 2 reference, 3 saturated. (wi.z = cos theta_i.)
+    std::vector<char> kind(data.samples.size(), 0);
+    parallel_for(data.samples.size(), threads, [&](int, std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) {
+            const Sample& s = data.samples[i];
+            if (!brdf::validate_sample(s).empty() || !(std::cos(s.theta_i) > 0) ||
+                !(std::cos(s.theta_o) > 0) || !(s.value.maxCoeff() <= brdf::kMaxSampleValue) ||
+                !(s.sigma.maxCoeff() <= brdf::kMaxSampleValue)) {
+                kind[i] = 1;
+            } else if ((s.flags & brdf::kFlagReference) != 0) {
+                kind[i] = 2;
+            } else if ((s.flags & brdf::kFlagSaturated) != 0) {
+                kind[i] = 3;
             }
-        });
+        }
+    });
     for (std::size_t i = 0; i < data.samples.size(); ++i) {
         const Sample& s = data.samples[i];
-        if (bad_flag[i]) {
+        if (kind[i] == 1) {
             ++rejected_here;
             rejected_lines.push_back(s.line != 0 ? s.line : i + 1);
+            continue;
+        }
+        if (kind[i] == 2) {
+            ++result.samples.reference;
+            continue;
+        }
+        if (kind[i] == 3) {
+            ++result.samples.saturated;
             continue;
         }
         valid.push_back(s);
@@ -786,7 +916,9 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
     result.samples.rejected_lines = rejected_lines;
     if (valid.empty()) {
         return make_error(data.source + ": no valid sample to fit (" +
-                          std::to_string(result.samples.rejected) + " rejected)");
+                          std::to_string(result.samples.rejected) + " rejected, " +
+                          std::to_string(result.samples.reference) + " reference, " +
+                          std::to_string(result.samples.saturated) + " saturated)");
     }
     // Without a reduction the solve works on `valid` itself (no copy of a million samples).
     std::vector<Sample> reduced;
@@ -797,22 +929,22 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
     const std::vector<Sample>& used = reduce ? reduced : valid;
     result.samples.used = used.size();
 
-    auto map = std::make_shared<ParameterMap>(*map_or);
+    auto map = std::make_shared<const ParameterMap>(*map_or);
     CostOptions co;
     co.residual = o.residual;
     co.relative_floor = o.relative_floor;
     co.use_sigma = o.use_sigma && data.has_sigma;
 
-    // Coarse to fine: on a large input each candidate is first solved on a stratified subset of
-    // kCoarseSamples, and the full solve starts from there (a few iterations instead of tens). The
-    // starts are scored on a stratified subset of that subset (the product of the two reductions'
-    // weights still preserves each stratum's sum), so that only one pass goes over all samples.
-    const std::vector<Sample> coarse = used.size() > 2 * kCoarseSamples
-                                           ? stratified_reduce(used, kCoarseSamples, o.seed + 1)
+    // Coarse to fine: on a large input the starts and the main solve work on a stratified
+    // reduction (weights keep each stratum's sum), and the result is polished on all samples for
+    // a bounded number of iterations.
+    const std::vector<Sample> coarse = o.coarse_samples > 0 && used.size() > 2 * o.coarse_samples
+                                           ? stratified_reduce(used, o.coarse_samples, o.seed + 1)
                                            : std::vector<Sample>{};
+    const std::vector<Sample>& work = coarse.empty() ? used : coarse;
     std::vector<Candidate> candidates;
     if (o.auto_init) {
-        candidates = initial_candidates(*map, coarse.empty() ? used : coarse, o, co);
+        candidates = initial_candidates(map, work, o, co);
     } else {
         candidates.push_back({map->values_of(spec.model), 0});
         for (int k = 0; k < map->size(); ++k) {
@@ -825,6 +957,21 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
         }
     }
     result.solver.starts = static_cast<int>(candidates.size());
+    auto add_stage = [&](const std::string& name,
+                         std::size_t n,
+                         const ceres::Solver::Summary& sum,
+                         std::chrono::steady_clock::time_point since) {
+        StageInfo st;
+        st.name = name;
+        st.samples = n;
+        st.iterations = iterations_of(sum);
+        st.termination = termination_name(sum.termination_type);
+        st.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+        st.final_cost = sum.final_cost;
+        result.solver.stages.push_back(st);
+        result.solver.iterations += st.iterations;
+    };
+    const auto t_solve = std::chrono::steady_clock::now();
 
     // Screening: short, loose solves from the best-scored starts on a small stratified subset;
     // those starts are then ranked by the cost they reach and continue from where they stopped.
@@ -832,19 +979,20 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
     // example a narrow lobe under a grid that misses most of its peak), and a full solve from a
     // wrong start ends in a local minimum: the tails of a wide lobe standing in for the diffuse
     // term.
-    if (o.auto_init && candidates.size() > 1) {
-        const std::vector<Sample> screen =
-            stratified_reduce(coarse.empty() ? used : coarse, kScreenSamples, o.seed + 2);
-        FitOptions short_o = o;
-        short_o.max_iterations = std::min(o.max_iterations, kScreenIterations);
+    if (o.auto_init && candidates.size() > 1 && !o.check_gradients) {
+        const auto since = std::chrono::steady_clock::now();
+        const std::vector<Sample> screen = stratified_reduce(work, kScreenSamples, o.seed + 2);
+        const auto ps_screen = prepare(map, screen, o, co);
         const std::size_t k = std::min(candidates.size(), kScreenStarts);
+        ceres::Solver::Summary total;
+        int its = 0;
         for (std::size_t c = 0; c < k; ++c) {
-            SolveOutcome s = solve(map, screen, short_o, co, candidates[c].x, 1e-6);
-            bool finite = s.summary.IsSolutionUsable() && std::isfinite(s.summary.final_cost);
-            for (double v : s.x) {
-                finite = finite && std::isfinite(v);
-            }
-            if (finite) {
+            SolveOutcome s = solve(
+                ps_screen, o, candidates[c].x, std::min(o.max_iterations, kScreenIterations), 1e-6);
+            its += iterations_of(s.summary);
+            total = s.summary;
+            if (s.summary.IsSolutionUsable() && std::isfinite(s.summary.final_cost) &&
+                all_finite(s.x)) {
                 candidates[c].x = s.x;
                 candidates[c].cost = s.summary.final_cost;
             } else {
@@ -854,44 +1002,81 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
         std::stable_sort(candidates.begin(),
                          candidates.begin() + static_cast<long>(k),
                          [](const Candidate& a, const Candidate& b) { return a.cost < b.cost; });
+        add_stage("screen", screen.size(), total, since);
+        result.solver.stages.back().iterations = its;
+        result.solver.iterations += its - iterations_of(total);
     }
 
-    // Solve from the best start; when it does not converge, from the next ones (at most three).
-    const auto t_solve = std::chrono::steady_clock::now();
+    // Main solve from the best start; when it does not converge, from the next ones (at most
+    // three).
     SolveOutcome best;
     bool have = false;
-    for (std::size_t c = 0; c < candidates.size() && c < 3; ++c) {
-        std::vector<double> start = candidates[c].x;
-        if (!coarse.empty()) {
-            SolveOutcome pre = solve(map, coarse, o, co, start);
-            if (pre.summary.IsSolutionUsable()) {
-                start = pre.x;
+    const auto ps_work = prepare(map, work, o, co);
+    {
+        const auto since = std::chrono::steady_clock::now();
+        int its = 0;
+        for (std::size_t c = 0; c < candidates.size() && c < 3; ++c) {
+            SolveOutcome s = o.check_gradients
+                                 ? solve_checked(map, work, o, co, candidates[c].x)
+                                 : solve(ps_work, o, candidates[c].x, o.max_iterations);
+            its += iterations_of(s.summary);
+            const bool converged = s.summary.termination_type == ceres::CONVERGENCE;
+            if (!have || (converged && best.summary.termination_type != ceres::CONVERGENCE) ||
+                (converged && s.summary.final_cost < best.summary.final_cost)) {
+                best = s;
+                have = true;
+            }
+            if (converged) {
+                break;
             }
         }
-        SolveOutcome s = solve(map, used, o, co, start);
-        const bool converged = s.summary.termination_type == ceres::CONVERGENCE;
-        if (!have || (converged && best.summary.termination_type != ceres::CONVERGENCE) ||
-            (converged && s.summary.final_cost < best.summary.final_cost)) {
-            best = s;
-            have = true;
+        add_stage(coarse.empty() ? "solve" : "reduced", work.size(), best.summary, since);
+        result.solver.stages.back().iterations = its;
+        result.solver.iterations += its - iterations_of(best.summary);
+    }
+    bool converged = best.summary.termination_type == ceres::CONVERGENCE;
+    result.solver.initial_cost = best.summary.initial_cost;
+    std::string termination = termination_name(best.summary.termination_type);
+    std::string message = best.summary.message;
+
+    // Polish on all samples (bounded), then relative-noise reweighting at the model.
+    std::shared_ptr<PreparedSamples> ps_used = coarse.empty() ? ps_work : nullptr;
+    auto polish = [&](const std::string& name, int max_iterations) {
+        const auto since = std::chrono::steady_clock::now();
+        if (!ps_used) {
+            ps_used = prepare(map, used, o, co);
         }
-        if (converged) {
-            break;
+        // Relative cost changes below 1e-9 no longer move the parameters by a visible amount.
+        SolveOutcome s = solve(ps_used, o, best.x, max_iterations, 1e-9, true);
+        add_stage(name, used.size(), s.summary, since);
+        // A polish that stops at its iteration bound still improves on a converged start.
+        if (s.summary.IsSolutionUsable() && all_finite(s.x)) {
+            best.x = s.x;
+            best.summary.final_cost = s.summary.final_cost;
+        }
+    };
+    if (converged && !coarse.empty() && o.polish_iterations > 0) {
+        polish("polish", o.polish_iterations);
+    }
+    if (converged && co.use_sigma) {
+        for (int round = 1; round <= o.reweight_rounds; ++round) {
+            if (!ps_used) {
+                ps_used = prepare(map, used, o, co);
+            }
+            std::vector<Rgbd> values;
+            ps_used->model_values(map->model<double>(best.x.data()), values, threads);
+            ps_used->reweight_relative(used, values);
+            polish("reweight " + std::to_string(round),
+                   coarse.empty() ? o.max_iterations : std::max(1, o.polish_iterations));
         }
     }
     result.solver.solve_time_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_solve).count();
-    const ceres::Solver::Summary& sum = best.summary;
-    result.solver.iterations = static_cast<int>(sum.iterations.size()) - 1;
-    result.solver.termination = termination_name(sum.termination_type);
-    result.solver.message = sum.message;
-    result.solver.initial_cost = sum.initial_cost;
-    result.solver.final_cost = sum.final_cost;
-    bool finite = true;
-    for (double v : best.x) {
-        finite = finite && std::isfinite(v);
-    }
-    result.solver.usable = sum.termination_type == ceres::CONVERGENCE && finite;
+    result.solver.termination = termination;
+    result.solver.message = message;
+    result.solver.final_cost = best.summary.final_cost;
+    const bool finite = all_finite(best.x);
+    result.solver.converged = converged && finite;
     if (!finite) {
         result.solver.message += " (non-finite parameter values)";
     }
@@ -905,9 +1090,11 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
         result.parameters.push_back(p);
     }
     // Parameters on a bound, and lobes the fit has dropped: the report names both.
+    std::vector<bool> at_bound(map->size(), false);
     for (FittedParameter& p : result.parameters) {
-        for (const ScalarParam& s : map->scalars()) {
-            if (!s.free || s.name != p.name) {
+        for (int k = 0; k < map->size(); ++k) {
+            const ScalarParam& s = map->scalars()[map->free()[k]];
+            if (s.name != p.name) {
                 continue;
             }
             const double tol = 1e-9 * std::max(s.upper - s.lower, 1e-300);
@@ -917,6 +1104,7 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
                 p.at_bound = "upper";
             }
             if (!p.at_bound.empty()) {
+                at_bound[k] = true;
                 char buf[64];
                 std::snprintf(buf, sizeof buf, "%.6g", p.at_bound == "lower" ? s.lower : s.upper);
                 result.at_bounds.push_back(p.name + " (" + p.at_bound + " bound " + buf + ")");
@@ -924,28 +1112,131 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
         }
     }
     if (!result.model.lobes.empty()) {
-        const std::vector<double> share = lobe_shares(result.model, coarse.empty() ? used : coarse);
+        const std::vector<double> share = lobe_shares(result.model, work);
         for (std::size_t l = 0; l < share.size(); ++l) {
             if (!(share[l] >= kVanishedShare)) {
                 result.vanished_lobes.push_back("lobes[" + std::to_string(l) + "]");
             }
         }
     }
-    if (result.solver.usable && o.covariance) {
-        uncertainties(map,
-                      used,
+    std::optional<double> chi2;
+    if (result.solver.converged && o.covariance) {
+        if (!ps_used) {
+            ps_used = prepare(map, used, o, co);
+        }
+        uncertainties(*ps_used,
                       o,
-                      co,
                       best.x,
-                      sum.final_cost,
                       co.use_sigma,
+                      at_bound,
                       result.parameters,
-                      result.not_identifiable);
+                      result.not_identifiable,
+                      &chi2);
+        result.covariance_method =
+            co.use_sigma ? "inverse J^T J of the residuals normalised by relative sigmas "
+                           "reweighted at the model (IRLS), scaled by max(1, reduced chi-square)"
+                         : "sandwich H^-1 M H^-1 (heteroscedasticity-consistent, HC0; no sigma "
+                           "columns)";
     }
     result.metrics = evaluate_metrics(result.model, valid, o.relative_floor);
+    result.goodness = judge(result.metrics, chi2, valid.size());
+    result.solver.usable = result.solver.converged && result.goodness.represents;
     result.solver.wall_time_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return result;
+}
+
+std::vector<std::pair<std::string, FitSpec>> auto_candidates(const FitOptions& options) {
+    std::vector<std::pair<std::string, FitSpec>> out;
+    const std::pair<const char*, brdf::Distribution> families[] = {
+        {"ggx", brdf::Distribution::kGgx},
+        {"beckmann", brdf::Distribution::kBeckmann},
+        {"blinn-phong", brdf::Distribution::kBlinnPhong},
+    };
+    for (int lobes : {1, 2}) {
+        for (const auto& [name, dist] : families) {
+            if (lobes == 2 && dist != brdf::Distribution::kGgx) {
+                continue;
+            }
+            ModelOptions mo;
+            mo.distribution = dist;
+            mo.lobes = lobes;
+            Expected<FitSpec> spec = make_fit_spec(mo);
+            if (!spec) {
+                continue;
+            }
+            spec->options = options;
+            out.emplace_back(std::string(name) + (lobes == 2 ? " x2" : ""), *spec);
+        }
+    }
+    return out;
+}
+
+Expected<AutoFitResult> fit_auto(const brdf::Dataset& data,
+                                 const std::vector<std::pair<std::string, FitSpec>>& candidates) {
+    AutoFitResult out;
+    out.criterion =
+        "BIC = n log(RSS/n) + p log(n) of the log residuals on the stratified reduction "
+        "(n = 3 x samples, p = free parameters); lower is better";
+    std::vector<std::pair<double, std::size_t>> order;
+    std::string first_error;
+    for (std::size_t i = 0; i < candidates.size(); ++i) {
+        FitSpec spec = candidates[i].second;
+        // Ranking on the reduction alone: no polish, no covariance.
+        spec.options.polish_iterations = 0;
+        spec.options.reweight_rounds = 0;
+        spec.options.covariance = false;
+        spec.options.residual = ResidualForm::kLog;
+        Expected<FitResult> r = fit(data, spec);
+        if (!r) {
+            if (first_error.empty()) {
+                first_error = candidates[i].first + ": " + r.error().message;
+            }
+            continue;
+        }
+        RankedModel rm;
+        rm.name = candidates[i].first;
+        rm.converged = r->solver.converged;
+        int p = 0;
+        for (const FittedParameter& fp : r->parameters) {
+            p += fp.free ? 1 : 0;
+        }
+        rm.parameters = p;
+        rm.log_rmse = r->metrics.log_rmse.mean();
+        // RSS on the samples of the reduced solve: final_cost = RSS / 2 with the reduction's
+        // weights (which sum to the number of samples it stands for): normalise to its size.
+        std::size_t n_red =
+            r->solver.stages.empty() ? r->samples.used : r->solver.stages.back().samples;
+        const double n = 3.0 * static_cast<double>(n_red);
+        const double total_weight = static_cast<double>(r->samples.used);
+        const double rss = 2 * r->solver.final_cost * static_cast<double>(n_red) / total_weight;
+        rm.criterion = rss > 0 ? n * std::log(rss / n) + p * std::log(n)
+                               : -std::numeric_limits<double>::infinity();
+        out.ranking.push_back(rm);
+        if (rm.converged) {
+            order.emplace_back(rm.criterion, i);
+        }
+    }
+    std::sort(
+        out.ranking.begin(), out.ranking.end(), [](const RankedModel& a, const RankedModel& b) {
+            if (a.converged != b.converged) {
+                return a.converged;
+            }
+            return a.criterion < b.criterion;
+        });
+    if (order.empty()) {
+        return make_error("--model auto: no candidate converged" +
+                          (first_error.empty() ? std::string() : " (" + first_error + ")"));
+    }
+    std::sort(order.begin(), order.end());
+    const std::size_t win = order.front().second;
+    out.chosen = candidates[win].first;
+    Expected<FitResult> best = fit(data, candidates[win].second);
+    if (!best) {
+        return make_error(out.chosen + ": " + best.error().message);
+    }
+    out.best = *best;
+    return out;
 }
 
 }  // namespace gonio::fitting

@@ -86,19 +86,47 @@ std::string fit_report_json(const FitResult& r) {
     j["not_identifiable"] = r.not_identifiable;
     j["at_bounds"] = r.at_bounds;
     j["vanished_lobes"] = r.vanished_lobes;
+    json bands = json::array();
+    for (const BandResidual& b : r.metrics.bands) {
+        bands.push_back({{"theta_h_deg", json::array({b.theta_h_lo_deg, b.theta_h_hi_deg})},
+                         {"count", b.count},
+                         {"mean_log", rgb_json(b.mean_log)},
+                         {"log_rmse", rgb_json(b.log_rmse)}});
+    }
     j["metrics"] = {{"rmse", rgb_json(r.metrics.rmse)},
                     {"rel_rmse", rgb_json(r.metrics.rel_rmse)},
-                    {"log_rmse", rgb_json(r.metrics.log_rmse)}};
+                    {"log_rmse", rgb_json(r.metrics.log_rmse)},
+                    {"bands", bands}};
+    j["goodness"] = {{"represents", r.goodness.represents},
+                     {"reduced_chi_square",
+                      r.goodness.reduced_chi_square ? number_or_null(*r.goodness.reduced_chi_square)
+                                                    : json(nullptr)},
+                     {"warnings", r.goodness.warnings},
+                     {"suggestion", r.goodness.suggestion}};
+    j["covariance"] = r.covariance_method;
     j["samples"] = {{"input", r.samples.input},
                     {"valid", r.samples.valid},
                     {"used", r.samples.used},
                     {"rejected", r.samples.rejected},
+                    {"reference", r.samples.reference},
+                    {"saturated", r.samples.saturated},
                     {"rejected_lines", r.samples.rejected_lines}};
     j["residual"] = to_string(r.residual);
     j["loss"] = to_string(r.loss);
+    json stages = json::array();
+    for (const StageInfo& st : r.solver.stages) {
+        stages.push_back({{"name", st.name},
+                          {"samples", st.samples},
+                          {"iterations", st.iterations},
+                          {"termination", st.termination},
+                          {"time_s", st.time_s},
+                          {"final_cost", number_or_null(st.final_cost)}});
+    }
     j["solver"] = {{"iterations", r.solver.iterations},
+                   {"stages", stages},
                    {"termination", r.solver.termination},
                    {"message", r.solver.message},
+                   {"converged", r.solver.converged},
                    {"usable", r.solver.usable},
                    {"wall_time_s", r.solver.wall_time_s},
                    {"solve_time_s", r.solver.solve_time_s},
@@ -119,6 +147,12 @@ Expected<void> write_fit_report(const std::string& model_path, const FitResult& 
         return w;
     }
     if (!result.usable()) {
+        if (result.solver.converged) {
+            return make_error("the model does not represent the data (" +
+                              (result.goodness.warnings.empty() ? std::string("see the report")
+                                                                : result.goodness.warnings[0]) +
+                              "); " + model_path + " not written, see " + report_path);
+        }
         return make_error("fit did not converge (" + result.solver.termination + ": " +
                           result.solver.message + "); " + model_path + " not written, see " +
                           report_path);
@@ -192,7 +226,37 @@ Expected<FitResult> read_fit_report(const std::string& path) {
             }
             *dst = *v;
         }
+        if (m.contains("bands") && m["bands"].is_array()) {
+            for (const json& b : m["bands"]) {
+                BandResidual br;
+                br.theta_h_lo_deg = b.at("theta_h_deg").at(0).get<double>();
+                br.theta_h_hi_deg = b.at("theta_h_deg").at(1).get<double>();
+                br.count = b.at("count").get<std::size_t>();
+                Expected<brdf::Rgbd> mean = read_rgb(b.at("mean_log"), path + ": bands.mean_log");
+                Expected<brdf::Rgbd> rm = read_rgb(b.at("log_rmse"), path + ": bands.log_rmse");
+                if (!mean || !rm) {
+                    return make_error(!mean ? mean.error().message : rm.error().message);
+                }
+                br.mean_log = *mean;
+                br.log_rmse = *rm;
+                r.metrics.bands.push_back(br);
+            }
+        }
+        if (j.contains("goodness") && j["goodness"].is_object()) {
+            const json& g = j["goodness"];
+            r.goodness.represents = g.value("represents", true);
+            if (g.contains("reduced_chi_square") && g["reduced_chi_square"].is_number()) {
+                r.goodness.reduced_chi_square = g["reduced_chi_square"].get<double>();
+            }
+            if (g.contains("warnings")) {
+                r.goodness.warnings = g["warnings"].get<std::vector<std::string>>();
+            }
+            r.goodness.suggestion = g.value("suggestion", std::string());
+        }
+        r.covariance_method = j.value("covariance", std::string());
         const json& s = j.at("samples");
+        r.samples.reference = s.value("reference", std::size_t{0});
+        r.samples.saturated = s.value("saturated", std::size_t{0});
         r.samples.input = s.at("input").get<std::size_t>();
         r.samples.valid = s.at("valid").get<std::size_t>();
         r.samples.used = s.at("used").get<std::size_t>();
@@ -210,6 +274,21 @@ Expected<FitResult> read_fit_report(const std::string& path) {
         r.solver.termination = sv.at("termination").get<std::string>();
         r.solver.message = sv.at("message").get<std::string>();
         r.solver.usable = sv.at("usable").get<bool>();
+        r.solver.converged = sv.value("converged", r.solver.usable);
+        if (sv.contains("stages") && sv["stages"].is_array()) {
+            for (const json& st : sv["stages"]) {
+                StageInfo si;
+                si.name = st.at("name").get<std::string>();
+                si.samples = st.at("samples").get<std::size_t>();
+                si.iterations = st.at("iterations").get<int>();
+                si.termination = st.at("termination").get<std::string>();
+                si.time_s = st.at("time_s").get<double>();
+                if (st.contains("final_cost") && st["final_cost"].is_number()) {
+                    si.final_cost = st["final_cost"].get<double>();
+                }
+                r.solver.stages.push_back(si);
+            }
+        }
         r.solver.wall_time_s = sv.at("wall_time_s").get<double>();
         if (sv.contains("initial_cost") && sv["initial_cost"].is_number()) {
             r.solver.initial_cost = sv["initial_cost"].get<double>();
@@ -228,10 +307,11 @@ Expected<FitResult> read_fit_report(const std::string& path) {
 
 std::string format_summary(const FitResult& r) {
     std::ostringstream o;
-    char buf[256];
+    char buf[512];
     o << "data: " << r.data << "\n";
     o << "samples: " << r.samples.input << " input, " << r.samples.valid << " valid, "
-      << r.samples.used << " used, " << r.samples.rejected << " rejected";
+      << r.samples.used << " used, " << r.samples.reference << " reference, " << r.samples.saturated
+      << " saturated, " << r.samples.rejected << " rejected";
     if (!r.samples.rejected_lines.empty()) {
         o << " (lines";
         for (std::size_t i = 0; i < r.samples.rejected_lines.size() && i < 10; ++i) {
@@ -250,12 +330,71 @@ std::string format_summary(const FitResult& r) {
                   to_string(r.residual),
                   to_string(r.loss));
     o << buf;
-    if (!r.usable()) {
+    for (const StageInfo& st : r.solver.stages) {
+        std::snprintf(buf,
+                      sizeof buf,
+                      "  stage %-11s %9zu samples %4d iterations  %-15s %.3f s\n",
+                      st.name.c_str(),
+                      st.samples,
+                      st.iterations,
+                      st.termination.c_str(),
+                      st.time_s);
+        o << buf;
+    }
+    if (!r.solver.converged) {
         o << "FIT DID NOT CONVERGE: " << r.solver.message << "\n"
           << "its parameters are not a result and are not shown\n";
         return o.str();
     }
-    o << "parameters:\n";
+    // Goodness of fit first: whether the parameters below mean anything.
+    auto rgb = [&](const char* name, const brdf::Rgbd& v) {
+        std::snprintf(buf, sizeof buf, "  %-9s %.6g %.6g %.6g\n", name, v[0], v[1], v[2]);
+        o << buf;
+    };
+    o << "goodness of fit on all " << r.samples.valid << " valid samples (r g b):\n";
+    rgb("log_rmse", r.metrics.log_rmse);
+    rgb("rel_rmse", r.metrics.rel_rmse);
+    rgb("rmse", r.metrics.rmse);
+    if (r.goodness.reduced_chi_square) {
+        std::snprintf(
+            buf, sizeof buf, "  reduced chi-square %.4g\n", *r.goodness.reduced_chi_square);
+        o << buf;
+    }
+    if (!r.metrics.bands.empty()) {
+        o << "  log residual by theta_h band (mean, rmse; r g b):\n";
+        for (const BandResidual& b : r.metrics.bands) {
+            std::snprintf(buf,
+                          sizeof buf,
+                          "    [%4g, %4g) deg %9zu  %+.3f %+.3f %+.3f   %.3f %.3f %.3f\n",
+                          b.theta_h_lo_deg,
+                          b.theta_h_hi_deg,
+                          b.count,
+                          b.mean_log[0],
+                          b.mean_log[1],
+                          b.mean_log[2],
+                          b.log_rmse[0],
+                          b.log_rmse[1],
+                          b.log_rmse[2]);
+            o << buf;
+        }
+    }
+    for (const std::string& w : r.goodness.warnings) {
+        o << "warning: " << w << "\n";
+    }
+    if (!r.goodness.represents) {
+        o << "NOT USABLE: the model cannot represent these data";
+        if (!r.goodness.suggestion.empty()) {
+            o << "; " << r.goodness.suggestion;
+        }
+        o << "\n";
+    } else if (!r.goodness.suggestion.empty()) {
+        o << "suggestion: " << r.goodness.suggestion << "\n";
+    }
+    o << "parameters";
+    if (!r.covariance_method.empty()) {
+        o << " (sigma: " << r.covariance_method << ")";
+    }
+    o << ":\n";
     for (const FittedParameter& p : r.parameters) {
         std::snprintf(buf, sizeof buf, "  %-26s %14.8g", p.name.c_str(), p.value);
         o << buf;
@@ -286,14 +425,6 @@ std::string format_summary(const FitResult& r) {
           << " vanished (below 1e-3 of the fitted reflectance): the fit describes these data "
              "without it\n";
     }
-    auto rgb = [&](const char* name, const brdf::Rgbd& v) {
-        std::snprintf(buf, sizeof buf, "  %-9s %.6g %.6g %.6g\n", name, v[0], v[1], v[2]);
-        o << buf;
-    };
-    o << "metrics on all " << r.samples.valid << " valid samples (r g b):\n";
-    rgb("rmse", r.metrics.rmse);
-    rgb("rel_rmse", r.metrics.rel_rmse);
-    rgb("log_rmse", r.metrics.log_rmse);
     return o.str();
 }
 

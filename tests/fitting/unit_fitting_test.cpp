@@ -225,7 +225,7 @@ TEST(Reduction, KeepsTheBudgetAndPreservesEachStratumsWeight) {
     EXPECT_EQ(stratified_reduce(all, 50000, 1).size(), all.size());
 }
 
-TEST(Spec, DefaultsAreGgxLambertSchlickRgbWithScaleFixed) {
+TEST(Spec, DefaultsAreGgxLambertScalarSchlickWithRgbScale) {
     FitSpec spec = *make_fit_spec(ModelOptions{});
     EXPECT_EQ(spec.options.residual, ResidualForm::kLog);
     ASSERT_EQ(spec.model.lobes.size(), 1u);
@@ -236,15 +236,13 @@ TEST(Spec, DefaultsAreGgxLambertSchlickRgbWithScaleFixed) {
                                              "diffuse[1]",
                                              "diffuse[2]",
                                              "lobes[0].alpha_x",
-                                             "lobes[0].fresnel.f0[0]",
-                                             "lobes[0].fresnel.f0[1]",
-                                             "lobes[0].fresnel.f0[2]",
+                                             "lobes[0].fresnel.f0",
                                              "lobes[0].scale[0]",
                                              "lobes[0].scale[1]",
                                              "lobes[0].scale[2]"};
     EXPECT_EQ(names, expect);
     const ParameterMap map = *ParameterMap::make(spec);
-    EXPECT_EQ(map.size(), 7);  // the scale is fixed: the colour is in f0
+    EXPECT_EQ(map.size(), 8);  // the colour is in the scale, f0 is one number
 }
 
 TEST(Spec, TemplateSetsFreeFixedSharedAndBounds) {

@@ -35,22 +35,20 @@ gonio::brdf::ModelD ggx_truth() {
     l.distribution = gonio::brdf::Distribution::kGgx;
     l.alpha_x = l.alpha_y = 0.15;
     l.fresnel.type = gonio::brdf::FresnelType::kSchlick;
-    l.fresnel.f0 = Rgbd(0.05, 0.06, 0.07);
-    l.scale = Rgbd::Ones();
+    l.fresnel.f0 = Rgbd::Constant(0.05);
+    l.scale = Rgbd(1.0, 0.9, 0.8);
     m.lobes.push_back(l);
     return m;
 }
 
-/// Writes the synthetic dataset with two broken rows appended (NaN value, theta_o below the
-/// horizon).
-std::string write_data() {
-    const std::string path = dir() + "/ggx.csv";
+/// Writes the synthetic dataset of the default model's structure, with `extra` appended.
+std::string write_data(const std::string& name = "ggx.csv", const std::string& extra = "") {
+    const std::string path = dir() + "/" + name;
     gonio::brdf::Dataset d = gonio::fitting::testing::synthesize(
         ggx_truth(), gonio::fitting::testing::measurement_grid());
     EXPECT_TRUE(gonio::brdf::write_dataset_csv(path, d));
     std::ofstream out(path, std::ios::app);
-    out << "0.3,0,0.4,3.1,nan,0.1,0.1\n";
-    out << "0.3,0,1.7,3.1,0.1,0.1,0.1\n";
+    out << extra;
     return path;
 }
 
@@ -85,11 +83,15 @@ TEST(GonioFit, FitsACsvAndWritesModelAndReport) {
                             "data"}) {
         EXPECT_TRUE(j.contains(key)) << key;
     }
-    EXPECT_EQ(j["samples"]["rejected"].get<int>(), 2);
+    EXPECT_EQ(j["samples"]["rejected"].get<int>(), 0);
     const std::size_t n = gonio::fitting::testing::measurement_grid().size();
     EXPECT_EQ(j["samples"]["valid"].get<std::size_t>(), n);
-    EXPECT_EQ(j["samples"]["rejected_lines"].size(), 2u);
-    EXPECT_EQ(j["samples"]["rejected_lines"][0].get<std::size_t>(), n + 2);
+    // Goodness of fit and the stages are in the report.
+    EXPECT_TRUE(j["goodness"]["represents"].get<bool>());
+    EXPECT_LT(j["metrics"]["log_rmse"][0].get<double>(), 1e-6);
+    EXPECT_FALSE(j["metrics"]["bands"].empty());
+    EXPECT_FALSE(j["solver"]["stages"].empty());
+    EXPECT_NE(j["covariance"].get<std::string>().find("sandwich"), std::string::npos);
     EXPECT_EQ(j["residual"], "log");
     EXPECT_TRUE(j["solver"]["usable"].get<bool>());
     EXPECT_EQ(j["model"], nlohmann::json::parse(gonio::brdf::model_to_json(*model)));
@@ -126,6 +128,43 @@ TEST(GonioFit, BadInputsAreClearErrors) {
     CliRun bad_model = run_gonio("fit " + data + " --model phong");
     EXPECT_NE(bad_model.status, 0);
     EXPECT_NE(bad_model.out.find("phong"), std::string::npos) << bad_model.out;
+}
+
+TEST(GonioFit, MalformedCsvRowsAreErrorsNamingFileLineAndColumn) {
+    const std::size_t n = gonio::fitting::testing::measurement_grid().size();
+    const std::string line = std::to_string(n + 2);  // header on line 1
+    struct Case {
+        std::string row, expect;
+    };
+    const Case cases[] = {
+        {"0.3,0,0.4,3.1,nan,0.1,0.1\n", "bad1.csv:" + line + ":5: r = nan is not finite"},
+        {"0.3,0,1.7,3.1,0.1,0.1,0.1\n", "bad2.csv:" + line + ":3: theta_o = 1.7"},
+        {"0.3,0,0.4,3.1,1e308,0.1,0.1\n", "bad3.csv:" + line + ":5: r = 1e+308 outside [0, 1e9]"},
+        {"0.3,0,0.4,3.1,0.1,0.1\n", "bad4.csv:" + line + ": 6 fields, the header has 7"},
+        {"0.3,0,0.4,3.1,0.1,x,0.1\n", "bad5.csv:" + line + ":6: g = \"x\" is not a number"},
+    };
+    int k = 1;
+    for (const Case& c : cases) {
+        const std::string name = "bad" + std::to_string(k++) + ".csv";
+        const std::string out = dir() + "/" + name + ".json";
+        CliRun r = run_gonio("fit " + write_data(name, c.row) + " --out " + out);
+        EXPECT_EQ(r.status, 1) << r.out;
+        EXPECT_NE(r.out.find(c.expect), std::string::npos) << c.expect << "\n" << r.out;
+        EXPECT_EQ(r.out.find("rmse"), std::string::npos) << r.out;
+        EXPECT_FALSE(std::ifstream(out).good());
+    }
+}
+
+TEST(GonioFit, ModelAutoRanksCandidatesAndPolishesTheWinner) {
+    const std::string data = write_data();
+    CliRun r = run_gonio("fit --model auto " + data);
+    ASSERT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("BIC"), std::string::npos) << r.out;
+    for (const char* m : {"ggx", "beckmann", "blinn-phong", "ggx x2"}) {
+        EXPECT_NE(r.out.find(m), std::string::npos) << m << "\n" << r.out;
+    }
+    // The generating family wins: the two-lobe GGX fits as well but pays for its parameters.
+    EXPECT_NE(r.out.find("chosen: ggx\n"), std::string::npos) << r.out;
 }
 
 TEST(GonioFit, ReductionAndTemplateOptionsWork) {

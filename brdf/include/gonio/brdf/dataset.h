@@ -61,9 +61,19 @@ struct Dataset {
 /// [-2 pi, 2 pi]. Returns an empty string when valid, else the reason naming the field.
 std::string validate_sample(const Sample& s);
 
-/// Reads a dataset CSV. Structural problems (missing file, missing or unknown column, wrong column
-/// count) are errors naming file and line; rows that parse but break validate_sample() (or do not
-/// parse as numbers) are collected in Dataset::rejected with their line numbers.
+/// Limits of the values a dataset CSV may hold (1/sr for values and sigmas): far above any
+/// measurable reflectance (a mirror seen through a 1e-6 sr aperture reads 1e6 1/sr), low enough
+/// that squares and sums of a million of them stay finite.
+inline constexpr double kMaxSampleValue = 1e9;
+inline constexpr double kMaxSampleWeight = 1e9;
+
+/// Reads a dataset CSV (implemented in samples_io.cpp). Strict: every problem is an error and
+/// nothing is skipped silently. A missing file, a missing, unknown or repeated column, a row with
+/// the wrong number of fields ("data.csv:17: 6 fields, the header has 7") and a field that is not
+/// a number, not finite or outside its range ("data.csv:17:3: theta_o = 1.7 outside [0, pi/2)
+/// (at or below the horizon)") are errors naming file:line[:column]. Ranges: theta in [0, pi/2),
+/// phi in [-2 pi, 2 pi], r, g, b and sigmas in [0, kMaxSampleValue], weight in
+/// [0, kMaxSampleWeight], flag an unsigned 32-bit integer. Dataset::rejected stays empty.
 Expected<Dataset> read_dataset_csv(const std::string& path);
 
 /// Writes a dataset CSV with full double precision (%.17g); sigma/weight/flag columns when the

@@ -12,10 +12,10 @@
 
 namespace gonio::brdf {
 
-/// Loads samples by extension: *.csv through read_dataset_csv() (rejected rows listed in
-/// Dataset::rejected); a table through read_table_file() and table_to_dataset() (one sample per
-/// valid bin above the horizon, at the bin centre, in 1/sr). Other extensions are an error naming
-/// the path.
+/// Loads samples by extension: *.csv through read_dataset_csv() (strict: any bad row is an error;
+/// file:line:column and the range); a table through read_table_file() and table_to_dataset() (one
+/// sample per valid bin above the horizon, at the bin centre, in 1/sr). Other extensions are an
+/// error naming the path.
 Expected<Dataset> load_samples(const std::string& path);
 
 /// Tabulates any BRDF (model or table) at the bin centres of the MERL grid and writes it to path

@@ -136,9 +136,10 @@ struct CostOptions {
 };
 
 /// Cost function of a batch of samples: 3 residuals per sample, one parameter block (the free
-/// scalars of `map`). Derivatives by forward-mode automatic differentiation (ceres::Jet) through
-/// brdf::eval_model. Returns false (Ceres then rejects the step) on a non-finite residual or
-/// derivative.
+/// scalars of `map`). Derivatives by forward-mode automatic differentiation (ceres::Jet) of the
+/// parameter-dependent part only, the geometry being precomputed (prepared_samples.h). The samples
+/// must lie above the horizon (fit() validates them). Returns false (Ceres then rejects the step)
+/// on a non-finite residual or derivative.
 std::unique_ptr<ceres::CostFunction> make_batch_cost(std::shared_ptr<const ParameterMap> map,
                                                      const std::vector<brdf::Sample>& samples,
                                                      const CostOptions& options);

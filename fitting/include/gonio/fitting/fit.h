@@ -28,32 +28,72 @@ struct FittedParameter {
     std::string at_bound;
 };
 
+/// Log residuals log(1 + m cos_i) - log(1 + d cos_i) of the samples whose half-vector angle lies in
+/// [theta_h_lo_deg, theta_h_hi_deg): their mean (a systematic offset shows there) and RMSE.
+struct BandResidual {
+    double theta_h_lo_deg = 0;
+    double theta_h_hi_deg = 0;
+    std::size_t count = 0;
+    brdf::Rgbd mean_log = brdf::Rgbd::Zero();
+    brdf::Rgbd log_rmse = brdf::Rgbd::Zero();
+};
+
 /// Error of a model against data, per channel, over a set of samples.
 struct Metrics {
     brdf::Rgbd rmse = brdf::Rgbd::Zero();      ///< sqrt(mean((m - d)^2)), 1/sr.
     brdf::Rgbd rel_rmse = brdf::Rgbd::Zero();  ///< sqrt(mean(((m - d) / (d + relative_floor))^2)).
     brdf::Rgbd log_rmse = brdf::Rgbd::Zero();  ///< sqrt(mean((log(1+m cos_i) - log(1+d cos_i))^2)).
+    /// Log residuals by theta_h band (edges 0, 2, 5, 10, 20, 40, 90 degrees); empty bands omitted.
+    std::vector<BandResidual> bands;
+};
+
+/// Whether the model represents the data (docs/fitting-guide.md, "Goodness of fit").
+struct GoodnessOfFit {
+    /// Sum of squared normalised residuals / (3 N - p) when the data carry sigmas, else empty.
+    std::optional<double> reduced_chi_square;
+    /// False when the misfit is far beyond measurement noise: a channel's log RMSE above 0.3,
+    /// a theta_h band's mean log residual beyond +-0.3, or a reduced chi-square above 10. The fit
+    /// is then not usable.
+    bool represents = true;
+    std::vector<std::string> warnings;  ///< Each names the figure and the threshold.
+    std::string suggestion;             ///< What to try instead (empty when the fit is good).
+};
+
+/// One solve of the fit (screening, reduction, polish, reweighting).
+struct StageInfo {
+    std::string name;  ///< "screen", "reduced", "polish", "reweight 1", ...
+    std::size_t samples = 0;
+    int iterations = 0;
+    std::string termination;
+    double time_s = 0;
+    double final_cost = 0;
 };
 
 struct SampleCounts {
-    std::size_t input = 0;     ///< Rows read (valid + rejected).
-    std::size_t valid = 0;     ///< Rows that passed validation.
-    std::size_t used = 0;      ///< Samples in the solve (after reduction).
-    std::size_t rejected = 0;  ///< Rows rejected while reading or by validation here.
+    std::size_t input = 0;      ///< Rows read (valid + rejected).
+    std::size_t valid = 0;      ///< Rows that passed validation.
+    std::size_t used = 0;       ///< Samples in the solve (after reduction).
+    std::size_t rejected = 0;   ///< Rows rejected while reading or by validation here.
+    std::size_t reference = 0;  ///< Drift-reference re-measurements (flag bit 2): not BRDF samples.
+    std::size_t saturated = 0;  ///< Saturated samples (flag bit 0): lower bounds, left out.
     std::vector<std::size_t> rejected_lines;  ///< First 100 rejected line numbers.
 };
 
 /// Mirrors ceres::Solver::Summary.
 struct SolverInfo {
-    int iterations = 0;
+    int iterations = 0;       ///< Sum over every stage.
     std::string termination;  ///< "CONVERGENCE", "NO_CONVERGENCE", "FAILURE", "USER_SUCCESS", ...
     std::string message;
-    bool usable = false;      ///< True only for CONVERGENCE: the parameters are a result.
+    bool converged = false;  ///< The solves converged (the polish may stop at its bound).
+    /// Converged, finite and the model represents the data (GoodnessOfFit::represents): only then
+    /// are the parameters a result.
+    bool usable = false;
     double wall_time_s = 0;   ///< The whole fit: validation, reduction, start, solve, metrics.
     double solve_time_s = 0;  ///< The Ceres solves alone (coarse and full).
     double initial_cost = 0;
     double final_cost = 0;
     int starts = 0;  ///< Multi-start candidates scored.
+    std::vector<StageInfo> stages;
 };
 
 struct FitResult {
@@ -66,6 +106,10 @@ struct FitResult {
     /// the fit has in effect dropped them ("lobes[0]").
     std::vector<std::string> vanished_lobes;
     Metrics metrics;  ///< On all valid samples, even when the solve used a reduction.
+    GoodnessOfFit goodness;
+    /// How the sigmas were obtained: "sandwich (HC0)" without sigma columns, "inverse J^T J,
+    /// relative sigmas reweighted at the model (IRLS), scaled by max(1, reduced chi-square)" with.
+    std::string covariance_method;
     SampleCounts samples;
     ResidualForm residual = ResidualForm::kLog;
     LossKind loss = LossKind::kNone;
@@ -77,10 +121,41 @@ struct FitResult {
     bool usable() const { return solver.usable; }
 };
 
-/// Runs the fit. Errors (returned): no valid sample, an inconsistent spec (a parameter of a lobe
-/// that does not exist, bounds lo > hi, a start value outside its bounds). A solve that ran but did
-/// not converge is returned as a FitResult with solver.usable == false.
+/// Runs the fit. Coarse to fine: the candidates and the main solve work on a stratified
+/// reduction of FitOptions::coarse_samples; the result is then polished on all samples for at
+/// most FitOptions::polish_iterations iterations. Errors (returned): no valid sample, an
+/// inconsistent spec (a parameter of a lobe that does not exist, bounds lo > hi, a start value
+/// outside its bounds). A solve that ran but did not converge is returned as a FitResult with
+/// solver.usable == false.
 Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec);
+
+/// One candidate of an automatic model choice and its standing.
+struct RankedModel {
+    std::string name;
+    int parameters = 0;    ///< Free scalars.
+    double log_rmse = 0;   ///< Channel mean, on the reduction.
+    double criterion = 0;  ///< BIC on the reduction (lower is better).
+    bool converged = false;
+};
+
+struct AutoFitResult {
+    FitResult best;                    ///< The winner, polished on all samples.
+    std::string chosen;                ///< Its name.
+    std::vector<RankedModel> ranking;  ///< Best first.
+    std::string criterion;             ///< How the ranking was made.
+};
+
+/// Fits each candidate on the stratified reduction (FitOptions::coarse_samples, no polish),
+/// ranks them by the Bayesian information criterion of the log residuals,
+///   BIC = n_r log(RSS / n_r) + p log(n_r),  n_r = 3 x samples of the reduction,
+/// (Schwarz 1978, Gaussian likelihood with the variance profiled out), and fits the winner again
+/// with the polish on all samples. Error when no candidate converges.
+Expected<AutoFitResult> fit_auto(const brdf::Dataset& data,
+                                 const std::vector<std::pair<std::string, FitSpec>>& candidates);
+
+/// The candidate families of `gonio fit --model auto`: GGX, Beckmann and Blinn-Phong with Lambert
+/// and a scalar Schlick Fresnel with an RGB scale, one lobe, and GGX with two lobes.
+std::vector<std::pair<std::string, FitSpec>> auto_candidates(const FitOptions& options);
 
 /// Metrics of `model` against the valid samples of `data`.
 Metrics evaluate_metrics(const brdf::ModelD& model,

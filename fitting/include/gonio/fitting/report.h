@@ -5,9 +5,14 @@
 //   {"model": {...}, "parameters": [{"name", "value", "sigma" (or null), "free", "identifiable",
 //    "at_bound" ("lower", "upper" or null)}], "not_identifiable": [...], "at_bounds": [...],
 //    "vanished_lobes": ["lobes[0]", ...], "metrics": {"rmse": [r,g,b], "rel_rmse": [...],
-//    "log_rmse": [...]}, "samples": {"input", "valid", "used", "rejected", "rejected_lines": [first
-//    100]}, "residual": "log", "loss": "none", "solver": {"iterations", "termination", "message",
-//    "usable", "wall_time_s"}, "data": "path", "ground_truth": {...} (optional)}
+//    "log_rmse": [...], "bands": [{"theta_h_deg": [lo, hi], "count", "mean_log": [r,g,b],
+//    "log_rmse": [r,g,b]}]}, "goodness": {"represents", "reduced_chi_square" (or null),
+//    "warnings": [...], "suggestion"}, "covariance": "method", "samples": {"input", "valid",
+//    "used", "rejected", "reference", "saturated", "rejected_lines": [first 100]}, "residual":
+//    "log", "loss": "none", "solver": {"iterations" (all stages), "stages": [{"name", "samples",
+//    "iterations", "termination", "time_s", "final_cost"}], "termination", "message",
+//    "converged", "usable", "wall_time_s", ...}, "data": "path", "ground_truth": {...}
+//    (optional)}
 
 #include <string>
 

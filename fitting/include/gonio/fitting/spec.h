@@ -64,9 +64,17 @@ struct FitOptions {
     double relative_floor =
         1e-3;                     ///< 1/sr; denominator offset of the relative residual and metric.
     std::size_t max_samples = 0;  ///< Stratified reduction to about this many samples; 0 = all.
-    bool auto_init = true;        ///< Data-driven initial values (else the template's values).
-    int starts = 6;               ///< Multi-start candidates over alpha (>= 1).
-    std::uint64_t seed = 1;       ///< Seed of the multi-start and of the reduction.
+    /// Coarse to fine: the starts and the main solve use a stratified reduction to about this
+    /// many samples when the input has more than twice as many (0 = solve on all samples).
+    std::size_t coarse_samples = 20000;
+    /// Bound on the iterations of the polish on all samples after a reduced solve (0 = no
+    /// polish: the result is that of the reduction).
+    int polish_iterations = 10;
+    /// Rounds of relative-noise reweighting at the model when the data carry sigmas.
+    int reweight_rounds = 2;
+    bool auto_init = true;   ///< Data-driven initial values (else the template's values).
+    int starts = 6;          ///< Multi-start candidates over alpha (>= 1).
+    std::uint64_t seed = 1;  ///< Seed of the multi-start and of the reduction.
     int max_iterations = 200;
     int num_threads = 0;           ///< 0 = number of hardware threads.
     bool use_sigma = true;         ///< Weight by 1/sigma when the dataset has sigma.
@@ -86,7 +94,7 @@ struct ModelOptions {
     bool diffuse = true;
     brdf::FresnelType fresnel = brdf::FresnelType::kSchlick;
     bool fresnel_rgb =
-        true;  ///< Schlick only: f0 per channel ("schlick-rgb") or shared ("schlick").
+        false;  ///< Schlick only: f0 per channel ("schlick-rgb") or shared ("schlick").
     brdf::Shadowing shadowing = brdf::Shadowing::kSmithCorrelated;
     bool anisotropic = false;
     int lobes = 1;
@@ -107,10 +115,12 @@ const char* to_string(LossKind l);
 
 /// The default parameter rules for a model structure: every numeric field the structure uses is
 /// free with physical bounds, except a lobe's scale when its Fresnel term carries the colour
-/// (Schlick RGB, conductor), where scale stays at 1 (docs/fitting-guide.md, "Defaults").
+/// (Schlick RGB, conductor), where scale stays at 1 (docs/fitting-guide.md, "Defaults"). With a
+/// scalar Schlick f0 the scale is free per channel (it carries the colour).
 std::vector<ParamSpec> default_params(const brdf::ModelD& model, bool fresnel_rgb);
 
-/// Builds a spec from command-line choices (default GGX + Lambert + Schlick RGB).
+/// Builds a spec from command-line choices (default GGX + Lambert + scalar Schlick with an RGB
+/// scale).
 Expected<FitSpec> make_fit_spec(const ModelOptions& options);
 
 /// Parses a JSON fit template: {"model": <model schema>, "free": [...paths], "fixed": [...paths],

@@ -1,0 +1,175 @@
+#pragma once
+
+// The samples of a fit prepared once for many evaluations of the model.
+//
+// Everything that does not depend on the fitted parameters is computed once per sample, in
+// double: the cosines, 1 / (4 cos_i cos_o), the squared components of the half vector, the
+// squared slopes of wi and wo (tan^2 theta along x and y) for Smith's Lambda, cos_d and
+// (1 - cos_d)^5 for Fresnel, the V-groove G, the transformed measured value g(d) and the factor s
+// of every residual (fitting/cost.h). Only what depends on the parameters (D, Lambda, F, the sums)
+// is then evaluated per sample in the scalar type T (double or a Jet of the derivative slots), so
+// that a Jacobian pass costs a few dozen Jet operations per sample instead of the whole geometry.
+// The fields are stored as separate arrays (structure of arrays) and only those the model's
+// structure needs are filled: a pass streams through memory once, split over the threads.
+//
+// The formulas are those of brdf/model_eval.h, brdf/microfacet.h, brdf/blinn_phong.h and
+// brdf/fresnel.h rewritten on the precomputed quantities; tests check that both agree to rounding
+// (tests/fitting/unit_prepared_samples_test.cpp).
+
+#include <ceres/ceres.h>
+
+#include <Eigen/Dense>
+#include <memory>
+#include <vector>
+
+#include "gonio/brdf/dataset.h"
+#include "gonio/brdf/model.h"
+#include "gonio/fitting/cost.h"
+
+namespace gonio::fitting {
+
+/// J^T J, J^T r and the sum of squares of a set of residuals (optionally under a robust loss).
+struct NormalEquations {
+    Eigen::MatrixXd jtj;  ///< n x n, sum over residuals of J_k^T J_k (times rho' per sample).
+    Eigen::VectorXd jtr;  ///< n, sum of J_k^T r_k (times rho').
+    double cost_sum = 0;  ///< sum of r_k^2 (or of rho(sum over a sample's channels of r^2)).
+};
+
+class PreparedSamples {
+  public:
+    /// Prepares `samples` for the model structure of `map`. The residual form, floor and sigma
+    /// use come from `options`.
+    PreparedSamples(std::shared_ptr<const ParameterMap> map,
+                    const std::vector<brdf::Sample>& samples,
+                    const CostOptions& options);
+
+    std::size_t size() const { return n_; }
+    const ParameterMap& map() const { return *map_; }
+
+    /// Sum of squared residuals at x (robust: sum of rho). False on a non-finite residual.
+    bool sum_of_squares(const double* x, double* out, int threads) const;
+
+    /// The normal equations at x (derivatives with Jets over the derivative slots). False on a
+    /// non-finite residual or derivative.
+    bool normal_equations(const double* x, NormalEquations& out, int threads) const;
+
+    /// The "meat" of the sandwich covariance: sum over samples of g_i g_i^T, g_i = sum over the
+    /// sample's channels of r_c J_c (heteroscedasticity-consistent estimator HC0, White 1980).
+    bool score_outer_products(const double* x, Eigen::MatrixXd& out, int threads) const;
+
+    /// Residuals (3 per sample, rows [3 begin, 3 end)) and optionally the row-major Jacobian
+    /// (3 (end - begin) x n) of samples [begin, end).
+    bool evaluate(const double* x,
+                  std::size_t begin,
+                  std::size_t end,
+                  double* residuals,
+                  double* jacobian) const;
+
+    /// Model values (RGB, 1/sr) of every sample at the model `m`.
+    void model_values(const brdf::ModelD& m, std::vector<brdf::Rgbd>& out, int threads) const;
+
+    /// Iteratively reweighted relative noise: replaces each residual's factor s by the one of a
+    /// one-sigma uncertainty rel * m evaluated at the model value m (not at the measured value,
+    /// whose own fluctuation would bias the weights): s = 1 / (g'(m) rel m), rel = sigma / d per
+    /// channel of the sample. Channels with d = 0 or sigma = 0 keep their factor.
+    void reweight_relative(const std::vector<brdf::Sample>& samples,
+                           const std::vector<brdf::Rgbd>& model);
+
+    /// A robust loss applied per sample to the sum over its channels of r^2 (nullptr: none).
+    void set_loss(std::shared_ptr<const ceres::LossFunction> loss) { loss_ = std::move(loss); }
+
+    /// True when the Jacobian comes from the closed-form derivatives (isotropic lobes, Schlick or
+    /// no Fresnel, free fields among diffuse, alpha, exponent, scale, f0), else from Jets.
+    bool analytic() const { return analytic_; }
+    /// Forces the Jet path (tests compare both).
+    void set_analytic(bool on) { analytic_ = on && analytic_; }
+
+  private:
+    template <class T>
+    brdf::Rgb<T> eval(const brdf::Model<T>& m, std::size_t i) const;
+    /// D G / (4 cos_i cos_o) of one lobe (0 where D underflows).
+    template <class T>
+    T shape(brdf::Distribution dist,
+            brdf::Shadowing shadowing,
+            const T& ax,
+            const T& ay,
+            const T& exponent,
+            std::size_t i) const;
+    /// dg/dm of the residual form at m.
+    double g_prime(double m, std::size_t i) const;
+    /// Closed-form residuals r[3] and their derivatives v[c * slots + slot] of sample i:
+    ///   f_c = rho_c / pi + sum_l scale_lc F_lc S_l,  F = f0 + (1 - f0) x5,
+    ///   df_c/drho_c = 1/pi, df_c/dscale_lc = F_lc S_l, df_c/df0_lc = scale_lc (1 - x5) S_l,
+    ///   df_c/dalpha_l = scale_lc F_lc dS_l/dalpha (dS/dalpha by a one-slot Jet of the shape),
+    /// times dr_c/df_c = s_c g'(f_c).
+    bool analytic_sample(const brdf::ModelD& m, std::size_t i, double r[3], double* v) const;
+    template <class T>
+    T g_of(const T& m, std::size_t i) const;
+    template <int K>
+    bool normal_equations_k(const double* x, NormalEquations& out, int threads) const;
+    template <int K>
+    bool jets_k(const double* x,
+                std::size_t begin,
+                std::size_t end,
+                double* residuals,
+                double* jacobian,
+                Eigen::MatrixXd* outer) const;
+
+    std::shared_ptr<const ParameterMap> map_;
+    ResidualForm form_;
+    std::size_t n_ = 0;
+    bool anisotropic_ = false;
+    // Geometry (empty when the structure does not need the field).
+    std::vector<double> cos_i_, inv_4cc_;
+    std::vector<double> hx2_, hy2_, hz2_;  // hx2_ holds hx^2 + hy^2 for isotropic structures
+    std::vector<double> log_cos_h_;        // Blinn-Phong: log(cos theta_h)
+    std::vector<double> ti_x_, ti_y_, to_x_,
+        to_y_;  // squared slopes; _x holds the sum if isotropic
+    std::vector<double> cos_d_, omc_d_, x5_, g_vgroove_;
+    // Residual: r_c = s_c (g(m_c) - g_d_c).
+    std::vector<double> g_d_[3], s_[3];
+    // Derivative slots (see cost.cpp): slot of each free scalar and its channel (-1 = all).
+    std::vector<int> slot_, channel_;
+    int slots_ = 0;
+    std::vector<Field> slot_field_;
+    std::vector<int> slot_lobe_;
+    bool analytic_ = false;
+    double relative_floor_ = 1e-3;
+    std::shared_ptr<const ceres::LossFunction> loss_;
+};
+
+/// A Ceres cost function of the whole prepared set with n + 1 residuals whose Gauss-Newton
+/// quantities equal those of the full problem: at x, with J^T J = V L V^T and g = J^T r,
+///   J' = L^(1/2) V^T,  r' = L^(-1/2) V^T g (0 on null eigenvalues),  r'_n = sqrt(S - |r'|^2),
+/// so that J'^T J' = J^T J, J'^T r' = g and |r'|^2 = S, the sum of squares. Ceres' trust region
+/// (Levenberg-Marquardt with its column scaling) then takes exactly the steps of the full problem
+/// while its linear algebra works on n + 1 rows instead of 3 N; one Jacobian evaluation is one
+/// streamed pass over the samples on all threads. The extra residual is real: |r'|^2 = g^T (J^T
+/// J)^+ g is the squared norm of the projection of r on the range of J, at most S. Each distinct
+/// point costs one fused pass (cost and normal equations together), cached for the Jacobian
+/// request that follows an accepted step.
+class NormalEquationCost final : public ceres::CostFunction {
+  public:
+    NormalEquationCost(std::shared_ptr<const PreparedSamples> samples, int threads);
+    bool Evaluate(double const* const* parameters,
+                  double* residuals,
+                  double** jacobians) const override;
+    /// Passes over the samples so far (one per distinct point evaluated).
+    int passes() const { return passes_; }
+
+  private:
+    std::shared_ptr<const PreparedSamples> samples_;
+    int threads_;
+    mutable int passes_ = 0;
+    mutable bool cache_valid_ = false;
+    mutable std::vector<double> cache_x_;
+    mutable NormalEquations cache_;
+};
+
+/// Runs body(thread, begin, end) over [0, n) split into `threads` contiguous ranges (one thread
+/// when n is small).
+void parallel_ranges(std::size_t n,
+                     int threads,
+                     const std::function<void(int, std::size_t, std::size_t)>& body);
+
+}  // namespace gonio::fitting

@@ -1,0 +1,836 @@
+// Samples prepared once for many evaluations: geometry in double, parameters in Jets.
+
+#include "gonio/fitting/prepared_samples.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <thread>
+
+#include "gonio/brdf/check.h"
+#include "gonio/brdf/fresnel.h"
+#include "gonio/brdf/math.h"
+#include "gonio/brdf/microfacet.h"
+
+namespace gonio::fitting {
+
+namespace {
+
+constexpr double kCbrtOffset = 1e-6;
+constexpr double kInvSqrtPi = 0.56418958354775628695;
+
+/// Smith Lambda of Beckmann from s2 = alpha^2 tan^2(theta) (brdf/microfacet.h lambda_beckmann,
+/// with a = 1 / sqrt(s2)).
+template <class T>
+T lambda_beckmann_s2(const T& s2) {
+    using std::erfc;
+    using std::exp;
+    using std::sqrt;
+    if (s2 <= T(0)) {
+        // Along the normal: nothing is masked.
+        return T(0);
+    }
+    const T a = T(1) / sqrt(s2);
+    if (a > T(26)) {
+        // exp(-a^2) underflows; Lambda < 1e-300.
+        return T(0);
+    }
+    return (exp(-a * a) * T(kInvSqrtPi) / a - erfc(a)) / T(2);
+}
+
+/// Smith Lambda of GGX from a2 = alpha^2 tan^2(theta) (brdf/microfacet.h lambda_ggx).
+template <class T>
+T lambda_ggx_a2(const T& a2) {
+    using std::sqrt;
+    return a2 / (T(2) * (T(1) + sqrt(T(1) + a2)));
+}
+
+}  // namespace
+
+void parallel_ranges(std::size_t n,
+                     int threads,
+                     const std::function<void(int, std::size_t, std::size_t)>& body) {
+    if (threads <= 1 || n < 4096) {
+        body(0, 0, n);
+        return;
+    }
+    std::vector<std::thread> pool;
+    const std::size_t t_count = static_cast<std::size_t>(threads);
+    const std::size_t chunk = (n + t_count - 1) / t_count;
+    for (std::size_t t = 1; t < t_count; ++t) {
+        const std::size_t b = t * chunk;
+        const std::size_t e = std::min(n, b + chunk);
+        if (b < e) {
+            pool.emplace_back(body, static_cast<int>(t), b, e);
+        }
+    }
+    body(0, 0, std::min(n, chunk));
+    for (std::thread& th : pool) {
+        th.join();
+    }
+}
+
+PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
+                                 const std::vector<brdf::Sample>& samples,
+                                 const CostOptions& o)
+    : map_(std::move(map)),
+      form_(o.residual),
+      n_(samples.size()),
+      relative_floor_(o.relative_floor) {
+    const brdf::ModelD& base = map_->base();
+    bool need_h = false, need_bp = false, need_smith = false, need_vg = false;
+    bool need_schlick = false, need_exact_f = false;
+    for (const brdf::Lobe<double>& l : base.lobes) {
+        anisotropic_ =
+            anisotropic_ || (l.anisotropic && l.distribution != brdf::Distribution::kBlinnPhong);
+        if (l.distribution == brdf::Distribution::kBlinnPhong) {
+            need_bp = true;
+        } else {
+            need_h = true;
+        }
+        if (l.shadowing == brdf::Shadowing::kSmithCorrelated ||
+            l.shadowing == brdf::Shadowing::kSmithSeparable) {
+            need_smith = true;
+        } else if (l.shadowing == brdf::Shadowing::kVGroove) {
+            need_vg = true;
+        }
+        if (l.fresnel.type == brdf::FresnelType::kSchlick) {
+            need_schlick = true;
+        } else if (l.fresnel.type != brdf::FresnelType::kNone) {
+            need_exact_f = true;
+        }
+    }
+    // Derivative slots: a scalar or shared parameter has its own slot; the three channels of a
+    // per-channel field share one, since channel c of the model depends on such a field through
+    // its component c alone (every RGB field enters the model element-wise).
+    const int np = map_->size();
+    slot_.assign(np, -1);
+    channel_.assign(np, -1);
+    for (int k = 0; k < np; ++k) {
+        const ScalarParam& s = map_->scalars()[map_->free()[k]];
+        channel_[k] = s.channel;
+        if (s.channel >= 0) {
+            for (int j = 0; j < k; ++j) {
+                const ScalarParam& p = map_->scalars()[map_->free()[j]];
+                if (p.channel >= 0 && p.field == s.field && p.lobe == s.lobe) {
+                    slot_[k] = slot_[j];
+                    break;
+                }
+            }
+        }
+        if (slot_[k] < 0) {
+            slot_[k] = slots_++;
+        }
+    }
+    GONIO_CHECK(slots_ <= 32);
+    // Analytic derivatives (analytic_sample) cover isotropic lobes with a Schlick or no Fresnel
+    // term and the fields diffuse, alpha_x, exponent, scale and f0; other structures use Jets
+    // over the derivative slots.
+    analytic_ = base.lobes.size() <= 8;
+    for (const brdf::Lobe<double>& l : base.lobes) {
+        analytic_ = analytic_ &&
+                    !(l.anisotropic && l.distribution != brdf::Distribution::kBlinnPhong) &&
+                    (l.fresnel.type == brdf::FresnelType::kSchlick ||
+                     l.fresnel.type == brdf::FresnelType::kNone);
+    }
+    slot_field_.assign(slots_, Field::kDiffuse);
+    slot_lobe_.assign(slots_, -1);
+    for (int k = 0; k < np; ++k) {
+        const ScalarParam& sp = map_->scalars()[map_->free()[k]];
+        slot_field_[slot_[k]] = sp.field;
+        slot_lobe_[slot_[k]] = sp.lobe;
+        analytic_ = analytic_ && (sp.field == Field::kDiffuse || sp.field == Field::kAlphaX ||
+                                  sp.field == Field::kExponent || sp.field == Field::kScale ||
+                                  sp.field == Field::kF0);
+    }
+    auto alloc = [&](std::vector<double>& v, bool need) {
+        if (need) {
+            v.resize(n_);
+        }
+    };
+    alloc(cos_i_, true);
+    alloc(inv_4cc_, !base.lobes.empty());
+    alloc(hx2_, need_h);
+    alloc(hy2_, need_h && anisotropic_);
+    alloc(hz2_, need_h);
+    alloc(log_cos_h_, need_bp);
+    alloc(ti_x_, need_smith);
+    alloc(to_x_, need_smith);
+    alloc(ti_y_, need_smith && anisotropic_);
+    alloc(to_y_, need_smith && anisotropic_);
+    alloc(cos_d_, need_exact_f);
+    alloc(omc_d_, need_exact_f);
+    alloc(x5_, need_schlick);
+    alloc(g_vgroove_, need_vg);
+    for (int c = 0; c < 3; ++c) {
+        g_d_[c].resize(n_);
+        s_[c].resize(n_);
+    }
+    const bool any_lobe = !base.lobes.empty();
+    parallel_ranges(n_,
+                    static_cast<int>(std::max(1u, std::thread::hardware_concurrency())),
+                    [&](int, std::size_t b, std::size_t e) {
+                        for (std::size_t i = b; i < e; ++i) {
+                            const brdf::Sample& smp = samples[i];
+                            const brdf::Vec3d wi = smp.wi();
+                            const brdf::Vec3d wo = smp.wo();
+                            const double ci = wi.z();
+                            const double co = wo.z();
+                            cos_i_[i] = ci;
+                            if (any_lobe) {
+                                // Callers pass samples above the horizon only (fit() validates
+                                // them).
+                                inv_4cc_[i] = 1 / (4 * ci * co);
+                                const brdf::Vec3d sum = wi + wo;
+                                const double len = sum.norm();
+                                const brdf::Vec3d h = sum / len;
+                                const double cos_d = std::min(len / 2, 1.0);
+                                const double omc_d = (wi - wo).squaredNorm() / (4 * (1 + cos_d));
+                                if (need_h) {
+                                    if (anisotropic_) {
+                                        hx2_[i] = h.x() * h.x();
+                                        hy2_[i] = h.y() * h.y();
+                                    } else {
+                                        hx2_[i] = h.x() * h.x() + h.y() * h.y();
+                                    }
+                                    hz2_[i] = h.z() * h.z();
+                                }
+                                if (need_bp) {
+                                    const double omc_h =
+                                        (h.x() * h.x() + h.y() * h.y()) / (1 + h.z());
+                                    log_cos_h_[i] = h.z() > 0 && omc_h < 1
+                                                        ? std::log1p(-omc_h)
+                                                        : -std::numeric_limits<double>::infinity();
+                                }
+                                if (need_smith) {
+                                    const double ci2 = ci * ci;
+                                    const double co2 = co * co;
+                                    if (anisotropic_) {
+                                        ti_x_[i] = wi.x() * wi.x() / ci2;
+                                        ti_y_[i] = wi.y() * wi.y() / ci2;
+                                        to_x_[i] = wo.x() * wo.x() / co2;
+                                        to_y_[i] = wo.y() * wo.y() / co2;
+                                    } else {
+                                        ti_x_[i] = (wi.x() * wi.x() + wi.y() * wi.y()) / ci2;
+                                        to_x_[i] = (wo.x() * wo.x() + wo.y() * wo.y()) / co2;
+                                    }
+                                }
+                                if (need_exact_f) {
+                                    cos_d_[i] = cos_d;
+                                    omc_d_[i] = omc_d;
+                                }
+                                if (need_schlick) {
+                                    x5_[i] = brdf::pow5(std::clamp(omc_d, 0.0, 1.0));
+                                }
+                                if (need_vg) {
+                                    g_vgroove_[i] = brdf::G_vgroove(wi, wo, h);
+                                }
+                            }
+                            const double sqrt_w = std::sqrt(smp.weight);
+                            for (int c = 0; c < 3; ++c) {
+                                const double d = smp.value[c];
+                                double g_d = d;
+                                double dg = 1;  // g'(d)
+                                double s = 1;
+                                switch (form_) {
+                                    case ResidualForm::kAbsolute:
+                                        break;
+                                    case ResidualForm::kRelative:
+                                        s = 1 / (d + o.relative_floor);
+                                        break;
+                                    case ResidualForm::kLog:
+                                        g_d = std::log1p(d * ci);
+                                        dg = ci / (1 + d * ci);
+                                        break;
+                                    case ResidualForm::kCosine:
+                                        s = ci;
+                                        break;
+                                    case ResidualForm::kCubeRoot:
+                                        g_d = std::cbrt(d + kCbrtOffset);
+                                        dg = 1 / (3 * g_d * g_d);
+                                        break;
+                                }
+                                if (o.use_sigma && smp.sigma[c] > 0) {
+                                    // Normalised deviation: the residual's first-order standard
+                                    // deviation is g'(d) sigma (times s, which cancels).
+                                    s = 1 / (dg * smp.sigma[c]);
+                                }
+                                g_d_[c][i] = g_d;
+                                s_[c][i] = s * sqrt_w;
+                            }
+                        }
+                    });
+}
+
+template <class T>
+T PreparedSamples::shape(brdf::Distribution dist,
+                         brdf::Shadowing shadowing,
+                         const T& ax,
+                         const T& ay,
+                         const T& exponent,
+                         std::size_t i) const {
+    using std::exp;
+    using std::sqrt;
+    // Layout: with an anisotropic lobe in the structure the x and y parts are stored apart.
+    const bool aniso = anisotropic_;
+    // D (brdf/microfacet.h, brdf/blinn_phong.h); both directions are above the horizon, so
+    // h_z > 0.
+    T D;
+    switch (dist) {
+        case brdf::Distribution::kGgx: {
+            const T s = aniso ? T(hx2_[i]) / (ax * ax) + T(hy2_[i]) / (ay * ay) + T(hz2_[i])
+                              : T(hx2_[i]) / (ax * ax) + T(hz2_[i]);
+            D = T(1) / (T(brdf::kPi) * ax * ay * s * s);
+            break;
+        }
+        case brdf::Distribution::kBeckmann: {
+            const T e =
+                (aniso ? T(hx2_[i]) / (ax * ax) + T(hy2_[i]) / (ay * ay) : T(hx2_[i]) / (ax * ax)) /
+                T(hz2_[i]);
+            if (e > T(700)) {
+                // Far tail: exp(-e) underflows (brdf/microfacet.h D_beckmann).
+                return T(0);
+            }
+            D = exp(-e) / (T(brdf::kPi) * ax * ay * T(hz2_[i] * hz2_[i]));
+            break;
+        }
+        case brdf::Distribution::kBlinnPhong:
+        default: {
+            if (!std::isfinite(log_cos_h_[i])) {
+                // cos^e(theta_h) underflows to 0 (h at the horizon through rounding).
+                return T(0);
+            }
+            D = (exponent + T(2)) / T(2 * brdf::kPi) * exp(exponent * T(log_cos_h_[i]));
+            break;
+        }
+    }
+    // G (brdf/model_eval.h lobe_G); a Blinn-Phong lobe uses Beckmann's Lambda with
+    // alpha = sqrt(2 / (e + 2)).
+    T G(1);
+    if (shadowing == brdf::Shadowing::kSmithCorrelated ||
+        shadowing == brdf::Shadowing::kSmithSeparable) {
+        T bx = ax, by = ay;
+        if (dist == brdf::Distribution::kBlinnPhong) {
+            bx = by = sqrt(T(2) / (exponent + T(2)));
+        }
+        const T a2i = aniso ? bx * bx * T(ti_x_[i]) + by * by * T(ti_y_[i]) : bx * bx * T(ti_x_[i]);
+        const T a2o = aniso ? bx * bx * T(to_x_[i]) + by * by * T(to_y_[i]) : bx * bx * T(to_x_[i]);
+        T li, lo;
+        if (dist == brdf::Distribution::kGgx) {
+            li = lambda_ggx_a2(a2i);
+            lo = lambda_ggx_a2(a2o);
+        } else {
+            li = lambda_beckmann_s2(a2i);
+            lo = lambda_beckmann_s2(a2o);
+        }
+        G = shadowing == brdf::Shadowing::kSmithCorrelated ? T(1) / (T(1) + li + lo)
+                                                           : T(1) / ((T(1) + li) * (T(1) + lo));
+    } else if (shadowing == brdf::Shadowing::kVGroove) {
+        G = T(g_vgroove_[i]);
+    }
+    return D * G * T(inv_4cc_[i]);
+}
+
+template <class T>
+brdf::Rgb<T> PreparedSamples::eval(const brdf::Model<T>& m, std::size_t i) const {
+    brdf::Rgb<T> f = m.has_diffuse ? brdf::Rgb<T>(m.diffuse * T(brdf::kInvPi))
+                                   : brdf::Rgb<T>(brdf::Rgb<T>::Zero());
+    for (const brdf::Lobe<T>& l : m.lobes) {
+        const T S = shape(l.distribution,
+                          l.shadowing,
+                          l.alpha_x,
+                          l.anisotropic ? l.alpha_y : l.alpha_x,
+                          l.exponent,
+                          i);
+        if (S == T(0)) {
+            continue;
+        }
+        // F (brdf/fresnel.h).
+        brdf::Rgb<T> F;
+        switch (l.fresnel.type) {
+            case brdf::FresnelType::kSchlick: {
+                const T x5(x5_[i]);
+                F = l.fresnel.f0 + (brdf::Rgb<T>::Constant(T(1)) - l.fresnel.f0) * x5;
+                break;
+            }
+            case brdf::FresnelType::kNone:
+                F = brdf::Rgb<T>::Constant(T(1));
+                break;
+            default:
+                F = brdf::eval_fresnel(l.fresnel, T(cos_d_[i]), T(omc_d_[i]));
+                break;
+        }
+        f += l.scale * F * S;
+    }
+    return f;
+}
+
+double PreparedSamples::g_prime(double m, std::size_t i) const {
+    switch (form_) {
+        case ResidualForm::kLog:
+            return cos_i_[i] / (1 + m * cos_i_[i]);
+        case ResidualForm::kCubeRoot: {
+            const double gm = std::cbrt(m + kCbrtOffset);
+            return 1 / (3 * gm * gm);
+        }
+        default:
+            return 1;
+    }
+}
+
+bool PreparedSamples::analytic_sample(const brdf::ModelD& m,
+                                      std::size_t i,
+                                      double r[3],
+                                      double* v) const {
+    // Per lobe: the shape S = D G / (4 cos_i cos_o) and dS/d(width) through a one-slot Jet (only
+    // the width enters it), and F = f0 + (1 - f0) x5 (Schlick) or 1.
+    using J1 = ceres::Jet<double, 1>;
+    constexpr int kMaxLobes = 8;
+    double S[kMaxLobes], dS[kMaxLobes];
+    brdf::Rgbd F[kMaxLobes];
+    brdf::Rgbd f = m.has_diffuse ? brdf::Rgbd(m.diffuse * brdf::kInvPi) : brdf::Rgbd::Zero();
+    const int nl = static_cast<int>(m.lobes.size());
+    for (int l = 0; l < nl; ++l) {
+        const brdf::Lobe<double>& lobe = m.lobes[l];
+        J1 s;
+        if (lobe.distribution == brdf::Distribution::kBlinnPhong) {
+            const J1 e(lobe.exponent, 0);
+            s = shape(lobe.distribution, lobe.shadowing, J1(0.1), J1(0.1), e, i);
+        } else {
+            const J1 a(lobe.alpha_x, 0);
+            s = shape(lobe.distribution, lobe.shadowing, a, a, J1(lobe.exponent), i);
+        }
+        S[l] = s.a;
+        dS[l] = s.v[0];
+        F[l] = lobe.fresnel.type == brdf::FresnelType::kSchlick
+                   ? brdf::Rgbd(lobe.fresnel.f0 + (brdf::Rgbd::Ones() - lobe.fresnel.f0) * x5_[i])
+                   : brdf::Rgbd::Ones();
+        f += lobe.scale * F[l] * S[l];
+    }
+    for (int c = 0; c < 3; ++c) {
+        r[c] = s_[c][i] * (g_of(f[c], i) - g_d_[c][i]);
+        const double dr = s_[c][i] * g_prime(f[c], i);
+        double* vc = v + c * slots_;
+        for (int k = 0; k < slots_; ++k) {
+            const int l = slot_lobe_[k];
+            double d = 0;
+            switch (slot_field_[k]) {
+                case Field::kDiffuse:
+                    d = brdf::kInvPi;
+                    break;
+                case Field::kAlphaX:
+                case Field::kExponent:
+                    d = m.lobes[l].scale[c] * F[l][c] * dS[l];
+                    break;
+                case Field::kScale:
+                    d = F[l][c] * S[l];
+                    break;
+                case Field::kF0:
+                    d = m.lobes[l].scale[c] * (1 - x5_[i]) * S[l];
+                    break;
+                default:
+                    break;
+            }
+            vc[k] = dr * d;
+        }
+    }
+    return std::isfinite(r[0]) && std::isfinite(r[1]) && std::isfinite(r[2]);
+}
+
+template <class T>
+T PreparedSamples::g_of(const T& m, std::size_t i) const {
+    using std::cbrt;
+    using std::log;
+    switch (form_) {
+        case ResidualForm::kLog:
+            // log(1 + m cos_i); m >= 0 and cos_i > 0 keep the argument >= 1.
+            return log(T(1) + m * cos_i_[i]);
+        case ResidualForm::kCubeRoot:
+            return cbrt(m + kCbrtOffset);
+        default:
+            return m;
+    }
+}
+
+bool PreparedSamples::sum_of_squares(const double* x, double* out, int threads) const {
+    const brdf::ModelD m = map_->model<double>(x);
+    const int t_count = std::max(1, threads);
+    std::vector<double> partial(t_count, 0.0);
+    std::vector<char> ok(t_count, 1);
+    parallel_ranges(n_, t_count, [&](int t, std::size_t b, std::size_t e) {
+        double acc = 0;
+        for (std::size_t i = b; i < e; ++i) {
+            const brdf::Rgbd f = eval(m, i);
+            double s2 = 0;
+            for (int c = 0; c < 3; ++c) {
+                const double r = s_[c][i] * (g_of(f[c], i) - g_d_[c][i]);
+                s2 += r * r;
+            }
+            if (loss_) {
+                double rho[3];
+                loss_->Evaluate(s2, rho);
+                s2 = rho[0];
+            }
+            acc += s2;
+        }
+        partial[t] = acc;
+        ok[t] = std::isfinite(acc);
+    });
+    double total = 0;
+    for (int t = 0; t < t_count; ++t) {
+        if (!ok[t]) {
+            return false;
+        }
+        total += partial[t];
+    }
+    *out = total;
+    return true;
+}
+
+template <int K>
+bool PreparedSamples::normal_equations_k(const double* x, NormalEquations& out, int threads) const {
+    using J = ceres::Jet<double, K>;
+    using MatK = Eigen::Matrix<double, K, K>;
+    using VecK = Eigen::Matrix<double, K, 1>;
+    const int np = map_->size();
+    std::vector<J> xj(np);
+    for (int k = 0; k < np; ++k) {
+        xj[k] = J(x[k], slot_[k]);
+    }
+    const brdf::Model<J> m = map_->model<J>(xj.data());
+    const brdf::ModelD md = map_->model<double>(x);
+    const int t_count = std::max(1, threads);
+    struct Acc {
+        MatK a[3];
+        VecK b[3];
+        double cost = 0;
+        bool ok = true;
+    };
+    std::vector<Acc> acc(t_count);
+    parallel_ranges(n_, t_count, [&](int t, std::size_t b, std::size_t e) {
+        MatK a[3];
+        VecK bv[3];
+        for (int c = 0; c < 3; ++c) {
+            a[c].setZero();
+            bv[c].setZero();
+        }
+        double cost = 0;
+        double ra[3];
+        double va[3 * 32] = {};
+        for (std::size_t i = b; i < e; ++i) {
+            J r[3];
+            if (analytic_) {
+                if (!analytic_sample(md, i, ra, va)) {
+                    cost = std::numeric_limits<double>::infinity();
+                    break;
+                }
+                for (int c = 0; c < 3; ++c) {
+                    r[c].a = ra[c];
+                    for (int k = 0; k < K; ++k) {
+                        r[c].v[k] = k < slots_ ? va[c * slots_ + k] : 0.0;
+                    }
+                }
+            } else {
+                const brdf::Rgb<J> f = eval(m, i);
+                for (int c = 0; c < 3; ++c) {
+                    r[c] = J(s_[c][i]) * (g_of(f[c], i) - J(g_d_[c][i]));
+                }
+            }
+            double s2 = 0;
+            for (int c = 0; c < 3; ++c) {
+                s2 += r[c].a * r[c].a;
+            }
+            double w = 1;
+            if (loss_) {
+                double rho[3];
+                loss_->Evaluate(s2, rho);
+                w = rho[1];
+                s2 = rho[0];
+            }
+            cost += s2;
+            for (int c = 0; c < 3; ++c) {
+                a[c].template selfadjointView<Eigen::Upper>().rankUpdate(r[c].v, w);
+                bv[c].noalias() += (w * r[c].a) * r[c].v;
+            }
+        }
+        for (int c = 0; c < 3; ++c) {
+            acc[t].a[c] = a[c];
+            acc[t].b[c] = bv[c];
+        }
+        acc[t].cost = cost;
+        acc[t].ok = std::isfinite(cost) && a[0].allFinite() && a[1].allFinite() &&
+                    a[2].allFinite() && bv[0].allFinite() && bv[1].allFinite() && bv[2].allFinite();
+    });
+    MatK a[3];
+    VecK bv[3];
+    for (int c = 0; c < 3; ++c) {
+        a[c].setZero();
+        bv[c].setZero();
+    }
+    out.cost_sum = 0;
+    for (const Acc& p : acc) {
+        if (!p.ok) {
+            return false;
+        }
+        for (int c = 0; c < 3; ++c) {
+            a[c] += p.a[c];
+            bv[c] += p.b[c];
+        }
+        out.cost_sum += p.cost;
+    }
+    for (int c = 0; c < 3; ++c) {
+        a[c] = a[c].template selfadjointView<Eigen::Upper>();
+    }
+    out.jtj = Eigen::MatrixXd::Zero(np, np);
+    out.jtr = Eigen::VectorXd::Zero(np);
+    for (int c = 0; c < 3; ++c) {
+        for (int k = 0; k < np; ++k) {
+            if (channel_[k] >= 0 && channel_[k] != c) {
+                continue;
+            }
+            out.jtr[k] += bv[c][slot_[k]];
+            for (int l = 0; l < np; ++l) {
+                if (channel_[l] >= 0 && channel_[l] != c) {
+                    continue;
+                }
+                out.jtj(k, l) += a[c](slot_[k], slot_[l]);
+            }
+        }
+    }
+    return true;
+}
+
+bool PreparedSamples::normal_equations(const double* x, NormalEquations& out, int threads) const {
+    if (slots_ <= 4) {
+        return normal_equations_k<4>(x, out, threads);
+    }
+    if (slots_ <= 8) {
+        return normal_equations_k<8>(x, out, threads);
+    }
+    if (slots_ <= 16) {
+        return normal_equations_k<16>(x, out, threads);
+    }
+    return normal_equations_k<32>(x, out, threads);
+}
+
+template <int K>
+bool PreparedSamples::jets_k(const double* x,
+                             std::size_t begin,
+                             std::size_t end,
+                             double* residuals,
+                             double* jacobian,
+                             Eigen::MatrixXd* outer) const {
+    using J = ceres::Jet<double, K>;
+    const int np = map_->size();
+    std::vector<J> xj(np);
+    for (int k = 0; k < np; ++k) {
+        xj[k] = J(x[k], slot_[k]);
+    }
+    const brdf::Model<J> m = map_->model<J>(xj.data());
+    const brdf::ModelD md = map_->model<double>(x);
+    Eigen::VectorXd g(np);
+    double ra[3];
+    double va[3 * 32] = {};
+    for (std::size_t i = begin; i < end; ++i) {
+        brdf::Rgb<J> f;
+        if (analytic_) {
+            if (!analytic_sample(md, i, ra, va)) {
+                return false;
+            }
+        } else {
+            f = eval(m, i);
+        }
+        g.setZero();
+        for (int c = 0; c < 3; ++c) {
+            J r;
+            if (analytic_) {
+                r.a = ra[c];
+                for (int k = 0; k < K; ++k) {
+                    r.v[k] = k < slots_ ? va[c * slots_ + k] : 0.0;
+                }
+            } else {
+                r = J(s_[c][i]) * (g_of(f[c], i) - J(g_d_[c][i]));
+            }
+            if (!std::isfinite(r.a)) {
+                return false;
+            }
+            const std::size_t row = 3 * (i - begin) + c;
+            if (residuals != nullptr) {
+                residuals[row] = r.a;
+            }
+            for (int k = 0; k < np; ++k) {
+                const double v = channel_[k] < 0 || channel_[k] == c ? r.v[slot_[k]] : 0.0;
+                if (!std::isfinite(v)) {
+                    return false;
+                }
+                if (jacobian != nullptr) {
+                    jacobian[row * np + k] = v;
+                }
+                g[k] += r.a * v;
+            }
+        }
+        if (outer != nullptr) {
+            outer->selfadjointView<Eigen::Upper>().rankUpdate(g);
+        }
+    }
+    return true;
+}
+
+bool PreparedSamples::evaluate(const double* x,
+                               std::size_t begin,
+                               std::size_t end,
+                               double* residuals,
+                               double* jacobian) const {
+    if (jacobian == nullptr) {
+        const brdf::ModelD m = map_->model<double>(x);
+        for (std::size_t i = begin; i < end; ++i) {
+            const brdf::Rgbd f = eval(m, i);
+            for (int c = 0; c < 3; ++c) {
+                const double r = s_[c][i] * (g_of(f[c], i) - g_d_[c][i]);
+                if (!std::isfinite(r)) {
+                    return false;
+                }
+                residuals[3 * (i - begin) + c] = r;
+            }
+        }
+        return true;
+    }
+    if (slots_ <= 4) {
+        return jets_k<4>(x, begin, end, residuals, jacobian, nullptr);
+    }
+    if (slots_ <= 8) {
+        return jets_k<8>(x, begin, end, residuals, jacobian, nullptr);
+    }
+    if (slots_ <= 16) {
+        return jets_k<16>(x, begin, end, residuals, jacobian, nullptr);
+    }
+    return jets_k<32>(x, begin, end, residuals, jacobian, nullptr);
+}
+
+bool PreparedSamples::score_outer_products(const double* x,
+                                           Eigen::MatrixXd& out,
+                                           int threads) const {
+    const int np = map_->size();
+    const int t_count = std::max(1, threads);
+    std::vector<Eigen::MatrixXd> partial(t_count, Eigen::MatrixXd::Zero(np, np));
+    std::vector<char> ok(t_count, 1);
+    parallel_ranges(n_, t_count, [&](int t, std::size_t b, std::size_t e) {
+        bool good;
+        if (slots_ <= 4) {
+            good = jets_k<4>(x, b, e, nullptr, nullptr, &partial[t]);
+        } else if (slots_ <= 8) {
+            good = jets_k<8>(x, b, e, nullptr, nullptr, &partial[t]);
+        } else if (slots_ <= 16) {
+            good = jets_k<16>(x, b, e, nullptr, nullptr, &partial[t]);
+        } else {
+            good = jets_k<32>(x, b, e, nullptr, nullptr, &partial[t]);
+        }
+        ok[t] = good;
+    });
+    out = Eigen::MatrixXd::Zero(np, np);
+    for (int t = 0; t < t_count; ++t) {
+        if (!ok[t]) {
+            return false;
+        }
+        out += partial[t];
+    }
+    out = Eigen::MatrixXd(out.selfadjointView<Eigen::Upper>());
+    return out.allFinite();
+}
+
+void PreparedSamples::model_values(const brdf::ModelD& m,
+                                   std::vector<brdf::Rgbd>& out,
+                                   int threads) const {
+    out.resize(n_);
+    parallel_ranges(n_, threads, [&](int, std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) {
+            out[i] = eval(m, i);
+        }
+    });
+}
+
+void PreparedSamples::reweight_relative(const std::vector<brdf::Sample>& samples,
+                                        const std::vector<brdf::Rgbd>& model) {
+    GONIO_CHECK(samples.size() == n_ && model.size() == n_);
+    for (std::size_t i = 0; i < n_; ++i) {
+        const double sqrt_w = std::sqrt(samples[i].weight);
+        const double ci = cos_i_[i];
+        for (int c = 0; c < 3; ++c) {
+            const double d = samples[i].value[c];
+            const double sigma = samples[i].sigma[c];
+            const double m = model[i][c];
+            if (!(d > 0) || !(sigma > 0) || !(m > 0) || !std::isfinite(m)) {
+                continue;
+            }
+            const double rel = sigma / d;
+            double dg = 1;  // g'(m)
+            if (form_ == ResidualForm::kLog) {
+                dg = ci / (1 + m * ci);
+            } else if (form_ == ResidualForm::kCubeRoot) {
+                const double gm = std::cbrt(m + kCbrtOffset);
+                dg = 1 / (3 * gm * gm);
+            }
+            s_[c][i] = sqrt_w / (dg * rel * m);
+        }
+    }
+}
+
+NormalEquationCost::NormalEquationCost(std::shared_ptr<const PreparedSamples> samples, int threads)
+    : samples_(std::move(samples)), threads_(threads) {
+    // Ceres' own threads do not enter here: one residual block, evaluated from one thread.
+    const int n = samples_->map().size();
+    set_num_residuals(n + 1);
+    mutable_parameter_block_sizes()->push_back(n);
+}
+
+bool NormalEquationCost::Evaluate(double const* const* parameters,
+                                  double* residuals,
+                                  double** jacobians) const {
+    const int n = samples_->map().size();
+    const double* x = parameters[0];
+    // One fused pass gives the cost and the normal equations together (the derivatives cost
+    // little beyond the values, whose logarithms dominate). Levenberg-Marquardt evaluates the
+    // cost at a candidate and, when it accepts the step, the Jacobian at the same point: the
+    // cached pass answers the second call, so an iteration is one pass over the samples.
+    const bool cached = cache_valid_ && std::equal(x, x + n, cache_x_.begin());
+    if (!cached) {
+        cache_valid_ = false;
+        if (!samples_->normal_equations(x, cache_, threads_)) {
+            return false;
+        }
+        ++passes_;
+        cache_x_.assign(x, x + n);
+        cache_valid_ = true;
+    }
+    const NormalEquations& ne = cache_;
+    if (jacobians == nullptr || jacobians[0] == nullptr) {
+        residuals[0] = std::sqrt(ne.cost_sum);
+        for (int k = 1; k <= n; ++k) {
+            residuals[k] = 0;
+        }
+        return std::isfinite(residuals[0]);
+    }
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(ne.jtj);
+    const Eigen::VectorXd lam = es.eigenvalues();
+    const Eigen::MatrixXd& v = es.eigenvectors();
+    const double lmax = std::max(lam.maxCoeff(), 0.0);
+    Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> jac(
+        jacobians[0], n + 1, n);
+    double projected = 0;
+    for (int e = 0; e < n; ++e) {
+        const double l = std::max(lam[e], 0.0);
+        const double sq = std::sqrt(l);
+        jac.row(e) = sq * v.col(e).transpose();
+        // On a null direction of J^T J the gradient has no component (g lies in the range of
+        // J^T), so the residual there is 0.
+        const double r = l > 1e-15 * lmax && l > 0 ? v.col(e).dot(ne.jtr) / sq : 0.0;
+        residuals[e] = r;
+        projected += r * r;
+    }
+    jac.row(n).setZero();
+    residuals[n] = std::sqrt(std::max(0.0, ne.cost_sum - projected));
+    return std::isfinite(residuals[n]) && jac.allFinite();
+}
+
+}  // namespace gonio::fitting
