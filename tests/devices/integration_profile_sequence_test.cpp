@@ -278,10 +278,10 @@ TEST_P(ProfileSequence, RequestsMatchTheManual) {
                          gonio::devices::encode_value(w, p->status.reg.width, p->word_order));
     };
     auto position = [&](double deg) {
-        server.set_words(pos_wire,
-                         gonio::devices::encode_value(gonio::devices::degrees_to_steps(*p, deg),
-                                                      p->position.width,
-                                                      p->word_order));
+        server.set_words(
+            pos_wire,
+            gonio::devices::encode_value(
+                gonio::devices::degrees_to_steps(*p, deg), p->position.width, p->word_order));
     };
     const auto timeout = std::chrono::milliseconds(5000);
 
