@@ -113,6 +113,11 @@ using Bytes = std::vector<std::uint8_t>;
 
 /// Complete frames served per connection per turn of the event loop (fairness under a flood).
 constexpr int kFramesPerTurn = 8;
+/// Unserved input held per connection; beyond it the connection is not read until served.
+constexpr size_t kMaxInputBytes = 4096;
+/// Kernel send buffer of a client socket: small, so that a client that does not read shows up in
+/// our own bounded output buffer soon.
+constexpr int kSocketSendBuffer = 16 * 1024;
 
 /// MBAP header (transaction id, protocol id, length, unit id), Modbus Messaging on TCP/IP V1.0b.
 constexpr int kTcpHeaderLength = 7;
@@ -692,8 +697,11 @@ struct MotorControllerServer::Impl {
             fds.push_back({wake[0], POLLIN, 0});
             fds.push_back({listen_fd, POLLIN, 0});  // A negative fd is ignored by poll().
             for (const auto& c : conns) {
+                // A connection with unserved input is not read further (its sender waits, nobody
+                // else does).
+                const short want_in = c->in.size() < kMaxInputBytes ? POLLIN : 0;
                 fds.push_back(
-                    {c->fd, static_cast<short>(POLLIN | (c->out.empty() ? 0 : POLLOUT)), 0});
+                    {c->fd, static_cast<short>(want_in | (c->out.empty() ? 0 : POLLOUT)), 0});
             }
             const auto wait_ms = std::chrono::duration_cast<std::chrono::milliseconds>(next - now);
             const int timeout =
@@ -735,6 +743,8 @@ struct MotorControllerServer::Impl {
                     }
                     const int one = 1;
                     ::setsockopt(c, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+                    ::setsockopt(
+                        c, SOL_SOCKET, SO_SNDBUF, &kSocketSendBuffer, sizeof kSocketSendBuffer);
                     auto conn = std::make_unique<Conn>();
                     conn->fd = c;
                     conn->id = next_id++;
@@ -746,7 +756,7 @@ struct MotorControllerServer::Impl {
                 Conn& c = *conns[i];
                 const short re = pi < fds.size() && fds[pi].fd == c.fd ? fds[pi].revents : 0;
                 bool ok = true;
-                if ((re & (POLLIN | POLLHUP | POLLERR)) != 0) {
+                if ((re & (POLLIN | POLLHUP | POLLERR)) != 0 && c.in.size() < kMaxInputBytes) {
                     std::uint8_t buf[4096];
                     const ssize_t n = ::recv(c.fd, buf, sizeof buf, MSG_DONTWAIT);
                     if (n > 0) {
