@@ -1,0 +1,292 @@
+// Samples prepared once (geometry in double): model values against brdf::eval_model, the closed
+// form and Jet derivatives against ceres::GradientChecker (numeric differentiation), the two
+// derivative paths against each other, and the normal-equation cost against the full problem.
+
+#include <ceres/gradient_checker.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "fit_test_util.h"
+#include "gonio/brdf/model_eval.h"
+#include "gonio/fitting/cost.h"
+#include "gonio/fitting/prepared_samples.h"
+#include "gonio/fitting/spec.h"
+
+namespace gonio::fitting {
+namespace {
+
+using brdf::Distribution;
+using brdf::FresnelType;
+using brdf::Rgbd;
+using brdf::Shadowing;
+
+struct Structure {
+    std::string label;
+    Distribution dist;
+    Shadowing shadowing;
+    FresnelType fresnel;
+    bool fresnel_rgb;
+    bool anisotropic;
+    int lobes;
+};
+
+const Structure kStructures[] = {
+    {"ggx-smith-schlick",
+     Distribution::kGgx,
+     Shadowing::kSmithCorrelated,
+     FresnelType::kSchlick,
+     false,
+     false,
+     1},
+    {"ggx-schlick-rgb",
+     Distribution::kGgx,
+     Shadowing::kSmithCorrelated,
+     FresnelType::kSchlick,
+     true,
+     false,
+     1},
+    {"beckmann-separable",
+     Distribution::kBeckmann,
+     Shadowing::kSmithSeparable,
+     FresnelType::kSchlick,
+     false,
+     false,
+     1},
+    {"beckmann-vgroove",
+     Distribution::kBeckmann,
+     Shadowing::kVGroove,
+     FresnelType::kSchlick,
+     false,
+     false,
+     1},
+    {"blinn-phong-smith",
+     Distribution::kBlinnPhong,
+     Shadowing::kSmithCorrelated,
+     FresnelType::kNone,
+     false,
+     false,
+     1},
+    {"ggx-two-lobes",
+     Distribution::kGgx,
+     Shadowing::kSmithCorrelated,
+     FresnelType::kSchlick,
+     false,
+     false,
+     2},
+    {"ggx-dielectric",
+     Distribution::kGgx,
+     Shadowing::kSmithCorrelated,
+     FresnelType::kDielectric,
+     false,
+     false,
+     1},
+    {"beckmann-conductor",
+     Distribution::kBeckmann,
+     Shadowing::kNone,
+     FresnelType::kConductor,
+     true,
+     false,
+     1},
+    {"ggx-anisotropic",
+     Distribution::kGgx,
+     Shadowing::kSmithCorrelated,
+     FresnelType::kSchlick,
+     false,
+     true,
+     1},
+};
+
+/// A spec of the structure with non-trivial start values (the point where derivatives are checked).
+FitSpec spec_of(const Structure& st) {
+    ModelOptions mo;
+    mo.distribution = st.dist;
+    mo.shadowing = st.shadowing;
+    mo.fresnel = st.fresnel;
+    mo.fresnel_rgb = st.fresnel_rgb;
+    mo.anisotropic = st.anisotropic;
+    mo.lobes = st.lobes;
+    FitSpec spec = *make_fit_spec(mo);
+    brdf::ModelD& m = spec.model;
+    m.diffuse = Rgbd(0.3, 0.2, 0.1);
+    for (std::size_t l = 0; l < m.lobes.size(); ++l) {
+        brdf::Lobe<double>& lobe = m.lobes[l];
+        lobe.alpha_x = 0.15 * (l + 1);
+        lobe.alpha_y = 0.25 * (l + 1);
+        lobe.exponent = 40;
+        lobe.scale = Rgbd(0.9, 0.7, 0.5);
+        lobe.fresnel.f0 = Rgbd(0.05, 0.08, 0.11);
+        lobe.fresnel.eta = 1.6;
+        lobe.fresnel.eta_rgb = Rgbd(0.2, 0.9, 1.1);
+        lobe.fresnel.k = Rgbd(3.0, 2.5, 2.0);
+    }
+    return spec;
+}
+
+/// Seeded samples above the horizon with values near the model's (the residuals are not zero).
+std::vector<brdf::Sample> samples_for(const brdf::ModelD& m, std::size_t n, std::uint64_t seed) {
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    std::vector<brdf::Sample> out;
+    while (out.size() < n) {
+        brdf::Sample s;
+        s.theta_i = std::acos(0.05 + 0.95 * u(rng));
+        s.theta_o = std::acos(0.05 + 0.95 * u(rng));
+        s.phi_i = 2 * brdf::kPi * u(rng);
+        // Half of them near the mirror direction, where the lobe lives.
+        s.phi_o = u(rng) < 0.5 ? s.phi_i + brdf::kPi + 0.2 * (u(rng) - 0.5)
+                               : 2 * brdf::kPi * u(rng) - brdf::kPi;
+        if (out.size() % 2 == 0) {
+            s.theta_o = std::clamp(s.theta_i + 0.1 * (u(rng) - 0.5), 0.0, 1.5);
+        }
+        const Rgbd f = brdf::eval_model(m, s.wi(), s.wo());
+        for (int c = 0; c < 3; ++c) {
+            s.value[c] = f[c] * (1 + 0.3 * (u(rng) - 0.5));
+            s.sigma[c] = 0.02 * s.value[c] + 1e-4;
+        }
+        s.weight = 0.5 + u(rng);
+        out.push_back(s);
+    }
+    return out;
+}
+
+TEST(PreparedSamples, ModelValuesEqualBrdfEvalModelToRounding) {
+    for (const Structure& st : kStructures) {
+        const FitSpec spec = spec_of(st);
+        auto map = std::make_shared<const ParameterMap>(*ParameterMap::make(spec));
+        const std::vector<brdf::Sample> samples = samples_for(spec.model, 500, 7);
+        const PreparedSamples ps(map, samples, CostOptions{});
+        std::vector<Rgbd> values;
+        ps.model_values(spec.model, values, 1);
+        double worst = 0;
+        for (std::size_t i = 0; i < samples.size(); ++i) {
+            const Rgbd ref = brdf::eval_model(spec.model, samples[i].wi(), samples[i].wo());
+            for (int c = 0; c < 3; ++c) {
+                worst =
+                    std::max(worst, std::abs(values[i][c] - ref[c]) / (std::abs(ref[c]) + 1e-300));
+            }
+        }
+        EXPECT_LT(worst, 1e-11) << st.label;
+    }
+}
+
+TEST(PreparedSamples, DerivativesPassCeresGradientCheckerForEveryStructureAndForm) {
+    const ResidualForm forms[] = {ResidualForm::kLog,
+                                  ResidualForm::kAbsolute,
+                                  ResidualForm::kRelative,
+                                  ResidualForm::kCubeRoot};
+    for (const Structure& st : kStructures) {
+        for (ResidualForm form : forms) {
+            for (bool sigma : {false, true}) {
+                const FitSpec spec = spec_of(st);
+                auto map = std::make_shared<const ParameterMap>(*ParameterMap::make(spec));
+                const std::vector<brdf::Sample> samples = samples_for(spec.model, 40, 11);
+                CostOptions co;
+                co.residual = form;
+                co.use_sigma = sigma;
+                std::unique_ptr<ceres::CostFunction> cost = make_batch_cost(map, samples, co);
+                std::vector<double> x = map->values_of(spec.model);
+                const double* params[] = {x.data()};
+                ceres::NumericDiffOptions nd;
+                nd.ridders_relative_initial_step_size = 1e-5;
+                nd.max_num_ridders_extrapolations = 12;
+                const std::vector<const ceres::Manifold*>* no_manifolds = nullptr;
+                ceres::GradientChecker checker(cost.get(), no_manifolds, nd);
+                ceres::GradientChecker::ProbeResults results;
+                const PreparedSamples ps(map, samples, co);
+                // Ceres' verdict is relative per entry; entries below 1e-9 of their column's
+                // largest are at the noise floor of numeric differentiation (D underflowing in a
+                // far tail), so the judgement here adds that absolute floor.
+                checker.Probe(params, 1e-6, &results);
+                const auto& user = results.jacobians[0];
+                const auto& num = results.numeric_jacobians[0];
+                int bad = 0;
+                for (int col = 0; col < num.cols(); ++col) {
+                    const double floor = 1e-9 * num.col(col).cwiseAbs().maxCoeff();
+                    for (int row = 0; row < num.rows(); ++row) {
+                        const double a = user(row, col), b = num(row, col);
+                        const double err = std::abs(a - b);
+                        if (err > 1e-6 * std::max(std::abs(a), std::abs(b)) && err > floor) {
+                            ++bad;
+                        }
+                    }
+                }
+                EXPECT_EQ(bad, 0) << st.label << " " << to_string(form) << (sigma ? " sigma" : "")
+                                  << (ps.analytic() ? " (closed form)" : " (Jets)") << "\n"
+                                  << results.error_log;
+            }
+        }
+    }
+}
+
+TEST(PreparedSamples, ClosedFormAndJetDerivativesAgree) {
+    int analytic_structures = 0;
+    for (const Structure& st : kStructures) {
+        for (ResidualForm form :
+             {ResidualForm::kLog, ResidualForm::kCubeRoot, ResidualForm::kRelative}) {
+            const FitSpec spec = spec_of(st);
+            auto map = std::make_shared<const ParameterMap>(*ParameterMap::make(spec));
+            const std::vector<brdf::Sample> samples = samples_for(spec.model, 300, 3);
+            CostOptions co;
+            co.residual = form;
+            PreparedSamples closed(map, samples, co);
+            PreparedSamples jets(map, samples, co);
+            jets.set_analytic(false);
+            if (!closed.analytic()) {
+                continue;
+            }
+            ++analytic_structures;
+            const std::vector<double> x = map->values_of(spec.model);
+            NormalEquations a, b;
+            ASSERT_TRUE(closed.normal_equations(x.data(), a, 2));
+            ASSERT_TRUE(jets.normal_equations(x.data(), b, 1));
+            EXPECT_NEAR(a.cost_sum, b.cost_sum, 1e-12 * b.cost_sum) << st.label;
+            EXPECT_LT((a.jtj - b.jtj).norm(), 1e-10 * b.jtj.norm()) << st.label;
+            EXPECT_LT((a.jtr - b.jtr).norm(), 1e-10 * b.jtr.norm() + 1e-300) << st.label;
+        }
+    }
+    // The default structures take the closed form.
+    EXPECT_GE(analytic_structures, 15);
+}
+
+TEST(NormalEquationCost, ReproducesTheGaussNewtonQuantitiesOfTheFullProblem) {
+    const FitSpec spec = spec_of(kStructures[0]);
+    auto map = std::make_shared<const ParameterMap>(*ParameterMap::make(spec));
+    const std::vector<brdf::Sample> samples = samples_for(spec.model, 5000, 5);
+    const CostOptions co;
+    // The full problem: residuals and Jacobian of every sample.
+    std::unique_ptr<ceres::CostFunction> full = make_batch_cost(map, samples, co);
+    const int n = map->size();
+    std::vector<double> x = map->values_of(spec.model);
+    x[3] *= 1.3;  // away from the data's own point
+    const double* params[] = {x.data()};
+    Eigen::VectorXd r(3 * samples.size());
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> j(3 * samples.size(), n);
+    double* jacs[] = {j.data()};
+    ASSERT_TRUE(full->Evaluate(params, r.data(), jacs));
+    // The compressed one.
+    auto ps = std::make_shared<const PreparedSamples>(map, samples, co);
+    NormalEquationCost cost(ps, 2);
+    ASSERT_EQ(cost.num_residuals(), n + 1);
+    Eigen::VectorXd rc(n + 1);
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> jc(n + 1, n);
+    double* jcs[] = {jc.data()};
+    ASSERT_TRUE(cost.Evaluate(params, rc.data(), jcs));
+    const Eigen::MatrixXd jtj = j.transpose() * j;
+    const Eigen::VectorXd jtr = j.transpose() * r;
+    EXPECT_LT((jc.transpose() * jc - jtj).norm(), 1e-9 * jtj.norm());
+    EXPECT_LT((jc.transpose() * rc - jtr).norm(), 1e-9 * jtr.norm());
+    EXPECT_NEAR(rc.squaredNorm(), r.squaredNorm(), 1e-10 * r.squaredNorm());
+    // A cost-only call at the same point answers from the same pass.
+    Eigen::VectorXd r_only(n + 1);
+    ASSERT_TRUE(cost.Evaluate(params, r_only.data(), nullptr));
+    EXPECT_NEAR(r_only.squaredNorm(), r.squaredNorm(), 1e-10 * r.squaredNorm());
+    EXPECT_EQ(cost.passes(), 1);
+}
+
+}  // namespace
+}  // namespace gonio::fitting
