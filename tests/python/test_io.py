@@ -5,6 +5,7 @@ import json
 import struct
 
 import numpy as np
+import pytest
 
 import gonio
 from conftest import TRUTH, synthetic_samples
@@ -81,7 +82,8 @@ def test_samples_csv_round_trip_and_zero_copy_views(workdir):
     assert back["value"].strides[0] == back["theta_i"].strides[0] > 8 * 3
 
 
-def test_rejected_rows_are_listed_with_line_and_reason(workdir):
+def test_a_bad_row_is_an_error_naming_file_line_and_column(workdir):
+    # The dataset CSV reader is strict: the first bad row stops the read.
     path = workdir / "bad.csv"
     path.write_text(
         "theta_i,phi_i,theta_o,phi_o,r,g,b\n"
@@ -89,11 +91,9 @@ def test_rejected_rows_are_listed_with_line_and_reason(workdir):
         "1.7,0,0.2,3,0.5,0.5,0.5\n"
         "0.1,0,0.2,3,-1,0.5,0.5\n"
     )
-    d = gonio.load(path)
-    assert len(d["theta_i"]) == 1
-    lines = [line for line, _ in d["rejected"]]
-    assert lines == [3, 4]
-    assert "theta_i" in d["rejected"][0][1]
+    with pytest.raises(gonio.Error) as e:
+        gonio.load(path)
+    assert "bad.csv:3:1: theta_i = 1.7 outside [0, pi/2)" in str(e.value)
 
 
 def test_model_json_round_trip(workdir):

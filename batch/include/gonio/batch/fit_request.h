@@ -14,8 +14,8 @@
 namespace gonio::batch {
 
 struct FitRequest {
-    std::string model = "ggx";  ///< ggx, beckmann, blinn-phong, or a template *.json path.
-    std::string fresnel = "schlick-rgb";  ///< schlick, schlick-rgb, dielectric, conductor, none.
+    std::string model = "ggx";        ///< ggx, beckmann, blinn-phong, or a template *.json path.
+    std::string fresnel = "schlick";  ///< schlick, schlick-rgb, dielectric, conductor, none.
     std::string shadowing = "smith-correlated";
     bool diffuse = true;
     bool anisotropic = false;
