@@ -28,6 +28,7 @@ from ._gonio import (  # noqa: F401  (re-exported)
 from . import _gonio
 
 __all__ = [
+    "__version__",
     "Error",
     "check",
     "eval",
