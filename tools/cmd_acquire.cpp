@@ -18,6 +18,7 @@
 #include "gonio/acquisition/rig_config.h"
 #include "gonio/brdf/data_path.h"
 #include "gonio/sim/sim_rig.h"
+#include "option_checks.h"
 
 namespace {
 
@@ -95,6 +96,9 @@ int run(const AcquireOptions& o) {
     bool embedded = false;
     // The virtual rig takes its ground truth and time scale from the stored rig description.
     gonio::sim::SimRigOptions so;
+    // A new campaign's folder is created only once everything is checked: description, plan,
+    // scene, rig, ground truth and devices reachable. Until then nothing is written.
+    acq::CampaignSpec new_spec;
     if (!o.resume.empty()) {
         dir = o.resume;
         auto r = acq::read_rig_config((fs::path(dir) / "rig.json").string());
@@ -161,11 +165,11 @@ int run(const AcquireOptions& o) {
             return fail(r.error().message);
         }
         rig = *r;
+        auto plan = acq::build_plan(spec, rig);
+        if (!plan) {
+            return fail(plan.error().message);
+        }
         if (o.plan_only) {
-            auto plan = acq::build_plan(spec, rig);
-            if (!plan) {
-                return fail(plan.error().message);
-            }
             std::printf(
                 "%zu configurations, %zu unreachable, %llu outside the ROI, naive 4D grid %llu\n",
                 plan->configs.size(),
@@ -199,9 +203,15 @@ int run(const AcquireOptions& o) {
             }
             rig = *rr;
         }
-        if (auto c = acq::create_campaign_dir(dir, spec, rig); !c) {
-            return fail(c.error().message);
+        std::error_code ec;
+        if (fs::exists(fs::path(dir) / "journal.log", ec) ||
+            fs::exists(fs::path(dir) / "campaign.json", ec)) {
+            return fail(dir + ": already holds a campaign (use --resume " + dir + ")");
         }
+        if (fs::exists(dir, ec) && !fs::is_directory(dir, ec)) {
+            return fail(dir + ": exists and is not a folder");
+        }
+        new_spec = spec;
     }
     if (embedded) {
         auto s = gonio::sim::SimRig::start(rig.json, so);
@@ -217,9 +227,15 @@ int run(const AcquireOptions& o) {
     }
     std::printf("campaign folder: %s\n", dir.c_str());
     std::fflush(stdout);
+
     auto dev = acq::open_rig(rig);
     if (!dev) {
         return fail(dev.error().message);
+    }
+    if (o.resume.empty()) {
+        if (auto c = acq::create_campaign_dir(dir, new_spec, rig); !c) {
+            return fail(c.error().message);
+        }
     }
     acq::RunHooks hooks;
     hooks.stop = &g_stop;
@@ -249,10 +265,17 @@ int run(const AcquireOptions& o) {
         case acq::Outcome::kCompleted:
             return 0;
         case acq::Outcome::kInterrupted:
-            return 130;
+            std::fprintf(stderr,
+                         "gonio acquire: stopped on request; continue with: gonio acquire --resume "
+                         "%s\n",
+                         dir.c_str());
+            return 1;
         case acq::Outcome::kPaused:
-            std::fprintf(stderr, "gonio acquire: paused: %s\n", res->message.c_str());
-            return 3;
+            std::fprintf(stderr,
+                         "gonio acquire: paused: %s\ncontinue with: gonio acquire --resume %s\n",
+                         res->message.c_str(),
+                         dir.c_str());
+            return 1;
     }
     return 1;
 }
@@ -275,11 +298,16 @@ GONIO_COMMAND(acquire) {
     cmd->add_option("--scene", o->scene, "measure only the region of interest of this scene");
     cmd->add_option("--sample", o->sample, "sample name");
     cmd->add_option("--operator", o->operator_name, "operator name");
-    cmd->add_option("--plan", o->plan, "uniform or half-diff");
-    cmd->add_option("--n-theta", o->n_theta, "uniform plan: polar angles");
-    cmd->add_option("--n-dphi", o->n_dphi, "uniform plan: azimuth differences");
-    cmd->add_option("--adaptive", o->adaptive, "adaptive refinement passes (0 = none)");
-    cmd->add_option("--time-scale", o->time_scale, "virtual rig: motion time scale");
+    cmd->add_option("--plan", o->plan, "uniform or half-diff")
+        ->check(CLI::IsMember({"uniform", "half-diff"}));
+    cmd->add_option("--n-theta", o->n_theta, "uniform plan: polar angles")
+        ->check(gonio::tools::integer_in(2, acq::kMaxPlanAxis));
+    cmd->add_option("--n-dphi", o->n_dphi, "uniform plan: azimuth differences")
+        ->check(gonio::tools::integer_in(2, acq::kMaxPlanAxis));
+    cmd->add_option("--adaptive", o->adaptive, "adaptive refinement passes (0 = none)")
+        ->check(gonio::tools::integer_in(0, 100));
+    cmd->add_option("--time-scale", o->time_scale, "virtual rig: motion time scale")
+        ->check(gonio::tools::finite_in(0.001, 1e6));
     cmd->add_flag("--accept-drift",
                   o->accept_drift,
                   "resume: take the lamp's current level as the new baseline");
@@ -287,8 +315,10 @@ GONIO_COMMAND(acquire) {
            "--mode", o->mode, "point (one configuration per frame) or image (curved sample)")
         ->check(CLI::IsMember({"point", "image"}));
     cmd->add_option(
-        "--coverage-target", o->coverage_target, "image mode: fraction of valid table bins");
-    cmd->add_option("--max-frames", o->max_frames, "image mode: most light positions");
+           "--coverage-target", o->coverage_target, "image mode: fraction of valid table bins")
+        ->check(gonio::tools::finite_in(0.001, 1));
+    cmd->add_option("--max-frames", o->max_frames, "image mode: most light positions")
+        ->check(gonio::tools::integer_in(1, 1000000));
     cmd->add_flag("--plan-only", o->plan_only, "print the plan (and unreachable targets) and exit");
     return [o]() { return run(*o); };
 }

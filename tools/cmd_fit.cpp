@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "command.h"
+#include "gonio/brdf/atomic_file.h"
 #include "gonio/brdf/model_json.h"
 #include "gonio/brdf/samples_io.h"
 #include "gonio/fitting/fit.h"
@@ -200,6 +201,15 @@ GONIO_COMMAND(fit) {
                     o->compare,
                     "comma-separated models to fit and rank, e.g. ggx,beckmann,blinn-phong");
     return [o]() -> int {
+        if (!o->out.empty()) {
+            // Refused before the fit runs: an output that is a folder, a device, a missing folder.
+            for (const std::string& p : {o->out, fitting::report_path_for(o->out)}) {
+                if (auto ok = gonio::check_output_path(p); !ok) {
+                    std::fprintf(stderr, "gonio fit: %s\n", ok.error().message.c_str());
+                    return 1;
+                }
+            }
+        }
         auto data = gonio::brdf::load_samples(o->data);
         if (!data) {
             std::fprintf(stderr, "gonio fit: %s\n", data.error().message.c_str());

@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
+#include "gonio/brdf/atomic_file.h"
 #include "gonio/brdf/check.h"
 
 namespace gonio::acquisition {
@@ -428,22 +429,7 @@ Expected<void> write_camera_model(const std::string& rig_path, const CameraModel
         }
     }
     j["camera_model"] = nlohmann::json::parse(camera_model_to_json(m));
-    const std::string tmp = rig_path + ".tmp";
-    {
-        std::ofstream out(tmp, std::ios::trunc);
-        if (!out) {
-            return make_error(tmp + ": cannot open for writing");
-        }
-        out << j.dump(2) << "\n";
-        out.flush();
-        if (!out) {
-            return make_error(tmp + ": write failed");
-        }
-    }
-    if (std::rename(tmp.c_str(), rig_path.c_str()) != 0) {
-        return make_error(rig_path + ": cannot rename " + tmp + " into place");
-    }
-    return {};
+    return write_file_atomic(rig_path, j.dump(2) + "\n");
 }
 
 }  // namespace gonio::acquisition
