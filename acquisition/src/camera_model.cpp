@@ -11,6 +11,8 @@
 
 #include "gonio/brdf/atomic_file.h"
 #include "gonio/brdf/check.h"
+#include "gonio/brdf/limits.h"
+#include "json_fields.h"
 
 namespace gonio::acquisition {
 
@@ -387,11 +389,14 @@ Expected<CameraModel> from_json_object(const nlohmann::json& j, const std::strin
 }  // namespace
 
 Expected<CameraModel> camera_model_from_json(const std::string& text, const std::string& where) {
+    if (auto ok = check_json_text(text, where); !ok) {
+        return tl::unexpected(ok.error());
+    }
     nlohmann::json j;
     try {
         j = nlohmann::json::parse(text);
     } catch (const nlohmann::json::exception& e) {
-        return make_error(where + ": " + e.what());
+        return make_error(where + ": " + detail::json_error_text(e.what()));
     }
     return from_json_object(j, where);
 }
@@ -405,7 +410,7 @@ Expected<CameraModel> read_camera_model(const std::string& rig_path) {
     try {
         in >> j;
     } catch (const nlohmann::json::exception& e) {
-        return make_error(rig_path + ": " + e.what());
+        return make_error(rig_path + ": " + detail::json_error_text(e.what()));
     }
     if (!j.is_object() || !j.contains("camera_model")) {
         return make_error(rig_path + ": camera_model: missing (calibrate the camera first)");
@@ -421,7 +426,7 @@ Expected<void> write_camera_model(const std::string& rig_path, const CameraModel
             try {
                 in >> j;
             } catch (const nlohmann::json::exception& e) {
-                return make_error(rig_path + ": " + e.what());
+                return make_error(rig_path + ": " + detail::json_error_text(e.what()));
             }
             if (!j.is_object()) {
                 return make_error(rig_path + ": the rig description must be a JSON object");

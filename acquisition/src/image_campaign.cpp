@@ -11,6 +11,7 @@
 #include "gonio/brdf/check.h"
 #include "gonio/brdf/merl.h"
 #include "gonio/brdf/rig_geometry.h"
+#include "json_fields.h"
 
 namespace gonio::acquisition {
 namespace {
@@ -529,7 +530,8 @@ Expected<void> write_image_campaign(const std::string& dir,
             j.update(extra);
         }
     } catch (const nlohmann::json::exception& e) {
-        return make_error(std::string("dataset.json extra metadata: ") + e.what());
+        return make_error(std::string("dataset.json extra metadata: ") +
+                          detail::json_error_text(e.what()));
     }
     const std::string path = base + "dataset.json";
     return write_file_atomic(path, j.dump(2) + "\n");

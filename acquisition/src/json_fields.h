@@ -28,6 +28,14 @@ inline std::string json_type(const nlohmann::json& j) {
     return j.is_number() ? std::string("number") : std::string(j.type_name());
 }
 
+/// nlohmann's message without its "[json.exception.type_error.302] " code.
+inline std::string json_error_text(const char* what) {
+    std::string s = what;
+    const auto pos = s.find("] ");
+    return s.compare(0, 15, "[json.exception") == 0 && pos != std::string::npos ? s.substr(pos + 2)
+                                                                                : s;
+}
+
 /// Parses text after the size and depth checks; a syntax error names the line and column.
 inline nlohmann::json parse_json_checked(const std::string& text, const std::string& source) {
     if (auto ok = check_json_text(text, source); !ok) {

@@ -131,7 +131,7 @@ Expected<void> check_output_path(const std::string& path) {
             return make_error(path + ": output path is " + kind_of(st.st_mode) +
                               "; give a regular file name");
         }
-    } else if (errno != ENOENT) {
+    } else if (errno != ENOENT && errno != ENOTDIR) {
         return make_error(path + ": cannot inspect output path: " + errno_text(errno));
     }
     const std::string dir = split_path(path).first;

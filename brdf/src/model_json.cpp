@@ -116,9 +116,6 @@ constexpr double kMaxEta = 100;
 /// `shown` is the value as written in the document; `max` an upper bound (inclusive).
 void check_rule(
     double v, const std::string& path, const std::string& shown, Rule rule, double max) {
-    if (v > max) {
-        fail(path + " = " + shown + ": must be <= " + show_number(max));
-    }
     switch (rule) {
         case Rule::kPositive:
             if (!(v > 0)) {
@@ -135,6 +132,9 @@ void check_rule(
                 fail(path + " = " + shown + ": must be in [0, 1]");
             }
             break;
+    }
+    if (v > max) {
+        fail(path + " = " + shown + ": must be <= " + show_number(max));
     }
 }
 

@@ -433,4 +433,76 @@ TEST_F(Hostile, FailedCampaignStartLeavesNoFolder) {
     EXPECT_FALSE(fs::exists(p("camp"))) << c.out;
 }
 
+/// Starts `gonio ARGS`, reads its standard output until a line starting with "plan:" (printed
+/// once metadata.json lists the run), then kills it with SIGKILL. True when the line was seen.
+bool start_and_kill_after_plan(const std::vector<std::string>& args, std::string* seen) {
+    int fds[2];
+    if (pipe(fds) != 0) {
+        return false;
+    }
+    const pid_t pid = fork();
+    if (pid < 0) {
+        return false;
+    }
+    if (pid == 0) {
+        dup2(fds[1], 1);
+        close(fds[0]);
+        std::vector<char*> argv = {const_cast<char*>(GONIO_EXE)};
+        for (const std::string& a : args) {
+            argv.push_back(const_cast<char*>(a.c_str()));
+        }
+        argv.push_back(nullptr);
+        execv(GONIO_EXE, argv.data());
+        _exit(127);
+    }
+    close(fds[1]);
+    FILE* in = fdopen(fds[0], "r");
+    char line[4096];
+    bool found = false;
+    while (std::fgets(line, sizeof line, in) != nullptr) {
+        *seen += line;
+        if (std::string(line).rfind("plan:", 0) == 0) {
+            found = true;
+            break;
+        }
+    }
+    kill(pid, SIGKILL);
+    int st = 0;
+    waitpid(pid, &st, 0);
+    std::fclose(in);
+    return found;
+}
+
+// metadata.json lists a run from its start; a run killed with SIGKILL is marked "killed" by the
+// next one, with how it ended.
+TEST_F(Hostile, KilledRunsAreListedInMetadata) {
+    const std::string camp = p("camp").string();
+    std::string out;
+    ASSERT_TRUE(start_and_kill_after_plan({"acquire",
+                                           "--out",
+                                           camp,
+                                           "--n-theta",
+                                           "3",
+                                           "--n-dphi",
+                                           "2",
+                                           "--adaptive",
+                                           "0",
+                                           "--time-scale",
+                                           "1"},
+                                          &out))
+        << out;
+    const std::string first = slurp(p("camp/metadata.json"));
+    EXPECT_NE(first.find("\"state\": \"running\""), std::string::npos) << first;
+    // The second run starts (and is killed too): it marks the first one.
+    out.clear();
+    ASSERT_TRUE(start_and_kill_after_plan({"acquire", "--resume", camp}, &out)) << out;
+    const std::string second = slurp(p("camp/metadata.json"));
+    const auto killed = second.find("\"state\": \"killed\"");
+    const auto running = second.find("\"state\": \"running\"");
+    EXPECT_NE(killed, std::string::npos) << second;
+    EXPECT_NE(running, std::string::npos) << second;
+    EXPECT_LT(killed, running) << "runs in order: the killed first, the running second\n" << second;
+    EXPECT_NE(second.find("stopped without writing its end"), std::string::npos) << second;
+}
+
 }  // namespace
