@@ -28,6 +28,8 @@
 #include "gonio/devices/camera_factory.h"
 #include "gonio/devices/pixel_format.h"
 #include "gonio/devices/uvc_camera.h"
+#include "gonio/sim/gige_camera.h"
+#include "gonio/sim/gige_server.h"
 #include "gonio/sim/u3v_device.h"
 #include "gonio/sim/u3v_tcp_server.h"
 
@@ -46,6 +48,8 @@ struct CameraOptions {
     std::string material = "white-lambert";
     std::string brdf_path;
     bool zipped = false;
+    std::string protocol = "gige";
+    bool exposure_abs = false;
     int width = 1280;
     int height = 1024;
     std::uint64_t seed = 1;
@@ -229,7 +233,47 @@ int run_capture(const CameraOptions& o) {
     return 0;
 }
 
+/// The simulated GigE Vision camera on 127.0.0.1:3956 until SIGINT or SIGTERM.
+int run_serve_gige(const CameraOptions& o) {
+    auto truth = load_truth(o);
+    if (!truth) {
+        std::fprintf(stderr, "gonio camera serve: %s\n", truth.error().message.c_str());
+        return 1;
+    }
+    gonio::sim::GigeCameraConfig cfg;
+    cfg.sensor.width = o.width;
+    cfg.sensor.height = o.height;
+    cfg.sensor.seed = o.seed;
+    cfg.exposure_naming =
+        o.exposure_abs ? gonio::sim::ExposureNaming::kAbs : gonio::sim::ExposureNaming::kSfnc;
+    const gonio::sim::SceneState scene = gonio::sim::scene_from_angles(o.theta_i_deg * kDeg,
+                                                                       o.phi_i_deg * kDeg,
+                                                                       o.theta_o_deg * kDeg,
+                                                                       o.phi_o_deg * kDeg,
+                                                                       o.irradiance);
+    auto camera = std::make_shared<gonio::sim::GigeCamera>(cfg, *truth, [scene] { return scene; });
+    sigset_t set;
+    sigemptyset(&set);
+    sigaddset(&set, SIGINT);
+    sigaddset(&set, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &set, nullptr);
+    gonio::sim::GigeServer server(camera);
+    if (auto r = server.start(); !r) {
+        std::fprintf(stderr, "gonio camera serve: %s\n", r.error().message.c_str());
+        return 1;
+    }
+    std::printf("%s\n", server.address().c_str());
+    std::fflush(stdout);
+    int sig = 0;
+    sigwait(&set, &sig);
+    server.stop();
+    return 0;
+}
+
 int run_serve(const CameraOptions& o) {
+    if (o.protocol == "gige") {
+        return run_serve_gige(o);
+    }
     auto dev = make_sim_device(o);
     if (!dev) {
         std::fprintf(stderr, "gonio camera serve: %s\n", dev.error().message.c_str());
@@ -276,9 +320,16 @@ GONIO_COMMAND(camera) {
     capture->add_option("--format", o->format, "Mono8, Mono12 or Mono16");
     capture->add_option("--timeout-ms", o->timeout_ms, "frame timeout")->check(CLI::PositiveNumber);
     capture->add_option("output", o->output, "output .exr")->required();
-    auto* serve = cmd->add_subcommand(
-        "serve", "serve a simulated U3V camera on 127.0.0.1 and print its address");
-    serve->add_option("--port", o->port, "TCP port (0 = any free port)")
+    auto* serve =
+        cmd->add_subcommand("serve", "serve a simulated camera on 127.0.0.1 and print its address");
+    serve
+        ->add_option(
+            "--protocol", o->protocol, "gige (GigE Vision on 127.0.0.1:3956, default) or u3v-tcp")
+        ->check(CLI::IsMember({"gige", "u3v-tcp"}));
+    serve->add_flag("--exposure-abs",
+                    o->exposure_abs,
+                    "name the exposure feature ExposureTimeAbs instead of ExposureTime (gige)");
+    serve->add_option("--port", o->port, "u3v-tcp: TCP port (0 = any free port)")
         ->check(CLI::Range(0, 65535));
     serve->add_option("--material",
                       o->material,

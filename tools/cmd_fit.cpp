@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "command.h"
+#include "fit_manifest.h"
 #include "gonio/brdf/atomic_file.h"
 #include "gonio/brdf/model_json.h"
 #include "gonio/brdf/samples_io.h"
@@ -41,6 +42,8 @@ struct FitCliOptions {
     std::string out;
     std::string compare;
     std::string truth;
+    std::string manifest;
+    std::string shard;
 };
 
 std::vector<std::string> split(const std::string& s) {
@@ -163,8 +166,7 @@ int run_compare(const FitCliOptions& o, const gonio::brdf::Dataset& data) {
 GONIO_COMMAND(fit) {
     auto* cmd = app.add_subcommand("fit", "fit an analytic BRDF model to measured samples (Ceres)");
     auto o = std::make_shared<FitCliOptions>();
-    cmd->add_option("data", o->data, "samples: dataset CSV or table (MERL .binary, .gtab)")
-        ->required();
+    cmd->add_option("data", o->data, "samples: dataset CSV or table (MERL .binary, .gtab)");
     cmd->add_option("--model", o->model, "lobe distribution: ggx, beckmann, blinn-phong")
         ->capture_default_str();
     cmd->add_option("--template",
@@ -200,7 +202,18 @@ GONIO_COMMAND(fit) {
     cmd->add_option("--compare",
                     o->compare,
                     "comma-separated models to fit and rank, e.g. ggx,beckmann,blinn-phong");
+    cmd->add_option("--manifest", o->manifest, "fit every entry of a manifest CSV into --out DIR")
+        ->excludes("data");
+    cmd->add_option("--shard", o->shard, "with --manifest: only entries i with i mod N == K")
+        ->needs("--manifest");
     return [o]() -> int {
+        if (!o->manifest.empty()) {
+            return gonio::tools::run_fit_manifest(o->manifest, o->shard, o->out);
+        }
+        if (o->data.empty()) {
+            std::fprintf(stderr, "gonio fit: give DATA (or --manifest M --out DIR)\n");
+            return 2;
+        }
         if (!o->out.empty()) {
             // Refused before the fit runs: an output that is a folder, a device, a missing folder.
             for (const std::string& p : {o->out, fitting::report_path_for(o->out)}) {

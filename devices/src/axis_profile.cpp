@@ -39,6 +39,17 @@ Expected<double> get_number(const json& j, const std::string& path) {
     return make_error(path + ": " + j.dump() + " is not a finite number");
 }
 
+/// The optional "section" key: where the drive's manual documents a register or block.
+Expected<std::string> get_section(const json& j, const std::string& path) {
+    if (!j.contains("section")) {
+        return std::string();
+    }
+    if (!j["section"].is_string() || j["section"].get<std::string>().empty()) {
+        return make_error(path + ".section: expected a non-empty string (the manual's section)");
+    }
+    return j["section"].get<std::string>();
+}
+
 Expected<RegisterField> get_field(const json& j, const std::string& path) {
     if (!j.is_object()) {
         return make_error(path + ": expected an object {\"address\": ..., \"width\": 16|32}");
@@ -70,6 +81,11 @@ Expected<RegisterField> get_field(const json& j, const std::string& path) {
             return make_error(path + ".signed: expected true or false");
         }
         f.is_signed = j["signed"].get<bool>();
+    }
+    if (auto sec = get_section(j, path); !sec) {
+        return tl::unexpected(sec.error());
+    } else {
+        f.section = *sec;
     }
     return f;
 }
@@ -107,6 +123,11 @@ Expected<Action> get_action(const json& j, const std::string& path) {
             return tl::unexpected(a.error());
         }
         act.block.address = static_cast<int>(*a);
+        auto sec = get_section(b, bp);
+        if (!sec) {
+            return tl::unexpected(sec.error());
+        }
+        act.block.section = *sec;
         for (size_t i = 0; i < b["slots"].size(); ++i) {
             const json& s = b["slots"][i];
             const std::string sp = bp + ".slots[" + std::to_string(i) + "]";

@@ -36,7 +36,8 @@ class ServedCamera {
         posix_spawn_file_actions_init(&fa);
         posix_spawn_file_actions_adddup2(&fa, fds[1], 1);
         posix_spawn_file_actions_addclose(&fa, fds[0]);
-        std::vector<std::string> args = {GONIO_EXE, "camera", "serve", "--port", "0"};
+        std::vector<std::string> args = {
+            GONIO_EXE, "camera", "serve", "--protocol", "u3v-tcp", "--port", "0"};
         args.insert(args.end(), extra.begin(), extra.end());
         std::vector<char*> argv;
         for (auto& a : args) {

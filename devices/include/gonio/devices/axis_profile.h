@@ -29,6 +29,7 @@ struct RegisterField {
         -1;          ///< As the manual documents it (address_base not yet subtracted); -1 = absent.
     int width = 16;  ///< 16 or 32.
     bool is_signed = true;
+    std::string section;  ///< Where the drive's manual documents this register ("section").
     bool present() const { return address >= 0; }
     int count() const { return width == 32 ? 2 : 1; }
 };
@@ -56,6 +57,7 @@ struct BlockSlot {
 struct CommandBlock {
     int address = -1;  ///< Documented address of the first register; -1 = no block.
     std::vector<BlockSlot> slots;
+    std::string section;  ///< Where the drive's manual documents the block ("section").
     bool present() const { return address >= 0; }
     int register_count() const;
 };

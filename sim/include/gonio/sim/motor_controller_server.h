@@ -2,12 +2,15 @@
 
 // Simulated motor controllers: a Modbus server (libmodbus) that implements the drive profiles of
 // data/devices register for register, with several units (drives) behind one address, over TCP on
-// 127.0.0.1 (port 0 = ephemeral) or over RTU on a pseudo-terminal pair. Each unit runs a MotorSim;
+// 127.0.0.1 (port 0 = ephemeral) or over RTU on a pseudo-terminal pair. One thread serves every
+// connection with poll() and non-blocking I/O (per-connection buffers, frame timeouts, bounded
+// output, a connection limit), so no client can hold up another. Each unit runs a MotorSim;
 // a unit may also carry a shutter coil. Faults are injected from C++ (inject()) or over Modbus
 // through the fault registers (kFaultRegister...). All public functions are thread-safe.
 
 #include <chrono>
 #include <cstdint>
+#include <cstdio>
 #include <map>
 #include <memory>
 #include <string>
@@ -60,6 +63,15 @@ struct ServerOptions {
     Transport transport = Transport::kTcp;
     int port = 0;  ///< TCP: 0 = ephemeral (see port()).
     int baud = 115200;
+    /// TCP: connections served at once; further ones are accepted and closed, with a log line.
+    int max_connections = 64;
+    /// TCP: a connection whose incomplete frame has not been completed within this time is
+    /// closed (a half frame or a byte trickle never holds anything up; 0 = never).
+    int frame_timeout_ms = 1000;
+    /// Replies waiting for a client that does not read; beyond this the client is dropped.
+    std::size_t max_output_bytes = 64 * 1024;
+    /// Log lines (connection limit, dropped clients, blips) go here; null = silent.
+    std::FILE* log = stderr;
 };
 
 /// State of one unit at one instant.
@@ -98,6 +110,10 @@ class MotorControllerServer {
     std::string address() const;
 
     void inject(const Fault& f);
+    /// Simulates a power blip of the gateway (TCP: every connection and the listener close, and
+    /// the same port listens again after `down`) or of the line (RTU: requests go unanswered for
+    /// `down`). With `drive_power_loss` the drives lose their move under way as well.
+    void blip(std::chrono::milliseconds down, bool drive_power_loss = false);
     void clear_faults();
 
     /// Physical load angle of a unit's stage, degrees (NaN for an unknown unit).

@@ -1,0 +1,252 @@
+// FitRequest: options by name and the fit spec they describe.
+
+#include "gonio/batch/fit_request.h"
+
+#include <cerrno>
+#include <cstdlib>
+#include <limits>
+#include <sstream>
+
+namespace gonio::batch {
+
+namespace {
+
+std::string trim(const std::string& s) {
+    const auto b = s.find_first_not_of(" \t\r\n");
+    if (b == std::string::npos) {
+        return {};
+    }
+    const auto e = s.find_last_not_of(" \t\r\n");
+    return s.substr(b, e - b + 1);
+}
+
+Expected<bool> parse_bool(const std::string& key, const std::string& v) {
+    if (v == "true" || v == "1" || v == "yes") {
+        return true;
+    }
+    if (v == "false" || v == "0" || v == "no") {
+        return false;
+    }
+    return make_error("option " + key + " = \"" + v + "\": expected true/false/1/0/yes/no");
+}
+
+Expected<long long> parse_int(const std::string& key,
+                              const std::string& v,
+                              long long lo,
+                              long long hi) {
+    char* end = nullptr;
+    errno = 0;
+    const long long x = std::strtoll(v.c_str(), &end, 10);
+    if (v.empty() || end != v.c_str() + v.size() || errno == ERANGE) {
+        return make_error("option " + key + " = \"" + v + "\": not an integer");
+    }
+    if (x < lo || x > hi) {
+        return make_error("option " + key + " = " + v + ": outside [" + std::to_string(lo) + ", " +
+                          std::to_string(hi) + "]");
+    }
+    return x;
+}
+
+Expected<double> parse_positive(const std::string& key, const std::string& v) {
+    char* end = nullptr;
+    errno = 0;
+    const double x = std::strtod(v.c_str(), &end);
+    if (v.empty() || end != v.c_str() + v.size() || errno == ERANGE) {
+        return make_error("option " + key + " = \"" + v + "\": not a number");
+    }
+    if (!(x > 0) || x > std::numeric_limits<double>::max()) {
+        return make_error("option " + key + " = " + v + ": must be a finite number > 0");
+    }
+    return x;
+}
+
+bool ends_with(const std::string& s, const std::string& suffix) {
+    return s.size() >= suffix.size() &&
+           s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+}  // namespace
+
+Expected<void> set_option(FitRequest& r, const std::string& key_in, const std::string& value_in) {
+    std::string key = trim(key_in);
+    for (char& c : key) {
+        if (c == '-') {
+            c = '_';
+        }
+    }
+    const std::string v = trim(value_in);
+    constexpr long long kIntMax = std::numeric_limits<int>::max();
+    if (key == "model") {
+        if (v.empty()) {
+            return make_error("option model is empty");
+        }
+        r.model = v;
+    } else if (key == "fresnel") {
+        auto f = fitting::parse_fresnel(v);
+        if (!f) {
+            return make_error("option fresnel: " + f.error().message);
+        }
+        r.fresnel = v;
+    } else if (key == "shadowing") {
+        auto s = fitting::parse_shadowing(v);
+        if (!s) {
+            return make_error("option shadowing: " + s.error().message);
+        }
+        r.shadowing = v;
+    } else if (key == "diffuse") {
+        auto b = parse_bool(key, v);
+        if (!b) {
+            return tl::unexpected(b.error());
+        }
+        r.diffuse = *b;
+    } else if (key == "anisotropic") {
+        auto b = parse_bool(key, v);
+        if (!b) {
+            return tl::unexpected(b.error());
+        }
+        r.anisotropic = *b;
+    } else if (key == "lobes") {
+        auto n = parse_int(key, v, 0, 4);
+        if (!n) {
+            return tl::unexpected(n.error());
+        }
+        r.lobes = static_cast<int>(*n);
+    } else if (key == "residual") {
+        auto f = fitting::parse_residual(v);
+        if (!f) {
+            return make_error("option residual: " + f.error().message);
+        }
+        r.residual = v;
+    } else if (key == "loss") {
+        auto l = fitting::parse_loss(v);
+        if (!l) {
+            return make_error("option loss: " + l.error().message);
+        }
+        r.loss = v;
+    } else if (key == "loss_scale") {
+        auto x = parse_positive(key, v);
+        if (!x) {
+            return tl::unexpected(x.error());
+        }
+        r.loss_scale = *x;
+    } else if (key == "max_samples") {
+        auto n = parse_int(key, v, 0, std::numeric_limits<long long>::max());
+        if (!n) {
+            return tl::unexpected(n.error());
+        }
+        r.max_samples = static_cast<std::size_t>(*n);
+    } else if (key == "starts") {
+        auto n = parse_int(key, v, 1, 1000);
+        if (!n) {
+            return tl::unexpected(n.error());
+        }
+        r.starts = static_cast<int>(*n);
+    } else if (key == "seed") {
+        auto n = parse_int(key, v, 0, std::numeric_limits<long long>::max());
+        if (!n) {
+            return tl::unexpected(n.error());
+        }
+        r.seed = static_cast<std::uint64_t>(*n);
+    } else if (key == "max_iterations") {
+        auto n = parse_int(key, v, 1, kIntMax);
+        if (!n) {
+            return tl::unexpected(n.error());
+        }
+        r.max_iterations = static_cast<int>(*n);
+    } else if (key == "threads") {
+        auto n = parse_int(key, v, 0, 4096);
+        if (!n) {
+            return tl::unexpected(n.error());
+        }
+        r.threads = static_cast<int>(*n);
+    } else {
+        return make_error("unknown option \"" + key +
+                          "\" (known: model, fresnel, shadowing, diffuse, anisotropic, lobes, "
+                          "residual, loss, loss_scale, max_samples, starts, seed, max_iterations, "
+                          "threads)");
+    }
+    return {};
+}
+
+Expected<void> set_options(FitRequest& r, const std::string& options) {
+    std::stringstream ss(options);
+    std::string item;
+    while (std::getline(ss, item, ';')) {
+        item = trim(item);
+        if (item.empty()) {
+            continue;
+        }
+        const auto eq = item.find('=');
+        if (eq == std::string::npos) {
+            return make_error("option \"" + item + "\": expected key=value");
+        }
+        auto s = set_option(r, item.substr(0, eq), item.substr(eq + 1));
+        if (!s) {
+            return s;
+        }
+    }
+    return {};
+}
+
+std::string format_options(const FitRequest& r) {
+    std::ostringstream o;
+    o.precision(17);
+    o << "model=" << r.model << ";fresnel=" << r.fresnel << ";shadowing=" << r.shadowing
+      << ";diffuse=" << (r.diffuse ? "true" : "false")
+      << ";anisotropic=" << (r.anisotropic ? "true" : "false") << ";lobes=" << r.lobes
+      << ";residual=" << r.residual << ";loss=" << r.loss << ";loss_scale=" << r.loss_scale
+      << ";max_samples=" << r.max_samples << ";starts=" << r.starts << ";seed=" << r.seed
+      << ";max_iterations=" << r.max_iterations << ";threads=" << r.threads;
+    return o.str();
+}
+
+Expected<fitting::FitSpec> make_fit_spec(const FitRequest& r) {
+    Expected<fitting::FitSpec> spec = make_error("");
+    if (ends_with(r.model, ".json")) {
+        spec = fitting::load_fit_template(r.model);
+    } else {
+        auto dist = fitting::parse_distribution(r.model);
+        if (!dist) {
+            return tl::unexpected(dist.error());
+        }
+        auto fres = fitting::parse_fresnel(r.fresnel);
+        if (!fres) {
+            return tl::unexpected(fres.error());
+        }
+        auto shad = fitting::parse_shadowing(r.shadowing);
+        if (!shad) {
+            return tl::unexpected(shad.error());
+        }
+        fitting::ModelOptions mo;
+        mo.distribution = *dist;
+        mo.fresnel = fres->first;
+        mo.fresnel_rgb = fres->second;
+        mo.shadowing = *shad;
+        mo.diffuse = r.diffuse;
+        mo.anisotropic = r.anisotropic;
+        mo.lobes = r.lobes;
+        spec = fitting::make_fit_spec(mo);
+    }
+    if (!spec) {
+        return spec;
+    }
+    auto residual = fitting::parse_residual(r.residual);
+    if (!residual) {
+        return tl::unexpected(residual.error());
+    }
+    auto loss = fitting::parse_loss(r.loss);
+    if (!loss) {
+        return tl::unexpected(loss.error());
+    }
+    spec->options.residual = *residual;
+    spec->options.loss = *loss;
+    spec->options.loss_scale = r.loss_scale;
+    spec->options.max_samples = r.max_samples;
+    spec->options.starts = r.starts;
+    spec->options.seed = r.seed;
+    spec->options.max_iterations = r.max_iterations;
+    spec->options.num_threads = r.threads;
+    return spec;
+}
+
+}  // namespace gonio::batch

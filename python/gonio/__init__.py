@@ -1,0 +1,97 @@
+"""gonio: gonioreflectometer data and BRDF fits from Python.
+
+The functions are bindings of gonio's C++ libraries (no reimplementation): evaluate a BRDF
+model or table on numpy arrays (``eval``), read and write datasets, tables and models
+(``load``, ``save``, ``tabulate``), fit analytic models with Ceres (``fit``), run the property
+checks (``check``) and read a campaign folder (``load_campaign``). Batch fitting over Dask:
+``python3 -m gonio.batch`` (docs/scale-out.md).
+
+Errors raise ``gonio.Error`` (a ``ValueError``) with the same message the command line prints.
+"""
+
+import json as _json
+import os as _os
+
+from ._gonio import (  # noqa: F401  (re-exported)
+    Error,
+    __version__,
+    check,
+    eval,
+    load,
+    material,
+    materials,
+    read_manifest,
+    run_entry,
+    save,
+    tabulate,
+)
+from . import _gonio
+
+__all__ = [
+    "Error",
+    "check",
+    "eval",
+    "fit",
+    "load",
+    "load_campaign",
+    "material",
+    "materials",
+    "read_manifest",
+    "run_entry",
+    "save",
+    "tabulate",
+]
+
+
+def fit(samples, model="ggx", residual="log", max_samples=0, truth=None, **options):
+    """Fit an analytic BRDF model to measured samples with Ceres.
+
+    samples: a path (dataset CSV, or a table *.binary/*.merl/*.gtab), a samples dict or a
+        table dict from ``gonio.load()``.
+    model: "ggx", "beckmann" or "blinn-phong" (structure further set by the options
+        fresnel, shadowing, diffuse, anisotropic, lobes), a fit-template path (*.json) or a
+        fit-template dict ``{"model": {...}, "free": [...], "fixed": [...], "shared": [...],
+        "bounds": {...}}`` (docs/fitting-guide.md).
+    residual: "absolute", "relative", "log", "cosine" or "cbrt".
+    max_samples: stratified reduction to about this many samples for the solve (0 = all);
+        the metrics are always over all valid samples.
+    truth: optional ground-truth model (dict or path), copied into the report.
+    options: fresnel ("schlick", "schlick-rgb", "dielectric", "conductor", "none"),
+        shadowing ("smith-correlated", "smith-separable", "v-groove", "none"), diffuse (bool),
+        anisotropic (bool), lobes (0-4), loss ("none", "huber", "cauchy"), loss_scale,
+        starts, seed, max_iterations, threads (0 = all cores).
+
+    Returns ``(model, report)``: the fitted model as a dict in the model schema and the full
+    fit report as ``gonio fit --out`` writes it (parameters with one-sigma uncertainties,
+    not_identifiable, at_bounds, vanished_lobes, metrics, sample counts, solver summary).
+    Check ``report["solver"]["usable"]``: a solve that ran but did not converge is returned,
+    not raised. The GIL is released while Ceres runs, so other Python threads go on.
+
+    Raises gonio.Error for unreadable input, no valid sample or an inconsistent spec.
+    """
+    return _gonio._fit(samples, model, residual, int(max_samples), truth, options)
+
+
+def load_campaign(folder):
+    """Read a campaign folder (``gonio acquire`` output).
+
+    Returns a dict: ``dataset`` (samples dict of ``dataset.csv`` as ``gonio.load`` gives it,
+    or None when the folder has none yet), and every top-level JSON file parsed into a dict
+    under its name without extension (``metadata``, ``campaign``, ``rig``, ``fit``...), plus
+    ``path``. Raises gonio.Error when the folder does not exist.
+    """
+    folder = _os.fspath(folder)
+    if not _os.path.isdir(folder):
+        raise Error(f"{folder}: not a campaign folder (no such directory)")
+    out = {"path": folder}
+    csv = _os.path.join(folder, "dataset.csv")
+    out["dataset"] = load(csv) if _os.path.isfile(csv) else None
+    for name in sorted(_os.listdir(folder)):
+        full = _os.path.join(folder, name)
+        if name.endswith(".json") and _os.path.isfile(full):
+            with open(full, encoding="utf-8") as f:
+                try:
+                    out[name[: -len(".json")]] = _json.load(f)
+                except ValueError as e:
+                    raise Error(f"{full}: not valid JSON: {e}") from None
+    return out

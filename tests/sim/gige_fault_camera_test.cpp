@@ -1,0 +1,212 @@
+// Faults of the simulated GigE Vision camera: lost stream packets (recovered by PACKETRESEND, or
+// reported incomplete by Aravis when the camera refuses to resend), a host that stops its
+// heartbeat losing control, a second host getting read access but no control, SIGTERM stopping
+// `gonio camera serve`.
+
+#include <signal.h>
+#include <sys/wait.h>
+
+#include <chrono>
+#include <thread>
+
+#include "gige_test_support.h"
+
+namespace {
+
+using gige_test::arv_value;
+using gige_test::GigeLock;
+using gige_test::RawHost;
+using gige_test::run;
+using gige_test::ServedCamera;
+using gonio::sim::GigeCamera;
+using gonio::sim::GigeCameraConfig;
+namespace gvcp = gonio::devices::gvcp;
+namespace gvbs = gonio::devices::gvbs;
+namespace gm = gonio::sim::gige_map;
+
+GigeCameraConfig camera_config() {
+    GigeCameraConfig c;
+    c.sensor.width = 256;
+    c.sensor.height = 192;
+    c.sensor.seed = 11;
+    c.packet_size = 1500;  // many packets per frame
+    return c;
+}
+
+TEST(GigeCameraFault, DroppedPacketsAreResent) {
+    GigeLock lock;
+    ServedCamera cam(camera_config());
+    gonio::sim::GigeFaults f;
+    f.drop_every_nth_packet = 9;
+    cam.camera->set_faults(f);
+    const int n = 5;
+    const auto c = gige_test::capture_with_aravis(n, 3000, 20);
+    ASSERT_TRUE(c.error.empty()) << c.error;
+    EXPECT_EQ(c.complete, n);
+    const auto st = cam.server->stats();
+    EXPECT_GT(st.packets_dropped, 0u);
+    EXPECT_GT(st.resend_requests, 0u);
+    EXPECT_GE(st.packets_resent,
+              st.packets_dropped * static_cast<std::uint64_t>(n) /
+                  static_cast<std::uint64_t>(st.frames_sent) / 2);
+}
+
+TEST(GigeCameraFault, UnrecoverablePacketsMakeIncompleteFrames) {
+    GigeLock lock;
+    ServedCamera cam(camera_config());
+    gonio::sim::GigeFaults f;
+    f.drop_every_nth_packet = 9;
+    f.refuse_resend = true;
+    cam.camera->set_faults(f);
+    const int n = 3;
+    const auto c = gige_test::capture_with_aravis(n, 3000, 20);
+    ASSERT_TRUE(c.error.empty()) << c.error;
+    EXPECT_EQ(c.complete, 0);
+    EXPECT_EQ(c.incomplete, n);
+}
+
+TEST(GigeCameraFault, SilentControllerLosesControlAfterTheHeartbeatTimeout) {
+    // Device logic with explicit time: no waiting.
+    GigeCameraConfig cfg = camera_config();
+    cfg.heartbeat_timeout_ms = 800;
+    GigeCamera cam(cfg, nullptr, {});
+    const gonio::sim::HostId a{0x7F000001, 40000}, b{0x7F000001, 40001};
+    const auto t0 = GigeCamera::Clock::now();
+    const auto cmd = [&](const gonio::sim::HostId& h,
+                         const gvcp::CommandPacket& c,
+                         GigeCamera::Clock::time_point t) {
+        const auto bytes = gvcp::encode(c);
+        auto reply = cam.handle_gvcp(bytes.data(), bytes.size(), h, t);
+        EXPECT_TRUE(reply.has_value());
+        return gvcp::parse_ack(reply->data(), reply->size())->status;
+    };
+    const auto ms = [](int v) { return std::chrono::milliseconds(v); };
+    EXPECT_EQ(cmd(a, gvcp::make_write_reg(1, {{gvbs::kControlChannelPrivilege, 2}}), t0),
+              gvcp::Status::kSuccess);
+    // A keeps talking within the timeout: it keeps control.
+    EXPECT_EQ(cmd(a, gvcp::make_read_reg(2, {gvbs::kControlChannelPrivilege}), t0 + ms(700)),
+              gvcp::Status::kSuccess);
+    EXPECT_FALSE(cam.check_heartbeat(t0 + ms(1400)));
+    EXPECT_EQ(cmd(b, gvcp::make_write_reg(3, {{gvbs::kControlChannelPrivilege, 2}}), t0 + ms(1400)),
+              gvcp::Status::kAccessDenied);
+    // A falls silent: 800 ms after its last command control is released.
+    EXPECT_FALSE(cam.check_heartbeat(t0 + ms(1500)));
+    EXPECT_TRUE(cam.check_heartbeat(t0 + ms(1501)));
+    EXPECT_FALSE(cam.controller().has_value());
+    EXPECT_EQ(cmd(b, gvcp::make_write_reg(4, {{gvbs::kControlChannelPrivilege, 2}}), t0 + ms(1600)),
+              gvcp::Status::kSuccess);
+    // A's writes are now refused.
+    EXPECT_EQ(cmd(a, gvcp::make_write_reg(5, {{gm::kExposureTicks, 5000}}), t0 + ms(1700)),
+              gvcp::Status::kAccessDenied);
+}
+
+TEST(GigeCameraFault, SilentHostLosesControlOverTheNetwork) {
+    GigeLock lock;
+    ServedCamera cam(camera_config());
+    RawHost a, b;
+    ASSERT_EQ(a.write_reg(gvbs::kHeartbeatTimeout, 500), gvcp::Status::kSuccess);
+    ASSERT_EQ(a.write_reg(gvbs::kControlChannelPrivilege, gvbs::kCcpControl),
+              gvcp::Status::kSuccess);
+    ASSERT_EQ(b.write_reg(gvbs::kControlChannelPrivilege, gvbs::kCcpControl),
+              gvcp::Status::kAccessDenied);
+    // A sends nothing more. B asks again until the device has released A (bounded attempts).
+    gvcp::Status st = gvcp::Status::kAccessDenied;
+    for (int attempt = 0; attempt < 200 && st != gvcp::Status::kSuccess; ++attempt) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        st = b.write_reg(gvbs::kControlChannelPrivilege, gvbs::kCcpControl);
+    }
+    EXPECT_EQ(st, gvcp::Status::kSuccess);
+    EXPECT_EQ(a.write_reg(gm::kExposureTicks, 5000), gvcp::Status::kAccessDenied);
+    std::uint32_t ccp = 99;
+    EXPECT_EQ(a.read_reg(gvbs::kControlChannelPrivilege, &ccp), gvcp::Status::kSuccess);
+    EXPECT_EQ(ccp, 0u);  // A learns it lost control
+}
+
+TEST(GigeCameraFault, SecondHostReadsButCannotControl) {
+    GigeLock lock;
+    ServedCamera cam(camera_config());
+    GError* err = nullptr;
+    ArvCamera* first = arv_camera_new("127.0.0.1", &err);
+    ASSERT_NE(first, nullptr) << (err ? err->message : "");
+    arv_camera_set_exposure_time(first, 3000, &err);
+    ASSERT_EQ(err, nullptr);
+    // arv-tool is a second application: it reads, but its write is refused.
+    const auto r = run("arv-tool-0.8 -a 127.0.0.1 control Width ExposureTime=7000");
+    EXPECT_EQ(arv_value(r.out, "Width"), "256") << r.out;
+    EXPECT_DOUBLE_EQ(cam.camera->exposure_settings().exposure_us, 3000.0) << r.out;
+    RawHost other;
+    std::uint32_t width = 0;
+    EXPECT_EQ(other.read_reg(gm::kRoiBlock, &width), gvcp::Status::kSuccess);
+    EXPECT_EQ(width, 256u);
+    EXPECT_EQ(other.write_reg(gm::kRoiBlock, 128), gvcp::Status::kAccessDenied);
+    EXPECT_EQ(other.write_reg(gvbs::kControlChannelPrivilege, gvbs::kCcpControl),
+              gvcp::Status::kAccessDenied);
+    g_object_unref(first);
+    // Closing the first application released control: now the other host may take it.
+    EXPECT_EQ(other.write_reg(gvbs::kControlChannelPrivilege, gvbs::kCcpControl),
+              gvcp::Status::kSuccess);
+}
+
+TEST(GigeCameraFault, SigtermStopsCameraServeWhileStreaming) {
+    GigeLock lock;
+    int out[2];
+    ASSERT_EQ(pipe(out), 0);
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+        dup2(out[1], 1);
+        close(out[0]);
+        execl(GONIO_BINARY_DIR "/tools/gonio",
+              "gonio",
+              "camera",
+              "serve",
+              "--width",
+              "256",
+              "--height",
+              "192",
+              static_cast<char*>(nullptr));
+        _exit(127);
+    }
+    close(out[1]);
+    std::string line;
+    char ch;
+    while (read(out[0], &ch, 1) == 1 && ch != '\n') {
+        line += ch;
+    }
+    ASSERT_EQ(line, "gige://127.0.0.1");
+    // A host streams from it, then the server is told to stop mid-acquisition.
+    GError* err = nullptr;
+    ArvCamera* cam = arv_camera_new("127.0.0.1", &err);
+    ASSERT_NE(cam, nullptr) << (err ? err->message : "");
+    ArvStream* stream = arv_camera_create_stream(cam, nullptr, nullptr, &err);
+    ASSERT_NE(stream, nullptr);
+    const guint payload = arv_camera_get_payload(cam, &err);
+    for (int i = 0; i < 2; ++i) {
+        arv_stream_push_buffer(stream, arv_buffer_new(payload, nullptr));
+    }
+    arv_camera_start_acquisition(cam, &err);
+    // Streaming is under way once a complete frame has arrived (bounded number of tries).
+    bool streamed = false;
+    for (int i = 0; i < 10 && !streamed; ++i) {
+        ArvBuffer* b = arv_stream_timeout_pop_buffer(stream, 10000000);
+        ASSERT_NE(b, nullptr);
+        streamed = arv_buffer_get_status(b) == ARV_BUFFER_STATUS_SUCCESS;
+        arv_stream_push_buffer(stream, b);
+    }
+    EXPECT_TRUE(streamed);
+    ASSERT_EQ(kill(pid, SIGTERM), 0);
+    int status = 0;
+    ASSERT_EQ(waitpid(pid, &status, 0), pid);
+    EXPECT_TRUE(WIFEXITED(status));
+    EXPECT_EQ(WEXITSTATUS(status), 0);
+    close(out[0]);
+    g_object_unref(stream);
+    g_object_unref(cam);
+    // The port is free again: a new camera can be served.
+    ServedCamera again(camera_config());
+    RawHost h;
+    std::uint32_t v = 0;
+    EXPECT_EQ(h.read_reg(gvbs::kNumberOfStreamChannels, &v), gvcp::Status::kSuccess);
+}
+
+}  // namespace

@@ -1,0 +1,76 @@
+// gonio fit --manifest: glue between the command line and gonio::batch.
+
+#include "fit_manifest.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <vector>
+
+#include "gonio/batch/manifest.h"
+
+namespace gonio::tools {
+
+int run_fit_manifest(const std::string& manifest,
+                     const std::string& shard_text,
+                     const std::string& out_dir) {
+    if (out_dir.empty()) {
+        std::fprintf(stderr, "gonio fit: --manifest needs --out DIR (the results folder)\n");
+        return 2;
+    }
+    batch::Shard shard;
+    if (!shard_text.empty()) {
+        auto s = batch::parse_shard(shard_text);
+        if (!s) {
+            std::fprintf(stderr, "gonio fit: --shard: %s\n", s.error().message.c_str());
+            return 2;
+        }
+        shard = *s;
+    }
+    auto entries = batch::read_manifest(manifest);
+    if (!entries) {
+        std::fprintf(stderr, "gonio fit: %s\n", entries.error().message.c_str());
+        return 2;
+    }
+    std::error_code ec;
+    std::filesystem::create_directories(out_dir, ec);
+    if (ec) {
+        std::fprintf(stderr,
+                     "gonio fit: %s: cannot create the folder: %s\n",
+                     out_dir.c_str(),
+                     ec.message().c_str());
+        return 2;
+    }
+    const std::vector<batch::ManifestEntry> mine = batch::select_shard(*entries, shard);
+    std::printf(
+        "shard %zu/%zu: %zu of %zu entries\n", shard.k, shard.n, mine.size(), entries->size());
+    std::vector<batch::EntryOutcome> rows;
+    std::size_t bad = 0;
+    for (std::size_t i = 0; i < mine.size(); ++i) {
+        batch::EntryOutcome o = batch::run_entry(mine[i], out_dir);
+        const bool ok =
+            o.status == batch::EntryStatus::kFitted || o.status == batch::EntryStatus::kSkipped;
+        bad += ok ? 0 : 1;
+        std::printf("[%zu/%zu] %s: %s%s%s\n",
+                    i + 1,
+                    mine.size(),
+                    o.id.c_str(),
+                    batch::to_string(o.status),
+                    o.message.empty() ? "" : ": ",
+                    o.message.c_str());
+        std::fflush(stdout);
+        rows.push_back(std::move(o));
+    }
+    const std::string summary =
+        (std::filesystem::path(out_dir) /
+         ("summary.shard-" + std::to_string(shard.k) + "-of-" + std::to_string(shard.n) + ".csv"))
+            .string();
+    auto w = batch::write_summary_csv(summary, rows);
+    if (!w) {
+        std::fprintf(stderr, "gonio fit: %s\n", w.error().message.c_str());
+        return 1;
+    }
+    std::printf("wrote %s (%zu failed)\n", summary.c_str(), bad);
+    return bad == 0 ? 0 : 1;
+}
+
+}  // namespace gonio::tools

@@ -1,0 +1,17 @@
+#pragma once
+
+// `gonio fit --manifest M [--shard K/N] --out DIR`: the fits of one shard of a manifest, for job
+// arrays of schedulers without Python (docs/scale-out.md). The logic lives in gonio::batch.
+
+#include <string>
+
+namespace gonio::tools {
+
+/// Runs the entries of shard K/N (all entries without a shard) into out_dir and writes the shard's
+/// summary CSV there. Exit status: 0 every entry fitted or already finished, 1 some entry failed or
+/// did not converge, 2 unreadable manifest or bad arguments.
+int run_fit_manifest(const std::string& manifest,
+                     const std::string& shard,
+                     const std::string& out_dir);
+
+}  // namespace gonio::tools
