@@ -505,4 +505,49 @@ TEST_F(Hostile, KilledRunsAreListedInMetadata) {
     EXPECT_NE(second.find("stopped without writing its end"), std::string::npos) << second;
 }
 
+// A file size limit (RLIMIT_FSIZE: writes fail with EFBIG as a full disk fails with ENOSPC) stops
+// the campaign part way: the error says how to resume, and the resume completes it.
+TEST_F(Hostile, CampaignStoppedByAFullDiskSaysHowToResume) {
+    const std::string camp = p("camp").string();
+    const std::string out_path = p("full.txt").string();
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+        const int fd = open(out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        dup2(fd, 1);
+        dup2(fd, 2);
+        signal(SIGXFSZ, SIG_IGN);
+        struct rlimit rl {
+            8000, 8000
+        };
+        setrlimit(RLIMIT_FSIZE, &rl);
+        execl(GONIO_EXE,
+              GONIO_EXE,
+              "acquire",
+              "--out",
+              camp.c_str(),
+              "--n-theta",
+              "4",
+              "--n-dphi",
+              "3",
+              "--adaptive",
+              "0",
+              "--time-scale",
+              "500",
+              static_cast<char*>(nullptr));
+        _exit(127);
+    }
+    int st = 0;
+    ASSERT_EQ(waitpid(pid, &st, 0), pid);
+    const std::string out = slurp(out_path);
+    ASSERT_TRUE(WIFEXITED(st)) << out;
+    EXPECT_EQ(WEXITSTATUS(st), 1) << out;
+    EXPECT_NE(out.find("File too large"), std::string::npos) << out;
+    EXPECT_NE(out.find("continue with: gonio acquire --resume " + camp), std::string::npos) << out;
+    // Without the limit the resume finishes the campaign.
+    const Child again = gonio({"acquire", "--resume", camp});
+    EXPECT_EQ(again.status, 0) << again.out;
+    EXPECT_NE(again.out.find("completed"), std::string::npos) << again.out;
+}
+
 }  // namespace
