@@ -16,7 +16,9 @@
 #include "command.h"
 #include "gonio/acquisition/campaign.h"
 #include "gonio/acquisition/rig_config.h"
+#include "gonio/brdf/atomic_file.h"
 #include "gonio/brdf/data_path.h"
+#include "gonio/brdf/limits.h"
 #include "gonio/sim/sim_rig.h"
 #include "option_checks.h"
 
@@ -68,6 +70,15 @@ bool is_embedded(const std::string& rig_json) {
     return !j.is_discarded() && j.value("embedded_virtual_rig", false);
 }
 
+/// "ground_truth.json" for a model file, "ground_truth.gtab" for a table; empty for a library
+/// material ("material:NAME"), which is no file.
+std::string ground_truth_name(const std::string& brdf) {
+    if (brdf.rfind("material:", 0) == 0) {
+        return {};
+    }
+    return "ground_truth" + fs::path(brdf).extension().string();
+}
+
 /// Image mode: a curved sample, thousands of samples per frame (docs/image-acquisition.md).
 int run_image(const AcquireOptions& o) {
     gonio::tools::AcquireImageOptions io;
@@ -99,6 +110,7 @@ int run(const AcquireOptions& o) {
     // A new campaign's folder is created only once everything is checked: description, plan,
     // scene, rig, ground truth and devices reachable. Until then nothing is written.
     acq::CampaignSpec new_spec;
+    std::string ground_truth_copy;
     if (!o.resume.empty()) {
         dir = o.resume;
         auto r = acq::read_rig_config((fs::path(dir) / "rig.json").string());
@@ -107,6 +119,26 @@ int run(const AcquireOptions& o) {
         }
         rig = *r;
         embedded = is_embedded(rig.json);
+        if (embedded) {
+            // The virtual rig's ground truth, when a file, is read from the campaign folder only.
+            const nlohmann::json j = nlohmann::json::parse(rig.json, nullptr, false);
+            const std::string b = j.is_object() && j.contains("sim") && j["sim"].is_object()
+                                      ? j["sim"].value("brdf", std::string())
+                                      : std::string();
+            if (!b.empty() && b.rfind("material:", 0) != 0) {
+                const fs::path bp(b);
+                bool outside = bp.is_absolute();
+                for (const auto& part : bp) {
+                    outside = outside || part == "..";
+                }
+                if (outside) {
+                    return fail(dir + "/rig.json: sim.brdf = \"" + b +
+                                "\" lies outside the campaign folder; a resume reads only the "
+                                "folder (copy the file into it and name it relative to it)");
+                }
+                so.brdf_path = (fs::path(dir) / bp).string();
+            }
+        }
     } else {
         acq::CampaignSpec spec;
         if (!o.campaign.empty()) {
@@ -188,7 +220,11 @@ int run(const AcquireOptions& o) {
             nlohmann::json j = nlohmann::json::parse(rig.json);
             j["embedded_virtual_rig"] = true;
             if (!o.brdf.empty()) {
-                j["sim"]["brdf"] = fs::absolute(o.brdf).string();
+                // The ground truth is copied into the folder (ground_truth.<ext>) so that a resume
+                // reads nothing outside it; the simulator starts from the given file.
+                ground_truth_copy = ground_truth_name(o.brdf);
+                j["sim"]["brdf"] = ground_truth_copy.empty() ? o.brdf : ground_truth_copy;
+                so.brdf_path = o.brdf;
                 j["sim"].erase("material");
             } else if (!o.material.empty()) {
                 j["sim"]["material"] = o.material;
@@ -235,6 +271,16 @@ int run(const AcquireOptions& o) {
     if (o.resume.empty()) {
         if (auto c = acq::create_campaign_dir(dir, new_spec, rig); !c) {
             return fail(c.error().message);
+        }
+        if (!ground_truth_copy.empty()) {
+            auto bytes = gonio::read_input_file(o.brdf, gonio::max_memory_bytes());
+            if (!bytes) {
+                return fail(bytes.error().message);
+            }
+            const std::string to = (fs::path(dir) / ground_truth_copy).string();
+            if (auto w = gonio::write_file_atomic(to, *bytes); !w) {
+                return fail(w.error().message);
+            }
         }
     }
     acq::RunHooks hooks;

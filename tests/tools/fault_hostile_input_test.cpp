@@ -550,4 +550,41 @@ TEST_F(Hostile, CampaignStoppedByAFullDiskSaysHowToResume) {
     EXPECT_NE(again.out.find("completed"), std::string::npos) << again.out;
 }
 
+// --resume reads everything from the campaign folder: the embedded rig's ground truth is copied
+// in, the original can go; a rig.json pointing outside the folder is refused.
+TEST_F(Hostile, ResumeReadsOnlyTheCampaignFolder) {
+    put(p("truth.json"), kModel);
+    const std::string camp = p("camp").string();
+    const Child c = gonio({"acquire",
+                           "--brdf",
+                           p("truth.json").string(),
+                           "--out",
+                           camp,
+                           "--n-theta",
+                           "3",
+                           "--n-dphi",
+                           "2",
+                           "--adaptive",
+                           "0",
+                           "--time-scale",
+                           "500"});
+    ASSERT_EQ(c.status, 0) << c.out;
+    EXPECT_EQ(slurp(p("camp/ground_truth.json")), kModel);
+    fs::remove(p("truth.json"));
+    const Child again = gonio({"acquire", "--resume", camp});
+    EXPECT_EQ(again.status, 0) << again.out;
+    EXPECT_NE(again.out.find("ground_truth.json"), std::string::npos) << again.out;
+
+    std::string rig = slurp(p("camp/rig.json"));
+    const std::string from = "\"brdf\": \"ground_truth.json\"";
+    const auto at = rig.find(from);
+    ASSERT_NE(at, std::string::npos) << rig;
+    rig.replace(at, from.size(), "\"brdf\": \"../truth.json\"");
+    put(p("camp/rig.json"), rig);
+    const Child outside = gonio({"acquire", "--resume", camp});
+    EXPECT_EQ(outside.status, 1) << outside.out;
+    EXPECT_NE(outside.out.find("lies outside the campaign folder"), std::string::npos)
+        << outside.out;
+}
+
 }  // namespace
