@@ -809,7 +809,16 @@ Expected<void> Runner::write_metadata(const std::string& state, const Plan& plan
         meta["runs"] = json::array();
     }
     const bool running = state == "running";
-    json run = {{"started", iso_time(started_, false)},
+    // A run is told apart by its start time and its process id (two runs may start within one
+    // second).
+    const long pid = static_cast<long>(::getpid());
+    const std::string started = iso_time(started_, false);
+    auto is_this_run = [&](const json& r) {
+        return r.is_object() && r.value("started", "") == started && r.contains("pid") &&
+               r["pid"].is_number_integer() && r["pid"].get<long>() == pid;
+    };
+    json run = {{"started", started},
+                {"pid", pid},
                 {"ended", running ? json(nullptr) : json(iso_time(now_s(), false))},
                 {"state", state},
                 {"measured", result_.measured_now}};
@@ -819,8 +828,7 @@ Expected<void> Runner::write_metadata(const std::string& state, const Plan& plan
     for (json& old : meta["runs"]) {
         // A run still marked "running" that is not this one never wrote its end: the process was
         // killed (kill -9, power cut, crash). Its measurements are in the journal.
-        if (old.is_object() && old.value("state", "") == "running" &&
-            old.value("started", "") != iso_time(started_, false)) {
+        if (old.is_object() && old.value("state", "") == "running" && !is_this_run(old)) {
             old["state"] = "killed";
             old["ended"] =
                 "unknown: the process stopped without writing its end (killed or power "
@@ -828,9 +836,8 @@ Expected<void> Runner::write_metadata(const std::string& state, const Plan& plan
         }
     }
     // The run in progress is the last element while it lasts.
-    if (!meta["runs"].empty() && meta["runs"].back().is_object() &&
-        meta["runs"].back().value("state", "") == "running" &&
-        meta["runs"].back().value("started", "") == iso_time(started_, false)) {
+    if (!meta["runs"].empty() && is_this_run(meta["runs"].back()) &&
+        meta["runs"].back().value("state", "") == "running") {
         meta["runs"].back() = run;
     } else {
         meta["runs"].push_back(run);
