@@ -1,5 +1,6 @@
 // Modbus round-trip latency against the simulated controllers (TCP on loopback, RTU on a
-// pseudo-terminal), and complete moves per second at a large time scale.
+// pseudo-terminal), complete moves per second at a large time scale, and bus polls per second
+// beside move-completion latency under the bus scheduler's poll budget.
 //
 //   gonio_modbus_bench --benchmark_filter=. --benchmark_counters_tabular=true
 
@@ -115,10 +116,87 @@ void BM_MovesPerSecond(benchmark::State& state) {
     state.counters["moves_per_s"] =
         benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
     state.counters["max_abs_err_deg"] = max_err;
-    // A 10 degree move at 20 deg/s and 40 deg/s^2 lasts 0.5 + 1.0 = 1.5 s of simulated time.
-    state.counters["sim_move_s"] = 1.5;
+    // A 10 degree move at 20 deg/s and 40 deg/s^2 lasts d/v + v/a = 0.5 + 0.5 = 1.0 s of
+    // simulated time (it just reaches full speed: d = v^2/a).
+    state.counters["sim_move_s"] = 1.0;
 }
 BENCHMARK(BM_MovesPerSecond)->Arg(100)->Arg(1000)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+/// Bus polls per second beside move-completion latency, for a poll budget of range(0) polls/s
+/// (0 = the old behaviour: a status poll every poll_ms, no budget, no back-off). A 10 degree move
+/// at 20 deg/s and 40 deg/s^2 lasts d/v + v/a = 1.0 s, in real time here (time scale 1), so the
+/// completion latency is the wall time of start + wait beyond 1.0 s.
+void BM_PollBudget(benchmark::State& state) {
+    auto profile = gonio::devices::load_axis_profile("oriental-az");
+    if (!profile) {
+        state.SkipWithError(profile.error().message.c_str());
+        return;
+    }
+    gonio::sim::MotorControllerServer server;
+    gonio::sim::MotorSimConfig cfg;
+    cfg.start_homed = true;
+    cfg.time_scale = 1;
+    server.add_unit(1, *profile, cfg);
+    gonio::sim::ServerOptions so;
+    so.log = nullptr;
+    if (auto r = server.start(so); !r) {
+        state.SkipWithError(r.error().message.c_str());
+        return;
+    }
+    const int budget = static_cast<int>(state.range(0));
+    auto addr = gonio::devices::parse_bus_address(
+        server.address() + "?poll_rate=" + std::to_string(budget > 0 ? budget : 100000));
+    auto bus = gonio::devices::ModbusBus::open(*addr);
+    if (!bus) {
+        state.SkipWithError(bus.error().message.c_str());
+        return;
+    }
+    gonio::devices::AxisOptions opt;
+    if (budget == 0) {
+        opt.max_poll_interval_ms = profile->timeouts.poll_ms;  // No back-off.
+    }
+    gonio::devices::ModbusAxis axis(*bus,
+                                    1,
+                                    *profile,
+                                    "bench",
+                                    gonio::devices::SoftLimits{-90, 90},
+                                    gonio::devices::Motion{20, 40, 0},
+                                    opt);
+    const double move_s = 1.0 / cfg.time_scale;
+    double target = 10;
+    std::vector<double> latency_ms;
+    double wall_s = 0;
+    const auto polls0 = (*bus)->stats().polls;
+    double max_err = 0;
+    for (auto _ : state) {
+        const auto t0 = std::chrono::steady_clock::now();
+        if (auto r = axis.move_to(target, 60s); !r) {
+            state.SkipWithError(r.error().message.c_str());
+            return;
+        }
+        const double s =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        wall_s += s;
+        latency_ms.push_back(1e3 * (s - move_s));
+        max_err = std::max(max_err, std::fabs(server.position_deg(1) - target));
+        target = target == 10 ? 0 : 10;
+    }
+    std::sort(latency_ms.begin(), latency_ms.end());
+    const double polls = static_cast<double>((*bus)->stats().polls - polls0);
+    state.counters["polls_per_s"] = polls / wall_s;
+    state.counters["polls_per_move"] = polls / static_cast<double>(latency_ms.size());
+    state.counters["latency_median_ms"] = latency_ms[latency_ms.size() / 2];
+    state.counters["latency_max_ms"] = latency_ms.back();
+    state.counters["max_abs_err_deg"] = max_err;
+}
+BENCHMARK(BM_PollBudget)
+    ->Arg(0)
+    ->Arg(200)
+    ->Arg(50)
+    ->Arg(20)
+    ->Iterations(6)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace
 

@@ -1,6 +1,7 @@
 // gonio camera: inspect a camera, capture an OpenEXR frame, or serve a simulated U3V camera.
 //   gonio camera --connect ADDRESS info
-//   gonio camera --connect ADDRESS capture --exposure-us N out.exr
+//   gonio camera --connect ADDRESS capture --exposure-us N [--gain G | --camera-gain V]
+//       [--format PFNC] [--roi X,Y,W,H] out.exr
 //   gonio camera serve [--port 0] [--material NAME | --brdf PATH] [--zipped]
 
 #include <OpenEXR/ImfChannelList.h>
@@ -17,6 +18,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -25,6 +27,7 @@
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/material_library.h"
+#include "gonio/devices/aravis_camera.h"
 #include "gonio/devices/camera_factory.h"
 #include "gonio/devices/pixel_format.h"
 #include "gonio/devices/uvc_camera.h"
@@ -40,7 +43,9 @@ struct CameraOptions {
     // capture
     double exposure_us = 10000;
     double gain = 1;
+    double camera_gain = std::nan("");  ///< in the camera's unit (dB or raw); NaN = use `gain`
     std::string format = "Mono16";
+    std::vector<int> roi;  ///< X, Y, W, H (empty = leave the camera's region)
     int timeout_ms = 5000;
     std::string output;
     // serve
@@ -119,6 +124,14 @@ int write_exr(const gonio::devices::Frame& f, const std::string& path) {
         header.insert("gonio.bit_depth", Imf::IntAttribute(f.bit_depth));
         header.insert("gonio.timestamp_ns", Imf::StringAttribute(std::to_string(f.timestamp_ns)));
         header.insert("gonio.linear", Imf::IntAttribute(f.linear ? 1 : 0));
+        header.insert("gonio.frame_id", Imf::StringAttribute(std::to_string(f.frame_id)));
+        if (!f.pixel_format.empty()) {
+            header.insert("gonio.pixel_format", Imf::StringAttribute(f.pixel_format));
+        }
+        if (!f.cfa.empty()) {
+            // A raw Bayer mosaic, one value per pixel: not demosaiced (see docs/camera.md).
+            header.insert("gonio.cfa", Imf::StringAttribute(f.cfa));
+        }
         Imf::OutputFile file(path.c_str(), header);
         Imf::FrameBuffer fb;
         fb.insert("Y",
@@ -139,8 +152,9 @@ gonio::Expected<std::unique_ptr<gonio::devices::Camera>> connect(const CameraOpt
                                                                  std::shared_ptr<void>* keep) {
     if (o.connect.empty()) {
         return gonio::make_error(
-            "--connect ADDRESS is required (u3v-tcp://127.0.0.1:PORT, "
-            "usb:SERIAL, uvc:INDEX, or sim for an embedded simulated camera)");
+            "--connect ADDRESS is required (gige://HOST, u3v://SERIAL, aravis:DEVICE-ID, "
+            "u3v-tcp://127.0.0.1:PORT, usb:SERIAL, uvc:INDEX, or sim for an embedded simulated "
+            "camera)");
     }
     if (o.connect == "sim" || o.connect.rfind("sim:", 0) == 0) {
         CameraOptions so = o;
@@ -159,6 +173,40 @@ gonio::Expected<std::unique_ptr<gonio::devices::Camera>> connect(const CameraOpt
         std::fprintf(stderr, "%s\n", gonio::devices::uvc_radiometry_warning());
     }
     return gonio::devices::open_camera(o.connect);
+}
+
+/// How gonio drives this GenICam camera: the features it picked and what it could not find.
+void print_genicam_features(gonio::devices::AravisCamera& a) {
+    if (auto pf = a.feature_string("PixelFormat")) {
+        std::printf("pixel_format: %s\n", pf->c_str());
+    }
+    if (auto list = a.pixel_formats()) {
+        std::string all;
+        for (const auto& n : *list) {
+            all += (all.empty() ? "" : " ") + n;
+        }
+        std::printf("pixel_formats: %s\n", all.c_str());
+    }
+    if (auto f = a.exposure_feature()) {
+        std::printf("exposure_feature: %s (unit %s, range %g..%g us)\n",
+                    f->name.c_str(),
+                    f->unit.empty() ? "us by SFNC" : f->unit.c_str(),
+                    f->min_us,
+                    f->max_us);
+    } else {
+        std::printf("exposure_feature: none (%s)\n", f.error().message.c_str());
+    }
+    if (auto g = a.gain_feature(); g && !g->name.empty()) {
+        std::printf("gain_feature: %s (unit %s, range %g..%g %s)\n",
+                    g->name.c_str(),
+                    g->unit.c_str(),
+                    g->min,
+                    g->max,
+                    g->unit.c_str());
+    } else {
+        std::printf("gain_feature: none\n");
+    }
+    std::printf("trigger: %s\n", a.trigger_method().c_str());
 }
 
 int run_info(const CameraOptions& o) {
@@ -185,6 +233,9 @@ int run_info(const CameraOptions& o) {
     if (e) {
         std::printf("exposure_us: %g\n", *e);
     }
+    if (auto* a = dynamic_cast<gonio::devices::AravisCamera*>(cam->get())) {
+        print_genicam_features(*a);
+    }
     return 0;
 }
 
@@ -196,15 +247,36 @@ int run_capture(const CameraOptions& o) {
         return 1;
     }
     auto& c = **cam;
-    auto fmt = gonio::devices::pixel_format_from_string(o.format);
-    if (!fmt) {
-        std::fprintf(
-            stderr, "gonio camera: --format %s is not Mono8, Mono12 or Mono16\n", o.format.c_str());
-        return 2;
+    auto* genicam = dynamic_cast<gonio::devices::AravisCamera*>(&c);
+    std::vector<std::function<gonio::Expected<void>()>> steps;
+    if (genicam != nullptr) {
+        // Any PFNC format the camera offers and gonio decodes.
+        steps.emplace_back([&] { return genicam->set_pixel_format_name(o.format); });
+    } else {
+        auto fmt = gonio::devices::pixel_format_from_string(o.format);
+        if (!fmt) {
+            std::fprintf(stderr,
+                         "gonio camera: --format %s is not Mono8, Mono12 or Mono16\n",
+                         o.format.c_str());
+            return 2;
+        }
+        steps.emplace_back([&c, f = *fmt] { return c.set_pixel_format(f); });
     }
-    for (auto r :
-         {c.set_pixel_format(*fmt), c.set_exposure_us(o.exposure_us), c.set_gain(o.gain)}) {
-        if (!r) {
+    if (o.roi.size() == 4) {
+        steps.emplace_back([&] { return c.set_roi({o.roi[0], o.roi[1], o.roi[2], o.roi[3]}); });
+    }
+    steps.emplace_back([&] { return c.set_exposure_us(o.exposure_us); });
+    if (!std::isnan(o.camera_gain)) {
+        if (genicam == nullptr) {
+            std::fprintf(stderr, "gonio camera: --camera-gain needs a GenICam camera\n");
+            return 2;
+        }
+        steps.emplace_back([&] { return genicam->set_gain_native(o.camera_gain); });
+    } else {
+        steps.emplace_back([&] { return c.set_gain(o.gain); });
+    }
+    for (const auto& step : steps) {
+        if (auto r = step(); !r) {
             std::fprintf(stderr, "gonio camera: %s\n", r.error().message.c_str());
             return 1;
         }
@@ -230,6 +302,21 @@ int run_capture(const CameraOptions& o) {
                 lo,
                 hi,
                 frame->linear ? "" : " (not radiometric)");
+    if (genicam != nullptr) {
+        const auto s = genicam->stream_stats();
+        std::printf(
+            "frame %llu, %s%s%s; stream: %llu complete, %llu incomplete, %llu missing, "
+            "%llu packets resent, %llu packets lost\n",
+            static_cast<unsigned long long>(frame->frame_id),
+            frame->pixel_format.c_str(),
+            frame->cfa.empty() ? "" : " raw mosaic ",
+            frame->cfa.c_str(),
+            static_cast<unsigned long long>(s.frames_completed),
+            static_cast<unsigned long long>(s.frames_incomplete),
+            static_cast<unsigned long long>(s.frames_missing),
+            static_cast<unsigned long long>(s.resent_packets),
+            static_cast<unsigned long long>(s.missing_packets));
+    }
     return 0;
 }
 
@@ -308,7 +395,8 @@ GONIO_COMMAND(camera) {
     auto o = std::make_shared<CameraOptions>();
     cmd->add_option("--connect",
                     o->connect,
-                    "camera address: u3v-tcp://127.0.0.1:PORT, usb:SERIAL, usb:BUS-ADDR, "
+                    "camera address: gige://HOST, u3v://SERIAL, aravis:DEVICE-ID (GenICam "
+                    "through Aravis), u3v-tcp://127.0.0.1:PORT, usb:SERIAL, usb:BUS-ADDR, "
                     "uvc:INDEX, sim or sim:MATERIAL (embedded simulated camera)");
     cmd->require_subcommand(1);
     auto* info = cmd->add_subcommand("info", "print vendor, model, serial, sensor size");
@@ -317,7 +405,17 @@ GONIO_COMMAND(camera) {
         ->check(CLI::PositiveNumber);
     capture->add_option("--gain", o->gain, "linear gain factor (1 = unity)")
         ->check(CLI::PositiveNumber);
-    capture->add_option("--format", o->format, "Mono8, Mono12 or Mono16");
+    capture->add_option("--camera-gain",
+                        o->camera_gain,
+                        "gain in the camera's own unit: dB for Gain, raw for GainRaw (GenICam "
+                        "cameras; replaces --gain)");
+    capture->add_option("--format",
+                        o->format,
+                        "pixel format: Mono8, Mono12 or Mono16; any mono or Bayer PFNC name the "
+                        "camera offers for GenICam cameras");
+    capture->add_option("--roi", o->roi, "region of interest X,Y,W,H (W or H 0 = to the edge)")
+        ->delimiter(',')
+        ->expected(4);
     capture->add_option("--timeout-ms", o->timeout_ms, "frame timeout")->check(CLI::PositiveNumber);
     capture->add_option("output", o->output, "output .exr")->required();
     auto* serve =

@@ -337,7 +337,15 @@ class Runner {
         SignalRate rate;
     };
     Expected<Shot> attempt(const RigPosed& target, const std::string& what, std::string* pause);
-    Expected<Shot> measure_once(const RigPosed& target);
+    Expected<Shot> measure_once(const RigPosed& target, const std::string& what);
+    Expected<SignalRate> expose();
+    /// The axes whose positions differ between `a` and `b` by more than the pose tolerance, in
+    /// words ("sample spin 12.000 -> 15.500 deg"); empty when none.
+    std::string pose_change(const RigPosed& a, const RigPosed& b) const;
+    void note(const std::string& text);
+    /// Waits (probing with back-off) until every axis answers again; an error when stopped on
+    /// request or when the outage lasts longer than hooks_.max_outage_s.
+    Expected<void> wait_for_devices(const std::string& what, const std::string& cause);
     Expected<void> white_calibration(std::string* pause);
     /// Measures the drift reference; sets *pause on drift beyond the threshold.
     Expected<void> drift_check(bool baseline, std::string* pause);
@@ -427,46 +435,150 @@ Expected<void> Runner::move_to(const RigPosed& p) {
     return {};
 }
 
-Expected<Runner::Shot> Runner::measure_once(const RigPosed& target) {
-    if (auto m = move_to(target); !m) {
-        return tl::unexpected(m.error());
-    }
-    auto pose = read_pose();
-    if (!pose) {
-        return tl::unexpected(pose.error());
-    }
-    Shot s;
-    if (dev_.filter_wheel) {
-        // Colour through the filter changer: one full (auto-exposed, HDR, dark-subtracted)
-        // measurement per filter; channel c of the result is the rate behind filter c.
-        for (int c = 0; c < 3; ++c) {
-            if (auto f = dev_.filter_wheel->set_filter(c); !f) {
-                return tl::unexpected(f.error());
-            }
-            auto rate = session_->measure();
-            if (!rate) {
-                return tl::unexpected(rate.error());
-            }
-            s.rate.rate[c] = rate->rate[c];
-            s.rate.sigma[c] = rate->sigma[c];
-            s.rate.saturated = s.rate.saturated || rate->saturated;
-            s.rate.hdr = s.rate.hdr || rate->hdr;
-            s.rate.exposure_us = std::max(s.rate.exposure_us, rate->exposure_us);
-            s.rate.pixels = c == 0 ? rate->pixels : std::min(s.rate.pixels, rate->pixels);
+/// Largest difference between two position read-backs of a standing axis that is not a move:
+/// ten steps of the finest shipped profile (1000 steps/deg), well above the rounding of a target
+/// to a step.
+constexpr double kPoseToleranceDeg = 0.01;
+/// A pose that keeps moving during exposures this many times in a row pauses the campaign.
+constexpr int kMaxPoseRepeats = 5;
+
+std::string Runner::pose_change(const RigPosed& a, const RigPosed& b) const {
+    const auto da = pose_deg(a);
+    const auto db = pose_deg(b);
+    std::string out;
+    for (int k = 0; k < kNumAxes; ++k) {
+        if (std::abs(db[k] - da[k]) > kPoseToleranceDeg) {
+            char buf[160];
+            std::snprintf(buf,
+                          sizeof buf,
+                          "%s%s %.4f -> %.4f deg",
+                          out.empty() ? "" : ", ",
+                          dev_.axes[k]->name().c_str(),
+                          da[k],
+                          db[k]);
+            out += buf;
         }
-    } else {
+    }
+    return out;
+}
+
+void Runner::note(const std::string& text) {
+    say(text);
+    JournalRecord n;
+    n.type = RecordType::kNote;
+    n.text = text;
+    n.time_s = now_s();
+    (void)journal_->append(n);
+}
+
+Expected<SignalRate> Runner::expose() {
+    if (!dev_.filter_wheel) {
         // Monochrome detector: one unfiltered measurement, the same value in r, g and b.
+        return session_->measure();
+    }
+    // Colour through the filter changer: one full (auto-exposed, HDR, dark-subtracted)
+    // measurement per filter; channel c of the result is the rate behind filter c.
+    SignalRate out;
+    for (int c = 0; c < 3; ++c) {
+        if (auto f = dev_.filter_wheel->set_filter(c); !f) {
+            return tl::unexpected(f.error());
+        }
         auto rate = session_->measure();
         if (!rate) {
             return tl::unexpected(rate.error());
         }
-        s.rate = *rate;
+        out.rate[c] = rate->rate[c];
+        out.sigma[c] = rate->sigma[c];
+        out.saturated = out.saturated || rate->saturated;
+        out.hdr = out.hdr || rate->hdr;
+        out.exposure_us = std::max(out.exposure_us, rate->exposure_us);
+        out.pixels = c == 0 ? rate->pixels : std::min(out.pixels, rate->pixels);
     }
-    s.pose = *pose;
-    const auto [wi, wo] = brdf::rig_forward(*pose);
-    s.wi = wi;
-    s.wo = wo;
-    return s;
+    return out;
+}
+
+Expected<Runner::Shot> Runner::measure_once(const RigPosed& target, const std::string& what) {
+    // Pose integrity: the positions are read back before and after each exposure. An axis found
+    // away from its target is moved back first; one that moved during the exposure (another
+    // client, a stall, a lost step) makes the measurement repeat. Both are journalled and counted;
+    // neither reaches the dataset.
+    for (int repeat = 0;; ++repeat) {
+        if (auto m = move_to(target); !m) {
+            return tl::unexpected(m.error());
+        }
+        auto before = read_pose();
+        if (!before) {
+            return tl::unexpected(before.error());
+        }
+        if (const std::string off = pose_change(target, *before); !off.empty()) {
+            ++result_.pose_corrections;
+            note("pose check: before the exposure of " + what + " the axes were off target (" +
+                 off + "); moved back");
+            current_ = *before;  // So that move_to commands every axis that is off.
+            if (repeat >= kMaxPoseRepeats) {
+                return make_error("pose check: the axes do not stay on target for " + what + " (" +
+                                  off + ")");
+            }
+            continue;
+        }
+        auto rate = expose();
+        if (!rate) {
+            return tl::unexpected(rate.error());
+        }
+        auto after = read_pose();
+        if (!after) {
+            return tl::unexpected(after.error());
+        }
+        if (const std::string moved = pose_change(*before, *after); !moved.empty()) {
+            ++result_.pose_repeats;
+            note("pose check: an axis moved during the exposure of " + what + " (" + moved +
+                 "); the measurement is repeated");
+            current_ = *after;
+            if (repeat >= kMaxPoseRepeats) {
+                return make_error("pose check: axes keep moving during the exposures of " + what +
+                                  " (" + moved + ")");
+            }
+            continue;
+        }
+        Shot s;
+        s.rate = *rate;
+        s.pose = *before;
+        const auto [wi, wo] = brdf::rig_forward(*before);
+        s.wi = wi;
+        s.wo = wo;
+        return s;
+    }
+}
+
+Expected<void> Runner::wait_for_devices(const std::string& what, const std::string& cause) {
+    ++result_.outages;
+    note("devices unreachable during " + what + " (" + cause +
+         "): the campaign is paused and resumes on its own when they answer again (Ctrl-C "
+         "stops it with its state saved)");
+    const double t0 = now_s();
+    double wait_s = hooks_.outage_probe_s;
+    while (!stop_requested()) {
+        std::this_thread::sleep_for(std::chrono::duration<double>(wait_s));  // Probe pacing.
+        bool all = true;
+        for (int k = 0; k < kNumAxes && all; ++k) {
+            all = static_cast<bool>(dev_.axes[k]->status());
+        }
+        const double down_s = now_s() - t0;
+        if (all) {
+            char buf[120];
+            std::snprintf(buf, sizeof buf, "devices answer again after %.1f s: resuming", down_s);
+            note(buf);
+            return {};
+        }
+        if (down_s > hooks_.max_outage_s) {
+            return make_error("devices unreachable for more than " +
+                              std::to_string(static_cast<long>(hooks_.max_outage_s)) +
+                              " s during " + what + " (" + cause +
+                              "); the campaign is paused with its state saved");
+        }
+        wait_s = std::min(2 * wait_s, 8 * hooks_.outage_probe_s);
+    }
+    return make_error("stopped on request while the devices were unreachable during " + what);
 }
 
 Expected<Runner::Shot> Runner::attempt(const RigPosed& target,
@@ -474,14 +586,17 @@ Expected<Runner::Shot> Runner::attempt(const RigPosed& target,
                                        std::string* pause) {
     std::string last;
     for (int a = 0; a <= rig_.retries; ++a) {
-        auto s = measure_once(target);
+        auto s = measure_once(target, what);
         if (s) {
             return s;
         }
         last = s.error().message;
-        // A drive alarm is a safety stop: never retried automatically.
-        for (int k = 0; k < kNumAxes; ++k) {
+        // A drive alarm is a safety stop: never retried automatically. A device that does not
+        // answer (an outage longer than the bus's reconnect window) is waited for.
+        bool unreachable = false;
+        for (int k = 0; k < kNumAxes && !unreachable; ++k) {
             auto st = dev_.axes[k]->status();
+            unreachable = !st;
             if (st && st->state == devices::AxisState::kAlarm) {
                 *pause = "axis \"" + dev_.axes[k]->name() + "\" raised alarm code " +
                          std::to_string(st->alarm_code) + " during " + what + " (" + last +
@@ -489,6 +604,18 @@ Expected<Runner::Shot> Runner::attempt(const RigPosed& target,
                          "the drive, then resume";
                 return make_error(*pause);
             }
+        }
+        if (unreachable) {
+            if (auto w = wait_for_devices(what, last); !w) {
+                *pause = w.error().message;
+                return tl::unexpected(w.error());
+            }
+            if (auto p = read_pose(); p) {
+                current_ = *p;
+            }
+            session_->clear_dark_cache();
+            --a;  // The outage is not a failed attempt.
+            continue;
         }
         say("device error during " + what + " (attempt " + std::to_string(a + 1) + "/" +
             std::to_string(rig_.retries + 1) + "): " + last);
@@ -684,6 +811,9 @@ Expected<void> Runner::write_metadata(const std::string& state, const Plan& plan
     }
     meta["state"] = state;
     meta["measured"] = result_.measured_total;
+    meta["pose_repeats"] = result_.pose_repeats;
+    meta["pose_corrections"] = result_.pose_corrections;
+    meta["device_outages"] = result_.outages;
     meta["planned"] = result_.planned_total;
     return write_text_atomic(path("metadata.json"), meta.dump(2) + "\n");
 }
@@ -921,9 +1051,16 @@ Expected<RunResult> Runner::run() {
         progress.finish("pass " + std::to_string(pass) + " complete");
     }
     result_.measured_total = done.size();
-    return finish(Outcome::kCompleted,
-                  "completed: " + std::to_string(done.size()) + " configurations measured",
-                  plan);
+    std::string summary = "completed: " + std::to_string(done.size()) + " configurations measured";
+    if (result_.pose_repeats + result_.pose_corrections > 0) {
+        summary += "; pose checks: " + std::to_string(result_.pose_repeats) +
+                   " exposures repeated after an axis moved, " +
+                   std::to_string(result_.pose_corrections) + " poses corrected before exposing";
+    }
+    if (result_.outages > 0) {
+        summary += "; " + std::to_string(result_.outages) + " device outages waited out";
+    }
+    return finish(Outcome::kCompleted, summary, plan);
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <map>
 #include <mutex>
 
+#include "gonio/devices/aravis_camera.h"
 #include "gonio/devices/u3v_camera.h"
 #include "gonio/devices/u3v_tcp.h"
 #include "gonio/devices/usb_transport.h"
@@ -41,6 +42,19 @@ void register_camera_scheme(const std::string& scheme, CameraOpener opener) {
 }
 
 Expected<std::unique_ptr<Camera>> open_camera(const std::string& address) {
+    // GenICam cameras through Aravis.
+    const std::string gige = "gige://";
+    if (address.rfind(gige, 0) == 0) {
+        return upcast(AravisCamera::open_gige(address.substr(gige.size())));
+    }
+    const std::string u3v = "u3v://";
+    if (address.rfind(u3v, 0) == 0) {
+        return upcast(AravisCamera::open_u3v(address.substr(u3v.size())));
+    }
+    const std::string aravis = "aravis:";
+    if (address.rfind(aravis, 0) == 0) {
+        return upcast(AravisCamera::open_id(address.substr(aravis.size())));
+    }
     const std::string tcp = "u3v-tcp://";
     if (address.rfind(tcp, 0) == 0) {
         const std::string rest = address.substr(tcp.size());
@@ -63,8 +77,9 @@ Expected<std::unique_ptr<Camera>> open_camera(const std::string& address) {
     const std::size_t colon = address.find(':');
     if (colon == std::string::npos) {
         return make_error("camera address '" + address +
-                          "': expected u3v-tcp://HOST:PORT, u3v-mem:NAME, usb:SERIAL, "
-                          "usb:BUS-ADDR or uvc:INDEX");
+                          "': expected gige://HOST, u3v://SERIAL, aravis:DEVICE-ID, "
+                          "u3v-tcp://HOST:PORT, u3v-mem:NAME, usb:SERIAL, usb:BUS-ADDR or "
+                          "uvc:INDEX");
     }
     const std::string scheme = address.substr(0, colon);
     const std::string rest = address.substr(colon + 1);
@@ -94,7 +109,7 @@ Expected<std::unique_ptr<Camera>> open_camera(const std::string& address) {
     }
     if (!opener) {
         return make_error("camera address '" + address + "': unknown scheme '" + scheme +
-                          "' (u3v-tcp, u3v-mem, usb, uvc)");
+                          "' (gige://, u3v://, aravis:, u3v-tcp://, u3v-mem:, usb:, uvc:)");
     }
     return opener(rest);
 }

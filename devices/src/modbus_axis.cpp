@@ -1,5 +1,6 @@
 #include "gonio/devices/modbus_axis.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <thread>
@@ -46,6 +47,23 @@ ModbusAxis::ModbusAxis(std::shared_ptr<ModbusBus> bus,
                                                                    : profile_.timeouts.response_ms);
     policy_.retries = options_.retries >= 0 ? options_.retries : profile_.timeouts.retries;
     policy_.backoff = std::chrono::milliseconds(profile_.timeouts.backoff_ms);
+    poll_policy_ = policy_;
+    poll_policy_.poll = true;
+}
+
+std::chrono::microseconds ModbusAxis::poll_wait(double remaining_deg,
+                                                double observed_deg_per_s) const {
+    const double d = std::fabs(remaining_deg);
+    const double v = motion_.speed_deg_per_s;
+    const double a = motion_.accel_deg_per_s2;
+    double t_go = d > v * v / (2 * a) ? d / v + v / (2 * a) : std::sqrt(2 * d / a);
+    if (observed_deg_per_s > 0) {
+        t_go = std::min(t_go, d / observed_deg_per_s);
+    }
+    const double lo = std::max(0, profile_.timeouts.poll_ms) * 1e-3;
+    const double hi = std::max(lo, options_.max_poll_interval_ms * 1e-3);
+    const double wait = std::clamp(0.5 * t_go, lo, hi);
+    return std::chrono::microseconds(static_cast<long long>(wait * 1e6));
 }
 
 Error ModbusAxis::axis_error(const std::string& msg) const {
@@ -81,11 +99,11 @@ Expected<void> ModbusAxis::set_motion(const Motion& m) {
     return {};
 }
 
-Expected<ModbusAxis::Raw> ModbusAxis::read_raw() {
+Expected<ModbusAxis::Raw> ModbusAxis::read_raw(const RequestPolicy& policy) {
     Raw raw;
     const RegisterField& sr = profile_.status.reg;
     auto sw = bus_->read_registers(
-        unit_, *wire_address(profile_, sr.address), sr.count(), policy_, reg_label(sr.address));
+        unit_, *wire_address(profile_, sr.address), sr.count(), policy, reg_label(sr.address));
     if (!sw) {
         return tl::unexpected(sw.error());
     }
@@ -94,7 +112,7 @@ Expected<ModbusAxis::Raw> ModbusAxis::read_raw() {
     const RegisterField& pr = profile_.position;
     // One request for both words: a 32-bit position is never torn.
     auto pw = bus_->read_registers(
-        unit_, *wire_address(profile_, pr.address), pr.count(), policy_, reg_label(pr.address));
+        unit_, *wire_address(profile_, pr.address), pr.count(), policy, reg_label(pr.address));
     if (!pw) {
         return tl::unexpected(pw.error());
     }
@@ -219,12 +237,16 @@ Expected<void> ModbusAxis::wait_flag(bool homing, std::chrono::steady_clock::tim
     bool seen_moving = false;
     auto last_change = std::chrono::steady_clock::now();
     const auto stall = std::chrono::milliseconds(profile_.timeouts.stall_ms);
-    const auto poll = std::chrono::milliseconds(profile_.timeouts.poll_ms);
+    std::uint64_t generation = bus_->link_generation();
+    double prev_deg = 0;
+    auto prev_t = std::chrono::steady_clock::now();
+    bool have_prev = false;
     for (;;) {
-        auto raw = read_raw();
+        auto raw = read_raw(poll_policy_);
         if (!raw) {
             return tl::unexpected(raw.error());
         }
+        ++recovery_.polls;
         const auto now = std::chrono::steady_clock::now();
         const std::uint32_t w = raw->status_word;
         const double at_deg = steps_to_degrees(profile_, static_cast<double>(raw->position_steps));
@@ -241,11 +263,32 @@ Expected<void> ModbusAxis::wait_flag(bool homing, std::chrono::steady_clock::tim
         }
         const bool moving = sb.moving >= 0 ? bit(w, sb.moving) : !bit(w, sb.in_position);
         const bool in_pos = sb.in_position >= 0 ? bit(w, sb.in_position) : !moving;
+        const bool at_target =
+            std::fabs(at_deg - commanded_deg_) <= 1.5 / profile_.steps_per_degree;
+        if (const std::uint64_t g = bus_->link_generation(); g != generation) {
+            // The link was lost and re-established during the wait: the drive's state was just
+            // re-read (position, status; the alarm bit was checked above). A drive that stands
+            // still away from the target lost the move (power blip): send it again.
+            generation = g;
+            ++recovery_.link_recoveries;
+            seen_moving = false;
+            have_last = false;
+            have_prev = false;
+            if (!moving && !at_target) {
+                if (homing) {
+                    if (auto r = run_action(profile_.home, {}, "home"); !r) {
+                        return r;
+                    }
+                } else if (auto r = send_move(commanded_deg_); !r) {
+                    return r;
+                }
+                ++recovery_.reissued_moves;
+                continue;
+            }
+        }
         seen_moving = seen_moving || moving;
         // A drive may still show the previous move's in-position flag for a moment after a new
         // command: accept "done" only once motion was seen or the stage is at the target.
-        const bool at_target =
-            std::fabs(at_deg - commanded_deg_) <= 1.5 / profile_.steps_per_degree;
         const bool done = homing ? (!moving && bit(w, sb.homed))
                                  : (!moving && in_pos && (seen_moving || at_target));
         if (done) {
@@ -271,7 +314,24 @@ Expected<void> ModbusAxis::wait_flag(bool homing, std::chrono::steady_clock::tim
                 " not finished before the deadline (at " + fmt_deg(at_deg) + " deg, status " +
                 hex(w, 4) + "); stop sent"));
         }
-        std::this_thread::sleep_for(poll);
+        // Back off while far from the target; homing has no known distance: poll at poll_ms.
+        double observed = -1;
+        if (have_prev) {
+            const double dt = std::chrono::duration<double>(now - prev_t).count();
+            if (dt > 0) {
+                observed = std::fabs(at_deg - prev_deg) / dt;
+            }
+        }
+        prev_deg = at_deg;
+        prev_t = now;
+        have_prev = true;
+        // The first wait is short: two readings give the stage's observed speed (a simulator
+        // running faster than real time, a drive slower than its profile).
+        const double remaining = homing || observed < 0 ? 0 : at_deg - commanded_deg_;
+        std::this_thread::sleep_for(std::min<std::chrono::microseconds>(
+            poll_wait(remaining, observed),
+            std::chrono::duration_cast<std::chrono::microseconds>(deadline - now) +
+                std::chrono::microseconds(1000)));
     }
 }
 

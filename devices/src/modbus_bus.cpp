@@ -5,6 +5,8 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <cstring>
 #include <map>
@@ -83,6 +85,28 @@ struct ModbusBus::Impl {
     bool connected = false;
     bool ever_connected = false;
     BusStats stats;
+    std::atomic<std::uint64_t> generation{0};
+    // Poll scheduling (own lock: a poll waits for its slot without holding the bus).
+    std::mutex poll_mu;
+    std::chrono::steady_clock::time_point next_poll = std::chrono::steady_clock::now();
+    std::chrono::nanoseconds poll_interval{0};
+
+    /// Reserves the next poll slot of the bus and waits for it.
+    void wait_poll_slot() {
+        std::chrono::steady_clock::time_point slot;
+        {
+            std::lock_guard<std::mutex> lock(poll_mu);
+            const auto now = std::chrono::steady_clock::now();
+            slot = std::max(now, next_poll);
+            next_poll = slot + poll_interval;
+        }
+        const auto now = std::chrono::steady_clock::now();
+        if (slot > now) {
+            std::this_thread::sleep_until(slot);
+            std::lock_guard<std::mutex> lock(mu);
+            stats.poll_wait_s += std::chrono::duration<double>(slot - now).count();
+        }
+    }
 
     ~Impl() {
         if (ctx != nullptr) {
@@ -177,6 +201,8 @@ Expected<std::shared_ptr<ModbusBus>> ModbusBus::open(const BusAddress& address) 
                           ": cannot create Modbus context: " + modbus_strerror(errno));
     }
     bus->impl_->ctx = ctx;
+    bus->impl_->poll_interval = std::chrono::nanoseconds(
+        static_cast<long long>(1e9 / gonio::devices::poll_budget_per_s(address)));
     modbus_set_error_recovery(ctx, MODBUS_ERROR_RECOVERY_NONE);
     if (!bus->impl_->connect()) {
         return make_error(to_string(address) + ": cannot connect: " + modbus_strerror(errno));
@@ -216,46 +242,108 @@ Expected<void> run_request(ModbusBus::Impl& impl,
                            const RequestPolicy& policy,
                            const std::string& what,
                            Op op) {
+    if (policy.poll) {
+        impl.wait_poll_slot();
+    }
     std::lock_guard<std::mutex> lock(impl.mu);
     int last_err = 0;
     int attempts = 0;
+    int failures = 0;  ///< Failed attempts other than a lost link (bounded by policy.retries).
     const std::chrono::milliseconds quiet =
         policy.quiet.count() > 0 ? policy.quiet : policy.response_timeout;
-    for (int attempt = 0; attempt <= policy.retries; ++attempt) {
-        if (attempt > 0) {
+    // A lost link is retried with back-off for up to the outage window; everything else counts
+    // against policy.retries.
+    using Clock = std::chrono::steady_clock;
+    bool link_lost = false;
+    bool timed_out = false;
+    Clock::time_point lost_since;
+    auto backoff = policy.backoff;
+    const auto max_backoff = std::chrono::milliseconds(1000);
+    for (;;) {
+        if (attempts > 0) {
             ++impl.stats.retries;
-            std::this_thread::sleep_for(policy.backoff * (1 << std::min(attempt - 1, 10)));
+            std::this_thread::sleep_for(backoff);
+            backoff = std::min(max_backoff, backoff * 2);
         }
         ++attempts;
+        bool link_failed = false;
         if (!impl.connect()) {
             last_err = errno;
+            link_failed = true;
+        } else {
+            modbus_set_slave(impl.ctx, unit);
+            const auto ms = policy.response_timeout.count();
+            modbus_set_response_timeout(impl.ctx,
+                                        static_cast<uint32_t>(ms / 1000),
+                                        static_cast<uint32_t>((ms % 1000) * 1000));
+            ++impl.stats.requests;
+            if (policy.poll) {
+                ++impl.stats.polls;
+            }
+            errno = 0;
+            if (op(impl.ctx) >= 0) {
+                if (link_lost || timed_out) {
+                    // Back after an outage or a silence: drivers re-read their drives' state.
+                    ++impl.generation;
+                }
+                return {};
+            }
+            last_err = errno;
+            switch (classify(last_err)) {
+                case Recovery::kGiveUp:
+                    return make_error(what + " (unit " + std::to_string(unit) + ", " +
+                                      to_string(address) + "): " + describe_modbus_errno(last_err));
+                case Recovery::kRetry:
+                    ++failures;
+                    break;
+                case Recovery::kResync:
+                    if (last_err == ETIMEDOUT) {
+                        ++impl.stats.timeouts;
+                        timed_out = true;
+                    }
+                    impl.resync(address.kind, quiet);
+                    ++failures;
+                    break;
+                case Recovery::kReconnect:
+                    impl.disconnect();
+                    link_failed = true;
+                    break;
+            }
+        }
+        if (link_failed) {
+            const auto now = Clock::now();
+            if (!link_lost) {
+                link_lost = true;
+                lost_since = now;
+                ++impl.stats.link_losses;
+            }
+            if (now - lost_since >= std::chrono::milliseconds(address.outage_ms)) {
+                const auto lost_ms =
+                    std::chrono::duration_cast<std::chrono::milliseconds>(now - lost_since);
+                return make_error(
+                    what + " (unit " + std::to_string(unit) + ", " + to_string(address) +
+                    "): link lost: " + describe_modbus_errno(last_err) + " for " +
+                    std::to_string(lost_ms.count()) + " ms (" + std::to_string(attempts) +
+                    " attempts), longer than the outage window of " +
+                    std::to_string(address.outage_ms) + " ms");
+            }
             continue;
         }
-        modbus_set_slave(impl.ctx, unit);
-        const auto ms = policy.response_timeout.count();
-        modbus_set_response_timeout(
-            impl.ctx, static_cast<uint32_t>(ms / 1000), static_cast<uint32_t>((ms % 1000) * 1000));
-        ++impl.stats.requests;
-        errno = 0;
-        if (op(impl.ctx) >= 0) {
-            return {};
-        }
-        last_err = errno;
-        switch (classify(last_err)) {
-            case Recovery::kGiveUp:
-                return make_error(what + " (unit " + std::to_string(unit) + ", " +
-                                  to_string(address) + "): " + describe_modbus_errno(last_err));
-            case Recovery::kRetry:
-                break;
-            case Recovery::kResync:
-                if (last_err == ETIMEDOUT) {
-                    ++impl.stats.timeouts;
+        if (failures > policy.retries) {
+            // A poll that keeps timing out while a move is under way is a drive (or line) that
+            // went silent: wait for it within the outage window, like a lost link.
+            if (policy.poll && last_err == ETIMEDOUT && address.outage_ms > 0) {
+                const auto now = Clock::now();
+                if (!link_lost) {
+                    link_lost = true;
+                    lost_since = now;
+                    ++impl.stats.link_losses;
                 }
-                impl.resync(address.kind, quiet);
-                break;
-            case Recovery::kReconnect:
-                impl.disconnect();
-                break;
+                if (now - lost_since < std::chrono::milliseconds(address.outage_ms)) {
+                    continue;
+                }
+            }
+            break;
         }
     }
     return make_error(what + " (unit " + std::to_string(unit) + ", " + to_string(address) +
@@ -322,6 +410,14 @@ Expected<void> ModbusBus::write_coil(
     return run_request(*impl_, address_, unit, policy, what, [&](modbus_t* ctx) {
         return modbus_write_bit(ctx, wire_address, on ? 1 : 0);
     });
+}
+
+double ModbusBus::poll_budget_per_s() const {
+    return gonio::devices::poll_budget_per_s(address_);
+}
+
+std::uint64_t ModbusBus::link_generation() const {
+    return impl_->generation.load();
 }
 
 BusStats ModbusBus::stats() const {

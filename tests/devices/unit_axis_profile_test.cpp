@@ -116,3 +116,51 @@ TEST(AxisState, NamesForMessages) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(BusAddress, SchedulerAndOutageKeysParseAndRoundTrip) {
+    auto a = parse_bus_address("tcp://127.0.0.1:1502?poll_rate=25&outage_ms=3000");
+    ASSERT_TRUE(a) << a.error().message;
+    EXPECT_EQ(a->port, 1502);
+    EXPECT_DOUBLE_EQ(a->poll_rate, 25);
+    EXPECT_EQ(a->outage_ms, 3000);
+    EXPECT_DOUBLE_EQ(gonio::devices::poll_budget_per_s(*a), 25);
+    auto b = parse_bus_address(gonio::devices::to_string(*a));
+    ASSERT_TRUE(b) << b.error().message;
+    EXPECT_EQ(gonio::devices::to_string(*b), gonio::devices::to_string(*a));
+    auto r = parse_bus_address("rtu:/dev/ttyUSB0?baud=19200&line_share=0.25");
+    ASSERT_TRUE(r) << r.error().message;
+    EXPECT_DOUBLE_EQ(r->line_share, 0.25);
+    EXPECT_EQ(r->outage_ms, 10000);
+    for (const char* bad : {"tcp://h:1?line_share=0.5",
+                            "tcp://h:1?poll_rate=0",
+                            "tcp://h:1?poll_rate=abc",
+                            "rtu:/dev/x?line_share=2",
+                            "rtu:/dev/x?outage_ms=-1",
+                            "tcp://h:1?speed=3"}) {
+        auto e = parse_bus_address(bad);
+        EXPECT_FALSE(e) << bad;
+        if (!e) {
+            EXPECT_NE(e.error().message.find(bad), std::string::npos) << e.error().message;
+        }
+    }
+}
+
+TEST(BusAddress, RtuLineCapacityFromBaudRateAndFrameSizes) {
+    // 8N1 = 10 bits per character. A 2-register read is an 8-byte request and a 9-byte reply.
+    // At 19200 baud: 17 x 10 / 19200 s on the wire plus two 3.5-character silences (2 x 35 bits)
+    // = 240 / 19200 s = 12.5 ms; half the line gives 40 polls/s.
+    auto slow = parse_bus_address("rtu:/dev/x?baud=19200");
+    ASSERT_TRUE(slow);
+    EXPECT_NEAR(gonio::devices::rtu_transaction_s(*slow, 8, 9), 0.0125, 1e-12);
+    EXPECT_NEAR(gonio::devices::poll_budget_per_s(*slow), 40, 1e-9);
+    // 8E1 = 11 bits. Above 19200 baud the silence is a fixed 1.75 ms (2 x 1.75 ms).
+    auto fast = parse_bus_address("rtu:/dev/x?baud=115200&parity=E&line_share=1");
+    ASSERT_TRUE(fast);
+    EXPECT_NEAR(gonio::devices::rtu_transaction_s(*fast, 8, 9), 17 * 11 / 115200.0 + 3.5e-3, 1e-12);
+    // TCP without a rate: 200 polls/s.
+    EXPECT_DOUBLE_EQ(gonio::devices::poll_budget_per_s(*parse_bus_address("tcp://h:1")), 200);
+}
+
+}  // namespace

@@ -71,6 +71,13 @@ struct RunResult {
     std::size_t measured_now = 0;    ///< Measurements taken by this run.
     std::size_t measured_total = 0;  ///< Plan configurations in the journal.
     std::size_t planned_total = 0;
+    /// Exposures measured again because an axis moved during them (another client, a stall, a
+    /// lost step): positions are read back before and after each exposure.
+    std::size_t pose_repeats = 0;
+    /// Axes found away from their target before an exposure and moved back first.
+    std::size_t pose_corrections = 0;
+    /// Device outages waited out (the campaign paused and resumed on its own).
+    std::size_t outages = 0;
 };
 
 /// What the runner needs from its surroundings.
@@ -86,6 +93,11 @@ struct RunHooks {
     bool accept_drift = false;
     /// Home axes that report not homed before the first move.
     bool home = true;
+    /// While the devices do not answer (an outage longer than the bus's reconnect window), they
+    /// are probed after this wait, doubling up to 8 times it; the campaign resumes on its own.
+    double outage_probe_s = 1.0;
+    /// An outage longer than this pauses the campaign for good (resume by hand).
+    double max_outage_s = 3600;
 };
 
 /// Runs (or resumes) the campaign in `dir` on the rig's devices until completed, interrupted or

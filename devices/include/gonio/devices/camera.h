@@ -48,7 +48,11 @@ struct Frame {
     double saturation_level = 0;  ///< Counts at which pixels clip.
     int bit_depth = 16;
     std::uint64_t frame_id = 0;
-    bool linear = true;  ///< False for gamma-encoded 8-bit frames (not radiometric).
+    bool linear = true;        ///< False for gamma-encoded 8-bit frames (not radiometric).
+    std::string pixel_format;  ///< PFNC name of the format the camera sent ("" when not known).
+    /// Bayer colour filter pattern ("RGGB", "GRBG", "GBRG", "BGGR") of a raw mosaic kept as sent,
+    /// one value per pixel, not demosaiced; empty for a monochrome frame.
+    std::string cfa;
 };
 
 class Camera {

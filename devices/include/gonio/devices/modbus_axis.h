@@ -31,6 +31,17 @@ struct AxisOptions {
     /// Override the profile's timing (<= 0 keeps the profile's value).
     int response_timeout_ms = 0;
     int retries = -1;
+    /// Longest wait between two status polls while a move is far from its target (the wait is
+    /// half the time to go predicted from the profile's speed and acceleration, at least the
+    /// profile's poll_ms; the bus's poll budget applies on top).
+    int max_poll_interval_ms = 200;
+};
+
+/// What the axis did to get through lost links.
+struct AxisRecovery {
+    std::uint64_t link_recoveries = 0;  ///< Links re-established during a wait (state re-read).
+    std::uint64_t reissued_moves = 0;   ///< Moves sent again because the drive had lost them.
+    std::uint64_t polls = 0;            ///< Status polls made while waiting.
 };
 
 class ModbusAxis : public Axis {
@@ -58,13 +69,21 @@ class ModbusAxis : public Axis {
     int unit() const { return unit_; }
     const AxisProfile& profile() const { return profile_; }
     const std::shared_ptr<ModbusBus>& bus() const { return bus_; }
+    const AxisRecovery& recovery() const { return recovery_; }
+    /// The wait before the next poll for a stage `remaining_deg` from its target, moving at
+    /// `observed_deg_per_s` (< 0 = not known yet): half the predicted time to go, clamped to
+    /// [poll_ms, max_poll_interval_ms]. The time to go is the smaller of the trapezoidal profile's
+    /// (speed v, acceleration a: d/v + v/(2a) when d > v^2/(2a), else sqrt(2d/a)) and
+    /// d / observed speed.
+    std::chrono::microseconds poll_wait(double remaining_deg, double observed_deg_per_s) const;
 
   private:
     struct Raw {
         std::uint32_t status_word = 0;
         std::int64_t position_steps = 0;
     };
-    Expected<Raw> read_raw();
+    Expected<Raw> read_raw(const RequestPolicy& policy);
+    Expected<Raw> read_raw() { return read_raw(policy_); }
     Expected<int> read_alarm_code();
     Expected<void> run_action(const Action& a, const BlockInputs& in, const char* what);
     Expected<void> send_move(double position_deg);
@@ -81,6 +100,8 @@ class ModbusAxis : public Axis {
     Motion motion_;
     AxisOptions options_;
     RequestPolicy policy_;
+    RequestPolicy poll_policy_;  ///< policy_ with poll = true.
+    AxisRecovery recovery_;
     bool homing_ = false;
     bool approach_pending_ = false;  ///< A backlash approach leg is under way.
     double final_target_deg_ = 0;

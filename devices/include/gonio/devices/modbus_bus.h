@@ -4,8 +4,14 @@
 // is not thread-safe, so every request goes through ModbusBus under its mutex; the axes (and the
 // shutter) on one bus share one ModbusBus. Each request has a deadline and bounded retries with
 // exponential backoff. After a timeout the link is re-opened (TCP) or drained until the line has
-// been quiet (RTU), so that a late reply can never be read as the answer to the next request. A
-// dropped peer is reconnected on the next attempt.
+// been quiet (RTU), so that a late reply can never be read as the answer to the next request.
+//
+// Bus scheduler: status polls (RequestPolicy::poll) of every unit on the bus share one budget of
+// polls per second (poll_budget_per_s: a rate, or a share of an RTU line's capacity); commands are
+// never held back. Reconnect: a link that is lost (refused, reset, closed) is re-opened with
+// exponential back-off for up to the address's outage window (outage_ms, default 10 s) before a
+// request fails; link_generation() counts the re-established links so that a driver can re-read
+// its drive's state after one.
 
 #include <chrono>
 #include <cstdint>
@@ -27,6 +33,8 @@ struct RequestPolicy {
     /// RTU: after a timeout, bytes are discarded until the line has been silent this long (a late
     /// reply arriving within it is dropped). 0 = the response timeout.
     std::chrono::milliseconds quiet{0};
+    /// A status poll: waits for its slot in the bus's poll budget (commands do not).
+    bool poll = false;
 };
 
 /// Counters since the bus was opened.
@@ -36,6 +44,9 @@ struct BusStats {
     std::uint64_t timeouts = 0;       ///< Attempts that timed out.
     std::uint64_t reconnects = 0;     ///< Links re-opened.
     std::uint64_t drained_bytes = 0;  ///< Bytes discarded after timeouts (RTU).
+    std::uint64_t polls = 0;          ///< Requests sent as status polls.
+    std::uint64_t link_losses = 0;    ///< Times the link was found lost.
+    double poll_wait_s = 0;           ///< Total time polls waited for their budget slot.
 };
 
 class ModbusBus {
@@ -79,6 +90,11 @@ class ModbusBus {
         int unit, int wire_address, bool on, const RequestPolicy& policy, const std::string& what);
 
     BusStats stats() const;
+    /// Polls per second this bus allows (all units together).
+    double poll_budget_per_s() const;
+    /// Incremented each time a request succeeds after a lost link or a timeout: the device may
+    /// have lost power meanwhile, so its state is worth re-reading.
+    std::uint64_t link_generation() const;
 
     struct Impl;  ///< The libmodbus context and its lock (opaque).
 
