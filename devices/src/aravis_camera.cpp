@@ -137,6 +137,7 @@ struct AravisCamera::Impl {
     double exposure_us = 0;
     double gain = 1;
     bool exposure_known = false;
+    double black_level = 0;  // counts, from BlackLevel when the camera states it in DN
 
     ~Impl() {
         if (acquiring) {
@@ -588,10 +589,29 @@ struct AravisCamera::Impl {
         return s;
     }
 
+    /// BlackLevel when it is a Float in DN (digital numbers: counts of the current pixel format),
+    /// else 0: other units (percent, raw register steps) say nothing about counts, and dark frames
+    /// remove the offset anyway.
+    void refresh_black_level() {
+        black_level = 0;
+        ArvGcNode* n = node("BlackLevel");
+        if (n == nullptr || !ARV_IS_GC_FLOAT(n) || !has("BlackLevel")) {
+            return;
+        }
+        const char* unit = arv_gc_float_get_unit(ARV_GC_FLOAT(n));
+        if (unit == nullptr || (std::strcmp(unit, "DN") != 0 && std::strcmp(unit, "counts") != 0)) {
+            return;
+        }
+        if (auto v = get_float("BlackLevel"); v && std::isfinite(*v) && *v >= 0) {
+            black_level = *v;
+        }
+    }
+
     Expected<void> start_acquisition() {
         if (auto r = ensure_stream(); !r) {
             return r;
         }
+        refresh_black_level();
         // The transport-layer parameters (payload size, packet size...) must not change while a
         // stream runs (SFNC, TLParamsLocked): lock them before AcquisitionStart.
         if (has("TLParamsLocked")) {
@@ -769,7 +789,7 @@ struct AravisCamera::Impl {
         const guint64 ts = arv_buffer_get_timestamp(buffer);
         f.timestamp_ns =
             static_cast<std::int64_t>(ts != 0 ? ts : arv_buffer_get_system_timestamp(buffer));
-        f.black_level = 0;
+        f.black_level = black_level;
         f.bit_depth = format->bits;
         f.saturation_level = std::ldexp(1.0, format->bits) - 1;
         f.frame_id = id;

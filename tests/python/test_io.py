@@ -117,13 +117,3 @@ def test_model_tabulated_to_merl_binary_matches_eval(workdir):
     k = np.arange(0, len(s["theta_i"]), 997)
     v = gonio.eval(TRUTH, s["theta_i"][k], s["phi_i"][k], s["theta_o"][k], s["phi_o"][k])
     np.testing.assert_allclose(s["value"][k], v, rtol=1e-12)
-
-
-def test_campaign_folder(workdir):
-    d = workdir / "campaign"
-    d.mkdir()
-    gonio.save(d / "dataset.csv", synthetic_samples(TRUTH, 3, 3))
-    (d / "metadata.json").write_text(json.dumps({"runs": [{"state": "completed"}], "rig": "virtual"}))
-    c = gonio.load_campaign(d)
-    assert c["metadata"]["runs"][0]["state"] == "completed"
-    assert len(c["dataset"]["theta_i"]) == 27

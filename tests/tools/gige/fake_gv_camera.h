@@ -81,14 +81,21 @@ class FakeGvCamera {
   public:
     /// Takes the GigE lock, starts the camera with `extra` arguments and waits until Aravis's own
     /// tool reads it (a bounded number of attempts, each bounded by arv-tool's timeouts).
-    explicit FakeGvCamera(const std::vector<std::string>& extra = {}) {
+    explicit FakeGvCamera(const std::vector<std::string>& extra = {})
+        : FakeGvCamera(with_program({"arv-fake-gv-camera-0.8", "-i", "127.0.0.1"}, extra)) {}
+
+    /// Any other GigE Vision camera served on 127.0.0.1 by the command `argv` (e.g. gonio's own
+    /// simulated camera, `gonio camera serve`), under the same lock.
+    struct Command {
+        std::vector<std::string> argv;
+    };
+    explicit FakeGvCamera(const Command& command) {
         lock_fd_ = ::open("/tmp/gonio-gige.lock", O_RDWR | O_CREAT | O_CLOEXEC, 0666);
         if (lock_fd_ < 0 || ::flock(lock_fd_, LOCK_EX) != 0) {
             error_ = "cannot lock /tmp/gonio-gige.lock";
             return;
         }
-        std::vector<std::string> args = {"arv-fake-gv-camera-0.8", "-i", "127.0.0.1"};
-        args.insert(args.end(), extra.begin(), extra.end());
+        std::vector<std::string> args = command.argv;
         std::vector<char*> argv;
         for (auto& a : args) {
             argv.push_back(a.data());
@@ -100,7 +107,7 @@ class FakeGvCamera {
         posix_spawn_file_actions_addopen(&fa, 2, "/dev/null", O_WRONLY, 0);
         if (posix_spawnp(&pid_, args[0].c_str(), &fa, nullptr, argv.data(), environ) != 0) {
             pid_ = -1;
-            error_ = "cannot start arv-fake-gv-camera-0.8";
+            error_ = "cannot start " + args[0];
         }
         posix_spawn_file_actions_destroy(&fa);
         if (pid_ <= 0) {
@@ -116,11 +123,11 @@ class FakeGvCamera {
             int st = 0;
             if (::waitpid(pid_, &st, WNOHANG) == pid_) {
                 pid_ = -1;
-                error_ = "arv-fake-gv-camera-0.8 exited: " + out;
+                error_ = args[0] + " exited: " + out;
                 return;
             }
         }
-        error_ = "arv-fake-gv-camera-0.8 did not answer arv-tool-0.8: " + out;
+        error_ = args[0] + " did not answer arv-tool-0.8: " + out;
     }
     ~FakeGvCamera() {
         kill_now();
@@ -144,6 +151,12 @@ class FakeGvCamera {
     const std::string& error() const { return error_; }
 
   private:
+    static Command with_program(std::vector<std::string> argv,
+                                const std::vector<std::string>& extra) {
+        argv.insert(argv.end(), extra.begin(), extra.end());
+        return Command{argv};
+    }
+
     int lock_fd_ = -1;
     pid_t pid_ = -1;
     bool ready_ = false;

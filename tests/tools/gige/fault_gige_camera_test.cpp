@@ -54,8 +54,9 @@ TEST(GigeCameraFaults, ExposureOutsideTheRangeNamesRangeAndUnit) {
     for (const double bad : {lo / 2, hi * 2}) {
         std::ostringstream arg;
         arg << bad;
-        const CliRun r = run_gonio("camera --connect gige://127.0.0.1 capture --exposure-us " +
-                                   arg.str() + " --format Mono8 " + (dir / "x.exr").string());
+        const CliRun r = run_gonio(
+            "camera --connect gige://127.0.0.1 capture --timeout-ms 20000 --exposure-us " +
+            arg.str() + " --format Mono8 " + (dir / "x.exr").string());
         EXPECT_NE(r.status, 0) << r.out;
         const std::size_t at = r.out.find("outside the range");
         ASSERT_NE(at, std::string::npos) << r.out;
@@ -86,16 +87,18 @@ TEST(GigeCameraFaults, GainInRawUnitsOnlyIsSaidAndRangeChecked) {
     const auto dir = gonio::testing::fresh_test_dir("gige_fault");
     const std::string exr = (dir / "g.exr").string();
     // A linear factor cannot be turned into raw units: refused, naming the feature.
-    const CliRun linear =
-        run_gonio("camera --connect gige://127.0.0.1 capture --gain 2 --format Mono8 " + exr);
+    const CliRun linear = run_gonio(
+        "camera --connect gige://127.0.0.1 capture --timeout-ms 20000 --gain 2 --format Mono8 " +
+        exr);
     EXPECT_NE(linear.status, 0);
     EXPECT_NE(linear.out.find("only GainRaw"), std::string::npos) << linear.out;
     EXPECT_NE(linear.out.find("Aravis Fake"), std::string::npos) << linear.out;
     // Above the raw range: the range and the unit are named.
     std::ostringstream too_high;
     too_high << hi + 1;
-    const CliRun high = run_gonio("camera --connect gige://127.0.0.1 capture --camera-gain " +
-                                  too_high.str() + " --format Mono8 " + exr);
+    const CliRun high =
+        run_gonio("camera --connect gige://127.0.0.1 capture --timeout-ms 20000 --camera-gain " +
+                  too_high.str() + " --format Mono8 " + exr);
     EXPECT_NE(high.status, 0);
     const std::size_t at = high.out.find("outside the range");
     ASSERT_NE(at, std::string::npos) << high.out;
@@ -106,7 +109,9 @@ TEST(GigeCameraFaults, GainInRawUnitsOnlyIsSaidAndRangeChecked) {
     EXPECT_NE(high.out.find("] raw of GainRaw"), std::string::npos) << high.out;
     // Inside the range it is written as asked, as Aravis's tool reads back.
     const CliRun ok = run_gonio(
-        "camera --connect gige://127.0.0.1 capture --camera-gain 3 --format Mono8 " + exr);
+        "camera --connect gige://127.0.0.1 capture --timeout-ms 20000 --camera-gain 3 --format "
+        "Mono8 " +
+        exr);
     ASSERT_EQ(ok.status, 0) << ok.out;
     ASSERT_EQ(arv_tool("control GainRaw", &ref), 0);
     std::string v;
@@ -145,8 +150,9 @@ TEST(GigeCameraFaults, MissingExposureFeatureIsNamed) {
     ASSERT_FALSE(xml.empty());
     FakeGvCamera cam({"-g", xml});
     ASSERT_TRUE(cam.ready()) << cam.error();
-    const CliRun r = run_gonio("camera --connect gige://127.0.0.1 capture --format Mono8 " +
-                               (dir / "x.exr").string());
+    const CliRun r =
+        run_gonio("camera --connect gige://127.0.0.1 capture --timeout-ms 20000 --format Mono8 " +
+                  (dir / "x.exr").string());
     EXPECT_NE(r.status, 0) << r.out;
     EXPECT_NE(r.out.find("has no exposure feature (looked for ExposureTime, ExposureTimeAbs, "
                          "ExposureTimeRaw)"),
@@ -166,7 +172,9 @@ TEST(GigeCameraFaults, WithoutSoftwareTriggerEachCaptureIsOneSingleFrameAcquisit
     EXPECT_NE(info.out.find("trigger: single frame"), std::string::npos) << info.out;
     const std::string exr = (dir / "single.exr").string();
     const CliRun cap = run_gonio(
-        "camera --connect gige://127.0.0.1 capture --format Mono8 --roi 0,0,100,50 " + exr);
+        "camera --connect gige://127.0.0.1 capture --timeout-ms 20000 --format Mono8 --roi "
+        "0,0,100,50 " +
+        exr);
     ASSERT_EQ(cap.status, 0) << cap.out;
     std::string ref;
     ASSERT_EQ(arv_tool("control AcquisitionMode TriggerMode", &ref), 0);

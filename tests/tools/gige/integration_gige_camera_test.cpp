@@ -103,7 +103,8 @@ TEST(GigeCameraCli, Mono8CaptureIsTheRampTheCameraServes) {
     const std::string exr = (dir / "mono8.exr").string();
     // 100 ms is ten times the fake camera's reference exposure: every ramp value doubles.
     const CliRun cap = run_gonio(
-        "camera --connect gige://127.0.0.1 capture --format Mono8 --exposure-us 100000 "
+        "camera --connect gige://127.0.0.1 capture --timeout-ms 20000 --format Mono8 --exposure-us "
+        "100000 "
         "--roi 0,0,320,240 " +
         exr);
     ASSERT_EQ(cap.status, 0) << cap.out;
@@ -160,7 +161,8 @@ TEST(GigeCameraCli, Mono16CaptureWithOffsetRegion) {
     const auto dir = gonio::testing::fresh_test_dir("gige");
     const std::string exr = (dir / "mono16.exr").string();
     const CliRun cap = run_gonio(
-        "camera --connect gige://127.0.0.1 capture --format Mono16 --exposure-us 10000 "
+        "camera --connect gige://127.0.0.1 capture --timeout-ms 20000 --format Mono16 "
+        "--exposure-us 10000 "
         "--camera-gain 0 --roi 8,4,200,100 " +
         exr);
     ASSERT_EQ(cap.status, 0) << cap.out;
@@ -198,7 +200,9 @@ TEST(GigeCameraCli, BayerFrameIsKeptAsRawMosaic) {
     const auto dir = gonio::testing::fresh_test_dir("gige");
     const std::string exr = (dir / "bayer.exr").string();
     const CliRun cap = run_gonio(
-        "camera --connect gige://127.0.0.1 capture --format BayerRG8 --roi 0,0,64,48 " + exr);
+        "camera --connect gige://127.0.0.1 capture --timeout-ms 20000 --format BayerRG8 --roi "
+        "0,0,64,48 " +
+        exr);
     ASSERT_EQ(cap.status, 0) << cap.out;
     std::string ref;
     ASSERT_EQ(arv_tool("control PixelFormat Width Height", &ref), 0);
@@ -213,6 +217,29 @@ TEST(GigeCameraCli, BayerFrameIsKeptAsRawMosaic) {
     EXPECT_EQ(f.height, 48);
     EXPECT_EQ(f.pixel_format, "BayerRG8");
     EXPECT_EQ(f.cfa, "RGGB");
+}
+
+TEST(GigeCameraCli, BlackLevelInDnIsTakenFromTheCamera) {
+    // gonio's own simulated GigE Vision camera states BlackLevel as a Float in DN.
+    FakeGvCamera cam(
+        FakeGvCamera::Command{{GONIO_EXE, "camera", "serve", "--width", "64", "--height", "48"}});
+    ASSERT_TRUE(cam.ready()) << cam.error();
+    const auto dir = gonio::testing::fresh_test_dir("gige");
+    const std::string exr = (dir / "black.exr").string();
+    const CliRun cap =
+        run_gonio("camera --connect gige://127.0.0.1 capture --timeout-ms 20000 --format Mono16 " +
+                  std::string("--exposure-us 1000 ") + exr);
+    ASSERT_EQ(cap.status, 0) << cap.out;
+    std::string ref;
+    ASSERT_EQ(arv_tool("control BlackLevel PixelFormat", &ref), 0);
+    std::string format;
+    ASSERT_TRUE(arv_value(ref, "PixelFormat", &format)) << ref;
+    ASSERT_EQ(format, "Mono16");
+    const double black = arv_number(ref, "BlackLevel");
+    EXPECT_GT(black, 0) << ref;
+    const std::size_t at = cap.out.find("black ");
+    ASSERT_NE(at, std::string::npos) << cap.out;
+    EXPECT_DOUBLE_EQ(std::strtod(cap.out.c_str() + at + 6, nullptr), black) << cap.out;
 }
 
 }  // namespace

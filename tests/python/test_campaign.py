@@ -1,0 +1,42 @@
+"""A campaign measured by `gonio acquire` on the embedded virtual rig, read with
+gonio.load_campaign: the dataset as numpy, the metadata and descriptions as dicts, and the values
+against the sample's ground truth evaluated by gonio.eval."""
+
+import numpy as np
+
+import gonio
+from conftest import GONIO_EXE
+
+import subprocess
+
+
+def test_acquired_campaign_reads_as_numpy_and_dicts(workdir):
+    out = workdir / "campaign"
+    # The embedded rig serves its camera over GigE Vision on 127.0.0.1 (fixed port 3956).
+    r = subprocess.run(
+        ["flock", "/tmp/gonio-gige.lock", GONIO_EXE, "acquire", "--out", str(out), "--n-theta", "4",
+         "--n-dphi", "3", "--adaptive", "0", "--time-scale", "500"],
+        capture_output=True, text=True, timeout=400,
+    )
+    assert r.returncode == 0, r.stdout + r.stderr
+    c = gonio.load_campaign(out)
+    assert {"dataset", "metadata", "campaign", "rig"} <= set(c)
+    d = c["dataset"]
+    brdf_rows = (d["flags"] & 4) == 0  # bit 2: drift-reference re-measurements
+    assert brdf_rows.sum() == c["metadata"]["measured"] == c["metadata"]["plan"]["configurations"]
+    assert d["has_sigma"] and np.all(d["sigma"][brdf_rows] > 0)
+    truth = gonio.eval(
+        "material:" + c["campaign"]["sample"],
+        d["theta_i"][brdf_rows], d["phi_i"][brdf_rows], d["theta_o"][brdf_rows], d["phi_o"][brdf_rows],
+    )
+    # Calibrated measurements of the simulated sample: within 1 % of its model.
+    np.testing.assert_allclose(d["value"][brdf_rows], truth, rtol=1e-2)
+
+
+def test_missing_folder_raises():
+    try:
+        gonio.load_campaign("/nonexistent/campaign")
+    except gonio.Error as e:
+        assert "not a campaign folder" in str(e)
+    else:
+        raise AssertionError("no error")
