@@ -24,7 +24,7 @@ struct SimOptions {
     double time_scale = 0;
     std::string rig_out;
     std::uint64_t seed = 0;
-    std::string camera = "u3v-tcp";
+    std::string camera = "gige";
     bool exposure_abs = false;
 };
 
@@ -115,7 +115,7 @@ GONIO_COMMAND(sim) {
     cmd->add_option("--seed", o->seed, "sensor and encoder noise seed");
     cmd->add_option("--camera",
                     o->camera,
-                    "camera protocol: gige (GigE Vision on 127.0.0.1:3956) or u3v-tcp")
+                    "camera protocol: gige (GigE Vision on 127.0.0.1:3956, default) or u3v-tcp")
         ->check(CLI::IsMember({"gige", "u3v-tcp"}));
     cmd->add_flag("--exposure-abs",
                   o->exposure_abs,
