@@ -203,11 +203,15 @@ GONIO_COMMAND(fit) {
                     "comma-separated models to fit and rank, e.g. ggx,beckmann,blinn-phong");
     cmd->add_option("--manifest", o->manifest, "fit every entry of a manifest CSV into --out DIR")
         ->excludes("data");
-    cmd->add_option("--shard", o->shard, "with --manifest: only entries i with i mod N == K")
+    cmd->add_option("--shard",
+                    o->shard,
+                    "with --manifest: only entries i with i mod N == K (--threads, if given, "
+                    "applies to every entry)")
         ->needs("--manifest");
-    return [o]() -> int {
+    return [o, cmd]() -> int {
         if (!o->manifest.empty()) {
-            return gonio::tools::run_fit_manifest(o->manifest, o->shard, o->out);
+            const int threads = cmd->count("--threads") > 0 ? o->threads : -1;
+            return gonio::tools::run_fit_manifest(o->manifest, o->shard, o->out, threads);
         }
         if (o->data.empty()) {
             std::fprintf(stderr, "gonio fit: give DATA (or --manifest M --out DIR)\n");

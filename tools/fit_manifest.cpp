@@ -12,7 +12,8 @@ namespace gonio::tools {
 
 int run_fit_manifest(const std::string& manifest,
                      const std::string& shard_text,
-                     const std::string& out_dir) {
+                     const std::string& out_dir,
+                     int threads) {
     if (out_dir.empty()) {
         std::fprintf(stderr, "gonio fit: --manifest needs --out DIR (the results folder)\n");
         return 2;
@@ -40,7 +41,12 @@ int run_fit_manifest(const std::string& manifest,
                      ec.message().c_str());
         return 2;
     }
-    const std::vector<batch::ManifestEntry> mine = batch::select_shard(*entries, shard);
+    std::vector<batch::ManifestEntry> mine = batch::select_shard(*entries, shard);
+    if (threads >= 0) {
+        for (batch::ManifestEntry& e : mine) {
+            e.request.threads = threads;
+        }
+    }
     std::printf(
         "shard %zu/%zu: %zu of %zu entries\n", shard.k, shard.n, mine.size(), entries->size());
     std::vector<batch::EntryOutcome> rows;

@@ -217,10 +217,20 @@ Expected<std::shared_ptr<ModbusBus>> ModbusBus::shared(const std::string& addres
     }
     static std::mutex registry_mu;
     static std::map<std::string, std::weak_ptr<ModbusBus>> registry;
-    const std::string key = to_string(*parsed);
+    // One owner per physical line: the key is the serial device or the host and port, whatever
+    // the query keys say.
+    const std::string key = parsed->kind == BusKind::kRtu
+                                ? "rtu:" + parsed->device
+                                : "tcp://" + parsed->host + ":" + std::to_string(parsed->port);
     std::lock_guard<std::mutex> lock(registry_mu);
     if (auto it = registry.find(key); it != registry.end()) {
         if (auto bus = it->second.lock()) {
+            if (to_string(bus->address()) != to_string(*parsed)) {
+                return make_error("address \"" + address + "\": the line is already open as \"" +
+                                  to_string(bus->address()) +
+                                  "\"; every unit on one line must use the same address (one "
+                                  "owner, one serial format, one poll budget)");
+            }
             return bus;
         }
     }

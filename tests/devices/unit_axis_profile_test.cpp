@@ -3,11 +3,14 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <cmath>
 #include <string>
 
 #include "gonio/devices/address.h"
 #include "gonio/devices/axis.h"
 #include "gonio/devices/axis_profile.h"
+#include "gonio/devices/modbus_axis.h"
 
 namespace {
 
@@ -161,6 +164,36 @@ TEST(BusAddress, RtuLineCapacityFromBaudRateAndFrameSizes) {
     EXPECT_NEAR(gonio::devices::rtu_transaction_s(*fast, 8, 9), 17 * 11 / 115200.0 + 3.5e-3, 1e-12);
     // TCP without a rate: 200 polls/s.
     EXPECT_DOUBLE_EQ(gonio::devices::poll_budget_per_s(*parse_bus_address("tcp://h:1")), 200);
+}
+
+}  // namespace
+
+namespace {
+
+TEST(PollWait, HalfThePredictedTimeToGoClampedToPollAndMaxInterval) {
+    auto p = gonio::devices::load_axis_profile("oriental-az");  // poll_ms 5
+    ASSERT_TRUE(p);
+    // The bus is not used by poll_wait.
+    gonio::devices::AxisOptions opt;
+    opt.max_poll_interval_ms = 1000;
+    gonio::devices::ModbusAxis axis(
+        nullptr, 1, *p, "t", gonio::devices::SoftLimits{}, gonio::devices::Motion{20, 40, 0}, opt);
+    auto ms = [&](double d, double observed) {
+        return std::chrono::duration<double, std::milli>(axis.poll_wait(d, observed)).count();
+    };
+    // Cruising with room to brake (d > v^2 / 2a = 5 deg): t = d/v + v/(2a).
+    EXPECT_NEAR(ms(6, -1), 0.5 * (6.0 / 20 + 20.0 / 80) * 1e3, 1e-3);
+    // Far away: capped at max_poll_interval_ms.
+    EXPECT_NEAR(ms(100, -1), 1000, 1e-3);
+    // Braking (d < 5 deg): t = sqrt(2 d / a).
+    EXPECT_NEAR(ms(1, -1), 0.5 * std::sqrt(2.0 / 40) * 1e3, 1e-3);
+    EXPECT_NEAR(ms(-1, -1), ms(1, -1), 1e-9);
+    // Almost there: poll_ms.
+    EXPECT_NEAR(ms(0.001, -1), 5, 1e-3);
+    // A stage observed moving faster than its profile (a simulator at 10x): d / observed.
+    EXPECT_NEAR(ms(6, 200), 0.5 * 6.0 / 200 * 1e3, 1e-3);
+    // Observed slower than the profile: the profile's prediction stands.
+    EXPECT_NEAR(ms(6, 1), ms(6, -1), 1e-9);
 }
 
 }  // namespace

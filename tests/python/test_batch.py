@@ -86,4 +86,21 @@ def test_serial_and_cluster_give_the_same_fits(workdir):
         ), a
 
 
+def test_existing_scheduler_by_address(workdir):
+    # --scheduler: the tasks go to a cluster started elsewhere (here one more LocalCluster on
+    # 127.0.0.1, addressed only by its tcp:// address).
+    from distributed import LocalCluster
+
+    manifest = make_manifest(workdir)
+    with LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None
+    ) as cluster:
+        address = cluster.scheduler_address
+        assert address.startswith("tcp://127.0.0.1:")
+        outcomes = gonio.batch.run_batch(manifest, workdir / "remote", scheduler=address, progress=False)
+        # The batch closed its client only: the cluster still serves.
+        assert len(cluster.scheduler.workers) == 2
+    assert [o["status"] for o in outcomes] == ["fitted"] * 8 + ["failed"]
+
+
 import gonio.batch  # noqa: E402  (the submodule, after the helpers above)

@@ -77,3 +77,27 @@ TEST(BusBudget, FourDrivesOnOneRtuLineStayWithinTheLineShare) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(BusBudget, OneOwnerPerLineWhateverTheQueryKeys) {
+    auto p = gonio::devices::load_axis_profile("generic");
+    ASSERT_TRUE(p);
+    gonio::sim::MotorControllerServer server;
+    ASSERT_TRUE(server.add_unit(1, *p));
+    gonio::sim::ServerOptions so;
+    so.log = nullptr;
+    ASSERT_TRUE(server.start(so));
+    auto a = gonio::devices::ModbusBus::shared(server.address() + "?poll_rate=25");
+    ASSERT_TRUE(a) << a.error().message;
+    auto b = gonio::devices::ModbusBus::shared(server.address() + "?poll_rate=25");
+    ASSERT_TRUE(b) << b.error().message;
+    EXPECT_EQ(a->get(), b->get());
+    // The same line with another budget would be a second owner: refused, naming both.
+    auto c = gonio::devices::ModbusBus::shared(server.address() + "?poll_rate=100");
+    ASSERT_FALSE(c);
+    EXPECT_NE(c.error().message.find("already open as"), std::string::npos) << c.error().message;
+    EXPECT_NE(c.error().message.find("poll_rate=25"), std::string::npos) << c.error().message;
+}
+
+}  // namespace
