@@ -67,6 +67,20 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 
 }  // namespace
 
+std::string default_distribution() {
+    return brdf::to_string(fitting::ModelOptions{}.distribution);
+}
+
+std::string default_fresnel() {
+    const fitting::ModelOptions o;
+    const std::string name = brdf::to_string(o.fresnel);
+    return o.fresnel == brdf::FresnelType::kSchlick && o.fresnel_rgb ? name + "-rgb" : name;
+}
+
+std::string default_shadowing() {
+    return brdf::to_string(fitting::ModelOptions{}.shadowing);
+}
+
 Expected<void> set_option(FitRequest& r, const std::string& key_in, const std::string& value_in) {
     std::string key = trim(key_in);
     for (char& c : key) {

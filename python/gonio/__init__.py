@@ -28,6 +28,7 @@ from ._gonio import (  # noqa: F401  (re-exported)
 from . import _gonio
 
 __all__ = [
+    "__version__",
     "Error",
     "check",
     "eval",
@@ -43,7 +44,7 @@ __all__ = [
 ]
 
 
-def fit(samples, model="ggx", residual="log", max_samples=0, truth=None, **options):
+def fit(samples, model="ggx", residual=None, max_samples=None, truth=None, **options):
     """Fit an analytic BRDF model to measured samples with Ceres.
 
     samples: a path (dataset CSV, or a table *.binary/*.merl/*.gtab), a samples dict or a
@@ -52,9 +53,10 @@ def fit(samples, model="ggx", residual="log", max_samples=0, truth=None, **optio
         fresnel, shadowing, diffuse, anisotropic, lobes), a fit-template path (*.json) or a
         fit-template dict ``{"model": {...}, "free": [...], "fixed": [...], "shared": [...],
         "bounds": {...}}`` (docs/fitting-guide.md).
-    residual: "absolute", "relative", "log", "cosine" or "cbrt".
-    max_samples: stratified reduction to about this many samples for the solve (0 = all);
-        the metrics are always over all valid samples.
+    residual: "absolute", "relative", "log", "cosine" or "cbrt" (None: the default of
+        ``gonio fit``, "log").
+    max_samples: stratified reduction to about this many samples for the solve (0 = all;
+        None: the default of ``gonio fit``); the metrics are always over all valid samples.
     truth: optional ground-truth model (dict or path), copied into the report.
     options: fresnel ("schlick", "schlick-rgb", "dielectric", "conductor", "none"),
         shadowing ("smith-correlated", "smith-separable", "v-groove", "none"), diffuse (bool),
@@ -69,7 +71,7 @@ def fit(samples, model="ggx", residual="log", max_samples=0, truth=None, **optio
 
     Raises gonio.Error for unreadable input, no valid sample or an inconsistent spec.
     """
-    return _gonio._fit(samples, model, residual, int(max_samples), truth, options)
+    return _gonio._fit(samples, model, residual, max_samples, truth, options)
 
 
 def load_campaign(folder):

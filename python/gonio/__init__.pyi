@@ -20,8 +20,8 @@ from ._gonio import (
 def fit(
     samples: Union[str, "os.PathLike[str]", Dict[str, Any]],
     model: Union[str, Dict[str, Any]] = ...,
-    residual: str = ...,
-    max_samples: int = ...,
+    residual: Union[str, None] = ...,
+    max_samples: Union[int, None] = ...,
     truth: Union[str, Dict[str, Any], None] = ...,
     **options: Any,
 ) -> Tuple[Dict[str, Any], Dict[str, Any]]: ...

@@ -46,8 +46,8 @@ def summary_header() -> str: ...
 def _fit(
     samples: Union[PathLike, Dict[str, Any]],
     model: Union[str, Dict[str, Any]],
-    residual: str,
-    max_samples: int,
+    residual: Union[str, None],
+    max_samples: Union[int, None],
     truth: Union[BrdfLike, None],
     options: Dict[str, Any],
 ) -> Tuple[Dict[str, Any], Dict[str, Any]]: ...

@@ -567,14 +567,19 @@ std::string option_text(const py::handle& v) {
 
 py::tuple fit(const py::object& samples,
               const py::object& model,
-              const std::string& residual,
-              std::size_t max_samples,
+              const py::object& residual,
+              const py::object& max_samples,
               const py::object& truth,
               const py::dict& options) {
+    // Options left at None keep the fitting library's defaults (those of `gonio fit`).
     gonio::batch::FitRequest request;
     gonio::fitting::FitSpec spec;
-    ok_or_raise(gonio::batch::set_option(request, "residual", residual));
-    request.max_samples = max_samples;
+    if (!residual.is_none()) {
+        ok_or_raise(gonio::batch::set_option(request, "residual", option_text(residual)));
+    }
+    if (!max_samples.is_none()) {
+        ok_or_raise(gonio::batch::set_option(request, "max_samples", option_text(max_samples)));
+    }
     for (const auto& [k, v] : options) {
         ok_or_raise(
             gonio::batch::set_option(request, py::str(k).cast<std::string>(), option_text(v)));

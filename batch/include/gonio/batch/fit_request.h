@@ -13,21 +13,32 @@
 
 namespace gonio::batch {
 
+/// The defaults of the fitting library (fitting::ModelOptions, fitting::FitOptions) as option
+/// values, so that an entry without options fits exactly as `gonio fit DATA` does.
+std::string default_distribution();
+std::string default_fresnel();
+std::string default_shadowing();
+
 struct FitRequest {
-    std::string model = "ggx";  ///< ggx, beckmann, blinn-phong, or a template *.json path.
-    std::string fresnel = "schlick-rgb";  ///< schlick, schlick-rgb, dielectric, conductor, none.
-    std::string shadowing = "smith-correlated";
-    bool diffuse = true;
-    bool anisotropic = false;
-    int lobes = 1;
-    std::string residual = "log";  ///< absolute, relative, log, cosine, cbrt.
-    std::string loss = "none";     ///< none, huber, cauchy.
-    double loss_scale = 0.1;
-    std::size_t max_samples = 0;  ///< Stratified reduction to about this many samples; 0 = all.
-    int starts = 6;
-    std::uint64_t seed = 1;
-    int max_iterations = 200;
-    int threads = 0;  ///< Solver threads; 0 = all cores.
+    std::string model =
+        default_distribution();  ///< ggx, beckmann, blinn-phong, or a *.json template.
+    std::string fresnel =
+        default_fresnel();  ///< schlick, schlick-rgb, dielectric, conductor, none.
+    std::string shadowing =
+        default_shadowing();  ///< smith-correlated, smith-separable, v-groove, none.
+    bool diffuse = fitting::ModelOptions{}.diffuse;
+    bool anisotropic = fitting::ModelOptions{}.anisotropic;
+    int lobes = fitting::ModelOptions{}.lobes;
+    std::string residual = fitting::to_string(
+        fitting::FitOptions{}.residual);  ///< absolute, relative, log, cosine, cbrt.
+    std::string loss = fitting::to_string(fitting::FitOptions{}.loss);  ///< none, huber, cauchy.
+    double loss_scale = fitting::FitOptions{}.loss_scale;
+    std::size_t max_samples =
+        fitting::FitOptions{}.max_samples;  ///< Stratified reduction; 0 = all.
+    int starts = fitting::FitOptions{}.starts;
+    std::uint64_t seed = fitting::FitOptions{}.seed;
+    int max_iterations = fitting::FitOptions{}.max_iterations;
+    int threads = fitting::FitOptions{}.num_threads;  ///< Solver threads; 0 = all cores.
 };
 
 /// Sets one option by name, as written in a manifest ("residual", "max_samples", "diffuse", ...;
