@@ -1169,7 +1169,8 @@ Expected<Frame> AravisCamera::capture(std::chrono::milliseconds timeout) {
         }
         d.drain();
         if (auto r = d.execute("TriggerSoftware"); !r) {
-            return tl::unexpected(r.error());
+            // Say whether the camera is still there (a write that failed is usually a camera gone).
+            return tl::unexpected(Error{r.error().message + "; " + d.silence_reason()});
         }
         return d.pop_frame(timeout);
     }
