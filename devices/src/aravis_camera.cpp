@@ -729,17 +729,30 @@ struct AravisCamera::Impl {
         if (stream == nullptr) {
             return tl::unexpected(err("no stream"));
         }
-        const guint64 timeout_us =
-            static_cast<guint64>(std::max<long long>(timeout.count(), 1)) * 1000;
-        ArvBuffer* buffer = arv_stream_timeout_pop_buffer(stream, timeout_us);
-        if (buffer == nullptr) {
-            ++stats.frames_missing;
-            return tl::unexpected(err("no frame within " + std::to_string(timeout.count()) +
-                                      " ms: " + silence_reason()));
+        using Clock = std::chrono::steady_clock;
+        const auto deadline = Clock::now() + std::max(timeout, std::chrono::milliseconds(1));
+        for (;;) {
+            const auto left =
+                std::chrono::duration_cast<std::chrono::microseconds>(deadline - Clock::now());
+            ArvBuffer* buffer = left.count() > 0 ? arv_stream_timeout_pop_buffer(
+                                                       stream, static_cast<guint64>(left.count()))
+                                                 : nullptr;
+            if (buffer == nullptr) {
+                ++stats.frames_missing;
+                return tl::unexpected(err("no frame within " + std::to_string(timeout.count()) +
+                                          " ms: " + silence_reason()));
+            }
+            if (arv_buffer_get_status(buffer) == ARV_BUFFER_STATUS_CLEARED) {
+                // Handed back without any frame data in it (no image of the camera's was lost):
+                // recycle it and keep waiting for the frame.
+                ++stats.buffers_recycled;
+                arv_stream_push_buffer(stream, buffer);
+                continue;
+            }
+            Expected<Frame> frame = decode(buffer);
+            arv_stream_push_buffer(stream, buffer);
+            return frame;
         }
-        Expected<Frame> frame = decode(buffer);
-        arv_stream_push_buffer(stream, buffer);
-        return frame;
     }
 
     Expected<Frame> decode(ArvBuffer* buffer) {
@@ -1156,7 +1169,8 @@ Expected<Frame> AravisCamera::capture(std::chrono::milliseconds timeout) {
         }
         d.drain();
         if (auto r = d.execute("TriggerSoftware"); !r) {
-            return tl::unexpected(r.error());
+            // Say whether the camera is still there (a write that failed is usually a camera gone).
+            return tl::unexpected(Error{r.error().message + "; " + d.silence_reason()});
         }
         return d.pop_frame(timeout);
     }

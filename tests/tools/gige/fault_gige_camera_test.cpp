@@ -224,6 +224,26 @@ TEST(GigeCameraFaults, CameraKilledMidStreamGivesAClearErrorNotAHang) {
     (void)c->stop_stream();
 }
 
+TEST(GigeCameraFaults, CameraKilledBetweenTriggeredCapturesGivesAClearError) {
+    FakeGvCamera cam;
+    ASSERT_TRUE(cam.ready()) << cam.error();
+    auto opened = gonio::devices::AravisCamera::open_gige("127.0.0.1");
+    ASSERT_TRUE(opened) << opened.error().message;
+    auto& c = **opened;
+    ASSERT_TRUE(c.set_pixel_format_name("Mono8"));
+    ASSERT_TRUE(c.set_roi({0, 0, 64, 32}));
+    auto first = c.capture(milliseconds(5000));
+    ASSERT_TRUE(first) << first.error().message;
+    cam.kill_now();
+    auto second = c.capture(milliseconds(1000));
+    ASSERT_FALSE(second) << "a frame from a killed camera";
+    const std::string& m = second.error().message;
+    EXPECT_NE(m.find("gige://127.0.0.1"), std::string::npos) << m;
+    EXPECT_TRUE(m.find("no longer answers") != std::string::npos ||
+                m.find("control of the camera was lost") != std::string::npos)
+        << m;
+}
+
 TEST(GigeCameraFaults, LostPacketsAreCountedAndNoBrokenFrameIsHandedOut) {
     // The fake camera drops 30 % of its GVSP packets (and does not honour resend requests), so
     // nearly every frame of ~50 packets arrives incomplete.

@@ -242,4 +242,39 @@ TEST(GigeCameraCli, BlackLevelInDnIsTakenFromTheCamera) {
     EXPECT_DOUBLE_EQ(std::strtod(cap.out.c_str() + at + 6, nullptr), black) << cap.out;
 }
 
+TEST(GigeCameraCli, DevicesListsWhatAravisFinds) {
+    FakeGvCamera cam;
+    ASSERT_TRUE(cam.ready()) << cam.error();
+    // arv-tool-0.8 without a command lists the devices as "ID (ADDRESS)".
+    std::string list;
+    ASSERT_EQ(gonio::testing::run_command("arv-tool-0.8", &list), 0) << list;
+    const std::size_t open = list.find(" (127.0.0.1)");
+    ASSERT_NE(open, std::string::npos) << list;
+    const std::size_t line = list.rfind('\n', open);
+    const std::string id = list.substr(line == std::string::npos ? 0 : line + 1,
+                                       open - (line == std::string::npos ? 0 : line + 1));
+    const CliRun r = run_gonio("devices");
+    ASSERT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("GigEVision gige://127.0.0.1"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("aravis:" + id), std::string::npos) << id << "\n" << r.out;
+    // The id it prints opens the same camera.
+    const CliRun info = run_gonio("camera --connect aravis:" + id + " info");
+    ASSERT_EQ(info.status, 0) << info.out;
+    EXPECT_NE(info.out.find("trigger: software trigger"), std::string::npos) << info.out;
+}
+
+TEST(GigeCameraCli, AddressesOfAbsentCamerasFailWithAMessage) {
+    const CliRun u3v = run_gonio("camera --connect u3v://NO-SUCH-SERIAL info");
+    EXPECT_NE(u3v.status, 0);
+    EXPECT_NE(u3v.out.find("no USB3 Vision camera with serial NO-SUCH-SERIAL"), std::string::npos)
+        << u3v.out;
+    EXPECT_NE(u3v.out.find("gonio devices"), std::string::npos) << u3v.out;
+    const CliRun id = run_gonio("camera --connect aravis:No-Such-Camera info");
+    EXPECT_NE(id.status, 0);
+    EXPECT_NE(id.out.find("aravis:No-Such-Camera"), std::string::npos) << id.out;
+    const CliRun empty = run_gonio("camera --connect gige:// info");
+    EXPECT_NE(empty.status, 0);
+    EXPECT_NE(empty.out.find("empty host"), std::string::npos) << empty.out;
+}
+
 }  // namespace
