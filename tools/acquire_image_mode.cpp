@@ -239,7 +239,7 @@ int run_acquire_image_mode(const AcquireImageOptions& o) {
                      "gonio acquire: coverage target %.1f%% not met (%.1f%%)\n",
                      100 * cfg.coverage_target,
                      100 * result->coverage.fraction());
-        return 3;
+        return 1;
     }
     return 0;
 }

@@ -16,8 +16,11 @@
 #include "command.h"
 #include "gonio/acquisition/campaign.h"
 #include "gonio/acquisition/rig_config.h"
+#include "gonio/brdf/atomic_file.h"
 #include "gonio/brdf/data_path.h"
+#include "gonio/brdf/limits.h"
 #include "gonio/sim/sim_rig.h"
+#include "option_checks.h"
 
 namespace {
 
@@ -67,6 +70,15 @@ bool is_embedded(const std::string& rig_json) {
     return !j.is_discarded() && j.value("embedded_virtual_rig", false);
 }
 
+/// "ground_truth.json" for a model file, "ground_truth.gtab" for a table; empty for a library
+/// material ("material:NAME"), which is no file.
+std::string ground_truth_name(const std::string& brdf) {
+    if (brdf.rfind("material:", 0) == 0) {
+        return {};
+    }
+    return "ground_truth" + fs::path(brdf).extension().string();
+}
+
 /// Image mode: a curved sample, thousands of samples per frame (docs/image-acquisition.md).
 int run_image(const AcquireOptions& o) {
     gonio::tools::AcquireImageOptions io;
@@ -95,6 +107,10 @@ int run(const AcquireOptions& o) {
     bool embedded = false;
     // The virtual rig takes its ground truth and time scale from the stored rig description.
     gonio::sim::SimRigOptions so;
+    // A new campaign's folder is created only once everything is checked: description, plan,
+    // scene, rig, ground truth and devices reachable. Until then nothing is written.
+    acq::CampaignSpec new_spec;
+    std::string ground_truth_copy;
     if (!o.resume.empty()) {
         dir = o.resume;
         auto r = acq::read_rig_config((fs::path(dir) / "rig.json").string());
@@ -103,6 +119,26 @@ int run(const AcquireOptions& o) {
         }
         rig = *r;
         embedded = is_embedded(rig.json);
+        if (embedded) {
+            // The virtual rig's ground truth, when a file, is read from the campaign folder only.
+            const nlohmann::json j = nlohmann::json::parse(rig.json, nullptr, false);
+            const std::string b = j.is_object() && j.contains("sim") && j["sim"].is_object()
+                                      ? j["sim"].value("brdf", std::string())
+                                      : std::string();
+            if (!b.empty() && b.rfind("material:", 0) != 0) {
+                const fs::path bp(b);
+                bool outside = bp.is_absolute();
+                for (const auto& part : bp) {
+                    outside = outside || part == "..";
+                }
+                if (outside) {
+                    return fail(dir + "/rig.json: sim.brdf = \"" + b +
+                                "\" lies outside the campaign folder; a resume reads only the "
+                                "folder (copy the file into it and name it relative to it)");
+                }
+                so.brdf_path = (fs::path(dir) / bp).string();
+            }
+        }
     } else {
         acq::CampaignSpec spec;
         if (!o.campaign.empty()) {
@@ -161,11 +197,11 @@ int run(const AcquireOptions& o) {
             return fail(r.error().message);
         }
         rig = *r;
+        auto plan = acq::build_plan(spec, rig);
+        if (!plan) {
+            return fail(plan.error().message);
+        }
         if (o.plan_only) {
-            auto plan = acq::build_plan(spec, rig);
-            if (!plan) {
-                return fail(plan.error().message);
-            }
             std::printf(
                 "%zu configurations, %zu unreachable, %llu outside the ROI, naive 4D grid %llu\n",
                 plan->configs.size(),
@@ -184,7 +220,11 @@ int run(const AcquireOptions& o) {
             nlohmann::json j = nlohmann::json::parse(rig.json);
             j["embedded_virtual_rig"] = true;
             if (!o.brdf.empty()) {
-                j["sim"]["brdf"] = fs::absolute(o.brdf).string();
+                // The ground truth is copied into the folder (ground_truth.<ext>) so that a resume
+                // reads nothing outside it; the simulator starts from the given file.
+                ground_truth_copy = ground_truth_name(o.brdf);
+                j["sim"]["brdf"] = ground_truth_copy.empty() ? o.brdf : ground_truth_copy;
+                so.brdf_path = o.brdf;
                 j["sim"].erase("material");
             } else if (!o.material.empty()) {
                 j["sim"]["material"] = o.material;
@@ -199,9 +239,15 @@ int run(const AcquireOptions& o) {
             }
             rig = *rr;
         }
-        if (auto c = acq::create_campaign_dir(dir, spec, rig); !c) {
-            return fail(c.error().message);
+        std::error_code ec;
+        if (fs::exists(fs::path(dir) / "journal.log", ec) ||
+            fs::exists(fs::path(dir) / "campaign.json", ec)) {
+            return fail(dir + ": already holds a campaign (use --resume " + dir + ")");
         }
+        if (fs::exists(dir, ec) && !fs::is_directory(dir, ec)) {
+            return fail(dir + ": exists and is not a folder");
+        }
+        new_spec = spec;
     }
     if (embedded) {
         auto s = gonio::sim::SimRig::start(rig.json, so);
@@ -217,9 +263,25 @@ int run(const AcquireOptions& o) {
     }
     std::printf("campaign folder: %s\n", dir.c_str());
     std::fflush(stdout);
+
     auto dev = acq::open_rig(rig);
     if (!dev) {
         return fail(dev.error().message);
+    }
+    if (o.resume.empty()) {
+        if (auto c = acq::create_campaign_dir(dir, new_spec, rig); !c) {
+            return fail(c.error().message);
+        }
+        if (!ground_truth_copy.empty()) {
+            auto bytes = gonio::read_input_file(o.brdf, gonio::max_memory_bytes());
+            if (!bytes) {
+                return fail(bytes.error().message);
+            }
+            const std::string to = (fs::path(dir) / ground_truth_copy).string();
+            if (auto w = gonio::write_file_atomic(to, *bytes); !w) {
+                return fail(w.error().message);
+            }
+        }
     }
     acq::RunHooks hooks;
     hooks.stop = &g_stop;
@@ -249,10 +311,17 @@ int run(const AcquireOptions& o) {
         case acq::Outcome::kCompleted:
             return 0;
         case acq::Outcome::kInterrupted:
-            return 130;
+            std::fprintf(stderr,
+                         "gonio acquire: stopped on request; continue with: gonio acquire --resume "
+                         "%s\n",
+                         dir.c_str());
+            return 1;
         case acq::Outcome::kPaused:
-            std::fprintf(stderr, "gonio acquire: paused: %s\n", res->message.c_str());
-            return 3;
+            std::fprintf(stderr,
+                         "gonio acquire: paused: %s\ncontinue with: gonio acquire --resume %s\n",
+                         res->message.c_str(),
+                         dir.c_str());
+            return 1;
     }
     return 1;
 }
@@ -275,11 +344,16 @@ GONIO_COMMAND(acquire) {
     cmd->add_option("--scene", o->scene, "measure only the region of interest of this scene");
     cmd->add_option("--sample", o->sample, "sample name");
     cmd->add_option("--operator", o->operator_name, "operator name");
-    cmd->add_option("--plan", o->plan, "uniform or half-diff");
-    cmd->add_option("--n-theta", o->n_theta, "uniform plan: polar angles");
-    cmd->add_option("--n-dphi", o->n_dphi, "uniform plan: azimuth differences");
-    cmd->add_option("--adaptive", o->adaptive, "adaptive refinement passes (0 = none)");
-    cmd->add_option("--time-scale", o->time_scale, "virtual rig: motion time scale");
+    cmd->add_option("--plan", o->plan, "uniform or half-diff")
+        ->check(CLI::IsMember({"uniform", "half-diff"}));
+    cmd->add_option("--n-theta", o->n_theta, "uniform plan: polar angles")
+        ->check(gonio::tools::integer_in(2, acq::kMaxPlanAxis));
+    cmd->add_option("--n-dphi", o->n_dphi, "uniform plan: azimuth differences")
+        ->check(gonio::tools::integer_in(2, acq::kMaxPlanAxis));
+    cmd->add_option("--adaptive", o->adaptive, "adaptive refinement passes (0 = none)")
+        ->check(gonio::tools::integer_in(0, 100));
+    cmd->add_option("--time-scale", o->time_scale, "virtual rig: motion time scale")
+        ->check(gonio::tools::finite_in(0.001, 1e6));
     cmd->add_flag("--accept-drift",
                   o->accept_drift,
                   "resume: take the lamp's current level as the new baseline");
@@ -287,8 +361,10 @@ GONIO_COMMAND(acquire) {
            "--mode", o->mode, "point (one configuration per frame) or image (curved sample)")
         ->check(CLI::IsMember({"point", "image"}));
     cmd->add_option(
-        "--coverage-target", o->coverage_target, "image mode: fraction of valid table bins");
-    cmd->add_option("--max-frames", o->max_frames, "image mode: most light positions");
+           "--coverage-target", o->coverage_target, "image mode: fraction of valid table bins")
+        ->check(gonio::tools::finite_in(0.001, 1));
+    cmd->add_option("--max-frames", o->max_frames, "image mode: most light positions")
+        ->check(gonio::tools::integer_in(1, 1000000));
     cmd->add_flag("--plan-only", o->plan_only, "print the plan (and unreachable targets) and exit");
     return [o]() { return run(*o); };
 }

@@ -8,6 +8,7 @@
 #include "command.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/checks.h"
+#include "gonio/brdf/table.h"
 
 namespace {
 
@@ -20,7 +21,19 @@ int run_check(const CheckCliOptions& opts) {
     auto brdf = gonio::brdf::load_brdf(opts.brdf_path);
     if (!brdf) {
         std::fprintf(stderr, "gonio check: %s\n", brdf.error().message.c_str());
-        return 2;
+        return 1;
+    }
+    if (const auto* table = dynamic_cast<const gonio::brdf::TabulatedBrdf*>(brdf->get())) {
+        const gonio::brdf::TableStatistics st = table->compute_statistics();
+        if (st.valid_bins == 0) {
+            // Every check would pass vacuously on a table that holds no value at all.
+            std::fprintf(stderr,
+                         "gonio check: %s: 0 of %zu bins valid; a table without data cannot "
+                         "pass the checks\n",
+                         opts.brdf_path.c_str(),
+                         st.bins);
+            return 1;
+        }
     }
     std::printf("%s\n", (*brdf)->describe().c_str());
     const std::string stats = (*brdf)->statistics();
@@ -66,6 +79,7 @@ GONIO_COMMAND(check) {
         ->check(CLI::NonNegativeNumber)
         ->capture_default_str();
     cmd->footer(
-        "Exit status: 0 all checks passed, 1 a violation beyond tolerance, 2 unreadable BRDF.");
+        "Exit status: 0 all checks passed, 1 a violation beyond tolerance, an unreadable BRDF or a "
+        "table without valid bins, 2 usage error.");
     return [opts]() -> int { return run_check(*opts); };
 }

@@ -4,18 +4,24 @@
 //   CSV -> table                   kernel-weighted resampling; bins without data left invalid
 
 #include <CLI/CLI.hpp>
+#include <cctype>
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <string>
 
 #include "command.h"
+#include "gonio/brdf/atomic_file.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/dataset.h"
+#include "gonio/brdf/limits.h"
 #include "gonio/brdf/merl.h"
 #include "gonio/brdf/resample.h"
 #include "gonio/brdf/samples_io.h"
 #include "gonio/brdf/table.h"
+#include "option_checks.h"
 
 namespace {
 
@@ -35,19 +41,58 @@ bool ends_with(const std::string& s, const std::string& suffix) {
            s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
-// "AxBxC" -> grid; false on anything else.
+// "AxBxC" -> grid; false on anything else (signs, spaces, numbers past kMaxTableDim).
 bool parse_grid(const std::string& text, gonio::brdf::TableGrid* grid) {
-    int a = 0, b = 0, c = 0;
-    char tail = 0;
-    if (std::sscanf(text.c_str(), "%dx%dx%d%c", &a, &b, &c, &tail) != 3) {
+    long dims[3] = {0, 0, 0};
+    const char* p = text.c_str();
+    for (int a = 0; a < 3; ++a) {
+        if (!std::isdigit(static_cast<unsigned char>(*p))) {
+            return false;
+        }
+        char* end = nullptr;
+        errno = 0;
+        dims[a] = std::strtol(p, &end, 10);
+        if (errno != 0 || dims[a] < 1 || dims[a] > gonio::brdf::kMaxTableDim) {
+            return false;
+        }
+        p = end;
+        if (a < 2) {
+            if (*p != 'x') {
+                return false;
+            }
+            ++p;
+        }
+    }
+    if (*p != '\0') {
         return false;
     }
-    if (a < 1 || b < 1 || c < 1 || a > gonio::brdf::kMaxTableDim || b > gonio::brdf::kMaxTableDim ||
-        c > gonio::brdf::kMaxTableDim) {
-        return false;
-    }
-    *grid = gonio::brdf::TableGrid{a, b, c};
+    *grid = gonio::brdf::TableGrid{
+        static_cast<int>(dims[0]), static_cast<int>(dims[1]), static_cast<int>(dims[2])};
     return true;
+}
+
+// Bytes a table of the grid takes: three doubles and a validity flag per bin.
+double table_bytes(const gonio::brdf::TableGrid& g) {
+    return static_cast<double>(g.n_theta_h) * g.n_theta_d * g.n_phi_d * (3 * 8 + 1);
+}
+
+std::string grid_text(const gonio::brdf::TableGrid& g) {
+    return std::to_string(g.n_theta_h) + "x" + std::to_string(g.n_theta_d) + "x" +
+           std::to_string(g.n_phi_d);
+}
+
+// "N bins non-finite, M bins above 1e+12 1/sr": empty when the tabulation is clean.
+std::string tabulate_problems(const gonio::brdf::TabulateReport& rep) {
+    std::string out;
+    if (rep.non_finite > 0) {
+        out += std::to_string(rep.non_finite) + " bins where the model is not finite";
+    }
+    if (rep.out_of_range > 0) {
+        out += out.empty() ? "" : ", ";
+        out += std::to_string(rep.out_of_range) + " bins above the largest value a table stores (" +
+               gonio::show_number(gonio::brdf::kMaxTableValue) + " 1/sr)";
+    }
+    return out;
 }
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
@@ -109,22 +154,24 @@ int to_table(const ConvertOptions& o, const gonio::brdf::TableGrid& grid) {
     TabulateOptions to;
     to.grid = grid;
     to.threads = o.threads;
-    Expected<TabulateReport> rep = export_merl(o.output, **brdf, to);
-    if (!rep) {
-        return fail(rep.error().message);
+    TabulateReport rep;
+    const TabulatedBrdf table = tabulate(**brdf, to, &rep);
+    if (const std::string bad = tabulate_problems(rep); !bad.empty()) {
+        // Nothing is written: a table with holes the model did not ask for would pass as valid.
+        return fail(o.input + ": " + bad + "; nothing written to " + o.output);
+    }
+    if (auto w = write_merl(o.output, table); !w) {
+        return fail(w.error().message);
     }
     std::printf(
-        "%s -> %s: %zu of %zu bins valid, %zu bins below the horizon left invalid%s (%.2f s)\n",
+        "%s -> %s: %zu of %zu bins valid, %zu bins below the horizon left invalid (%.2f s)\n",
         o.input.c_str(),
         o.output.c_str(),
-        rep->valid_bins,
-        rep->bins,
-        rep->below_horizon,
-        rep->non_finite > 0
-            ? (", " + std::to_string(rep->non_finite) + " non-finite values left invalid").c_str()
-            : "",
+        rep.valid_bins,
+        rep.bins,
+        rep.below_horizon,
         seconds_since(t0));
-    return rep->non_finite > 0 ? 1 : 0;
+    return 0;
 }
 
 int to_csv(const ConvertOptions& o, const gonio::brdf::TableGrid& grid) {
@@ -147,7 +194,12 @@ int to_csv(const ConvertOptions& o, const gonio::brdf::TableGrid& grid) {
         TabulateOptions to;
         to.grid = grid;
         to.threads = o.threads;
-        data = table_to_dataset(tabulate(**brdf, to));
+        TabulateReport rep;
+        const TabulatedBrdf table = tabulate(**brdf, to, &rep);
+        if (const std::string bad = tabulate_problems(rep); !bad.empty()) {
+            return fail(o.input + ": " + bad + "; nothing written to " + o.output);
+        }
+        data = table_to_dataset(table);
         data.source = o.input;
     }
     Expected<void> w = write_dataset_csv(o.output, data);
@@ -180,28 +232,49 @@ GONIO_COMMAND(convert) {
         ->check(CLI::IsMember({"nearest", "trilinear"}))
         ->capture_default_str();
     cmd->add_option("--threads", opts->threads, "worker threads for tabulation (0 = all cores)")
+        ->check(gonio::tools::integer_in(0, 1024))
         ->capture_default_str();
     cmd->add_option(
            "--radius",
            opts->radius_bins,
            "CSV -> table: kernel radius in bins; bins with no sample this close stay invalid")
+        ->check(gonio::tools::finite_in(1e-3, 16, "bins"))
         ->capture_default_str();
     return [opts]() -> int {
         gonio::brdf::TableGrid grid;
         if (!parse_grid(opts->grid, &grid)) {
-            return fail("--grid " + opts->grid + ": expected AxBxC with each in [1, " +
-                        std::to_string(gonio::brdf::kMaxTableDim) + "]");
+            return gonio::tools::usage_error("convert",
+                                             "--grid " + opts->grid.substr(0, 64) +
+                                                 ": expected AxBxC with each in [1, " +
+                                                 std::to_string(gonio::brdf::kMaxTableDim) + "]");
         }
-        if (gonio::brdf::is_table_path(opts->output)) {
-            if (!ends_with(opts->output, ".gtab")) {
-                grid = gonio::brdf::TableGrid::merl();
+        const bool table_out = gonio::brdf::is_table_path(opts->output);
+        if (!table_out && !ends_with(opts->output, ".csv")) {
+            return gonio::tools::usage_error(
+                "convert",
+                opts->output + ": unknown output type (expected .binary, .merl, .gtab or .csv)");
+        }
+        if (table_out && !ends_with(opts->output, ".gtab")) {
+            grid = gonio::brdf::TableGrid::merl();
+        }
+        // Refused before any work: an output that is a folder or a device, a missing folder.
+        if (auto ok = gonio::check_output_path(opts->output); !ok) {
+            return fail(ok.error().message);
+        }
+        // Memory: the table, and for CSV outputs up to one sample (about 150 bytes with its
+        // text) per bin.
+        const bool csv_in = ends_with(opts->input, ".csv");
+        const bool grid_used = table_out || !gonio::brdf::is_table_path(opts->input);
+        if (grid_used) {
+            // A table output is encoded into one buffer before it is written: twice the table.
+            const double bytes =
+                table_bytes(grid) * (csv_in ? 2.3 : 1.0) +
+                (table_out ? table_bytes(grid) : static_cast<double>(grid.size()) * 150);
+            if (auto ok = gonio::check_memory(bytes, "convert to a " + grid_text(grid) + " grid");
+                !ok) {
+                return fail(ok.error().message);
             }
-            return to_table(*opts, grid);
         }
-        if (ends_with(opts->output, ".csv")) {
-            return to_csv(*opts, grid);
-        }
-        return fail(opts->output +
-                    ": unknown output type (expected .binary, .merl, .gtab or .csv)");
+        return table_out ? to_table(*opts, grid) : to_csv(*opts, grid);
     };
 }

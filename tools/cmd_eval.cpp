@@ -96,7 +96,7 @@ int run_eval(const EvalOptions& opts) {
     auto brdf = gonio::brdf::load_brdf(opts.brdf_path);
     if (!brdf) {
         std::fprintf(stderr, "gonio eval: %s\n", brdf.error().message.c_str());
-        return 2;
+        return 1;
     }
     std::ifstream file_in;
     std::istream* in = &std::cin;
@@ -105,7 +105,7 @@ int run_eval(const EvalOptions& opts) {
         file_in.open(opts.input);
         if (!file_in) {
             std::fprintf(stderr, "gonio eval: %s: cannot open\n", opts.input.c_str());
-            return 2;
+            return 1;
         }
         in = &file_in;
     }
@@ -114,7 +114,7 @@ int run_eval(const EvalOptions& opts) {
         out = std::fopen(opts.output.c_str(), "w");
         if (out == nullptr) {
             std::fprintf(stderr, "gonio eval: %s: cannot open for writing\n", opts.output.c_str());
-            return 2;
+            return 1;
         }
     }
     std::string line;
@@ -139,7 +139,7 @@ int run_eval(const EvalOptions& opts) {
                 if (out != stdout) {
                     std::fclose(out);
                 }
-                return 2;
+                return 1;
             }
             std::fprintf(out, "r,g,b\n");
             continue;
@@ -177,7 +177,7 @@ int run_eval(const EvalOptions& opts) {
     }
     if (out != stdout && std::fclose(out) != 0) {
         std::fprintf(stderr, "gonio eval: %s: write error\n", opts.output.c_str());
-        return 2;
+        return 1;
     }
     if (bad > 0) {
         std::fprintf(stderr, "gonio eval: %zu row(s) failed, %zu evaluated\n", bad, good);
@@ -203,6 +203,7 @@ GONIO_COMMAND(eval) {
         "with '#' are skipped. Output: the header r,g,b, then one line per valid row with the\n"
         "BRDF in 1/sr printed with %.17g. A row that does not parse (or has theta outside\n"
         "[0, pi]) produces no output line; it is reported on standard error with its line number.\n"
-        "Exit status: 0 all rows evaluated, 1 some rows skipped, 2 unreadable BRDF or input.");
+        "Exit status: 0 all rows evaluated, 1 some rows skipped or an unreadable BRDF or input, 2 "
+        "usage error.");
     return [opts]() -> int { return run_eval(*opts); };
 }

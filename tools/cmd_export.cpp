@@ -6,9 +6,14 @@
 #include <memory>
 
 #include "command.h"
+#include "gonio/brdf/atomic_file.h"
 #include "gonio/brdf/brdf.h"
+#include "gonio/brdf/limits.h"
+#include "gonio/brdf/merl.h"
 #include "gonio/brdf/model_json.h"
+#include "gonio/brdf/resample.h"
 #include "gonio/brdf/samples_io.h"
+#include "gonio/brdf/table.h"
 #include "gonio/report/export.h"
 
 namespace {
@@ -31,11 +36,8 @@ int write_text(const std::string& path, const std::string& text) {
         std::fwrite(text.data(), 1, text.size(), stdout);
         return 0;
     }
-    std::ofstream f(path, std::ios::binary);
-    f << text;
-    f.close();
-    if (!f) {
-        std::fprintf(stderr, "gonio export: %s: cannot write\n", path.c_str());
+    if (auto w = gonio::write_file_atomic(path, text); !w) {
+        std::fprintf(stderr, "gonio export: %s\n", w.error().message.c_str());
         return 1;
     }
     std::printf("%s\n", path.c_str());
@@ -60,6 +62,13 @@ GONIO_COMMAND(export) {
         ->capture_default_str();
     return [opts]() -> int {
         const std::string out = !opts->out.empty() ? opts->out : opts->out_positional;
+        if (!out.empty() && out != "-") {
+            // Refused before any work: a folder, a device, a missing folder.
+            if (auto ok = gonio::check_output_path(out); !ok) {
+                std::fprintf(stderr, "gonio export: %s\n", ok.error().message.c_str());
+                return 1;
+            }
+        }
         if (opts->to == "merl") {
             if (out.empty()) {
                 std::fprintf(stderr, "gonio export: --to merl needs an output file (*.binary)\n");
@@ -88,15 +97,23 @@ GONIO_COMMAND(export) {
                     std::fprintf(stderr, "gonio export: %s\n", brdf.error().message.c_str());
                     return 1;
                 }
-                auto rep = gonio::brdf::export_merl(out, **brdf);
-                if (!rep) {
-                    std::fprintf(stderr, "gonio export: %s\n", rep.error().message.c_str());
+                gonio::brdf::TabulateReport rep;
+                const gonio::brdf::TabulatedBrdf table =
+                    gonio::brdf::tabulate(**brdf, gonio::brdf::TabulateOptions{}, &rep);
+                if (rep.non_finite > 0 || rep.out_of_range > 0) {
+                    // Nothing written: holes the model did not ask for would pass as valid bins.
+                    std::fprintf(stderr,
+                                 "gonio export: %s: %zu bins where the model is not finite, %zu "
+                                 "above %s 1/sr; nothing written\n",
+                                 opts->input.c_str(),
+                                 rep.non_finite,
+                                 rep.out_of_range,
+                                 gonio::show_number(gonio::brdf::kMaxTableValue).c_str());
                     return 1;
                 }
-                if (rep->non_finite > 0) {
-                    std::fprintf(stderr,
-                                 "gonio export: %zu bins non-finite (left invalid)\n",
-                                 rep->non_finite);
+                if (auto w = gonio::brdf::write_merl(out, table); !w) {
+                    std::fprintf(stderr, "gonio export: %s\n", w.error().message.c_str());
+                    return 1;
                 }
             }
             std::printf("%s\n", out.c_str());

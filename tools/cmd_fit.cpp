@@ -11,6 +11,7 @@
 
 #include "command.h"
 #include "fit_manifest.h"
+#include "gonio/brdf/atomic_file.h"
 #include "gonio/brdf/model_json.h"
 #include "gonio/brdf/samples_io.h"
 #include "gonio/fitting/fit.h"
@@ -216,6 +217,15 @@ GONIO_COMMAND(fit) {
         if (o->data.empty()) {
             std::fprintf(stderr, "gonio fit: give DATA (or --manifest M --out DIR)\n");
             return 2;
+        }
+        if (!o->out.empty()) {
+            // Refused before the fit runs: an output that is a folder, a device, a missing folder.
+            for (const std::string& p : {o->out, fitting::report_path_for(o->out)}) {
+                if (auto ok = gonio::check_output_path(p); !ok) {
+                    std::fprintf(stderr, "gonio fit: %s\n", ok.error().message.c_str());
+                    return 1;
+                }
+            }
         }
         auto data = gonio::brdf::load_samples(o->data);
         if (!data) {

@@ -8,6 +8,7 @@
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/samples_io.h"
 #include "gonio/report/plot.h"
+#include "option_checks.h"
 
 namespace {
 
@@ -37,7 +38,8 @@ GONIO_COMMAND(plot) {
         ->capture_default_str()
         ->check(CLI::Range(400, 4000));
     cmd->add_option("--theta-i", opts->theta_i_deg, "incidence angles of the in-plane slices, deg")
-        ->delimiter(',');
+        ->delimiter(',')
+        ->check(gonio::tools::finite_in(0, 89.9, "deg"));
     return [opts]() -> int {
         auto data = gonio::brdf::load_samples(opts->data);
         if (!data) {

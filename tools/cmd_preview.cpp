@@ -5,7 +5,9 @@
 #include <memory>
 
 #include "command.h"
+#include "gonio/brdf/atomic_file.h"
 #include "gonio/brdf/brdf.h"
+#include "gonio/brdf/table.h"
 #include "gonio/report/preview.h"
 
 namespace {
@@ -17,6 +19,32 @@ struct Options {
     int size = 256;
     int samples = 192;
 };
+
+/// False (with a message) for a table without a single valid bin: its spheres would be black.
+/// A table with some invalid bins renders them black and says how many.
+bool has_data(const gonio::brdf::Brdf& brdf, const std::string& path) {
+    const auto* table = dynamic_cast<const gonio::brdf::TabulatedBrdf*>(&brdf);
+    if (table == nullptr) {
+        return true;
+    }
+    const gonio::brdf::TableStatistics st = table->compute_statistics();
+    if (st.valid_bins == 0) {
+        std::fprintf(stderr,
+                     "gonio preview: %s: 0 of %zu bins valid; nothing to render\n",
+                     path.c_str(),
+                     st.bins);
+        return false;
+    }
+    if (st.valid_bins < st.bins) {
+        std::fprintf(stderr,
+                     "gonio preview: %s: %zu of %zu bins invalid (not measured or below the "
+                     "horizon); they contribute nothing (black)\n",
+                     path.c_str(),
+                     st.bins - st.valid_bins,
+                     st.bins);
+    }
+    return true;
+}
 
 }  // namespace
 
@@ -35,9 +63,16 @@ GONIO_COMMAND(preview) {
         ->capture_default_str()
         ->check(CLI::Range(6, 65536));
     return [opts]() -> int {
+        if (auto ok = gonio::check_output_path(opts->out); !ok) {
+            std::fprintf(stderr, "gonio preview: %s\n", ok.error().message.c_str());
+            return 1;
+        }
         auto a = gonio::brdf::load_brdf(opts->brdf);
         if (!a) {
             std::fprintf(stderr, "gonio preview: %s\n", a.error().message.c_str());
+            return 1;
+        }
+        if (!has_data(**a, opts->brdf)) {
             return 1;
         }
         std::unique_ptr<gonio::brdf::Brdf> b;
@@ -48,6 +83,9 @@ GONIO_COMMAND(preview) {
                 return 1;
             }
             b = std::move(*loaded);
+            if (!has_data(*b, opts->vs)) {
+                return 1;
+            }
         }
         gonio::report::PreviewOptions po;
         po.size_px = opts->size;

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "command.h"
+#include "gonio/brdf/atomic_file.h"
 #include "gonio/brdf/data_path.h"
 #include "gonio/sim/sim_rig.h"
 
@@ -74,11 +75,8 @@ int run(const SimOptions& o) {
             j["reference_changer"]["address"] = motors;
         }
         j["camera"]["address"] = camera;
-        std::ofstream out(o.rig_out + ".tmp");
-        out << j.dump(2) << "\n";
-        out.close();
-        if (!out || std::rename((o.rig_out + ".tmp").c_str(), o.rig_out.c_str()) != 0) {
-            return fail(o.rig_out + ": cannot write");
+        if (auto w = gonio::write_file_atomic(o.rig_out, j.dump(2) + "\n"); !w) {
+            return fail(w.error().message);
         }
     }
     std::printf("virtual rig: %s\nmotors: %s\ncamera: %s\n",

@@ -1,11 +1,17 @@
 // gonio: drive a gonioreflectometer, acquire BRDF datasets, fit analytic models.
+//
+// Exit status of every command: 0 success, 1 failure of the work (bad input file, device fault,
+// paused or interrupted campaign, ...), 2 usage error (unknown command or option, bad option
+// value). CLI11's own codes (105, 106, 109, ...) are mapped onto these.
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <map>
 
 #include "command.h"
+#include "gonio/brdf/limits.h"
 #include "gonio/version.h"
 
 namespace gonio::tools {
@@ -17,11 +23,46 @@ std::vector<CommandEntry>& command_registry() {
 
 }  // namespace gonio::tools
 
+namespace {
+
+constexpr int kExitFailure = 1;
+constexpr int kExitUsage = 2;
+
+// Levenshtein distance, for "did you mean" on a mistyped command.
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+    std::vector<std::size_t> row(b.size() + 1);
+    for (std::size_t j = 0; j <= b.size(); ++j) {
+        row[j] = j;
+    }
+    for (std::size_t i = 1; i <= a.size(); ++i) {
+        std::size_t diag = row[0];
+        row[0] = i;
+        for (std::size_t j = 1; j <= b.size(); ++j) {
+            const std::size_t up = row[j];
+            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
+            diag = up;
+        }
+    }
+    return row[b.size()];
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
     using gonio::tools::CommandEntry;
     CLI::App app{"gonio: gonioreflectometer control, BRDF acquisition and model fitting", "gonio"};
     app.set_version_flag("--version", std::string("gonio ") + GONIO_VERSION_STRING);
     app.require_subcommand(1);
+    // Options of gonio itself may also follow the command (gonio convert ... --max-memory 8G).
+    app.fallthrough();
+    std::string max_memory;
+    app.add_option("--max-memory",
+                   max_memory,
+                   "memory budget of the command, e.g. 512M, 8G (default 2G); work that needs "
+                   "more is refused before it starts");
+    app.footer(
+        "Exit status: 0 success, 1 the work failed (bad input, device fault, paused or "
+        "interrupted campaign), 2 usage error (unknown command or option, bad option value).");
     std::vector<CommandEntry> entries = gonio::tools::command_registry();
     std::sort(entries.begin(), entries.end(), [](const CommandEntry& a, const CommandEntry& b) {
         return std::string(a.name) < b.name;
@@ -30,17 +71,67 @@ int main(int argc, char** argv) {
     for (const CommandEntry& e : entries) {
         runs[e.name] = e.setup(app);
     }
+    // The first word that is not an option must name a command.
+    for (int i = 1; i < argc; ++i) {
+        if (argv[i][0] == '-') {
+            if (std::strcmp(argv[i], "--max-memory") == 0) {
+                ++i;
+            }
+            continue;
+        }
+        if (runs.count(argv[i]) == 0) {
+            std::string best;
+            std::size_t best_d = 3;
+            std::string all;
+            for (const auto& [name, run] : runs) {
+                all += all.empty() ? "" : ", ";
+                all += name;
+                const std::size_t d = edit_distance(argv[i], name);
+                if (d < best_d) {
+                    best_d = d;
+                    best = name;
+                }
+            }
+            std::fprintf(
+                stderr,
+                "gonio: unknown command \"%.64s\"%s%s%s (commands: %s; see gonio --help)\n",
+                argv[i],
+                best.empty() ? "" : "; did you mean \"",
+                best.c_str(),
+                best.empty() ? "" : "\"?",
+                all.c_str());
+            return kExitUsage;
+        }
+        break;
+    }
     try {
         app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e) == 0 ? 0 : kExitUsage;
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e) == 0 ? 0 : kExitUsage;
+    } catch (const CLI::CallForVersion& e) {
+        return app.exit(e) == 0 ? 0 : kExitUsage;
     } catch (const CLI::ParseError& e) {
-        return app.exit(e);
+        app.exit(e);
+        return kExitUsage;
+    }
+    if (!max_memory.empty()) {
+        gonio::Expected<std::size_t> bytes = gonio::parse_byte_size(max_memory);
+        if (!bytes) {
+            std::fprintf(stderr, "gonio: --max-memory: %s\n", bytes.error().message.c_str());
+            return kExitUsage;
+        }
+        gonio::set_max_memory_bytes(*bytes);
     }
     for (CLI::App* sub : app.get_subcommands()) {
         auto it = runs.find(sub->get_name());
         if (it != runs.end() && it->second) {
-            return it->second();
+            const int status = it->second();
+            // Commands return 0, 1 or 2; anything else is a failure of the work.
+            return status == 0 || status == kExitUsage ? status : kExitFailure;
         }
     }
-    std::fprintf(stderr, "gonio: no subcommand chosen (see gonio --help)\n");
-    return 2;
+    std::fprintf(stderr, "gonio: no command given (see gonio --help)\n");
+    return kExitUsage;
 }

@@ -9,7 +9,10 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
+#include "gonio/brdf/atomic_file.h"
 #include "gonio/brdf/check.h"
+#include "gonio/brdf/limits.h"
+#include "json_fields.h"
 
 namespace gonio::acquisition {
 
@@ -386,11 +389,14 @@ Expected<CameraModel> from_json_object(const nlohmann::json& j, const std::strin
 }  // namespace
 
 Expected<CameraModel> camera_model_from_json(const std::string& text, const std::string& where) {
+    if (auto ok = check_json_text(text, where); !ok) {
+        return tl::unexpected(ok.error());
+    }
     nlohmann::json j;
     try {
         j = nlohmann::json::parse(text);
     } catch (const nlohmann::json::exception& e) {
-        return make_error(where + ": " + e.what());
+        return make_error(where + ": " + detail::json_error_text(e.what()));
     }
     return from_json_object(j, where);
 }
@@ -404,7 +410,7 @@ Expected<CameraModel> read_camera_model(const std::string& rig_path) {
     try {
         in >> j;
     } catch (const nlohmann::json::exception& e) {
-        return make_error(rig_path + ": " + e.what());
+        return make_error(rig_path + ": " + detail::json_error_text(e.what()));
     }
     if (!j.is_object() || !j.contains("camera_model")) {
         return make_error(rig_path + ": camera_model: missing (calibrate the camera first)");
@@ -420,7 +426,7 @@ Expected<void> write_camera_model(const std::string& rig_path, const CameraModel
             try {
                 in >> j;
             } catch (const nlohmann::json::exception& e) {
-                return make_error(rig_path + ": " + e.what());
+                return make_error(rig_path + ": " + detail::json_error_text(e.what()));
             }
             if (!j.is_object()) {
                 return make_error(rig_path + ": the rig description must be a JSON object");
@@ -428,22 +434,7 @@ Expected<void> write_camera_model(const std::string& rig_path, const CameraModel
         }
     }
     j["camera_model"] = nlohmann::json::parse(camera_model_to_json(m));
-    const std::string tmp = rig_path + ".tmp";
-    {
-        std::ofstream out(tmp, std::ios::trunc);
-        if (!out) {
-            return make_error(tmp + ": cannot open for writing");
-        }
-        out << j.dump(2) << "\n";
-        out.flush();
-        if (!out) {
-            return make_error(tmp + ": write failed");
-        }
-    }
-    if (std::rename(tmp.c_str(), rig_path.c_str()) != 0) {
-        return make_error(rig_path + ": cannot rename " + tmp + " into place");
-    }
-    return {};
+    return write_file_atomic(rig_path, j.dump(2) + "\n");
 }
 
 }  // namespace gonio::acquisition

@@ -18,8 +18,11 @@
 #include "gonio/acquisition/capture_session.h"
 #include "gonio/acquisition/journal.h"
 #include "gonio/acquisition/progress.h"
+#include "gonio/brdf/atomic_file.h"
 #include "gonio/brdf/dataset.h"
+#include "gonio/brdf/limits.h"
 #include "gonio/version.h"
+#include "json_fields.h"
 
 namespace gonio::acquisition {
 
@@ -48,32 +51,28 @@ std::string iso_time(double t, bool for_path) {
 }
 
 Expected<std::string> read_text(const std::string& path) {
-    std::ifstream in(path);
-    if (!in) {
-        return make_error(path + ": cannot open");
-    }
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
+    return read_input_file(path, kMaxJsonBytes);
 }
 
 Expected<void> write_text_atomic(const std::string& path, const std::string& text) {
-    const std::string tmp = path + ".tmp";
-    {
-        std::ofstream out(tmp, std::ios::trunc);
-        if (!out) {
-            return make_error(tmp + ": cannot write");
-        }
-        out << text;
-        out.flush();
-        if (!out) {
-            return make_error(tmp + ": write failed");
-        }
+    return write_file_atomic(path, text);
+}
+
+/// Paths inside a campaign description name files beside it: relative, without "..". Files
+/// elsewhere are given on the command line (--rig, --scene). Empty string: acceptable.
+std::string contained_path_problem(const std::string& p) {
+    if (p.empty()) {
+        return {};
     }
-    std::error_code ec;
-    fs::rename(tmp, path, ec);
-    if (ec) {
-        return make_error(path + ": rename failed: " + ec.message());
+    if (p[0] == '/') {
+        return "absolute paths are not followed; give a path relative to the campaign file, or "
+               "use --rig/--scene";
+    }
+    for (const auto& part : fs::path(p)) {
+        if (part == "..") {
+            return "\"..\" is not followed; give a path inside the campaign file's folder, or "
+                   "use --rig/--scene";
+        }
     }
     return {};
 }
@@ -92,62 +91,69 @@ std::array<double, 4> pose_deg(const RigPosed& p) {
 // Campaign description
 
 Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::string& source) {
+    using detail::JsonFields;
     CampaignSpec s;
     s.json = text;
-    std::string at;
     try {
-        const json j = json::parse(text);
-        s.sample = j.value("sample", s.sample);
-        s.operator_name = j.value("operator", s.operator_name);
-        s.notes = j.value("notes", s.notes);
-        s.rig = j.value("rig", s.rig);
-        s.scene = j.value("scene", s.scene);
-        if (j.contains("plan")) {
-            at = "plan";
-            const json& p = j.at("plan");
-            s.plan_kind = p.value("kind", s.plan_kind);
+        const json j = detail::parse_json_checked(text, source);
+        JsonFields top(j, "");
+        s.sample = top.string("sample", s.sample, kMaxNameLength);
+        s.operator_name = top.string("operator", s.operator_name, kMaxNameLength);
+        s.notes = top.string("notes", s.notes, kMaxJsonString);
+        s.rig = top.string("rig", s.rig, kMaxPathLength);
+        s.scene = top.string("scene", s.scene, kMaxPathLength);
+        for (const char* key : {"rig", "scene"}) {
+            const std::string& p = key[0] == 'r' ? s.rig : s.scene;
+            if (auto bad = contained_path_problem(p); !bad.empty()) {
+                detail::json_fail(std::string(key) + " = \"" + p + "\": " + bad);
+            }
+        }
+        if (top.has("plan")) {
+            JsonFields p(top.raw("plan"), "plan");
+            s.plan_kind = p.string("kind", s.plan_kind, 16);
             if (s.plan_kind == "uniform") {
-                s.uniform.n_theta = p.value("n_theta", s.uniform.n_theta);
-                s.uniform.n_dphi = p.value("n_dphi", s.uniform.n_dphi);
-                s.uniform.theta_max = p.value("theta_max_deg", s.uniform.theta_max / kDeg) * kDeg;
+                s.uniform.n_theta = p.integer("n_theta", s.uniform.n_theta, 2, kMaxPlanAxis);
+                s.uniform.n_dphi = p.integer("n_dphi", s.uniform.n_dphi, 2, kMaxPlanAxis);
+                s.uniform.theta_max =
+                    p.number("theta_max_deg", s.uniform.theta_max / kDeg, 1, 89, "deg") * kDeg;
             } else if (s.plan_kind == "half-diff") {
-                s.half_diff.n_theta_h = p.value("n_theta_h", s.half_diff.n_theta_h);
-                s.half_diff.n_theta_d = p.value("n_theta_d", s.half_diff.n_theta_d);
-                s.half_diff.n_phi_d = p.value("n_phi_d", s.half_diff.n_phi_d);
+                s.half_diff.n_theta_h =
+                    p.integer("n_theta_h", s.half_diff.n_theta_h, 1, kMaxPlanAxis);
+                s.half_diff.n_theta_d =
+                    p.integer("n_theta_d", s.half_diff.n_theta_d, 1, kMaxPlanAxis);
+                s.half_diff.n_phi_d = p.integer("n_phi_d", s.half_diff.n_phi_d, 1, kMaxPlanAxis);
                 s.half_diff.theta_max =
-                    p.value("theta_max_deg", s.half_diff.theta_max / kDeg) * kDeg;
+                    p.number("theta_max_deg", s.half_diff.theta_max / kDeg, 1, 89, "deg") * kDeg;
             } else {
-                return make_error(source + ": plan.kind: \"" + s.plan_kind +
-                                  "\" is not \"uniform\" or \"half-diff\"");
+                detail::json_fail("plan.kind = \"" + s.plan_kind +
+                                  "\": must be \"uniform\" or \"half-diff\"");
             }
+            p.finish();
         }
-        if (j.contains("adaptive")) {
-            at = "adaptive";
-            const json& a = j.at("adaptive");
-            s.adaptive = a.value("enabled", true);
-            s.adaptive_passes = a.value("passes", s.adaptive_passes);
-            s.refine.budget = a.value("budget", s.refine.budget);
-            s.refine.threshold = a.value("threshold", s.refine.threshold);
-            s.refine.min_spacing = a.value("min_spacing_deg", s.refine.min_spacing / kDeg) * kDeg;
-            if (s.adaptive_passes < 0 || s.refine.budget < 0) {
-                return make_error(source + ": adaptive: passes and budget must be >= 0");
-            }
+        if (top.has("adaptive")) {
+            JsonFields a(top.raw("adaptive"), "adaptive");
+            s.adaptive = a.boolean("enabled", true);
+            s.adaptive_passes = a.integer("passes", s.adaptive_passes, 0, 100);
+            s.refine.budget = a.integer("budget", s.refine.budget, 0, kMaxPlanConfigs);
+            s.refine.threshold = a.number("threshold", s.refine.threshold, 0, 10);
+            s.refine.min_spacing =
+                a.number("min_spacing_deg", s.refine.min_spacing / kDeg, 0, 90, "deg") * kDeg;
+            a.finish();
         }
-        if (j.contains("drift")) {
-            at = "drift";
-            const json& d = j.at("drift");
-            s.drift_every = d.value("every", s.drift_every);
-            s.drift_threshold = d.value("threshold", s.drift_threshold);
-            s.drift_theta_i_deg = d.value("theta_i_deg", s.drift_theta_i_deg);
-            s.drift_theta_r_deg = d.value("theta_r_deg", s.drift_theta_r_deg);
-            s.drift_delta_phi_deg = d.value("delta_phi_deg", s.drift_delta_phi_deg);
-            if (s.drift_every < 0 || !(s.drift_threshold > 0)) {
-                return make_error(source + ": drift: every >= 0, threshold > 0");
-            }
+        if (top.has("drift")) {
+            JsonFields d(top.raw("drift"), "drift");
+            s.drift_every = d.integer("every", s.drift_every, 0, kMaxPlanConfigs);
+            s.drift_threshold = d.number("threshold", s.drift_threshold, 1e-6, 10);
+            s.drift_theta_i_deg = d.number("theta_i_deg", s.drift_theta_i_deg, 0, 89, "deg");
+            s.drift_theta_r_deg = d.number("theta_r_deg", s.drift_theta_r_deg, 0, 89, "deg");
+            s.drift_delta_phi_deg = d.number("delta_phi_deg", s.drift_delta_phi_deg, 0, 180, "deg");
+            d.finish();
         }
-        s.schedule_budget_s = j.value("schedule_budget_s", s.schedule_budget_s);
-    } catch (const std::exception& e) {
-        return make_error(source + ": " + (at.empty() ? "" : at + ": ") + e.what());
+        s.schedule_budget_s = top.number("schedule_budget_s", s.schedule_budget_s, 0, 3600, "s");
+        top.finish();
+    } catch (const detail::JsonFailure& f) {
+        const bool named = f.message.compare(0, source.size(), source) == 0;
+        return make_error(named ? f.message : source + ": " + f.message);
     }
     return s;
 }
@@ -758,11 +764,15 @@ Expected<void> Runner::drift_check(bool baseline, std::string* pause) {
 }
 
 Expected<void> Runner::write_metadata(const std::string& state, const Plan& plan) {
-    json meta;
+    json meta = json::object();
     if (auto old = read_text(path("metadata.json")); old) {
         try {
-            meta = json::parse(*old);
-        } catch (const std::exception&) {
+            meta = detail::parse_json_checked(*old, path("metadata.json"));
+        } catch (const detail::JsonFailure& f) {
+            say("metadata.json unreadable (" + f.message + "); written anew from the journal");
+            meta = json::object();
+        }
+        if (!meta.is_object()) {
             meta = json::object();
         }
     }
@@ -798,13 +808,36 @@ Expected<void> Runner::write_metadata(const std::string& state, const Plan& plan
     if (!meta.contains("runs")) {
         meta["runs"] = json::array();
     }
-    json run = {{"started", iso_time(started_, false)},
-                {"ended", iso_time(now_s(), false)},
+    const bool running = state == "running";
+    // A run is told apart by its start time and its process id (two runs may start within one
+    // second).
+    const long pid = static_cast<long>(::getpid());
+    const std::string started = iso_time(started_, false);
+    auto is_this_run = [&](const json& r) {
+        return r.is_object() && r.value("started", "") == started && r.contains("pid") &&
+               r["pid"].is_number_integer() && r["pid"].get<long>() == pid;
+    };
+    json run = {{"started", started},
+                {"pid", pid},
+                {"ended", running ? json(nullptr) : json(iso_time(now_s(), false))},
                 {"state", state},
                 {"measured", result_.measured_now}};
+    if (!meta["runs"].is_array()) {
+        meta["runs"] = json::array();
+    }
+    for (json& old : meta["runs"]) {
+        // A run still marked "running" that is not this one never wrote its end: the process was
+        // killed (kill -9, power cut, crash). Its measurements are in the journal.
+        if (old.is_object() && old.value("state", "") == "running" && !is_this_run(old)) {
+            old["state"] = "killed";
+            old["ended"] =
+                "unknown: the process stopped without writing its end (killed or power "
+                "cut); its finished measurements are in journal.log";
+        }
+    }
     // The run in progress is the last element while it lasts.
-    if (!meta["runs"].empty() && meta["runs"].back().value("state", "") == "running" &&
-        meta["runs"].back().value("started", "") == iso_time(started_, false)) {
+    if (!meta["runs"].empty() && is_this_run(meta["runs"].back()) &&
+        meta["runs"].back().value("state", "") == "running") {
         meta["runs"].back() = run;
     } else {
         meta["runs"].push_back(run);
@@ -867,6 +900,10 @@ Expected<RunResult> Runner::run() {
         return tl::unexpected(jn.error());
     }
     journal_.emplace(std::move(*jn));
+    // The run is listed from its start, so a run that is killed still appears in runs[].
+    if (auto m = write_metadata("running", *plan0); !m) {
+        return tl::unexpected(m.error());
+    }
     if (journal_->torn_tail()) {
         say("journal: the last record was cut short by the previous stop; its measurement will "
             "be repeated");
@@ -1067,7 +1104,15 @@ Expected<RunResult> Runner::run() {
 
 Expected<RunResult> run_campaign(const std::string& dir, RigDevices& dev, const RunHooks& hooks) {
     Runner r(dir, dev, hooks);
-    return r.run();
+    Expected<RunResult> res = r.run();
+    if (!res) {
+        // Nothing measured is lost (journal.log); say how to continue once the cause is fixed.
+        return make_error(res.error().message + "\nThe campaign folder " + dir +
+                          " is kept; after fixing the cause (e.g. free disk space), continue with: "
+                          "gonio acquire --resume " +
+                          dir);
+    }
+    return res;
 }
 
 }  // namespace gonio::acquisition

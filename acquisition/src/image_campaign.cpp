@@ -7,9 +7,11 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
+#include "gonio/brdf/atomic_file.h"
 #include "gonio/brdf/check.h"
 #include "gonio/brdf/merl.h"
 #include "gonio/brdf/rig_geometry.h"
+#include "json_fields.h"
 
 namespace gonio::acquisition {
 namespace {
@@ -528,22 +530,11 @@ Expected<void> write_image_campaign(const std::string& dir,
             j.update(extra);
         }
     } catch (const nlohmann::json::exception& e) {
-        return make_error(std::string("dataset.json extra metadata: ") + e.what());
+        return make_error(std::string("dataset.json extra metadata: ") +
+                          detail::json_error_text(e.what()));
     }
     const std::string path = base + "dataset.json";
-    {
-        std::ofstream out(path + ".tmp", std::ios::trunc);
-        out << j.dump(2) << "\n";
-        out.flush();
-        if (!out) {
-            return make_error(path + ".tmp: write failed");
-        }
-    }
-    std::filesystem::rename(path + ".tmp", path, ec);
-    if (ec) {
-        return make_error(path + ": cannot rename into place: " + ec.message());
-    }
-    return {};
+    return write_file_atomic(path, j.dump(2) + "\n");
 }
 
 CaptureFn make_device_capture(devices::Camera& camera,

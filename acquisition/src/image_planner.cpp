@@ -4,7 +4,10 @@
 #include <cmath>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <string_view>
+#include <vector>
 
+#include "gonio/brdf/atomic_file.h"
 #include "gonio/brdf/check.h"
 #include "gonio/brdf/rig_geometry.h"
 
@@ -245,14 +248,16 @@ Expected<void> write_coverage_png(const std::string& path,
     colour.setTo(cv::Scalar(128, 128, 128), invalid);
     cv::Mat big;
     cv::resize(colour, big, cv::Size(), scale, scale, cv::INTER_NEAREST);
+    std::vector<std::uint8_t> bytes;
     try {
-        if (!cv::imwrite(path, big)) {
-            return make_error(path + ": cannot write PNG");
+        if (!cv::imencode(".png", big, bytes)) {
+            return make_error(path + ": cannot encode PNG");
         }
     } catch (const cv::Exception& e) {
         return make_error(path + ": " + e.what());
     }
-    return {};
+    return write_file_atomic(
+        path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
 }  // namespace gonio::acquisition

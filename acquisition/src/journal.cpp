@@ -139,7 +139,7 @@ Expected<Journal> Journal::open(const std::string& path) {
     jn.path_ = path;
     std::string content;
     {
-        const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+        const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW);
         if (fd >= 0) {
             char buf[65536];
             ssize_t n;
@@ -181,7 +181,7 @@ Expected<Journal> Journal::open(const std::string& path) {
         pos = nl + 1;
         good_end = pos;
     }
-    jn.fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
+    jn.fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0644);
     if (jn.fd_ < 0) {
         return make_error(path + ": cannot open for appending: " + errno_text());
     }

@@ -10,6 +10,8 @@
 #include <tuple>
 
 #include "gonio/brdf/dataset.h"
+#include "gonio/brdf/limits.h"
+#include "json_fields.h"
 
 namespace gonio::acquisition {
 
@@ -44,22 +46,33 @@ void renumber(Plan* plan) {
     }
 }
 
+// A direction: [x, y, z] (any length > 0) or {"theta_deg", "phi_deg"}.
 Vec3d dir_from_json(const nlohmann::json& j, const std::string& where) {
-    if (j.is_array() && j.size() == 3) {
-        Vec3d v(j[0].get<double>(), j[1].get<double>(), j[2].get<double>());
-        if (!(v.norm() > 0)) {
-            throw std::runtime_error(where + ": zero vector");
+    using detail::json_fail;
+    if (j.is_array()) {
+        if (j.size() != 3) {
+            json_fail(where + ": expected [x, y, z], got an array of " + std::to_string(j.size()));
+        }
+        Vec3d v;
+        for (int c = 0; c < 3; ++c) {
+            if (!j[c].is_number() || !std::isfinite(j[c].get<double>()) ||
+                std::abs(j[c].get<double>()) > 1e6) {
+                json_fail(where + "[" + std::to_string(c) + "]: must be a number in [-1e6, 1e6]");
+            }
+            v[c] = j[c].get<double>();
+        }
+        if (!(v.norm() > 1e-9)) {
+            json_fail(where + ": zero vector");
         }
         return v.normalized();
     }
-    if (!j.contains("theta_deg")) {
-        throw std::runtime_error(where + ": expected [x, y, z] or {\"theta_deg\", \"phi_deg\"}");
+    detail::JsonFields f(j, where);
+    if (!f.has("theta_deg")) {
+        json_fail(where + ": expected [x, y, z] or {\"theta_deg\", \"phi_deg\"}");
     }
-    const double theta = j.at("theta_deg").get<double>() * kDeg;
-    const double phi = j.value("phi_deg", 0.0) * kDeg;
-    if (!(theta >= 0 && theta < kPi / 2)) {
-        throw std::runtime_error(where + ".theta_deg: outside [0, 90)");
-    }
+    const double theta = f.number("theta_deg", 0, 0, 89.999, "deg") * kDeg;
+    const double phi = f.number("phi_deg", 0.0, -360, 360, "deg") * kDeg;
+    f.finish();
     return brdf::spherical_to_cartesian(theta, phi);
 }
 
@@ -90,6 +103,17 @@ Expected<Plan> plan_uniform(const UniformGridSpec& s) {
     if (!(s.theta_max > 0 && s.theta_max < kPi / 2)) {
         return make_error("uniform plan: theta_max outside (0, 90) deg");
     }
+    // Counted before anything is allocated: theta_i <= theta_r pairs times azimuths.
+    const double configs = 0.5 * s.n_theta * (s.n_theta + 1.0) * s.n_dphi;
+    if (s.n_theta > kMaxPlanAxis || s.n_dphi > kMaxPlanAxis || configs > kMaxPlanConfigs) {
+        return make_error("uniform plan: n_theta = " + std::to_string(s.n_theta) + ", n_dphi = " +
+                          std::to_string(s.n_dphi) + " give about " + show_number(configs) +
+                          " configurations; at most " + std::to_string(kMaxPlanAxis) +
+                          " per axis and " + std::to_string(kMaxPlanConfigs) + " in all");
+    }
+    if (auto ok = check_memory(configs * sizeof(PlannedConfig) * 2, "uniform plan"); !ok) {
+        return tl::unexpected(ok.error());
+    }
     Plan plan;
     plan.kind = "uniform";
     for (int a = 0; a < s.n_theta; ++a) {
@@ -116,6 +140,18 @@ Expected<Plan> plan_uniform(const UniformGridSpec& s) {
 Expected<Plan> plan_half_diff(const HalfDiffSpec& s) {
     if (s.n_theta_h < 1 || s.n_theta_d < 1 || s.n_phi_d < 1) {
         return make_error("half-diff plan: every count must be >= 1");
+    }
+    const double configs = static_cast<double>(s.n_theta_h) * s.n_theta_d * s.n_phi_d;
+    if (s.n_theta_h > kMaxPlanAxis || s.n_theta_d > kMaxPlanAxis || s.n_phi_d > kMaxPlanAxis ||
+        configs > kMaxPlanConfigs) {
+        return make_error("half-diff plan: " + std::to_string(s.n_theta_h) + " x " +
+                          std::to_string(s.n_theta_d) + " x " + std::to_string(s.n_phi_d) + " = " +
+                          show_number(configs) + " configurations; at most " +
+                          std::to_string(kMaxPlanAxis) + " per axis and " +
+                          std::to_string(kMaxPlanConfigs) + " in all");
+    }
+    if (auto ok = check_memory(configs * (sizeof(PlannedConfig) + 64) * 2, "half-diff plan"); !ok) {
+        return tl::unexpected(ok.error());
     }
     Plan plan;
     plan.kind = "half-diff";
@@ -151,43 +187,62 @@ Expected<Plan> plan_half_diff(const HalfDiffSpec& s) {
 }
 
 Expected<Scene> read_scene(const std::string& path) {
-    std::ifstream in(path);
-    if (!in) {
-        return make_error(path + ": cannot open");
+    Expected<std::string> text = read_input_file(path, kMaxJsonBytes);
+    if (!text) {
+        return make_error(text.error().message + " (scene file)");
     }
     Scene sc;
     try {
-        nlohmann::json j = nlohmann::json::parse(in);
-        sc.name = j.value("name", path);
-        sc.margin = j.value("margin_deg", 5.0) * kDeg;
-        if (!(sc.margin >= 0)) {
-            return make_error(path + ": margin_deg must be >= 0");
-        }
-        if (j.contains("pairs")) {
-            int k = 0;
-            for (const auto& p : j.at("pairs")) {
-                const std::string w = "pairs[" + std::to_string(k++) + "]";
-                sc.pairs.emplace_back(dir_from_json(p.at("light"), path + ": " + w + ".light"),
-                                      dir_from_json(p.at("view"), path + ": " + w + ".view"));
+        const nlohmann::json j = detail::parse_json_checked(*text, path);
+        detail::JsonFields top(j, "");
+        sc.name = top.string("name", path, kMaxNameLength);
+        sc.margin = top.number("margin_deg", 5.0, 0, 90, "deg") * kDeg;
+        if (top.has("pairs")) {
+            const nlohmann::json& pairs = top.raw("pairs");
+            if (!pairs.is_array()) {
+                detail::json_fail("pairs: expected an array, got " + detail::json_type(pairs));
+            }
+            if (pairs.size() > kMaxScenePairs) {
+                detail::json_fail("pairs: " + std::to_string(pairs.size()) + " pairs, at most " +
+                                  std::to_string(kMaxScenePairs) + " allowed");
+            }
+            for (std::size_t k = 0; k < pairs.size(); ++k) {
+                const std::string w = "pairs[" + std::to_string(k) + "]";
+                detail::JsonFields pf(pairs[k], w);
+                sc.pairs.emplace_back(dir_from_json(pf.raw("light"), w + ".light"),
+                                      dir_from_json(pf.raw("view"), w + ".view"));
+                pf.finish();
                 if (sc.pairs.back().first.z() <= 0 || sc.pairs.back().second.z() <= 0) {
-                    return make_error(path + ": " + w + ": direction at or below the horizon");
+                    detail::json_fail(w + ": direction at or below the horizon");
                 }
             }
         }
-        if (j.contains("theta_i_deg") || j.contains("theta_r_deg")) {
-            const auto ti = j.at("theta_i_deg");
-            const auto tr = j.at("theta_r_deg");
+        if (top.has("theta_i_deg") || top.has("theta_r_deg")) {
+            auto range = [&](const char* key, double* lo, double* hi) {
+                if (!top.has(key)) {
+                    detail::json_fail(std::string(key) + ": missing (give both ranges)");
+                }
+                const nlohmann::json& r = top.raw(key);
+                if (!r.is_array() || r.size() != 2 || !r[0].is_number() || !r[1].is_number()) {
+                    detail::json_fail(std::string(key) + ": expected [min, max] in deg");
+                }
+                const double a = r[0].get<double>();
+                const double b = r[1].get<double>();
+                if (!(a >= 0 && b <= 90 && a <= b)) {
+                    detail::json_fail(std::string(key) + " = [" + show_number(a) + ", " +
+                                      show_number(b) + "]: must satisfy 0 <= min <= max <= 90 deg");
+                }
+                *lo = a * kDeg;
+                *hi = b * kDeg;
+            };
             sc.has_ranges = true;
-            sc.theta_i_min = ti.at(0).get<double>() * kDeg;
-            sc.theta_i_max = ti.at(1).get<double>() * kDeg;
-            sc.theta_r_min = tr.at(0).get<double>() * kDeg;
-            sc.theta_r_max = tr.at(1).get<double>() * kDeg;
-            if (sc.theta_i_min > sc.theta_i_max || sc.theta_r_min > sc.theta_r_max) {
-                return make_error(path + ": theta ranges must be [min, max]");
-            }
+            range("theta_i_deg", &sc.theta_i_min, &sc.theta_i_max);
+            range("theta_r_deg", &sc.theta_r_min, &sc.theta_r_max);
         }
-    } catch (const std::exception& e) {
-        return make_error(path + ": " + e.what());
+        top.finish();
+    } catch (const detail::JsonFailure& f) {
+        const bool named = f.message.compare(0, path.size(), path) == 0;
+        return make_error(named ? f.message : path + ": " + f.message);
     }
     if (sc.pairs.empty() && !sc.has_ranges) {
         return make_error(path + ": a scene needs \"pairs\" or \"theta_i_deg\"/\"theta_r_deg\"");

@@ -1,12 +1,18 @@
 #include "gonio/acquisition/rig_config.h"
 
+#include <cmath>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
+#include <vector>
 
+#include "gonio/brdf/limits.h"
 #include "gonio/devices/camera_factory.h"
 #include "gonio/devices/modbus_axis.h"
 #include "gonio/devices/modbus_light.h"
+#include "json_fields.h"
 
 namespace gonio::acquisition {
 
@@ -17,12 +23,139 @@ namespace {
 
 constexpr double kDeg = kPi / 180.0;
 
+// Modbus unit (slave) ids 0..247 and coil addresses 0..65535, checked before the cast.
+int modbus_int(const json& j, const char* key, int lo, int hi) {
+    const json& v = j.at(key);
+    if (!v.is_number() || !std::isfinite(v.get<double>()) ||
+        v.get<double>() != std::floor(v.get<double>()) || v.get<double>() < lo ||
+        v.get<double>() > hi) {
+        detail::json_fail(std::string(key) + " = " +
+                          (v.is_number() ? show_number(v.get<double>()) : v.dump().substr(0, 64)) +
+                          ": must be a whole number in [" + std::to_string(lo) + ", " +
+                          std::to_string(hi) + "]");
+    }
+    return static_cast<int>(v.get<double>());
+}
+
 CoilConfig parse_coil(const json& j) {
     CoilConfig c;
     c.address = j.at("address").get<std::string>();
-    c.unit = j.at("unit").get<int>();
-    c.coil = j.at("coil").get<int>();
+    c.unit = modbus_int(j, "unit", 0, 247);
+    c.coil = modbus_int(j, "coil", 0, 65535);
     return c;
+}
+
+// Keys of a rig description (docs/file-formats.md); "sim" and "camera" are read by their owners.
+void check_rig_keys(const json& j) {
+    static const std::set<std::string> kTop = {"name",
+                                               "description",
+                                               "axes",
+                                               "camera",
+                                               "shutter",
+                                               "reference_changer",
+                                               "filter_wheel",
+                                               "geometry",
+                                               "white_reference",
+                                               "noise",
+                                               "capture",
+                                               "move_timeout_ms",
+                                               "retries",
+                                               "sim",
+                                               "camera_model",
+                                               "embedded_virtual_rig"};
+    static const std::map<std::string, std::set<std::string>> kSections = {
+        {"shutter", {"address", "unit", "coil"}},
+        {"reference_changer", {"address", "unit", "coil"}},
+        {"filter_wheel", {"address", "filters"}},
+        {"geometry", {"blind_angle_deg", "max_theta_deg"}},
+        {"white_reference", {"reflectance", "theta_i_deg", "theta_o_deg"}},
+        {"noise", {"e_per_count", "read_noise_counts"}},
+        {"capture",
+         {"target_fraction",
+          "linear_max_fraction",
+          "min_exposure_us",
+          "max_exposure_us",
+          "max_brackets",
+          "bracket_ratio",
+          "hdr_low_fraction",
+          "dark_frames",
+          "roi_fraction",
+          "gain",
+          "timeout_ms"}}};
+    static const std::set<std::string> kAxis = {"role",
+                                                "name",
+                                                "address",
+                                                "unit",
+                                                "profile",
+                                                "limits_deg",
+                                                "speed_deg_per_s",
+                                                "accel_deg_per_s2",
+                                                "settle_ms"};
+    auto list = [](const std::set<std::string>& keys) {
+        std::string out;
+        for (const std::string& k : keys) {
+            out += out.empty() ? "" : ", ";
+            out += k;
+        }
+        return out;
+    };
+    auto check = [&](const json& obj, const std::string& path, const std::set<std::string>& keys) {
+        if (!obj.is_object()) {
+            detail::json_fail((path.empty() ? std::string("top level") : path) +
+                              ": expected an object, got " + detail::json_type(obj));
+        }
+        for (auto it = obj.begin(); it != obj.end(); ++it) {
+            if (keys.count(it.key()) == 0) {
+                detail::json_fail((path.empty() ? "" : path + ".") + it.key().substr(0, 64) +
+                                  ": unknown key (allowed here: " + list(keys) + ")");
+            }
+        }
+    };
+    check(j, "", kTop);
+    for (const auto& [name, keys] : kSections) {
+        if (j.contains(name)) {
+            check(j.at(name), name, keys);
+        }
+    }
+    if (j.contains("axes") && j.at("axes").is_array()) {
+        if (j.at("axes").size() > 16) {
+            detail::json_fail("axes: " + std::to_string(j.at("axes").size()) +
+                              " axes, at most 16 allowed");
+        }
+        for (std::size_t k = 0; k < j.at("axes").size(); ++k) {
+            check(j.at("axes")[k], "axes[" + std::to_string(k) + "]", kAxis);
+        }
+    }
+    // Every number of the rig's own sections is finite and of a sane magnitude before any cast.
+    std::vector<std::pair<const json*, std::string>> todo;
+    for (auto it = j.begin(); it != j.end(); ++it) {
+        if (it.key() != "sim" && it.key() != "camera_model") {
+            todo.emplace_back(&*it, it.key());
+        }
+    }
+    while (!todo.empty()) {
+        auto [v, path] = todo.back();
+        todo.pop_back();
+        if (v->is_number()) {
+            const double x = v->get<double>();
+            if (!std::isfinite(x) || std::abs(x) > 1e9) {
+                detail::json_fail(path + " = " + show_number(x) +
+                                  ": out of range (numbers of a rig description lie in [-1e9, "
+                                  "1e9])");
+            }
+        } else if (v->is_object()) {
+            for (auto it = v->begin(); it != v->end(); ++it) {
+                todo.emplace_back(&*it, path + "." + it.key());
+            }
+        } else if (v->is_array()) {
+            for (std::size_t i = 0; i < v->size(); ++i) {
+                todo.emplace_back(&(*v)[i], path + "[" + std::to_string(i) + "]");
+            }
+        } else if (v->is_string() && v->get_ref<const std::string&>().size() > kMaxJsonString) {
+            detail::json_fail(path + ": string longer than " + std::to_string(kMaxJsonString) +
+                              " characters");
+        }
+    }
 }
 
 json coil_json(const CoilConfig& c) {
@@ -37,7 +170,8 @@ Expected<RigConfig> parse_rig_config(const std::string& text, const std::string&
     rig.json = text;
     std::string at = "";
     try {
-        const json j = json::parse(text);
+        const json j = detail::parse_json_checked(text, source);
+        check_rig_keys(j);
         rig.name = j.value("name", source);
         bool seen[kNumAxes] = {false, false, false, false};
         at = "axes";
@@ -63,7 +197,7 @@ Expected<RigConfig> parse_rig_config(const std::string& text, const std::string&
             AxisConfig& ax = rig.axes[r];
             ax.name = a.value("name", role);
             ax.address = a.at("address").get<std::string>();
-            ax.unit = a.at("unit").get<int>();
+            ax.unit = modbus_int(a, "unit", 0, 247);
             ax.profile = a.value("profile", std::string("generic"));
             const json& lim = a.at("limits_deg");
             ax.limits.min_deg = lim.at(0).get<double>();
@@ -107,8 +241,8 @@ Expected<RigConfig> parse_rig_config(const std::string& text, const std::string&
                 at = "filter_wheel.filters[" + std::to_string(c) + "]";
                 // The filter coils share the shutter's bus unless an address is given.
                 coils[c].address = fw.value("address", rig.shutter.address);
-                coils[c].unit = filters.at(c).at("unit").get<int>();
-                coils[c].coil = filters.at(c).at("coil").get<int>();
+                coils[c].unit = modbus_int(filters.at(c), "unit", 0, 247);
+                coils[c].coil = modbus_int(filters.at(c), "coil", 0, 65535);
             }
             rig.filter_wheel = coils;
         }
@@ -168,20 +302,28 @@ Expected<RigConfig> parse_rig_config(const std::string& text, const std::string&
         }
         rig.move_timeout_ms = j.value("move_timeout_ms", rig.move_timeout_ms);
         rig.retries = j.value("retries", rig.retries);
-    } catch (const std::exception& e) {
-        return make_error(source + ": " + (at.empty() ? "" : at + ": ") + e.what());
+    } catch (const detail::JsonFailure& f) {
+        const bool named = f.message.compare(0, source.size(), source) == 0;
+        return make_error(named ? f.message
+                                : source + ": " + (at.empty() ? "" : at + ": ") + f.message);
+    } catch (const json::exception& e) {
+        // A value of the wrong type: say which key, without nlohmann's internal error code.
+        std::string what = e.what();
+        const auto pos = what.find("] ");
+        if (pos != std::string::npos) {
+            what = what.substr(pos + 2);
+        }
+        return make_error(source + ": " + (at.empty() ? "" : at + ": ") + what);
     }
     return rig;
 }
 
 Expected<RigConfig> read_rig_config(const std::string& path) {
-    std::ifstream in(path);
-    if (!in) {
-        return make_error(path + ": cannot open the rig description");
+    Expected<std::string> text = read_input_file(path, kMaxJsonBytes);
+    if (!text) {
+        return make_error(text.error().message + " (rig description)");
     }
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return parse_rig_config(ss.str(), path);
+    return parse_rig_config(*text, path);
 }
 
 RigConfig with_addresses(const RigConfig& rig,

@@ -7,6 +7,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "gonio/brdf/atomic_file.h"
+
 namespace gonio::brdf {
 namespace {
 
@@ -239,25 +241,25 @@ std::string format_sample_row(const Sample& s, const Dataset& layout) {
 }
 
 Expected<void> write_dataset_csv(const std::string& path, const Dataset& data) {
-    const std::string tmp = path + ".tmp";
-    {
-        std::ofstream out(tmp, std::ios::trunc);
-        if (!out) {
-            return make_error(tmp + ": cannot open for writing");
-        }
-        out << dataset_csv_header(data) << '\n';
-        for (const Sample& s : data.samples) {
-            out << format_sample_row(s, data) << '\n';
-        }
-        out.flush();
-        if (!out) {
-            return make_error(tmp + ": write failed");
+    Expected<AtomicFile> out = AtomicFile::create(path);
+    if (!out) {
+        return tl::unexpected(out.error());
+    }
+    std::string chunk = dataset_csv_header(data) + '\n';
+    for (const Sample& s : data.samples) {
+        chunk += format_sample_row(s, data);
+        chunk += '\n';
+        if (chunk.size() >= (1u << 20)) {
+            if (auto w = out->write(chunk); !w) {
+                return w;
+            }
+            chunk.clear();
         }
     }
-    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-        return make_error(path + ": cannot rename from " + tmp);
+    if (auto w = out->write(chunk); !w) {
+        return w;
     }
-    return {};
+    return out->commit();
 }
 
 }  // namespace gonio::brdf

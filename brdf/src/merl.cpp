@@ -8,6 +8,9 @@
 #include <memory>
 #include <system_error>
 
+#include "gonio/brdf/atomic_file.h"
+#include "gonio/brdf/limits.h"
+
 namespace gonio::brdf {
 namespace {
 
@@ -176,6 +179,10 @@ Expected<TabulatedBrdf> read_merl(const std::string& path, MerlDims dims) {
         // Checked before allocating: the header alone must not decide how much memory is taken.
         return make_error(size_message(path, static_cast<std::size_t>(file_size), grid));
     }
+    // Values and validity flags of the table.
+    if (auto ok = check_memory(static_cast<double>(grid.size()) * (3 * 8 + 1), path); !ok) {
+        return tl::unexpected(ok.error());
+    }
     std::vector<double> raw(3 * grid.size());
     const std::size_t want = raw.size() * sizeof(double);
     const std::size_t got = std::fread(raw.data(), 1, want, f.get());
@@ -233,26 +240,8 @@ Expected<void> write_merl(const std::string& path, const TabulatedBrdf& table) {
                           " cannot be written as MERL (90 x 90 x 180); use a .gtab path");
     }
     const std::vector<std::uint8_t> bytes = encode_merl(table);
-    const std::string tmp = path + ".tmp";
-    {
-        FilePtr f(std::fopen(tmp.c_str(), "wb"));
-        if (!f) {
-            return make_error(tmp + ": cannot open for writing: " + std::strerror(errno));
-        }
-        if (std::fwrite(bytes.data(), 1, bytes.size(), f.get()) != bytes.size() ||
-            std::fflush(f.get()) != 0) {
-            const std::string why = std::strerror(errno);
-            f.reset();
-            std::remove(tmp.c_str());
-            return make_error(tmp + ": write failed: " + why);
-        }
-    }
-    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-        const std::string why = std::strerror(errno);
-        std::remove(tmp.c_str());
-        return make_error(path + ": cannot rename from " + tmp + ": " + why);
-    }
-    return {};
+    return write_file_atomic(
+        path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
 bool is_table_path(const std::string& path) {

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "gonio/brdf/ior.h"
+#include "gonio/brdf/limits.h"
 
 namespace gonio::brdf {
 
@@ -87,7 +88,7 @@ double get_number(const Json& j, const std::string& path) {
     }
     const double v = j.get<double>();
     if (!std::isfinite(v)) {
-        fail(path + " = " + j.dump() + ": must be finite");
+        fail(path + " = " + show_number(v) + ": must be finite");
     }
     return v;
 }
@@ -101,8 +102,20 @@ std::string show(double v) {
 
 enum class Rule { kPositive, kNonNegative, kUnit };
 
-/// `shown` is the value as written in the document.
-void check_rule(double v, const std::string& path, const std::string& shown, Rule rule) {
+// Upper bounds of model parameters (docs/model-schema.md, "Limits"): far beyond any physical
+// material, low enough that every evaluation and every table scale stays finite.
+constexpr double kMaxAlbedo = 100;
+constexpr double kMaxScale = 1e6;
+constexpr double kMaxAlpha = 100;
+// Smallest slope parameter: D at its peak is 1 / (pi alpha^2) = 3.2e7 here, still finite in every
+// product a lobe forms (a smaller alpha is a mirror, which no table or fit resolves).
+constexpr double kMinAlpha = 1e-4;
+constexpr double kMaxExponent = 1e7;
+constexpr double kMaxEta = 100;
+
+/// `shown` is the value as written in the document; `max` an upper bound (inclusive).
+void check_rule(
+    double v, const std::string& path, const std::string& shown, Rule rule, double max) {
     switch (rule) {
         case Rule::kPositive:
             if (!(v > 0)) {
@@ -120,18 +133,31 @@ void check_rule(double v, const std::string& path, const std::string& shown, Rul
             }
             break;
     }
+    if (v > max) {
+        fail(path + " = " + shown + ": must be <= " + show_number(max));
+    }
 }
 
-double get_scalar(const Json& j, const std::string& path, Rule rule) {
+double get_scalar(const Json& j, const std::string& path, Rule rule, double max) {
     const double v = get_number(j, path);
-    check_rule(v, path, j.dump(), rule);
+    check_rule(v, path, show_number(v), rule, max);
+    return v;
+}
+
+/// A slope parameter in [kMinAlpha, kMaxAlpha].
+double get_alpha(const Json& j, const std::string& path) {
+    const double v = get_scalar(j, path, Rule::kPositive, kMaxAlpha);
+    if (v < kMinAlpha) {
+        fail(path + " = " + show_number(v) + ": must be in [" + show_number(kMinAlpha) + ", " +
+             show_number(kMaxAlpha) + "]");
+    }
     return v;
 }
 
 /// A number (same value in the three channels) or an array of three numbers.
-Rgbd get_rgb(const Json& j, const std::string& path, Rule rule) {
+Rgbd get_rgb(const Json& j, const std::string& path, Rule rule, double max) {
     if (j.is_number()) {
-        return Rgbd::Constant(get_scalar(j, path, rule));
+        return Rgbd::Constant(get_scalar(j, path, rule, max));
     }
     if (!j.is_array() || j.size() != 3) {
         fail(path + ": expected a number or an array of 3 numbers, got " +
@@ -139,7 +165,7 @@ Rgbd get_rgb(const Json& j, const std::string& path, Rule rule) {
     }
     Rgbd out;
     for (int c = 0; c < 3; ++c) {
-        out[c] = get_scalar(j[c], path + "[" + std::to_string(c) + "]", rule);
+        out[c] = get_scalar(j[c], path + "[" + std::to_string(c) + "]", rule, max);
     }
     return out;
 }
@@ -163,7 +189,7 @@ Fresnel<double> parse_fresnel(const Json& j, const std::string& path) {
     } else if (type == "schlick") {
         check_keys(j, path, {"type", "f0"});
         f.type = FresnelType::kSchlick;
-        f.f0 = get_rgb(require(j, path, "f0"), path + ".f0", Rule::kUnit);
+        f.f0 = get_rgb(require(j, path, "f0"), path + ".f0", Rule::kUnit, 1);
     } else if (type == "dielectric") {
         check_keys(j, path, {"type", "eta", "material"});
         f.type = FresnelType::kDielectric;
@@ -173,7 +199,7 @@ Fresnel<double> parse_fresnel(const Json& j, const std::string& path) {
             fail(path + ": give exactly one of \"eta\" and \"material\"");
         }
         if (has_eta) {
-            f.eta = get_scalar(j["eta"], path + ".eta", Rule::kPositive);
+            f.eta = get_scalar(j["eta"], path + ".eta", Rule::kPositive, kMaxEta);
         } else {
             const IorEntry& e = get_material(j["material"], path + ".material");
             if (e.conductor) {
@@ -194,8 +220,8 @@ Fresnel<double> parse_fresnel(const Json& j, const std::string& path) {
             f.eta_rgb = e.eta;
             f.k = e.k;
         } else {
-            f.eta_rgb = get_rgb(require(j, path, "eta"), path + ".eta", Rule::kPositive);
-            f.k = get_rgb(require(j, path, "k"), path + ".k", Rule::kNonNegative);
+            f.eta_rgb = get_rgb(require(j, path, "eta"), path + ".eta", Rule::kPositive, kMaxEta);
+            f.k = get_rgb(require(j, path, "k"), path + ".k", Rule::kNonNegative, kMaxEta);
         }
     } else {
         fail(path + ".type = \"" + type +
@@ -240,14 +266,12 @@ Lobe<double> parse_lobe(const Json& j, const std::string& path) {
         }
         if (has_alpha) {
             lobe.anisotropic = false;
-            lobe.alpha_x = get_scalar(j["alpha"], path + ".alpha", Rule::kPositive);
+            lobe.alpha_x = get_alpha(j["alpha"], path + ".alpha");
             lobe.alpha_y = lobe.alpha_x;
         } else if (has_x || has_y) {
             lobe.anisotropic = true;
-            lobe.alpha_x =
-                get_scalar(require(j, path, "alpha_x"), path + ".alpha_x", Rule::kPositive);
-            lobe.alpha_y =
-                get_scalar(require(j, path, "alpha_y"), path + ".alpha_y", Rule::kPositive);
+            lobe.alpha_x = get_alpha(require(j, path, "alpha_x"), path + ".alpha_x");
+            lobe.alpha_y = get_alpha(require(j, path, "alpha_y"), path + ".alpha_y");
         } else {
             fail(path + ": missing key \"alpha\" (or \"alpha_x\" and \"alpha_y\")");
         }
@@ -258,8 +282,8 @@ Lobe<double> parse_lobe(const Json& j, const std::string& path) {
                      ": not used by blinn-phong lobes (they take \"exponent\")");
             }
         }
-        lobe.exponent =
-            get_scalar(require(j, path, "exponent"), path + ".exponent", Rule::kPositive);
+        lobe.exponent = get_scalar(
+            require(j, path, "exponent"), path + ".exponent", Rule::kPositive, kMaxExponent);
     }
     // Shadowing and Fresnel: required for microfacet lobes; a Blinn-Phong lobe has neither unless
     // it asks for them.
@@ -286,7 +310,7 @@ Lobe<double> parse_lobe(const Json& j, const std::string& path) {
         lobe.fresnel.type = FresnelType::kNone;
     }
     if (j.contains("scale")) {
-        lobe.scale = get_rgb(j["scale"], path + ".scale", Rule::kNonNegative);
+        lobe.scale = get_rgb(j["scale"], path + ".scale", Rule::kNonNegative, kMaxScale);
     } else {
         lobe.scale = Rgbd::Ones();
     }
@@ -299,7 +323,7 @@ ModelD parse_model(const Json& j) {
     ModelD m;
     if (j.contains("diffuse")) {
         m.has_diffuse = true;
-        m.diffuse = get_rgb(j["diffuse"], "diffuse", Rule::kNonNegative);
+        m.diffuse = get_rgb(j["diffuse"], "diffuse", Rule::kNonNegative, kMaxAlbedo);
     } else {
         m.has_diffuse = false;
         m.diffuse = Rgbd::Zero();
@@ -307,6 +331,10 @@ ModelD parse_model(const Json& j) {
     const Json& lobes = require(j, "", "lobes");
     if (!lobes.is_array()) {
         fail("lobes: expected an array, got " + type_name(lobes));
+    }
+    if (lobes.size() > kMaxModelLobes) {
+        fail("lobes: " + std::to_string(lobes.size()) + " lobes, at most " +
+             std::to_string(kMaxModelLobes) + " allowed");
     }
     for (std::size_t i = 0; i < lobes.size(); ++i) {
         m.lobes.push_back(parse_lobe(lobes[i], "lobes[" + std::to_string(i) + "]"));
@@ -365,6 +393,9 @@ std::string compact_number_arrays(const std::string& s) {
 }  // namespace
 
 Expected<ModelD> parse_model_json(const std::string& text, const std::string& source_name) {
+    if (auto ok = check_json_text(text, source_name); !ok) {
+        return tl::unexpected(ok.error());
+    }
     Json j;
     try {
         j = Json::parse(text);
@@ -386,16 +417,11 @@ Expected<ModelD> parse_model_json(const std::string& text, const std::string& so
 }
 
 Expected<ModelD> load_model_json(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) {
-        return make_error(path + ": cannot open model file");
+    Expected<std::string> text = read_input_file(path, kMaxJsonBytes);
+    if (!text) {
+        return make_error(text.error().message + " (model file)");
     }
-    std::ostringstream text;
-    text << in.rdbuf();
-    if (in.bad()) {
-        return make_error(path + ": read error");
-    }
-    return parse_model_json(text.str(), path);
+    return parse_model_json(*text, path);
 }
 
 std::string model_to_json(const ModelD& m) {

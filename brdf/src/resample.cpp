@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "gonio/brdf/check.h"
+#include "gonio/brdf/limits.h"
 
 namespace gonio::brdf {
 namespace {
@@ -46,6 +47,11 @@ TabulatedBrdf tabulate(const Brdf& brdf, const TabulateOptions& options, Tabulat
                         ++r.non_finite;
                         continue;
                     }
+                    if ((f > kMaxTableValue).any()) {
+                        // Not storable: left invalid and counted, the caller reports it.
+                        ++r.out_of_range;
+                        continue;
+                    }
                     // Rounding can make a tiny negative value in a model; zero is the BRDF's floor.
                     table.set_bin(flat, f.max(0.0));
                     ++r.valid_bins;
@@ -71,6 +77,7 @@ TabulatedBrdf tabulate(const Brdf& brdf, const TabulateOptions& options, Tabulat
             report->valid_bins += r.valid_bins;
             report->below_horizon += r.below_horizon;
             report->non_finite += r.non_finite;
+            report->out_of_range += r.out_of_range;
         }
     }
     return table;
@@ -119,6 +126,23 @@ Expected<TabulatedBrdf> resample_dataset(const Dataset& data,
     }
     const TableGrid& grid = options.grid;
     const std::size_t n = grid.size();
+    // sum and weight here, raw values and validity flags in the table.
+    if (auto ok = check_memory(static_cast<double>(n) * (4 * 8 + 3 * 8 + 1),
+                               "resampling onto a " + std::to_string(grid.n_theta_h) + "x" +
+                                   std::to_string(grid.n_theta_d) + "x" +
+                                   std::to_string(grid.n_phi_d) + " table");
+        !ok) {
+        return tl::unexpected(ok.error());
+    }
+    for (std::size_t k = 0; k < data.samples.size(); ++k) {
+        const Rgbd& v = data.samples[k].value;
+        if ((v.abs() > kMaxTableValue).any()) {
+            return make_error(data.source + ": sample " + std::to_string(k + 1) + ": value " +
+                              show_number(v.abs().maxCoeff()) +
+                              " 1/sr is above the largest value a table stores (" +
+                              show_number(kMaxTableValue) + " 1/sr)");
+        }
+    }
     std::vector<double> sum(3 * n, 0.0);
     std::vector<double> weight(n, 0.0);
     const double r2 = r * r;

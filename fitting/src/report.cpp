@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "gonio/brdf/atomic_file.h"
 #include "gonio/brdf/model_json.h"
 
 namespace gonio::fitting {
@@ -26,23 +27,7 @@ json number_or_null(double v) {
 }
 
 Expected<void> write_text(const std::string& path, const std::string& text) {
-    const std::string tmp = path + ".tmp";
-    {
-        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-        if (!out) {
-            return make_error(path + ": cannot open for writing");
-        }
-        out << text;
-        out.flush();
-        if (!out) {
-            return make_error(path + ": write failed");
-        }
-    }
-    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-        std::remove(tmp.c_str());
-        return make_error(path + ": cannot rename the temporary file into place");
-    }
-    return {};
+    return write_file_atomic(path, text);
 }
 
 Expected<brdf::Rgbd> read_rgb(const json& j, const std::string& at) {
@@ -114,6 +99,13 @@ std::string fit_report_json(const FitResult& r) {
 
 Expected<void> write_fit_report(const std::string& model_path, const FitResult& result) {
     const std::string report_path = report_path_for(model_path);
+    // Both outputs checked before either is written: a folder or device at one of them leaves
+    // nothing behind.
+    for (const std::string& p : {model_path, report_path}) {
+        if (auto ok = check_output_path(p); !ok) {
+            return ok;
+        }
+    }
     Expected<void> w = write_text(report_path, fit_report_json(result));
     if (!w) {
         return w;

@@ -2,10 +2,12 @@
 
 #include "gonio/fitting/spec.h"
 
+#include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "gonio/brdf/limits.h"
 #include "gonio/brdf/model_json.h"
 
 namespace gonio::fitting {
@@ -289,11 +291,18 @@ std::string known_paths(const std::vector<ParamSpec>& params) {
 }  // namespace
 
 Expected<FitSpec> parse_fit_template(const std::string& json_text, const std::string& source) {
+    if (auto ok = check_json_text(json_text, source); !ok) {
+        return tl::unexpected(ok.error());
+    }
     nlohmann::json j;
     try {
         j = nlohmann::json::parse(json_text);
     } catch (const nlohmann::json::exception& e) {
-        return make_error(source + ": not JSON: " + e.what());
+        // Keep the line and column, drop nlohmann's "[json.exception.parse_error.101]" code.
+        std::string what = e.what();
+        const auto pos = what.find("] ");
+        return make_error(
+            source + ": not JSON: " + (pos == std::string::npos ? what : what.substr(pos + 2)));
     }
     if (!j.is_object() || !j.contains("model")) {
         return make_error(source + ": a fit template is an object with a \"model\" key");
@@ -380,6 +389,10 @@ Expected<FitSpec> parse_fit_template(const std::string& json_text, const std::st
             }
             p->lower = b[0].get<double>();
             p->upper = b[1].get<double>();
+            if (!std::isfinite(p->lower) || !std::isfinite(p->upper)) {
+                return make_error(at + " = [" + show_number(p->lower) + ", " +
+                                  show_number(p->upper) + "]: bounds must be finite");
+            }
             if (!(p->lower < p->upper)) {
                 return make_error(at + ": lower bound must be below the upper bound");
             }

@@ -1,6 +1,7 @@
 #include "gonio/report/export.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -27,6 +28,27 @@ std::string num(double v) {
 
 bool finite(const Rgbd& v) {
     return v.allFinite();
+}
+
+/// A material name or id embedded in a renderer file: 1 to 128 letters, digits, '_', '-', '.'.
+/// Anything else (quotes, newlines, '<', '#') is refused rather than escaped, so that the name
+/// reads the same in every renderer and can never end a string or start a statement.
+Expected<void> check_name(const std::string& name, const char* what) {
+    constexpr std::size_t kMaxName = 128;
+    if (name.empty() || name.size() > kMaxName) {
+        return make_error(std::string(what) + ": " + std::to_string(name.size()) +
+                          " characters, must be 1 to " + std::to_string(kMaxName));
+    }
+    for (std::size_t i = 0; i < name.size(); ++i) {
+        const unsigned char c = static_cast<unsigned char>(name[i]);
+        if (!(std::isalnum(c) || c == '_' || c == '-' || c == '.')) {
+            char code[8];
+            std::snprintf(code, sizeof code, "0x%02x", c);
+            return make_error(std::string(what) + ": character " + std::to_string(i + 1) + " (" +
+                              code + ") is not allowed; use letters, digits, '_', '-' or '.'");
+        }
+    }
+    return {};
 }
 
 /// Checks the values an export relies on; names the key path.
@@ -167,6 +189,9 @@ double k_from_f0(double f0) {
 }
 
 Expected<RendererExport> export_mitsuba(const ModelD& model, const std::string& id) {
+    if (auto v = check_name(id, "material id"); !v) {
+        return make_error(v.error().message);
+    }
     if (auto v = validate(model); !v) {
         return make_error(v.error().message);
     }
@@ -302,6 +327,9 @@ Expected<RendererExport> export_mitsuba(const ModelD& model, const std::string& 
 }
 
 Expected<RendererExport> export_pbrt(const ModelD& model, const std::string& name) {
+    if (auto v = check_name(name, "material name"); !v) {
+        return make_error(v.error().message);
+    }
     if (auto v = validate(model); !v) {
         return make_error(v.error().message);
     }

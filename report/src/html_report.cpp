@@ -10,7 +10,9 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "gonio/brdf/atomic_file.h"
 #include "gonio/brdf/brdf.h"
+#include "gonio/brdf/limits.h"
 #include "gonio/brdf/model_json.h"
 #include "gonio/report/image.h"
 #include "gonio/version.h"
@@ -22,12 +24,17 @@ using nlohmann::json;
 
 namespace {
 
-std::string read_file(const fs::path& p, bool* ok) {
-    std::ifstream f(p, std::ios::binary);
-    std::ostringstream os;
-    os << f.rdbuf();
-    *ok = static_cast<bool>(f) || f.eof();
-    return os.str();
+/// Reads a JSON input of the report within the documented limits (size, nesting depth): an error
+/// names the file and the limit; a syntax error gives a discarded value (shown as a note).
+Expected<json> read_report_json(const fs::path& p) {
+    Expected<std::string> text = read_input_file(p.string(), kMaxJsonBytes);
+    if (!text) {
+        return tl::unexpected(text.error());
+    }
+    if (auto ok = check_json_text(*text, p.string()); !ok) {
+        return tl::unexpected(ok.error());
+    }
+    return json::parse(*text, nullptr, false);
 }
 
 std::string fmt_num(double v) {
@@ -293,9 +300,11 @@ Expected<ReportResult> build_report(const std::string& dir, const ReportOptions&
     // Campaign metadata.
     json campaign;
     if (fs::exists(campaign_path)) {
-        bool ok = false;
-        const std::string text = read_file(campaign_path, &ok);
-        campaign = json::parse(text, nullptr, false);
+        Expected<json> j = read_report_json(campaign_path);
+        if (!j) {
+            return tl::unexpected(j.error());
+        }
+        campaign = std::move(*j);
         if (campaign.is_discarded()) {
             notes.push_back(campaign_path.string() + ": not valid JSON; metadata not shown");
             campaign = json();
@@ -306,8 +315,11 @@ Expected<ReportResult> build_report(const std::string& dir, const ReportOptions&
 
     json metadata;
     if (fs::exists(metadata_path)) {
-        bool ok = false;
-        metadata = json::parse(read_file(metadata_path, &ok), nullptr, false);
+        Expected<json> j = read_report_json(metadata_path);
+        if (!j) {
+            return tl::unexpected(j.error());
+        }
+        metadata = std::move(*j);
         if (metadata.is_discarded()) {
             notes.push_back(metadata_path.string() + ": not valid JSON; run metadata not shown");
             metadata = json();
@@ -347,8 +359,11 @@ Expected<ReportResult> build_report(const std::string& dir, const ReportOptions&
     }
     json fit_report;
     if (fs::exists(fit_report_path)) {
-        bool ok = false;
-        fit_report = json::parse(read_file(fit_report_path, &ok), nullptr, false);
+        Expected<json> j = read_report_json(fit_report_path);
+        if (!j) {
+            return tl::unexpected(j.error());
+        }
+        fit_report = std::move(*j);
         if (fit_report.is_discarded()) {
             notes.push_back(fit_report_path.string() + ": not valid JSON");
             fit_report = json();
@@ -548,19 +563,8 @@ Expected<ReportResult> build_report(const std::string& dir, const ReportOptions&
     h << "</body></html>\n";
 
     const fs::path out = root / "report.html";
-    const fs::path tmp = root / "report.html.tmp";
-    {
-        std::ofstream f(tmp, std::ios::binary);
-        f << h.str();
-        f.close();
-        if (!f) {
-            return make_error(tmp.string() + ": cannot write");
-        }
-    }
-    fs::rename(tmp, out, ec);
-    if (ec) {
-        return make_error(out.string() + ": cannot rename from " + tmp.string() + ": " +
-                          ec.message());
+    if (auto w = write_file_atomic(out.string(), h.str()); !w) {
+        return tl::unexpected(w.error());
     }
     result.html_path = out.string();
     return result;

@@ -5,6 +5,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "gonio/brdf/atomic_file.h"
 #include "gonio/brdf/check.h"
 #include "image_cv.h"
 
@@ -45,16 +46,15 @@ Expected<void> write_png(const std::string& path, const Image& image) {
     if (image.empty()) {
         return make_error(path + ": refusing to write an empty image");
     }
-    bool ok = false;
-    try {
-        ok = cv::imwrite(path, to_mat(image));
-    } catch (const cv::Exception& e) {
-        return make_error(path + ": cannot write PNG: " + e.what());
+    if (auto ok = check_output_path(path); !ok) {
+        return ok;
     }
-    if (!ok) {
-        return make_error(path + ": cannot write PNG (missing folder or no permission)");
+    Expected<std::vector<std::uint8_t>> bytes = encode_png(image);
+    if (!bytes) {
+        return make_error(path + ": " + bytes.error().message);
     }
-    return {};
+    return write_file_atomic(
+        path, std::string_view(reinterpret_cast<const char*>(bytes->data()), bytes->size()));
 }
 
 Expected<Image> read_png(const std::string& path) {

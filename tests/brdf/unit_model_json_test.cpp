@@ -275,7 +275,8 @@ TEST(ModelJson, ShippedExamplesParse) {
     EXPECT_GE(n, 5);
     const auto missing = load_model_json("no/such/model.json");
     ASSERT_FALSE(missing);
-    EXPECT_EQ(missing.error().message, "no/such/model.json: cannot open model file");
+    EXPECT_EQ(missing.error().message,
+              "no/such/model.json: cannot open: No such file or directory (model file)");
 }
 
 }  // namespace

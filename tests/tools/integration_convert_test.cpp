@@ -169,9 +169,10 @@ TEST_F(ConvertCli, ErrorsNameTheFile) {
     EXPECT_EQ(run("convert '" + path("short.binary") + "' '" + path("x.csv") + "'"), 1);
     EXPECT_NE(read("err.txt").find("shorter than the 12-byte header"), std::string::npos)
         << read("err.txt");
-    EXPECT_EQ(run("convert '" + path("model.json") + "' '" + path("x.txt") + "'"), 1);
+    // Usage errors (an output type or a grid that cannot be) exit with 2.
+    EXPECT_EQ(run("convert '" + path("model.json") + "' '" + path("x.txt") + "'"), 2);
     EXPECT_NE(read("err.txt").find("unknown output type"), std::string::npos) << read("err.txt");
-    EXPECT_EQ(run("convert '" + path("model.json") + "' '" + path("x.gtab") + "' --grid 0x2x2"), 1);
+    EXPECT_EQ(run("convert '" + path("model.json") + "' '" + path("x.gtab") + "' --grid 0x2x2"), 2);
     EXPECT_NE(read("err.txt").find("--grid 0x2x2"), std::string::npos) << read("err.txt");
     EXPECT_FALSE(fs::exists(path("x.gtab")));
 }

@@ -137,19 +137,19 @@ TEST_F(EvalCli, ColumnsInAnyOrderAndFilesAsOptions) {
     EXPECT_NEAR(rows[0][1], f[1], 1e-15 * f[1]);
 }
 
-TEST_F(EvalCli, StructuralErrorsExitTwo) {
+TEST_F(EvalCli, StructuralErrorsFailTheWork) {
     write("model.json", kModel);
     write("noheader.csv", "0.1,0.2,0.3,0.4\n");
     EXPECT_EQ(run("eval " + path("model.json") + " < " + path("noheader.csv") + " > " + path("o") +
                   " 2> " + path("e")),
-              2);
+              1);
     EXPECT_NE(read("e").find("header lacks column \"theta_i\""), std::string::npos) << read("e");
     write(
         "bad.json",
         R"({"lobes":[{"distribution":"ggx","alpha":-0.1,"shadowing":"none","fresnel":{"type":"none"}}]})");
     EXPECT_EQ(run("eval " + path("bad.json") + " < " + path("noheader.csv") + " > " + path("o") +
                   " 2> " + path("e")),
-              2);
+              1);
     EXPECT_NE(read("e").find("bad.json: lobes[0].alpha = -0.1: must be > 0"), std::string::npos)
         << read("e");
 }

@@ -45,6 +45,16 @@ brdf::Canonical<double> canonical_of(const PlannedConfig& c);
 /// over [0, pi]; only theta_i <= theta_r; where theta_i = 0 the azimuth is meaningless and only
 /// delta_phi = 0 is kept. The naive grid it replaces samples (theta_i, phi_i, theta_o, phi_o) with
 /// phi over [0, 2 pi) at the same step: n_theta^2 (2 (n_dphi - 1))^2.
+/// Limits of a sampling plan (docs/file-formats.md, "Limits"): counts per axis, and the most
+/// configurations one pass may hold (checked before the plan is built).
+constexpr int kMaxPlanAxis = 1000;
+constexpr int kMaxPlanConfigs = 1000000;
+/// Longest sample or operator name, and longest path, in a campaign description.
+constexpr std::size_t kMaxNameLength = 256;
+constexpr std::size_t kMaxPathLength = 1024;
+/// Most light/view pairs in a scene.
+constexpr std::size_t kMaxScenePairs = 10000;
+
 struct UniformGridSpec {
     int n_theta = 10;
     double theta_max = 1.3963;  ///< rad (80 deg)

@@ -32,6 +32,7 @@ struct TabulateReport {
     std::size_t below_horizon =
         0;                       ///< Bins whose centre pair has wi or wo at or below the horizon.
     std::size_t non_finite = 0;  ///< Bins where the BRDF returned NaN/Inf (left invalid, counted).
+    std::size_t out_of_range = 0;  ///< Bins whose value exceeds kMaxTableValue (left invalid).
 };
 
 /// Evaluates brdf at every bin centre (wi, wo from TableGrid::centre_directions). Bins whose centre
@@ -65,7 +66,8 @@ struct ResampleReport {
 /// [0, pi), reciprocity) and then to continuous index coordinates u (TableGrid::continuous_index);
 /// a bin centre c receives the weighted mean of the samples with |u - c| < r (Euclidean in index
 /// units, phi_d periodic), with the weight (1 - |u - c|^2 / r^2)^2 (a compact, smooth kernel).
-/// Errors: radius not in (0, 16], an empty dataset.
+/// Errors: radius not in (0, 16], an empty dataset, a sample value above kMaxTableValue, a grid
+/// whose working memory exceeds gonio::max_memory_bytes().
 Expected<TabulatedBrdf> resample_dataset(const Dataset& data,
                                          const ResampleOptions& options = {},
                                          ResampleReport* report = nullptr);

@@ -39,6 +39,10 @@
 
 namespace gonio::brdf {
 
+/// Largest BRDF value [1/sr] a table stores (docs/file-formats-tables.md, "Limits"): a million
+/// times the peak of a polished metal, small enough that sums and scaled raw values stay finite.
+constexpr double kMaxTableValue = 1e12;
+
 /// Resolution of a half/difference table and its index mapping (see the file comment).
 struct TableGrid {
     int n_theta_h = 90;

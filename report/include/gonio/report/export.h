@@ -41,6 +41,7 @@ struct RendererExport {
     std::vector<std::string> approximations;  ///< what is not mapped exactly (also in the text)
 };
 
+/// Names and ids must be 1 to 128 characters of letters, digits, '_', '-', '.'; others are refused.
 /// Mitsuba 3 XML: <scene version="3.0.0"> holding one <bsdf id="id">. Error for non-finite or
 /// out-of-domain parameters (the message names the key path, e.g. "lobes[0].alpha_x").
 Expected<RendererExport> export_mitsuba(const brdf::ModelD& model, const std::string& id);

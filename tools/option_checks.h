@@ -1,0 +1,64 @@
+#pragma once
+
+// Checks of command-line values shared by the commands. A value that fails is a usage error
+// (exit status 2, see main.cpp): the message names the option, the value and the allowed range.
+
+#include <CLI/CLI.hpp>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <string>
+
+#include "gonio/brdf/limits.h"
+
+namespace gonio::tools {
+
+/// A finite number in [lo, hi] (NaN and infinities refused; CLI::Range lets NaN through).
+inline CLI::Validator finite_in(double lo, double hi, const std::string& unit = "") {
+    const std::string range =
+        "[" + show_number(lo) + ", " + show_number(hi) + "]" + (unit.empty() ? "" : " " + unit);
+    return CLI::Validator(
+        [lo, hi, range](std::string& text) -> std::string {
+            char* end = nullptr;
+            errno = 0;
+            const double v = std::strtod(text.c_str(), &end);
+            if (end == text.c_str() || *end != '\0') {
+                return "\"" + text.substr(0, 64) + "\" is not a number";
+            }
+            if (!std::isfinite(v) || errno == ERANGE) {
+                return text.substr(0, 64) + " is not a finite number; allowed: " + range;
+            }
+            if (v < lo || v > hi) {
+                return show_number(v) + " is outside " + range;
+            }
+            return {};
+        },
+        "in " + range);
+}
+
+/// A whole number in [lo, hi].
+inline CLI::Validator integer_in(long long lo, long long hi) {
+    const std::string range = "[" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+    return CLI::Validator(
+        [lo, hi, range](std::string& text) -> std::string {
+            char* end = nullptr;
+            errno = 0;
+            const long long v = std::strtoll(text.c_str(), &end, 10);
+            if (end == text.c_str() || *end != '\0') {
+                return "\"" + text.substr(0, 64) + "\" is not a whole number";
+            }
+            if (errno == ERANGE || v < lo || v > hi) {
+                return text.substr(0, 64) + " is outside " + range;
+            }
+            return {};
+        },
+        "in " + range);
+}
+
+/// Prints "gonio CMD: MESSAGE" and returns the usage-error status 2.
+inline int usage_error(const char* command, const std::string& message) {
+    std::fprintf(stderr, "gonio %s: %s\n", command, message.c_str());
+    return 2;
+}
+
+}  // namespace gonio::tools
