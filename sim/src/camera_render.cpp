@@ -139,9 +139,20 @@ cv::Mat render_scene(const brdf::Brdf& f,
     const float L = static_cast<float>(patch_radiance(
         f, scene.wi.normalized(), scene.wo.normalized(), scene.irradiance_w_m2, scene.filter));
     cv::Mat out(roi.height, roi.width, CV_32F, cv::Scalar(0));
+    const double r = 0.25 * std::min(sensor_width, sensor_height);
+    const double cx = 0.5 * sensor_width;
     for (int y = 0; y < roi.height; ++y) {
+        // The disc's chord on this row, then the pixel centres inside it (the same test as
+        // in_point_patch, applied only near the chord's ends).
+        const double dy = roi.y + y + 0.5 - 0.5 * sensor_height;
+        if (dy * dy > r * r) {
+            continue;
+        }
+        const double half = std::sqrt(r * r - dy * dy);
+        int x0 = std::max(0, static_cast<int>(std::floor(cx - half - roi.x - 0.5)) - 1);
+        int x1 = std::min(roi.width, static_cast<int>(std::ceil(cx + half - roi.x - 0.5)) + 2);
         float* row = out.ptr<float>(y);
-        for (int x = 0; x < roi.width; ++x) {
+        for (int x = x0; x < x1; ++x) {
             if (in_point_patch(roi.x + x + 0.5, roi.y + y + 0.5, sensor_width, sensor_height)) {
                 row[x] = L;
             }

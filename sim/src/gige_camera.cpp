@@ -21,6 +21,7 @@ using gvcp::Status;
 namespace {
 
 constexpr std::uint32_t kBootstrapSize = 0x1000;
+constexpr bool kLittleEndianHost = __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__;
 constexpr std::uint32_t kExposureTickNs = 100;
 constexpr std::uint32_t kMinPacketSize = 576;
 constexpr std::uint32_t kMaxPacketSize = 65500;
@@ -738,6 +739,11 @@ std::optional<RenderedFrame> GigeCamera::next_frame(Clock::time_point now,
         std::size_t k = 0;
         for (int y = 0; y < counts.rows; ++y) {
             const auto* row = counts.ptr<std::uint16_t>(y);
+            if constexpr (kLittleEndianHost) {
+                std::memcpy(f.payload.data() + k, row, 2 * static_cast<std::size_t>(counts.cols));
+                k += 2 * static_cast<std::size_t>(counts.cols);
+                continue;
+            }
             for (int x = 0; x < counts.cols; ++x) {
                 f.payload[k++] = static_cast<std::uint8_t>(row[x] & 0xFF);
                 f.payload[k++] = static_cast<std::uint8_t>(row[x] >> 8);

@@ -119,51 +119,60 @@ cv::Mat SensorModel::expose(const cv::Mat& radiance, const ExposureSettings& s) 
     const int stripes = (radiance.rows + kStripeRows - 1) / kStripeRows;
     cv::parallel_for_(cv::Range(0, stripes), [&](const cv::Range& range) {
         cv::Mat z(1, radiance.cols, CV_32F);
-        cv::Mat u(1, radiance.cols, CV_32F);
         PoissonTable poisson;
         for (int stripe = range.start; stripe < range.end; ++stripe) {
             cv::RNG rng(splitmix64(frame_seed ^ splitmix64(static_cast<std::uint64_t>(stripe))));
             const int y_end = std::min(radiance.rows, (stripe + 1) * kStripeRows);
             for (int y = stripe * kStripeRows; y < y_end; ++y) {
                 rng.fill(z, cv::RNG::NORMAL, 0.0, 1.0);
-                rng.fill(u, cv::RNG::UNIFORM, 0.0, 1.0);
                 const float* L = radiance.ptr<float>(y);
                 const float* zn = z.ptr<float>(0);
-                const float* un = u.ptr<float>(0);
                 auto* dst = out.ptr<std::uint16_t>(y);
+                // Pixels of one radiance share their mean and standard deviation: a run of equal
+                // radiance (the patch, the background) reuses them.
+                float last_l = -1.0f;
+                double mu_e = 0, sigma = 0;
+                int path = 0;  // 0 Poisson, 1 one normal, 2 clipped shot noise then read noise
                 for (int x = 0; x < radiance.cols; ++x) {
                     // A non-finite or negative radiance is a renderer bug: treat as black, never
                     // NaN.
-                    const double l = std::isfinite(L[x]) && L[x] > 0 ? L[x] : 0.0;
-                    const double mu_e = responsivity_t * l + dark_e;
-                    double e;
-                    if (mu_e < kPoissonLimit) {
-                        // Small means: an exact Poisson draw by inverse CDF (zero mean: zero).
-                        if (mu_e <= 0) {
-                            e = 0;
-                        } else {
-                            if (mu_e != poisson.mean()) {
+                    const float l = std::isfinite(L[x]) && L[x] > 0 ? L[x] : 0.0f;
+                    if (l != last_l) {
+                        last_l = l;
+                        mu_e = responsivity_t * l + dark_e;
+                        if (mu_e < kPoissonLimit) {
+                            path = 0;
+                            if (mu_e > 0 && mu_e != poisson.mean()) {
                                 poisson.set(mu_e);
                             }
-                            e = poisson.draw(un[x]);
+                        } else if (mu_e + 6 * std::sqrt(mu_e) < full_well) {
+                            path = 1;
+                            sigma = std::sqrt(mu_e + read2);
+                        } else {
+                            path = 2;
+                            sigma = std::sqrt(mu_e);
                         }
+                    }
+                    double e;
+                    if (path == 0) {
+                        // Small means: an exact Poisson draw by inverse CDF (zero mean: zero).
+                        e = mu_e > 0 ? poisson.draw(rng.uniform(0.0, 1.0)) : 0.0;
                         e = std::min(e, full_well) + read_e * zn[x];
-                    } else if (mu_e + 6 * std::sqrt(mu_e) < full_well) {
+                    } else if (path == 1) {
                         // Normal limit of the shot noise far from the full well: shot and read
                         // noise add in variance, one draw of N(mu_e, mu_e + read^2).
-                        e = mu_e + std::sqrt(mu_e + read2) * zn[x];
+                        e = mu_e + sigma * zn[x];
                     } else {
                         // Near the full well the shot noise clips before the read noise adds; the
-                        // uniform becomes a second normal draw (Box-Muller with the first's
-                        // independent partner would cost as much).
-                        e = std::max(0.0, mu_e + std::sqrt(mu_e) * zn[x]);
-                        e = std::min(e, full_well);
-                        const double u1 = std::max(static_cast<double>(un[x]), 1e-300);
+                        // read noise is a second normal draw (Box-Muller from two uniforms).
+                        e = std::min(std::max(0.0, mu_e + sigma * zn[x]), full_well);
+                        const double u1 = std::max(rng.uniform(0.0, 1.0), 1e-300);
                         e += read_e * std::sqrt(-2.0 * std::log(u1)) *
                              std::cos(6.283185307179586 * rng.uniform(0.0, 1.0));
                     }
-                    const double c = std::nearbyint(black + e * counts_per_e);
-                    dst[x] = static_cast<std::uint16_t>(std::clamp(c, 0.0, sat));
+                    // Round half up after clamping (a truncating conversion of a value >= 0).
+                    const double c = std::clamp(black + e * counts_per_e, 0.0, sat);
+                    dst[x] = static_cast<std::uint16_t>(c + 0.5);
                 }
             }
         }

@@ -17,6 +17,10 @@ SimRig::~SimRig() {
 }
 
 void SimRig::stop() {
+    if (gige_server_) {
+        gige_server_->stop();
+        gige_server_.reset();
+    }
     if (camera_server_) {
         camera_server_->stop();
         camera_server_.reset();
@@ -153,7 +157,18 @@ Expected<std::unique_ptr<SimRig>> SimRig::start(const std::string& rig_json,
     cc.sensor.height = sensor.value("height", 512);
     cc.sensor.seed = seed;
     rig->camera_ = std::make_shared<U3vDevice>(cc, rig->mounted_, rig->world_->scene_fn());
-    if (opt.camera_over_tcp) {
+    if (opt.camera_gige) {
+        GigeCameraConfig gc;
+        gc.sensor = cc.sensor;
+        gc.exposure_naming = opt.exposure_abs ? ExposureNaming::kAbs : ExposureNaming::kSfnc;
+        rig->gige_camera_ =
+            std::make_shared<GigeCamera>(gc, rig->mounted_, rig->world_->scene_fn());
+        rig->gige_server_ = std::make_unique<GigeServer>(rig->gige_camera_);
+        if (auto r = rig->gige_server_->start(); !r) {
+            return make_error("sim rig: camera server: " + r.error().message);
+        }
+        rig->camera_address_ = rig->gige_server_->address();
+    } else if (opt.camera_over_tcp) {
         rig->camera_server_ = std::make_unique<U3vTcpServer>(rig->camera_);
         if (auto r = rig->camera_server_->start(0); !r) {
             return make_error("sim rig: camera server: " + r.error().message);

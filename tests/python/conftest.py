@@ -9,7 +9,8 @@ import pytest
 
 GONIO_EXE = os.environ.get("GONIO_EXE", "gonio")
 
-# GGX + Lambert + Schlick RGB with height-correlated Smith: the structure of the default fit.
+# GGX + Lambert + Schlick RGB with height-correlated Smith: the structure of a fit with
+# fresnel="schlick-rgb" (f0 per channel, lobe scale fixed at 1).
 TRUTH = {
     "diffuse": [0.25, 0.12, 0.05],
     "lobes": [

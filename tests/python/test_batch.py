@@ -23,7 +23,7 @@ def make_manifest(workdir):
         m["lobes"][0]["alpha"] = alpha
         m["diffuse"] = [0.05 + 0.03 * k, 0.1, 0.2 - 0.02 * k]
         gonio.save(workdir / f"mat{k}.csv", synthetic_samples(m, n_theta=8, n_phi=10))
-        rows.append(f"mat{k}.csv,ggx,residual=log;starts=4;fresnel=schlick-rgb,mat{k}")
+        rows.append(f"mat{k}.csv,ggx,fresnel=schlick-rgb;residual=log;starts=4,mat{k}")
     (workdir / "broken.csv").write_text("theta_i,phi_i,theta_o,r,g,b\n0.1,0,0.2,1,1,1\n")
     rows.append("broken.csv,ggx,,broken")
     (workdir / "manifest.csv").write_text("\n".join(rows) + "\n")

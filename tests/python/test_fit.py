@@ -11,7 +11,9 @@ from conftest import TRUTH, synthetic_samples
 
 def test_fit_recovers_ground_truth():
     data = synthetic_samples(TRUTH, n_theta=10, n_phi=13)
-    model, report = gonio.fit(data, model="ggx", fresnel="schlick-rgb", residual="log", truth=TRUTH, threads=1)
+    model, report = gonio.fit(
+        data, model="ggx", fresnel="schlick-rgb", residual="log", truth=TRUTH, threads=1
+    )
     assert report["solver"]["usable"], report["solver"]
     lobe = model["lobes"][0]
     assert abs(lobe["alpha"] - 0.18) < 1e-4
@@ -28,7 +30,9 @@ def test_fit_recovers_ground_truth():
 def test_fit_with_noise_reports_uncertainties_covering_the_truth():
     data = synthetic_samples(TRUTH, n_theta=10, n_phi=13, noise=0.02, seed=42)
     data["sigma"] = 0.02 * np.abs(data["value"]) + 1e-9
-    model, report = gonio.fit(data, model="ggx", fresnel="schlick-rgb", residual="absolute", threads=1)
+    model, report = gonio.fit(
+        data, model="ggx", fresnel="schlick-rgb", residual="absolute", threads=1
+    )
     assert report["solver"]["usable"]
     alpha = next(p for p in report["parameters"] if p["name"] == "lobes[0].alpha_x")
     assert alpha["sigma"] is not None and alpha["sigma"] > 0
@@ -37,7 +41,7 @@ def test_fit_with_noise_reports_uncertainties_covering_the_truth():
 
 def test_fit_with_max_samples_uses_a_reduction():
     data = synthetic_samples(TRUTH, n_theta=12, n_phi=16)
-    _, report = gonio.fit(data, max_samples=500, threads=1)
+    _, report = gonio.fit(data, fresnel="schlick-rgb", max_samples=500, threads=1)
     assert report["samples"]["used"] < report["samples"]["valid"]
     assert report["samples"]["valid"] == len(data["theta_i"])
 

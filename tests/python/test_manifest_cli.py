@@ -14,7 +14,7 @@ def make(workdir, n):
         m = json.loads(json.dumps(TRUTH))
         m["lobes"][0]["alpha"] = 0.1 + 0.05 * k
         gonio.save(workdir / f"d{k}.csv", synthetic_samples(m, n_theta=7, n_phi=9))
-        rows.append(f"d{k}.csv,ggx,starts=3;threads=1;fresnel=schlick-rgb")
+        rows.append(f"d{k}.csv,ggx,fresnel=schlick-rgb;starts=3;threads=1")
     (workdir / "m.csv").write_text("\n".join(rows) + "\n")
     return workdir / "m.csv"
 
@@ -64,3 +64,17 @@ def test_bad_shard_and_manifest_errors(workdir):
     assert r.returncode == 2 and "already used on line 2" in r.stderr
     r = run_gonio("fit", "--manifest", manifest)
     assert r.returncode == 2 and "--out" in r.stderr
+
+
+def test_entry_without_options_fits_as_gonio_fit_does(workdir):
+    # The defaults of a manifest entry are the fitting library's, like those of `gonio fit DATA`.
+    gonio.save(workdir / "plain.csv", synthetic_samples(TRUTH, n_theta=7, n_phi=9))
+    (workdir / "m.csv").write_text("input,model,options\nplain.csv,,\n")
+    r = run_gonio("fit", "--manifest", workdir / "m.csv", "--out", workdir / "out")
+    assert r.returncode in (0, 1), r.stderr
+    r2 = run_gonio("fit", workdir / "plain.csv", "--out", workdir / "direct.json")
+    assert r2.returncode == r.returncode, r2.stdout + r2.stderr
+    a = json.loads((workdir / "out" / "plain.report.json").read_text())
+    b = json.loads((workdir / "direct.report.json").read_text())
+    assert a["model"] == b["model"]
+    assert [p["name"] for p in a["parameters"]] == [p["name"] for p in b["parameters"]]

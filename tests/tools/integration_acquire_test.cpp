@@ -1,8 +1,11 @@
 // gonio acquire and gonio sim end to end through the binary: a campaign on the embedded virtual
-// rig, its resume, the plan listing, errors; a campaign run against a separate `gonio sim` process.
+// rig, its resume, the plan listing, errors; a campaign run against a separate `gonio sim` process
+// (its camera a GigE Vision device).
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/file.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -119,7 +122,13 @@ TEST(AcquireCli, ErrorsNameTheProblem) {
     EXPECT_EQ(st, 1);
 }
 
+// The separate `gonio sim` serves its camera as a GigE Vision device on 127.0.0.1:3956, opened
+// by gonio's Aravis camera: the whole point-mode campaign goes through GVCP/GVSP. Port 3956 is
+// machine-wide, so the test holds the same lock file as `flock /tmp/gonio-gige.lock`.
 TEST(AcquireCli, CampaignAgainstASeparateSimProcess) {
+    const int lock_fd = open("/tmp/gonio-gige.lock", O_RDWR | O_CREAT | O_CLOEXEC, 0666);
+    ASSERT_GE(lock_fd, 0);
+    ASSERT_EQ(flock(lock_fd, LOCK_EX), 0);
     const std::string dir = temp_dir("separate");
     fs::create_directories(dir);
     const std::string live = dir + "/live-rig.json";
@@ -137,6 +146,8 @@ TEST(AcquireCli, CampaignAgainstASeparateSimProcess) {
               live.c_str(),
               "--time-scale",
               "500",
+              "--camera",
+              "gige",
               static_cast<char*>(nullptr));
         _exit(127);
     }
@@ -169,6 +180,12 @@ TEST(AcquireCli, CampaignAgainstASeparateSimProcess) {
     auto ds = gonio::brdf::read_dataset_csv(dir + "/run/dataset.csv");
     ASSERT_TRUE(ds) << ds.error().message;
     EXPECT_GT(ds->samples.size(), 5u);
+    // The rig description the sim wrote names the GigE Vision camera.
+    std::ifstream rig(live);
+    const std::string rig_text((std::istreambuf_iterator<char>(rig)),
+                               std::istreambuf_iterator<char>());
+    EXPECT_NE(rig_text.find("gige://127.0.0.1"), std::string::npos) << rig_text;
+    close(lock_fd);
 }
 
 }  // namespace

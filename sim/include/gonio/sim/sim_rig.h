@@ -2,10 +2,10 @@
 
 // The whole virtual rig: simulated motor controllers for the four stages (one Modbus server, one
 // unit per drive, the lamp shutter, the reference changer and the colour filters as coils), a
-// simulated USB3 Vision camera rendering the mounted BRDF under the rig's geometry, and the world
-// that ties them. It
-// reads the same rig description as acquisition (data/rigs/*.json: axes with role, unit, profile;
-// shutter; reference_changer; filter_wheel: one coil per colour filter) plus its "sim" section:
+// simulated camera (a GigE Vision device, or the USB3 Vision one) rendering the mounted BRDF under
+// the rig's geometry, and the world that ties them. It reads the same rig description as
+// acquisition (data/rigs/*.json: axes with role, unit, profile; shutter; reference_changer;
+// filter_wheel: one coil per colour filter) plus its "sim" section:
 //   "sim": {"material": "red-plastic" | "brdf": "model.json", "time_scale": 20,
 //           "sensor": {"width": 640, "height": 512}, "irradiance_w_m2": 1, "seed": 1,
 //           "initial_deg": {"light": 0, "detector": 45}}
@@ -14,6 +14,8 @@
 #include <string>
 
 #include "gonio/brdf/error.h"
+#include "gonio/sim/gige_camera.h"
+#include "gonio/sim/gige_server.h"
 #include "gonio/sim/motor_controller_server.h"
 #include "gonio/sim/rig_world.h"
 #include "gonio/sim/u3v_device.h"
@@ -25,6 +27,10 @@ struct SimRigOptions {
     std::string brdf_path;         ///< Model JSON or table (overrides material).
     double time_scale = 0;         ///< > 0 overrides.
     bool camera_over_tcp = false;  ///< Serve the camera on u3v-tcp (for another process).
+    /// Serve the camera as a GigE Vision device on 127.0.0.1:3956 (overrides camera_over_tcp).
+    bool camera_gige = false;
+    /// GigE only: name the exposure feature ExposureTimeAbs.
+    bool exposure_abs = false;
     std::string in_process_name = "simrig";
     std::uint64_t seed = 0;  ///< > 0 overrides.
 };
@@ -38,12 +44,16 @@ class SimRig {
     SimRig(const SimRig&) = delete;
     SimRig& operator=(const SimRig&) = delete;
 
-    std::string motor_address() const;   ///< tcp://127.0.0.1:PORT
-    std::string camera_address() const;  ///< u3v-tcp://127.0.0.1:PORT or u3v-mem:NAME
-    std::string describe() const;        ///< Sample, units, addresses.
+    std::string motor_address() const;  ///< tcp://127.0.0.1:PORT
+    /// gige://127.0.0.1, u3v-tcp://127.0.0.1:PORT or u3v-mem:NAME
+    std::string camera_address() const;
+    std::string describe() const;  ///< Sample, units, addresses.
 
     MotorControllerServer& motors() { return *motors_; }
     U3vDevice& camera() { return *camera_; }
+    /// The GigE Vision camera, when the rig serves one (SimRigOptions::camera_gige).
+    GigeCamera* gige_camera() { return gige_camera_.get(); }
+    GigeServer* gige_server() { return gige_server_.get(); }
     RigWorld& world() { return *world_; }
     const RigUnits& units() const { return units_; }
     /// The sample's ground truth (not the white standard).
@@ -59,6 +69,8 @@ class SimRig {
     std::unique_ptr<RigWorld> world_;
     std::shared_ptr<U3vDevice> camera_;
     std::unique_ptr<class U3vTcpServer> camera_server_;
+    std::shared_ptr<GigeCamera> gige_camera_;
+    std::unique_ptr<GigeServer> gige_server_;
     std::string camera_address_;
     std::string sample_name_;
     RigUnits units_;
