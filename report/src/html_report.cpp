@@ -206,6 +206,38 @@ json calibration_and_drift(const json& campaign) {
 
 std::string fit_section(const json& rep) {
     std::ostringstream os;
+    // Goodness of fit first: whether the parameters below mean anything.
+    if (rep.contains("goodness") && rep["goodness"].is_object()) {
+        const json& g = rep["goodness"];
+        const bool usable = rep.contains("solver") && rep["solver"].is_object() &&
+                            rep["solver"].value("usable", false);
+        os << "<h3>Goodness of fit</h3><p><b>" << (usable ? "usable" : "NOT USABLE") << "</b>";
+        if (g.contains("represents") && g["represents"].is_boolean() &&
+            !g["represents"].get<bool>()) {
+            os << ": the model cannot represent these data";
+        }
+        os << "</p>\n";
+        if (rep.contains("metrics") && rep["metrics"].is_object() &&
+            rep["metrics"].contains("log_rmse")) {
+            os << "<p>log RMSE (r g b): " << json_html(rep["metrics"]["log_rmse"]);
+            if (g.contains("reduced_chi_square") && g["reduced_chi_square"].is_number()) {
+                os << "; reduced chi-square " << html_escape(scalar_text(g["reduced_chi_square"]));
+            }
+            os << "</p>\n";
+        }
+        if (g.contains("warnings") && g["warnings"].is_array()) {
+            for (const json& w : g["warnings"]) {
+                os << "<p class=\"note\">warning: " << html_escape(scalar_text(w)) << "</p>\n";
+            }
+        }
+        if (g.contains("suggestion") && g["suggestion"].is_string() &&
+            !g["suggestion"].get<std::string>().empty()) {
+            os << "<p>suggestion: " << html_escape(g["suggestion"].get<std::string>()) << "</p>\n";
+        }
+        if (rep.contains("covariance") && rep["covariance"].is_string()) {
+            os << "<p>sigmas: " << html_escape(rep["covariance"].get<std::string>()) << "</p>\n";
+        }
+    }
     if (rep.contains("parameters") && rep["parameters"].is_array()) {
         os << "<table class=\"grid\"><tr><th>parameter</th><th>value</th><th>sigma (1 s.d.)</th>"
               "<th>free</th><th>identifiable</th></tr>";

@@ -99,6 +99,7 @@ Expected<Image> plot_in_plane(const brdf::Dataset& data,
     const std::vector<double> angles = curve_angles();
     std::vector<Slice> slices;
     double vmax = 0;
+    double vmax_data = 0;  // the radius follows the measured data, not the model out to 90 degrees
     double vmin_pos = std::numeric_limits<double>::infinity();
     for (double t_deg : thetas) {
         Slice sl;
@@ -117,6 +118,7 @@ Expected<Image> plot_in_plane(const brdf::Dataset& data,
             sl.points.push_back({a, y, sy});
             phis.push_back(s.phi_i);
             vmax = std::max(vmax, y + sy);
+            vmax_data = std::max(vmax_data, y + sy);
             if (y > 0) {
                 vmin_pos = std::min(vmin_pos, y);
             }
@@ -163,8 +165,9 @@ Expected<Image> plot_in_plane(const brdf::Dataset& data,
         W, H, "In-plane BRDF (luminance Y) - " + plot_detail::short_name(data.source), sub);
 
     // Radial scale.
-    plot_detail::RadialScale rs =
-        plot_detail::RadialScale::make(vmin_pos, vmax, options.log_scale, R);
+    // The fit's curve beyond the largest measured value is clipped at the outer ring.
+    plot_detail::RadialScale rs = plot_detail::RadialScale::make(
+        vmin_pos, vmax_data > 0 ? vmax_data : vmax, options.log_scale, R);
 
     // Rings and their labels (along the baseline to the right of the origin).
     for (double v : rs.ticks) {
@@ -241,7 +244,7 @@ Expected<Image> plot_in_plane(const brdf::Dataset& data,
             std::vector<cv::Point2d> pts;
             for (std::size_t j = 0; j < angles.size(); ++j) {
                 const double v = sl.curve[j];
-                pts.push_back(std::isfinite(v) ? to_px(angles[j], v)
+                pts.push_back(std::isfinite(v) ? to_px(angles[j], std::min(v, rs.max_value))
                                                : cv::Point2d(std::nan(""), std::nan("")));
             }
             draw::polyline(img, pts, col, 2);
