@@ -550,7 +550,14 @@ bool PreparedSamples::normal_equations_k(const double* x, NormalEquations& out, 
             }
             cost += s2;
             for (int c = 0; c < 3; ++c) {
-                a[c].template selfadjointView<Eigen::Upper>().rankUpdate(r[c].v, w);
+                // Upper triangle of w v v^T over the slots in use (Eigen's general rank update
+                // is slow for these small fixed sizes).
+                for (int q = 0; q < slots_; ++q) {
+                    const double wv = w * r[c].v[q];
+                    for (int p = 0; p <= q; ++p) {
+                        a[c](p, q) += wv * r[c].v[p];
+                    }
+                }
                 bv[c].noalias() += (w * r[c].a) * r[c].v;
             }
         }
