@@ -45,7 +45,7 @@ CoilConfig parse_coil(const json& j) {
     return c;
 }
 
-// Keys of a rig description (docs/file-formats.md); "sim" and "camera" are read by their owners.
+// Keys of a rig description (docs/file-formats.md); "camera_model" is checked by its own reader.
 void check_rig_keys(const json& j) {
     static const std::set<std::string> kTop = {"name",
                                                "description",
@@ -64,6 +64,16 @@ void check_rig_keys(const json& j) {
                                                "camera_model",
                                                "embedded_virtual_rig"};
     static const std::map<std::string, std::set<std::string>> kSections = {
+        {"camera", {"address"}},
+        {"sim",
+         {"material",
+          "brdf",
+          "time_scale",
+          "seed",
+          "start_homed",
+          "initial_deg",
+          "irradiance_w_m2",
+          "sensor"}},
         {"shutter", {"address", "unit", "coil"}},
         {"reference_changer", {"address", "unit", "coil"}},
         {"filter_wheel", {"address", "filters"}},
@@ -115,6 +125,15 @@ void check_rig_keys(const json& j) {
     for (const auto& [name, keys] : kSections) {
         if (j.contains(name)) {
             check(j.at(name), name, keys);
+        }
+    }
+    if (j.contains("sim") && j.at("sim").is_object()) {
+        const json& sim = j.at("sim");
+        if (sim.contains("sensor")) {
+            check(sim.at("sensor"), "sim.sensor", {"width", "height"});
+        }
+        if (sim.contains("initial_deg")) {
+            check(sim.at("initial_deg"), "sim.initial_deg", {"light", "detector", "tilt", "spin"});
         }
     }
     if (j.contains("axes") && j.at("axes").is_array()) {
