@@ -63,6 +63,16 @@ bool is_space(char c) {
 }
 
 /// Parses [b, e) (already trimmed) as a whole number. False when it is not one.
+/// A field as quoted in an error message: at most 24 characters, longer ones cut with their length
+/// said, so a hostile file cannot fill the message (or the terminal) with one field.
+std::string shown(const char* b, const char* e) {
+    constexpr std::ptrdiff_t kMax = 24;
+    if (e - b <= kMax) {
+        return std::string(b, e);
+    }
+    return std::string(b, b + kMax) + "... (" + std::to_string(e - b) + " characters)";
+}
+
 bool parse_number(const char* b, const char* e, double* out) {
     if (b == e) {
         return false;
@@ -158,14 +168,13 @@ void parse_chunk(const char* p,
                     path + ":" + std::to_string(line_no) + ":" + std::to_string(field + 1) + ": ";
                 if (!parse_number(b, e, &x)) {
                     out.error_line = line_no;
-                    out.error =
-                        where + kColNames[c] + " = \"" + std::string(b, e) + "\" is not a number";
+                    out.error = where + kColNames[c] + " = \"" + shown(b, e) + "\" is not a number";
                     return;
                 }
                 const Range r = column_range(c);
                 if (!std::isfinite(x)) {
                     out.error_line = line_no;
-                    out.error = where + kColNames[c] + " = " + std::string(b, e) +
+                    out.error = where + kColNames[c] + " = " + shown(b, e) +
                                 " is not finite (allowed " + r.text + ")";
                     return;
                 }
