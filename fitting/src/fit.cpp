@@ -41,6 +41,10 @@ constexpr double kBandBiasUnusable = 0.3;
 constexpr double kBandBiasWarn = 0.15;
 constexpr double kChi2Unusable = 10;
 constexpr double kChi2Warn = 2;
+// A chi-square far above 1 makes a fit unusable only when the misfit is also of a size that matters
+// (log RMSE above 2 %): below it the stated sigmas (photon noise of a region mean, often 1e-5
+// relative) are simply smaller than the rig's systematic errors, which is a warning, not a failure.
+constexpr double kLogRmsePractical = 0.02;
 constexpr double kBandEdgesDeg[] = {0, 2, 5, 10, 20, 40, 90};
 
 int thread_count(int requested) {
@@ -717,8 +721,20 @@ GoodnessOfFit judge(const Metrics& m, std::optional<double> chi2, std::size_t va
             }
         }
     }
+    const double worst_log_rmse = m.log_rmse.maxCoeff();
     if (chi2) {
-        if (!std::isfinite(*chi2) || *chi2 > kChi2Unusable) {
+        if (std::isfinite(*chi2) && *chi2 > kChi2Unusable && worst_log_rmse <= kLogRmsePractical) {
+            std::snprintf(buf,
+                          sizeof buf,
+                          "reduced chi-square = %.3g above %g, but the worst log RMSE is only "
+                          "%.3g (limit %.2g): the stated sigmas are far smaller than the "
+                          "systematic errors of the data or the model",
+                          *chi2,
+                          kChi2Unusable,
+                          worst_log_rmse,
+                          kLogRmsePractical);
+            g.warnings.push_back(buf);
+        } else if (!std::isfinite(*chi2) || *chi2 > kChi2Unusable) {
             g.represents = false;
             std::snprintf(buf,
                           sizeof buf,

@@ -192,6 +192,41 @@ TEST(FitStatistics, AModelThatCannotRepresentTheDataIsNotUsableAndSaysWhatToTry)
     EXPECT_TRUE(g->usable());
 }
 
+TEST(FitStatistics, TinyStatedSigmasWarnButASmallMisfitStaysUsable) {
+    // 2 % noise stated as 0.01 % sigmas: chi-square near 4e4. A log RMSE of 2 % is a usable fit
+    // with a warning; the same sigmas under a retro-reflection peak (log RMSE far above 2 %) are
+    // not.
+    const brdf::ModelD glossy =
+        default_truth(Distribution::kGgx, 0.2, Rgbd(0.3, 0.3, 0.3), Rgbd(1.0, 1.0, 1.0), 0.04);
+    brdf::Dataset small = noisy(glossy, 5, true);
+    for (brdf::Sample& s : small.samples) {
+        s.sigma = s.sigma / 200;
+    }
+    Expected<FitResult> r = fit(small, *make_fit_spec(ModelOptions{}));
+    ASSERT_TRUE(r) << r.error().message;
+    ASSERT_TRUE(r->goodness.reduced_chi_square.has_value());
+    EXPECT_GT(*r->goodness.reduced_chi_square, 1000);
+    EXPECT_LT(r->metrics.log_rmse.maxCoeff(), 0.02);
+    EXPECT_TRUE(r->goodness.represents);
+    EXPECT_TRUE(r->usable());
+    ASSERT_FALSE(r->goodness.warnings.empty());
+    EXPECT_NE(r->goodness.warnings.back().find("sigmas are far smaller"), std::string::npos)
+        << r->goodness.warnings.back();
+
+    brdf::Dataset retro = small;
+    for (brdf::Sample& s : retro.samples) {
+        const double c = s.wi().dot(s.wo());
+        const double peak = c > 0 ? 20 * std::pow(c, 30) : 0;
+        s.value += Rgbd(peak, peak, peak);
+        s.sigma = 1e-4 * s.value;
+    }
+    Expected<FitResult> q = fit(retro, *make_fit_spec(ModelOptions{}));
+    ASSERT_TRUE(q) << q.error().message;
+    EXPECT_GT(q->metrics.log_rmse.maxCoeff(), 0.02);
+    EXPECT_FALSE(q->goodness.represents);
+    EXPECT_FALSE(q->usable());
+}
+
 TEST(FitStatistics, ReportsTheIterationsOfEveryStageAndTheReductionOnLargeInputs) {
     // A dense random set larger than twice the reduction: reduced solve, then the polish.
     const brdf::ModelD truth =
