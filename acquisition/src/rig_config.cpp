@@ -146,15 +146,15 @@ void check_rig_keys(const json& j) {
         }
     }
     // Every number of the rig's own sections is finite and of a sane magnitude before any cast.
-    std::vector<std::pair<const json*, std::string>> todo;
+    std::vector<std::pair<const json*, std::string>> pending;
     for (auto it = j.begin(); it != j.end(); ++it) {
         if (it.key() != "sim" && it.key() != "camera_model") {
-            todo.emplace_back(&*it, it.key());
+            pending.emplace_back(&*it, it.key());
         }
     }
-    while (!todo.empty()) {
-        auto [v, path] = todo.back();
-        todo.pop_back();
+    while (!pending.empty()) {
+        auto [v, path] = pending.back();
+        pending.pop_back();
         if (v->is_number()) {
             const double x = v->get<double>();
             if (!std::isfinite(x) || std::abs(x) > 1e9) {
@@ -164,11 +164,11 @@ void check_rig_keys(const json& j) {
             }
         } else if (v->is_object()) {
             for (auto it = v->begin(); it != v->end(); ++it) {
-                todo.emplace_back(&*it, path + "." + it.key());
+                pending.emplace_back(&*it, path + "." + it.key());
             }
         } else if (v->is_array()) {
             for (std::size_t i = 0; i < v->size(); ++i) {
-                todo.emplace_back(&(*v)[i], path + "[" + std::to_string(i) + "]");
+                pending.emplace_back(&(*v)[i], path + "[" + std::to_string(i) + "]");
             }
         } else if (v->is_string() && v->get_ref<const std::string&>().size() > kMaxJsonString) {
             detail::json_fail(path + ": string longer than " + std::to_string(kMaxJsonString) +

@@ -82,13 +82,13 @@ TEST(ModbusCodec, LeadshineBlockUsesRpmAndRampTimePerThousandRpm) {
     ASSERT_EQ(w->size(), 7u);  // 6200h-6206h; the path is started through 6002h
     EXPECT_EQ(p->move.trigger.reg.address, 0x6002);
     EXPECT_EQ(p->move.trigger.value, 0x10u);  // 10h + path 0
-    EXPECT_EQ((*w)[0], 1);       // absolute positioning
-    EXPECT_EQ((*w)[1], 0xFFFE);  // -70000 = 0xFFFEEE90, high word
-    EXPECT_EQ((*w)[2], 0xEE90);  // low word
-    EXPECT_EQ((*w)[3], 60);      // rpm
-    EXPECT_EQ((*w)[4], 8333);    // ms per 1000 rpm
-    EXPECT_EQ((*w)[5], 4167);    // ms per 1000 rpm, twice the rate
-    EXPECT_EQ((*w)[6], 0);       // no pause
+    EXPECT_EQ((*w)[0], 1);                    // absolute positioning
+    EXPECT_EQ((*w)[1], 0xFFFE);               // -70000 = 0xFFFEEE90, high word
+    EXPECT_EQ((*w)[2], 0xEE90);               // low word
+    EXPECT_EQ((*w)[3], 60);                   // rpm
+    EXPECT_EQ((*w)[4], 8333);                 // ms per 1000 rpm
+    EXPECT_EQ((*w)[5], 4167);                 // ms per 1000 rpm, twice the rate
+    EXPECT_EQ((*w)[6], 0);                    // no pause
     const auto back = gonio::devices::decode_block(*p, p->move.block, w->data());
     EXPECT_EQ(back.target_steps, -70000);
     EXPECT_NEAR(back.speed_steps_per_s, 10000, 1e-9);
