@@ -1,5 +1,5 @@
 // gonio._gonio: Python bindings of the C++ libraries (brdf, fitting, batch). The pure-Python
-// package (python/gonio/__init__.py) re-exports these functions; docs/python.md and the stubs
+// package (python/gonio/__init__.py) re-exports these functions; docs/python.md and the type hints
 // (gonio/_gonio.pyi) describe them. Every computation runs in the C++ libraries; this file only
 // converts between numpy/dicts and the library types, and turns gonio::Error into gonio.Error
 // carrying the library's message (the same text the command line prints).
