@@ -5,8 +5,11 @@
 #include <fstream>
 
 #include "gonio/brdf/atomic_file.h"
+#include "sample_columns.h"
 
 namespace gonio::brdf {
+
+using namespace detail;  // the dataset columns of sample_columns.h
 namespace {
 
 std::string fmt_g(double v) {
@@ -14,20 +17,6 @@ std::string fmt_g(double v) {
     std::snprintf(buf, sizeof buf, "%.17g", v);
     return buf;
 }
-
-enum Col { kTi, kPhiI, kTo, kPo, kR, kG, kB, kSr, kSg, kSb, kW, kF, kNumCols };
-const char* const kColNames[kNumCols] = {"theta_i",
-                                         "phi_i",
-                                         "theta_o",
-                                         "phi_o",
-                                         "r",
-                                         "g",
-                                         "b",
-                                         "sigma_r",
-                                         "sigma_g",
-                                         "sigma_b",
-                                         "weight",
-                                         "flag"};
 
 }  // namespace
 

@@ -9,8 +9,11 @@
 #include <thread>
 
 #include "gonio/brdf/merl.h"
+#include "sample_columns.h"
 
 namespace gonio::brdf {
+
+using namespace detail;  // the dataset columns of sample_columns.h
 namespace {
 
 // ---------------------------------------------------------------------------------------------
@@ -19,20 +22,6 @@ namespace {
 // Numbers go through std::from_chars (correctly rounded, locale-free); a field it does not take
 // whole (for example "+1" or "0x1p3") is retried with strtod on a nul-terminated copy so that
 // every number strtod accepts is read.
-
-enum Col { kTi, kPhiI, kTo, kPo, kR, kG, kB, kSr, kSg, kSb, kW, kF, kNumCols };
-const char* const kColNames[kNumCols] = {"theta_i",
-                                         "phi_i",
-                                         "theta_o",
-                                         "phi_o",
-                                         "r",
-                                         "g",
-                                         "b",
-                                         "sigma_r",
-                                         "sigma_g",
-                                         "sigma_b",
-                                         "weight",
-                                         "flag"};
 
 /// Accepted range of each column and its wording in messages.
 struct Range {
