@@ -55,6 +55,7 @@ struct CameraOptions {
     bool zipped = false;
     std::string protocol = "gige";
     bool exposure_abs = false;
+    std::string ip = "127.0.0.1";
     int width = 1280;
     int height = 1024;
     std::uint64_t seed = 1;
@@ -345,7 +346,7 @@ int run_serve_gige(const CameraOptions& o) {
     sigaddset(&set, SIGTERM);
     pthread_sigmask(SIG_BLOCK, &set, nullptr);
     gonio::sim::GigeServer server(camera);
-    if (auto r = server.start(); !r) {
+    if (auto r = server.start(o.ip); !r) {
         std::fprintf(stderr, "gonio camera serve: %s\n", r.error().message.c_str());
         return 1;
     }
@@ -427,6 +428,10 @@ GONIO_COMMAND(camera) {
     serve->add_flag("--exposure-abs",
                     o->exposure_abs,
                     "name the exposure feature ExposureTimeAbs instead of ExposureTime (gige)");
+    serve->add_option("--ip",
+                      o->ip,
+                      "gige: IPv4 address to serve on, port 3956 (default 127.0.0.1; any "
+                      "127.x.y.z address is also this machine)");
     serve->add_option("--port", o->port, "u3v-tcp: TCP port (0 = any free port)")
         ->check(CLI::Range(0, 65535));
     serve->add_option("--material",
