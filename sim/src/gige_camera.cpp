@@ -772,6 +772,15 @@ void GigeCamera::set_faults(const GigeFaults& f) {
     faults_ = f;
 }
 
+bool GigeCamera::take_frame_drop() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (faults_.drop_frames <= 0) {
+        return false;
+    }
+    --faults_.drop_frames;
+    return true;
+}
+
 GigeFaults GigeCamera::faults() const {
     std::lock_guard<std::mutex> lock(mutex_);
     return faults_;

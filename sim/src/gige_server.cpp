@@ -13,6 +13,7 @@
 #include <array>
 #include <cerrno>
 #include <cstring>
+#include <random>
 #include <vector>
 
 #include "gonio/devices/gvsp.h"
@@ -55,6 +56,34 @@ GigeServerStats GigeServer::stats() const {
 }
 
 Expected<void> GigeServer::start(const std::string& ip, std::uint16_t port) {
+    return start_impl(ip, port, nullptr);
+}
+
+Expected<void> GigeServer::start_on_free_loopback(int attempts) {
+    // Linux delivers every 127.0.0.0/8 address to the loopback interface, so each simulated camera
+    // can own GVCP's fixed port on an address of its own. The search starts at a random point of
+    // 127.16.0.1 .. 127.255.255.254 (127.0.x.x stays free for other uses).
+    std::random_device rd;
+    std::mt19937 gen(rd() ^ static_cast<std::uint32_t>(getpid()));
+    std::uniform_int_distribution<std::uint32_t> pick(0, (240u << 16) - 1);
+    std::string tried;
+    for (int i = 0; i < attempts; ++i) {
+        const std::uint32_t k = pick(gen);
+        const std::uint32_t b = 16 + (k >> 16), c = (k >> 8) & 0xFF, d = 1 + (k & 0xFF) % 254;
+        const std::string ip =
+            "127." + std::to_string(b) + "." + std::to_string(c) + "." + std::to_string(d);
+        int bind_errno = 0;
+        auto r = start_impl(ip, gvcp::kPort, &bind_errno);
+        if (r || bind_errno != EADDRINUSE) {
+            return r;
+        }
+        tried = ip;
+    }
+    return make_error("GigE camera server: no free loopback address after " +
+                      std::to_string(attempts) + " tries (last " + tried + ")");
+}
+
+Expected<void> GigeServer::start_impl(const std::string& ip, std::uint16_t port, int* bind_errno) {
     ip_ = ip;
     sockaddr_in a{};
     a.sin_family = AF_INET;
@@ -71,6 +100,9 @@ Expected<void> GigeServer::start(const std::string& ip, std::uint16_t port) {
         return make_error("GigE camera server: socket: " + e);
     }
     if (bind(gvcp_fd_, reinterpret_cast<const sockaddr*>(&a), sizeof a) != 0) {
+        if (bind_errno != nullptr) {
+            *bind_errno = errno;
+        }
         const std::string e = std::strerror(errno);
         stop();
         return make_error("GigE camera server: bind " + ip + ":" + std::to_string(port) + ": " + e +
@@ -169,6 +201,11 @@ void GigeServer::stream_loop() {
     while (!stop_) {
         GigeCamera::Clock::time_point due;
         auto frame = camera_->next_frame(GigeCamera::Clock::now(), &due);
+        if (frame && camera_->take_frame_drop()) {
+            std::lock_guard<std::mutex> lock(stats_mutex_);
+            ++stats_.frames_dropped;
+            continue;
+        }
         if (frame) {
             auto target = camera_->stream_target();
             if (!target) {

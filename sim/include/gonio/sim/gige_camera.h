@@ -79,6 +79,9 @@ struct GigeFaults {
     bool refuse_resend = false;
     /// The camera is gone: no acknowledges, no stream.
     bool disappeared = false;
+    /// The next N frames are exposed but none of their packets is sent or held for resend (the
+    /// host sees a missing frame, as when a cable is pulled for one frame time).
+    int drop_frames = 0;
 };
 
 class GigeCamera {
@@ -116,6 +119,8 @@ class GigeCamera {
 
     void set_faults(const GigeFaults& f);
     GigeFaults faults() const;
+    /// True (and one fewer frame left to drop) when the drop_frames fault claims the next frame.
+    bool take_frame_drop();
     void set_brdf(std::shared_ptr<const brdf::Brdf> brdf);
     void set_scene(SceneFn scene);
     /// Sets the source port written to SCSP (the server's stream socket).

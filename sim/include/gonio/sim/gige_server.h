@@ -21,6 +21,7 @@ namespace gonio::sim {
 
 struct GigeServerStats {
     std::uint64_t frames_sent = 0;
+    std::uint64_t frames_dropped = 0;   ///< withheld whole by the drop_frames fault
     std::uint64_t packets_sent = 0;     ///< first transmissions (leader, payload, trailer)
     std::uint64_t packets_dropped = 0;  ///< withheld by the drop fault
     std::uint64_t resend_requests = 0;  ///< PACKETRESEND commands received
@@ -39,15 +40,20 @@ class GigeServer {
     /// port is taken (another GigE Vision device is served on this machine).
     Expected<void> start(const std::string& ip = "127.0.0.1",
                          std::uint16_t port = devices::gvcp::kPort);
+    /// Binds GVCP to port 3956 of a free address of its own in 127.16.0.0 - 127.255.255.255 (all
+    /// loopback on Linux), trying at most `attempts` addresses: several simulated cameras, and
+    /// tests running in parallel, then never compete for 127.0.0.1:3956.
+    Expected<void> start_on_free_loopback(int attempts = 64);
     /// Stops both threads and closes the sockets (idempotent).
     void stop();
-    /// "gige://127.0.0.1"
+    /// "gige://127.0.0.1" (the address served on)
     std::string address() const;
     GigeServerStats stats() const;
     GigeCamera& camera() { return *camera_; }
 
   private:
     struct SentFrame;
+    Expected<void> start_impl(const std::string& ip, std::uint16_t port, int* bind_errno);
     void control_loop();
     void stream_loop();
     void send_frame(const std::shared_ptr<SentFrame>& f);
