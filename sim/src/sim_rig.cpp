@@ -156,15 +156,24 @@ Expected<std::unique_ptr<SimRig>> SimRig::start(const std::string& rig_json,
     cc.sensor.width = sensor.value("width", 640);
     cc.sensor.height = sensor.value("height", 512);
     cc.sensor.seed = seed;
+    if (opt.sphere) {
+        cc.sensor.width = opt.sphere->camera.width;
+        cc.sensor.height = opt.sphere->camera.height;
+    }
     rig->camera_ = std::make_shared<U3vDevice>(cc, rig->mounted_, rig->world_->scene_fn());
-    if (opt.camera_gige) {
+    if (opt.camera_gige || opt.sphere) {
         GigeCameraConfig gc;
         gc.sensor = cc.sensor;
         gc.exposure_naming = opt.exposure_abs ? ExposureNaming::kAbs : ExposureNaming::kSfnc;
         rig->gige_camera_ =
             std::make_shared<GigeCamera>(gc, rig->mounted_, rig->world_->scene_fn());
+        if (opt.sphere) {
+            rig->gige_camera_->set_renderer(sphere_renderer(*opt.sphere));
+        }
         rig->gige_server_ = std::make_unique<GigeServer>(rig->gige_camera_);
-        if (auto r = rig->gige_server_->start(); !r) {
+        if (auto r = opt.sphere ? rig->gige_server_->start_on_free_loopback()
+                                : rig->gige_server_->start();
+            !r) {
             return make_error("sim rig: camera server: " + r.error().message);
         }
         rig->camera_address_ = rig->gige_server_->address();
