@@ -108,6 +108,8 @@ acquisition::CaptureFn image_rig_capture(ImageRig& rig, double detector_arm_rad)
     opt.detector_arm = d.axes[static_cast<int>(acquisition::AxisRole::kDetector)].get();
     opt.detector_arm_rad = detector_arm_rad;
     opt.log = &rig.pose_log;
+    opt.capture_timeout = std::chrono::milliseconds(rig.rig.capture.timeout_ms);
+    opt.capture_retries = rig.rig.retries;
     return acquisition::make_device_capture(
         *d.camera,
         *d.shutter,
@@ -207,6 +209,7 @@ int run_acquire_image_mode(const AcquireImageOptions& o) {
     extra["seed"] = o.seed;
     extra["pose_repeats"] = poses.repeats;
     extra["pose_corrections"] = poses.corrections;
+    extra["capture_retries"] = poses.capture_retries;
     extra["pose_notes"] = poses.notes;
     if (auto w = acquisition::write_image_campaign(dir, *result, cfg, extra.dump()); !w) {
         std::fprintf(stderr, "gonio acquire: %s\n", w.error().message.c_str());
@@ -241,10 +244,11 @@ int run_acquire_image_mode(const AcquireImageOptions& o) {
         result->holes.size(),
         result->stop_reason.c_str());
     std::printf(
-        "captures: %llu through %s; pose checks: %zu exposures repeated, %zu poses "
-        "corrected\n",
+        "captures: %llu through %s (%zu retried after a camera error); pose checks: %zu "
+        "exposures repeated, %zu poses corrected\n",
         static_cast<unsigned long long>(result->captures),
         (*rig)->sim->camera_address().c_str(),
+        poses.capture_retries,
         poses.repeats,
         poses.corrections);
     if (!result->target_met) {

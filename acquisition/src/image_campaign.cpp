@@ -649,6 +649,7 @@ CaptureFn make_device_capture(devices::Camera& camera,
         };
         std::vector<double> before;
         std::vector<double> after;
+        int failures = 0;
         // Moves: the light arm when its target changed, the detector arm on the first capture;
         // then whichever arm a pose check found away from its target.
         std::vector<bool> move(arms.size(), false);
@@ -691,10 +692,21 @@ CaptureFn make_device_capture(devices::Camera& camera,
                 continue;
             }
             const auto timeout =
-                std::chrono::milliseconds(2000 + static_cast<std::int64_t>(r.exposure_us / 1000));
+                o.capture_timeout +
+                std::chrono::milliseconds(static_cast<std::int64_t>(r.exposure_us / 1000));
             auto frame = camera.capture(timeout);
             if (!frame) {
-                return frame;
+                if (failures >= o.capture_retries) {
+                    return frame;
+                }
+                ++failures;
+                if (o.log != nullptr) {
+                    ++o.log->capture_retries;
+                    o.log->notes.push_back("camera error at the " + describe(r) + " (" +
+                                           frame.error().message + "); captured again");
+                }
+                --attempt;  // Not a pose problem.
+                continue;
             }
             if (auto a = read_back(&after); !a) {
                 return tl::unexpected(a.error());

@@ -4,7 +4,8 @@
 // captures repeat and the table stays true to the ground truth; one that keeps moving it fails
 // the campaign with an error naming the arm; an arm pushed away between captures is moved back
 // before the next exposure; a drive alarm in the middle of a move (the motor controller's fault
-// injection) fails the capture with the drive's error.
+// injection) fails the capture with the drive's error; a frame the camera loses (its fault
+// injection) is captured again.
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -78,6 +79,17 @@ Live start(std::uint64_t seed) {
     return l;
 }
 
+/// The pose-check notes (not the camera retries).
+std::vector<std::string> pose_notes(const ImageRig& rig) {
+    std::vector<std::string> out;
+    for (const std::string& n : rig.pose_log.notes) {
+        if (n.rfind("pose check", 0) == 0) {
+            out.push_back(n);
+        }
+    }
+    return out;
+}
+
 /// Moves the light arm by `by_deg` (away from the nearer limit) and waits until it stands.
 bool push(devices::ModbusAxis& a, double by_deg) {
     auto at = a.position_deg();
@@ -108,13 +120,16 @@ TEST(ImagePose, ArmMovedDuringExposuresRepeatsThoseCapturesAndTheTableStaysTrue)
     EXPECT_EQ(intrusions, 3);
     EXPECT_EQ(l.rig->pose_log.repeats, 3u);
     EXPECT_EQ(l.rig->pose_log.corrections, 0u);
-    ASSERT_EQ(l.rig->pose_log.notes.size(), 3u);
-    for (const std::string& n : l.rig->pose_log.notes) {
+    const std::vector<std::string> notes = pose_notes(*l.rig);
+    ASSERT_EQ(notes.size(), 3u);
+    for (const std::string& n : notes) {
         EXPECT_NE(n.find("light arm"), std::string::npos) << n;
         EXPECT_NE(n.find("repeated"), std::string::npos) << n;
     }
-    // Every frame the camera rendered was captured: the campaign's count plus the 3 repeats.
-    EXPECT_EQ(l.rig->sim->gige_camera()->frames_rendered(), res->captures + 3);
+    // Every frame the camera rendered was captured: the campaign's count plus the 3 repeats (and
+    // any capture retried after a lost frame).
+    EXPECT_EQ(l.rig->sim->gige_camera()->frames_rendered(),
+              res->captures + 3 + l.rig->pose_log.capture_retries);
     // No frame taken while the arm moved reached the table.
     const auto truth = brdf::make_analytic_brdf(truth_model());
     std::vector<double> rel;
@@ -177,9 +192,9 @@ TEST(ImagePose, ArmPushedAwayBetweenCapturesIsMovedBackBeforeTheExposure) {
     EXPECT_NEAR(at_exposure.load(), 40, 0.01);
     EXPECT_EQ(l.rig->pose_log.corrections, 1u);
     EXPECT_EQ(l.rig->pose_log.repeats, 0u);
-    ASSERT_EQ(l.rig->pose_log.notes.size(), 1u);
-    EXPECT_NE(l.rig->pose_log.notes[0].find("light arm at 35.0"), std::string::npos)
-        << l.rig->pose_log.notes[0];
+    const std::vector<std::string> notes = pose_notes(*l.rig);
+    ASSERT_EQ(notes.size(), 1u);
+    EXPECT_NE(notes[0].find("light arm at 35.0"), std::string::npos) << notes[0];
     // The two frames of the same request agree (same pose, same light): the sum of the pixels
     // differs by the noise only.
     const double s1 = cv::sum(first->image)[0];
@@ -208,6 +223,39 @@ TEST(ImagePose, DriveAlarmMidMoveFailsTheCaptureWithTheDrivesError) {
     EXPECT_NE(frame.error().message.find("light arm"), std::string::npos) << frame.error().message;
     // Nothing was exposed at the wrong place.
     EXPECT_EQ(l.rig->sim->gige_camera()->frames_rendered(), rendered);
+}
+
+TEST(ImagePose, FrameLostByTheCameraIsCapturedAgain) {
+    Live l = start(15);
+    ASSERT_TRUE(l.rig);
+    l.rig->rig.capture.timeout_ms = 300;  // the wait for the lost frame
+    acquisition::CaptureFn capture = image_rig_capture(*l.rig, 0.0);
+    acquisition::CaptureRequest r;
+    r.light_arm_rad = 30 * kPi / 180;
+    r.exposure_us = 2000;
+    ASSERT_TRUE(capture(r));
+    // The camera's fault injection: the next frame is exposed but none of its packets is sent.
+    sim::GigeFaults f;
+    f.drop_frames = 1;
+    l.rig->sim->gige_camera()->set_faults(f);
+    auto frame = capture(r);
+    ASSERT_TRUE(frame) << frame.error().message;
+    EXPECT_EQ(l.rig->pose_log.capture_retries, 1u);
+    EXPECT_EQ(l.rig->pose_log.repeats + l.rig->pose_log.corrections, 0u);
+    ASSERT_EQ(l.rig->pose_log.notes.size(), 1u);
+    EXPECT_NE(l.rig->pose_log.notes[0].find("captured again"), std::string::npos)
+        << l.rig->pose_log.notes[0];
+    // Three frames exposed: the first capture, the lost one and its retry.
+    EXPECT_EQ(l.rig->sim->gige_camera()->frames_rendered(), 3u);
+    // Every frame lost: the error comes back after the retries.
+    f.drop_frames = 1000;
+    l.rig->sim->gige_camera()->set_faults(f);
+    l.rig->rig.retries = 1;
+    acquisition::CaptureFn once = image_rig_capture(*l.rig, 0.0);
+    auto lost = once(r);
+    ASSERT_FALSE(lost);
+    EXPECT_NE(lost.error().message.find("no frame"), std::string::npos) << lost.error().message;
+    EXPECT_EQ(l.rig->pose_log.capture_retries, 2u);
 }
 
 }  // namespace

@@ -146,9 +146,10 @@ Expected<void> write_image_campaign(const std::string& dir,
 
 /// Pose checks of a device capture function: what was found and done.
 struct PoseCheckLog {
-    std::size_t repeats = 0;         ///< Exposures repeated because an arm moved during them.
-    std::size_t corrections = 0;     ///< Arms found off target before an exposure and moved back.
-    std::vector<std::string> notes;  ///< One line per repeat or correction.
+    std::size_t repeats = 0;          ///< Exposures repeated because an arm moved during them.
+    std::size_t corrections = 0;      ///< Arms found off target before an exposure and moved back.
+    std::size_t capture_retries = 0;  ///< Captures taken again after a camera error.
+    std::vector<std::string> notes;   ///< One line per repeat, correction or retry.
 };
 
 struct DeviceCaptureOptions {
@@ -162,6 +163,11 @@ struct DeviceCaptureOptions {
     double pose_tolerance_deg = 0.01;
     /// Consecutive repeats or corrections of one capture before it fails.
     int max_pose_repeats = 5;
+    /// Frame wait beyond the exposure time.
+    std::chrono::milliseconds capture_timeout{5000};
+    /// Captures taken again after a camera error (a lost frame, a timeout) before the error is
+    /// returned (the rig description's "retries").
+    int capture_retries = 3;
     /// Receives the counts and notes when given (must outlive the capture function).
     PoseCheckLog* log = nullptr;
 };
@@ -176,7 +182,8 @@ struct DeviceCaptureOptions {
 /// each exposure. An arm found away from its target before the exposure is moved back; one that
 /// moved during the exposure (another client, a stall, a lost step) makes the capture repeat. After
 /// `max_pose_repeats` such repeats in a row the capture fails with an error naming the arm, its
-/// target and the positions read back.
+/// target and the positions read back. A camera error is retried `capture_retries` times (after
+/// the same pose checks) before it is returned.
 CaptureFn make_device_capture(devices::Camera& camera,
                               devices::Light& light,
                               devices::Axis& light_arm,
