@@ -8,7 +8,7 @@ cd "$(dirname "$0")/.."
 packages=(cmake make g++ pkg-config git
   libceres-dev libeigen3-dev libopencv-dev libopenexr-dev libmodbus-dev libusb-1.0-0-dev
   googletest libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev
-  libspdlog-dev libfmt-dev libexpected-dev zlib1g-dev
+  libspdlog-dev libfmt-dev libexpected-dev
   libaravis-dev aravis-tools-cli aravis-tools
   pybind11-dev python3-dev python3-numpy python3-pytest python3-scipy
   python3-distributed python3-dask python3-pymodbus python3-serial python3-serial-asyncio)

@@ -1,8 +1,9 @@
-// gonio camera: inspect a camera, capture an OpenEXR frame, or serve a simulated U3V camera.
+// gonio camera: inspect a camera, capture an OpenEXR frame, or serve the simulated GigE Vision
+// camera.
 //   gonio camera --connect ADDRESS info
 //   gonio camera --connect ADDRESS capture --exposure-us N [--gain G | --camera-gain V]
 //       [--format PFNC] [--roi X,Y,W,H] out.exr
-//   gonio camera serve [--port 0] [--material NAME | --brdf PATH] [--zipped]
+//   gonio camera serve [--ip 127.0.0.1] [--material NAME | --brdf PATH] [--exposure-abs]
 
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfDoubleAttribute.h>
@@ -33,8 +34,6 @@
 #include "gonio/devices/uvc_camera.h"
 #include "gonio/sim/gige_camera.h"
 #include "gonio/sim/gige_server.h"
-#include "gonio/sim/u3v_device.h"
-#include "gonio/sim/u3v_tcp_server.h"
 
 namespace {
 
@@ -49,11 +48,8 @@ struct CameraOptions {
     int timeout_ms = 5000;
     std::string output;
     // serve
-    int port = 0;
     std::string material = "white-lambert";
     std::string brdf_path;
-    bool zipped = false;
-    std::string protocol = "gige";
     bool exposure_abs = false;
     std::string ip = "127.0.0.1";
     int width = 1280;
@@ -86,22 +82,24 @@ gonio::Expected<std::shared_ptr<const gonio::brdf::Brdf>> load_truth(const Camer
     return std::shared_ptr<const gonio::brdf::Brdf>(gonio::brdf::make_analytic_brdf(*m));
 }
 
-gonio::Expected<std::shared_ptr<gonio::sim::U3vDevice>> make_sim_device(const CameraOptions& o) {
+/// The simulated GigE Vision camera with the options' sensor and fixed scene (not started).
+gonio::Expected<std::shared_ptr<gonio::sim::GigeCamera>> make_sim_camera(const CameraOptions& o) {
     auto truth = load_truth(o);
     if (!truth) {
         return tl::unexpected(truth.error());
     }
-    gonio::sim::U3vDeviceConfig cfg;
+    gonio::sim::GigeCameraConfig cfg;
     cfg.sensor.width = o.width;
     cfg.sensor.height = o.height;
     cfg.sensor.seed = o.seed;
-    cfg.zipped_xml = o.zipped;
+    cfg.exposure_naming =
+        o.exposure_abs ? gonio::sim::ExposureNaming::kAbs : gonio::sim::ExposureNaming::kSfnc;
     const gonio::sim::SceneState scene = gonio::sim::scene_from_angles(o.theta_i_deg * kDeg,
                                                                        o.phi_i_deg * kDeg,
                                                                        o.theta_o_deg * kDeg,
                                                                        o.phi_o_deg * kDeg,
                                                                        o.irradiance);
-    return std::make_shared<gonio::sim::U3vDevice>(cfg, *truth, [scene] { return scene; });
+    return std::make_shared<gonio::sim::GigeCamera>(cfg, *truth, [scene] { return scene; });
 }
 
 int write_exr(const gonio::devices::Frame& f, const std::string& path) {
@@ -154,21 +152,25 @@ gonio::Expected<std::unique_ptr<gonio::devices::Camera>> connect(const CameraOpt
     if (o.connect.empty()) {
         return gonio::make_error(
             "--connect ADDRESS is required (gige://HOST, u3v://SERIAL, aravis:DEVICE-ID, "
-            "u3v-tcp://127.0.0.1:PORT, usb:SERIAL, uvc:INDEX, or sim for an embedded simulated "
-            "camera)");
+            "uvc:INDEX, or sim for an embedded simulated camera)");
     }
     if (o.connect == "sim" || o.connect.rfind("sim:", 0) == 0) {
         CameraOptions so = o;
         if (o.connect.size() > 4) {
             so.material = o.connect.substr(4);
         }
-        auto dev = make_sim_device(so);
-        if (!dev) {
-            return tl::unexpected(dev.error());
+        auto cam = make_sim_camera(so);
+        if (!cam) {
+            return tl::unexpected(cam.error());
         }
-        gonio::sim::register_in_process_camera("cli", *dev);
-        *keep = *dev;
-        return gonio::devices::open_camera("u3v-mem:cli");
+        // Served in this process on a loopback address of its own, opened through Aravis like
+        // any GigE Vision camera.
+        auto server = std::make_shared<gonio::sim::GigeServer>(*cam);
+        if (auto r = server->start_on_free_loopback(); !r) {
+            return tl::unexpected(r.error());
+        }
+        *keep = server;
+        return gonio::devices::open_camera(server->address());
     }
     if (o.connect.rfind("uvc:", 0) == 0) {
         std::fprintf(stderr, "%s\n", gonio::devices::uvc_radiometry_warning());
@@ -321,61 +323,23 @@ int run_capture(const CameraOptions& o) {
     return 0;
 }
 
-/// The simulated GigE Vision camera on 127.0.0.1:3956 until SIGINT or SIGTERM.
-int run_serve_gige(const CameraOptions& o) {
-    auto truth = load_truth(o);
-    if (!truth) {
-        std::fprintf(stderr, "gonio camera serve: %s\n", truth.error().message.c_str());
-        return 1;
-    }
-    gonio::sim::GigeCameraConfig cfg;
-    cfg.sensor.width = o.width;
-    cfg.sensor.height = o.height;
-    cfg.sensor.seed = o.seed;
-    cfg.exposure_naming =
-        o.exposure_abs ? gonio::sim::ExposureNaming::kAbs : gonio::sim::ExposureNaming::kSfnc;
-    const gonio::sim::SceneState scene = gonio::sim::scene_from_angles(o.theta_i_deg * kDeg,
-                                                                       o.phi_i_deg * kDeg,
-                                                                       o.theta_o_deg * kDeg,
-                                                                       o.phi_o_deg * kDeg,
-                                                                       o.irradiance);
-    auto camera = std::make_shared<gonio::sim::GigeCamera>(cfg, *truth, [scene] { return scene; });
-    sigset_t set;
-    sigemptyset(&set);
-    sigaddset(&set, SIGINT);
-    sigaddset(&set, SIGTERM);
-    pthread_sigmask(SIG_BLOCK, &set, nullptr);
-    gonio::sim::GigeServer server(camera);
-    if (auto r = server.start(o.ip); !r) {
-        std::fprintf(stderr, "gonio camera serve: %s\n", r.error().message.c_str());
-        return 1;
-    }
-    std::printf("%s\n", server.address().c_str());
-    std::fflush(stdout);
-    int sig = 0;
-    sigwait(&set, &sig);
-    server.stop();
-    return 0;
-}
-
+/// The simulated GigE Vision camera on --ip (default 127.0.0.1), port 3956, until SIGINT or
+/// SIGTERM.
 int run_serve(const CameraOptions& o) {
-    if (o.protocol == "gige") {
-        return run_serve_gige(o);
-    }
-    auto dev = make_sim_device(o);
-    if (!dev) {
-        std::fprintf(stderr, "gonio camera serve: %s\n", dev.error().message.c_str());
+    auto camera = make_sim_camera(o);
+    if (!camera) {
+        std::fprintf(stderr, "gonio camera serve: %s\n", camera.error().message.c_str());
         return 1;
     }
-    // Block the termination signals before starting the server thread so that only sigwait
+    // Block the termination signals before starting the server threads so that only sigwait
     // receives them.
     sigset_t set;
     sigemptyset(&set);
     sigaddset(&set, SIGINT);
     sigaddset(&set, SIGTERM);
     pthread_sigmask(SIG_BLOCK, &set, nullptr);
-    gonio::sim::U3vTcpServer server(*dev);
-    if (auto r = server.start(static_cast<std::uint16_t>(o.port)); !r) {
+    gonio::sim::GigeServer server(*camera);
+    if (auto r = o.ip == "auto" ? server.start_on_free_loopback() : server.start(o.ip); !r) {
         std::fprintf(stderr, "gonio camera serve: %s\n", r.error().message.c_str());
         return 1;
     }
@@ -392,13 +356,13 @@ int run_serve(const CameraOptions& o) {
 GONIO_COMMAND(camera) {
     auto* cmd = app.add_subcommand("camera",
                                    "inspect a camera, capture an OpenEXR frame, or "
-                                   "serve a simulated USB3 Vision camera");
+                                   "serve the simulated GigE Vision camera");
     auto o = std::make_shared<CameraOptions>();
     cmd->add_option("--connect",
                     o->connect,
                     "camera address: gige://HOST, u3v://SERIAL, aravis:DEVICE-ID (GenICam "
-                    "through Aravis), u3v-tcp://127.0.0.1:PORT, usb:SERIAL, usb:BUS-ADDR, "
-                    "uvc:INDEX, sim or sim:MATERIAL (embedded simulated camera)");
+                    "through Aravis), uvc:INDEX (OpenCV), sim or sim:MATERIAL (the simulated "
+                    "GigE Vision camera, served in this process)");
     cmd->require_subcommand(1);
     auto* info = cmd->add_subcommand("info", "print vendor, model, serial, sensor size");
     auto* capture = cmd->add_subcommand("capture", "capture one frame into an OpenEXR file");
@@ -420,20 +384,16 @@ GONIO_COMMAND(camera) {
     capture->add_option("--timeout-ms", o->timeout_ms, "frame timeout")->check(CLI::PositiveNumber);
     capture->add_option("output", o->output, "output .exr")->required();
     auto* serve =
-        cmd->add_subcommand("serve", "serve a simulated camera on 127.0.0.1 and print its address");
-    serve
-        ->add_option(
-            "--protocol", o->protocol, "gige (GigE Vision on 127.0.0.1:3956, default) or u3v-tcp")
-        ->check(CLI::IsMember({"gige", "u3v-tcp"}));
+        cmd->add_subcommand("serve",
+                            "serve the simulated GigE Vision camera on 127.0.0.1 and print its "
+                            "address");
     serve->add_flag("--exposure-abs",
                     o->exposure_abs,
-                    "name the exposure feature ExposureTimeAbs instead of ExposureTime (gige)");
+                    "name the exposure feature ExposureTimeAbs instead of ExposureTime");
     serve->add_option("--ip",
                       o->ip,
-                      "gige: IPv4 address to serve on, port 3956 (default 127.0.0.1; any "
-                      "127.x.y.z address is also this machine)");
-    serve->add_option("--port", o->port, "u3v-tcp: TCP port (0 = any free port)")
-        ->check(CLI::Range(0, 65535));
+                      "IPv4 address to serve on, port 3956 (default 127.0.0.1; any 127.x.y.z "
+                      "address is also this machine; auto: a free one, printed)");
     serve->add_option("--material",
                       o->material,
                       "material name from data/materials (default: white-lambert, rho = 1)");
@@ -441,7 +401,6 @@ GONIO_COMMAND(camera) {
                       o->brdf_path,
                       "ground-truth model JSON or table (overrides "
                       "--material)");
-    serve->add_flag("--zipped", o->zipped, "serve the GenICam XML zipped");
     for (CLI::App* sub : {capture, serve}) {
         sub->add_option("--width", o->width, "sensor width (simulated)")
             ->check(CLI::Range(16, 16384));

@@ -1,5 +1,5 @@
-// gonio sim: the virtual rig as its own process (motor controllers over Modbus TCP, camera over
-// GigE Vision or USB3 Vision on TCP), for a separate `gonio acquire campaign.json` or for manual
+// gonio sim: the virtual rig as its own process (motor controllers over Modbus TCP, the camera as
+// a GigE Vision device on loopback), for a separate `gonio acquire campaign.json` or for manual
 // tests.
 
 #include <CLI/CLI.hpp>
@@ -25,7 +25,7 @@ struct SimOptions {
     double time_scale = 0;
     std::string rig_out;
     std::uint64_t seed = 0;
-    std::string camera = "gige";
+    std::string camera_ip = "127.0.0.1";
     bool exposure_abs = false;
 };
 
@@ -54,8 +54,7 @@ int run(const SimOptions& o) {
     so.brdf_path = o.brdf;
     so.time_scale = o.time_scale;
     so.seed = o.seed;
-    so.camera_over_tcp = true;
-    so.camera_gige = o.camera == "gige";
+    so.camera_ip = o.camera_ip == "auto" ? std::string() : o.camera_ip;
     so.exposure_abs = o.exposure_abs;
     // Block the stop signals before any server thread starts, then wait for one of them.
     sigset_t set;
@@ -111,13 +110,13 @@ GONIO_COMMAND(sim) {
     cmd->add_option("--brdf", o->brdf, "ground truth: model JSON or table");
     cmd->add_option("--time-scale", o->time_scale, "motion time scale (simulated s per real s)");
     cmd->add_option("--seed", o->seed, "sensor and encoder noise seed");
-    cmd->add_option("--camera",
-                    o->camera,
-                    "camera protocol: gige (GigE Vision on 127.0.0.1:3956, default) or u3v-tcp")
-        ->check(CLI::IsMember({"gige", "u3v-tcp"}));
+    cmd->add_option("--camera-ip",
+                    o->camera_ip,
+                    "address of the GigE Vision camera, port 3956 (default 127.0.0.1; auto: a "
+                    "free 127.x.y.z address, printed and written to --rig-out)");
     cmd->add_flag("--exposure-abs",
                   o->exposure_abs,
-                  "gige: name the exposure feature ExposureTimeAbs instead of ExposureTime");
+                  "name the camera's exposure feature ExposureTimeAbs instead of ExposureTime");
     cmd->add_option(
         "--rig-out", o->rig_out, "write the rig description with the served addresses here");
     return [o]() { return run(*o); };

@@ -10,6 +10,7 @@
 #include <map>
 #include <sstream>
 
+#include "gonio/brdf/atomic_file.h"
 #include "gonio/brdf/samples_io.h"
 #include "gonio/fitting/fit.h"
 #include "gonio/fitting/report.h"
@@ -72,25 +73,7 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 }
 
 Expected<void> write_text(const std::string& path, const std::string& text) {
-    const std::string tmp = path + ".tmp";
-    {
-        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-        if (!out) {
-            return make_error(path + ": cannot open for writing");
-        }
-        out << text;
-        out.flush();
-        if (!out) {
-            return make_error(path + ": write failed");
-        }
-    }
-    std::error_code ec;
-    fs::rename(tmp, path, ec);
-    if (ec) {
-        fs::remove(tmp, ec);
-        return make_error(path + ": cannot rename the temporary file into place");
-    }
-    return {};
+    return write_file_atomic(path, text);
 }
 
 void fill_metrics(EntryOutcome& o, const fitting::FitResult& r) {

@@ -3,28 +3,13 @@
 #include "gonio/devices/camera_factory.h"
 
 #include <cstdlib>
-#include <map>
-#include <mutex>
 
 #include "gonio/devices/aravis_camera.h"
-#include "gonio/devices/u3v_camera.h"
-#include "gonio/devices/u3v_tcp.h"
-#include "gonio/devices/usb_transport.h"
 #include "gonio/devices/uvc_camera.h"
 
 namespace gonio::devices {
 
 namespace {
-
-std::mutex& registry_mutex() {
-    static std::mutex m;
-    return m;
-}
-
-std::map<std::string, CameraOpener>& registry() {
-    static std::map<std::string, CameraOpener> r;
-    return r;
-}
 
 template <class T>
 Expected<std::unique_ptr<Camera>> upcast(Expected<std::unique_ptr<T>> c) {
@@ -35,11 +20,6 @@ Expected<std::unique_ptr<Camera>> upcast(Expected<std::unique_ptr<T>> c) {
 }
 
 }  // namespace
-
-void register_camera_scheme(const std::string& scheme, CameraOpener opener) {
-    std::lock_guard<std::mutex> lock(registry_mutex());
-    registry()[scheme] = std::move(opener);
-}
 
 Expected<std::unique_ptr<Camera>> open_camera(const std::string& address) {
     // GenICam cameras through Aravis.
@@ -55,41 +35,14 @@ Expected<std::unique_ptr<Camera>> open_camera(const std::string& address) {
     if (address.rfind(aravis, 0) == 0) {
         return upcast(AravisCamera::open_id(address.substr(aravis.size())));
     }
-    const std::string tcp = "u3v-tcp://";
-    if (address.rfind(tcp, 0) == 0) {
-        const std::string rest = address.substr(tcp.size());
-        const std::size_t colon = rest.rfind(':');
-        if (colon == std::string::npos) {
-            return make_error("camera address '" + address + "': expected u3v-tcp://HOST:PORT");
-        }
-        char* end = nullptr;
-        const long port = std::strtol(rest.c_str() + colon + 1, &end, 10);
-        if (end == rest.c_str() + colon + 1 || *end != '\0' || port <= 0 || port > 65535) {
-            return make_error("camera address '" + address + "': port '" + rest.substr(colon + 1) +
-                              "' is not in [1, 65535]");
-        }
-        auto t = connect_u3v_tcp(rest.substr(0, colon), static_cast<std::uint16_t>(port));
-        if (!t) {
-            return tl::unexpected(t.error());
-        }
-        return upcast(U3vCamera::open(std::move(*t)));
-    }
     const std::size_t colon = address.find(':');
     if (colon == std::string::npos) {
         return make_error("camera address '" + address +
-                          "': expected gige://HOST, u3v://SERIAL, aravis:DEVICE-ID, "
-                          "u3v-tcp://HOST:PORT, u3v-mem:NAME, usb:SERIAL, usb:BUS-ADDR or "
+                          "': expected gige://HOST, u3v://SERIAL, aravis:DEVICE-ID or "
                           "uvc:INDEX");
     }
     const std::string scheme = address.substr(0, colon);
     const std::string rest = address.substr(colon + 1);
-    if (scheme == "usb") {
-        auto t = open_usb_transport(rest);
-        if (!t) {
-            return tl::unexpected(t.error());
-        }
-        return upcast(U3vCamera::open(std::move(*t)));
-    }
     if (scheme == "uvc") {
         char* end = nullptr;
         const long index = std::strtol(rest.c_str(), &end, 10);
@@ -99,19 +52,8 @@ Expected<std::unique_ptr<Camera>> open_camera(const std::string& address) {
         }
         return open_uvc_camera(static_cast<int>(index));
     }
-    CameraOpener opener;
-    {
-        std::lock_guard<std::mutex> lock(registry_mutex());
-        auto it = registry().find(scheme);
-        if (it != registry().end()) {
-            opener = it->second;
-        }
-    }
-    if (!opener) {
-        return make_error("camera address '" + address + "': unknown scheme '" + scheme +
-                          "' (gige://, u3v://, aravis:, u3v-tcp://, u3v-mem:, usb:, uvc:)");
-    }
-    return opener(rest);
+    return make_error("camera address '" + address + "': unknown scheme '" + scheme +
+                      "' (gige://, u3v://, aravis:, uvc:)");
 }
 
 }  // namespace gonio::devices

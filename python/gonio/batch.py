@@ -180,11 +180,8 @@ def run_batch(
             client.close()
             if cluster is not None:
                 cluster.close()
-    with open(os.path.join(out_dir, "summary.csv.tmp"), "w", encoding="utf-8") as f:
-        f.write(gonio._gonio.summary_header() + "\n")
-        for o in outcomes:
-            f.write(o["row"] + "\n")
-    os.replace(os.path.join(out_dir, "summary.csv.tmp"), os.path.join(out_dir, "summary.csv"))
+    text = gonio._gonio.summary_header() + "\n" + "".join(o["row"] + "\n" for o in outcomes)
+    gonio._gonio.write_text_atomically(os.path.join(out_dir, "summary.csv"), text)
     return outcomes
 
 

@@ -22,6 +22,7 @@
 #include "gonio/batch/fit_request.h"
 #include "gonio/batch/manifest.h"
 #include "gonio/brdf/analytic_brdf.h"
+#include "gonio/brdf/atomic_file.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/checks.h"
 #include "gonio/brdf/dataset.h"
@@ -469,23 +470,10 @@ bool ends_with(const std::string& s, const std::string& suffix) {
            s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
+/// Through AtomicFile: a link planted at the temporary or final name is never followed, and a
+/// failed write leaves the previous file and no debris.
 void write_text_atomically(const std::string& path, const std::string& text) {
-    const std::string tmp = path + ".tmp";
-    {
-        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-        if (!out) {
-            throw GonioError(path + ": cannot open for writing");
-        }
-        out << text;
-        out.flush();
-        if (!out) {
-            throw GonioError(path + ": write failed");
-        }
-    }
-    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-        std::remove(tmp.c_str());
-        throw GonioError(path + ": cannot rename the temporary file into place");
-    }
+    ok_or_raise(gonio::write_file_atomic(path, text));
 }
 
 void save(const py::object& path_obj, const py::object& data) {
@@ -873,4 +861,9 @@ Returns {"passed", "describe", "isotropic", "checks": [{"name", "violation", "to
           "run_entry(id, input, options, out_dir) -> dict: fits one manifest entry into out_dir "
           "(as `gonio fit --manifest` does); status fitted, not-converged, failed or skipped.");
     m.def("summary_header", &gonio::batch::summary_csv_header, "Header line of a summary CSV.");
+    m.def("write_text_atomically",
+          &write_text_atomically,
+          py::arg("path"),
+          py::arg("text"),
+          "Writes a text file through a temporary file and a rename, never following a link.");
 }

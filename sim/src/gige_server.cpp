@@ -74,6 +74,10 @@ Expected<void> GigeServer::start_on_free_loopback(int attempts) {
             "127." + std::to_string(b) + "." + std::to_string(c) + "." + std::to_string(d);
         int bind_errno = 0;
         auto r = start_impl(ip, gvcp::kPort, &bind_errno);
+        if (bind_errno == EADDRNOTAVAIL) {
+            // A network stack that gives loopback 127.0.0.1 alone: the one address there is.
+            return start_impl("127.0.0.1", gvcp::kPort, nullptr);
+        }
         if (r || bind_errno != EADDRINUSE) {
             return r;
         }

@@ -6,7 +6,6 @@
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/material_library.h"
 #include "gonio/devices/axis_profile.h"
-#include "gonio/sim/u3v_tcp_server.h"
 
 namespace gonio::sim {
 
@@ -17,13 +16,8 @@ SimRig::~SimRig() {
 }
 
 void SimRig::stop() {
-    if (gige_server_) {
-        gige_server_->stop();
-        gige_server_.reset();
-    }
     if (camera_server_) {
         camera_server_->stop();
-        camera_server_.reset();
     }
     if (motors_) {
         motors_->stop();
@@ -34,7 +28,7 @@ std::string SimRig::motor_address() const {
     return motors_->address();
 }
 std::string SimRig::camera_address() const {
-    return camera_address_;
+    return camera_server_->address();
 }
 
 std::string SimRig::describe() const {
@@ -151,41 +145,25 @@ Expected<std::unique_ptr<SimRig>> SimRig::start(const std::string& rig_json,
     // World and camera.
     rig->world_ = std::make_unique<RigWorld>(
         rig->motors_.get(), rig->units_, rig->mounted_, sim.value("irradiance_w_m2", 1.0));
-    U3vDeviceConfig cc;
+    GigeCameraConfig gc;
     const json sensor = sim.value("sensor", json::object());
-    cc.sensor.width = sensor.value("width", 640);
-    cc.sensor.height = sensor.value("height", 512);
-    cc.sensor.seed = seed;
+    gc.sensor.width = sensor.value("width", 640);
+    gc.sensor.height = sensor.value("height", 512);
+    gc.sensor.seed = seed;
     if (opt.sphere) {
-        cc.sensor.width = opt.sphere->camera.width;
-        cc.sensor.height = opt.sphere->camera.height;
+        gc.sensor.width = opt.sphere->camera.width;
+        gc.sensor.height = opt.sphere->camera.height;
     }
-    rig->camera_ = std::make_shared<U3vDevice>(cc, rig->mounted_, rig->world_->scene_fn());
-    if (opt.camera_gige || opt.sphere) {
-        GigeCameraConfig gc;
-        gc.sensor = cc.sensor;
-        gc.exposure_naming = opt.exposure_abs ? ExposureNaming::kAbs : ExposureNaming::kSfnc;
-        rig->gige_camera_ =
-            std::make_shared<GigeCamera>(gc, rig->mounted_, rig->world_->scene_fn());
-        if (opt.sphere) {
-            rig->gige_camera_->set_renderer(sphere_renderer(*opt.sphere));
-        }
-        rig->gige_server_ = std::make_unique<GigeServer>(rig->gige_camera_);
-        if (auto r = opt.sphere ? rig->gige_server_->start_on_free_loopback()
-                                : rig->gige_server_->start();
-            !r) {
-            return make_error("sim rig: camera server: " + r.error().message);
-        }
-        rig->camera_address_ = rig->gige_server_->address();
-    } else if (opt.camera_over_tcp) {
-        rig->camera_server_ = std::make_unique<U3vTcpServer>(rig->camera_);
-        if (auto r = rig->camera_server_->start(0); !r) {
-            return make_error("sim rig: camera server: " + r.error().message);
-        }
-        rig->camera_address_ = rig->camera_server_->address();
-    } else {
-        register_in_process_camera(opt.in_process_name, rig->camera_);
-        rig->camera_address_ = "u3v-mem:" + opt.in_process_name;
+    gc.exposure_naming = opt.exposure_abs ? ExposureNaming::kAbs : ExposureNaming::kSfnc;
+    rig->camera_ = std::make_shared<GigeCamera>(gc, rig->mounted_, rig->world_->scene_fn());
+    if (opt.sphere) {
+        rig->camera_->set_renderer(sphere_renderer(*opt.sphere));
+    }
+    rig->camera_server_ = std::make_unique<GigeServer>(rig->camera_);
+    auto served = opt.camera_ip.empty() ? rig->camera_server_->start_on_free_loopback()
+                                        : rig->camera_server_->start(opt.camera_ip);
+    if (!served) {
+        return make_error("sim rig: camera server: " + served.error().message);
     }
     return rig;
 }

@@ -76,7 +76,6 @@ LiveRig start_rig(const Fixture& f, const std::string& motor_query = "") {
     sim::SimRigOptions so;
     so.brdf_path = f.model;
     so.time_scale = 500;
-    so.in_process_name = "pose-" + std::to_string(::getpid());
     auto s = sim::SimRig::start(f.rig.json, so);
     EXPECT_TRUE(s) << s.error().message;
     r.sim = std::move(*s);

@@ -73,7 +73,6 @@ LiveRig start_rig(const Fixture& f, double time_scale = 500) {
     sim::SimRigOptions so;
     so.brdf_path = f.model;
     so.time_scale = time_scale;
-    so.in_process_name = "test-" + std::to_string(::getpid());
     auto s = sim::SimRig::start(f.rig.json, so);
     EXPECT_TRUE(s) << s.error().message;
     r.sim = std::move(*s);
@@ -279,7 +278,7 @@ TEST(Campaign, DroppedConnectionsAndFramesAreRecovered) {
             // The hook runs inside the camera's frame rendering, which holds the device: arm the
             // dropped frames from another thread, effective from the next frames on.
             arm = std::thread([&r]() {
-                sim::U3vFaults cf;
+                sim::GigeFaults cf;
                 cf.drop_frames = 2;
                 r.sim->camera().set_faults(cf);
             });
@@ -290,6 +289,8 @@ TEST(Campaign, DroppedConnectionsAndFramesAreRecovered) {
         arm.join();
     }
     EXPECT_GE(r.sim->world().exposures(), 30u);
+    // Both frames were withheld whole by the camera and taken again by the capture.
+    EXPECT_EQ(r.sim->camera_server().stats().frames_dropped, 2u);
     ASSERT_TRUE(res) << res.error().message;
     EXPECT_EQ(res->outcome, Outcome::kCompleted) << res->message;
     expect_exact(f);

@@ -59,7 +59,6 @@ ColourRun run_red_plastic(const std::string& name, bool with_wheel) {
     sim::SimRigOptions so;
     so.material = "red-plastic";
     so.time_scale = 500;
-    so.in_process_name = name + "-" + std::to_string(::getpid());
     auto s = sim::SimRig::start(rig->json, so);
     EXPECT_TRUE(s) << s.error().message;
     auto dev = open_rig(with_addresses(*rig, (*s)->motor_address(), (*s)->camera_address()));

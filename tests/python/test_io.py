@@ -112,6 +112,23 @@ def test_model_json_round_trip(workdir):
     )
 
 
+def test_save_replaces_a_planted_link_and_never_writes_through_it(workdir):
+    # Links at the final name and at the obvious temporary name, both pointing at a file outside:
+    # the model replaces the final link, the file they point at keeps its bytes, and no temporary
+    # file of ours is left beside them.
+    victim = workdir / "victim.txt"
+    victim.write_text("keep me\n")
+    path = workdir / "linked.json"
+    path.symlink_to(victim)
+    (workdir / "linked.json.tmp").symlink_to(victim)
+    gonio.save(path, TRUTH)
+    assert victim.read_text() == "keep me\n"
+    assert not path.is_symlink()
+    assert json.loads(path.read_text())["lobes"][0]["alpha"] == 0.18
+    left = sorted(p.name for p in workdir.iterdir() if p.name.endswith(".tmp"))
+    assert left == ["linked.json.tmp"]
+
+
 def test_model_tabulated_to_merl_binary_matches_eval(workdir):
     path = workdir / "truth.binary"
     gonio.save(path, TRUTH)

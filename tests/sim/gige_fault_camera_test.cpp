@@ -14,7 +14,6 @@
 namespace {
 
 using gige_test::arv_value;
-using gige_test::GigeLock;
 using gige_test::RawHost;
 using gige_test::run;
 using gige_test::ServedCamera;
@@ -34,13 +33,12 @@ GigeCameraConfig camera_config() {
 }
 
 TEST(GigeCameraFault, DroppedPacketsAreResent) {
-    GigeLock lock;
     ServedCamera cam(camera_config());
     gonio::sim::GigeFaults f;
     f.drop_every_nth_packet = 9;
     cam.camera->set_faults(f);
     const int n = 5;
-    const auto c = gige_test::capture_with_aravis(n, 3000, 20);
+    const auto c = gige_test::capture_with_aravis(cam.ip(), n, 3000, 20);
     ASSERT_TRUE(c.error.empty()) << c.error;
     EXPECT_EQ(c.complete, n);
     const auto st = cam.server->stats();
@@ -52,14 +50,13 @@ TEST(GigeCameraFault, DroppedPacketsAreResent) {
 }
 
 TEST(GigeCameraFault, UnrecoverablePacketsMakeIncompleteFrames) {
-    GigeLock lock;
     ServedCamera cam(camera_config());
     gonio::sim::GigeFaults f;
     f.drop_every_nth_packet = 9;
     f.refuse_resend = true;
     cam.camera->set_faults(f);
     const int n = 3;
-    const auto c = gige_test::capture_with_aravis(n, 3000, 20);
+    const auto c = gige_test::capture_with_aravis(cam.ip(), n, 3000, 20);
     ASSERT_TRUE(c.error.empty()) << c.error;
     EXPECT_EQ(c.complete, 0);
     EXPECT_EQ(c.incomplete, n);
@@ -101,9 +98,8 @@ TEST(GigeCameraFault, SilentControllerLosesControlAfterTheHeartbeatTimeout) {
 }
 
 TEST(GigeCameraFault, SilentHostLosesControlOverTheNetwork) {
-    GigeLock lock;
     ServedCamera cam(camera_config());
-    RawHost a, b;
+    RawHost a(cam.ip()), b(cam.ip());
     ASSERT_EQ(a.write_reg(gvbs::kHeartbeatTimeout, 500), gvcp::Status::kSuccess);
     ASSERT_EQ(a.write_reg(gvbs::kControlChannelPrivilege, gvbs::kCcpControl),
               gvcp::Status::kSuccess);
@@ -123,18 +119,17 @@ TEST(GigeCameraFault, SilentHostLosesControlOverTheNetwork) {
 }
 
 TEST(GigeCameraFault, SecondHostReadsButCannotControl) {
-    GigeLock lock;
     ServedCamera cam(camera_config());
     GError* err = nullptr;
-    ArvCamera* first = arv_camera_new("127.0.0.1", &err);
+    ArvCamera* first = arv_camera_new(cam.ip().c_str(), &err);
     ASSERT_NE(first, nullptr) << (err ? err->message : "");
     arv_camera_set_exposure_time(first, 3000, &err);
     ASSERT_EQ(err, nullptr);
     // arv-tool is a second application: it reads, but its write is refused.
-    const auto r = run("arv-tool-0.8 -a 127.0.0.1 control Width ExposureTime=7000");
+    const auto r = run("arv-tool-0.8 -a " + cam.ip() + " control Width ExposureTime=7000");
     EXPECT_EQ(arv_value(r.out, "Width"), "256") << r.out;
     EXPECT_DOUBLE_EQ(cam.camera->exposure_settings().exposure_us, 3000.0) << r.out;
-    RawHost other;
+    RawHost other(cam.ip());
     std::uint32_t width = 0;
     EXPECT_EQ(other.read_reg(gm::kRoiBlock, &width), gvcp::Status::kSuccess);
     EXPECT_EQ(width, 256u);
@@ -148,7 +143,6 @@ TEST(GigeCameraFault, SecondHostReadsButCannotControl) {
 }
 
 TEST(GigeCameraFault, SigtermStopsCameraServeWhileStreaming) {
-    GigeLock lock;
     int out[2];
     ASSERT_EQ(pipe(out), 0);
     const pid_t pid = fork();
@@ -160,6 +154,8 @@ TEST(GigeCameraFault, SigtermStopsCameraServeWhileStreaming) {
               "gonio",
               "camera",
               "serve",
+              "--ip",
+              "auto",
               "--width",
               "256",
               "--height",
@@ -173,10 +169,11 @@ TEST(GigeCameraFault, SigtermStopsCameraServeWhileStreaming) {
     while (read(out[0], &ch, 1) == 1 && ch != '\n') {
         line += ch;
     }
-    ASSERT_EQ(line, "gige://127.0.0.1");
+    ASSERT_EQ(line.rfind("gige://127.", 0), 0u) << line;
+    const std::string ip = line.substr(std::string("gige://").size());
     // A host streams from it, then the server is told to stop mid-acquisition.
     GError* err = nullptr;
-    ArvCamera* cam = arv_camera_new("127.0.0.1", &err);
+    ArvCamera* cam = arv_camera_new(ip.c_str(), &err);
     ASSERT_NE(cam, nullptr) << (err ? err->message : "");
     ArvStream* stream = arv_camera_create_stream(cam, nullptr, nullptr, &err);
     ASSERT_NE(stream, nullptr);
@@ -202,9 +199,12 @@ TEST(GigeCameraFault, SigtermStopsCameraServeWhileStreaming) {
     close(out[0]);
     g_object_unref(stream);
     g_object_unref(cam);
-    // The port is free again: a new camera can be served.
-    ServedCamera again(camera_config());
-    RawHost h;
+    // The address is free again: a new camera can be served on it.
+    auto again_camera =
+        std::make_shared<gonio::sim::GigeCamera>(camera_config(), nullptr, gonio::sim::SceneFn());
+    gonio::sim::GigeServer again(again_camera);
+    ASSERT_TRUE(again.start(ip)) << ip;
+    RawHost h(ip);
     std::uint32_t v = 0;
     EXPECT_EQ(h.read_reg(gvbs::kNumberOfStreamChannels, &v), gvcp::Status::kSuccess);
 }

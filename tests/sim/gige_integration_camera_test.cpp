@@ -11,7 +11,6 @@
 namespace {
 
 using gige_test::arv_value;
-using gige_test::GigeLock;
 using gige_test::RawHost;
 using gige_test::run;
 using gige_test::ServedCamera;
@@ -30,9 +29,9 @@ GigeCameraConfig small_camera(ExposureNaming naming = ExposureNaming::kSfnc) {
 }
 
 TEST(GigeCamera, ArvToolReadsTheFeatures) {
-    GigeLock lock;
     ServedCamera cam(small_camera());
-    const auto r = run("arv-tool-0.8 -a 127.0.0.1 control Width Height PixelFormat ExposureTime");
+    const auto r =
+        run("arv-tool-0.8 -a " + cam.ip() + " control Width Height PixelFormat ExposureTime");
     ASSERT_EQ(r.status, 0) << r.out;
     EXPECT_EQ(arv_value(r.out, "Width"), "320") << r.out;
     EXPECT_EQ(arv_value(r.out, "Height"), "240") << r.out;
@@ -42,19 +41,18 @@ TEST(GigeCamera, ArvToolReadsTheFeatures) {
 }
 
 TEST(GigeCamera, ArvToolWritesReachTheSensorSettings) {
-    GigeLock lock;
     ServedCamera cam(small_camera());
-    const auto r =
-        run("arv-tool-0.8 -a 127.0.0.1 control Width=200 Height=100 OffsetX=16 PixelFormat=Mono12 "
-            "ExposureTime=2500 GainSelector=DigitalAll Gain=6");
+    const auto r = run("arv-tool-0.8 -a " + cam.ip() +
+                       " control Width=200 Height=100 OffsetX=16 PixelFormat=Mono12 "
+                       "ExposureTime=2500 GainSelector=DigitalAll Gain=6");
     ASSERT_EQ(r.status, 0) << r.out;
     const gonio::sim::ExposureSettings s = cam.camera->exposure_settings();
     EXPECT_DOUBLE_EQ(s.exposure_us, 2500.0);
     EXPECT_NEAR(s.gain, std::pow(10.0, 6.0 / 20.0), 1e-12);
     EXPECT_EQ(s.format, gonio::devices::PixelFormat::kMono12);
     // Read back in a second session: the registers kept the values (ROI through pAddress).
-    const auto back =
-        run("arv-tool-0.8 -a 127.0.0.1 control Width Height OffsetX PayloadSize GainSelector Gain");
+    const auto back = run("arv-tool-0.8 -a " + cam.ip() +
+                          " control Width Height OffsetX PayloadSize GainSelector Gain");
     ASSERT_EQ(back.status, 0) << back.out;
     EXPECT_EQ(arv_value(back.out, "Width"), "200") << back.out;
     EXPECT_EQ(arv_value(back.out, "Height"), "100") << back.out;
@@ -66,30 +64,29 @@ TEST(GigeCamera, ArvToolWritesReachTheSensorSettings) {
 }
 
 TEST(GigeCamera, ArvToolUsesTheAbsNaming) {
-    GigeLock lock;
     ServedCamera cam(small_camera(ExposureNaming::kAbs));
-    const auto r = run("arv-tool-0.8 -a 127.0.0.1 control ExposureTimeAbs=1234.5 ExposureTimeRaw");
+    const auto r =
+        run("arv-tool-0.8 -a " + cam.ip() + " control ExposureTimeAbs=1234.5 ExposureTimeRaw");
     ASSERT_EQ(r.status, 0) << r.out;
     EXPECT_DOUBLE_EQ(cam.camera->exposure_settings().exposure_us, 1234.5);
     EXPECT_EQ(arv_value(r.out, "ExposureTimeRaw"), "12345") << r.out;
     // The SFNC name is absent from this XML.
-    const auto sfnc = run("arv-tool-0.8 -a 127.0.0.1 control ExposureTime");
+    const auto sfnc = run("arv-tool-0.8 -a " + cam.ip() + " control ExposureTime");
     EXPECT_EQ(sfnc.out.find("ExposureTime = "), std::string::npos) << sfnc.out;
 }
 
 TEST(GigeCamera, SelectorsIndexTheirTables) {
-    GigeLock lock;
     GigeCameraConfig c = small_camera();
     c.sensor_temperature_c = 51.25;
     c.mainboard_temperature_c = -3.5;
     ServedCamera cam(c);
-    const auto s =
-        run("arv-tool-0.8 -a 127.0.0.1 control DeviceTemperatureSelector=Sensor "
-            "DeviceTemperature");
+    const auto s = run("arv-tool-0.8 -a " + cam.ip() +
+                       " control DeviceTemperatureSelector=Sensor "
+                       "DeviceTemperature");
     EXPECT_EQ(arv_value(s.out, "DeviceTemperature"), "51.25") << s.out;
-    const auto m =
-        run("arv-tool-0.8 -a 127.0.0.1 control DeviceTemperatureSelector=Mainboard "
-            "DeviceTemperature");
+    const auto m = run("arv-tool-0.8 -a " + cam.ip() +
+                       " control DeviceTemperatureSelector=Mainboard "
+                       "DeviceTemperature");
     EXPECT_EQ(arv_value(m.out, "DeviceTemperature"), "-3.5") << m.out;
 }
 
@@ -104,12 +101,11 @@ double expected_mean(
 }
 
 TEST(GigeCamera, AravisCapturesCompleteFramesWithTheExpectedSignal) {
-    GigeLock lock;
     const GigeCameraConfig cfg = small_camera();
     const double rho = 0.8, theta_i = 0.5, exposure_us = 4000;
     ServedCamera cam(cfg, rho, theta_i);
     const int n = 6;
-    const auto c = gige_test::capture_with_aravis(n, exposure_us, 50);
+    const auto c = gige_test::capture_with_aravis(cam.ip(), n, exposure_us, 50);
     ASSERT_TRUE(c.error.empty()) << c.error;
     EXPECT_EQ(c.complete, n);
     EXPECT_EQ(c.incomplete, 0);
@@ -150,9 +146,8 @@ TEST(GigeCamera, AravisCapturesCompleteFramesWithTheExpectedSignal) {
 
 // Raw GVCP bytes written from the GigE Vision specification (ch. 15), not through our encoder.
 TEST(GigeCamera, AnswersRawGvcpFromTheSpecification) {
-    GigeLock lock;
     ServedCamera cam(small_camera());
-    RawHost host;
+    RawHost host(cam.ip());
     // DISCOVERY_CMD, flags 0x11 (acknowledge + allow broadcast ack), req_id 0x0001.
     auto d = host.exchange({0x42, 0x11, 0x00, 0x02, 0x00, 0x00, 0x00, 0x01});
     ASSERT_EQ(d.size(), 8u + 0xF8u);

@@ -1,7 +1,8 @@
 #pragma once
 
-// Shared pieces of the GigE Vision tests: the machine-wide lock on UDP port 3956, a served
-// simulated camera, a raw GVCP host socket, Aravis captures and arv-tool-0.8 runs.
+// Shared pieces of the GigE Vision tests: a simulated camera served on a loopback address of its
+// own (port 3956 of 127.x.y.z, so tests run in parallel), a raw GVCP host socket, Aravis captures
+// and arv-tool-0.8 runs.
 
 #include <arpa/inet.h>
 #include <arv.h>
@@ -28,28 +29,6 @@ namespace gige_test {
 
 namespace gvcp = gonio::devices::gvcp;
 
-/// Holds /tmp/gonio-gige.lock for the lifetime of the object (blocks until it is free).
-class GigeLock {
-  public:
-    GigeLock() {
-        fd_ = open("/tmp/gonio-gige.lock", O_RDWR | O_CREAT | O_CLOEXEC, 0666);
-        if (fd_ >= 0) {
-            flock(fd_, LOCK_EX);
-        }
-    }
-    ~GigeLock() {
-        if (fd_ >= 0) {
-            flock(fd_, LOCK_UN);
-            close(fd_);
-        }
-    }
-    GigeLock(const GigeLock&) = delete;
-    GigeLock& operator=(const GigeLock&) = delete;
-
-  private:
-    int fd_ = -1;
-};
-
 /// An ideal diffuser of reflectance rho (f = rho / pi).
 inline std::shared_ptr<const gonio::brdf::Brdf> lambert(double rho) {
     gonio::brdf::ModelD m;
@@ -71,16 +50,19 @@ struct ServedCamera {
         const gonio::sim::SceneState s = scene;
         camera = std::make_shared<gonio::sim::GigeCamera>(cfg, lambert(rho), [s] { return s; });
         server = std::make_unique<gonio::sim::GigeServer>(camera);
-        auto r = server->start();
+        auto r = server->start_on_free_loopback();
         EXPECT_TRUE(r.has_value()) << (r ? "" : r.error().message);
     }
     ~ServedCamera() { server->stop(); }
+    /// The dotted address served on (port 3956).
+    std::string ip() const { return server->address().substr(std::string("gige://").size()); }
 };
 
-/// A host's GVCP socket on 127.0.0.1 (its own ephemeral port: another "application").
+/// A host's GVCP socket on 127.0.0.1 (its own ephemeral port: another "application") talking to
+/// the camera at `device_ip`.
 class RawHost {
   public:
-    RawHost() {
+    explicit RawHost(const std::string& device_ip) {
         fd_ = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
         sockaddr_in a{};
         a.sin_family = AF_INET;
@@ -88,7 +70,7 @@ class RawHost {
         bind(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a);
         device_.sin_family = AF_INET;
         device_.sin_port = htons(gvcp::kPort);
-        device_.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+        inet_pton(AF_INET, device_ip.c_str(), &device_.sin_addr);
     }
     ~RawHost() { close(fd_); }
     RawHost(const RawHost&) = delete;
@@ -180,12 +162,13 @@ struct Capture {
     std::string error;
 };
 
-/// Opens 127.0.0.1 with Aravis, sets a Mono16 full frame and the exposure, captures `n` frames
-/// (continuous acquisition at `rate_hz`).
-inline Capture capture_with_aravis(int n, double exposure_us, double rate_hz, bool resend = true) {
+/// Opens the camera at `ip` with Aravis, sets a Mono16 full frame and the exposure, captures `n`
+/// frames (continuous acquisition at `rate_hz`).
+inline Capture capture_with_aravis(
+    const std::string& ip, int n, double exposure_us, double rate_hz, bool resend = true) {
     Capture c;
     GError* err = nullptr;
-    ArvCamera* cam = arv_camera_new("127.0.0.1", &err);
+    ArvCamera* cam = arv_camera_new(ip.c_str(), &err);
     if (cam == nullptr) {
         c.error = err != nullptr ? err->message : "arv_camera_new failed";
         g_clear_error(&err);

@@ -4,6 +4,11 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <functional>
+#include <map>
+#include <opencv2/imgproc.hpp>
+#include <string>
+#include <utility>
 
 #include "gonio/sim/camera_render.h"
 #include "gonio/sim/sensor_model.h"
@@ -39,18 +44,37 @@ Moments moments(const cv::Mat& m) {
     return {mean[0], sd[0] * sd[0] * n / (n - 1)};
 }
 
-class SensorStats : public ::testing::TestWithParam<std::tuple<PixelFormat, double, double>> {};
+// The sensor draws a run of equal radiance (a patch, the background) from its tabulated count
+// distribution and short runs (a sphere's shading) pixel by pixel; both must follow the model.
+enum class Runs { kLong, kShort };
+
+// A frame of radiance L: uniform (one run per row), or alternating between L and the next float
+// above it (runs of one pixel; the two means differ by 6e-8 relative).
+cv::Mat radiance_frame(int w, int h, double radiance, Runs runs) {
+    cv::Mat m(h, w, CV_32F, cv::Scalar(radiance));
+    if (runs == Runs::kShort) {
+        const float up = std::nextafter(static_cast<float>(radiance), 1e30f);
+        for (int y = 0; y < h; ++y) {
+            for (int x = 1; x < w; x += 2) {
+                m.at<float>(y, x) = up;
+            }
+        }
+    }
+    return m;
+}
+
+class SensorStats : public ::testing::TestWithParam<std::tuple<PixelFormat, double, double, Runs>> {
+};
 
 TEST_P(SensorStats, MeanAndVarianceMatchTheEmvaModel) {
-    const auto [format, radiance, gain] = GetParam();
+    const auto [format, radiance, gain, runs] = GetParam();
     SensorParams p;
-    p.width = 256;
-    p.height = 256;
+    p.width = 512;
+    p.height = 512;
     p.seed = 12345;
     SensorModel s(p);
     ExposureSettings e{2000, gain, format};
-    const cv::Mat L(256, 256, CV_32F, cv::Scalar(radiance));
-    const cv::Mat counts = s.expose(L, e);
+    const cv::Mat counts = s.expose(radiance_frame(512, 512, radiance, runs), e);
     const Moments m = moments(counts);
     const double n = static_cast<double>(counts.total());
     // Independent closed form (EMVA 1288): mu = black + K^-1 (R L t + D t).
@@ -63,17 +87,202 @@ TEST_P(SensorStats, MeanAndVarianceMatchTheEmvaModel) {
     EXPECT_DOUBLE_EQ(s.mean_counts(radiance, e), mu);
     EXPECT_DOUBLE_EQ(s.variance_counts(radiance, e), var);
     EXPECT_NEAR(m.mean, mu, 5 * std::sqrt(var / n)) << "seed 12345";
-    // Sample variance: relative standard error sqrt(2 / (n - 1)) for a near-normal population.
-    EXPECT_NEAR(m.var / var, 1.0, 5 * std::sqrt(2.0 / (n - 1)) + 0.02) << "seed 12345";
+    // Sample variance: its variance is (kappa_4 + 2 sigma^4) / n, with the fourth cumulant
+    // kappa_4 = k^4 mu_e of the Poisson shot noise (normal read noise and the rounding's
+    // -1/120 add nothing and a little less).
+    const double kappa4 = std::pow(k, 4) * mu_e;
+    EXPECT_NEAR(m.var, var, 5 * std::sqrt((kappa4 + 2 * var * var) / n)) << "seed 12345";
 }
 
-INSTANTIATE_TEST_SUITE_P(Grid,
-                         SensorStats,
-                         ::testing::Values(std::make_tuple(PixelFormat::kMono16, 0.0, 1.0),
-                                           std::make_tuple(PixelFormat::kMono16, 0.05, 1.0),
-                                           std::make_tuple(PixelFormat::kMono16, 0.5, 2.0),
-                                           std::make_tuple(PixelFormat::kMono12, 0.5, 1.0),
-                                           std::make_tuple(PixelFormat::kMono12, 0.2, 4.0)));
+std::string grid_name(
+    const ::testing::TestParamInfo<std::tuple<PixelFormat, double, double, Runs>>& info) {
+    const PixelFormat f = std::get<0>(info.param);
+    const char* name = f == PixelFormat::kMono8    ? "Mono8"
+                       : f == PixelFormat::kMono12 ? "Mono12"
+                                                   : "Mono16";
+    return std::string(name) + "_" + std::to_string(info.index / 2) +
+           (std::get<3>(info.param) == Runs::kLong ? "_long_runs" : "_short_runs");
+}
+
+// (format, radiance, gain): dark frame, Poisson regime (mu_e 0.05 and 20), normal regime.
+const std::tuple<PixelFormat, double, double> kGrid[] = {
+    {PixelFormat::kMono16, 0.0, 1.0},
+    {PixelFormat::kMono16, 0.002, 1.0},
+    {PixelFormat::kMono16, 0.05, 1.0},
+    {PixelFormat::kMono16, 0.5, 2.0},
+    {PixelFormat::kMono12, 0.5, 1.0},
+    {PixelFormat::kMono12, 0.2, 4.0},
+    {PixelFormat::kMono8, 0.1, 8.0},
+};
+
+std::vector<std::tuple<PixelFormat, double, double, Runs>> grid() {
+    std::vector<std::tuple<PixelFormat, double, double, Runs>> g;
+    for (const auto& [f, radiance, gain] : kGrid) {
+        for (Runs r : {Runs::kLong, Runs::kShort}) {
+            g.emplace_back(f, radiance, gain, r);
+        }
+    }
+    return g;
+}
+
+INSTANTIATE_TEST_SUITE_P(Grid, SensorStats, ::testing::ValuesIn(grid()), grid_name);
+
+// Chi-square statistic of observed code counts against expected probabilities, with every code of
+// expected count below 20 pooled into one bin; returns the statistic and its degrees of freedom.
+std::pair<double, int> chi_square(const std::map<int, long>& observed,
+                                  const std::function<double(int)>& pmf,
+                                  int lo,
+                                  int hi,
+                                  double n) {
+    double chi2 = 0, pooled_expected = 0;
+    long pooled_observed = 0;
+    int bins = 0;
+    for (int c = lo; c <= hi; ++c) {
+        const double expected = n * pmf(c);
+        const auto it = observed.find(c);
+        const long o = it == observed.end() ? 0 : it->second;
+        if (expected < 20) {
+            pooled_expected += expected;
+            pooled_observed += o;
+            continue;
+        }
+        chi2 += (o - expected) * (o - expected) / expected;
+        ++bins;
+    }
+    // Codes outside [lo, hi] join the pool.
+    for (const auto& [c, o] : observed) {
+        if (c < lo || c > hi) {
+            pooled_observed += o;
+        }
+    }
+    pooled_expected = n - [&] {
+        double inside = 0;
+        for (int c = lo; c <= hi; ++c) {
+            if (n * pmf(c) >= 20) {
+                inside += n * pmf(c);
+            }
+        }
+        return inside;
+    }();
+    if (pooled_expected > 0) {
+        chi2 += (pooled_observed - pooled_expected) * (pooled_observed - pooled_expected) /
+                pooled_expected;
+        ++bins;
+    }
+    return {chi2, bins - 1};
+}
+
+// Upper 1e-6 quantile of the chi-square distribution (Wilson and Hilferty 1931 cube-root normal
+// approximation; z = 4.753 is the standard normal's 1 - 1e-6 quantile).
+double chi_square_limit(int dof) {
+    const double v = dof, a = 2.0 / (9.0 * v);
+    return v * std::pow(1 - a + 4.753 * std::sqrt(a), 3);
+}
+
+std::map<int, long> histogram(const cv::Mat& counts) {
+    std::map<int, long> h;
+    for (auto it = counts.begin<std::uint16_t>(); it != counts.end<std::uint16_t>(); ++it) {
+        ++h[*it];
+    }
+    return h;
+}
+
+class SensorShape : public ::testing::TestWithParam<Runs> {};
+
+// Without read noise the counts of a dim pixel are black + k * Poisson(mu_e) exactly: the shot
+// noise has the Poisson distribution itself (not its normal limit), in both sampling paths.
+TEST_P(SensorShape, DimPixelsFollowThePoissonDistribution) {
+    SensorParams p;
+    p.read_noise_e = 0;
+    p.seed = 777;
+    SensorModel s(p);
+    const ExposureSettings e{2000, 1, PixelFormat::kMono16};  // k = 2 counts per electron
+    const double t = 2000e-6, mu_e = 3.0;
+    const double radiance = (mu_e - p.dark_current_e_per_s * t) / (p.responsivity_e_per_s * t);
+    const cv::Mat counts = s.expose(radiance_frame(512, 512, radiance, GetParam()), e);
+    const double n = static_cast<double>(counts.total());
+    const auto h = histogram(counts);
+    const int black = static_cast<int>(p.black_level16);
+    for (const auto& [c, o] : h) {
+        EXPECT_EQ((c - black) % 2, 0) << "code " << c << " is not black + 2 k (" << o << " pixels)";
+    }
+    const auto pmf = [&](int c) {
+        if (c < black || (c - black) % 2 != 0) {
+            return 0.0;
+        }
+        const int k = (c - black) / 2;
+        return std::exp(k * std::log(mu_e) - mu_e - std::lgamma(k + 1.0));
+    };
+    const auto [chi2, dof] = chi_square(h, pmf, black, black + 60, n);
+    EXPECT_LT(chi2, chi_square_limit(dof)) << "dof " << dof << ", seed 777";
+}
+
+// Far from the full well the counts are the rounded normal black + k N(mu_e, mu_e + read^2):
+// P(c) = Phi((c + 1/2 - m) / s) - Phi((c - 1/2 - m) / s), checked where the rounding matters
+// (s = 4 codes, Mono12).
+TEST_P(SensorShape, BrightPixelsFollowTheRoundedNormal) {
+    SensorParams p;
+    p.seed = 4242;
+    SensorModel s(p);
+    const ExposureSettings e{2000, 1, PixelFormat::kMono12};
+    const double radiance = 0.1;
+    const cv::Mat counts = s.expose(radiance_frame(512, 512, radiance, GetParam()), e);
+    const double m = s.mean_counts(radiance, e);
+    const double k = 1 / s.e_per_count(e);
+    const double t = 2000e-6;
+    const double mu_e = p.responsivity_e_per_s * radiance * t + p.dark_current_e_per_s * t;
+    const double sd = k * std::sqrt(mu_e + p.read_noise_e * p.read_noise_e);
+    const auto phi = [](double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); };
+    const auto pmf = [&](int c) { return phi((c + 0.5 - m) / sd) - phi((c - 0.5 - m) / sd); };
+    const auto [chi2, dof] = chi_square(histogram(counts),
+                                        pmf,
+                                        static_cast<int>(m - 8 * sd),
+                                        static_cast<int>(m + 8 * sd),
+                                        static_cast<double>(counts.total()));
+    EXPECT_GT(dof, 20);
+    EXPECT_LT(chi2, chi_square_limit(dof)) << "dof " << dof << ", seed 4242";
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Paths, SensorShape, ::testing::Values(Runs::kLong, Runs::kShort), [](const auto& info) {
+        return std::string(info.param == Runs::kLong ? "LongRuns" : "ShortRuns");
+    });
+
+// Far above the full well every pixel holds the full well, and only the read noise varies.
+TEST_P(SensorShape, OverexposedPixelsHoldTheFullWellPlusReadNoise) {
+    SensorParams p;
+    p.seed = 5;
+    SensorModel s(p);
+    const ExposureSettings e{2000, 1, PixelFormat::kMono16};
+    const cv::Mat counts = s.expose(radiance_frame(512, 512, 100.0, GetParam()), e);
+    const Moments mo = moments(counts);
+    const double n = static_cast<double>(counts.total());
+    const double k = 1 / s.e_per_count(e);
+    const double mean = p.black_level16 + k * p.full_well_e;
+    const double var = k * k * p.read_noise_e * p.read_noise_e + 1.0 / 12.0;
+    ASSERT_LT(mean + 10 * std::sqrt(var), s.saturation_level(e.format));
+    EXPECT_NEAR(mo.mean, mean, 5 * std::sqrt(var / n));
+    EXPECT_NEAR(mo.var, var, 5 * std::sqrt(2 * var * var / n));
+}
+
+TEST(SensorModel, FrameDependsOnTheSeedNotOnTheThreadCount) {
+    SensorParams p;
+    p.seed = 31;
+    const int threads = cv::getNumThreads();
+    // A patch on a background with a shaded band: long runs and short runs in one frame.
+    cv::Mat L(300, 400, CV_32F, cv::Scalar(0));
+    cv::circle(L, {200, 150}, 80, cv::Scalar(0.3), cv::FILLED);
+    for (int x = 0; x < 400; ++x) {
+        L.at<float>(20, x) = 0.001f * static_cast<float>(x);
+    }
+    SensorModel a(p), b(p);
+    cv::setNumThreads(1);
+    const cv::Mat one = a.expose(L, {});
+    cv::setNumThreads(std::max(2, threads));
+    const cv::Mat many = b.expose(L, {});
+    cv::setNumThreads(threads);
+    EXPECT_EQ(cv::norm(one, many, cv::NORM_INF), 0.0);
+}
 
 TEST(SensorModel, SaturatesAtTheBitDepthAndFullWell) {
     SensorParams p;

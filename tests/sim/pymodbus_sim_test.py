@@ -30,7 +30,7 @@ def position(client, unit):
 
 def main():
     exe = sys.argv[1]
-    sim = subprocess.Popen([exe, "sim", "--time-scale", "20"], stdout=subprocess.PIPE, text=True)
+    sim = subprocess.Popen([exe, "sim", "--time-scale", "20", "--camera-ip", "auto"], stdout=subprocess.PIPE, text=True)
     try:
         address = None
         deadline = time.monotonic() + 60

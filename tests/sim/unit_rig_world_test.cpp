@@ -23,7 +23,6 @@ std::string sim4_json() {
 
 TEST(RigWorld, SceneFollowsTheStagesAndCoils) {
     SimRigOptions o;
-    o.in_process_name = "rig-world-test";
     auto rig = SimRig::start(sim4_json(), o);
     ASSERT_TRUE(rig) << rig.error().message;
     // Power-up: light arm at 0 (along the sample normal), detector arm at 45 deg: wo lies in the
@@ -59,7 +58,6 @@ TEST(RigWorld, SceneFollowsTheStagesAndCoils) {
 
 TEST(RigWorld, FilterWheelCoilsSelectTheCameraFilter) {
     SimRigOptions o;
-    o.in_process_name = "rig-world-filter-test";
     auto rig = SimRig::start(sim4_json(), o);
     ASSERT_TRUE(rig) << rig.error().message;
     // No filter in the beam at power-up: the unfiltered mean of R, G and B.

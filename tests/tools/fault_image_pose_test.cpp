@@ -128,7 +128,7 @@ TEST(ImagePose, ArmMovedDuringExposuresRepeatsThoseCapturesAndTheTableStaysTrue)
     }
     // Every frame the camera rendered was captured: the campaign's count plus the 3 repeats (and
     // any capture retried after a lost frame).
-    EXPECT_EQ(l.rig->sim->gige_camera()->frames_rendered(),
+    EXPECT_EQ(l.rig->sim->camera().frames_rendered(),
               res->captures + 3 + l.rig->pose_log.capture_retries);
     // No frame taken while the arm moved reached the table.
     const auto truth = brdf::make_analytic_brdf(truth_model());
@@ -216,13 +216,13 @@ TEST(ImagePose, DriveAlarmMidMoveFailsTheCaptureWithTheDrivesError) {
     acquisition::CaptureRequest r;
     r.light_arm_rad = -60 * kPi / 180;
     r.exposure_us = 2000;
-    const std::uint64_t rendered = l.rig->sim->gige_camera()->frames_rendered();
+    const std::uint64_t rendered = l.rig->sim->camera().frames_rendered();
     auto frame = capture(r);
     ASSERT_FALSE(frame);
     EXPECT_NE(frame.error().message.find("alarm"), std::string::npos) << frame.error().message;
     EXPECT_NE(frame.error().message.find("light arm"), std::string::npos) << frame.error().message;
     // Nothing was exposed at the wrong place.
-    EXPECT_EQ(l.rig->sim->gige_camera()->frames_rendered(), rendered);
+    EXPECT_EQ(l.rig->sim->camera().frames_rendered(), rendered);
 }
 
 TEST(ImagePose, FrameLostByTheCameraIsCapturedAgain) {
@@ -237,7 +237,7 @@ TEST(ImagePose, FrameLostByTheCameraIsCapturedAgain) {
     // The camera's fault injection: the next frame is exposed but none of its packets is sent.
     sim::GigeFaults f;
     f.drop_frames = 1;
-    l.rig->sim->gige_camera()->set_faults(f);
+    l.rig->sim->camera().set_faults(f);
     auto frame = capture(r);
     ASSERT_TRUE(frame) << frame.error().message;
     EXPECT_EQ(l.rig->pose_log.capture_retries, 1u);
@@ -246,10 +246,10 @@ TEST(ImagePose, FrameLostByTheCameraIsCapturedAgain) {
     EXPECT_NE(l.rig->pose_log.notes[0].find("captured again"), std::string::npos)
         << l.rig->pose_log.notes[0];
     // Three frames exposed: the first capture, the lost one and its retry.
-    EXPECT_EQ(l.rig->sim->gige_camera()->frames_rendered(), 3u);
+    EXPECT_EQ(l.rig->sim->camera().frames_rendered(), 3u);
     // Every frame lost: the error comes back after the retries.
     f.drop_frames = 1000;
-    l.rig->sim->gige_camera()->set_faults(f);
+    l.rig->sim->camera().set_faults(f);
     l.rig->rig.retries = 1;
     acquisition::CaptureFn once = image_rig_capture(*l.rig, 0.0);
     auto lost = once(r);

@@ -108,8 +108,7 @@ TEST_F(ImageCampaignTest, EveryFrameCameThroughTheGigECameraWithArmsOnTarget) {
     // The camera the campaign opened is the virtual rig's GigE Vision device (gige://127.x.y.z),
     // and it rendered every frame the campaign captured.
     EXPECT_EQ(rig_->rig.camera_address.rfind("gige://127.", 0), 0u) << rig_->rig.camera_address;
-    ASSERT_NE(rig_->sim->gige_camera(), nullptr);
-    EXPECT_EQ(rig_->sim->gige_camera()->frames_rendered(), result_->captures);
+    EXPECT_EQ(rig_->sim->camera().frames_rendered(), result_->captures);
     EXPECT_EQ(rig_->pose_log.repeats + rig_->pose_log.corrections, 0u);
     // The arms stand where the campaign left them: detector at 0, light at the last position.
     const sim::RigUnits& u = rig_->sim->units();
@@ -238,7 +237,7 @@ TEST_F(ImageCampaignTest, AgreesWithPointMeasurementsThroughTheSameSensor) {
     // Point mode stand-in: a flat patch of 64 pixels at the bin's mean configuration, exposed
     // through the same sensor model, dark-corrected with the model's expectation and calibrated
     // with the sensor's known responsivity and the beam's irradiance.
-    sim::SensorParams p = rig_->sim->gige_camera()->config().sensor;
+    sim::SensorParams p = rig_->sim->camera().config().sensor;
     p.width = 8;
     p.height = 8;
     p.seed = kSeed + 1;

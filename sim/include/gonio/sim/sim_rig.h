@@ -2,7 +2,7 @@
 
 // The whole virtual rig: simulated motor controllers for the four stages (one Modbus server, one
 // unit per drive, the lamp shutter, the reference changer and the colour filters as coils), a
-// simulated camera (a GigE Vision device, or the USB3 Vision one) rendering the mounted BRDF under
+// simulated camera (a GigE Vision device on loopback) rendering the mounted BRDF under
 // the rig's geometry, and the world that ties them. It reads the same rig description as
 // acquisition (data/rigs/*.json: axes with role, unit, profile; shutter; reference_changer;
 // filter_wheel: one coil per colour filter) plus its "sim" section:
@@ -20,24 +20,22 @@
 #include "gonio/sim/motor_controller_server.h"
 #include "gonio/sim/rig_world.h"
 #include "gonio/sim/sphere_imaging.h"
-#include "gonio/sim/u3v_device.h"
 
 namespace gonio::sim {
 
 struct SimRigOptions {
-    std::string material;          ///< Named material (overrides the rig's "sim" section).
-    std::string brdf_path;         ///< Model JSON or table (overrides material).
-    double time_scale = 0;         ///< > 0 overrides.
-    bool camera_over_tcp = false;  ///< Serve the camera on u3v-tcp (for another process).
-    /// Serve the camera as a GigE Vision device on 127.0.0.1:3956 (overrides camera_over_tcp).
-    bool camera_gige = false;
-    /// GigE only: name the exposure feature ExposureTimeAbs.
+    std::string material;   ///< Named material (overrides the rig's "sim" section).
+    std::string brdf_path;  ///< Model JSON or table (overrides material).
+    double time_scale = 0;  ///< > 0 overrides.
+    /// Address the GigE Vision camera is served on (GVCP port 3956). Empty: a free 127.x.y.z
+    /// address of its own (GigeServer::start_on_free_loopback), so that rigs in several processes
+    /// never compete for one address.
+    std::string camera_ip;
+    /// Name the exposure feature ExposureTimeAbs.
     bool exposure_abs = false;
-    std::string in_process_name = "simrig";
     std::uint64_t seed = 0;  ///< > 0 overrides.
     /// Image mode: the camera on the detector arm sees a sphere of the mounted material
-    /// (sphere_imaging.h); its sensor takes the sphere camera's size. Implies a GigE Vision
-    /// camera, served on a free 127.x.y.z address of its own.
+    /// (sphere_imaging.h); its sensor takes the sphere camera's size.
     std::optional<SphereImaging> sphere;
 };
 
@@ -51,15 +49,13 @@ class SimRig {
     SimRig& operator=(const SimRig&) = delete;
 
     std::string motor_address() const;  ///< tcp://127.0.0.1:PORT
-    /// gige://127.0.0.1, u3v-tcp://127.0.0.1:PORT or u3v-mem:NAME
+    /// gige://ADDRESS of the camera
     std::string camera_address() const;
     std::string describe() const;  ///< Sample, units, addresses.
 
     MotorControllerServer& motors() { return *motors_; }
-    U3vDevice& camera() { return *camera_; }
-    /// The GigE Vision camera, when the rig serves one (SimRigOptions::camera_gige).
-    GigeCamera* gige_camera() { return gige_camera_.get(); }
-    GigeServer* gige_server() { return gige_server_.get(); }
+    GigeCamera& camera() { return *camera_; }
+    GigeServer& camera_server() { return *camera_server_; }
     RigWorld& world() { return *world_; }
     const RigUnits& units() const { return units_; }
     /// The sample's ground truth (not the white standard).
@@ -73,11 +69,8 @@ class SimRig {
     std::shared_ptr<MountedBrdf> mounted_;
     std::shared_ptr<const brdf::Brdf> sample_;
     std::unique_ptr<RigWorld> world_;
-    std::shared_ptr<U3vDevice> camera_;
-    std::unique_ptr<class U3vTcpServer> camera_server_;
-    std::shared_ptr<GigeCamera> gige_camera_;
-    std::unique_ptr<GigeServer> gige_server_;
-    std::string camera_address_;
+    std::shared_ptr<GigeCamera> camera_;
+    std::unique_ptr<GigeServer> camera_server_;
     std::string sample_name_;
     RigUnits units_;
 };
