@@ -44,36 +44,47 @@ Expected<std::unique_ptr<ImageRig>> start_image_rig(const AcquireImageOptions& o
     }
     auto out = std::make_unique<ImageRig>();
     const nlohmann::json j = nlohmann::json::parse(rig->json, nullptr, false);
+    const bool embedded = j.is_object() && j.contains("sim");
     if (j.is_object() && j.contains("camera_model")) {
         auto c = acquisition::read_camera_model(rig_path);
         if (!c) {
             return tl::unexpected(c.error());
         }
         out->camera = *c;
-    } else {
+    } else if (embedded) {
         out->camera =
             acquisition::default_image_camera(o.image_size, o.perspective, rig->sphere_radius_m);
+    } else {
+        return make_error(rig_path +
+                          ": camera_model: missing (image mode on a rig needs the calibrated "
+                          "camera; see docs/image-acquisition.md)");
     }
-    if (o.supersample < 1) {
-        return make_error("supersample " + std::to_string(o.supersample) + ": must be >= 1");
+    if (!embedded) {
+        // The devices at the description's addresses: a real rig, or a virtual rig served
+        // elsewhere.
+        out->rig = *rig;
+    } else {
+        if (o.supersample < 1) {
+            return make_error("supersample " + std::to_string(o.supersample) + ": must be >= 1");
+        }
+        sim::SimRigOptions so;
+        so.material = o.material;
+        so.brdf_path = o.brdf_path;
+        so.time_scale = o.time_scale;
+        so.seed = o.seed;
+        sim::SphereImaging sphere;
+        sphere.camera = to_sphere_camera(out->camera);
+        sphere.radius_m = rig->sphere_radius_m;
+        sphere.supersample = o.supersample;
+        so.sphere = sphere;
+        auto s = sim::SimRig::start(rig->json, so);
+        if (!s) {
+            return tl::unexpected(s.error());
+        }
+        out->sim = std::move(*s);
+        out->rig = acquisition::with_addresses(
+            *rig, out->sim->motor_address(), out->sim->camera_address());
     }
-    sim::SimRigOptions so;
-    so.material = o.material;
-    so.brdf_path = o.brdf_path;
-    so.time_scale = o.time_scale;
-    so.seed = o.seed;
-    sim::SphereImaging sphere;
-    sphere.camera = to_sphere_camera(out->camera);
-    sphere.radius_m = rig->sphere_radius_m;
-    sphere.supersample = o.supersample;
-    so.sphere = sphere;
-    auto s = sim::SimRig::start(rig->json, so);
-    if (!s) {
-        return tl::unexpected(s.error());
-    }
-    out->sim = std::move(*s);
-    out->rig =
-        acquisition::with_addresses(*rig, out->sim->motor_address(), out->sim->camera_address());
     auto dev = acquisition::open_rig(out->rig);
     if (!dev) {
         return tl::unexpected(dev.error());
@@ -138,31 +149,6 @@ std::string new_output_dir(const std::string& material) {
 }  // namespace
 
 int run_acquire_image_mode(const AcquireImageOptions& o) {
-    std::shared_ptr<const brdf::Brdf> sample;
-    std::string truth_name = o.material;
-    if (!o.brdf_path.empty()) {
-        auto b = brdf::load_brdf(o.brdf_path);
-        if (!b) {
-            std::fprintf(stderr, "gonio acquire: %s\n", b.error().message.c_str());
-            return 1;
-        }
-        sample = std::move(*b);
-        truth_name = std::filesystem::path(o.brdf_path).stem().string();
-    } else {
-        auto m = brdf::load_material(o.material);
-        if (!m) {
-            std::fprintf(stderr, "gonio acquire: %s\n", m.error().message.c_str());
-            return 1;
-        }
-        sample = brdf::make_analytic_brdf(*m);
-    }
-    if (!sample->isotropic()) {
-        std::fprintf(stderr,
-                     "gonio acquire: image mode bins into an isotropic half/difference table; "
-                     "%s is anisotropic\n",
-                     sample->describe().c_str());
-        return 1;
-    }
     if (o.table_factor < 1 || 90 % o.table_factor != 0) {
         std::fprintf(stderr,
                      "gonio acquire: --table-factor %d must divide 90 (1 = MERL resolution)\n",
@@ -174,16 +160,34 @@ int run_acquire_image_mode(const AcquireImageOptions& o) {
         std::fprintf(stderr, "gonio acquire: %s\n", rig.error().message.c_str());
         return 1;
     }
+    const bool embedded = (*rig)->sim != nullptr;
+    std::string truth_name = "sample";
+    if (embedded) {
+        truth_name =
+            o.brdf_path.empty() ? o.material : std::filesystem::path(o.brdf_path).stem().string();
+        const auto sample = (*rig)->sim->sample();
+        if (!sample->isotropic()) {
+            std::fprintf(stderr,
+                         "gonio acquire: image mode bins into an isotropic half/difference "
+                         "table; %s is anisotropic\n",
+                         sample->describe().c_str());
+            return 1;
+        }
+    }
+    const std::string motors =
+        (*rig)->rig.axes[static_cast<int>(acquisition::AxisRole::kLight)].address;
+    const std::string camera_address = (*rig)->rig.camera_address;
     const acquisition::ImageCampaignConfig cfg = acquisition::image_campaign_config(
         (*rig)->rig, (*rig)->camera, o.table_factor, o.coverage_target, o.max_frames);
     const std::string dir = o.out_dir.empty() ? new_output_dir(truth_name) : o.out_dir;
     if (!o.quiet) {
         std::printf(
-            "image mode: %s sphere on the virtual rig (motors %s, camera %s), %dx%dx%d table, "
+            "image mode: %s sphere on %s (motors %s, camera %s), %dx%dx%d table, "
             "target %.0f%%\n",
             truth_name.c_str(),
-            (*rig)->sim->motor_address().c_str(),
-            (*rig)->sim->camera_address().c_str(),
+            embedded ? "the virtual rig" : (*rig)->rig.name.c_str(),
+            motors.c_str(),
+            camera_address.c_str(),
             cfg.layout.n_theta_h,
             cfg.layout.n_theta_d,
             cfg.layout.n_phi_d,
@@ -208,9 +212,12 @@ int run_acquire_image_mode(const AcquireImageOptions& o) {
     }
     nlohmann::json extra;
     extra["sample"] = truth_name;
-    extra["ground_truth"] = sample->describe();
+    if (embedded) {
+        extra["ground_truth"] = (*rig)->sim->sample()->describe();
+    }
     extra["rig"] = o.rig_path.empty() ? "embedded virtual rig (sim-image)" : o.rig_path;
-    extra["camera_address"] = (*rig)->sim->camera_address();
+    extra["embedded_virtual_rig"] = embedded;
+    extra["camera_address"] = camera_address;
     extra["seed"] = o.seed;
     extra["pose_repeats"] = poses.repeats;
     extra["pose_corrections"] = poses.corrections;
@@ -252,7 +259,7 @@ int run_acquire_image_mode(const AcquireImageOptions& o) {
         "captures: %llu through %s (%zu retried after a camera error); pose checks: %zu "
         "exposures repeated, %zu poses corrected\n",
         static_cast<unsigned long long>(result->captures),
-        (*rig)->sim->camera_address().c_str(),
+        camera_address.c_str(),
         poses.capture_retries,
         poses.repeats,
         poses.corrections);

@@ -1,12 +1,15 @@
 #pragma once
 
 // `gonio acquire --mode image`: an image-mode campaign (a sphere of the material imaged by the
-// camera on the detector arm) on the embedded virtual rig, writing the dataset CSV, the table, the
-// coverage map and the metadata into a folder. The virtual rig (sim::SimRig with its sphere
-// option) serves its motor controllers on Modbus TCP and its camera as a GigE Vision device on a
-// loopback address of its own; the campaign opens them through the same path as a real rig
-// (acquisition::open_rig) and captures through acquisition::make_device_capture. The subcommand
-// parses its options into AcquireImageOptions and calls run_acquire_image_mode().
+// camera on the detector arm), writing the dataset CSV, the table, the coverage map and the
+// metadata into a folder. With a rig description that has a "sim" section (the default,
+// data/rigs/sim-image.json) the embedded virtual rig (sim::SimRig with its sphere option) serves
+// its motor controllers on Modbus TCP and its camera as a GigE Vision device on a loopback address
+// of its own; without one, the description's devices are used at their addresses (a real rig, or
+// a virtual rig served elsewhere). Either way the campaign opens them through the same path as a
+// point-mode campaign (acquisition::open_rig) and captures through
+// acquisition::make_device_capture. The subcommand parses its options into AcquireImageOptions and
+// calls run_acquire_image_mode().
 
 #include <cstdint>
 #include <memory>
@@ -24,7 +27,9 @@ struct AcquireImageOptions {
     std::string material = "red-plastic";  ///< Ground truth by name (data/materials/).
     std::string brdf_path;                 ///< Or a model JSON / table file (takes precedence).
     /// Rig description (data/rigs/sim-image.json when empty); its "camera_model", when present,
-    /// is the camera, else the default image camera of image_size / perspective.
+    /// is the camera, else (virtual rig only) the default image camera of image_size /
+    /// perspective. With a "sim" section the embedded virtual rig serves it (ground truth:
+    /// material / brdf_path); without one its devices are opened at their addresses.
     std::string rig_path;
     /// Fraction of the valid bins. What a sphere image can reach depends on its size in pixels
     /// (the smallest theta_h bins) and on the 80-degree limits: the default camera reaches about
@@ -44,8 +49,8 @@ struct AcquireImageOptions {
 /// with the error printed or the coverage target not met).
 int run_acquire_image_mode(const AcquireImageOptions& options);
 
-/// The embedded image rig: the virtual rig serving its devices on loopback and the devices opened
-/// through them.
+/// The image rig: the devices opened through their addresses, and the embedded virtual rig
+/// serving them when the description asks for it (null otherwise).
 struct ImageRig {
     acquisition::RigConfig rig;  ///< With the addresses the virtual rig serves.
     acquisition::CameraModel camera;
@@ -58,8 +63,8 @@ struct ImageRig {
 sim::SphereCamera to_sphere_camera(const acquisition::CameraModel& camera);
 
 /// Reads the rig description and the camera model, starts the virtual rig with the sphere of the
-/// ground truth (options.material / brdf_path) and opens its devices (camera: Mono16, full sensor,
-/// the rig's capture gain).
+/// ground truth (options.material / brdf_path) when the description has a "sim" section, and opens
+/// the devices (camera: Mono16, full sensor, the rig's capture gain).
 Expected<std::unique_ptr<ImageRig>> start_image_rig(const AcquireImageOptions& options);
 
 /// Capture function over the rig's devices (acquisition::make_device_capture): the light arm,

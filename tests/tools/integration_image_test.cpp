@@ -327,6 +327,74 @@ TEST(ImagePerspective, PerspectiveCameraThroughGigEFindsTheSphereAndTheMaterial)
     EXPECT_LT(rel[rel.size() / 2], 0.02);
 }
 
+TEST(ImageCommand, RigWithoutSimSectionIsOpenedAtItsAddresses) {
+    // A rig served elsewhere (here: a virtual image rig started by the test) described with its
+    // addresses, its calibrated camera model and no "sim" section: the command opens those
+    // devices and starts no rig of its own.
+    const acquisition::CameraModel camera = acquisition::default_image_camera(96, false, 0.02);
+    std::ifstream in(std::string(GONIO_SOURCE_DIR) + "/data/rigs/sim-image.json");
+    std::stringstream text;
+    text << in.rdbuf();
+    sim::SimRigOptions so;
+    so.material = "yellow-plastic";
+    so.time_scale = 500;
+    so.seed = 9;
+    sim::SphereImaging sphere;
+    sphere.camera = to_sphere_camera(camera);
+    sphere.supersample = 1;
+    so.sphere = sphere;
+    auto served = sim::SimRig::start(text.str(), so);
+    ASSERT_TRUE(served) << served.error().message;
+    auto desc = acquisition::parse_rig_config(text.str(), "sim-image.json");
+    ASSERT_TRUE(desc) << desc.error().message;
+    const acquisition::RigConfig at =
+        acquisition::with_addresses(*desc, (*served)->motor_address(), (*served)->camera_address());
+    nlohmann::json j = nlohmann::json::parse(at.json);
+    j.erase("sim");
+    const std::string dir =
+        std::string(GONIO_BINARY_DIR) + "/test_tools_image/elsewhere_" + std::to_string(::getpid());
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    // First without the camera model: an error naming it, nothing started.
+    std::ofstream(dir + "/rig-nocam.json") << j.dump(2);
+    AcquireImageOptions o;
+    o.rig_path = dir + "/rig-nocam.json";
+    o.out_dir = dir + "/run";
+    o.table_factor = 6;
+    o.coverage_target = 0.5;
+    o.max_frames = 40;
+    o.quiet = true;
+    auto refused = start_image_rig(o);
+    ASSERT_FALSE(refused);
+    EXPECT_NE(refused.error().message.find("camera_model: missing"), std::string::npos)
+        << refused.error().message;
+    j["camera_model"] = nlohmann::json::parse(acquisition::camera_model_to_json(camera));
+    std::ofstream(dir + "/rig.json") << j.dump(2);
+    o.rig_path = dir + "/rig.json";
+    ASSERT_EQ(run_acquire_image_mode(o), 0);
+    // Every frame came from the rig served by the test.
+    EXPECT_GT((*served)->camera().frames_rendered(), 20u);
+    auto data = brdf::read_dataset_csv(dir + "/run/dataset.csv");
+    ASSERT_TRUE(data) << data.error().message;
+    const auto truth = (*served)->sample();
+    std::vector<double> rel;
+    for (const brdf::Sample& smp : data->samples) {
+        if (smp.wi().z() < 0.2 || smp.wo().z() < 0.2) {
+            continue;
+        }
+        rel.push_back(std::abs(smp.value[0] / truth->eval(smp.wi(), smp.wo())[0] - 1));
+    }
+    ASSERT_GT(rel.size(), 500u);
+    std::nth_element(rel.begin(), rel.begin() + rel.size() / 2, rel.end());
+    EXPECT_LT(rel[rel.size() / 2], 0.03);
+    std::ifstream meta(dir + "/run/dataset.json");
+    std::stringstream ms;
+    ms << meta.rdbuf();
+    EXPECT_NE(ms.str().find("\"embedded_virtual_rig\": false"), std::string::npos);
+    EXPECT_EQ(ms.str().find("ground_truth"), std::string::npos);
+    std::filesystem::remove_all(dir);
+}
+
 TEST(ImageCommand, WritesDatasetTableAndCoverageMap) {
     const std::string dir =
         (std::filesystem::temp_directory_path() / "gonio_image_command_test").string();
