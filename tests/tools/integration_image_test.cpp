@@ -396,8 +396,9 @@ TEST(ImageCommand, RigWithoutSimSectionIsOpenedAtItsAddresses) {
 }
 
 TEST(ImageCommand, WritesDatasetTableAndCoverageMap) {
-    const std::string dir =
-        (std::filesystem::temp_directory_path() / "gonio_image_command_test").string();
+    const std::string dir = (std::filesystem::temp_directory_path() /
+                             ("gonio_image_command_test_" + std::to_string(::getpid())))
+                                .string();
     std::filesystem::remove_all(dir);
     AcquireImageOptions o;
     o.out_dir = dir;
