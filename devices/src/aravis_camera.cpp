@@ -532,19 +532,6 @@ struct AravisCamera::Impl {
         if (size == 0) {
             return tl::unexpected(err("PayloadSize is 0"));
         }
-        if (ARV_IS_GV_DEVICE(device)) {
-            // On loopback (simulated cameras) Aravis's packet-socket receiver shares one ring
-            // with all of the machine's loopback traffic: under load it lost whole frames of
-            // one camera while another streamed. The kernel's UDP socket filters by port.
-            GSocketAddress* sa = arv_gv_device_get_device_address(ARV_GV_DEVICE(device));
-            GInetAddress* a = sa != nullptr && G_IS_INET_SOCKET_ADDRESS(sa)
-                                  ? g_inet_socket_address_get_address(G_INET_SOCKET_ADDRESS(sa))
-                                  : nullptr;
-            if (a != nullptr && g_inet_address_get_is_loopback(a)) {
-                arv_camera_gv_set_stream_options(camera,
-                                                 ARV_GV_STREAM_OPTION_PACKET_SOCKET_DISABLED);
-            }
-        }
         stream = arv_camera_create_stream(camera, nullptr, nullptr, &e);
         if (e != nullptr || stream == nullptr) {
             stream = nullptr;
