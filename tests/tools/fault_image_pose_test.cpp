@@ -228,34 +228,41 @@ TEST(ImagePose, DriveAlarmMidMoveFailsTheCaptureWithTheDrivesError) {
 TEST(ImagePose, FrameLostByTheCameraIsCapturedAgain) {
     Live l = start(15);
     ASSERT_TRUE(l.rig);
-    l.rig->rig.capture.timeout_ms = 300;  // the wait for the lost frame
+    l.rig->rig.capture.timeout_ms = 1500;  // the wait for the lost frame
     acquisition::CaptureFn capture = image_rig_capture(*l.rig, 0.0);
     acquisition::CaptureRequest r;
     r.light_arm_rad = 30 * kPi / 180;
     r.exposure_us = 2000;
     ASSERT_TRUE(capture(r));
+    const std::size_t retries_before = l.rig->pose_log.capture_retries;
+    const std::uint64_t rendered_before = l.rig->sim->camera().frames_rendered();
     // The camera's fault injection: the next frame is exposed but none of its packets is sent.
     sim::GigeFaults f;
     f.drop_frames = 1;
     l.rig->sim->camera().set_faults(f);
     auto frame = capture(r);
     ASSERT_TRUE(frame) << frame.error().message;
-    EXPECT_EQ(l.rig->pose_log.capture_retries, 1u);
+    // One retry for the dropped frame (more only if the loaded machine lost another one: each
+    // retry is one more exposure either way).
+    const std::size_t retries = l.rig->pose_log.capture_retries - retries_before;
+    EXPECT_GE(retries, 1u);
     EXPECT_EQ(l.rig->pose_log.repeats + l.rig->pose_log.corrections, 0u);
-    ASSERT_EQ(l.rig->pose_log.notes.size(), 1u);
-    EXPECT_NE(l.rig->pose_log.notes[0].find("captured again"), std::string::npos)
-        << l.rig->pose_log.notes[0];
-    // Three frames exposed: the first capture, the lost one and its retry.
-    EXPECT_EQ(l.rig->sim->camera().frames_rendered(), 3u);
+    ASSERT_EQ(l.rig->pose_log.notes.size(), l.rig->pose_log.capture_retries);
+    for (const std::string& n : l.rig->pose_log.notes) {
+        EXPECT_NE(n.find("captured again"), std::string::npos) << n;
+    }
+    EXPECT_EQ(l.rig->sim->camera().frames_rendered(), rendered_before + 1 + retries);
     // Every frame lost: the error comes back after the retries.
     f.drop_frames = 1000;
     l.rig->sim->camera().set_faults(f);
     l.rig->rig.retries = 1;
+    l.rig->rig.capture.timeout_ms = 300;
     acquisition::CaptureFn once = image_rig_capture(*l.rig, 0.0);
+    const std::size_t before_lost = l.rig->pose_log.capture_retries;
     auto lost = once(r);
     ASSERT_FALSE(lost);
     EXPECT_NE(lost.error().message.find("no frame"), std::string::npos) << lost.error().message;
-    EXPECT_EQ(l.rig->pose_log.capture_retries, 2u);
+    EXPECT_EQ(l.rig->pose_log.capture_retries, before_lost + 1);
 }
 
 }  // namespace
