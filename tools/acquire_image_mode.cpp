@@ -4,47 +4,15 @@
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
-#include <optional>
 
 #include "gonio/brdf/analytic_brdf.h"
+#include "gonio/brdf/data_path.h"
 #include "gonio/brdf/material_library.h"
-#include "gonio/brdf/rig_geometry.h"
 
 namespace gonio::tools {
 
-std::shared_ptr<SimulatedImageRig> make_simulated_image_rig(
-    std::shared_ptr<const brdf::Brdf> sample,
-    const acquisition::CameraModel* camera,
-    int image_size,
-    bool perspective,
-    std::uint64_t seed) {
-    auto rig = std::make_shared<SimulatedImageRig>();
-    if (camera != nullptr) {
-        rig->camera = *camera;
-    } else {
-        acquisition::CameraIntrinsics k;
-        k.width = image_size;
-        k.height = image_size;
-        k.cx = (image_size - 1) / 2.0;
-        k.cy = (image_size - 1) / 2.0;
-        k.pixel_size_um = 5.5;
-        // A 20 mm sphere filling about 80% of the frame.
-        const double fill_px = 0.4 * image_size;
-        if (perspective) {
-            // 0.5 m away: angular radius asin(0.02 / 0.5), image radius f tan(angle).
-            k.fx = k.fy = fill_px / std::tan(std::asin(0.02 / 0.5));
-        } else {
-            k.fx = k.fy = fill_px / 0.02;  // px per metre
-        }
-        rig->camera = acquisition::camera_on_detector_arm(
-            k,
-            perspective ? acquisition::Projection::kPerspective
-                        : acquisition::Projection::kOrthographic,
-            0.0,
-            0.5);
-    }
-    const acquisition::CameraModel& c = rig->camera;
-    sim::SphereCamera& sc = rig->scene.camera;
+sim::SphereCamera to_sphere_camera(const acquisition::CameraModel& c) {
+    sim::SphereCamera sc;
     sc.projection = c.projection == acquisition::Projection::kPerspective
                         ? sim::SphereProjection::kPerspective
                         : sim::SphereProjection::kOrthographic;
@@ -57,62 +25,98 @@ std::shared_ptr<SimulatedImageRig> make_simulated_image_rig(
     sc.distortion = c.intrinsics.distortion;
     sc.rotation = c.rotation;
     sc.translation = c.translation;
-    rig->scene.centre = brdf::Vec3d::Zero();
-    rig->scene.radius_m = 0.02;
-    rig->scene.irradiance_w_m2 = 1.0;
-    rig->scene.supersample = 2;
-    sim::SensorParams p;
-    p.width = sc.width;
-    p.height = sc.height;
-    p.seed = seed;
-    rig->sensor = std::make_unique<sim::SensorModel>(p);
-    rig->settings.exposure_us = 10000;
-    rig->sample = std::move(sample);
-    brdf::ModelD white;
-    white.has_diffuse = true;
-    white.diffuse = brdf::Rgbd::Constant(0.99);
-    rig->reference = brdf::make_analytic_brdf(white);
-    return rig;
+    return sc;
 }
 
-acquisition::CaptureFn simulated_capture(std::shared_ptr<SimulatedImageRig> rig) {
-    return [rig](const acquisition::CaptureRequest& r) -> Expected<devices::Frame> {
-        if (r.channel < 0 || r.channel > 2) {
-            return make_error("simulated camera: no filter " + std::to_string(r.channel));
+Expected<std::unique_ptr<ImageRig>> start_image_rig(const AcquireImageOptions& o) {
+    std::string rig_path = o.rig_path;
+    if (rig_path.empty()) {
+        auto p = find_data_file("rigs/sim-image.json");
+        if (!p) {
+            return tl::unexpected(p.error());
         }
-        sim::SphereScene scene = rig->scene;
-        scene.light_world = brdf::arm_direction(r.light_arm_rad);
-        scene.shutter_open = r.shutter_open;
-        scene.filter = brdf::Rgbd::Zero();
-        scene.filter[r.channel] = 1.0;
-        sim::ExposureSettings s = rig->settings;
-        s.exposure_us = r.exposure_us;
-        const brdf::Brdf& f = r.reference ? *rig->reference : *rig->sample;
-        return sim::render_sphere_frame(f, scene, *rig->sensor, s);
-    };
+        rig_path = *p;
+    }
+    auto rig = acquisition::read_rig_config(rig_path);
+    if (!rig) {
+        return tl::unexpected(rig.error());
+    }
+    auto out = std::make_unique<ImageRig>();
+    const nlohmann::json j = nlohmann::json::parse(rig->json, nullptr, false);
+    if (j.is_object() && j.contains("camera_model")) {
+        auto c = acquisition::read_camera_model(rig_path);
+        if (!c) {
+            return tl::unexpected(c.error());
+        }
+        out->camera = *c;
+    } else {
+        out->camera =
+            acquisition::default_image_camera(o.image_size, o.perspective, rig->sphere_radius_m);
+    }
+    if (o.supersample < 1) {
+        return make_error("supersample " + std::to_string(o.supersample) + ": must be >= 1");
+    }
+    sim::SimRigOptions so;
+    so.material = o.material;
+    so.brdf_path = o.brdf_path;
+    so.time_scale = o.time_scale;
+    so.seed = o.seed;
+    sim::SphereImaging sphere;
+    sphere.camera = to_sphere_camera(out->camera);
+    sphere.radius_m = rig->sphere_radius_m;
+    sphere.supersample = o.supersample;
+    so.sphere = sphere;
+    auto s = sim::SimRig::start(rig->json, so);
+    if (!s) {
+        return tl::unexpected(s.error());
+    }
+    out->sim = std::move(*s);
+    out->rig =
+        acquisition::with_addresses(*rig, out->sim->motor_address(), out->sim->camera_address());
+    auto dev = acquisition::open_rig(out->rig);
+    if (!dev) {
+        return tl::unexpected(dev.error());
+    }
+    out->dev = std::move(*dev);
+    devices::Camera& cam = *out->dev.camera;
+    if (auto r = cam.set_pixel_format(devices::PixelFormat::kMono16); !r) {
+        return tl::unexpected(r.error());
+    }
+    if (auto r = cam.set_roi(devices::Roi{}); !r) {
+        return tl::unexpected(r.error());
+    }
+    if (auto r = cam.set_gain(out->rig.capture.gain); !r) {
+        return tl::unexpected(r.error());
+    }
+    return out;
 }
 
-acquisition::ImageCampaignConfig simulated_campaign_config(const SimulatedImageRig& rig,
-                                                           int table_factor,
-                                                           double coverage_target,
-                                                           int max_frames) {
-    acquisition::ImageCampaignConfig cfg;
-    cfg.camera = rig.camera;
-    cfg.layout = table_factor <= 1 ? acquisition::TableLayout::merl()
-                                   : acquisition::coarse_layout(table_factor);
-    cfg.detector_arm_rad = 0;
-    cfg.lights.min_rad = -brdf::kPi;
-    cfg.lights.max_rad = brdf::kPi;
-    cfg.lights.step_rad = brdf::kPi / 180;
-    cfg.lights.blind_zone_rad = 5 * brdf::kPi / 180;
-    cfg.coverage_target = coverage_target;
-    cfg.max_frames = max_frames;
-    cfg.silhouette.radius_m = rig.scene.radius_m;
-    cfg.exposure_us = rig.settings.exposure_us;
-    cfg.electrons_per_count = rig.sensor->e_per_count(rig.settings);
-    cfg.read_noise_counts = rig.sensor->params().read_noise_e / cfg.electrons_per_count;
-    cfg.reference_albedo = 0.99;
-    return cfg;
+acquisition::CaptureFn image_rig_capture(ImageRig& rig, double detector_arm_rad) {
+    acquisition::RigDevices& d = rig.dev;
+    std::function<Expected<void>(int)> select_filter;
+    if (d.filter_wheel) {
+        devices::FilterWheel* fw = d.filter_wheel.get();
+        select_filter = [fw](int c) { return fw->set_filter(c); };
+    }
+    std::function<Expected<void>(bool)> swap_target;
+    if (d.reference_changer) {
+        devices::Light* changer = d.reference_changer.get();
+        swap_target = [changer](bool white) { return changer->set_shutter_open(white); };
+    }
+    acquisition::DeviceCaptureOptions opt;
+    opt.move_timeout = std::chrono::milliseconds(rig.rig.move_timeout_ms);
+    opt.detector_arm = d.axes[static_cast<int>(acquisition::AxisRole::kDetector)].get();
+    opt.detector_arm_rad = detector_arm_rad;
+    opt.log = &rig.pose_log;
+    opt.capture_timeout = std::chrono::milliseconds(rig.rig.capture.timeout_ms);
+    opt.capture_retries = rig.rig.retries;
+    return acquisition::make_device_capture(
+        *d.camera,
+        *d.shutter,
+        *d.axes[static_cast<int>(acquisition::AxisRole::kLight)],
+        std::move(select_filter),
+        std::move(swap_target),
+        opt);
 }
 
 namespace {
@@ -154,33 +158,31 @@ int run_acquire_image_mode(const AcquireImageOptions& o) {
                      sample->describe().c_str());
         return 1;
     }
-    std::optional<acquisition::CameraModel> camera;
-    if (!o.rig_path.empty()) {
-        auto c = acquisition::read_camera_model(o.rig_path);
-        if (!c) {
-            std::fprintf(stderr, "gonio acquire: %s\n", c.error().message.c_str());
-            return 1;
-        }
-        camera = *c;
-    }
     if (o.table_factor < 1 || 90 % o.table_factor != 0) {
         std::fprintf(stderr,
                      "gonio acquire: --table-factor %d must divide 90 (1 = MERL resolution)\n",
                      o.table_factor);
         return 1;
     }
-    auto rig = make_simulated_image_rig(
-        sample, camera ? &*camera : nullptr, o.image_size, o.perspective, o.seed);
-    const acquisition::ImageCampaignConfig cfg =
-        simulated_campaign_config(*rig, o.table_factor, o.coverage_target, o.max_frames);
+    auto rig = start_image_rig(o);
+    if (!rig) {
+        std::fprintf(stderr, "gonio acquire: %s\n", rig.error().message.c_str());
+        return 1;
+    }
+    const acquisition::ImageCampaignConfig cfg = acquisition::image_campaign_config(
+        (*rig)->rig, (*rig)->camera, o.table_factor, o.coverage_target, o.max_frames);
     const std::string dir = o.out_dir.empty() ? new_output_dir(truth_name) : o.out_dir;
     if (!o.quiet) {
-        std::printf("image mode: %s sphere on the simulated rig, %dx%dx%d table, target %.0f%%\n",
-                    truth_name.c_str(),
-                    cfg.layout.n_theta_h,
-                    cfg.layout.n_theta_d,
-                    cfg.layout.n_phi_d,
-                    100 * cfg.coverage_target);
+        std::printf(
+            "image mode: %s sphere on the virtual rig (motors %s, camera %s), %dx%dx%d table, "
+            "target %.0f%%\n",
+            truth_name.c_str(),
+            (*rig)->sim->motor_address().c_str(),
+            (*rig)->sim->camera_address().c_str(),
+            cfg.layout.n_theta_h,
+            cfg.layout.n_theta_d,
+            cfg.layout.n_phi_d,
+            100 * cfg.coverage_target);
     }
     auto progress = [&](std::size_t i, const acquisition::FrameRecord& r) {
         if (!o.quiet) {
@@ -192,7 +194,9 @@ int run_acquire_image_mode(const AcquireImageOptions& o) {
             std::fflush(stdout);
         }
     };
-    auto result = acquisition::run_image_campaign(simulated_capture(rig), cfg, progress);
+    auto result = acquisition::run_image_campaign(
+        image_rig_capture(**rig, cfg.detector_arm_rad), cfg, progress);
+    const acquisition::PoseCheckLog& poses = (*rig)->pose_log;
     if (!result) {
         std::fprintf(stderr, "gonio acquire: %s\n", result.error().message.c_str());
         return 1;
@@ -200,8 +204,13 @@ int run_acquire_image_mode(const AcquireImageOptions& o) {
     nlohmann::json extra;
     extra["sample"] = truth_name;
     extra["ground_truth"] = sample->describe();
-    extra["rig"] = o.rig_path.empty() ? "embedded simulated rig" : o.rig_path;
+    extra["rig"] = o.rig_path.empty() ? "embedded virtual rig (sim-image)" : o.rig_path;
+    extra["camera_address"] = (*rig)->sim->camera_address();
     extra["seed"] = o.seed;
+    extra["pose_repeats"] = poses.repeats;
+    extra["pose_corrections"] = poses.corrections;
+    extra["capture_retries"] = poses.capture_retries;
+    extra["pose_notes"] = poses.notes;
     if (auto w = acquisition::write_image_campaign(dir, *result, cfg, extra.dump()); !w) {
         std::fprintf(stderr, "gonio acquire: %s\n", w.error().message.c_str());
         return 1;
@@ -234,6 +243,14 @@ int run_acquire_image_mode(const AcquireImageOptions& o) {
         hole_bins,
         result->holes.size(),
         result->stop_reason.c_str());
+    std::printf(
+        "captures: %llu through %s (%zu retried after a camera error); pose checks: %zu "
+        "exposures repeated, %zu poses corrected\n",
+        static_cast<unsigned long long>(result->captures),
+        (*rig)->sim->camera_address().c_str(),
+        poses.capture_retries,
+        poses.repeats,
+        poses.corrections);
     if (!result->target_met) {
         std::fprintf(stderr,
                      "gonio acquire: coverage target %.1f%% not met (%.1f%%)\n",

@@ -94,6 +94,7 @@ int run_image(const AcquireOptions& o) {
     if (o.max_frames > 0) {
         io.max_frames = o.max_frames;
     }
+    io.time_scale = o.time_scale;
     return gonio::tools::run_acquire_image_mode(io);
 }
 

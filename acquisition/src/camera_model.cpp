@@ -103,6 +103,26 @@ CameraModel camera_on_detector_arm(const CameraIntrinsics& intrinsics,
     return m;
 }
 
+CameraModel default_image_camera(int size, bool perspective, double sphere_radius_m) {
+    GONIO_CHECK(size > 0 && sphere_radius_m > 0 && sphere_radius_m < 0.5);
+    constexpr double kDistance = 0.5;
+    CameraIntrinsics k;
+    k.width = size;
+    k.height = size;
+    k.cx = (size - 1) / 2.0;
+    k.cy = (size - 1) / 2.0;
+    k.pixel_size_um = 5.5;
+    const double fill_px = 0.4 * size;
+    if (perspective) {
+        // Angular radius asin(R / d), image radius f tan(angle).
+        k.fx = k.fy = fill_px / std::tan(std::asin(sphere_radius_m / kDistance));
+    } else {
+        k.fx = k.fy = fill_px / sphere_radius_m;  // px per metre
+    }
+    return camera_on_detector_arm(
+        k, perspective ? Projection::kPerspective : Projection::kOrthographic, 0.0, kDistance);
+}
+
 std::vector<cv::Point3f> ChessboardTarget::corners() const {
     std::vector<cv::Point3f> out;
     for (int r = 0; r < inner_rows; ++r) {

@@ -537,22 +537,67 @@ Expected<void> write_image_campaign(const std::string& dir,
     return write_file_atomic(path, j.dump(2) + "\n");
 }
 
+ImageCampaignConfig image_campaign_config(const RigConfig& rig,
+                                          const CameraModel& camera,
+                                          int table_factor,
+                                          double coverage_target,
+                                          int max_frames) {
+    constexpr double kDeg = brdf::kPi / 180;
+    ImageCampaignConfig cfg;
+    cfg.camera = camera;
+    cfg.layout = table_factor <= 1 ? TableLayout::merl() : coarse_layout(table_factor);
+    cfg.detector_arm_rad = 0;
+    const devices::SoftLimits& lim = rig.axes[static_cast<int>(AxisRole::kLight)].limits;
+    cfg.lights.min_rad = std::max(lim.min_deg, -180.0) * kDeg;
+    cfg.lights.max_rad = std::min(lim.max_deg, 180.0) * kDeg;
+    cfg.lights.step_rad = kDeg;
+    cfg.lights.blind_zone_rad = rig.blind_angle_deg * kDeg;
+    cfg.coverage_target = coverage_target;
+    cfg.max_frames = max_frames;
+    cfg.silhouette.radius_m = rig.sphere_radius_m;
+    cfg.min_exposure_us = std::max(cfg.min_exposure_us, rig.capture.min_exposure_us);
+    cfg.exposure_us = std::clamp(10000.0, rig.capture.min_exposure_us, rig.capture.max_exposure_us);
+    // Conversion gain and read noise at the capture gain (electrons are what the sensor counts).
+    cfg.electrons_per_count = rig.noise.e_per_count / rig.capture.gain;
+    cfg.read_noise_counts = rig.noise.read_noise_counts * rig.capture.gain;
+    cfg.reference_albedo = rig.white_reflectance;
+    cfg.capture_timeout = std::chrono::milliseconds(rig.capture.timeout_ms);
+    return cfg;
+}
+
+namespace {
+
+struct ArmCheck {
+    devices::Axis* axis = nullptr;
+    double target_deg = 0;
+};
+
+std::string format_deg(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.4f", v);
+    return buf;
+}
+
+}  // namespace
+
 CaptureFn make_device_capture(devices::Camera& camera,
                               devices::Light& light,
                               devices::Axis& light_arm,
                               std::function<Expected<void>(int)> select_filter,
                               std::function<Expected<void>(bool)> swap_target,
-                              std::chrono::milliseconds move_timeout) {
+                              const DeviceCaptureOptions& options) {
     struct State {
-        bool have_position = false;
-        double position_deg = 0;
+        bool have_light = false;
+        double light_deg = 0;
+        bool have_detector = false;
         int filter = -1;
         int target = -1;  // 1 reference, 0 sample
         double exposure_us = -1;
         int shutter = -1;
     };
     auto state = std::make_shared<State>();
-    return [&camera, &light, &light_arm, select_filter, swap_target, move_timeout, state](
+    const DeviceCaptureOptions o = options;
+    return [&camera, &light, &light_arm, select_filter, swap_target, o, state](
                const CaptureRequest& r) -> Expected<devices::Frame> {
         const int target = r.reference ? 1 : 0;
         if (swap_target && state->target != target) {
@@ -562,12 +607,9 @@ CaptureFn make_device_capture(devices::Camera& camera,
             state->target = target;
         }
         const double deg = r.light_arm_rad * 180 / brdf::kPi;
-        if (!state->have_position || std::abs(state->position_deg - deg) > 1e-9) {
-            if (auto m = light_arm.move_to(deg, move_timeout); !m) {
-                return tl::unexpected(m.error());
-            }
-            state->have_position = true;
-            state->position_deg = deg;
+        std::vector<ArmCheck> arms{{&light_arm, deg}};
+        if (o.detector_arm != nullptr) {
+            arms.push_back({o.detector_arm, o.detector_arm_rad * 180 / brdf::kPi});
         }
         if (select_filter && state->filter != r.channel) {
             if (auto f = select_filter(r.channel); !f) {
@@ -588,10 +630,121 @@ CaptureFn make_device_capture(devices::Camera& camera,
             }
             state->exposure_us = r.exposure_us;
         }
-        const auto timeout =
-            std::chrono::milliseconds(2000 + static_cast<std::int64_t>(r.exposure_us / 1000));
-        return camera.capture(timeout);
+        auto note = [&](const std::string& text, bool repeat) {
+            if (o.log != nullptr) {
+                (repeat ? o.log->repeats : o.log->corrections) += 1;
+                o.log->notes.push_back(text);
+            }
+        };
+        auto read_back = [&](std::vector<double>* out) -> Expected<void> {
+            out->clear();
+            for (const ArmCheck& a : arms) {
+                auto p = a.axis->position_deg();
+                if (!p) {
+                    return tl::unexpected(p.error());
+                }
+                out->push_back(*p);
+            }
+            return {};
+        };
+        std::vector<double> before;
+        std::vector<double> after;
+        int failures = 0;
+        // Moves: the light arm when its target changed, the detector arm on the first capture;
+        // then whichever arm a pose check found away from its target.
+        std::vector<bool> move(arms.size(), false);
+        move[0] = !state->have_light || std::abs(state->light_deg - deg) > 1e-9;
+        if (arms.size() > 1) {
+            move[1] = !state->have_detector;
+        }
+        for (int attempt = 0;; ++attempt) {
+            for (std::size_t k = 0; k < arms.size(); ++k) {
+                if (!move[k]) {
+                    continue;
+                }
+                if (auto m = arms[k].axis->move_to(arms[k].target_deg, o.move_timeout); !m) {
+                    return tl::unexpected(m.error());
+                }
+                move[k] = false;
+            }
+            state->have_light = true;
+            state->light_deg = deg;
+            state->have_detector = true;
+            if (auto b = read_back(&before); !b) {
+                return tl::unexpected(b.error());
+            }
+            std::string off;
+            for (std::size_t k = 0; k < arms.size(); ++k) {
+                if (std::abs(before[k] - arms[k].target_deg) > o.pose_tolerance_deg) {
+                    off += (off.empty() ? "" : ", ") + arms[k].axis->name() + " at " +
+                           format_deg(before[k]) + " deg, target " +
+                           format_deg(arms[k].target_deg) + " deg";
+                    move[k] = true;
+                }
+            }
+            if (!off.empty()) {
+                if (attempt >= o.max_pose_repeats) {
+                    return make_error("pose check: the arms do not stay on target for the " +
+                                      describe(r) + " (" + off + ") after " +
+                                      std::to_string(attempt) + " corrections");
+                }
+                note("pose check: before the " + describe(r) + " " + off + "; moved back", false);
+                continue;
+            }
+            const auto timeout =
+                o.capture_timeout +
+                std::chrono::milliseconds(static_cast<std::int64_t>(r.exposure_us / 1000));
+            auto frame = camera.capture(timeout);
+            if (!frame) {
+                if (failures >= o.capture_retries) {
+                    return frame;
+                }
+                ++failures;
+                if (o.log != nullptr) {
+                    ++o.log->capture_retries;
+                    o.log->notes.push_back("camera error at the " + describe(r) + " (" +
+                                           frame.error().message + "); captured again");
+                }
+                --attempt;  // Not a pose problem.
+                continue;
+            }
+            if (auto a = read_back(&after); !a) {
+                return tl::unexpected(a.error());
+            }
+            std::string moved;
+            for (std::size_t k = 0; k < arms.size(); ++k) {
+                if (std::abs(after[k] - before[k]) > o.pose_tolerance_deg) {
+                    moved += (moved.empty() ? "" : ", ") + arms[k].axis->name() + " " +
+                             format_deg(before[k]) + " -> " + format_deg(after[k]) + " deg";
+                    move[k] = true;
+                }
+            }
+            if (!moved.empty()) {
+                if (attempt >= o.max_pose_repeats) {
+                    return make_error("pose check: the arms keep moving during the " + describe(r) +
+                                      " (" + moved + ") after " + std::to_string(attempt) +
+                                      " repeats");
+                }
+                note("pose check: an arm moved during the " + describe(r) + " (" + moved +
+                         "); the capture is repeated",
+                     true);
+                continue;
+            }
+            return frame;
+        }
     };
+}
+
+CaptureFn make_device_capture(devices::Camera& camera,
+                              devices::Light& light,
+                              devices::Axis& light_arm,
+                              std::function<Expected<void>(int)> select_filter,
+                              std::function<Expected<void>(bool)> swap_target,
+                              std::chrono::milliseconds move_timeout) {
+    DeviceCaptureOptions o;
+    o.move_timeout = move_timeout;
+    return make_device_capture(
+        camera, light, light_arm, std::move(select_filter), std::move(swap_target), o);
 }
 
 }  // namespace gonio::acquisition

@@ -62,6 +62,7 @@ void check_rig_keys(const json& j) {
                                                "retries",
                                                "sim",
                                                "camera_model",
+                                               "image_sample",
                                                "embedded_virtual_rig"};
     static const std::map<std::string, std::set<std::string>> kSections = {
         {"camera", {"address"}},
@@ -80,6 +81,7 @@ void check_rig_keys(const json& j) {
         {"geometry", {"blind_angle_deg", "max_theta_deg"}},
         {"white_reference", {"reflectance", "theta_i_deg", "theta_o_deg"}},
         {"noise", {"e_per_count", "read_noise_counts"}},
+        {"image_sample", {"sphere_radius_m"}},
         {"capture",
          {"target_fraction",
           "linear_max_fraction",
@@ -317,6 +319,15 @@ Expected<RigConfig> parse_rig_config(const std::string& text, const std::string&
                                   "min_exposure_us < max_exposure_us, max_brackets >= 1, "
                                   "bracket_ratio > 1, dark_frames >= 1, roi_fraction in "
                                   "(0, 1], gain > 0");
+            }
+        }
+        at = "image_sample";
+        if (j.contains("image_sample")) {
+            rig.sphere_radius_m =
+                j.at("image_sample").value("sphere_radius_m", rig.sphere_radius_m);
+            if (!(rig.sphere_radius_m > 0 && rig.sphere_radius_m < 10)) {
+                return make_error(source + ": image_sample.sphere_radius_m = " +
+                                  show_number(rig.sphere_radius_m) + ": must be in (0, 10) metres");
             }
         }
         rig.move_timeout_ms = j.value("move_timeout_ms", rig.move_timeout_ms);

@@ -663,6 +663,7 @@ std::optional<RenderedFrame> GigeCamera::next_frame(Clock::time_point now,
     PendingFrame p;
     RenderedFrame f;
     std::shared_ptr<const brdf::Brdf> brdf;
+    RadianceFn renderer;
     {
         std::lock_guard<std::mutex> lock(mutex_);
         State& s = *state_;
@@ -709,12 +710,20 @@ std::optional<RenderedFrame> GigeCamera::next_frame(Clock::time_point now,
         f.block_id = s.block_id;
         ++s.frames_rendered;
         brdf = brdf_;
+        renderer = renderer_;
     }
     // Rendering runs outside the lock so that the control channel stays responsive; only the
     // stream thread calls next_frame, so the sensor's noise generator has a single user.
-    cv::Mat radiance =
-        brdf ? render_scene(*brdf, p.scene, config_.sensor.width, config_.sensor.height, p.roi)
-             : cv::Mat(p.roi.height, p.roi.width, CV_32F, cv::Scalar(0));
+    cv::Mat radiance;
+    if (!brdf) {
+        radiance = cv::Mat(p.roi.height, p.roi.width, CV_32F, cv::Scalar(0));
+    } else if (renderer) {
+        radiance = renderer(*brdf, p.scene, config_.sensor.width, config_.sensor.height, p.roi);
+        GONIO_CHECK(radiance.type() == CV_32F && radiance.rows == p.roi.height &&
+                    radiance.cols == p.roi.width);
+    } else {
+        radiance = render_scene(*brdf, p.scene, config_.sensor.width, config_.sensor.height, p.roi);
+    }
     const cv::Mat counts = sensor_.expose(radiance, p.settings);
     f.timestamp_ns = p.timestamp_ns;
     f.pixel_format = devices::pfnc_code(p.settings.format);
@@ -794,6 +803,11 @@ void GigeCamera::set_brdf(std::shared_ptr<const brdf::Brdf> brdf) {
 void GigeCamera::set_scene(SceneFn scene) {
     std::lock_guard<std::mutex> lock(mutex_);
     scene_ = std::move(scene);
+}
+
+void GigeCamera::set_renderer(RadianceFn renderer) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    renderer_ = std::move(renderer);
 }
 
 void GigeCamera::set_stream_source_port(std::uint16_t port) {

@@ -1,5 +1,7 @@
 #include "gonio/sim/rig_world.h"
 
+#include <cmath>
+
 #include "gonio/brdf/rig_geometry.h"
 
 namespace gonio::sim {
@@ -49,6 +51,10 @@ SceneState RigWorld::scene() const {
     const auto [wi, wo] = brdf::rig_forward(p);
     s.wi = wi;
     s.wo = wo;
+    s.light_arm_rad = p.light;
+    s.detector_arm_rad = p.detector;
+    s.tilt_rad = p.tilt;
+    s.spin_rad = p.spin;
     s.shutter_open = units_.shutter > 0 ? server_->shutter_open(units_.shutter) : true;
     s.irradiance_w_m2 = irradiance_ * lamp_factor_.load();
     for (int c = 0; c < 3; ++c) {
@@ -64,6 +70,12 @@ SceneState RigWorld::scene() const {
     if (!s.wi.allFinite() || !s.wo.allFinite()) {
         // An unknown unit reads NaN: the camera then sees darkness, never NaN.
         s.wi = s.wo = brdf::Vec3d(0, 0, -1);
+    }
+    if (!std::isfinite(s.light_arm_rad) || !std::isfinite(s.detector_arm_rad) ||
+        !std::isfinite(s.tilt_rad) || !std::isfinite(s.spin_rad)) {
+        // Same for the stage angles: an image-mode renderer then sees the shutter closed.
+        s.light_arm_rad = s.detector_arm_rad = s.tilt_rad = s.spin_rad = 0;
+        s.shutter_open = false;
     }
     return s;
 }

@@ -150,8 +150,15 @@ Expected<std::unique_ptr<SimRig>> SimRig::start(const std::string& rig_json,
     gc.sensor.width = sensor.value("width", 640);
     gc.sensor.height = sensor.value("height", 512);
     gc.sensor.seed = seed;
+    if (opt.sphere) {
+        gc.sensor.width = opt.sphere->camera.width;
+        gc.sensor.height = opt.sphere->camera.height;
+    }
     gc.exposure_naming = opt.exposure_abs ? ExposureNaming::kAbs : ExposureNaming::kSfnc;
     rig->camera_ = std::make_shared<GigeCamera>(gc, rig->mounted_, rig->world_->scene_fn());
+    if (opt.sphere) {
+        rig->camera_->set_renderer(sphere_renderer(*opt.sphere));
+    }
     rig->camera_server_ = std::make_unique<GigeServer>(rig->camera_);
     auto served = opt.camera_ip.empty() ? rig->camera_server_->start_on_free_loopback()
                                         : rig->camera_server_->start(opt.camera_ip);

@@ -31,6 +31,11 @@ TEST(RigWorld, SceneFollowsTheStagesAndCoils) {
     EXPECT_NEAR((s.wi - brdf::Vec3d(0, 0, 1)).norm(), 0, 1e-9);
     const double h = std::sqrt(0.5);
     EXPECT_NEAR((s.wo - brdf::Vec3d(h, 0, h)).norm(), 0, 1e-9);
+    // The stage angles themselves, for image-mode renderers (radians).
+    EXPECT_NEAR(s.light_arm_rad, 0, 1e-9);
+    EXPECT_NEAR(s.detector_arm_rad, brdf::kPi / 4, 1e-9);
+    EXPECT_NEAR(s.tilt_rad, 0, 1e-9);
+    EXPECT_NEAR(s.spin_rad, 0, 1e-9);
     EXPECT_FALSE(s.shutter_open);
     // The shutter and the reference changer are coils on the Modbus server.
     auto shutter = devices::open_modbus_light((*rig)->motor_address(), 5, 0);

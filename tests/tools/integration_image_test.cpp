@@ -1,19 +1,27 @@
-// Image-mode acquisition end to end on the simulated rig: a sphere of a known material, the
-// campaign's table against the ground truth within the noise statistics, a fit of the dataset
-// recovering the parameters, agreement with point measurements through the same sensor model, and
-// the command's outputs.
+// Image-mode acquisition end to end on the virtual rig, through the device path of a real rig:
+// motor controllers on Modbus TCP (127.0.0.1), the camera a GigE Vision device on a loopback
+// address of its own opened through Aravis, the sphere rendered by the camera at trigger time. A
+// sphere of a known material, the campaign's table against the ground truth within the noise
+// statistics, a fit of the dataset recovering the parameters, agreement with point measurements
+// through the same sensor model, and the command's outputs (in process and through the binary).
 
 #include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <opencv2/imgcodecs.hpp>
+#include <sstream>
 
 // The command's building blocks are compiled into this test (tools/ is not a library).
 #include "../../tools/acquire_image_mode.cpp"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/merl.h"
+#include "gonio/brdf/model_json.h"
 #include "gonio/fitting/fit.h"
 #include "gonio/fitting/spec.h"
 #include "gonio/sim/camera_render.h"
@@ -44,12 +52,25 @@ class ImageCampaignTest : public ::testing::Test {
   protected:
     static void SetUpTestSuite() {
         truth_ = new std::shared_ptr<const brdf::Brdf>(brdf::make_analytic_brdf(truth_model()));
-        rig_ = new std::shared_ptr<SimulatedImageRig>(
-            make_simulated_image_rig(*truth_, nullptr, 200, false, kSeed));
-        (*rig_)->scene.supersample = 1;
-        config_ =
-            new acquisition::ImageCampaignConfig(simulated_campaign_config(**rig_, 3, 0.5, 60));
-        auto r = acquisition::run_image_campaign(simulated_capture(*rig_), *config_);
+        const std::string model =
+            std::string(GONIO_BINARY_DIR) + "/image_truth_" + std::to_string(::getpid()) + ".json";
+        std::ofstream(model) << brdf::model_to_json(truth_model());
+        AcquireImageOptions o;
+        o.brdf_path = model;
+        o.image_size = 200;
+        o.supersample = 1;
+        o.seed = kSeed;
+        o.time_scale = 200;
+        auto rig = start_image_rig(o);
+        std::filesystem::remove(model);
+        if (!rig) {
+            error_ = new std::string(rig.error().message);
+            return;
+        }
+        rig_ = rig->release();
+        config_ = new acquisition::ImageCampaignConfig(
+            acquisition::image_campaign_config(rig_->rig, rig_->camera, 3, 0.5, 60));
+        auto r = acquisition::run_image_campaign(image_rig_capture(*rig_, 0.0), *config_);
         if (r) {
             result_ = new acquisition::ImageCampaignResult(std::move(*r));
         } else {
@@ -71,17 +92,31 @@ class ImageCampaignTest : public ::testing::Test {
     }
 
     static std::shared_ptr<const brdf::Brdf>* truth_;
-    static std::shared_ptr<SimulatedImageRig>* rig_;
+    static ImageRig* rig_;
     static acquisition::ImageCampaignConfig* config_;
     static acquisition::ImageCampaignResult* result_;
     static std::string* error_;
 };
 
 std::shared_ptr<const brdf::Brdf>* ImageCampaignTest::truth_ = nullptr;
-std::shared_ptr<SimulatedImageRig>* ImageCampaignTest::rig_ = nullptr;
+ImageRig* ImageCampaignTest::rig_ = nullptr;
 acquisition::ImageCampaignConfig* ImageCampaignTest::config_ = nullptr;
 acquisition::ImageCampaignResult* ImageCampaignTest::result_ = nullptr;
 std::string* ImageCampaignTest::error_ = nullptr;
+
+TEST_F(ImageCampaignTest, EveryFrameCameThroughTheGigECameraWithArmsOnTarget) {
+    // The camera the campaign opened is the virtual rig's GigE Vision device (gige://127.x.y.z),
+    // and it rendered every frame the campaign captured.
+    EXPECT_EQ(rig_->rig.camera_address.rfind("gige://127.", 0), 0u) << rig_->rig.camera_address;
+    EXPECT_EQ(rig_->sim->camera().frames_rendered(), result_->captures);
+    EXPECT_EQ(rig_->pose_log.repeats + rig_->pose_log.corrections, 0u);
+    // The arms stand where the campaign left them: detector at 0, light at the last position.
+    const sim::RigUnits& u = rig_->sim->units();
+    EXPECT_NEAR(rig_->sim->motors().position_deg(u.detector), 0.0, 0.01);
+    EXPECT_NEAR(rig_->sim->motors().position_deg(u.light),
+                result_->frames.back().light_arm_rad * 180 / kPi,
+                0.01);
+}
 
 TEST_F(ImageCampaignTest, SphereFoundWhereItWasRendered) {
     const double px_per_m = config_->camera.intrinsics.fx;
@@ -90,7 +125,10 @@ TEST_F(ImageCampaignTest, SphereFoundWhereItWasRendered) {
     EXPECT_NEAR(result_->sphere.radius_m * px_per_m, 0.02 * px_per_m, 0.3);
     EXPECT_LT(result_->reference_sphere.centre.norm() * px_per_m, 0.3);
     // Per-pixel normals against the renderer's own truth (its own ray casting and frame).
-    sim::SphereScene scene = (*rig_)->scene;
+    sim::SphereImaging imaging;
+    imaging.camera = to_sphere_camera(rig_->camera);
+    imaging.radius_m = 0.02;
+    const sim::SphereScene scene = sim::sphere_scene(imaging, sim::SceneState{});
     const std::vector<sim::SpherePixelTruth> truth = sim::sphere_truth(scene);
     const std::vector<acquisition::SpherePixel> px =
         acquisition::sphere_pixels(config_->camera, result_->sphere, config_->rules, nullptr);
@@ -199,12 +237,12 @@ TEST_F(ImageCampaignTest, AgreesWithPointMeasurementsThroughTheSameSensor) {
     // Point mode stand-in: a flat patch of 64 pixels at the bin's mean configuration, exposed
     // through the same sensor model, dark-corrected with the model's expectation and calibrated
     // with the sensor's known responsivity and the beam's irradiance.
-    sim::SensorParams p = (*rig_)->sensor->params();
+    sim::SensorParams p = rig_->sim->camera().config().sensor;
     p.width = 8;
     p.height = 8;
     p.seed = kSeed + 1;
     sim::SensorModel sensor(p);
-    sim::ExposureSettings s = (*rig_)->settings;
+    sim::ExposureSettings s;
     const double e_per_count = sensor.e_per_count(s);
     const acquisition::BinnedTable& t = result_->table;
     std::size_t compared = 0;
@@ -278,6 +316,64 @@ TEST(ImageCommand, WritesDatasetTableAndCoverageMap) {
     bad.material = "no-such-material";
     EXPECT_EQ(run_acquire_image_mode(bad), 1);
     std::filesystem::remove_all(dir);
+}
+
+TEST(ImageCommand, GonioAcquireImageModeThroughGigERecoversTheGroundTruth) {
+    // The binary end to end: the virtual rig's motor controllers on Modbus TCP, its camera a GigE
+    // Vision device on a loopback address of its own, opened through Aravis; every dataset row
+    // (one per filled bin) against the ground truth at its direction pair.
+    const std::string dir =
+        std::string(GONIO_BINARY_DIR) + "/test_tools_image/cli_" + std::to_string(::getpid());
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    const std::string model = dir + "_truth.json";
+    std::ofstream(model) << brdf::model_to_json(truth_model());
+    const std::string cmd = std::string(GONIO_EXE) + " acquire --mode image --brdf " + model +
+                            " --out " + dir + "/run --coverage-target 0.5 --time-scale 200 2>&1";
+    FILE* p = popen(cmd.c_str(), "r");
+    ASSERT_NE(p, nullptr);
+    std::string out;
+    char buf[4096];
+    while (std::fgets(buf, sizeof buf, p)) {
+        out += buf;
+    }
+    const int st = pclose(p);
+    ASSERT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 0) << out;
+    EXPECT_NE(out.find("camera gige://127."), std::string::npos) << out;
+    EXPECT_NE(out.find("0 exposures repeated, 0 poses corrected"), std::string::npos) << out;
+    auto data = brdf::read_dataset_csv(dir + "/run/dataset.csv");
+    ASSERT_TRUE(data) << data.error().message;
+    ASSERT_TRUE(data->has_sigma);
+    const auto truth = brdf::make_analytic_brdf(truth_model());
+    std::size_t rows = 0;
+    std::size_t within = 0;
+    std::vector<double> rel;
+    for (const brdf::Sample& smp : data->samples) {
+        if (smp.wi().z() < 0.2 || smp.wo().z() < 0.2) {
+            continue;
+        }
+        const brdf::Rgbd f = truth->eval(smp.wi(), smp.wo());
+        for (int c = 0; c < 3; ++c) {
+            ++rows;
+            within += std::abs(smp.value[c] - f[c]) < 3 * smp.sigma[c] ? 1 : 0;
+        }
+        rel.push_back(std::abs(smp.value[1] / f[1] - 1));
+    }
+    ASSERT_GT(rel.size(), 5000u);
+    // As BinsMatchGroundTruthWithinNoise: 3 standard errors, the bin average against the value at
+    // the bin's mean position.
+    EXPECT_GT(static_cast<double>(within) / rows, 0.97);
+    std::nth_element(rel.begin(), rel.begin() + rel.size() / 2, rel.end());
+    EXPECT_LT(rel[rel.size() / 2], 0.01);
+    const std::string meta = [&] {
+        std::ifstream in(dir + "/run/dataset.json");
+        std::stringstream ss;
+        ss << in.rdbuf();
+        return ss.str();
+    }();
+    EXPECT_NE(meta.find("\"camera_address\": \"gige://127."), std::string::npos);
+    std::filesystem::remove_all(dir);
+    std::filesystem::remove(model);
 }
 
 }  // namespace

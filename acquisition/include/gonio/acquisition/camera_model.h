@@ -93,6 +93,11 @@ CameraModel camera_on_detector_arm(const CameraIntrinsics& intrinsics,
                                    double arm_rad,
                                    double distance_m);
 
+/// The default image-mode camera: a square `size` x `size` sensor of 5.5 um pixels on the detector
+/// arm at 0, 0.5 m from the sample, the sphere of radius `sphere_radius_m` filling 80% of the
+/// frame (image radius 0.4 size); telecentric, or perspective (no distortion) when asked.
+CameraModel default_image_camera(int size, bool perspective, double sphere_radius_m);
+
 /// Known planar calibration target: a chessboard with inner_cols x inner_rows inner corners and
 /// squares of square_m metres; target frame: x along the columns, y along the rows, z = 0 plane.
 struct ChessboardTarget {

@@ -36,6 +36,7 @@
 #include "gonio/acquisition/camera_model.h"
 #include "gonio/acquisition/image_binning.h"
 #include "gonio/acquisition/image_planner.h"
+#include "gonio/acquisition/rig_config.h"
 #include "gonio/acquisition/sphere_geometry.h"
 #include "gonio/brdf/error.h"
 #include "gonio/devices/axis.h"
@@ -114,6 +115,17 @@ struct ImageCampaignResult {
     double exposure_time_s = 0;  ///< Sum of exposure times (the shutter-open and dark frames).
 };
 
+/// Campaign settings for a rig description and its calibrated camera: the white reference's
+/// albedo, the sphere radius and the blind zone from the rig, the sensor's conversion gain and
+/// read noise from its "noise" section (at the capture gain), the light arm's limits in 1-degree
+/// steps, the detector arm at 0; the table layout (factor 1 = MERL 90 x 90 x 180, f = 90/f x
+/// 90/f x 180/f), coverage target and frame limit as given.
+ImageCampaignConfig image_campaign_config(const RigConfig& rig,
+                                          const CameraModel& camera,
+                                          int table_factor,
+                                          double coverage_target,
+                                          int max_frames);
+
 /// Called after each light position: index, record.
 using ImageProgressFn = std::function<void(std::size_t, const FrameRecord&)>;
 
@@ -132,11 +144,54 @@ Expected<void> write_image_campaign(const std::string& dir,
                                     const ImageCampaignConfig& config,
                                     const std::string& extra_json = "{}");
 
+/// Pose checks of a device capture function: what was found and done.
+struct PoseCheckLog {
+    std::size_t repeats = 0;          ///< Exposures repeated because an arm moved during them.
+    std::size_t corrections = 0;      ///< Arms found off target before an exposure and moved back.
+    std::size_t capture_retries = 0;  ///< Captures taken again after a camera error.
+    std::vector<std::string> notes;   ///< One line per repeat, correction or retry.
+};
+
+struct DeviceCaptureOptions {
+    std::chrono::milliseconds move_timeout{60000};
+    /// The detector arm (carrying the camera), when the rig has one under control: moved to
+    /// detector_arm_rad before the first capture and read back with the light arm.
+    devices::Axis* detector_arm = nullptr;
+    double detector_arm_rad = 0;
+    /// Largest read-back difference of a standing arm that is not a move, degrees (the
+    /// point-mode campaign's tolerance: ten steps of the finest shipped drive profile).
+    double pose_tolerance_deg = 0.01;
+    /// Consecutive repeats or corrections of one capture before it fails.
+    int max_pose_repeats = 5;
+    /// Frame wait beyond the exposure time.
+    std::chrono::milliseconds capture_timeout{5000};
+    /// Captures taken again after a camera error (a lost frame, a timeout) before the error is
+    /// returned (the rig description's "retries").
+    int capture_retries = 3;
+    /// Receives the counts and notes when given (must outlive the capture function).
+    PoseCheckLog* log = nullptr;
+};
+
 /// A capture function over real devices: moves the light arm (wait at most `move_timeout`), sets
 /// the shutter and the exposure, selects the filter through `select_filter` (when given; else every
 /// channel is the same monochrome measurement) and captures. Reference captures need the white
 /// sphere mounted: `swap_target` is called with true before the first reference capture and with
 /// false before the first sample capture (a prompt to the operator, or a sample changer).
+///
+/// Pose integrity (as the point-mode campaign): the arms' positions are read back before and after
+/// each exposure. An arm found away from its target before the exposure is moved back; one that
+/// moved during the exposure (another client, a stall, a lost step) makes the capture repeat. After
+/// `max_pose_repeats` such repeats in a row the capture fails with an error naming the arm, its
+/// target and the positions read back. A camera error is retried `capture_retries` times (after
+/// the same pose checks) before it is returned.
+CaptureFn make_device_capture(devices::Camera& camera,
+                              devices::Light& light,
+                              devices::Axis& light_arm,
+                              std::function<Expected<void>(int)> select_filter,
+                              std::function<Expected<void>(bool)> swap_target,
+                              const DeviceCaptureOptions& options);
+
+/// The same with the default options and `move_timeout`.
 CaptureFn make_device_capture(devices::Camera& camera,
                               devices::Light& light,
                               devices::Axis& light_arm,

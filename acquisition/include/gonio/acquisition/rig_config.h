@@ -70,6 +70,9 @@ struct RigConfig {
     double white_theta_o_deg = 45;
     NoiseModel noise;
     CaptureConfig capture;
+    /// Image mode: radius of the sample (and white reference) sphere, metres
+    /// ("image_sample": {"sphere_radius_m"}).
+    double sphere_radius_m = 0.02;
     int move_timeout_ms = 60000;
     int retries = 3;  ///< Attempts per measurement after a device error before pausing.
 };

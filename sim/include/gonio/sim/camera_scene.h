@@ -33,6 +33,14 @@ struct SceneState {
     SampleShape shape = SampleShape::kFlatPatch;
     /// kSphere only: sphere radius as a fraction of min(sensor width, height) / 2.
     double sphere_radius_fraction = 0.9;
+    /// Stage angles at the moment of the exposure (rig_geometry.h: physical load angles,
+    /// radians), filled in by the rig's world. An image-mode renderer places the light at
+    /// brdf::arm_direction(light_arm_rad) and the camera on the detector arm from them; the flat
+    /// patch render uses wi and wo only.
+    double light_arm_rad = 0;
+    double detector_arm_rad = 0;
+    double tilt_rad = 0;
+    double spin_rad = 0;
 };
 
 /// Called at each exposure to learn the rig's state.

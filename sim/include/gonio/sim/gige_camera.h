@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -16,6 +17,7 @@
 #include <vector>
 
 #include "gonio/brdf/brdf.h"
+#include "gonio/devices/camera.h"
 #include "gonio/devices/gvcp.h"
 #include "gonio/sim/camera_scene.h"
 #include "gonio/sim/sensor_model.h"
@@ -43,6 +45,16 @@ struct GigeCameraConfig {
     double sensor_temperature_c = 40.5;
     double mainboard_temperature_c = 35.25;
 };
+
+/// Renders the radiance (CV_32F, W m^-2 sr^-1, roi.height x roi.width) the sensor sees in the
+/// region `roi` (full-sensor coordinates) of a `sensor_width` x `sensor_height` sensor, for the
+/// BRDF in the beam and the rig state sampled at the exposure. The default is the point-mode
+/// flat patch (camera_render.h: render_scene); sphere_imaging.h renders a sphere.
+using RadianceFn = std::function<cv::Mat(const brdf::Brdf& f,
+                                         const SceneState& state,
+                                         int sensor_width,
+                                         int sensor_height,
+                                         const devices::Roi& roi)>;
 
 /// A host on the network: IPv4 address (host order) and UDP port.
 struct HostId {
@@ -123,6 +135,9 @@ class GigeCamera {
     bool take_frame_drop();
     void set_brdf(std::shared_ptr<const brdf::Brdf> brdf);
     void set_scene(SceneFn scene);
+    /// Replaces the radiance renderer (an empty function restores the flat-patch default). Frames
+    /// exposed from then on use it.
+    void set_renderer(RadianceFn renderer);
     /// Sets the source port written to SCSP (the server's stream socket).
     void set_stream_source_port(std::uint16_t port);
     const GigeCameraConfig& config() const { return config_; }
@@ -150,6 +165,7 @@ class GigeCamera {
     mutable std::mutex mutex_;
     std::shared_ptr<const brdf::Brdf> brdf_;
     SceneFn scene_;
+    RadianceFn renderer_;
     std::unique_ptr<State> state_;
     GigeFaults faults_;
     SensorModel sensor_;

@@ -11,6 +11,7 @@
 //           "initial_deg": {"light": 0, "detector": 45}}
 
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "gonio/brdf/error.h"
@@ -18,6 +19,7 @@
 #include "gonio/sim/gige_server.h"
 #include "gonio/sim/motor_controller_server.h"
 #include "gonio/sim/rig_world.h"
+#include "gonio/sim/sphere_imaging.h"
 
 namespace gonio::sim {
 
@@ -32,6 +34,9 @@ struct SimRigOptions {
     /// Name the exposure feature ExposureTimeAbs.
     bool exposure_abs = false;
     std::uint64_t seed = 0;  ///< > 0 overrides.
+    /// Image mode: the camera on the detector arm sees a sphere of the mounted material
+    /// (sphere_imaging.h); its sensor takes the sphere camera's size.
+    std::optional<SphereImaging> sphere;
 };
 
 class SimRig {

@@ -1,0 +1,262 @@
+// Pose integrity of image-mode captures on the virtual rig (motor controllers on Modbus TCP, the
+// camera a GigE Vision device through Aravis): the light arm's position is read back before and
+// after every exposure. A second Modbus client moving the light arm during exposures makes those
+// captures repeat and the table stays true to the ground truth; one that keeps moving it fails
+// the campaign with an error naming the arm; an arm pushed away between captures is moved back
+// before the next exposure; a drive alarm in the middle of a move (the motor controller's fault
+// injection) fails the capture with the drive's error; a frame the camera loses (its fault
+// injection) is captured again.
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+
+// The command's building blocks are compiled into this test (tools/ is not a library).
+#include "../../tools/acquire_image_mode.cpp"
+#include "gonio/brdf/model_json.h"
+#include "gonio/devices/modbus_axis.h"
+#include "gonio/devices/modbus_bus.h"
+
+namespace gonio::tools {
+namespace {
+
+using brdf::kPi;
+
+brdf::ModelD truth_model() {
+    brdf::ModelD m;
+    m.has_diffuse = true;
+    m.diffuse = brdf::Rgbd(0.3, 0.25, 0.2);
+    brdf::Lobe<double> l;
+    l.distribution = brdf::Distribution::kGgx;
+    l.alpha_x = l.alpha_y = 0.3;
+    l.shadowing = brdf::Shadowing::kSmithCorrelated;
+    l.fresnel.type = brdf::FresnelType::kNone;
+    l.scale = brdf::Rgbd(0.1, 0.1, 0.1);
+    m.lobes.push_back(l);
+    return m;
+}
+
+struct Live {
+    std::unique_ptr<ImageRig> rig;
+    std::shared_ptr<devices::ModbusBus> bus;
+    std::unique_ptr<devices::ModbusAxis> intruder;  ///< A second client on the light arm.
+};
+
+Live start(std::uint64_t seed) {
+    Live l;
+    const std::string model =
+        std::string(GONIO_BINARY_DIR) + "/image_pose_truth_" + std::to_string(::getpid()) + ".json";
+    std::ofstream(model) << brdf::model_to_json(truth_model());
+    AcquireImageOptions o;
+    o.brdf_path = model;
+    o.image_size = 96;
+    o.supersample = 1;
+    o.seed = seed;
+    o.time_scale = 500;
+    auto rig = start_image_rig(o);
+    std::filesystem::remove(model);
+    EXPECT_TRUE(rig) << rig.error().message;
+    if (!rig) {
+        return l;
+    }
+    l.rig = std::move(*rig);
+    auto bus = devices::ModbusBus::open(*devices::parse_bus_address(l.rig->sim->motor_address()));
+    EXPECT_TRUE(bus) << bus.error().message;
+    l.bus = *bus;
+    auto profile = devices::load_axis_profile("generic");
+    EXPECT_TRUE(profile);
+    l.intruder = std::make_unique<devices::ModbusAxis>(l.bus,
+                                                       l.rig->sim->units().light,
+                                                       *profile,
+                                                       "intruder",
+                                                       devices::SoftLimits{-178, 178},
+                                                       devices::Motion{30, 60, 0});
+    return l;
+}
+
+/// The pose-check notes (not the camera retries).
+std::vector<std::string> pose_notes(const ImageRig& rig) {
+    std::vector<std::string> out;
+    for (const std::string& n : rig.pose_log.notes) {
+        if (n.rfind("pose check", 0) == 0) {
+            out.push_back(n);
+        }
+    }
+    return out;
+}
+
+/// Moves the light arm by `by_deg` (away from the nearer limit) and waits until it stands.
+bool push(devices::ModbusAxis& a, double by_deg) {
+    auto at = a.position_deg();
+    if (!at) {
+        return false;
+    }
+    return static_cast<bool>(
+        a.move_to(*at > 0 ? *at - by_deg : *at + by_deg, std::chrono::milliseconds(10000)));
+}
+
+TEST(ImagePose, ArmMovedDuringExposuresRepeatsThoseCapturesAndTheTableStaysTrue) {
+    Live l = start(11);
+    ASSERT_TRUE(l.rig && l.intruder);
+    // The intruder moves the light arm by 3 degrees while exposures 8, 20 and 32 are taken (the
+    // camera asks the world for the rig state when the software trigger arrives).
+    std::mutex mu;
+    int intrusions = 0;
+    l.rig->sim->world().set_exposure_hook([&](std::uint64_t n) {
+        if (n == 8 || n == 20 || n == 32) {
+            std::lock_guard<std::mutex> lock(mu);
+            intrusions += push(*l.intruder, 3) ? 1 : 0;
+        }
+    });
+    const acquisition::ImageCampaignConfig cfg =
+        acquisition::image_campaign_config(l.rig->rig, l.rig->camera, 6, 0.5, 40);
+    auto res = acquisition::run_image_campaign(image_rig_capture(*l.rig, 0.0), cfg);
+    ASSERT_TRUE(res) << res.error().message;
+    EXPECT_EQ(intrusions, 3);
+    EXPECT_EQ(l.rig->pose_log.repeats, 3u);
+    EXPECT_EQ(l.rig->pose_log.corrections, 0u);
+    const std::vector<std::string> notes = pose_notes(*l.rig);
+    ASSERT_EQ(notes.size(), 3u);
+    for (const std::string& n : notes) {
+        EXPECT_NE(n.find("light arm"), std::string::npos) << n;
+        EXPECT_NE(n.find("repeated"), std::string::npos) << n;
+    }
+    // Every frame the camera rendered was captured: the campaign's count plus the 3 repeats (and
+    // any capture retried after a lost frame).
+    EXPECT_EQ(l.rig->sim->camera().frames_rendered(),
+              res->captures + 3 + l.rig->pose_log.capture_retries);
+    // No frame taken while the arm moved reached the table.
+    const auto truth = brdf::make_analytic_brdf(truth_model());
+    std::vector<double> rel;
+    for (std::size_t b = 0; b < res->table.size(); ++b) {
+        if (res->table.count(b) < 10) {
+            continue;
+        }
+        const auto [wi, wo] = brdf::from_half_diff(res->table.mean_position(b));
+        if (wi.z() < 0.2 || wo.z() < 0.2) {
+            continue;
+        }
+        rel.push_back(std::abs(res->table.mean(b)[1] / truth->eval(wi, wo)[1] - 1));
+    }
+    ASSERT_GT(rel.size(), 100u);
+    std::nth_element(rel.begin(), rel.begin() + rel.size() / 2, rel.end());
+    EXPECT_LT(rel[rel.size() / 2], 0.02);
+}
+
+TEST(ImagePose, ArmThatKeepsMovingFailsTheCampaignNamingIt) {
+    Live l = start(12);
+    ASSERT_TRUE(l.rig && l.intruder);
+    l.rig->sim->world().set_exposure_hook([&](std::uint64_t n) {
+        if (n >= 10) {
+            (void)push(*l.intruder, 2);
+        }
+    });
+    const acquisition::ImageCampaignConfig cfg =
+        acquisition::image_campaign_config(l.rig->rig, l.rig->camera, 6, 0.5, 40);
+    auto res = acquisition::run_image_campaign(image_rig_capture(*l.rig, 0.0), cfg);
+    ASSERT_FALSE(res);
+    const std::string& m = res.error().message;
+    EXPECT_NE(m.find("pose check"), std::string::npos) << m;
+    EXPECT_NE(m.find("keep moving"), std::string::npos) << m;
+    EXPECT_NE(m.find("light arm"), std::string::npos) << m;
+    const acquisition::DeviceCaptureOptions defaults;
+    EXPECT_EQ(l.rig->pose_log.repeats, static_cast<std::size_t>(defaults.max_pose_repeats));
+}
+
+TEST(ImagePose, ArmPushedAwayBetweenCapturesIsMovedBackBeforeTheExposure) {
+    Live l = start(13);
+    ASSERT_TRUE(l.rig && l.intruder);
+    acquisition::CaptureFn capture = image_rig_capture(*l.rig, 0.0);
+    acquisition::CaptureRequest r;
+    r.light_arm_rad = 40 * kPi / 180;
+    r.exposure_us = 2000;
+    auto first = capture(r);
+    ASSERT_TRUE(first) << first.error().message;
+    const sim::MotorControllerServer& motors = l.rig->sim->motors();
+    const int light = l.rig->sim->units().light;
+    EXPECT_NEAR(motors.position_deg(light), 40, 0.01);
+    // Between captures another client moves the arm 5 degrees; the next capture at the same
+    // position (no move commanded: the arm should still be there) finds it off target first.
+    ASSERT_TRUE(push(*l.intruder, 5));
+    EXPECT_NEAR(motors.position_deg(light), 35, 0.01);
+    std::atomic<double> at_exposure{0};
+    l.rig->sim->world().set_exposure_hook(
+        [&](std::uint64_t) { at_exposure.store(motors.position_deg(light)); });
+    auto second = capture(r);
+    ASSERT_TRUE(second) << second.error().message;
+    EXPECT_NEAR(at_exposure.load(), 40, 0.01);
+    EXPECT_EQ(l.rig->pose_log.corrections, 1u);
+    EXPECT_EQ(l.rig->pose_log.repeats, 0u);
+    const std::vector<std::string> notes = pose_notes(*l.rig);
+    ASSERT_EQ(notes.size(), 1u);
+    EXPECT_NE(notes[0].find("light arm at 35.0"), std::string::npos) << notes[0];
+    // The two frames of the same request agree (same pose, same light): the sum of the pixels
+    // differs by the noise only.
+    const double s1 = cv::sum(first->image)[0];
+    const double s2 = cv::sum(second->image)[0];
+    EXPECT_NEAR(s2 / s1, 1.0, 0.01);
+}
+
+TEST(ImagePose, DriveAlarmMidMoveFailsTheCaptureWithTheDrivesError) {
+    Live l = start(14);
+    ASSERT_TRUE(l.rig);
+    acquisition::CaptureFn capture = image_rig_capture(*l.rig, 0.0);
+    // The motor controller's fault injection: the light arm's next move stops half way with an
+    // overload alarm.
+    sim::Fault f;
+    f.kind = sim::FaultKind::kAlarmMidMove;
+    f.unit = l.rig->sim->units().light;
+    f.fraction = 0.5;
+    l.rig->sim->motors().inject(f);
+    acquisition::CaptureRequest r;
+    r.light_arm_rad = -60 * kPi / 180;
+    r.exposure_us = 2000;
+    const std::uint64_t rendered = l.rig->sim->camera().frames_rendered();
+    auto frame = capture(r);
+    ASSERT_FALSE(frame);
+    EXPECT_NE(frame.error().message.find("alarm"), std::string::npos) << frame.error().message;
+    EXPECT_NE(frame.error().message.find("light arm"), std::string::npos) << frame.error().message;
+    // Nothing was exposed at the wrong place.
+    EXPECT_EQ(l.rig->sim->camera().frames_rendered(), rendered);
+}
+
+TEST(ImagePose, FrameLostByTheCameraIsCapturedAgain) {
+    Live l = start(15);
+    ASSERT_TRUE(l.rig);
+    l.rig->rig.capture.timeout_ms = 300;  // the wait for the lost frame
+    acquisition::CaptureFn capture = image_rig_capture(*l.rig, 0.0);
+    acquisition::CaptureRequest r;
+    r.light_arm_rad = 30 * kPi / 180;
+    r.exposure_us = 2000;
+    ASSERT_TRUE(capture(r));
+    // The camera's fault injection: the next frame is exposed but none of its packets is sent.
+    sim::GigeFaults f;
+    f.drop_frames = 1;
+    l.rig->sim->camera().set_faults(f);
+    auto frame = capture(r);
+    ASSERT_TRUE(frame) << frame.error().message;
+    EXPECT_EQ(l.rig->pose_log.capture_retries, 1u);
+    EXPECT_EQ(l.rig->pose_log.repeats + l.rig->pose_log.corrections, 0u);
+    ASSERT_EQ(l.rig->pose_log.notes.size(), 1u);
+    EXPECT_NE(l.rig->pose_log.notes[0].find("captured again"), std::string::npos)
+        << l.rig->pose_log.notes[0];
+    // Three frames exposed: the first capture, the lost one and its retry.
+    EXPECT_EQ(l.rig->sim->camera().frames_rendered(), 3u);
+    // Every frame lost: the error comes back after the retries.
+    f.drop_frames = 1000;
+    l.rig->sim->camera().set_faults(f);
+    l.rig->rig.retries = 1;
+    acquisition::CaptureFn once = image_rig_capture(*l.rig, 0.0);
+    auto lost = once(r);
+    ASSERT_FALSE(lost);
+    EXPECT_NE(lost.error().message.find("no frame"), std::string::npos) << lost.error().message;
+    EXPECT_EQ(l.rig->pose_log.capture_retries, 2u);
+}
+
+}  // namespace
+}  // namespace gonio::tools
