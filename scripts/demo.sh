@@ -3,7 +3,8 @@
 #   1. a point-mode campaign of a real material (Modbus drives + USB3 Vision camera, simulated),
 #   2. the fit of GGX + Lambert + Schlick to its dataset,
 #   3. plots, a ground-truth-versus-fit preview and the HTML report,
-#   4. an image-mode campaign (a sphere of the same material) straight into a half/difference table.
+#   4. an image-mode campaign (a sphere of the same material, imaged by the simulated GigE Vision
+#      camera through the same device path) straight into a half/difference table.
 # Everything lands in $GONIO_OUT (default gonio-out/) under a new time-stamped folder.
 # Environment: GONIO_MATERIAL (default red-plastic; any name of data/materials/ngan2005.json).
 set -euo pipefail

@@ -1,5 +1,6 @@
 #include "acquire_image_mode.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -105,6 +106,10 @@ acquisition::CaptureFn image_rig_capture(ImageRig& rig, double detector_arm_rad)
     }
     acquisition::DeviceCaptureOptions opt;
     opt.move_timeout = std::chrono::milliseconds(rig.rig.move_timeout_ms);
+    const auto& light_axis = rig.rig.axes[static_cast<int>(acquisition::AxisRole::kLight)];
+    const auto& detector_axis = rig.rig.axes[static_cast<int>(acquisition::AxisRole::kDetector)];
+    opt.settle = std::chrono::milliseconds(static_cast<std::int64_t>(
+        std::ceil(std::max(light_axis.motion.settle_ms, detector_axis.motion.settle_ms))));
     opt.detector_arm = d.axes[static_cast<int>(acquisition::AxisRole::kDetector)].get();
     opt.detector_arm_rad = detector_arm_rad;
     opt.log = &rig.pose_log;

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <thread>
 
 #include "gonio/brdf/atomic_file.h"
 #include "gonio/brdf/check.h"
@@ -658,6 +659,7 @@ CaptureFn make_device_capture(devices::Camera& camera,
             move[1] = !state->have_detector;
         }
         for (int attempt = 0;; ++attempt) {
+            bool moved_any = false;
             for (std::size_t k = 0; k < arms.size(); ++k) {
                 if (!move[k]) {
                     continue;
@@ -666,6 +668,10 @@ CaptureFn make_device_capture(devices::Camera& camera,
                     return tl::unexpected(m.error());
                 }
                 move[k] = false;
+                moved_any = true;
+            }
+            if (moved_any && o.settle.count() > 0) {
+                std::this_thread::sleep_for(o.settle);
             }
             state->have_light = true;
             state->light_deg = deg;

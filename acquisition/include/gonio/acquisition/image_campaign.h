@@ -154,6 +154,9 @@ struct PoseCheckLog {
 
 struct DeviceCaptureOptions {
     std::chrono::milliseconds move_timeout{60000};
+    /// Mechanical settling after an arm reports in position, before its position is read back
+    /// (the rig description's settle_ms; a physical time, not a wait for a state).
+    std::chrono::milliseconds settle{0};
     /// The detector arm (carrying the camera), when the rig has one under control: moved to
     /// detector_arm_rad before the first capture and read back with the light arm.
     devices::Axis* detector_arm = nullptr;
