@@ -149,9 +149,10 @@ std::vector<double> count_pmf(const Chain& ch,
             continue;
         }
         // Codes within kTailSigmas of m; the lowest and highest code of the table take the
-        // whole tail beyond them (they are 0 and sat when the tail reaches the clamp).
-        const int c0 = std::max(lo, static_cast<int>(std::floor(m - kTailSigmas * s)));
-        const int c1 = std::min(hi, static_cast<int>(std::ceil(m + kTailSigmas * s)));
+        // whole tail beyond them (they are 0 and sat when the tail reaches the clamp; a mean
+        // far above sat puts all its weight on sat).
+        const int c0 = std::clamp(static_cast<int>(std::floor(m - kTailSigmas * s)), lo, hi);
+        const int c1 = std::clamp(static_cast<int>(std::ceil(m + kTailSigmas * s)), lo, hi);
         double below = c0 == lo ? 0.0 : normal_cdf((c0 - 0.5 - m) / s);
         for (int c = c0; c <= c1; ++c) {
             const double upper = c == hi ? 1.0 : normal_cdf((c + 0.5 - m) / s);
@@ -163,6 +164,9 @@ std::vector<double> count_pmf(const Chain& ch,
     for (double p : pmf) {
         total += p;
     }
+    GONIO_CHECK_MSG(
+        total > 0.5 && std::isfinite(total),
+        "count distribution sums to " << total << " (codes " << lo << ".." << hi << ")");
     for (double& p : pmf) {
         p /= total;
     }

@@ -265,6 +265,22 @@ TEST_P(SensorShape, OverexposedPixelsHoldTheFullWellPlusReadNoise) {
     EXPECT_NEAR(mo.var, var, 5 * std::sqrt(2 * var * var / n));
 }
 
+// A mean far above the converter's top code: every pixel reads exactly 2^b - 1 (Mono8, gain 8:
+// 5000 e- would be 316 counts).
+TEST_P(SensorShape, MeanAboveTheTopCodeReadsTheTopCode) {
+    SensorParams p;
+    p.seed = 8;
+    SensorModel s(p);
+    const ExposureSettings e{2000, 8, PixelFormat::kMono8};
+    ASSERT_GT(s.mean_counts(0.5, e) - 10 * std::sqrt(s.variance_counts(0.5, e)),
+              s.saturation_level(e.format));
+    const cv::Mat counts = s.expose(radiance_frame(256, 256, 0.5, GetParam()), e);
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(counts, &lo, &hi);
+    EXPECT_EQ(lo, 255.0);
+    EXPECT_EQ(hi, 255.0);
+}
+
 TEST(SensorModel, FrameDependsOnTheSeedNotOnTheThreadCount) {
     SensorParams p;
     p.seed = 31;
