@@ -203,7 +203,10 @@ void BM_Stream5MpMono16Gige(benchmark::State& state) {
     state.counters["frames_lost"] = static_cast<double>(lost);
     state.counters["frame_id_gaps"] = static_cast<double>(gaps);
     state.counters["arv_underruns"] = static_cast<double>(underruns);
-    state.counters["resent_packets"] = static_cast<double>(server.stats().packets_resent);
+    const auto st = server.stats();
+    state.counters["resent_packets"] = static_cast<double>(st.packets_resent);
+    state.counters["packets_per_frame"] =
+        st.frames_sent > 0 ? static_cast<double>(st.packets_sent) / st.frames_sent : 0.0;
     state.counters["patch_rel_err"] = err_rel;
 }
 BENCHMARK(BM_Stream5MpMono16Gige)

@@ -3,6 +3,7 @@
 #include "gonio/sim/camera_render.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 
 #include "gonio/brdf/check.h"
@@ -138,26 +139,37 @@ cv::Mat render_scene(const brdf::Brdf& f,
     // Point mode: one geometry for the whole patch, one BRDF evaluation.
     const float L = static_cast<float>(patch_radiance(
         f, scene.wi.normalized(), scene.wo.normalized(), scene.irradiance_w_m2, scene.filter));
-    cv::Mat out(roi.height, roi.width, CV_32F, cv::Scalar(0));
+    cv::Mat out(roi.height, roi.width, CV_32F);
     const double r = 0.25 * std::min(sensor_width, sensor_height);
     const double cx = 0.5 * sensor_width;
-    for (int y = 0; y < roi.height; ++y) {
-        // The disc's chord on this row, then the pixel centres inside it (the same test as
-        // in_point_patch, applied only near the chord's ends).
-        const double dy = roi.y + y + 0.5 - 0.5 * sensor_height;
-        if (dy * dy > r * r) {
-            continue;
-        }
-        const double half = std::sqrt(r * r - dy * dy);
-        int x0 = std::max(0, static_cast<int>(std::floor(cx - half - roi.x - 0.5)) - 1);
-        int x1 = std::min(roi.width, static_cast<int>(std::ceil(cx + half - roi.x - 0.5)) + 2);
-        float* row = out.ptr<float>(y);
-        for (int x = x0; x < x1; ++x) {
-            if (in_point_patch(roi.x + x + 0.5, roi.y + y + 0.5, sensor_width, sensor_height)) {
-                row[x] = L;
+    // Rows in parallel (a 5 MP frame is 20 MB of radiance): each row is cleared, then the disc's
+    // chord on it is filled.
+    cv::parallel_for_(cv::Range(0, roi.height), [&](const cv::Range& rows) {
+        for (int y = rows.start; y < rows.end; ++y) {
+            float* row = out.ptr<float>(y);
+            std::fill(row, row + roi.width, 0.0f);
+            const double dy = roi.y + y + 0.5 - 0.5 * sensor_height;
+            if (dy * dy > r * r) {
+                continue;
             }
+            // The pixel centres inside the chord: bracketed from its ends, then the ends found
+            // with the same test as in_point_patch (a disc's row section is one interval).
+            const double half = std::sqrt(r * r - dy * dy);
+            int x0 = std::max(0, static_cast<int>(std::floor(cx - half - roi.x - 0.5)) - 1);
+            int x1 = std::min(roi.width, static_cast<int>(std::ceil(cx + half - roi.x - 0.5)) + 2);
+            const auto inside = [&](int x) {
+                return in_point_patch(
+                    roi.x + x + 0.5, roi.y + y + 0.5, sensor_width, sensor_height);
+            };
+            while (x0 < x1 && !inside(x0)) {
+                ++x0;
+            }
+            while (x1 > x0 && !inside(x1 - 1)) {
+                --x1;
+            }
+            std::fill(row + x0, row + x1, L);
         }
-    }
+    });
     return out;
 }
 

@@ -303,6 +303,7 @@ void GigeServer::send_packets(const SentFrame& f,
             ++k;
         }
         std::size_t done = 0;
+        int refused = 0;
         while (done < k) {
             const int r =
                 sendmmsg(gvsp_fd_, msgs.data() + done, static_cast<unsigned>(k - done), 0);
@@ -310,8 +311,16 @@ void GigeServer::send_packets(const SentFrame& f,
                 if (errno == EINTR || errno == EAGAIN || errno == ENOBUFS) {
                     continue;
                 }
-                break;  // the host went away (ECONNREFUSED on loopback): drop the rest
+                // ECONNREFUSED reports an ICMP "port unreachable" of an earlier datagram (a
+                // stream port the host has since closed) and clears it: the call sent nothing
+                // and the next one goes through. Repeated refusals: the host went away; the rest
+                // of this batch is dropped.
+                if (errno == ECONNREFUSED && ++refused <= 2) {
+                    continue;
+                }
+                break;
             }
+            refused = 0;
             done += static_cast<std::size_t>(r);
         }
         sent += done;

@@ -265,6 +265,22 @@ TEST_P(SensorShape, OverexposedPixelsHoldTheFullWellPlusReadNoise) {
     EXPECT_NEAR(mo.var, var, 5 * std::sqrt(2 * var * var / n));
 }
 
+// A mean far above the converter's top code: every pixel reads exactly 2^b - 1 (Mono8, gain 8:
+// 5000 e- would be 316 counts).
+TEST_P(SensorShape, MeanAboveTheTopCodeReadsTheTopCode) {
+    SensorParams p;
+    p.seed = 8;
+    SensorModel s(p);
+    const ExposureSettings e{2000, 8, PixelFormat::kMono8};
+    ASSERT_GT(s.mean_counts(0.5, e) - 10 * std::sqrt(s.variance_counts(0.5, e)),
+              s.saturation_level(e.format));
+    const cv::Mat counts = s.expose(radiance_frame(256, 256, 0.5, GetParam()), e);
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(counts, &lo, &hi);
+    EXPECT_EQ(lo, 255.0);
+    EXPECT_EQ(hi, 255.0);
+}
+
 TEST(SensorModel, FrameDependsOnTheSeedNotOnTheThreadCount) {
     SensorParams p;
     p.seed = 31;
@@ -330,6 +346,38 @@ TEST(CameraRender, PointPatchRadianceIsFilterDotBrdfTimesIrradianceTimesCosine) 
     s.wi = {0, 0, 1};
     s.shutter_open = false;
     EXPECT_EQ(cv::countNonZero(gonio::sim::render_scene(f, s, 100, 80, {0, 0, 100, 80})), 0);
+}
+
+// The point-mode fast path (one BRDF evaluation, the disc filled row by row in parallel) renders
+// exactly what the general per-pixel path renders from the same geometry, for full frames and
+// ROIs cut anywhere (even and odd sizes, the disc's edge inside and outside the ROI).
+TEST(CameraRender, PointModeFastPathEqualsThePerPixelGeometry) {
+    ConstantBrdf f;
+    gonio::sim::SceneState s;
+    s.wi = {std::sin(0.7), 0, std::cos(0.7)};
+    s.wo = {0, std::sin(0.2), std::cos(0.2)};
+    s.irradiance_w_m2 = 2.0;
+    s.filter = {0.2, 0.5, 0.3};
+    for (const auto& [w, h] : {std::pair{100, 80}, std::pair{257, 191}, std::pair{64, 64}}) {
+        const auto geometry = gonio::sim::scene_geometry(s, w, h);
+        for (const gonio::devices::Roi roi : {gonio::devices::Roi{0, 0, w, h},
+                                              gonio::devices::Roi{w / 3, h / 4, w / 2, h / 2},
+                                              gonio::devices::Roi{1, 0, w - 1, h / 2 + 1},
+                                              gonio::devices::Roi{0, 0, 5, 5}}) {
+            const cv::Mat fast = gonio::sim::render_scene(f, s, w, h, roi);
+            const cv::Mat slow =
+                gonio::sim::render_radiance(f, geometry, s.irradiance_w_m2, s.filter, roi);
+            EXPECT_EQ(cv::norm(fast, slow, cv::NORM_INF), 0.0)
+                << w << " x " << h << ", roi " << roi.x << "," << roi.y << " " << roi.width << " x "
+                << roi.height;
+            if (roi.width == w && roi.height == h) {
+                // The disc of radius r = min(W, H) / 4 holds pi r^2 pixel centres, to within
+                // its perimeter.
+                const double r = 0.25 * std::min(w, h);
+                EXPECT_NEAR(cv::countNonZero(fast), M_PI * r * r, 2 * M_PI * r);
+            }
+        }
+    }
 }
 
 TEST(CameraRender, SphereCosineFollowsTheSurfaceNormal) {
