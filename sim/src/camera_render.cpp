@@ -106,16 +106,21 @@ cv::Mat render_radiance(const brdf::Brdf& f,
                         const devices::Roi& roi) {
     GONIO_CHECK(roi.width > 0 && roi.height > 0);
     cv::Mat out(roi.height, roi.width, CV_32F, cv::Scalar(0));
-    for (int y = 0; y < roi.height; ++y) {
-        float* row = out.ptr<float>(y);
-        for (int x = 0; x < roi.width; ++x) {
-            const PixelGeometry g = geometry(roi.x + x + 0.5, roi.y + y + 0.5);
-            if (!g.valid) {
-                continue;
+    // Rows in parallel: BRDF evaluation is const without shared mutable state (brdf/resample.h
+    // relies on it too), and so must the geometry be (scene_geometry's are pure functions of
+    // the pixel).
+    cv::parallel_for_(cv::Range(0, roi.height), [&](const cv::Range& rows) {
+        for (int y = rows.start; y < rows.end; ++y) {
+            float* row = out.ptr<float>(y);
+            for (int x = 0; x < roi.width; ++x) {
+                const PixelGeometry g = geometry(roi.x + x + 0.5, roi.y + y + 0.5);
+                if (!g.valid) {
+                    continue;
+                }
+                row[x] = static_cast<float>(patch_radiance(f, g.wi, g.wo, irradiance_w_m2, filter));
             }
-            row[x] = static_cast<float>(patch_radiance(f, g.wi, g.wo, irradiance_w_m2, filter));
         }
-    }
+    });
     return out;
 }
 

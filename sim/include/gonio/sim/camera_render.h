@@ -46,7 +46,8 @@ double patch_radiance(const brdf::Brdf& f,
 GeometryFn scene_geometry(const SceneState& scene, int sensor_width, int sensor_height);
 
 /// Radiance image (CV_32F, W m^-2 sr^-1) of the region `roi` (full-sensor coordinates, resolved:
-/// non-zero width and height) for any per-pixel geometry.
+/// non-zero width and height) for any per-pixel geometry. Rows are rendered in parallel: `geometry`
+/// and `f.eval` are called from several threads at once.
 cv::Mat render_radiance(const brdf::Brdf& f,
                         const GeometryFn& geometry,
                         double irradiance_w_m2,
