@@ -21,6 +21,7 @@
 #include "gonio/brdf/model_json.h"
 #include "gonio/devices/modbus_axis.h"
 #include "gonio/devices/modbus_bus.h"
+#include "image_table_errors.h"
 
 namespace gonio::tools {
 namespace {
@@ -132,20 +133,9 @@ TEST(ImagePose, ArmMovedDuringExposuresRepeatsThoseCapturesAndTheTableStaysTrue)
               res->captures + 3 + l.rig->pose_log.capture_retries);
     // No frame taken while the arm moved reached the table.
     const auto truth = brdf::make_analytic_brdf(truth_model());
-    std::vector<double> rel;
-    for (std::size_t b = 0; b < res->table.size(); ++b) {
-        if (res->table.count(b) < 10) {
-            continue;
-        }
-        const auto [wi, wo] = brdf::from_half_diff(res->table.mean_position(b));
-        if (wi.z() < 0.2 || wo.z() < 0.2) {
-            continue;
-        }
-        rel.push_back(std::abs(res->table.mean(b)[1] / truth->eval(wi, wo)[1] - 1));
-    }
+    const std::vector<double> rel = image_test::table_relative_errors(res->table, *truth, 1);
     ASSERT_GT(rel.size(), 100u);
-    std::nth_element(rel.begin(), rel.begin() + rel.size() / 2, rel.end());
-    EXPECT_LT(rel[rel.size() / 2], 0.02);
+    EXPECT_LT(image_test::median(rel), 0.02);
 }
 
 TEST(ImagePose, ArmThatKeepsMovingFailsTheCampaignNamingIt) {
