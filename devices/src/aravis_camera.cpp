@@ -532,33 +532,7 @@ struct AravisCamera::Impl {
         if (size == 0) {
             return tl::unexpected(err("PayloadSize is 0"));
         }
-        bool loopback = false;
-        if (ARV_IS_GV_DEVICE(device)) {
-            // On loopback (simulated cameras) Aravis's packet-socket receiver taps all of the
-            // machine's loopback traffic: while several simulated cameras streamed, a camera's
-            // frames reached the host's stream port and were never delivered. The kernel's UDP
-            // socket (filtered by port) with a buffer for a few frames receives them instead.
-            GSocketAddress* sa = arv_gv_device_get_device_address(ARV_GV_DEVICE(device));
-            GInetAddress* a = sa != nullptr && G_IS_INET_SOCKET_ADDRESS(sa)
-                                  ? g_inet_socket_address_get_address(G_INET_SOCKET_ADDRESS(sa))
-                                  : nullptr;
-            loopback = a != nullptr && g_inet_address_get_is_loopback(a);
-            if (loopback) {
-                arv_camera_gv_set_stream_options(camera,
-                                                 ARV_GV_STREAM_OPTION_PACKET_SOCKET_DISABLED);
-            }
-        }
         stream = arv_camera_create_stream(camera, nullptr, nullptr, &e);
-        if (stream != nullptr && loopback && ARV_IS_GV_STREAM(stream)) {
-            const gint buffer =
-                static_cast<gint>(std::clamp<guint64>(4ull * size, 1u << 20, 16u << 20));
-            g_object_set(stream,
-                         "socket-buffer",
-                         ARV_GV_STREAM_SOCKET_BUFFER_FIXED,
-                         "socket-buffer-size",
-                         buffer,
-                         nullptr);
-        }
         if (e != nullptr || stream == nullptr) {
             stream = nullptr;
             return tl::unexpected(err("creating the stream: " + take_message(e)));
