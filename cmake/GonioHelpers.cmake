@@ -25,11 +25,12 @@ endfunction()
 
 # gonio_add_tests(<module> DEPS ... [CAMERA_STREAMS <label>...])
 # Every tests/<module>/<label>_*_test.cpp joins the executable gonio_<module>_<label>_tests; each GoogleTest
-# case becomes its own ctest entry labelled <label> and <module>. The executables of the CAMERA_STREAMS
-# labels stream frames through Aravis (a campaign on the virtual rig, a camera command) and hold
-# RESOURCE_LOCK gige: run as root, Aravis 0.8 receives GVSP through a packet socket that sees every
-# loopback datagram until its filter is attached, so two streams started at once on one machine can take
-# each other's packets (docs/benchmarks/camera.md). One stream at a time keeps the tests exact.
+# case becomes its own ctest entry labelled <label> (the module is the name's prefix). The executables of
+# the CAMERA_STREAMS labels stream frames through Aravis (a campaign on the virtual rig, a camera
+# command): they are labelled "stream" instead and hold RESOURCE_LOCK gige. Run as root, Aravis 0.8
+# receives GVSP through a packet socket that sees every loopback datagram until its filter is attached,
+# so a stream started beside other loopback traffic can take foreign packets
+# (docs/benchmarks/camera.md). scripts/test.sh runs the "stream" tests after the others, one at a time.
 function(gonio_add_tests module)
   cmake_parse_arguments(ARG "" "" "DEPS;CAMERA_STREAMS" ${ARGN})
   foreach(label unit property stress integration fault)
@@ -40,13 +41,17 @@ function(gonio_add_tests module)
       target_link_libraries(${exe} PRIVATE ${ARG_DEPS} GTest::gtest_main GTest::gmock gonio_warnings)
       target_compile_definitions(${exe} PRIVATE
         GONIO_SOURCE_DIR="${PROJECT_SOURCE_DIR}" GONIO_BINARY_DIR="${PROJECT_BINARY_DIR}")
+      # One label each: gtest_discover_tests hands the properties to its generated script as a flat
+      # list, where "a;b" would become two properties, not two labels.
+      set(labels "${label}")
       set(lock "")
       if(label IN_LIST ARG_CAMERA_STREAMS)
+        set(labels stream)
         set(lock RESOURCE_LOCK gige)
       endif()
       gtest_discover_tests(${exe}
         TEST_PREFIX "${module}."
-        PROPERTIES LABELS "${label};${module}" TIMEOUT 300 ${lock}
+        PROPERTIES LABELS "${labels}" TIMEOUT 300 ${lock}
         DISCOVERY_TIMEOUT 60)
     endif()
   endforeach()

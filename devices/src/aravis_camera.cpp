@@ -548,7 +548,18 @@ struct AravisCamera::Impl {
         for (int i = 0; i < std::max(1, options.n_buffers); ++i) {
             arv_stream_push_buffer(stream, arv_buffer_new_allocate(payload));
         }
+        ++stats.streams_opened;
         return {};
+    }
+
+    /// After a capture that got no good frame: stops the acquisition and closes the stream, so
+    /// that the next capture starts on a new one. A stream whose receiver took packets that were
+    /// not its camera's (Aravis's packet socket sees every datagram of the interface until its
+    /// filter is attached) can go on discarding that camera's frames as late; a new stream does
+    /// not inherit that state.
+    void reset_stream_after_failure() {
+        (void)stop_acquisition();
+        drop_stream();
     }
 
     AravisStreamStats stream_counters() const {
@@ -1172,7 +1183,11 @@ Expected<Frame> AravisCamera::capture(std::chrono::milliseconds timeout) {
             // Say whether the camera is still there (a write that failed is usually a camera gone).
             return tl::unexpected(Error{r.error().message + "; " + d.silence_reason()});
         }
-        return d.pop_frame(timeout);
+        auto frame = d.pop_frame(timeout);
+        if (!frame) {
+            d.reset_stream_after_failure();
+        }
+        return frame;
     }
     // No software trigger: one acquisition of a single frame per capture.
     if (d.has("TriggerMode")) {
@@ -1191,7 +1206,9 @@ Expected<Frame> AravisCamera::capture(std::chrono::milliseconds timeout) {
     d.drain();
     auto frame = d.pop_frame(timeout);
     auto stop = d.stop_acquisition();
-    if (frame && !stop) {
+    if (!frame) {
+        d.reset_stream_after_failure();
+    } else if (!stop) {
         return tl::unexpected(stop.error());
     }
     return frame;

@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "gige_test_support.h"
+#include "gonio/devices/aravis_camera.h"
 
 namespace {
 
@@ -47,6 +48,31 @@ TEST(GigeCameraFault, DroppedPacketsAreResent) {
     EXPECT_GE(st.packets_resent,
               st.packets_dropped * static_cast<std::uint64_t>(n) /
                   static_cast<std::uint64_t>(st.frames_sent) / 2);
+}
+
+// A frame the camera never sends: gonio's capture reports it, closes that stream and takes the
+// next frame on a new one (a stream that lost its frames is not trusted again).
+TEST(GigeCameraFault, CaptureAfterALostFrameRunsOnANewStream) {
+    ServedCamera cam(camera_config());
+    auto c = gonio::devices::AravisCamera::open_gige(cam.ip());
+    ASSERT_TRUE(c) << c.error().message;
+    ASSERT_TRUE((*c)->set_exposure_us(2000));
+    gonio::sim::GigeFaults f;
+    f.drop_frames = 1;
+    cam.camera->set_faults(f);
+    const auto lost = (*c)->capture(std::chrono::milliseconds(400));
+    ASSERT_FALSE(lost);
+    EXPECT_NE(lost.error().message.find("no frame within 400 ms"), std::string::npos)
+        << lost.error().message;
+    EXPECT_EQ((*c)->stream_stats().streams_opened, 1u);
+    const auto next = (*c)->capture(std::chrono::milliseconds(5000));
+    ASSERT_TRUE(next) << next.error().message;
+    EXPECT_EQ(next->image.cols, 256);
+    const auto s = (*c)->stream_stats();
+    EXPECT_EQ(s.streams_opened, 2u);
+    EXPECT_EQ(s.frames_missing, 1u);
+    EXPECT_EQ(s.frames_completed, 1u);
+    EXPECT_EQ(cam.server->stats().frames_dropped, 1u);
 }
 
 TEST(GigeCameraFault, UnrecoverablePacketsMakeIncompleteFrames) {

@@ -53,6 +53,7 @@ struct AravisStreamStats {
     std::uint64_t missing_packets = 0;    ///< GigE Vision packets never recovered
     std::uint64_t underruns = 0;          ///< frames the stream dropped for want of a free buffer
     std::uint64_t buffers_recycled = 0;   ///< buffers returned empty (status cleared), reused
+    std::uint64_t streams_opened = 0;     ///< streams created (one more after every failed capture)
 };
 
 /// How exposure is set on this camera.
