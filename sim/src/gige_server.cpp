@@ -107,10 +107,15 @@ Expected<void> GigeServer::start_impl(const std::string& ip, std::uint16_t port,
         if (bind_errno != nullptr) {
             *bind_errno = errno;
         }
-        const std::string e = std::strerror(errno);
+        const int code = errno;
+        const std::string e = std::strerror(code);
         stop();
+        const char* hint =
+            code == EADDRINUSE      ? " (is another GigE Vision camera served on this address?)"
+            : code == EADDRNOTAVAIL ? " (not an address of this machine; 127.0.0.1 is)"
+                                    : "";
         return make_error("GigE camera server: bind " + ip + ":" + std::to_string(port) + ": " + e +
-                          " (is another GigE Vision camera served on this address?)");
+                          hint);
     }
     sockaddr_in s = a;
     s.sin_port = 0;
