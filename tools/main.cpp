@@ -11,6 +11,7 @@
 #include <map>
 
 #include "command.h"
+#include "gonio/brdf/edit_distance.h"
 #include "gonio/brdf/limits.h"
 #include "gonio/version.h"
 
@@ -27,24 +28,6 @@ namespace {
 
 constexpr int kExitFailure = 1;
 constexpr int kExitUsage = 2;
-
-// Levenshtein distance, for "did you mean" on a mistyped command.
-std::size_t edit_distance(const std::string& a, const std::string& b) {
-    std::vector<std::size_t> row(b.size() + 1);
-    for (std::size_t j = 0; j <= b.size(); ++j) {
-        row[j] = j;
-    }
-    for (std::size_t i = 1; i <= a.size(); ++i) {
-        std::size_t diag = row[0];
-        row[0] = i;
-        for (std::size_t j = 1; j <= b.size(); ++j) {
-            const std::size_t up = row[j];
-            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
-            diag = up;
-        }
-    }
-    return row[b.size()];
-}
 
 }  // namespace
 
@@ -86,7 +69,7 @@ int main(int argc, char** argv) {
             for (const auto& [name, run] : runs) {
                 all += all.empty() ? "" : ", ";
                 all += name;
-                const std::size_t d = edit_distance(argv[i], name);
+                const std::size_t d = gonio::edit_distance(argv[i], name);
                 if (d < best_d) {
                     best_d = d;
                     best = name;

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "gonio/brdf/data_path.h"
+#include "gonio/brdf/edit_distance.h"
 #include "gonio/brdf/model_json.h"
 
 namespace gonio::brdf {
@@ -26,24 +27,6 @@ Expected<nlohmann::json> read_library(const std::string& path) {
         return make_error(path + ": expected an object with a \"materials\" object");
     }
     return doc;
-}
-
-// Levenshtein distance, to suggest names close to a misspelt one.
-std::size_t edit_distance(const std::string& a, const std::string& b) {
-    std::vector<std::size_t> row(b.size() + 1);
-    for (std::size_t j = 0; j <= b.size(); ++j) {
-        row[j] = j;
-    }
-    for (std::size_t i = 1; i <= a.size(); ++i) {
-        std::size_t diag = row[0];
-        row[0] = i;
-        for (std::size_t j = 1; j <= b.size(); ++j) {
-            const std::size_t up = row[j];
-            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
-            diag = up;
-        }
-    }
-    return row[b.size()];
 }
 
 }  // namespace
