@@ -489,16 +489,22 @@ bool PreparedSamples::sum_of_squares(const double* x, double* out, int threads) 
 }
 
 template <int K>
+brdf::Model<ceres::Jet<double, K>> PreparedSamples::jet_model(const double* x) const {
+    using J = ceres::Jet<double, K>;
+    std::vector<J> xj(map_->size());
+    for (std::size_t k = 0; k < xj.size(); ++k) {
+        xj[k] = J(x[k], slot_[k]);
+    }
+    return map_->model<J>(xj.data());
+}
+
+template <int K>
 bool PreparedSamples::normal_equations_k(const double* x, NormalEquations& out, int threads) const {
     using J = ceres::Jet<double, K>;
     using MatK = Eigen::Matrix<double, K, K>;
     using VecK = Eigen::Matrix<double, K, 1>;
     const int np = map_->size();
-    std::vector<J> xj(np);
-    for (int k = 0; k < np; ++k) {
-        xj[k] = J(x[k], slot_[k]);
-    }
-    const brdf::Model<J> m = map_->model<J>(xj.data());
+    const brdf::Model<J> m = jet_model<K>(x);
     const brdf::ModelD md = map_->model<double>(x);
     const int t_count = std::max(1, threads);
     struct Acc {
@@ -630,11 +636,7 @@ bool PreparedSamples::jets_k(const double* x,
                              Eigen::MatrixXd* outer) const {
     using J = ceres::Jet<double, K>;
     const int np = map_->size();
-    std::vector<J> xj(np);
-    for (int k = 0; k < np; ++k) {
-        xj[k] = J(x[k], slot_[k]);
-    }
-    const brdf::Model<J> m = map_->model<J>(xj.data());
+    const brdf::Model<J> m = jet_model<K>(x);
     const brdf::ModelD md = map_->model<double>(x);
     Eigen::VectorXd g(np);
     double ra[3];

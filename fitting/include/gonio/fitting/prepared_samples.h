@@ -105,6 +105,9 @@ class PreparedSamples {
     bool analytic_sample(const brdf::ModelD& m, std::size_t i, double r[3], double* v) const;
     template <class T>
     T g_of(const T& m, std::size_t i) const;
+    /// The model at x with a K-slot Jet per free parameter (its derivative slot seeded).
+    template <int K>
+    brdf::Model<ceres::Jet<double, K>> jet_model(const double* x) const;
     template <int K>
     bool normal_equations_k(const double* x, NormalEquations& out, int threads) const;
     template <int K>
