@@ -21,7 +21,7 @@
 #include "gonio/brdf/model_json.h"
 #include "gonio/devices/modbus_axis.h"
 #include "gonio/devices/modbus_bus.h"
-#include "image_table_errors.h"
+#include "image_test_support.h"
 
 namespace gonio::tools {
 namespace {
@@ -29,17 +29,7 @@ namespace {
 using brdf::kPi;
 
 brdf::ModelD truth_model() {
-    brdf::ModelD m;
-    m.has_diffuse = true;
-    m.diffuse = brdf::Rgbd(0.3, 0.25, 0.2);
-    brdf::Lobe<double> l;
-    l.distribution = brdf::Distribution::kGgx;
-    l.alpha_x = l.alpha_y = 0.3;
-    l.shadowing = brdf::Shadowing::kSmithCorrelated;
-    l.fresnel.type = brdf::FresnelType::kNone;
-    l.scale = brdf::Rgbd(0.1, 0.1, 0.1);
-    m.lobes.push_back(l);
-    return m;
+    return image_test::lambert_ggx(brdf::Rgbd(0.3, 0.25, 0.2), 0.1);
 }
 
 struct Live {

@@ -25,26 +25,15 @@
 #include "gonio/fitting/fit.h"
 #include "gonio/fitting/spec.h"
 #include "gonio/sim/camera_render.h"
-#include "image_table_errors.h"
+#include "image_test_support.h"
 
 namespace gonio::tools {
 namespace {
 
 using brdf::kPi;
 
-/// Ground truth: Lambert + one GGX lobe (height-correlated Smith, no Fresnel).
 brdf::ModelD truth_model() {
-    brdf::ModelD m;
-    m.has_diffuse = true;
-    m.diffuse = brdf::Rgbd(0.35, 0.22, 0.12);
-    brdf::Lobe<double> l;
-    l.distribution = brdf::Distribution::kGgx;
-    l.alpha_x = l.alpha_y = 0.3;
-    l.shadowing = brdf::Shadowing::kSmithCorrelated;
-    l.fresnel.type = brdf::FresnelType::kNone;
-    l.scale = brdf::Rgbd(0.12, 0.12, 0.12);
-    m.lobes.push_back(l);
-    return m;
+    return image_test::lambert_ggx(brdf::Rgbd(0.35, 0.22, 0.12), 0.12);
 }
 
 constexpr std::uint64_t kSeed = 4242;

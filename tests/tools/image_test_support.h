@@ -1,6 +1,7 @@
 #pragma once
 
-// Shared checks of the image-mode tests: how far a measured table is from the ground truth.
+// Shared pieces of the image-mode tests: the ground-truth model and how far a measured table is
+// from it.
 
 #include <algorithm>
 #include <cmath>
@@ -10,8 +11,25 @@
 #include "gonio/acquisition/image_binning.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/coords.h"
+#include "gonio/brdf/model.h"
 
 namespace gonio::tools::image_test {
+
+/// Ground truth: Lambert (albedo `diffuse`) + one GGX lobe, alpha 0.3, height-correlated Smith,
+/// no Fresnel, the same `scale` in each channel.
+inline brdf::ModelD lambert_ggx(const brdf::Rgbd& diffuse, double scale) {
+    brdf::ModelD m;
+    m.has_diffuse = true;
+    m.diffuse = diffuse;
+    brdf::Lobe<double> l;
+    l.distribution = brdf::Distribution::kGgx;
+    l.alpha_x = l.alpha_y = 0.3;
+    l.shadowing = brdf::Shadowing::kSmithCorrelated;
+    l.fresnel.type = brdf::FresnelType::kNone;
+    l.scale = brdf::Rgbd::Constant(scale);
+    m.lobes.push_back(l);
+    return m;
+}
 
 /// |mean / truth - 1| in channel `c` of every bin with at least `min_count` samples whose mean
 /// directions are both more than acos(0.2) = 78 deg from the horizon-grazing limit (cos >= 0.2).
