@@ -8,7 +8,7 @@
 #include <string>
 
 #include "fuzz_support.h"
-#include "gonio/brdf/limits.h"
+#include "gonio/base/limits.h"
 #include "gonio/fitting/spec.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

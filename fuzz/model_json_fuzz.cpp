@@ -7,7 +7,7 @@
 #include <string>
 
 #include "fuzz_support.h"
-#include "gonio/brdf/limits.h"
+#include "gonio/base/limits.h"
 #include "gonio/brdf/model_eval.h"
 #include "gonio/brdf/model_json.h"
 

@@ -7,7 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "gonio/brdf/analytic_brdf.h"
-#include "gonio/brdf/data_path.h"
+#include "gonio/base/data_path.h"
 #include "gonio/brdf/material_library.h"
 
 namespace gonio::tools {

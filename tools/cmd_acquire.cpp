@@ -16,9 +16,9 @@
 #include "command.h"
 #include "gonio/acquisition/campaign.h"
 #include "gonio/acquisition/rig_config.h"
-#include "gonio/brdf/atomic_file.h"
-#include "gonio/brdf/data_path.h"
-#include "gonio/brdf/limits.h"
+#include "gonio/base/atomic_file.h"
+#include "gonio/base/data_path.h"
+#include "gonio/base/limits.h"
 #include "gonio/sim/sim_rig.h"
 #include "option_checks.h"
 

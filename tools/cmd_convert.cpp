@@ -13,10 +13,11 @@
 #include <string>
 
 #include "command.h"
-#include "gonio/brdf/atomic_file.h"
+#include "gonio/base/strings.h"
+#include "gonio/base/atomic_file.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/dataset.h"
-#include "gonio/brdf/limits.h"
+#include "gonio/base/limits.h"
 #include "gonio/brdf/merl.h"
 #include "gonio/brdf/resample.h"
 #include "gonio/brdf/samples_io.h"
@@ -35,11 +36,6 @@ struct ConvertOptions {
     unsigned threads = 0;
     double radius_bins = 1.5;
 };
-
-bool ends_with(const std::string& s, const std::string& suffix) {
-    return s.size() >= suffix.size() &&
-           s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
 
 // "AxBxC" -> grid; false on anything else (signs, spaces, numbers past kMaxTableDim).
 bool parse_grid(const std::string& text, gonio::brdf::TableGrid* grid) {

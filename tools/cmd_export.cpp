@@ -6,9 +6,10 @@
 #include <memory>
 
 #include "command.h"
-#include "gonio/brdf/atomic_file.h"
+#include "gonio/base/strings.h"
+#include "gonio/base/atomic_file.h"
 #include "gonio/brdf/brdf.h"
-#include "gonio/brdf/limits.h"
+#include "gonio/base/limits.h"
 #include "gonio/brdf/merl.h"
 #include "gonio/brdf/model_json.h"
 #include "gonio/brdf/resample.h"
@@ -25,11 +26,6 @@ struct Options {
     std::string out_positional;
     std::string name = "gonio_fit";
 };
-
-bool ends_with(const std::string& s, const std::string& suffix) {
-    return s.size() >= suffix.size() &&
-           s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
 
 int write_text(const std::string& path, const std::string& text) {
     if (path.empty() || path == "-") {

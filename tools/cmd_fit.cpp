@@ -12,7 +12,7 @@
 
 #include "command.h"
 #include "fit_manifest.h"
-#include "gonio/brdf/atomic_file.h"
+#include "gonio/base/atomic_file.h"
 #include "gonio/brdf/model_json.h"
 #include "gonio/brdf/samples_io.h"
 #include "gonio/fitting/fit.h"

@@ -5,7 +5,7 @@
 #include <memory>
 
 #include "command.h"
-#include "gonio/brdf/atomic_file.h"
+#include "gonio/base/atomic_file.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/table.h"
 #include "gonio/report/preview.h"

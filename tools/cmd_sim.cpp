@@ -12,8 +12,8 @@
 #include <string>
 
 #include "command.h"
-#include "gonio/brdf/atomic_file.h"
-#include "gonio/brdf/data_path.h"
+#include "gonio/base/atomic_file.h"
+#include "gonio/base/data_path.h"
 #include "gonio/sim/sim_rig.h"
 
 namespace {

@@ -11,8 +11,8 @@
 #include <map>
 
 #include "command.h"
-#include "gonio/brdf/edit_distance.h"
-#include "gonio/brdf/limits.h"
+#include "gonio/base/edit_distance.h"
+#include "gonio/base/limits.h"
 #include "gonio/version.h"
 
 namespace gonio::tools {

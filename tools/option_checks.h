@@ -9,7 +9,7 @@
 #include <cstdlib>
 #include <string>
 
-#include "gonio/brdf/limits.h"
+#include "gonio/base/limits.h"
 
 namespace gonio::tools {
 

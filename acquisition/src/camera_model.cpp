@@ -9,9 +9,9 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
-#include "gonio/brdf/atomic_file.h"
-#include "gonio/brdf/check.h"
-#include "gonio/brdf/limits.h"
+#include "gonio/base/atomic_file.h"
+#include "gonio/base/check.h"
+#include "gonio/base/limits.h"
 #include "json_fields.h"
 
 namespace gonio::acquisition {

@@ -18,9 +18,9 @@
 #include "gonio/acquisition/capture_session.h"
 #include "gonio/acquisition/journal.h"
 #include "gonio/acquisition/progress.h"
-#include "gonio/brdf/atomic_file.h"
+#include "gonio/base/atomic_file.h"
 #include "gonio/brdf/dataset.h"
-#include "gonio/brdf/limits.h"
+#include "gonio/base/limits.h"
 #include "gonio/version.h"
 #include "json_fields.h"
 

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "gonio/brdf/check.h"
+#include "gonio/base/check.h"
 #include "gonio/brdf/merl.h"
 
 namespace gonio::acquisition {

@@ -8,8 +8,8 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "gonio/brdf/atomic_file.h"
-#include "gonio/brdf/check.h"
+#include "gonio/base/atomic_file.h"
+#include "gonio/base/check.h"
 #include "gonio/brdf/merl.h"
 #include "gonio/brdf/rig_geometry.h"
 #include "json_fields.h"

@@ -7,8 +7,8 @@
 #include <string_view>
 #include <vector>
 
-#include "gonio/brdf/atomic_file.h"
-#include "gonio/brdf/check.h"
+#include "gonio/base/atomic_file.h"
+#include "gonio/base/check.h"
 #include "gonio/brdf/rig_geometry.h"
 
 namespace gonio::acquisition {

@@ -12,7 +12,7 @@
 #include <set>
 #include <string>
 
-#include "gonio/brdf/limits.h"
+#include "gonio/base/limits.h"
 
 namespace gonio::acquisition::detail {
 

@@ -10,7 +10,7 @@
 #include <tuple>
 
 #include "gonio/brdf/dataset.h"
-#include "gonio/brdf/limits.h"
+#include "gonio/base/limits.h"
 #include "json_fields.h"
 
 namespace gonio::acquisition {

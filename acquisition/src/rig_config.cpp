@@ -8,7 +8,7 @@
 #include <sstream>
 #include <vector>
 
-#include "gonio/brdf/limits.h"
+#include "gonio/base/limits.h"
 #include "gonio/devices/camera_factory.h"
 #include "gonio/devices/modbus_axis.h"
 #include "gonio/devices/modbus_light.h"

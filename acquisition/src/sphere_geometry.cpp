@@ -5,7 +5,7 @@
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 
-#include "gonio/brdf/check.h"
+#include "gonio/base/check.h"
 
 namespace gonio::acquisition {
 

@@ -1,5 +1,6 @@
 // FitRequest: options by name and the fit spec they describe.
 
+#include "gonio/base/strings.h"
 #include "gonio/batch/fit_request.h"
 
 #include <cerrno>
@@ -58,11 +59,6 @@ Expected<double> parse_positive(const std::string& key, const std::string& v) {
         return make_error("option " + key + " = " + v + ": must be a finite number > 0");
     }
     return x;
-}
-
-bool ends_with(const std::string& s, const std::string& suffix) {
-    return s.size() >= suffix.size() &&
-           s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 // Manifests, shards and the run of one entry.
 
+#include "gonio/base/strings.h"
 #include "gonio/batch/manifest.h"
 
 #include <cerrno>
@@ -10,7 +11,7 @@
 #include <map>
 #include <sstream>
 
-#include "gonio/brdf/atomic_file.h"
+#include "gonio/base/atomic_file.h"
 #include "gonio/brdf/samples_io.h"
 #include "gonio/fitting/fit.h"
 #include "gonio/fitting/report.h"
@@ -65,11 +66,6 @@ std::string resolve(const fs::path& base, const std::string& p) {
         return p;
     }
     return (base / path).lexically_normal().string();
-}
-
-bool ends_with(const std::string& s, const std::string& suffix) {
-    return s.size() >= suffix.size() &&
-           s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
 Expected<void> write_text(const std::string& path, const std::string& text) {

@@ -4,7 +4,7 @@
 #include <cstdio>
 #include <fstream>
 
-#include "gonio/brdf/atomic_file.h"
+#include "gonio/base/atomic_file.h"
 #include "sample_columns.h"
 
 namespace gonio::brdf {

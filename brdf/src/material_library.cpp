@@ -5,8 +5,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "gonio/brdf/data_path.h"
-#include "gonio/brdf/edit_distance.h"
+#include "gonio/base/data_path.h"
+#include "gonio/base/edit_distance.h"
 #include "gonio/brdf/model_json.h"
 
 namespace gonio::brdf {

@@ -1,3 +1,4 @@
+#include "gonio/base/strings.h"
 #include "gonio/brdf/merl.h"
 
 #include <cerrno>
@@ -8,8 +9,8 @@
 #include <memory>
 #include <system_error>
 
-#include "gonio/brdf/atomic_file.h"
-#include "gonio/brdf/limits.h"
+#include "gonio/base/atomic_file.h"
+#include "gonio/base/limits.h"
 
 namespace gonio::brdf {
 namespace {
@@ -51,11 +52,6 @@ void write_le_i32(std::uint8_t* p, std::int32_t v) {
     for (int j = 0; j < 4; ++j) {
         p[j] = static_cast<std::uint8_t>((u >> (8 * j)) & 0xffu);
     }
-}
-
-bool ends_with(const std::string& s, const std::string& suffix) {
-    return s.size() >= suffix.size() &&
-           s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
 // Checks the three dims from the header; returns an empty string or the rule broken.

@@ -10,7 +10,7 @@
 #include <sstream>
 
 #include "gonio/brdf/ior.h"
-#include "gonio/brdf/limits.h"
+#include "gonio/base/limits.h"
 
 namespace gonio::brdf {
 

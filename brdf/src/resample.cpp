@@ -5,8 +5,8 @@
 #include <thread>
 #include <vector>
 
-#include "gonio/brdf/check.h"
-#include "gonio/brdf/limits.h"
+#include "gonio/base/check.h"
+#include "gonio/base/limits.h"
 
 namespace gonio::brdf {
 namespace {

@@ -1,3 +1,4 @@
+#include "gonio/base/strings.h"
 #include "gonio/brdf/samples_io.h"
 
 #include <fcntl.h>
@@ -345,11 +346,6 @@ class FileBytes {
     std::size_t size_ = 0;
     std::string copy_;
 };
-
-bool ends_with(const std::string& s, const std::string& suffix) {
-    return s.size() >= suffix.size() &&
-           s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
 
 }  // namespace
 

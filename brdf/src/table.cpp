@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <limits>
 
-#include "gonio/brdf/check.h"
+#include "gonio/base/check.h"
 
 namespace gonio::brdf {
 namespace {

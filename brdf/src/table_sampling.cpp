@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "gonio/brdf/check.h"
+#include "gonio/base/check.h"
 
 namespace gonio::brdf {
 namespace {

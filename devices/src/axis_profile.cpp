@@ -6,7 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "gonio/brdf/data_path.h"
+#include "gonio/base/data_path.h"
 
 namespace gonio::devices {
 namespace {

@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "gonio/brdf/check.h"
+#include "gonio/base/check.h"
 #include "gonio/brdf/model_eval.h"
 #include "gonio/fitting/prepared_samples.h"
 

@@ -8,7 +8,7 @@
 #include <limits>
 #include <thread>
 
-#include "gonio/brdf/check.h"
+#include "gonio/base/check.h"
 #include "gonio/brdf/fresnel.h"
 #include "gonio/brdf/math.h"
 #include "gonio/brdf/microfacet.h"

@@ -7,7 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "gonio/brdf/limits.h"
+#include "gonio/base/limits.h"
 #include "gonio/brdf/model_json.h"
 
 namespace gonio::fitting {

@@ -19,10 +19,11 @@
 #include <utility>
 #include <vector>
 
+#include "gonio/base/strings.h"
 #include "gonio/batch/fit_request.h"
 #include "gonio/batch/manifest.h"
 #include "gonio/brdf/analytic_brdf.h"
-#include "gonio/brdf/atomic_file.h"
+#include "gonio/base/atomic_file.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/checks.h"
 #include "gonio/brdf/dataset.h"
@@ -463,11 +464,6 @@ py::dict load(const py::object& path_obj, bool samples) {
         }
     }
     return dataset_to_dict(std::move(data));
-}
-
-bool ends_with(const std::string& s, const std::string& suffix) {
-    return s.size() >= suffix.size() &&
-           s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
 /// Through AtomicFile: a link planted at the temporary or final name is never followed, and a

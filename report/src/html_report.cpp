@@ -10,9 +10,9 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "gonio/brdf/atomic_file.h"
+#include "gonio/base/atomic_file.h"
 #include "gonio/brdf/brdf.h"
-#include "gonio/brdf/limits.h"
+#include "gonio/base/limits.h"
 #include "gonio/brdf/model_json.h"
 #include "gonio/report/image.h"
 #include "gonio/version.h"

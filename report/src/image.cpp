@@ -5,8 +5,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "gonio/brdf/atomic_file.h"
-#include "gonio/brdf/check.h"
+#include "gonio/base/atomic_file.h"
+#include "gonio/base/check.h"
 #include "image_cv.h"
 
 namespace gonio::report {

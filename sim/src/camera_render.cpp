@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "gonio/brdf/check.h"
+#include "gonio/base/check.h"
 
 namespace gonio::sim {
 

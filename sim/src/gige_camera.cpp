@@ -7,7 +7,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "gonio/brdf/check.h"
+#include "gonio/base/check.h"
 #include "gonio/devices/pixel_format.h"
 #include "gonio/sim/camera_render.h"
 

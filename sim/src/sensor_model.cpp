@@ -12,7 +12,7 @@
 #include <utility>
 #include <vector>
 
-#include "gonio/brdf/check.h"
+#include "gonio/base/check.h"
 #include "gonio/devices/pixel_format.h"
 
 namespace gonio::sim {

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "gonio/brdf/check.h"
+#include "gonio/base/check.h"
 #include "gonio/brdf/rig_geometry.h"
 
 namespace gonio::sim {

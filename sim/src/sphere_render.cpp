@@ -4,7 +4,7 @@
 #include <cmath>
 #include <opencv2/calib3d.hpp>
 
-#include "gonio/brdf/check.h"
+#include "gonio/base/check.h"
 #include "gonio/sim/camera_render.h"
 
 namespace gonio::sim {

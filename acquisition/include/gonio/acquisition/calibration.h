@@ -13,7 +13,7 @@
 // whole dataset, recorded separately (WhiteCalibration::rate_sigma).
 
 #include "gonio/brdf/coords.h"
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 
 namespace gonio::acquisition {
 

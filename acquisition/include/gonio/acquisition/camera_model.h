@@ -33,7 +33,7 @@
 #include <vector>
 
 #include "gonio/brdf/coords.h"
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 
 namespace gonio::acquisition {
 

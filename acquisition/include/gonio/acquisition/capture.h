@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "gonio/brdf/coords.h"
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 #include "gonio/devices/camera.h"
 
 namespace gonio::acquisition {

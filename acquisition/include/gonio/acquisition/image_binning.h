@@ -20,7 +20,7 @@
 
 #include "gonio/brdf/coords.h"
 #include "gonio/brdf/dataset.h"
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 #include "gonio/brdf/table.h"
 
 namespace gonio::acquisition {

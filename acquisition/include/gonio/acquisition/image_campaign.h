@@ -38,7 +38,7 @@
 #include "gonio/acquisition/image_planner.h"
 #include "gonio/acquisition/rig_config.h"
 #include "gonio/acquisition/sphere_geometry.h"
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 #include "gonio/devices/axis.h"
 #include "gonio/devices/camera.h"
 

@@ -7,7 +7,7 @@
 #include <array>
 #include <string>
 
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 #include "gonio/brdf/rig_geometry.h"
 
 namespace gonio::acquisition {

@@ -10,7 +10,7 @@
 
 #include "gonio/acquisition/kinematics.h"
 #include "gonio/brdf/coords.h"
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 
 namespace gonio::acquisition {
 

@@ -11,7 +11,7 @@
 
 #include "gonio/acquisition/capture.h"
 #include "gonio/acquisition/kinematics.h"
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 #include "gonio/devices/axis.h"
 #include "gonio/devices/camera.h"
 #include "gonio/devices/filter_wheel.h"

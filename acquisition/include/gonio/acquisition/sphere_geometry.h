@@ -32,7 +32,7 @@
 
 #include "gonio/acquisition/camera_model.h"
 #include "gonio/brdf/coords.h"
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 
 namespace gonio::acquisition {
 

@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <string>
 
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 #include "gonio/fitting/spec.h"
 
 namespace gonio::batch {

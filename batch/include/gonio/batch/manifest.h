@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "gonio/batch/fit_request.h"
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 
 namespace gonio::batch {
 

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "gonio/brdf/coords.h"
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 
 namespace gonio::brdf {
 

@@ -21,7 +21,7 @@
 #include <string>
 #include <vector>
 
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 #include "gonio/brdf/table.h"
 
 namespace gonio::brdf {

@@ -9,7 +9,7 @@
 
 #include <string>
 
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 #include "gonio/brdf/model.h"
 
 namespace gonio::brdf {

@@ -12,7 +12,7 @@
 
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/dataset.h"
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 #include "gonio/brdf/merl.h"
 #include "gonio/brdf/table.h"
 

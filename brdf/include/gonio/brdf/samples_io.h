@@ -7,7 +7,7 @@
 
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/dataset.h"
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 #include "gonio/brdf/resample.h"
 
 namespace gonio::brdf {

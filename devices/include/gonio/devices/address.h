@@ -13,7 +13,7 @@
 
 #include <string>
 
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 
 namespace gonio::devices {
 

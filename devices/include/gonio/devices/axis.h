@@ -6,7 +6,7 @@
 #include <chrono>
 #include <string>
 
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 
 namespace gonio::devices {
 

@@ -9,7 +9,7 @@
 #include <opencv2/core.hpp>
 #include <string>
 
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 
 namespace gonio::devices {
 

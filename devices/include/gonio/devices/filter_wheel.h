@@ -10,7 +10,7 @@
 #include <memory>
 #include <string>
 
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 #include "gonio/devices/camera.h"
 
 namespace gonio::devices {

@@ -18,7 +18,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 
 namespace gonio::devices::gvsp {
 

@@ -9,7 +9,7 @@
 #include <memory>
 #include <string>
 
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 #include "gonio/devices/axis.h"
 #include "gonio/devices/axis_profile.h"
 #include "gonio/devices/modbus_bus.h"

@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 #include "gonio/devices/address.h"
 
 namespace gonio::devices {

@@ -18,7 +18,7 @@
 #include <optional>
 #include <string>
 
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 
 namespace gonio::devices {
 

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "gonio/brdf/dataset.h"
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 #include "gonio/brdf/model.h"
 #include "gonio/fitting/spec.h"
 

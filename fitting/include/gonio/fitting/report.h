@@ -16,7 +16,7 @@
 
 #include <string>
 
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 #include "gonio/fitting/fit.h"
 
 namespace gonio::fitting {

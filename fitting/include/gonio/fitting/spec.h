@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 #include "gonio/brdf/model.h"
 
 namespace gonio::fitting {

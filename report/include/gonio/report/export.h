@@ -31,7 +31,7 @@
 #include <string>
 #include <vector>
 
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 #include "gonio/brdf/model.h"
 
 namespace gonio::report {

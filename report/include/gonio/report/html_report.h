@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 #include "gonio/report/plot.h"
 #include "gonio/report/preview.h"
 

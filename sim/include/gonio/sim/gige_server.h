@@ -14,7 +14,7 @@
 #include <string>
 #include <thread>
 
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 #include "gonio/sim/gige_camera.h"
 
 namespace gonio::sim {

@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 #include "gonio/devices/axis_profile.h"
 #include "gonio/sim/motor_sim.h"
 

@@ -14,7 +14,7 @@
 #include <optional>
 #include <string>
 
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 #include "gonio/sim/gige_camera.h"
 #include "gonio/sim/gige_server.h"
 #include "gonio/sim/motor_controller_server.h"

@@ -1,4 +1,4 @@
-#include "gonio/brdf/edit_distance.h"
+#include "gonio/base/edit_distance.h"
 
 #include <algorithm>
 #include <vector>

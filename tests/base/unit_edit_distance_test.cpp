@@ -3,7 +3,7 @@
 
 #include <gtest/gtest.h>
 
-#include "gonio/brdf/edit_distance.h"
+#include "gonio/base/edit_distance.h"
 
 namespace {
 

@@ -6,7 +6,7 @@
 #include <cstddef>
 #include <string>
 
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 
 namespace gonio {
 

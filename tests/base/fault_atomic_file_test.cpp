@@ -15,8 +15,8 @@
 #include <sstream>
 #include <string>
 
-#include "gonio/brdf/atomic_file.h"
-#include "gonio/brdf/limits.h"
+#include "gonio/base/atomic_file.h"
+#include "gonio/base/limits.h"
 
 namespace gonio {
 namespace {

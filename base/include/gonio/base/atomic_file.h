@@ -15,7 +15,7 @@
 #include <string>
 #include <string_view>
 
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 
 namespace gonio {
 

@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "gonio/brdf/error.h"
+#include "gonio/base/error.h"
 
 namespace gonio {
 

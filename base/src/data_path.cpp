@@ -1,4 +1,4 @@
-#include "gonio/brdf/data_path.h"
+#include "gonio/base/data_path.h"
 
 #include <sys/stat.h>
 

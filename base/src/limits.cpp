@@ -1,4 +1,4 @@
-#include "gonio/brdf/limits.h"
+#include "gonio/base/limits.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>

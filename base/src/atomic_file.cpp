@@ -1,4 +1,4 @@
-#include "gonio/brdf/atomic_file.h"
+#include "gonio/base/atomic_file.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>
