@@ -281,11 +281,14 @@ Status GigeCamera::read_reg_locked(std::uint32_t a, std::uint32_t* v) const {
         default:
             break;
     }
-    if (a + 4 <= kBootstrapSize) {
+    // Range checks in 64 bits: a + 4 wraps to 0 for a = 0xFFFFFFFC in 32.
+    const std::uint64_t end = static_cast<std::uint64_t>(a) + 4;
+    if (end <= kBootstrapSize) {
         *v = gvcp::get_u32(&s.bootstrap[a]);
         return Status::kSuccess;
     }
-    if (a >= m::kXmlAddress && a + 4 <= m::kXmlAddress + s.xml_memory.size()) {
+    if (a >= m::kXmlAddress &&
+        end <= static_cast<std::uint64_t>(m::kXmlAddress) + s.xml_memory.size()) {
         *v = gvcp::get_u32(&s.xml_memory[a - m::kXmlAddress]);
         return Status::kSuccess;
     }
@@ -483,6 +486,10 @@ Status GigeCamera::read_mem_locked(std::uint32_t address,
     if (count == 0 || count > gvcp::kMaxMemData) {
         return Status::kInvalidParameter;
     }
+    // A block that runs past the last address does not wrap around to address 0.
+    if (static_cast<std::uint64_t>(address) + count > (std::uint64_t{1} << 32)) {
+        return Status::kInvalidAddress;
+    }
     out->resize(count);
     for (std::size_t i = 0; i < count; i += 4) {
         std::uint32_t v = 0;
@@ -630,6 +637,11 @@ std::optional<gvcp::Bytes> GigeCamera::handle_gvcp(const std::uint8_t* bytes,
             }
             if (w->address % 4 != 0 || w->data.size() % 4 != 0) {
                 return reply(gvcp::make_write_mem_ack(cmd->req_id, Status::kBadAlignment, 0));
+            }
+            // A block that runs past the last address does not wrap around to address 0.
+            if (static_cast<std::uint64_t>(w->address) + w->data.size() >
+                (std::uint64_t{1} << 32)) {
+                return reply(gvcp::make_write_mem_ack(cmd->req_id, Status::kInvalidAddress, 0));
             }
             std::uint16_t written = 0;
             for (std::size_t i = 0; i < w->data.size(); i += 4) {

@@ -357,15 +357,19 @@ void GigeServer::resend(const gvcp::PacketResend& r) {
         std::lock_guard<std::mutex> lock(stats_mutex_);
         ++stats_.resend_requests;
         if (!f) {
-            stats_.resend_unavailable += r.last_packet_id >= r.first_packet_id
-                                             ? r.last_packet_id - r.first_packet_id + 1
-                                             : 0;
+            // In 64 bits: packets 0..0xFFFFFFFF are 2^32 of them, not 0.
+            stats_.resend_unavailable +=
+                r.last_packet_id >= r.first_packet_id
+                    ? std::uint64_t{r.last_packet_id} - r.first_packet_id + 1
+                    : 0;
         }
     }
     if (!f || r.first_packet_id > r.last_packet_id) {
         return;
     }
-    const std::uint32_t last = std::min(r.last_packet_id, f->payload_packets + 1);
+    // The trailer is packet payload_packets + 1 (64-bit sum: no wrap for a frame of 2^32 - 1).
+    const auto last = static_cast<std::uint32_t>(
+        std::min<std::uint64_t>(r.last_packet_id, std::uint64_t{f->payload_packets} + 1));
     if (r.first_packet_id <= last) {
         send_packets(*f, r.first_packet_id, last, false);
     }
