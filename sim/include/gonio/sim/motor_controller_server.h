@@ -1,12 +1,13 @@
 #pragma once
 
-// Simulated motor controllers: a Modbus server (libmodbus) that implements the drive profiles of
-// data/devices register for register, with several units (drives) behind one address, over TCP on
-// 127.0.0.1 (port 0 = ephemeral) or over RTU on a pseudo-terminal pair. One thread serves every
-// connection with poll() and non-blocking I/O (per-connection buffers, frame timeouts, bounded
-// output, a connection limit), so no client can hold up another. Each unit runs a MotorSim;
-// a unit may also carry a shutter coil. Faults are injected from C++ (inject()) or over Modbus
-// through the fault registers (kFaultRegister...). All public functions are thread-safe.
+// Simulated motor controllers served over Modbus: the register logic of motor_registers.h (the
+// drive profiles of data/devices register for register, several units behind one address) behind
+// a Modbus TCP server on 127.0.0.1 (port 0 = ephemeral) or an RTU server on a pseudo-terminal,
+// both speaking the wire format of devices/modbus_codec.h. One thread serves every connection with
+// poll() and non-blocking I/O (per-connection buffers, frame timeouts, bounded output, a
+// connection limit), so no client can hold up another. Faults are injected from C++ (inject()) or
+// over Modbus through the fault registers (kFaultRegister...). All public functions are
+// thread-safe.
 
 #include <chrono>
 #include <cstdint>
@@ -18,41 +19,10 @@
 
 #include "gonio/base/error.h"
 #include "gonio/devices/axis_profile.h"
+#include "gonio/sim/motor_registers.h"
 #include "gonio/sim/motor_sim.h"
 
 namespace gonio::sim {
-
-/// Injectable faults.
-enum class FaultKind {
-    kDelayReply,      ///< Replies `count` requests `delay` late (the reply is still sent).
-    kDropConnection,  ///< Closes the TCP connection (RTU: stays silent) on the next `count`
-                      ///< requests.
-    kException,       ///< Answers `count` requests with Modbus exception `exception_code`.
-    kAlarmMidMove,  ///< The next move stops at `fraction` of its distance with alarm `alarm_code`.
-    kStall,         ///< The next move freezes at `fraction` while still reporting "moving".
-};
-
-struct Fault {
-    FaultKind kind = FaultKind::kDelayReply;
-    int unit = 0;   ///< 0 = whichever unit is addressed next (reply faults) / every unit (motion).
-    int count = 1;  ///< Requests affected (reply faults).
-    std::chrono::milliseconds delay{0};
-    int exception_code = 6;  ///< 6 = slave (server) busy, 2 = illegal data address.
-    int alarm_code = 0;      ///< 0 = the profile's overload code.
-    double fraction = 0.5;
-};
-
-/// Fault registers present on every unit (wire addresses). Writing the kind register (in the same
-/// request as the others, or after the
-/// others) injects the fault: kind = 1 + FaultKind, count, delay ms, exception or alarm code,
-/// fraction in 1/1000.
-constexpr int kFaultRegister = 0xFF00;
-constexpr int kFaultRegisterCount = 5;
-
-/// The values of the fault registers for `f` (write them in one request to kFaultRegister).
-std::vector<std::uint16_t> fault_registers(const Fault& f);
-/// Parses a fault kind: delay, drop, exception, alarm, stall.
-Expected<FaultKind> parse_fault_kind(const std::string& name);
 
 enum class Transport {
     kTcp,  ///< Modbus TCP on 127.0.0.1.
@@ -72,17 +42,6 @@ struct ServerOptions {
     std::size_t max_output_bytes = 64 * 1024;
     /// Log lines (connection limit, dropped clients, blips) go here; null = silent.
     std::FILE* log = stderr;
-};
-
-/// State of one unit at one instant.
-struct UnitSnapshot {
-    double position_deg = 0;  ///< Physical load angle (what the optics see), degrees.
-    double motor_deg = 0;     ///< Physical motor angle, degrees.
-    double counter_deg = 0;   ///< What the drive reports, degrees.
-    bool moving = false;
-    bool homed = false;
-    int alarm_code = 0;
-    bool shutter_open = false;
 };
 
 class MotorControllerServer {
