@@ -12,6 +12,9 @@
 #include <map>
 #include <thread>
 
+#include "gonio/devices/modbus_codec.h"
+#include "gonio/devices/request_retry.h"
+
 namespace gonio::devices {
 namespace {
 
@@ -43,27 +46,23 @@ const char* exception_name(int code) {
     }
 }
 
-/// What to do after a failed attempt.
-enum class Recovery {
-    kGiveUp,     ///< The drive refused the request for good (illegal address, value, function).
-    kRetry,      ///< Transient refusal (busy): retry as is.
-    kResync,     ///< Timeout or garbled reply: discard anything late, then retry.
-    kReconnect,  ///< The link is gone: reopen it, then retry.
-};
-
-Recovery classify(int err) {
+/// How a failed libmodbus call ended, for the retry rules.
+AttemptOutcome classify(int err) {
     if (err == EMBXILFUN || err == EMBXILADD || err == EMBXILVAL || err == EMBXSFAIL ||
         err == EMBXMEMPAR || err == EMBXGPATH) {
-        return Recovery::kGiveUp;
+        return AttemptOutcome::kRefused;
     }
     if (err == EMBXSBUSY || err == EMBXACK || err == EMBXNACK || err == EMBXGTAR) {
-        return Recovery::kRetry;
+        return AttemptOutcome::kBusy;
     }
-    if (err == ETIMEDOUT || err == EMBBADCRC || err == EMBBADDATA || err == EMBBADEXC ||
-        err == EMBMDATA || err == EMBBADSLAVE) {
-        return Recovery::kResync;
+    if (err == ETIMEDOUT) {
+        return AttemptOutcome::kTimeout;
     }
-    return Recovery::kReconnect;
+    if (err == EMBBADCRC || err == EMBBADDATA || err == EMBBADEXC || err == EMBMDATA ||
+        err == EMBBADSLAVE) {
+        return AttemptOutcome::kGarbled;
+    }
+    return AttemptOutcome::kLinkLost;
 }
 
 }  // namespace
@@ -244,7 +243,8 @@ Expected<std::shared_ptr<ModbusBus>> ModbusBus::shared(const std::string& addres
 
 namespace {
 
-/// Runs `op` (one libmodbus call returning < 0 on failure) with retries and recovery.
+/// Runs `op` (one libmodbus call returning < 0 on failure) under the retry and outage rules of
+/// RequestRetry: this function does the I/O the rules ask for.
 template <class Op>
 Expected<void> run_request(ModbusBus::Impl& impl,
                            const BusAddress& address,
@@ -256,30 +256,19 @@ Expected<void> run_request(ModbusBus::Impl& impl,
         impl.wait_poll_slot();
     }
     std::lock_guard<std::mutex> lock(impl.mu);
-    int last_err = 0;
-    int attempts = 0;
-    int failures = 0;  ///< Failed attempts other than a lost link (bounded by policy.retries).
+    RetryRules rules;
+    rules.retries = policy.retries;
+    rules.backoff = policy.backoff;
+    rules.outage = std::chrono::milliseconds(address.outage_ms);
+    rules.poll = policy.poll;
+    RequestRetry retry(rules);
     const std::chrono::milliseconds quiet =
         policy.quiet.count() > 0 ? policy.quiet : policy.response_timeout;
-    // A lost link is retried with back-off for up to the outage window; everything else counts
-    // against policy.retries.
-    using Clock = std::chrono::steady_clock;
-    bool link_lost = false;
-    bool timed_out = false;
-    Clock::time_point lost_since;
-    auto backoff = policy.backoff;
-    const auto max_backoff = std::chrono::milliseconds(1000);
+    int last_err = 0;
     for (;;) {
-        if (attempts > 0) {
-            ++impl.stats.retries;
-            std::this_thread::sleep_for(backoff);
-            backoff = std::min(max_backoff, backoff * 2);
-        }
-        ++attempts;
-        bool link_failed = false;
+        AttemptOutcome outcome = AttemptOutcome::kLinkLost;
         if (!impl.connect()) {
             last_err = errno;
-            link_failed = true;
         } else {
             modbus_set_slave(impl.ctx, unit);
             const auto ms = policy.response_timeout.count();
@@ -292,79 +281,82 @@ Expected<void> run_request(ModbusBus::Impl& impl,
             }
             errno = 0;
             if (op(impl.ctx) >= 0) {
-                if (link_lost || timed_out) {
-                    // Back after an outage or a silence: drivers re-read their drives' state.
+                outcome = AttemptOutcome::kSuccess;
+            } else {
+                last_err = errno;
+                outcome = classify(last_err);
+            }
+        }
+        const auto now = std::chrono::steady_clock::now();
+        const Decision d = retry.after(outcome, now);
+        if (outcome == AttemptOutcome::kTimeout) {
+            ++impl.stats.timeouts;
+        }
+        if (d.link_lost_now) {
+            ++impl.stats.link_losses;
+        }
+        const std::string place =
+            what + " (unit " + std::to_string(unit) + ", " + to_string(address) + "): ";
+        switch (d.step) {
+            case NextStep::kDone:
+                if (d.new_generation) {
                     ++impl.generation;
                 }
                 return {};
-            }
-            last_err = errno;
-            switch (classify(last_err)) {
-                case Recovery::kGiveUp:
-                    return make_error(what + " (unit " + std::to_string(unit) + ", " +
-                                      to_string(address) + "): " + describe_modbus_errno(last_err));
-                case Recovery::kRetry:
-                    ++failures;
-                    break;
-                case Recovery::kResync:
-                    if (last_err == ETIMEDOUT) {
-                        ++impl.stats.timeouts;
-                        timed_out = true;
-                    }
-                    impl.resync(address.kind, quiet);
-                    ++failures;
-                    break;
-                case Recovery::kReconnect:
-                    impl.disconnect();
-                    link_failed = true;
-                    break;
-            }
-        }
-        if (link_failed) {
-            const auto now = Clock::now();
-            if (!link_lost) {
-                link_lost = true;
-                lost_since = now;
-                ++impl.stats.link_losses;
-            }
-            if (now - lost_since >= std::chrono::milliseconds(address.outage_ms)) {
-                const auto lost_ms =
-                    std::chrono::duration_cast<std::chrono::milliseconds>(now - lost_since);
-                return make_error(
-                    what + " (unit " + std::to_string(unit) + ", " + to_string(address) +
-                    "): link lost: " + describe_modbus_errno(last_err) + " for " +
-                    std::to_string(lost_ms.count()) + " ms (" + std::to_string(attempts) +
-                    " attempts), longer than the outage window of " +
-                    std::to_string(address.outage_ms) + " ms");
-            }
-            continue;
-        }
-        if (failures > policy.retries) {
-            // A poll that keeps timing out while a move is under way is a drive (or line) that
-            // went silent: wait for it within the outage window, like a lost link.
-            if (policy.poll && last_err == ETIMEDOUT && address.outage_ms > 0) {
-                const auto now = Clock::now();
-                if (!link_lost) {
-                    link_lost = true;
-                    lost_since = now;
-                    ++impl.stats.link_losses;
+            case NextStep::kFail:
+                if (retry.failure() == Failure::kRefused) {
+                    return make_error(place + describe_modbus_errno(last_err));
                 }
-                if (now - lost_since < std::chrono::milliseconds(address.outage_ms)) {
-                    continue;
+                if (retry.failure() == Failure::kOutage) {
+                    return make_error(place + "link lost: " + describe_modbus_errno(last_err) +
+                                      " for " + std::to_string(retry.lost_for(now).count()) +
+                                      " ms (" + std::to_string(retry.attempts()) +
+                                      " attempts), longer than the outage window of " +
+                                      std::to_string(address.outage_ms) + " ms");
                 }
-            }
-            break;
+                return make_error(place + describe_modbus_errno(last_err) + " after " +
+                                  std::to_string(retry.attempts()) + " attempts");
+            case NextStep::kResyncThenRetry:
+                impl.resync(address.kind, quiet);
+                break;
+            case NextStep::kReconnectThenRetry:
+                impl.disconnect();
+                break;
+            case NextStep::kRetry:
+                break;
         }
+        ++impl.stats.retries;
+        std::this_thread::sleep_for(d.wait);
     }
-    return make_error(what + " (unit " + std::to_string(unit) + ", " + to_string(address) +
-                      "): " + describe_modbus_errno(last_err) + " after " +
-                      std::to_string(attempts) + " attempts");
+}
+
+/// A request's register or coil range, checked before anything is sent: addresses 0..0xFFFF, a
+/// quantity the function allows, and a range that ends within the address space (in 64 bits: no
+/// sum wraps).
+Expected<void> check_range(const std::string& what,
+                           int unit,
+                           const BusAddress& address,
+                           long long wire_address,
+                           long long count,
+                           int max_count) {
+    if (wire_address < 0 || wire_address > 0xFFFF || count < 1 || count > max_count ||
+        wire_address + count > static_cast<long long>(modbus::kAddressSpace)) {
+        return make_error(what + " (unit " + std::to_string(unit) + ", " + to_string(address) +
+                          "): " + std::to_string(count) + " registers at wire address " +
+                          std::to_string(wire_address) + " are not a Modbus range (addresses 0.." +
+                          "65535, at most " + std::to_string(max_count) + " per request)");
+    }
+    return {};
 }
 
 }  // namespace
 
 Expected<std::vector<std::uint16_t>> ModbusBus::read_registers(
     int unit, int wire_address, int count, const RequestPolicy& policy, const std::string& what) {
+    if (auto c = check_range(what, unit, address_, wire_address, count, modbus::kMaxReadRegisters);
+        !c) {
+        return tl::unexpected(c.error());
+    }
     std::vector<std::uint16_t> out(static_cast<size_t>(count));
     auto r = run_request(*impl_, address_, unit, policy, what, [&](modbus_t* ctx) {
         const int n = modbus_read_registers(ctx, wire_address, count, out.data());
@@ -385,6 +377,15 @@ Expected<void> ModbusBus::write_registers(int unit,
                                           const std::vector<std::uint16_t>& values,
                                           const RequestPolicy& policy,
                                           const std::string& what) {
+    if (auto c = check_range(what,
+                             unit,
+                             address_,
+                             wire_address,
+                             static_cast<long long>(values.size()),
+                             modbus::kMaxWriteRegisters);
+        !c) {
+        return c;
+    }
     return run_request(*impl_, address_, unit, policy, what, [&](modbus_t* ctx) {
         return modbus_write_registers(
             ctx, wire_address, static_cast<int>(values.size()), values.data());
@@ -396,6 +397,9 @@ Expected<void> ModbusBus::write_register(int unit,
                                          std::uint16_t value,
                                          const RequestPolicy& policy,
                                          const std::string& what) {
+    if (auto c = check_range(what, unit, address_, wire_address, 1, 1); !c) {
+        return c;
+    }
     return run_request(*impl_, address_, unit, policy, what, [&](modbus_t* ctx) {
         return modbus_write_register(ctx, wire_address, value);
     });
@@ -405,6 +409,9 @@ Expected<bool> ModbusBus::read_coil(int unit,
                                     int wire_address,
                                     const RequestPolicy& policy,
                                     const std::string& what) {
+    if (auto c = check_range(what, unit, address_, wire_address, 1, 1); !c) {
+        return tl::unexpected(c.error());
+    }
     std::uint8_t bit = 0;
     auto r = run_request(*impl_, address_, unit, policy, what, [&](modbus_t* ctx) {
         return modbus_read_bits(ctx, wire_address, 1, &bit);
@@ -417,6 +424,9 @@ Expected<bool> ModbusBus::read_coil(int unit,
 
 Expected<void> ModbusBus::write_coil(
     int unit, int wire_address, bool on, const RequestPolicy& policy, const std::string& what) {
+    if (auto c = check_range(what, unit, address_, wire_address, 1, 1); !c) {
+        return c;
+    }
     return run_request(*impl_, address_, unit, policy, what, [&](modbus_t* ctx) {
         return modbus_write_bit(ctx, wire_address, on ? 1 : 0);
     });

@@ -339,4 +339,25 @@ TEST(MotorBus, AbsentUnitIsATimeoutOnRtu) {
     EXPECT_NE(r.error().message.find("after 2 attempts"), std::string::npos) << r.error().message;
 }
 
+TEST(MotorBus, RangesPastTheAddressSpaceAreRefusedBeforeAnythingIsSent) {
+    Stage s("generic", Transport::kTcp);
+    RequestPolicy pol;
+    const std::uint64_t before = s.server.request_count();
+    // 0xFFFF + 2 registers would wrap to address 0 in 16 bits.
+    auto r = s.bus->read_registers(1, 0xFFFF, 2, pol, "top read");
+    ASSERT_FALSE(r);
+    EXPECT_NE(r.error().message.find("not a Modbus range"), std::string::npos) << r.error().message;
+    EXPECT_FALSE(s.bus->read_registers(1, 0, 126, pol, "too many"));
+    EXPECT_FALSE(s.bus->write_registers(1, 0xFFFF, {1, 2}, pol, "top write"));
+    EXPECT_FALSE(s.bus->write_register(1, 0x10000, 1, pol, "past the top"));
+    EXPECT_FALSE(s.bus->read_coil(3, -1, pol, "negative"));
+    EXPECT_EQ(s.server.request_count(), before);  // nothing reached the wire
+    // The last register alone is a range: it goes out and the drive refuses it (absent register).
+    auto last = s.bus->read_registers(1, 0xFFFF, 1, pol, "last register");
+    ASSERT_FALSE(last);
+    EXPECT_NE(last.error().message.find("Modbus exception 2"), std::string::npos)
+        << last.error().message;
+    EXPECT_EQ(s.server.request_count(), before + 1);
+}
+
 }  // namespace
