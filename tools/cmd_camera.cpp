@@ -206,6 +206,8 @@ void print_genicam_features(gonio::devices::AravisCamera& a) {
                     g->min,
                     g->max,
                     g->unit.c_str());
+    } else if (!g) {
+        std::printf("gain_feature: none (%s)\n", g.error().message.c_str());
     } else {
         std::printf("gain_feature: none\n");
     }

@@ -16,6 +16,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
+#include <utility>
 
 #include "gonio/devices/packed_pixels.h"
 
@@ -195,6 +197,33 @@ struct AravisCamera::Impl {
         return ok;
     }
 
+    /// A feature's range as the camera's GenICam description gives it. A minimum above the
+    /// maximum (or a bound that is not a number) is the camera's fault: the error names the
+    /// feature and both bounds.
+    Expected<void> check_range(const std::string& feature, double lo, double hi) const {
+        if (lo <= hi) {
+            return {};
+        }
+        return tl::unexpected(err("the camera's GenICam description gives " + feature +
+                                  " the range [" + fmt_number(lo) + ", " + fmt_number(hi) +
+                                  "], minimum above maximum: a fault of the camera's description, "
+                                  "not of the request"));
+    }
+
+    /// The bounds of an integer feature, checked.
+    Expected<std::pair<std::int64_t, std::int64_t>> int_range(const char* feature) const {
+        GError* e = nullptr;
+        gint64 lo = 0, hi = 0;
+        arv_device_get_integer_feature_bounds(device, feature, &lo, &hi, &e);
+        if (e != nullptr) {
+            return tl::unexpected(err("range of " + std::string(feature) + ": " + take_message(e)));
+        }
+        if (auto r = check_range(feature, static_cast<double>(lo), static_cast<double>(hi)); !r) {
+            return tl::unexpected(r.error());
+        }
+        return std::make_pair(static_cast<std::int64_t>(lo), static_cast<std::int64_t>(hi));
+    }
+
     Expected<void> require(const char* feature, const std::string& why) const {
         if (!has(feature)) {
             return tl::unexpected(
@@ -324,6 +353,9 @@ struct AravisCamera::Impl {
                 return tl::unexpected(
                     err("range of " + std::string(name) + ": " + take_message(e)));
             }
+            if (auto r = check_range(name, lo, hi); !r) {
+                return tl::unexpected(r.error());
+            }
             f.min_us = lo * f.us_per_unit;
             f.max_us = hi * f.us_per_unit;
             return f;
@@ -345,14 +377,12 @@ struct AravisCamera::Impl {
             f.name = "ExposureTimeRaw";
             f.unit = fmt_number(*base) + " us (ExposureTimeBaseAbs)";
             f.us_per_unit = *base;
-            GError* e = nullptr;
-            gint64 lo = 0, hi = 0;
-            arv_device_get_integer_feature_bounds(device, "ExposureTimeRaw", &lo, &hi, &e);
-            if (e != nullptr) {
-                return tl::unexpected(err("range of ExposureTimeRaw: " + take_message(e)));
+            auto range = int_range("ExposureTimeRaw");
+            if (!range) {
+                return tl::unexpected(range.error());
             }
-            f.min_us = static_cast<double>(lo) * f.us_per_unit;
-            f.max_us = static_cast<double>(hi) * f.us_per_unit;
+            f.min_us = static_cast<double>(range->first) * f.us_per_unit;
+            f.max_us = static_cast<double>(range->second) * f.us_per_unit;
             return f;
         }
         return tl::unexpected(
@@ -428,19 +458,20 @@ struct AravisCamera::Impl {
             if (e != nullptr) {
                 return tl::unexpected(err("range of Gain: " + take_message(e)));
             }
+            if (auto r = check_range("Gain", g.min, g.max); !r) {
+                return tl::unexpected(r.error());
+            }
             return g;
         }
         if (has("GainRaw")) {
             g.name = "GainRaw";
             g.unit = "raw";
-            GError* e = nullptr;
-            gint64 lo = 0, hi = 0;
-            arv_device_get_integer_feature_bounds(device, "GainRaw", &lo, &hi, &e);
-            if (e != nullptr) {
-                return tl::unexpected(err("range of GainRaw: " + take_message(e)));
+            auto range = int_range("GainRaw");
+            if (!range) {
+                return tl::unexpected(range.error());
             }
-            g.min = static_cast<double>(lo);
-            g.max = static_cast<double>(hi);
+            g.min = static_cast<double>(range->first);
+            g.max = static_cast<double>(range->second);
         }
         return g;
     }
@@ -983,14 +1014,52 @@ Expected<CameraInfo> AravisCamera::info() {
         i.serial = d.string_or_empty("DeviceID");
     }
     i.version = d.string_or_empty("DeviceVersion");
-    GError* e = nullptr;
-    gint w = 0, h = 0;
-    arv_camera_get_sensor_size(d.camera, &w, &h, &e);
-    if (e != nullptr) {
-        return tl::unexpected(d.err("reading SensorWidth/SensorHeight: " + take_message(e)));
+    // The sensor's size: SensorWidth/SensorHeight (SFNC) where the camera has them; else
+    // WidthMax/HeightMax (the largest image it sends); else the top of Width's/Height's range.
+    // Several real cameras describe only the latter two.
+    const auto extent =
+        [&d](const char* sensor, const char* max_feature, const char* size) -> Expected<int> {
+        for (const char* f : {sensor, max_feature}) {
+            if (d.has(f)) {
+                auto v = d.get_int(f);
+                if (!v) {
+                    return tl::unexpected(v.error());
+                }
+                if (*v < 1 || *v > std::numeric_limits<int>::max()) {
+                    return tl::unexpected(d.err(std::string(f) + " = " + std::to_string(*v) +
+                                                " is not a size in pixels"));
+                }
+                return static_cast<int>(*v);
+            }
+        }
+        if (auto r = d.require(size,
+                               std::string("for the sensor size (the camera has neither ") +
+                                   sensor + " nor " + max_feature + ")");
+            !r) {
+            return tl::unexpected(r.error());
+        }
+        auto range = d.int_range(size);
+        if (!range) {
+            return tl::unexpected(range.error());
+        }
+        if (range->second < 1 || range->second > std::numeric_limits<int>::max()) {
+            return tl::unexpected(d.err("the top of " + std::string(size) + "'s range, " +
+                                        std::to_string(range->second) +
+                                        ", is not a size in pixels"));
+        }
+        return static_cast<int>(range->second);
+    };
+    auto w = extent("SensorWidth", "WidthMax", "Width");
+    if (!w) {
+        return tl::unexpected(w.error());
     }
-    i.sensor_width = w;
-    i.sensor_height = h;
+    auto h = extent("SensorHeight", "HeightMax", "Height");
+    if (!h) {
+        return tl::unexpected(h.error());
+    }
+    i.sensor_width = *w;
+    i.sensor_height = *h;
+    GError* e = nullptr;
     const char* pf = arv_camera_get_pixel_format_as_string(d.camera, &e);
     if (e != nullptr) {
         return tl::unexpected(d.err("reading PixelFormat: " + take_message(e)));
@@ -1128,13 +1197,13 @@ Expected<void> AravisCamera::set_roi(const Roi& roi) {
     };
     for (const Axis& a : {Axis{"Width", "OffsetX", roi.width, roi.x},
                           Axis{"Height", "OffsetY", roi.height, roi.y}}) {
-        GError* e = nullptr;
-        gint64 lo = 0, hi = 0;
-        arv_device_get_integer_feature_bounds(d.device, a.size, &lo, &hi, &e);
-        if (e != nullptr) {
-            return tl::unexpected(
-                d.err("range of " + std::string(a.size) + ": " + take_message(e)));
+        auto range = d.int_range(a.size);
+        if (!range) {
+            return tl::unexpected(range.error());
         }
+        const std::int64_t lo = range->first;
+        const std::int64_t hi = range->second;
+        GError* e = nullptr;
         const std::int64_t size = a.want_size == 0 ? hi - a.want_offset : a.want_size;
         if (size < lo || size > hi || size + a.want_offset > hi) {
             return tl::unexpected(d.err(std::string(a.size) + " " + std::to_string(size) +
