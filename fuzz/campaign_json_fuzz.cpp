@@ -16,7 +16,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const std::string text(reinterpret_cast<const char*>(data), size);
     gonio::Expected<acq::CampaignSpec> s = acq::parse_campaign_spec(text, "campaign.json");
     if (!s) {
-        gonio::fuzz::check_message("campaign_json", s.error().message, "campaign.json");
+        gonio::fuzz::check_message("campaign_json", s.error().message, "campaign.json", data, size);
         return 0;
     }
     gonio::fuzz::require(s->uniform.n_theta <= acq::kMaxPlanAxis &&
@@ -47,7 +47,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                              "campaign_json",
                              "plan size within the limit");
     } else {
-        gonio::fuzz::check_message("campaign_json", plan.error().message, "plan");
+        gonio::fuzz::check_message("campaign_json", plan.error().message, "plan", data, size);
     }
     return 0;
 }

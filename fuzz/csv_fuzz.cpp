@@ -17,7 +17,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const std::string path = dir.write("input.csv", data, size);
     gonio::Expected<gonio::brdf::Dataset> d = gonio::brdf::read_dataset_csv(path);
     if (!d) {
-        gonio::fuzz::check_message("csv", d.error().message, "input.csv");
+        gonio::fuzz::check_message("csv", d.error().message, "input.csv", data, size);
         return 0;
     }
     for (const gonio::brdf::Sample& s : d->samples) {

@@ -16,7 +16,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     gonio::Expected<gonio::fitting::FitSpec> s =
         gonio::fitting::parse_fit_template(text, "template.json");
     if (!s) {
-        gonio::fuzz::check_message("fit_template", s.error().message, "template.json");
+        gonio::fuzz::check_message("fit_template", s.error().message, "template.json", data, size);
         return 0;
     }
     gonio::fuzz::require(

@@ -16,7 +16,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const std::string text(reinterpret_cast<const char*>(data), size);
     gonio::Expected<ModelD> m = parse_model_json(text, "model.json");
     if (!m) {
-        gonio::fuzz::check_message("model_json", m.error().message, "model.json");
+        gonio::fuzz::check_message("model_json", m.error().message, "model.json", data, size);
         return 0;
     }
     gonio::fuzz::require(m->lobes.size() <= gonio::kMaxModelLobes, "model_json", "lobe limit");

@@ -20,7 +20,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const std::string fit_report = dir.write("fit.report.json", data, size);
     gonio::Expected<gonio::report::ReportResult> r = gonio::report::build_report(dir.path());
     if (!r) {
-        gonio::fuzz::check_message("report_input", r.error().message, ".json");
+        gonio::fuzz::check_message("report_input", r.error().message, ".json", data, size);
     } else {
         gonio::fuzz::require(std::filesystem::exists(r->html_path), "report_input", "report.html");
     }

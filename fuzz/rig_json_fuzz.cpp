@@ -15,7 +15,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const std::string text(reinterpret_cast<const char*>(data), size);
     gonio::Expected<acq::RigConfig> r = acq::parse_rig_config(text, "rig.json");
     if (!r) {
-        gonio::fuzz::check_message("rig_json", r.error().message, "rig.json");
+        gonio::fuzz::check_message("rig_json", r.error().message, "rig.json", data, size);
         return 0;
     }
     for (const auto& a : r->axes) {

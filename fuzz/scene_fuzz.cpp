@@ -16,7 +16,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const std::string path = dir.write("scene.json", data, size);
     gonio::Expected<acq::Scene> sc = acq::read_scene(path);
     if (!sc) {
-        gonio::fuzz::check_message("scene", sc.error().message, "scene.json");
+        gonio::fuzz::check_message("scene", sc.error().message, "scene.json", data, size);
         return 0;
     }
     gonio::fuzz::require(std::isfinite(sc->margin) && sc->margin >= 0, "scene", "finite margin");

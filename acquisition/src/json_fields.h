@@ -13,6 +13,7 @@
 #include <string>
 
 #include "gonio/base/limits.h"
+#include "gonio/base/strings.h"
 
 namespace gonio::acquisition::detail {
 
@@ -30,10 +31,7 @@ inline std::string json_type(const nlohmann::json& j) {
 
 /// nlohmann's message without its "[json.exception.type_error.302] " code.
 inline std::string json_error_text(const char* what) {
-    std::string s = what;
-    const auto pos = s.find("] ");
-    return s.compare(0, 15, "[json.exception") == 0 && pos != std::string::npos ? s.substr(pos + 2)
-                                                                                : s;
+    return gonio::json_error_text(what);
 }
 
 /// Parses text after the size and depth checks; a syntax error names the line and column.
@@ -44,13 +42,8 @@ inline nlohmann::json parse_json_checked(const std::string& text, const std::str
     try {
         return nlohmann::json::parse(text);
     } catch (const nlohmann::json::exception& e) {
-        std::string what = e.what();
         // "[json.exception.parse_error.101] parse error at line 1, column 2: ..." -> from "parse".
-        const auto pos = what.find("] ");
-        if (pos != std::string::npos) {
-            what = what.substr(pos + 2);
-        }
-        json_fail(source + ": " + what);
+        json_fail(source + ": " + gonio::json_error_text(e.what()));
     }
 }
 

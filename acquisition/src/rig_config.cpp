@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "gonio/base/limits.h"
+#include "gonio/base/strings.h"
 #include "gonio/devices/camera_factory.h"
 #include "gonio/devices/modbus_axis.h"
 #include "gonio/devices/modbus_light.h"
@@ -338,12 +339,8 @@ Expected<RigConfig> parse_rig_config(const std::string& text, const std::string&
                                 : source + ": " + (at.empty() ? "" : at + ": ") + f.message);
     } catch (const json::exception& e) {
         // A value of the wrong type: say which key, without nlohmann's internal error code.
-        std::string what = e.what();
-        const auto pos = what.find("] ");
-        if (pos != std::string::npos) {
-            what = what.substr(pos + 2);
-        }
-        return make_error(source + ": " + (at.empty() ? "" : at + ": ") + what);
+        return make_error(source + ": " + (at.empty() ? "" : at + ": ") +
+                          gonio::json_error_text(e.what()));
     }
     return rig;
 }

@@ -9,8 +9,9 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "gonio/brdf/ior.h"
 #include "gonio/base/limits.h"
+#include "gonio/base/strings.h"
+#include "gonio/brdf/ior.h"
 
 namespace gonio::brdf {
 
@@ -401,13 +402,8 @@ Expected<ModelD> parse_model_json(const std::string& text, const std::string& so
         j = Json::parse(text);
     } catch (const Json::exception& e) {
         // Syntax errors and numbers out of the double range.
-        std::string what = e.what();
-        // Drop nlohmann's "[json.exception.parse_error.101] " prefix; keep line and column.
-        const auto pos = what.find("] ");
-        if (pos != std::string::npos) {
-            what = what.substr(pos + 2);
-        }
-        return make_error(source_name + ": " + what);
+        // Without nlohmann's code, with line, column and a cut quote of the input.
+        return make_error(source_name + ": " + gonio::json_error_text(e.what()));
     }
     try {
         return parse_model(j);

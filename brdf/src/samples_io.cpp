@@ -1,4 +1,3 @@
-#include "gonio/base/strings.h"
 #include "gonio/brdf/samples_io.h"
 
 #include <fcntl.h>
@@ -16,6 +15,7 @@
 #include <thread>
 #include <utility>
 
+#include "gonio/base/strings.h"
 #include "gonio/brdf/merl.h"
 #include "sample_columns.h"
 
@@ -249,7 +249,7 @@ Expected<void> parse_header(
             }
         }
         if (found < 0) {
-            return make_error(where + ": unknown column \"" + name +
+            return make_error(where + ": unknown column \"" + excerpt(name) +
                               "\" (expected theta_i,phi_i,theta_o,phi_o,r,g,b and optionally "
                               "sigma_r,sigma_g,sigma_b,weight,flag)");
         }

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "gonio/base/limits.h"
+#include "gonio/base/strings.h"
 #include "gonio/brdf/model_json.h"
 
 namespace gonio::fitting {
@@ -299,10 +300,7 @@ Expected<FitSpec> parse_fit_template(const std::string& json_text, const std::st
         j = nlohmann::json::parse(json_text);
     } catch (const nlohmann::json::exception& e) {
         // Keep the line and column, drop nlohmann's "[json.exception.parse_error.101]" code.
-        std::string what = e.what();
-        const auto pos = what.find("] ");
-        return make_error(
-            source + ": not JSON: " + (pos == std::string::npos ? what : what.substr(pos + 2)));
+        return make_error(source + ": not JSON: " + gonio::json_error_text(e.what()));
     }
     if (!j.is_object() || !j.contains("model")) {
         return make_error(source + ": a fit template is an object with a \"model\" key");

@@ -21,5 +21,37 @@ TEST(Strings, StartsWithMatchesOnlyTheHead) {
     EXPECT_FALSE(starts_with("a-gige://", "gige://"));
 }
 
+TEST(Strings, ExcerptCutsLongQuotesAndSaysHowLong) {
+    EXPECT_EQ(excerpt("theta_x"), "theta_x");
+    const std::string digits(80, '7');
+    EXPECT_EQ(excerpt(digits), std::string(32, '7') + "... (80 bytes)");
+    EXPECT_EQ(excerpt(std::string(32, 'a')), std::string(32, 'a'));  // at the bound: whole
+    EXPECT_EQ(excerpt("abcdef", 3), "abc... (6 bytes)");
+    // "\xC3\xA9" is one character (e-acute): a cut after 4 bytes would split it, so it ends before.
+    EXPECT_EQ(excerpt("abc\xC3\xA9xyz", 4), "abc... (8 bytes)");
+    EXPECT_EQ(excerpt("abc\xC3\xA9xyz", 5), "abc\xC3\xA9... (8 bytes)");
+    // Control bytes and bytes that are not UTF-8 are escaped: no NUL ends the message early.
+    EXPECT_EQ(excerpt(std::string("a\0b\xFF", 4)), "a\\x00b\\xFF");
+    EXPECT_EQ(excerpt("tab\there"), "tab\\x09here");
+}
+
+TEST(Strings, JsonErrorTextDropsTheCodeAndCutsTheQuote) {
+    // The form of nlohmann::json's parse errors.
+    const std::string long_token = "\"" + std::string(2000, '7');
+    const std::string what =
+        "[json.exception.parse_error.101] parse error at line 1, column 2001: "
+        "syntax error while parsing object key - invalid literal; last read: '" +
+        long_token + "'; expected string literal";
+    const std::string text = json_error_text(what);
+    EXPECT_EQ(text,
+              "parse error at line 1, column 2001: syntax error while parsing object key - invalid "
+              "literal; last read: '\"" +
+                  std::string(31, '7') + "... (2001 bytes)'; expected string literal");
+    // Without a quote or a code: unchanged.
+    EXPECT_EQ(json_error_text("[json.exception.type_error.302] type must be number, but is string"),
+              "type must be number, but is string");
+    EXPECT_EQ(json_error_text("plain"), "plain");
+}
+
 }  // namespace
 }  // namespace gonio

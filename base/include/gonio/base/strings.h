@@ -2,6 +2,8 @@
 
 // Small string helpers shared by every module.
 
+#include <cstddef>
+#include <string>
 #include <string_view>
 
 namespace gonio {
@@ -14,6 +16,79 @@ inline bool ends_with(std::string_view s, std::string_view suffix) {
 /// True when s starts with prefix.
 inline bool starts_with(std::string_view s, std::string_view prefix) {
     return s.size() >= prefix.size() && s.substr(0, prefix.size()) == prefix;
+}
+
+/// Longest quote of an input that a message carries (excerpt's default).
+inline constexpr std::size_t kMaxQuote = 32;
+
+/// A piece of input as an error message quotes it: at most max_bytes of it, then "... (N bytes)"
+/// when it is longer, so that a message about a megabyte-long column name or key stays short.
+/// Control bytes and bytes that are not UTF-8 are written \xHH (a NUL would end the message where
+/// it is printed as a C string); a UTF-8 character is kept whole or left out whole.
+inline std::string excerpt(std::string_view s, std::size_t max_bytes = kMaxQuote) {
+    std::string out;
+    std::size_t i = 0;
+    while (i < s.size() && i < max_bytes) {
+        const auto c = static_cast<unsigned char>(s[i]);
+        if (c >= 0x20 && c < 0x7F) {
+            out += static_cast<char>(c);
+            ++i;
+            continue;
+        }
+        const std::size_t len = c >= 0xC2 && c <= 0xDF   ? 2
+                                : c >= 0xE0 && c <= 0xEF ? 3
+                                : c >= 0xF0 && c <= 0xF4 ? 4
+                                                         : 0;
+        bool utf8 = len > 0 && i + len <= s.size();
+        for (std::size_t k = 1; utf8 && k < len; ++k) {
+            utf8 = (static_cast<unsigned char>(s[i + k]) & 0xC0u) == 0x80u;
+        }
+        if (utf8) {
+            if (i + len > max_bytes) {
+                break;
+            }
+            out.append(s.substr(i, len));
+            i += len;
+            continue;
+        }
+        static const char* const kHex = "0123456789ABCDEF";
+        out += "\\x";
+        out += kHex[c >> 4];
+        out += kHex[c & 0xF];
+        ++i;
+    }
+    if (i < s.size()) {
+        out += "... (" + std::to_string(s.size()) + " bytes)";
+    }
+    return out;
+}
+
+/// The text of a nlohmann::json exception as an error message shows it: without its
+/// "[json.exception.<kind>.<id>] " code (a library detail), and with the input it quotes after
+/// "last read: '" cut by excerpt (the token can be the whole rest of a large file).
+inline std::string json_error_text(std::string_view what) {
+    std::string s(what);
+    if (starts_with(s, "[json.exception.")) {
+        if (const auto pos = s.find("] "); pos != std::string::npos) {
+            s = s.substr(pos + 2);
+        }
+    }
+    const std::string_view key = "last read: '";
+    const auto at = s.find(key);
+    if (at == std::string::npos) {
+        return s;
+    }
+    const std::size_t begin = at + key.size();
+    // The quote ends at the last "'" ("; expected ..." may follow it).
+    std::size_t end = s.rfind("'; expected");
+    if (end == std::string::npos || end < begin) {
+        end = s.rfind('\'');
+    }
+    if (end == std::string::npos || end < begin) {
+        return s.substr(0, begin) + excerpt(std::string_view(s).substr(begin));
+    }
+    return s.substr(0, begin) + excerpt(std::string_view(s).substr(begin, end - begin)) +
+           s.substr(end);
 }
 
 }  // namespace gonio
