@@ -19,8 +19,9 @@
 #include "gonio/acquisition/journal.h"
 #include "gonio/acquisition/progress.h"
 #include "gonio/base/atomic_file.h"
-#include "gonio/brdf/dataset.h"
 #include "gonio/base/limits.h"
+#include "gonio/base/strings.h"
+#include "gonio/brdf/dataset.h"
 #include "gonio/version.h"
 #include "json_fields.h"
 
@@ -105,7 +106,7 @@ Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::s
         for (const char* key : {"rig", "scene"}) {
             const std::string& p = key[0] == 'r' ? s.rig : s.scene;
             if (auto bad = contained_path_problem(p); !bad.empty()) {
-                detail::json_fail(std::string(key) + " = \"" + p + "\": " + bad);
+                detail::json_fail(std::string(key) + " = \"" + excerpt(p) + "\": " + bad);
             }
         }
         if (top.has("plan")) {

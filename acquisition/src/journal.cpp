@@ -10,6 +10,8 @@
 #include <cstring>
 #include <nlohmann/json.hpp>
 
+#include "gonio/base/strings.h"
+
 namespace gonio::acquisition {
 
 namespace {
@@ -129,7 +131,7 @@ Expected<JournalRecord> decode_record(const std::string& line) {
         r.time_s = j.at("time_s").get<double>();
         r.text = j.value("text", std::string());
     } catch (const std::exception& e) {
-        return make_error(e.what());
+        return make_error(gonio::json_error_text(e.what()));
     }
     return r;
 }

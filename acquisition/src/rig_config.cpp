@@ -209,11 +209,12 @@ Expected<RigConfig> parse_rig_config(const std::string& text, const std::string&
                 }
             }
             if (r < 0) {
-                return make_error(source + ": " + at + ".role: \"" + role +
+                return make_error(source + ": " + at + ".role: \"" + excerpt(role) +
                                   "\" is not one of light, detector, tilt, spin");
             }
             if (seen[r]) {
-                return make_error(source + ": " + at + ".role: \"" + role + "\" given twice");
+                return make_error(source + ": " + at + ".role: \"" + excerpt(role) +
+                                  "\" given twice");
             }
             seen[r] = true;
             AxisConfig& ax = rig.axes[r];

@@ -56,7 +56,7 @@ void check_keys(const Json& obj,
                 list += list.empty() ? "" : ", ";
                 list += a;
             }
-            fail(key_path(path, it.key()) + ": unknown key (allowed here: " + list + ")");
+            fail(key_path(path, excerpt(it.key())) + ": unknown key (allowed here: " + list + ")");
         }
     }
 }
@@ -175,7 +175,7 @@ const IorEntry& get_material(const Json& j, const std::string& path) {
     const std::string name = get_string(j, path);
     const IorEntry* e = find_ior(name);
     if (e == nullptr) {
-        fail(path + " = \"" + name + "\": unknown material (known: " + ior_names() + ")");
+        fail(path + " = \"" + excerpt(name) + "\": unknown material (known: " + ior_names() + ")");
     }
     return *e;
 }
@@ -204,7 +204,7 @@ Fresnel<double> parse_fresnel(const Json& j, const std::string& path) {
         } else {
             const IorEntry& e = get_material(j["material"], path + ".material");
             if (e.conductor) {
-                fail(path + ".material = \"" + e.name +
+                fail(path + ".material = \"" + excerpt(e.name) +
                      "\": is a conductor, use \"type\": \"conductor\"");
             }
             f.eta = e.eta[0];
@@ -225,7 +225,7 @@ Fresnel<double> parse_fresnel(const Json& j, const std::string& path) {
             f.k = get_rgb(require(j, path, "k"), path + ".k", Rule::kNonNegative, kMaxEta);
         }
     } else {
-        fail(path + ".type = \"" + type +
+        fail(path + ".type = \"" + excerpt(type) +
              "\": must be one of schlick, dielectric, conductor, none");
     }
     return f;
@@ -252,7 +252,8 @@ Lobe<double> parse_lobe(const Json& j, const std::string& path) {
     } else if (dist == "blinn-phong") {
         lobe.distribution = Distribution::kBlinnPhong;
     } else {
-        fail(path + ".distribution = \"" + dist + "\": must be one of ggx, beckmann, blinn-phong");
+        fail(path + ".distribution = \"" + excerpt(dist) +
+             "\": must be one of ggx, beckmann, blinn-phong");
     }
     const bool microfacet = lobe.distribution != Distribution::kBlinnPhong;
     if (microfacet) {
@@ -299,7 +300,7 @@ Lobe<double> parse_lobe(const Json& j, const std::string& path) {
         } else if (s == "none") {
             lobe.shadowing = Shadowing::kNone;
         } else {
-            fail(path + ".shadowing = \"" + s +
+            fail(path + ".shadowing = \"" + excerpt(s) +
                  "\": must be one of smith-correlated, smith-separable, v-groove, none");
         }
     } else {

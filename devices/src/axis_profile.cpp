@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "gonio/base/data_path.h"
+#include "gonio/base/strings.h"
 
 namespace gonio::devices {
 namespace {
@@ -255,7 +256,7 @@ Expected<AxisProfile> parse_axis_profile(const std::string& json_text,
         j = json::parse(json_text);
     } catch (const json::parse_error& e) {
         return make_error(source_name + ": JSON parse error at byte " + std::to_string(e.byte) +
-                          ": " + e.what());
+                          ": " + gonio::json_error_text(e.what()));
     }
     if (!j.is_object()) {
         return make_error(source_name + ": expected a JSON object");

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "gonio/base/atomic_file.h"
+#include "gonio/base/strings.h"
 #include "gonio/brdf/model_json.h"
 
 namespace gonio::fitting {
@@ -163,7 +164,7 @@ Expected<FitResult> read_fit_report(const std::string& path) {
     try {
         j = json::parse(ss.str());
     } catch (const json::exception& e) {
-        return make_error(path + ": not JSON: " + e.what());
+        return make_error(path + ": not JSON: " + gonio::json_error_text(e.what()));
     }
     FitResult r;
     try {
@@ -292,7 +293,7 @@ Expected<FitResult> read_fit_report(const std::string& path) {
         r.solver.solve_time_s = sv.value("solve_time_s", 0.0);
         r.data = j.value("data", std::string());
     } catch (const json::exception& e) {
-        return make_error(path + ": malformed fit report: " + e.what());
+        return make_error(path + ": malformed fit report: " + gonio::json_error_text(e.what()));
     }
     return r;
 }

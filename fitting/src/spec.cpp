@@ -98,7 +98,7 @@ Expected<Distribution> parse_distribution(const std::string& name) {
     if (name == "blinn-phong") {
         return Distribution::kBlinnPhong;
     }
-    return make_error("model \"" + name + "\": expected ggx, beckmann or blinn-phong");
+    return make_error("model \"" + excerpt(name) + "\": expected ggx, beckmann or blinn-phong");
 }
 
 Expected<std::pair<FresnelType, bool>> parse_fresnel(const std::string& name) {
@@ -168,7 +168,7 @@ Expected<LossKind> parse_loss(const std::string& name) {
     if (name == "cauchy") {
         return LossKind::kCauchy;
     }
-    return make_error("loss \"" + name + "\": expected none, huber or cauchy");
+    return make_error("loss \"" + excerpt(name) + "\": expected none, huber or cauchy");
 }
 
 const char* to_string(ResidualForm r) {
@@ -309,7 +309,7 @@ Expected<FitSpec> parse_fit_template(const std::string& json_text, const std::st
         const std::string& key = it.key();
         if (key != "model" && key != "free" && key != "fixed" && key != "shared" &&
             key != "bounds") {
-            return make_error(source + ": unknown key \"" + key +
+            return make_error(source + ": unknown key \"" + excerpt(key) +
                               "\" (expected model, free, fixed, shared, bounds)");
         }
     }

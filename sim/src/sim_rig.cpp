@@ -2,6 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "gonio/base/strings.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/material_library.h"
@@ -42,7 +43,7 @@ Expected<std::unique_ptr<SimRig>> SimRig::start(const std::string& rig_json,
     try {
         j = json::parse(rig_json);
     } catch (const std::exception& e) {
-        return make_error(std::string("sim rig: ") + e.what());
+        return make_error(std::string("sim rig: ") + gonio::json_error_text(e.what()));
     }
     const json sim = j.value("sim", json::object());
     double time_scale = opt.time_scale > 0 ? opt.time_scale : sim.value("time_scale", 20.0);
@@ -137,7 +138,7 @@ Expected<std::unique_ptr<SimRig>> SimRig::start(const std::string& rig_json,
             }
         }
     } catch (const std::exception& e) {
-        return make_error(std::string("sim rig: ") + e.what());
+        return make_error(std::string("sim rig: ") + gonio::json_error_text(e.what()));
     }
     if (auto r = rig->motors_->start(); !r) {
         return make_error("sim rig: motor controllers: " + r.error().message);
