@@ -7,7 +7,8 @@
 #
 #   scripts/fuzz.sh [SECONDS] [TARGET...]      targets: the names in fuzz/CMakeLists.txt (csv, gvcp, ...)
 # Environment: FUZZ_BUILD_DIR (default build-fuzz), JOBS (build jobs, default: number of cores),
-# MERGE (1: merge new coverage into the corpus), FUZZ_ARGS (more libFuzzer options).
+# MERGE (1: merge new coverage into the corpus), FUZZ_ARGS (more libFuzzer options), FUZZ_SKIP_BUILD
+# (1: run the targets as already built in the build folder).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
@@ -33,14 +34,16 @@ for tool in clang-14 clang++-14; do
   command -v "$tool" >/dev/null || { echo "fuzz.sh: $tool not found (scripts/setup.sh installs clang-14 and libclang-rt-14-dev)" >&2; exit 1; }
 done
 
-# GONIO_BUILD_FUZZ instruments every library for coverage and the sanitizers (CMakeLists.txt).
-cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 \
-  -DGONIO_BUILD_FUZZ=ON -DGONIO_BUILD_TESTS=OFF -DGONIO_BUILD_PYTHON=OFF -DGONIO_WERROR=ON >/dev/null
 binary() { echo "$build_dir/fuzz/gonio_fuzz_$1"; }
-build_targets=()
-for t in $targets; do build_targets+=("gonio_fuzz_$t"); done
-nice -n 10 cmake --build "$build_dir" -j "$jobs" --target "${build_targets[@]}"
+if [ "${FUZZ_SKIP_BUILD:-0}" != 1 ]; then
+  # GONIO_BUILD_FUZZ instruments every library for coverage and the sanitizers (CMakeLists.txt).
+  cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 \
+    -DGONIO_BUILD_FUZZ=ON -DGONIO_BUILD_TESTS=OFF -DGONIO_BUILD_PYTHON=OFF -DGONIO_WERROR=ON >/dev/null
+  build_targets=()
+  for t in $targets; do build_targets+=("gonio_fuzz_$t"); done
+  nice -n 10 cmake --build "$build_dir" -j "$jobs" --target "${build_targets[@]}"
+fi
 
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
