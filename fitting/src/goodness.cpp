@@ -36,12 +36,13 @@ Metrics evaluate_metrics(const ModelD& model,
         Eigen::Array<double, kBands, 3> band_sq = Eigen::Array<double, kBands, 3>::Zero();
         std::array<std::size_t, kBands> band_n{};
     };
-    std::vector<Acc> partial(std::max(1, threads));
+    // Per block, added in block order (the same metrics for every thread count).
+    std::vector<Acc> partial(block_count(samples.size()));
     double band_cos[kBands + 1];
     for (int b = 0; b <= kBands; ++b) {
         band_cos[b] = std::cos(kBandEdgesDeg[b] * brdf::kPi / 180);
     }
-    auto body = [&](int t, std::size_t b, std::size_t e) {
+    auto body = [&](std::size_t blk, std::size_t b, std::size_t e) {
         Acc acc;
         for (std::size_t i = b; i < e; ++i) {
             const brdf::Vec3d wi = samples[i].wi();
@@ -69,9 +70,9 @@ Metrics evaluate_metrics(const ModelD& model,
                 acc.band_sq(band, c) += log_r * log_r;
             }
         }
-        partial[t] = acc;
+        partial[blk] = acc;
     };
-    parallel_ranges(samples.size(), threads, body);
+    parallel_blocks(samples.size(), threads, body);
     Acc total;
     for (const Acc& p : partial) {
         total.sq += p.sq;

@@ -126,7 +126,9 @@ const ScalarParam* find_free(const ParameterMap& map, Field f, int lobe, int cha
 void linear_init(ModelD& m,
                  const ParameterMap& map,
                  const std::vector<Sample>& samples,
-                 double floor) {
+                 const PreparedSamples& prepared,
+                 double floor,
+                 int threads) {
     const ScalarParam* rho[3];
     const ScalarParam* amp[3];
     bool amp_is_f0 = false;
@@ -158,11 +160,14 @@ void linear_init(ModelD& m,
         a[c].setZero();
         b[c].setZero();
     }
-    for (const Sample& s : samples) {
-        const brdf::Vec3d wi = s.wi();
-        const brdf::Vec3d wo = s.wo();
-        const Rgbd f0 = brdf::eval_model(m0, wi, wo);
-        const Rgbd f1 = brdf::eval_model(m1, wi, wo);
+    // The basis on the prepared samples (the geometry is computed once for every start).
+    std::vector<Rgbd> v0, v1;
+    prepared.model_values(m0, v0, threads);
+    prepared.model_values(m1, v1, threads);
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+        const Sample& s = samples[i];
+        const Rgbd& f0 = v0[i];
+        const Rgbd& f1 = v1[i];
         for (int c = 0; c < 3; ++c) {
             const double w = s.weight / ((s.value[c] + floor) * (s.value[c] + floor));
             const Eigen::Vector2d basis(brdf::kInvPi, f1[c] - f0[c]);
@@ -244,7 +249,7 @@ std::vector<Candidate> initial_candidates(const std::shared_ptr<const ParameterM
     ModelD m = map.base();
     std::vector<Candidate> out;
     if (m.lobes.empty()) {
-        linear_init(m, map, score_set, o.relative_floor);
+        linear_init(m, map, score_set, scorer, o.relative_floor, threads);
         Candidate c{clamp_start(map, map.values_of(m)), 0};
         c.cost = objective(scorer, c.x, threads);
         out.push_back(c);
@@ -252,18 +257,23 @@ std::vector<Candidate> initial_candidates(const std::shared_ptr<const ParameterM
     }
     // Off-specular floor: a low percentile of each channel among samples far from the mirror
     // direction (theta_h > 45 degrees), or of all samples when there are none.
+    std::vector<char> is_far(score_set.size());
+    std::size_t n_far = 0;
+    for (std::size_t i = 0; i < score_set.size(); ++i) {
+        const brdf::HalfDiff<double> hd = brdf::to_half_diff(score_set[i].wi(), score_set[i].wo());
+        is_far[i] = hd.theta_h > brdf::kPi / 4;
+        n_far += is_far[i];
+    }
     Rgbd floor = Rgbd::Zero();
     for (int c = 0; c < 3; ++c) {
-        std::vector<double> far;
-        std::vector<double> all;
-        for (const Sample& s : score_set) {
-            const brdf::HalfDiff<double> hd = brdf::to_half_diff(s.wi(), s.wo());
-            all.push_back(s.value[c]);
-            if (hd.theta_h > brdf::kPi / 4) {
-                far.push_back(s.value[c]);
+        std::vector<double> v;
+        v.reserve(score_set.size());
+        for (std::size_t i = 0; i < score_set.size(); ++i) {
+            if (n_far < 10 || is_far[i]) {
+                v.push_back(score_set[i].value[c]);
             }
         }
-        floor[c] = brdf::kPi * percentile(far.size() >= 10 ? far : all, 0.2);
+        floor[c] = brdf::kPi * percentile(std::move(v), 0.2);
     }
     double alpha = estimate_alpha(score_set, floor, m.lobes[0].distribution);
     if (!(alpha > 0) || !std::isfinite(alpha)) {
@@ -291,7 +301,7 @@ std::vector<Candidate> initial_candidates(const std::shared_ptr<const ParameterM
             // Further lobes start wider, by a factor of 3 each.
             set_shape(mc, map, i, a * std::pow(3.0, i));
         }
-        linear_init(mc, map, score_set, o.relative_floor);
+        linear_init(mc, map, score_set, scorer, o.relative_floor, threads);
         Candidate c{clamp_start(map, map.values_of(mc)), 0};
         c.cost = objective(scorer, c.x, threads);
         out.push_back(c);
