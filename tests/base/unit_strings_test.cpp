@@ -47,6 +47,16 @@ TEST(Strings, JsonErrorTextDropsTheCodeAndCutsTheQuote) {
               "parse error at line 1, column 2001: syntax error while parsing object key - invalid "
               "literal; last read: '\"" +
                   std::string(31, '7') + "... (2001 bytes)'; expected string literal");
+    // A quote that itself holds "'; expected" far from the end is still cut whole.
+    const std::string tricky =
+        "[json.exception.parse_error.101] parse error at line 1, column 9: "
+        "syntax error while parsing value - invalid string; last read: '\"ab"
+        "'; expected x" +
+        std::string(100, 'y') + "'";
+    EXPECT_EQ(json_error_text(tricky),
+              "parse error at line 1, column 9: syntax error while parsing value - invalid string; "
+              "last read: '\"ab'; expected x" +
+                  std::string(16, 'y') + "... (116 bytes)'");
     // Without a quote or a code: unchanged.
     EXPECT_EQ(json_error_text("[json.exception.type_error.302] type must be number, but is string"),
               "type must be number, but is string");

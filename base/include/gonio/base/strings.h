@@ -79,10 +79,12 @@ inline std::string json_error_text(std::string_view what) {
         return s;
     }
     const std::size_t begin = at + key.size();
-    // The quote ends at the last "'" ("; expected ..." may follow it).
-    std::size_t end = s.rfind("'; expected");
-    if (end == std::string::npos || end < begin) {
-        end = s.rfind('\'');
+    // The quote ends at the last "'". nlohmann may follow it with "; expected <what>", a short
+    // phrase of its own (at most 48 bytes here); a "'; expected" further from the end is part of
+    // the quoted input.
+    std::size_t end = s.rfind("'; expected ");
+    if (end == std::string::npos || end < begin || s.size() - end > 48) {
+        end = s.size() >= begin + 1 && s.back() == '\'' ? s.size() - 1 : std::string::npos;
     }
     if (end == std::string::npos || end < begin) {
         return s.substr(0, begin) + excerpt(std::string_view(s).substr(begin));
