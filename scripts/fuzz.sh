@@ -37,9 +37,10 @@ done
 binary() { echo "$build_dir/fuzz/gonio_fuzz_$1"; }
 if [ "${FUZZ_SKIP_BUILD:-0}" != 1 ]; then
   # GONIO_BUILD_FUZZ instruments every library for coverage and the sanitizers (CMakeLists.txt).
+  # Warnings are the gcc build's gate (-Werror there); clang's own warnings do not stop fuzzing.
   cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 \
-    -DGONIO_BUILD_FUZZ=ON -DGONIO_BUILD_TESTS=OFF -DGONIO_BUILD_PYTHON=OFF -DGONIO_WERROR=ON >/dev/null
+    -DGONIO_BUILD_FUZZ=ON -DGONIO_BUILD_TESTS=OFF -DGONIO_BUILD_PYTHON=OFF -DGONIO_WERROR=OFF >/dev/null
   build_targets=()
   for t in $targets; do build_targets+=("gonio_fuzz_$t"); done
   nice -n 10 cmake --build "$build_dir" -j "$jobs" --target "${build_targets[@]}"
