@@ -36,11 +36,14 @@ class FakeCamera {
                    static_cast<char*>(nullptr));
             _exit(127);
         }
-        // Ready once it answers a READREG of the bootstrap version register (bounded tries).
+        // Ready once it answers a READREG of the bootstrap version register (bounded tries; each
+        // waits up to 2 s for the answer).
         gige_test::RawHost host("127.0.0.1");
-        for (int i = 0; i < 50 && !ready_; ++i) {
-            std::uint32_t v = 0;
-            ready_ = host.read_reg(0, &v) == gige_test::gvcp::Status::kSuccess;
+        namespace gvcp = gige_test::gvcp;
+        for (std::uint16_t i = 1; i <= 20 && !ready_; ++i) {
+            const auto reply = host.exchange(gvcp::encode(gvcp::make_read_reg(i, {0})));
+            auto ack = gvcp::parse_ack(reply.data(), reply.size());
+            ready_ = ack && ack->status == gvcp::Status::kSuccess;
         }
     }
     ~FakeCamera() {
