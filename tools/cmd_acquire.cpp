@@ -10,6 +10,7 @@
 #include <iostream>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 #include "acquire_image_mode.h"
@@ -19,6 +20,7 @@
 #include "gonio/base/atomic_file.h"
 #include "gonio/base/data_path.h"
 #include "gonio/base/limits.h"
+#include "gonio/report/live_server.h"
 #include "gonio/sim/sim_rig.h"
 #include "option_checks.h"
 
@@ -48,6 +50,7 @@ struct AcquireOptions {
     std::string mode = "point";
     double coverage_target = 0;
     int max_frames = 0;
+    std::string serve;  ///< "[ADDR:]PORT" of the live page; empty = none
 };
 
 std::atomic<bool> g_stop{false};
@@ -99,6 +102,25 @@ int run_image(const AcquireOptions& o) {
 }
 
 int run(const AcquireOptions& o) {
+    std::optional<std::pair<std::string, int>> serve_at;
+    if (!o.serve.empty()) {
+        if (o.mode == "image") {
+            std::fprintf(stderr,
+                         "gonio acquire: --serve: the live page follows point-mode campaigns; "
+                         "image mode is not served\n");
+            return 2;
+        }
+        if (o.plan_only) {
+            std::fprintf(stderr, "gonio acquire: --serve with --plan-only: nothing to watch\n");
+            return 2;
+        }
+        auto a = gonio::report::parse_listen_address(o.serve);
+        if (!a) {
+            std::fprintf(stderr, "gonio acquire: %s\n", a.error().message.c_str());
+            return 2;
+        }
+        serve_at = *a;
+    }
     if (o.mode == "image") {
         return run_image(o);
     }
@@ -299,8 +321,33 @@ int run(const AcquireOptions& o) {
         }
         return {};
     };
+    std::unique_ptr<gonio::report::LiveServer> live;
+    if (serve_at) {
+        gonio::report::LiveOptions lo;
+        lo.title = "gonio campaign " + fs::path(dir).filename().string();
+        auto srv = gonio::report::LiveServer::start(serve_at->first, serve_at->second, lo);
+        if (!srv) {
+            return fail(srv.error().message);
+        }
+        live = std::move(*srv);
+        std::printf("live page: %s\n", live->url().c_str());
+        std::fflush(stdout);
+        gonio::report::LiveServer* l = live.get();
+        l->publish_progress(0, 0, "running");
+        // The campaign thread only hands each sample over; the server draws on its own thread.
+        hooks.on_measurement = [l](const gonio::brdf::Sample& s, std::size_t done, std::size_t n) {
+            l->publish_sample(s);
+            l->publish_progress(done, n, "running");
+        };
+    }
     std::signal(SIGINT, on_sigint);
     auto res = acq::run_campaign(dir, *dev, hooks);
+    if (live && res) {
+        const char* state = res->outcome == acq::Outcome::kCompleted     ? "completed"
+                            : res->outcome == acq::Outcome::kInterrupted ? "stopped"
+                                                                         : "paused";
+        live->publish_progress(res->measured_total, res->planned_total, state);
+    }
     std::signal(SIGINT, SIG_DFL);
     if (!res) {
         return fail(res.error().message);
@@ -367,5 +414,9 @@ GONIO_COMMAND(acquire) {
     cmd->add_option("--max-frames", o->max_frames, "image mode: most light positions")
         ->check(gonio::tools::integer_in(1, 1000000));
     cmd->add_flag("--plan-only", o->plan_only, "print the plan (and unreachable targets) and exit");
+    cmd->add_option("--serve",
+                    o->serve,
+                    "serve a live page of the campaign at [ADDR:]PORT (ADDR default 127.0.0.1, "
+                    "PORT 0 = any free port; the URL is printed); point mode");
     return [o]() { return run(*o); };
 }
