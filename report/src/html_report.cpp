@@ -689,8 +689,9 @@ Expected<ReportResult> build_report(const std::string& dir, const ReportOptions&
     if (fit_report->is_object()) {
         h << verdict_block(*fit_report) << model_block(*fit_report, model_summary);
     } else {
-        h << "<div id=\"verdict\" class=\"verdict bad\"><p><b>No fit</b>: no fit.report.json in "
-             "this folder (run <code>gonio fit</code> on dataset.csv).</p></div>\n";
+        h << "<div id=\"verdict\" class=\"verdict bad\"><p><b>Verdict: no fit</b>. No "
+             "fit.report.json in this folder (run <code>gonio fit</code> on dataset.csv).</p>"
+             "</div>\n";
         if (!model_summary.empty()) {
             h << "<p>Model (<code>fit.json</code>): <code>" << html_escape(model_summary)
               << "</code></p>\n";

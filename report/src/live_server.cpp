@@ -50,15 +50,18 @@ img{max-width:100%;height:auto;border:1px solid #ddd}figcaption{font-size:.9em;c
 <div id="bar"><div id="fill"></div></div>
 <p id="latest"></p>
 <div class="grid">
-<figure><img id="in_plane" alt="in-plane plot of the data so far"><figcaption>In-plane slices of the data so far and the live fit: BRDF luminance Y [1/sr].</figcaption></figure>
-<figure><img id="coverage" alt="coverage of the angular domain"><figcaption>Coverage: outgoing directions and (theta_h, theta_d) of every measurement so far.</figcaption></figure>
-<figure><img id="frame" alt="latest camera frame"><figcaption>Latest camera frame.</figcaption></figure>
+<figure id="in_plane-figure" style="display:none"><img id="in_plane" alt="in-plane plot of the data so far"><figcaption>In-plane slices of the data so far and the live fit: BRDF luminance Y [1/sr].</figcaption></figure>
+<figure id="coverage-figure" style="display:none"><img id="coverage" alt="coverage of the angular domain"><figcaption>Coverage: outgoing directions and (theta_h, theta_d) of every measurement so far.</figcaption></figure>
+<figure id="frame-figure" style="display:none"><img id="frame" alt="latest camera frame"><figcaption>Latest camera frame.</figcaption></figure>
 </div>
 <h2>Fit of the data so far</h2><p id="fit">no fit yet</p>
 <script>
 var shown = {};
 function show(name, v) {
-  if (v > 0 && shown[name] !== v) { shown[name] = v; document.getElementById(name).src = '/img/' + name + '.png?v=' + v; }
+  if (v > 0 && shown[name] !== v) {
+    shown[name] = v; document.getElementById(name).src = '/img/' + name + '.png?v=' + v;
+    var fig = document.getElementById(name + '-figure'); if (fig) { fig.style.display = ''; }
+  }
 }
 function tick() {
   fetch('/status.json', {cache: 'no-store'}).then(function (r) { return r.json(); }).then(function (s) {
