@@ -214,8 +214,8 @@ Expected<Image> plot_in_plane(const brdf::Dataset& data,
     char sub[240];
     std::snprintf(sub,
                   sizeof sub,
-                  "markers: measured +-1 sigma, each at its own theta_o (within %.3g deg of the "
-                  "slice); curves: %s",
+                  "markers: measured +-1 sigma at their own theta_o (slice tolerance %.3g deg); "
+                  "curves: %s",
                   options.angle_tolerance_deg,
                   fit ? "fit" : "(no fit given)");
     cv::Mat img = draw::blank(

@@ -149,8 +149,7 @@ Expected<Image> plot_table_coverage(const brdf::TabulatedBrdf& table,
     char sub[240];
     std::snprintf(sub,
                   sizeof sub,
-                  "%zu of %zu bins measured (%.1f %%); %d x %d x %d bins (theta_h x theta_d x "
-                  "phi_d); %zu holes outlined",
+                  "%zu of %zu bins measured (%.1f %%), grid %dx%dx%d; %zu holes outlined",
                   valid,
                   g.size(),
                   100.0 * static_cast<double>(valid) / static_cast<double>(g.size()),
@@ -188,7 +187,7 @@ Expected<Image> plot_table_coverage(const brdf::TabulatedBrdf& table,
     for (const TableHole& h : holes) {
         const cv::Point a = ax.pt(h.theta_h_min_deg, h.theta_d_max_deg);
         const cv::Point b = ax.pt(h.theta_h_max_deg, h.theta_d_min_deg);
-        cv::rectangle(img, cv::Rect(a, b), hole_colour, 2, cv::LINE_AA);
+        cv::rectangle(img, cv::Rect(a, b), hole_colour, 1, cv::LINE_AA);
     }
     ax.draw(img, "theta_h [deg] (half vector from the normal)", "theta_d [deg] (difference angle)");
     vertical_bar(
@@ -201,7 +200,7 @@ Expected<Image> plot_table_coverage(const brdf::TabulatedBrdf& table,
     std::vector<draw::LegendEntry> entries = {
         {cv::Scalar(225, 225, 225), "no bin measured", false, true}};
     if (!holes.empty()) {
-        entries.push_back({hole_colour, "hole (planner could not reach it)", true, false});
+        entries.push_back({hole_colour, "hole: empty valid bins (dataset.json)", true, false});
     }
     draw::legend(img, entries, {ax.area.x, ax.area.y + ax.area.height + 56}, true);
     return from_mat(img);

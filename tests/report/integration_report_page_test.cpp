@@ -81,16 +81,17 @@ TEST(ReportPage, PointCampaignLeadsWithTheResultAndFitsTheWindow) {
     const brdf::AnalyticBrdf truth(testing::every_model_type()[0].second);
     const brdf::Dataset data = point_samples(truth);
     ASSERT_TRUE(brdf::write_dataset_csv((dir / "dataset.csv").string(), data));
-    std::ofstream(dir / "metadata.json") << R"({"sample": "red plastic", "operator": "J. Doe",
+    std::ofstream(dir / "metadata.json") << R"J({"sample": "red plastic", "operator": "J. Doe",
         "created": "2026-12-01T10:00:00Z", "rig": {"name": "sim4", "description": {"axes": [1, 2]}},
         "calibration": {"white_reflectance": 0.99, "white_rate_counts_per_us": [1.5, 1.6, 1.7]},
         "runs": [{"started": "2026-12-01T10:00:00Z", "ended": "2026-12-01T10:20:00Z",
                   "state": "interrupted", "measured": 80, "pid": 11},
                  {"started": "2026-12-01T11:00:00Z", "ended": "2026-12-01T11:09:00Z",
                   "state": "completed", "measured": 65, "pid": 12}],
-        "state": "completed", "measured": 145, "planned": 145})";
-    std::ofstream(dir / "campaign.json") << R"({"sample": "red plastic", "plan": {"kind": "uniform",
-        "uniform": {"n_theta": 7, "n_dphi": 5}}, "drift_every": 40})";
+        "state": "completed", "measured": 145, "planned": 145})J";
+    std::ofstream(dir / "campaign.json")
+        << R"J({"sample": "red plastic", "plan": {"kind": "uniform",
+        "uniform": {"n_theta": 7, "n_dphi": 5}}, "drift_every": 40})J";
     fit_into(data, dir);
     ReportOptions o;
     o.preview.size_px = 96;
@@ -146,7 +147,7 @@ TEST(ReportPage, ImageCampaignShowsCoverageHolesCalibrationAndTheTablesFit) {
     }
     ASSERT_GT(data.samples.size(), 1000u);
     ASSERT_TRUE(brdf::write_dataset_csv((dir / "dataset.csv").string(), data));
-    std::ofstream(dir / "dataset.json") << R"({"mode": "image", "sample": "red plastic",
+    std::ofstream(dir / "dataset.json") << R"J({"mode": "image", "sample": "red plastic",
         "rig": "embedded virtual rig (sim-image)",
         "table": {"n_theta_h": 30, "n_theta_d": 30, "n_phi_d": 60, "file": "table.gtab"},
         "calibration_counts_per_us_per_inv_sr": [12.5, 13.1, 9.7], "reference_albedo": 0.99,
@@ -161,29 +162,29 @@ TEST(ReportPage, ImageCampaignShowsCoverageHolesCalibrationAndTheTablesFit) {
                     "exposures": [1, 1, 1], "coverage_after": 0.66}],
         "holes": [{"theta_d_deg": [60, 90], "theta_h_deg": [0, 90], "bins": 18000,
                    "reason": "light arm blind zone"}]
-})";
+})J";
     fit_into(data, dir);
-ReportOptions o;
-o.preview.size_px = 96;
-o.preview.env_samples = 24;
-auto r = build_report(dir.string(), o);
-ASSERT_TRUE(r) << r.error().message;
-for (const std::string& n : r->notes) {
-    std::printf("note: %s\n", n.c_str());
-}
-std::ifstream in(r->html_path);
-const std::string html((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-EXPECT_NE(html.find("image-mode campaign"), std::string::npos);
-EXPECT_NE(html.find("coverage 66.0 % of the valid bins (target 90 %)"), std::string::npos);
-EXPECT_NE(html.find("light arm blind zone"), std::string::npos);
-EXPECT_NE(html.find("12.5 13.1 9.7"), std::string::npos);  // calibration constants
-EXPECT_NE(html.find("Light positions in the order measured"), std::string::npos);
-EXPECT_NE(html.find("id=\"coverage\""), std::string::npos);
-EXPECT_TRUE(fs::exists(dir / "plots" / "coverage-map.png"));
-EXPECT_TRUE(fs::exists(dir / "previews" / "table-vs-fit.png"));
-EXPECT_EQ(html.find("No campaign.json"), std::string::npos);
-const nlohmann::json f = ::gonio::testing::page_layout_facts(r->html_path, dir / "browser");
-::gonio::testing::expect_report_layout(f, 4);
+    ReportOptions o;
+    o.preview.size_px = 96;
+    o.preview.env_samples = 24;
+    auto r = build_report(dir.string(), o);
+    ASSERT_TRUE(r) << r.error().message;
+    for (const std::string& n : r->notes) {
+        std::printf("note: %s\n", n.c_str());
+    }
+    std::ifstream in(r->html_path);
+    const std::string html((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_NE(html.find("image-mode campaign"), std::string::npos);
+    EXPECT_NE(html.find("coverage 66.0 % of the valid bins (target 90 %)"), std::string::npos);
+    EXPECT_NE(html.find("light arm blind zone"), std::string::npos);
+    EXPECT_NE(html.find("12.5, 13.1, 9.7"), std::string::npos);  // calibration constants
+    EXPECT_NE(html.find("Light positions in the order measured"), std::string::npos);
+    EXPECT_NE(html.find("id=\"coverage\""), std::string::npos);
+    EXPECT_TRUE(fs::exists(dir / "plots" / "coverage-map.png"));
+    EXPECT_TRUE(fs::exists(dir / "previews" / "table-vs-fit.png"));
+    EXPECT_EQ(html.find("No campaign.json"), std::string::npos);
+    const nlohmann::json f = ::gonio::testing::page_layout_facts(r->html_path, dir / "browser");
+    ::gonio::testing::expect_report_layout(f, 4);
 }
 
 }  // namespace

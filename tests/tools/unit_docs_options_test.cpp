@@ -27,11 +27,10 @@ struct Help {
     std::map<std::string, std::string> defaults;  ///< option -> default as --help prints it
 };
 
-/// The subcommands `gonio --help` lists.
-std::vector<std::string> subcommands() {
-    const CliRun r = run_gonio("--help");
+/// The subcommands a `--help` text lists.
+std::vector<std::string> subcommands_in(const std::string& help) {
     std::vector<std::string> out;
-    std::istringstream in(r.out);
+    std::istringstream in(help);
     std::string line;
     bool in_list = false;
     while (std::getline(in, line)) {
@@ -42,19 +41,27 @@ std::vector<std::string> subcommands() {
         std::smatch m;
         if (in_list && std::regex_search(line, m, std::regex("^  ([a-z]+)\\b"))) {
             out.push_back(m[1]);
+        } else if (in_list && !line.empty() && line[0] != ' ') {
+            in_list = false;
         }
     }
     return out;
 }
 
-/// Options and defaults of `gonio SUB --help` (CLI11: "  --name TYPE ... [default]").
+/// The subcommands `gonio --help` lists.
+std::vector<std::string> subcommands() {
+    return subcommands_in(run_gonio("--help").out);
+}
+
+/// Options and defaults of `gonio SUB --help` (CLI11 2.1: "  --name TYPE:CHECK=DEFAULT  text"),
+/// merged with those of its own subcommands (`gonio camera serve`).
 Help help_of(const std::string& sub) {
     Help h;
     const CliRun r = run_gonio(sub + " --help");
     std::istringstream in(r.out);
     std::string line;
     const std::regex opt("^\\s+(?:-[a-zA-Z],)?(--[a-z0-9][a-z0-9-]*)");
-    const std::regex def("\\[([^\\[\\]]*)\\]\\s*$");
+    const std::regex def("=([^\\s=]+)\\s*$");
     while (std::getline(in, line)) {
         std::smatch m;
         if (!std::regex_search(line, m, opt)) {
@@ -62,14 +69,21 @@ Help help_of(const std::string& sub) {
         }
         const std::string name = m[1];
         h.options.insert(name);
-        std::smatch d;
-        // The default sits at the end of the option's first line, after the type and checks.
+        // The default closes the option's spec, before the description (two or more spaces).
         const std::string rest = line.substr(static_cast<std::size_t>(m.position(0) + m.length(0)));
         const auto two_spaces = rest.find("  ");
         const std::string spec =
             two_spaces == std::string::npos ? rest : rest.substr(0, two_spaces);
+        std::smatch d;
         if (std::regex_search(spec, d, def)) {
             h.defaults[name] = d[1];
+        }
+    }
+    if (sub.find(' ') == std::string::npos) {
+        for (const std::string& s : subcommands_in(r.out)) {
+            const Help inner = help_of(sub + " " + s);
+            h.options.insert(inner.options.begin(), inner.options.end());
+            h.defaults.insert(inner.defaults.begin(), inner.defaults.end());
         }
     }
     return h;
@@ -90,7 +104,10 @@ std::vector<DocMention> doc_mentions(const std::set<std::string>& subs) {
     const fs::path docs = fs::path(GONIO_SOURCE_DIR) / "docs";
     const std::regex cmd("gonio ([a-z]+)\\b");
     const std::regex opt("(--[a-z0-9][a-z0-9-]*)");
-    const std::regex stated("(--[a-z0-9][a-z0-9-]*)`?[^.;\\n(]{0,40}\\(default:? `?([^)`]+)`?\\)");
+    const std::regex the_default("`(--[a-z0-9][a-z0-9-]*) ([^`\\s]+)` \\(the default\\)");
+    const std::regex default_after(
+        "`(--[a-z0-9][a-z0-9-]*)(?: [^`]*)?`[^.;`]{0,30}?\\bdefault:? "
+        "`?([0-9A-Za-z_-]+(?:\\.[0-9A-Za-z_-]+)*)`?");
     for (const auto& e : fs::directory_iterator(docs)) {
         if (e.path().extension() != ".md") {
             continue;
@@ -141,13 +158,18 @@ std::vector<DocMention> doc_mentions(const std::set<std::string>& subs) {
                     out.push_back({e.path().filename().string(), n, sub, (*it)[1], ""});
                 }
             }
-            // Defaults stated in prose next to an option of a command named on the same line.
-            std::smatch cm;
-            if (!fenced && std::regex_search(line, cm, cmd) && subs.count(cm[1]) != 0) {
-                for (auto it = std::sregex_iterator(line.begin(), line.end(), stated);
-                     it != std::sregex_iterator();
-                     ++it) {
-                    out.push_back({e.path().filename().string(), n, cm[1], (*it)[1], (*it)[2]});
+            // Defaults stated in prose: "`--opt V` (the default)" or "`--opt ...` ... default V".
+            if (!fenced) {
+                std::smatch cm;
+                const std::string sub = std::regex_search(line, cm, cmd) && subs.count(cm[1]) != 0
+                                            ? std::string(cm[1])
+                                            : std::string();
+                for (const std::regex& re : {the_default, default_after}) {
+                    for (auto it = std::sregex_iterator(line.begin(), line.end(), re);
+                         it != std::sregex_iterator();
+                         ++it) {
+                        out.push_back({e.path().filename().string(), n, sub, (*it)[1], (*it)[2]});
+                    }
                 }
             }
         }
@@ -168,11 +190,24 @@ TEST(Docs, EveryDocumentedOptionExistsAndEveryStatedDefaultMatchesHelp) {
     // The docs name options of most subcommands: the scan itself must find them.
     EXPECT_GE(mentions.size(), 30u);
     std::size_t defaults_compared = 0;
-    for (const DocMention& m : mentions) {
-        const Help& h = helps[m.sub];
+    for (DocMention m : mentions) {
         if (m.option == "--help") {
             continue;
         }
+        if (m.sub.empty()) {
+            // A default stated without its command: the one subcommand that has the option.
+            std::vector<std::string> owners;
+            for (const auto& [name, help] : helps) {
+                if (help.options.count(m.option) != 0) {
+                    owners.push_back(name);
+                }
+            }
+            if (owners.size() != 1) {
+                continue;
+            }
+            m.sub = owners.front();
+        }
+        const Help& h = helps[m.sub];
         EXPECT_EQ(h.options.count(m.option), 1u)
             << m.file << ":" << m.line << ": `gonio " << m.sub << " " << m.option
             << "` is documented, but `gonio " << m.sub << " --help` has no such option";
