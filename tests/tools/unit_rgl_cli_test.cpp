@@ -1,6 +1,7 @@
 // The RGL glue of the CLI, run through the gonio binary on files in a temporary folder (no devices,
-// no network). A model becomes a file (`convert`), the file is a BRDF for `eval` and `check`, its nodes are samples for `convert ... .csv` and `fit`,
-// and options that do not apply to an RGL output are refused with exit 2 naming them.
+// no network). A model becomes a file (`convert`), the file is a BRDF for `eval` and `check`, its
+// nodes are samples for `convert ... .csv` and `fit`, and options that do not apply to an RGL
+// output are refused with exit 2 naming them.
 
 #include <gtest/gtest.h>
 
