@@ -42,7 +42,7 @@ TEST_F(RglCli, ModelToBsdfThenEvalCheckAndNodes) {
     ASSERT_EQ(r.status, 0) << r.out;
     EXPECT_NE(r.out.find("power iteration"), std::string::npos) << r.out;
 
-    // eval at a few pairs agrees with the model to the representation's error.
+    // eval at a few pairs agrees with the model.
     {
         std::ofstream dirs(path("dirs.csv"));
         dirs << "theta_i,phi_i,theta_o,phi_o\n0.3,0,0.3,3.14159\n0.7,0.5,0.2,-2\n1.0,0,0.9,3.0\n";
@@ -69,7 +69,9 @@ TEST_F(RglCli, ModelToBsdfThenEvalCheckAndNodes) {
             *m, brdf::spherical_to_cartesian(p[0], p[1]), brdf::spherical_to_cartesian(p[2], p[3]));
         for (int c = 0; c < 3; ++c) {
             const double got = v[v.size() - 3 + static_cast<std::size_t>(c)];
-            EXPECT_NEAR(got, truth[c], 0.03 * truth[c]) << "row " << rows << " channel " << c;
+            // Within the representation error of a written file (docs/benchmarks.md: 95th
+            // percentile 8 %, larger near the peak at grazing angles).
+            EXPECT_NEAR(got, truth[c], 0.1 * truth[c]) << "row " << rows << " channel " << c;
         }
         ++rows;
     }
