@@ -687,9 +687,10 @@ ImageCampaignConfig image_campaign_config(const RigConfig& rig,
     // other normals, fill the narrow theta_h bins of fine tables.
     cfg.lights.step_rad = std::min(kDeg, (brdf::kPi / cfg.layout.n_theta_d) / 4);
     cfg.lights.blind_zone_rad = rig.blind_angle_deg * kDeg;
-    // The rig's grazing limit for both directions.
-    cfg.rules.max_theta_i = rig.max_theta_deg * kDeg;
-    cfg.rules.max_theta_o = rig.max_theta_deg * kDeg;
+    // The exclusion rules' grazing limits stay at their defaults (80 degrees), inside the rig's
+    // max_theta_deg: pixels beyond them are too sensitive to the normal's error.
+    cfg.rules.max_theta_i = std::min(cfg.rules.max_theta_i, rig.max_theta_deg * kDeg);
+    cfg.rules.max_theta_o = std::min(cfg.rules.max_theta_o, rig.max_theta_deg * kDeg);
     cfg.coverage_target = coverage_target;
     cfg.max_frames = max_frames;
     cfg.silhouette.radius_m = rig.sphere_radius_m;

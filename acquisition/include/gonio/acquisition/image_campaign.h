@@ -128,8 +128,8 @@ ImageCampaignConfig image_campaign_config(const RigConfig& rig,
                                           int max_frames);
 
 /// The same for any table layout (theta_h x theta_d x phi_d bins); the light positions are a
-/// quarter of a theta_d row apart in separation (at most 1 degree), the grazing limits are the
-/// rig's max_theta_deg.
+/// quarter of a theta_d row apart in separation (at most 1 degree), the grazing limits the
+/// exclusion rules' defaults, never beyond the rig's max_theta_deg.
 ImageCampaignConfig image_campaign_config(const RigConfig& rig,
                                           const CameraModel& camera,
                                           const TableLayout& layout,
