@@ -103,7 +103,7 @@ int fail(const std::string& message) {
 int to_table(const ConvertOptions& o, const gonio::brdf::TableGrid& grid) {
     using namespace gonio::brdf;
     const auto t0 = std::chrono::steady_clock::now();
-    if (ends_with(o.input, ".csv")) {
+    if (gonio::ends_with(o.input, ".csv")) {
         Expected<Dataset> data = load_samples(o.input);
         if (!data) {
             return fail(data.error().message);
@@ -172,7 +172,7 @@ int to_table(const ConvertOptions& o, const gonio::brdf::TableGrid& grid) {
 
 int to_csv(const ConvertOptions& o, const gonio::brdf::TableGrid& grid) {
     using namespace gonio::brdf;
-    if (ends_with(o.input, ".csv")) {
+    if (gonio::ends_with(o.input, ".csv")) {
         return fail(o.input + " -> " + o.output + ": both are sample CSVs, nothing to convert");
     }
     Dataset data;
@@ -245,12 +245,12 @@ GONIO_COMMAND(convert) {
                                                  std::to_string(gonio::brdf::kMaxTableDim) + "]");
         }
         const bool table_out = gonio::brdf::is_table_path(opts->output);
-        if (!table_out && !ends_with(opts->output, ".csv")) {
+        if (!table_out && !gonio::ends_with(opts->output, ".csv")) {
             return gonio::tools::usage_error(
                 "convert",
                 opts->output + ": unknown output type (expected .binary, .merl, .gtab or .csv)");
         }
-        if (table_out && !ends_with(opts->output, ".gtab")) {
+        if (table_out && !gonio::ends_with(opts->output, ".gtab")) {
             grid = gonio::brdf::TableGrid::merl();
         }
         // Refused before any work: an output that is a folder or a device, a missing folder.
@@ -259,7 +259,7 @@ GONIO_COMMAND(convert) {
         }
         // Memory: the table, and for CSV outputs up to one sample (about 150 bytes with its
         // text) per bin.
-        const bool csv_in = ends_with(opts->input, ".csv");
+        const bool csv_in = gonio::ends_with(opts->input, ".csv");
         const bool grid_used = table_out || !gonio::brdf::is_table_path(opts->input);
         if (grid_used) {
             // A table output is encoded into one buffer before it is written: twice the table.
