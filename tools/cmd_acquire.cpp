@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include "acquire_image_mode.h"
 #include "command.h"
@@ -50,6 +51,7 @@ struct AcquireOptions {
     std::string mode = "point";
     double coverage_target = 0;
     int max_frames = 0;
+    std::string grid;
     std::string serve;  ///< "[ADDR:]PORT" of the live page; empty = none
 };
 
@@ -82,9 +84,54 @@ std::string ground_truth_name(const std::string& brdf) {
     return "ground_truth" + fs::path(brdf).extension().string();
 }
 
+/// "HxDxP" (theta_h x theta_d x phi_d bins) of --grid; false when malformed.
+bool parse_grid(const std::string& text, gonio::acquisition::TableLayout* out) {
+    int h = 0;
+    int d = 0;
+    int p = 0;
+    char x1 = 0;
+    char x2 = 0;
+    char extra = 0;
+    if (std::sscanf(text.c_str(), "%d%c%d%c%d%c", &h, &x1, &d, &x2, &p, &extra) != 5 || x1 != 'x' ||
+        x2 != 'x' || h < 1 || d < 1 || p < 1) {
+        return false;
+    }
+    *out = {h, d, p};
+    return true;
+}
+
 /// Image mode: a curved sample, thousands of samples per frame (docs/image-acquisition.md).
 int run_image(const AcquireOptions& o) {
     gonio::tools::AcquireImageOptions io;
+    io.resume_dir = o.resume;
+    if (!o.resume.empty()) {
+        // A resume continues with the settings stored in the folder.
+        const std::pair<bool, const char*> given[] = {{!o.grid.empty(), "--grid"},
+                                                      {o.coverage_target > 0, "--coverage-target"},
+                                                      {o.max_frames > 0, "--max-frames"},
+                                                      {!o.material.empty(), "--material"},
+                                                      {!o.brdf.empty(), "--brdf"},
+                                                      {!o.rig.empty(), "--rig"},
+                                                      {!o.out.empty(), "--out"},
+                                                      {o.time_scale > 0, "--time-scale"}};
+        for (const auto& [set, name] : given) {
+            if (set) {
+                std::fprintf(stderr,
+                             "gonio acquire: %s with --resume: an image campaign continues with "
+                             "the settings in %s/image_campaign.json\n",
+                             name,
+                             o.resume.c_str());
+                return 2;
+            }
+        }
+    }
+    if (!o.grid.empty() && !parse_grid(o.grid, &io.grid)) {
+        std::fprintf(stderr,
+                     "gonio acquire: --grid \"%s\": expected N_THETA_HxN_THETA_DxN_PHI_D, e.g. "
+                     "90x90x180\n",
+                     o.grid.c_str());
+        return 2;
+    }
     io.out_dir = o.out;
     if (!o.material.empty()) {
         io.material = o.material;
@@ -102,9 +149,13 @@ int run_image(const AcquireOptions& o) {
 }
 
 int run(const AcquireOptions& o) {
+    std::error_code image_ec;
+    const bool image =
+        o.mode == "image" ||
+        (!o.resume.empty() && fs::exists(fs::path(o.resume) / "image_campaign.json", image_ec));
     std::optional<std::pair<std::string, int>> serve_at;
     if (!o.serve.empty()) {
-        if (o.mode == "image") {
+        if (image) {
             std::fprintf(stderr,
                          "gonio acquire: --serve: the live page follows point-mode campaigns; "
                          "image mode is not served\n");
@@ -121,8 +172,14 @@ int run(const AcquireOptions& o) {
         }
         serve_at = *a;
     }
-    if (o.mode == "image") {
+    if (image) {
         return run_image(o);
+    }
+    if (!o.grid.empty()) {
+        std::fprintf(stderr,
+                     "gonio acquire: --grid: image mode only (point mode: --plan, --n-theta, "
+                     "--n-dphi)\n");
+        return 2;
     }
     std::string dir;
     acq::RigConfig rig;
@@ -411,6 +468,8 @@ GONIO_COMMAND(acquire) {
     cmd->add_option(
            "--coverage-target", o->coverage_target, "image mode: fraction of valid table bins")
         ->check(gonio::tools::finite_in(0.001, 1));
+    cmd->add_option(
+        "--grid", o->grid, "image mode: table bins N_THETA_HxN_THETA_DxN_PHI_D (90x90x180 = MERL)");
     cmd->add_option("--max-frames", o->max_frames, "image mode: most light positions")
         ->check(gonio::tools::integer_in(1, 1000000));
     cmd->add_flag("--plan-only", o->plan_only, "print the plan (and unreachable targets) and exit");
