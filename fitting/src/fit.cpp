@@ -39,6 +39,10 @@ constexpr double kLogRmseUnusable = 0.3;
 constexpr double kLogRmseWarn = 0.15;
 constexpr double kBandBiasUnusable = 0.3;
 constexpr double kBandBiasWarn = 0.15;
+// Median relative error |m - d| / d of a channel: 2 % multiplicative noise alone gives 1.35 %
+// (0.674 sigma), so 5 % is a misfit well beyond such noise and 15 % one that changes the colour.
+constexpr double kMedianRelWarn = 0.05;
+constexpr double kMedianRelUnusable = 0.15;
 constexpr double kChi2Unusable = 10;
 constexpr double kChi2Warn = 2;
 // A chi-square far above 1 makes a fit unusable only when the misfit is also of a size that matters
@@ -668,7 +672,32 @@ std::vector<double> lobe_shares(const ModelD& model, const std::vector<Sample>& 
 }
 
 /// Goodness of fit from the metrics (and the reduced chi-square when the data carry sigmas).
-GoodnessOfFit judge(const Metrics& m, std::optional<double> chi2, std::size_t valid) {
+/// What to try when the model `fitted` misfits: the families that could fix it and are not the
+/// one fitted.
+std::string suggest(const ModelD& fitted) {
+    std::string dist = "ggx";
+    if (!fitted.lobes.empty()) {
+        dist = brdf::to_string(fitted.lobes[0].distribution);
+    }
+    std::string s =
+        "try `--model auto` (ranks ggx, beckmann, student-t, blinn-phong and two lobes by BIC)";
+    if (fitted.lobes.size() < 2) {
+        s += ", a second lobe (`--lobes 2`)";
+    }
+    if (dist != "student-t") {
+        s += ", a distribution with a tail parameter (`--model student-t`)";
+    }
+    if (dist != "beckmann") {
+        s += ", `--model beckmann`";
+    }
+    s += " or `--fresnel schlick-rgb`";
+    return s;
+}
+
+GoodnessOfFit judge(const Metrics& m,
+                    std::optional<double> chi2,
+                    std::size_t valid,
+                    const ModelD& fitted) {
     GoodnessOfFit g;
     g.reduced_chi_square = chi2;
     char buf[256];
@@ -692,6 +721,25 @@ GoodnessOfFit judge(const Metrics& m, std::optional<double> chi2, std::size_t va
                           names[c],
                           v,
                           kLogRmseWarn);
+            g.warnings.push_back(buf);
+        }
+    }
+    for (int c = 0; c < 3; ++c) {
+        // The relative error of f itself: sees a dark channel that log(1 + f cos) cannot.
+        const double v = m.median_rel[c];
+        const bool bad = !std::isfinite(v) || v > kMedianRelUnusable;
+        if (bad || v > kMedianRelWarn) {
+            if (bad) {
+                g.represents = false;
+            }
+            std::snprintf(buf,
+                          sizeof buf,
+                          "median relative error |m - d| / d of channel %s = %.3g above %.2g: %s",
+                          names[c],
+                          v,
+                          bad ? kMedianRelUnusable : kMedianRelWarn,
+                          bad ? "the model does not represent this channel"
+                              : "a visible misfit in this channel");
             g.warnings.push_back(buf);
         }
     }
@@ -754,9 +802,7 @@ GoodnessOfFit judge(const Metrics& m, std::optional<double> chi2, std::size_t va
         }
     }
     if (!g.warnings.empty()) {
-        g.suggestion =
-            "try `--model auto` (ranks ggx, beckmann, blinn-phong and two lobes), a second lobe "
-            "(`--lobes 2`), another distribution (`--model beckmann`) or `--fresnel schlick-rgb`";
+        g.suggestion = suggest(fitted);
     }
     return g;
 }
@@ -779,6 +825,11 @@ Metrics evaluate_metrics(const ModelD& model,
         std::array<std::size_t, kBands> band_n{};
     };
     std::vector<Acc> partial(std::max(1, threads));
+    // |m - d| / d per sample and channel (NaN where d <= 0: no relative error), for the medians.
+    std::vector<double> rel[3];
+    for (int c = 0; c < 3; ++c) {
+        rel[c].assign(samples.size(), std::numeric_limits<double>::quiet_NaN());
+    }
     double band_cos[kBands + 1];
     for (int b = 0; b <= kBands; ++b) {
         band_cos[b] = std::cos(kBandEdgesDeg[b] * brdf::kPi / 180);
@@ -804,6 +855,9 @@ Metrics evaluate_metrics(const ModelD& model,
                 const double rel_r =
                     channel_residual(ResidualForm::kRelative, f[c], d, wi.z(), relative_floor);
                 const double log_r = channel_residual(ResidualForm::kLog, f[c], d, wi.z(), 0);
+                if (d > 0) {
+                    rel[c][i] = std::abs(abs_r) / d;
+                }
                 acc.sq(0, c) += abs_r * abs_r;
                 acc.sq(1, c) += rel_r * rel_r;
                 acc.sq(2, c) += log_r * log_r;
@@ -828,6 +882,10 @@ Metrics evaluate_metrics(const ModelD& model,
         m.rmse[c] = std::sqrt(total.sq(0, c) / n);
         m.rel_rmse[c] = std::sqrt(total.sq(1, c) / n);
         m.log_rmse[c] = std::sqrt(total.sq(2, c) / n);
+        std::vector<double>& v = rel[c];
+        v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return std::isnan(x); }),
+                v.end());
+        m.median_rel[c] = v.empty() ? 0.0 : percentile(std::move(v), 0.5);
     }
     for (int k = 0; k < kBands; ++k) {
         if (total.band_n[k] == 0) {
@@ -1155,7 +1213,7 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
                            "columns)";
     }
     result.metrics = evaluate_metrics(result.model, valid, o.relative_floor);
-    result.goodness = judge(result.metrics, chi2, valid.size());
+    result.goodness = judge(result.metrics, chi2, valid.size(), result.model);
     result.solver.usable = result.solver.converged && result.goodness.represents;
     result.solver.wall_time_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -1168,10 +1226,12 @@ std::vector<std::pair<std::string, FitSpec>> auto_candidates(const FitOptions& o
         {"ggx", brdf::Distribution::kGgx},
         {"beckmann", brdf::Distribution::kBeckmann},
         {"blinn-phong", brdf::Distribution::kBlinnPhong},
+        {"student-t", brdf::Distribution::kStudentT},
     };
     for (int lobes : {1, 2}) {
         for (const auto& [name, dist] : families) {
-            if (lobes == 2 && dist != brdf::Distribution::kGgx) {
+            if (lobes == 2 && dist != brdf::Distribution::kGgx &&
+                dist != brdf::Distribution::kStudentT) {
                 continue;
             }
             ModelOptions mo;

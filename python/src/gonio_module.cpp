@@ -19,11 +19,11 @@
 #include <utility>
 #include <vector>
 
+#include "gonio/base/atomic_file.h"
 #include "gonio/base/strings.h"
 #include "gonio/batch/fit_request.h"
 #include "gonio/batch/manifest.h"
 #include "gonio/brdf/analytic_brdf.h"
-#include "gonio/base/atomic_file.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/checks.h"
 #include "gonio/brdf/dataset.h"
@@ -855,7 +855,8 @@ Returns {"passed", "describe", "isotropic", "checks": [{"name", "violation", "to
           py::arg("options"),
           py::arg("out_dir"),
           "run_entry(id, input, options, out_dir) -> dict: fits one manifest entry into out_dir "
-          "(as `gonio fit --manifest` does); status fitted, not-converged, failed or skipped.");
+          "(as `gonio fit --manifest` does); status fitted, misfit, not-converged, failed or "
+          "skipped.");
     m.def("summary_header", &gonio::batch::summary_csv_header, "Header line of a summary CSV.");
     m.def("write_text_atomically",
           &write_text_atomically,
