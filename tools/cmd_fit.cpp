@@ -183,7 +183,8 @@ GONIO_COMMAND(fit) {
     cmd->add_option("data", o->data, "samples: dataset CSV or table (MERL .binary, .gtab)");
     cmd->add_option("--model",
                     o->model,
-                    "lobe distribution: ggx, beckmann, blinn-phong, or auto (candidates ranked by "
+                    "lobe distribution: ggx, beckmann, blinn-phong, student-t, or auto (candidates "
+                    "ranked by "
                     "BIC on the reduction, the winner polished on all samples)")
         ->capture_default_str();
     cmd->add_option("--template",

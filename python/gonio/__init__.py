@@ -52,7 +52,7 @@ def fit(
 
     samples: a path (dataset CSV, or a table *.binary/*.merl/*.gtab), a samples dict or a
         table dict from ``gonio.load()``.
-    model: "ggx", "beckmann" or "blinn-phong" (structure further set by the options
+    model: "ggx", "beckmann", "blinn-phong" or "student-t" (structure set by the options
         fresnel, shadowing, diffuse, anisotropic, lobes), a fit-template path (*.json) or a
         fit-template dict ``{"model": {...}, "free": [...], "fixed": [...], "shared": [...],
         "bounds": {...}}`` (docs/fitting-guide.md).
