@@ -97,7 +97,9 @@ def load_campaign(folder):
     Returns a dict: ``dataset`` (samples dict of ``dataset.csv`` as ``gonio.load`` gives it,
     or None when the folder has none yet), and every top-level JSON file parsed into a dict
     under its name without extension (``metadata``, ``campaign``, ``rig``, ``fit``...), plus
-    ``path``. Raises gonio.Error when the folder does not exist.
+    ``path``. A JSON file whose name without extension is already a key (``dataset.json`` of an
+    image-mode campaign, beside ``dataset``) is kept under its full file name
+    (``"dataset.json"``). Raises gonio.Error when the folder does not exist.
     """
     folder = _os.fspath(folder)
     if not _os.path.isdir(folder):
@@ -109,8 +111,10 @@ def load_campaign(folder):
         full = _os.path.join(folder, name)
         if name.endswith(".json") and _os.path.isfile(full):
             with open(full, encoding="utf-8") as f:
+                stem = name[: -len(".json")]
+                key = name if stem in out else stem
                 try:
-                    out[name[: -len(".json")]] = _json.load(f)
+                    out[key] = _json.load(f)
                 except ValueError as e:
                     raise Error(f"{full}: not valid JSON: {e}") from None
     return out
