@@ -12,8 +12,6 @@ const char* to_string(Distribution d) {
             return "beckmann";
         case Distribution::kBlinnPhong:
             return "blinn-phong";
-        case Distribution::kStudentT:
-            return "student-t";
     }
     return "?";
 }

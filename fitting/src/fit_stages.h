@@ -157,9 +157,6 @@ std::vector<std::string> vanished_lobes(const brdf::ModelD& model,
 
 /// Goodness of fit from the metrics (and the reduced chi-square when the data carry sigmas);
 /// the rules are those documented at GoodnessOfFit (fit.h).
-GoodnessOfFit judge(const Metrics& m,
-                    std::optional<double> chi2,
-                    std::size_t valid,
-                    const brdf::ModelD& fitted);
+GoodnessOfFit judge(const Metrics& m, std::optional<double> chi2, std::size_t valid);
 
 }  // namespace gonio::fitting::detail
