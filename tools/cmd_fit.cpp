@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cstdio>
 #include <memory>
-#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -14,14 +13,11 @@
 #include "command.h"
 #include "fit_manifest.h"
 #include "gonio/base/atomic_file.h"
-#include "gonio/base/strings.h"
-#include "gonio/batch/fit_request.h"
 #include "gonio/brdf/model_json.h"
 #include "gonio/brdf/samples_io.h"
 #include "gonio/fitting/fit.h"
 #include "gonio/fitting/report.h"
 #include "gonio/fitting/spec.h"
-#include "option_checks.h"
 
 namespace {
 
@@ -29,11 +25,11 @@ namespace fitting = gonio::fitting;
 
 struct FitCliOptions {
     std::string data;
-    std::string model = gonio::batch::default_distribution();
+    std::string model = "ggx";
     std::string template_path;
     bool no_diffuse = false;
-    std::string fresnel = gonio::batch::default_fresnel();
-    std::string shadowing = gonio::batch::default_shadowing();
+    std::string fresnel = "schlick";
+    std::string shadowing = "smith-correlated";
     bool anisotropic = false;
     int lobes = 1;
     std::string residual = "log";
@@ -49,6 +45,7 @@ struct FitCliOptions {
     std::string truth;
     std::string manifest;
     std::string shard;
+    bool strict = false;
 };
 
 std::vector<std::string> split(const std::string& s) {
@@ -63,91 +60,80 @@ std::vector<std::string> split(const std::string& s) {
     return out;
 }
 
-/// The request options the command line gave (only those: the rest keep the request's defaults),
-/// as (request key, value text, option as typed).
-struct GivenOption {
-    const char* key;
-    std::string value;
-    const char* flag;
-};
-
-std::vector<GivenOption> given_options(const FitCliOptions& o, const CLI::App& cmd) {
-    std::vector<GivenOption> out;
-    auto add = [&](const char* flag, const char* key, std::string value) {
-        if (cmd.count(flag) > 0) {
-            out.push_back({key, std::move(value), flag});
+/// The spec from the command line (or the template) and the options; prints the error.
+gonio::Expected<fitting::FitSpec> build_spec(const FitCliOptions& o, const std::string& model) {
+    gonio::Expected<fitting::FitSpec> spec = gonio::make_error("");
+    if (!o.template_path.empty()) {
+        spec = fitting::load_fit_template(o.template_path);
+    } else {
+        fitting::ModelOptions mo;
+        auto dist = fitting::parse_distribution(model);
+        auto fres = fitting::parse_fresnel(o.fresnel);
+        auto shad = fitting::parse_shadowing(o.shadowing);
+        for (const gonio::Error* e : {dist ? nullptr : &dist.error(),
+                                      fres ? nullptr : &fres.error(),
+                                      shad ? nullptr : &shad.error()}) {
+            if (e != nullptr) {
+                return gonio::make_error(e->message);
+            }
         }
-    };
-    add("--no-diffuse", "diffuse", o.no_diffuse ? "false" : "true");
-    add("--fresnel", "fresnel", o.fresnel);
-    add("--shadowing", "shadowing", o.shadowing);
-    add("--anisotropic", "anisotropic", o.anisotropic ? "true" : "false");
-    add("--lobes", "lobes", std::to_string(o.lobes));
-    add("--residual", "residual", o.residual);
-    add("--loss", "loss", o.loss);
-    std::ostringstream scale;
-    scale.precision(17);
-    scale << o.loss_scale;
-    add("--loss-scale", "loss_scale", scale.str());
-    add("--max-samples", "max_samples", std::to_string(o.max_samples));
-    add("--starts", "starts", std::to_string(o.starts));
-    add("--seed", "seed", std::to_string(o.seed));
-    add("--max-iterations", "max_iterations", std::to_string(o.max_iterations));
-    add("--threads", "threads", std::to_string(o.threads));
-    return out;
+        mo.distribution = *dist;
+        mo.fresnel = fres->first;
+        mo.fresnel_rgb = fres->second;
+        mo.shadowing = *shad;
+        mo.diffuse = !o.no_diffuse;
+        mo.anisotropic = o.anisotropic;
+        mo.lobes = o.lobes;
+        spec = fitting::make_fit_spec(mo);
+    }
+    if (!spec) {
+        return spec;
+    }
+    auto residual = fitting::parse_residual(o.residual);
+    if (!residual) {
+        return gonio::make_error(residual.error().message);
+    }
+    auto loss = fitting::parse_loss(o.loss);
+    if (!loss) {
+        return gonio::make_error(loss.error().message);
+    }
+    spec->options.residual = *residual;
+    spec->options.loss = *loss;
+    spec->options.loss_scale = o.loss_scale;
+    spec->options.max_samples = o.max_samples;
+    spec->options.starts = o.starts;
+    spec->options.seed = o.seed;
+    spec->options.max_iterations = o.max_iterations;
+    spec->options.num_threads = o.threads;
+    return spec;
 }
 
-/// The option as typed for a request key (for messages).
-std::string flag_for(const std::vector<GivenOption>& given, const std::string& key) {
-    for (const GivenOption& g : given) {
-        if (key == g.key) {
-            return g.flag;
-        }
-    }
-    std::string flag = "--" + key;
-    std::replace(flag.begin(), flag.end(), '_', '-');
-    return flag;
-}
-
-/// Applies the given options to a request; a bad value or a conflict is a usage error whose
-/// message names the options as typed. `model_flag` names the option that set the model.
-gonio::Expected<void> apply(gonio::batch::FitRequest& request,
-                            const std::vector<GivenOption>& given,
-                            const std::string& model_flag) {
-    for (const GivenOption& g : given) {
-        if (auto s = gonio::batch::set_option(request, g.key, g.value); !s) {
-            return gonio::make_error(std::string(g.flag) + ": " + s.error().message);
-        }
-    }
-    if (auto c = gonio::batch::find_conflict(request)) {
-        return gonio::make_error(flag_for(given, c->option) + " cannot be combined with " +
-                                 model_flag + ": " + c->rule);
-    }
-    return {};
-}
-
-int run_compare(const std::vector<gonio::batch::FitRequest>& requests,
-                const gonio::brdf::Dataset& data) {
+int run_compare(const FitCliOptions& o, const gonio::brdf::Dataset& data) {
     struct Row {
         std::string model;
         fitting::FitResult result;
     };
     std::vector<Row> rows;
     std::vector<std::string> failed;
-    for (const gonio::batch::FitRequest& request : requests) {
-        const std::string& name = request.model;
-        auto run = gonio::batch::run_fit(data, request);
-        if (!run) {
-            std::fprintf(stderr, "gonio fit: %s: %s\n", name.c_str(), run.error().message.c_str());
+    std::vector<std::string> misfits;
+    for (const std::string& name : split(o.compare)) {
+        auto spec = build_spec(o, name);
+        if (!spec) {
+            std::fprintf(stderr, "gonio fit: %s\n", spec.error().message.c_str());
+            return 2;
+        }
+        auto r = fitting::fit(data, *spec);
+        if (!r) {
+            std::fprintf(stderr, "gonio fit: %s: %s\n", name.c_str(), r.error().message.c_str());
             return 1;
         }
-        const fitting::FitResult* r = &run->result;
-        if (!r->usable()) {
-            failed.push_back(name + ": " +
-                             (r->solver.converged
-                                  ? std::string("does not represent the data")
-                                  : r->solver.termination + " (" + r->solver.message + ")"));
+        if (!r->solver.converged) {
+            failed.push_back(name + ": " + r->solver.termination + " (" + r->solver.message + ")");
             continue;
+        }
+        if (!r->usable()) {
+            // A misfit is ranked with the others (its figures are what that model can do).
+            misfits.push_back(name);
         }
         rows.push_back({name, *r});
     }
@@ -165,21 +151,28 @@ int run_compare(const std::vector<gonio::batch::FitRequest>& requests,
                 "time_s");
     for (std::size_t i = 0; i < rows.size(); ++i) {
         const fitting::FitResult& r = rows[i].result;
-        std::printf("%-4zu %-12s %12.6g %12.6g %12.6g %6d %9.3f\n",
+        std::printf("%-4zu %-12s %12.6g %12.6g %12.6g %6d %9.3f%s\n",
                     i + 1,
                     rows[i].model.c_str(),
                     mean(r.metrics.log_rmse),
                     mean(r.metrics.rel_rmse),
                     mean(r.metrics.rmse),
                     r.solver.iterations,
-                    r.solver.wall_time_s);
+                    r.solver.wall_time_s,
+                    r.usable() ? "" : "  (misfit: does not represent the data)");
     }
     std::printf("(errors are channel means over all %zu valid samples; ranked by log_rmse)\n",
                 rows.empty() ? std::size_t{0} : rows[0].result.samples.valid);
     for (const std::string& f : failed) {
-        std::printf("not usable, not ranked: %s\n", f.c_str());
+        std::printf("did not converge, not ranked: %s\n", f.c_str());
     }
-    return failed.empty() ? 0 : 1;
+    for (const std::string& m : misfits) {
+        std::fprintf(stderr,
+                     "gonio fit: %s: %s does not represent these data\n",
+                     o.strict ? "error" : "warning",
+                     m.c_str());
+    }
+    return failed.empty() && (misfits.empty() || !o.strict) ? 0 : 1;
 }
 
 }  // namespace
@@ -187,10 +180,13 @@ int run_compare(const std::vector<gonio::batch::FitRequest>& requests,
 GONIO_COMMAND(fit) {
     auto* cmd = app.add_subcommand("fit", "fit an analytic BRDF model to measured samples (Ceres)");
     auto o = std::make_shared<FitCliOptions>();
-    cmd->add_option("data", o->data, "samples: dataset CSV or table (MERL .binary, .gtab)");
+    cmd->add_option("data",
+                    o->data,
+                    "samples: dataset CSV, table (MERL .binary, .gtab) or RGL material (.bsdf)");
     cmd->add_option("--model",
                     o->model,
-                    "lobe distribution: ggx, beckmann, blinn-phong, or auto (candidates ranked by "
+                    "lobe distribution: ggx, beckmann, blinn-phong, student-t, or auto (candidates "
+                    "ranked by "
                     "BIC on the reduction, the winner polished on all samples)")
         ->capture_default_str();
     cmd->add_option("--template",
@@ -222,6 +218,10 @@ GONIO_COMMAND(fit) {
     cmd->add_option("--threads", o->threads, "solver threads (0 = all cores)")
         ->capture_default_str();
     cmd->add_option("--out", o->out, "write the fitted model here and the report beside it");
+    cmd->add_flag("--strict",
+                  o->strict,
+                  "exit 1 when the model does not represent the data (a misfit is otherwise "
+                  "written, reported on stderr, and exits 0)");
     cmd->add_option("--truth", o->truth, "ground-truth model JSON, copied into the report");
     cmd->add_option("--compare",
                     o->compare,
@@ -233,98 +233,15 @@ GONIO_COMMAND(fit) {
                     "with --manifest: only entries i with i mod N == K (--threads, if given, "
                     "applies to every entry)")
         ->needs("--manifest");
-    cmd->get_option("--loss-scale")->check(gonio::tools::finite_above(0));
     return [o, cmd]() -> int {
-        namespace batch = gonio::batch;
-        using gonio::tools::usage_error;
-        const std::vector<GivenOption> given = given_options(*o, *cmd);
-        const bool model_given = cmd->count("--model") > 0;
-        const bool template_given = cmd->count("--template") > 0;
         if (!o->manifest.empty()) {
-            // Each entry names its input and model; the other options apply to every entry.
-            for (const char* flag : {"--model", "--template", "--compare", "--truth"}) {
-                if (cmd->count(flag) > 0) {
-                    return usage_error("fit",
-                                       std::string(flag) +
-                                           " cannot be combined with --manifest (each entry names "
-                                           "its input and model; the other options apply to "
-                                           "every entry)");
-                }
-            }
-            std::vector<std::pair<std::string, std::string>> overrides;
-            for (const GivenOption& g : given) {
-                overrides.emplace_back(g.key, g.value);
-            }
-            return gonio::tools::run_fit_manifest(o->manifest, o->shard, o->out, overrides);
+            const int threads = cmd->count("--threads") > 0 ? o->threads : -1;
+            return gonio::tools::run_fit_manifest(
+                o->manifest, o->shard, o->out, threads, o->strict);
         }
         if (o->data.empty()) {
-            return usage_error("fit", "give DATA (or --manifest M --out DIR)");
-        }
-        std::vector<batch::FitRequest> requests;
-        if (!o->compare.empty()) {
-            for (const char* flag : {"--model", "--template", "--out", "--truth"}) {
-                if (cmd->count(flag) > 0) {
-                    return usage_error("fit",
-                                       std::string(flag) +
-                                           " cannot be combined with --compare (it fits and ranks "
-                                           "each listed model or *.json template; nothing is "
-                                           "written)");
-                }
-            }
-            for (const std::string& name : split(o->compare)) {
-                batch::FitRequest request;
-                if (name == batch::kAutoModel) {
-                    return usage_error("fit",
-                                       "--compare " + o->compare +
-                                           ": auto is no model to compare; use --model auto");
-                }
-                if (auto s = batch::set_option(request, "model", name); !s) {
-                    return usage_error("fit", "--compare: " + s.error().message);
-                }
-                if (auto a = apply(request, given, "--compare " + name); !a) {
-                    return usage_error("fit", a.error().message);
-                }
-                requests.push_back(std::move(request));
-            }
-            if (requests.empty()) {
-                return usage_error("fit", "--compare: no model named");
-            }
-        } else {
-            batch::FitRequest request;
-            if (model_given && template_given) {
-                return usage_error("fit", "--model and --template: give one of them");
-            }
-            const std::string model_flag = template_given ? "--template" : "--model " + o->model;
-            if (auto s = batch::set_option(
-                    request, "model", template_given ? o->template_path : o->model);
-                !s) {
-                return usage_error("fit",
-                                   std::string(template_given ? "--template" : "--model") + ": " +
-                                       s.error().message);
-            }
-            if (template_given && !gonio::ends_with(o->template_path, ".json")) {
-                return usage_error(
-                    "fit", "--template " + o->template_path + ": expected a *.json fit template");
-            }
-            if (auto a = apply(request, given, model_flag); !a) {
-                return usage_error("fit", a.error().message);
-            }
-            requests.push_back(std::move(request));
-        }
-        // The request as run (every option, defaults included), so that a log shows what was
-        // asked for.
-        for (const batch::FitRequest& request : requests) {
-            std::printf("request: %s\n", batch::format_options(request).c_str());
-        }
-        std::fflush(stdout);
-        // Everything named on the command line is read or checked before the fit runs.
-        std::optional<gonio::brdf::ModelD> truth;
-        if (!o->truth.empty()) {
-            auto t = gonio::brdf::load_model_json(o->truth);
-            if (!t) {
-                return usage_error("fit", "--truth: " + t.error().message);
-            }
-            truth = *t;
+            std::fprintf(stderr, "gonio fit: give DATA (or --manifest M --out DIR)\n");
+            return 2;
         }
         if (!o->out.empty()) {
             // Refused before the fit runs: an output that is a folder, a device, a missing folder.
@@ -341,19 +258,25 @@ GONIO_COMMAND(fit) {
             return 1;
         }
         if (!o->compare.empty()) {
-            return run_compare(requests, *data);
+            return run_compare(*o, *data);
         }
-        const batch::FitRequest& request = requests.front();
-        auto run = batch::run_fit(*data, request);
-        if (!run) {
-            std::fprintf(stderr, "gonio fit: %s\n", run.error().message.c_str());
-            return 1;
+        const bool automatic = o->model == "auto" && o->template_path.empty();
+        auto spec = build_spec(*o, automatic ? std::string("ggx") : o->model);
+        if (!spec) {
+            std::fprintf(stderr, "gonio fit: %s\n", spec.error().message.c_str());
+            return 2;
         }
-        if (request.is_auto()) {
-            std::printf("model auto: %s\n", run->criterion.c_str());
+        gonio::Expected<fitting::FitResult> result = gonio::make_error("");
+        if (automatic) {
+            auto chosen = fitting::fit_auto(*data, fitting::auto_candidates(spec->options));
+            if (!chosen) {
+                std::fprintf(stderr, "gonio fit: %s\n", chosen.error().message.c_str());
+                return 1;
+            }
+            std::printf("model auto: %s\n", chosen->criterion.c_str());
             std::printf("%-4s %-12s %6s %12s %16s\n", "rank", "model", "params", "log_rmse", "BIC");
-            for (std::size_t i = 0; i < run->ranking.size(); ++i) {
-                const fitting::RankedModel& m = run->ranking[i];
+            for (std::size_t i = 0; i < chosen->ranking.size(); ++i) {
+                const fitting::RankedModel& m = chosen->ranking[i];
                 std::printf("%-4zu %-12s %6d %12.6g %16.8g%s\n",
                             i + 1,
                             m.name.c_str(),
@@ -362,10 +285,23 @@ GONIO_COMMAND(fit) {
                             m.criterion,
                             m.converged ? "" : "  (did not converge)");
             }
-            std::printf("chosen: %s\n", run->chosen.c_str());
+            std::printf("chosen: %s\n", chosen->chosen.c_str());
+            result = chosen->best;
+        } else {
+            result = fitting::fit(*data, *spec);
         }
-        fitting::FitResult* result = &run->result;
-        result->ground_truth = truth;
+        if (!result) {
+            std::fprintf(stderr, "gonio fit: %s\n", result.error().message.c_str());
+            return 1;
+        }
+        if (!o->truth.empty()) {
+            auto truth = gonio::brdf::load_model_json(o->truth);
+            if (!truth) {
+                std::fprintf(stderr, "gonio fit: %s\n", truth.error().message.c_str());
+                return 2;
+            }
+            result->ground_truth = *truth;
+        }
         std::fputs(fitting::format_summary(*result).c_str(), stdout);
         if (!o->out.empty()) {
             auto w = fitting::write_fit_report(o->out, *result);
@@ -384,13 +320,16 @@ GONIO_COMMAND(fit) {
             return 1;
         }
         if (!result->usable()) {
+            // A converged misfit is a finding: the best fit of that model, written with its
+            // verdict. Scripts that want it to fail ask for --strict.
             std::fprintf(stderr,
-                         "gonio fit: the model does not represent these data (%s); %s\n",
+                         "gonio fit: %s: the model does not represent these data (%s); %s\n",
+                         o->strict ? "error" : "warning",
                          result->goodness.warnings.empty()
                              ? "see the report"
                              : result->goodness.warnings.front().c_str(),
                          result->goodness.suggestion.c_str());
-            return 1;
+            return o->strict ? 1 : 0;
         }
         return 0;
     };

@@ -151,17 +151,11 @@ Expected<std::vector<ManifestEntry>> read_manifest(const std::string& path) {
             const std::string& m = fields[col_model];
             e.request.model = ends_with(m, ".json") ? resolve(base, m) : m;
         }
-        if (!ends_with(e.request.model, ".json") && e.request.model != kAutoModel) {
+        if (!ends_with(e.request.model, ".json")) {
             auto d = fitting::parse_distribution(e.request.model);
             if (!d) {
-                return make_error(at + ": model: " + d.error().message +
-                                  ", auto or a *.json fit "
-                                  "template");
+                return make_error(at + ": model: " + d.error().message);
             }
-        }
-        if (auto c = find_conflict(e.request)) {
-            return make_error(at + ": option " + c->option + " cannot be combined with model " +
-                              e.request.model + ": " + c->rule);
         }
         e.id = col_id >= 0 && !fields[col_id].empty() ? fields[col_id]
                                                       : fs::path(e.input).stem().string();
@@ -239,6 +233,8 @@ const char* to_string(EntryStatus s) {
     switch (s) {
         case EntryStatus::kFitted:
             return "fitted";
+        case EntryStatus::kMisfit:
+            return "misfit";
         case EntryStatus::kNotConverged:
             return "not-converged";
         case EntryStatus::kFailed:
@@ -275,21 +271,21 @@ EntryOutcome run_entry(const ManifestEntry& entry, const std::string& out_dir) {
         }
         return o;
     };
-    if (auto spec = make_fit_spec(entry.request); !spec) {
+    auto spec = make_fit_spec(entry.request);
+    if (!spec) {
         return fail(spec.error().message);
     }
     auto data = brdf::load_samples(entry.input);
     if (!data) {
         return fail(data.error().message);
     }
-    auto run = run_fit(*data, entry.request);
-    if (!run) {
-        return fail(run.error().message);
+    auto result = fitting::fit(*data, *spec);
+    if (!result) {
+        return fail(result.error().message);
     }
-    fitting::FitResult* result = &run->result;
     fill_metrics(o, *result);
     auto w = fitting::write_fit_report(model_path(out_dir, entry.id), *result);
-    if (!result->usable()) {
+    if (!result->solver.converged) {
         o.status = EntryStatus::kNotConverged;
         o.message = result->solver.termination + ": " + result->solver.message;
         return o;
@@ -298,6 +294,13 @@ EntryOutcome run_entry(const ManifestEntry& entry, const std::string& out_dir) {
         return fail(w.error().message);
     }
     fs::remove(error_path(out_dir, entry.id), ec);
+    if (!result->usable()) {
+        o.status = EntryStatus::kMisfit;
+        o.message = (result->goodness.warnings.empty() ? std::string("does not represent the data")
+                                                       : result->goodness.warnings.front()) +
+                    "; " + result->goodness.suggestion;
+        return o;
+    }
     o.status = EntryStatus::kFitted;
     o.message = result->solver.termination;
     return o;

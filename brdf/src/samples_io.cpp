@@ -17,6 +17,7 @@
 
 #include "gonio/base/strings.h"
 #include "gonio/brdf/merl.h"
+#include "gonio/brdf/rgl_bsdf.h"
 #include "sample_columns.h"
 
 namespace gonio::brdf {
@@ -185,11 +186,7 @@ void parse_chunk(const char* p,
                     out.error =
                         where() + kColNames[c] + " = " + fmt_value(x) + " outside " + r.text;
                     if ((c == kTi || c == kTo) && x >= r.hi) {
-                        // A polar angle in (pi/2, 90] is most likely written in degrees.
-                        out.error += x > r.hi && x <= 90
-                                         ? " (at or below the horizon; it looks like degrees: "
-                                           "angles are radians, 90 deg = 1.5708)"
-                                         : " (at or below the horizon)";
+                        out.error += " (at or below the horizon)";
                     }
                     return;
                 }
@@ -452,7 +449,16 @@ Expected<Dataset> load_samples(const std::string& path) {
         data.source = path;
         return data;
     }
-    return make_error(path + ": unknown sample file type (expected .csv, .binary, .merl or .gtab)");
+    if (is_rgl_path(path)) {
+        // The file's own nodes, each at its direction pair: no resampling.
+        Expected<RglBsdf> rgl = read_rgl_bsdf(path);
+        if (!rgl) {
+            return tl::unexpected(rgl.error());
+        }
+        return rgl_nodes_to_dataset(*rgl);
+    }
+    return make_error(path +
+                      ": unknown sample file type (expected .csv, .binary, .merl, .gtab or .bsdf)");
 }
 
 Expected<TabulateReport> export_merl(const std::string& path,

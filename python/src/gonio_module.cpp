@@ -41,8 +41,8 @@ namespace py = pybind11;
 
 namespace {
 
-using gonio::ends_with;
 using gonio::Expected;
+using gonio::ends_with;
 using gonio::brdf::Brdf;
 using gonio::brdf::Dataset;
 using gonio::brdf::Sample;
@@ -556,9 +556,9 @@ py::tuple fit(const py::object& samples,
               const py::object& max_samples,
               const py::object& truth,
               const py::dict& options) {
-    // Options left at None keep the fitting library's defaults (those of `gonio fit`); the one
-    // request of every front end (batch::FitRequest), run by batch::run_fit.
+    // Options left at None keep the fitting library's defaults (those of `gonio fit`).
     gonio::batch::FitRequest request;
+    gonio::fitting::FitSpec spec;
     if (!residual.is_none()) {
         ok_or_raise(gonio::batch::set_option(request, "residual", option_text(residual)));
     }
@@ -572,21 +572,21 @@ py::tuple fit(const py::object& samples,
     std::string model_name;
     if (as_path(model, model_name)) {
         ok_or_raise(gonio::batch::set_option(request, "model", model_name));
+        spec = value_or_raise(gonio::batch::make_fit_spec(request));
     } else if (py::isinstance<py::dict>(model)) {
         // A fit template given inline: {"model": {...}, "free": [...], ...}.
-        request.template_json = to_json_text(model);
+        gonio::batch::FitRequest names_only = request;
+        names_only.model = "ggx";
+        const gonio::fitting::FitSpec solver =
+            value_or_raise(gonio::batch::make_fit_spec(names_only));
+        spec =
+            value_or_raise(gonio::fitting::parse_fit_template(to_json_text(model), "<template>"));
+        spec.options = solver.options;
     } else {
         throw GonioError(
-            "model: expected a name (ggx, beckmann, blinn-phong, auto), a fit template path "
+            "model: expected a name (ggx, beckmann, blinn-phong), a fit template path "
             "or a fit template dict");
     }
-    if (auto c = gonio::batch::find_conflict(request)) {
-        throw GonioError(
-            c->option + " cannot be combined with model=" +
-            (request.is_auto() ? std::string("\"auto\"") : std::string("<fit template>")) + ": " +
-            c->rule);
-    }
-    value_or_raise(gonio::batch::make_fit_spec(request));
     Dataset data;
     std::string path;
     if (as_path(samples, path)) {
@@ -615,32 +615,15 @@ py::tuple fit(const py::object& samples,
                 value_or_raise(gonio::brdf::parse_model_json(to_json_text(truth), "<truth>"));
         }
     }
-    Expected<gonio::batch::FitRun> run = gonio::make_error("");
+    Expected<gonio::fitting::FitResult> result = gonio::make_error("");
     {
         // Ceres runs without the GIL: other Python threads go on during the solve.
         py::gil_scoped_release release;
-        run = gonio::batch::run_fit(data, request);
+        result = gonio::fitting::fit(data, spec);
     }
-    gonio::batch::FitRun r = value_or_raise(std::move(run));
-    r.result.ground_truth = ground_truth;
-    py::dict report = from_json_text(gonio::fitting::fit_report_json(r.result));
-    if (request.is_auto()) {
-        py::dict automatic;
-        automatic["chosen"] = r.chosen;
-        automatic["criterion"] = r.criterion;
-        py::list ranking;
-        for (const gonio::fitting::RankedModel& m : r.ranking) {
-            py::dict row;
-            row["name"] = m.name;
-            row["parameters"] = m.parameters;
-            row["log_rmse"] = m.log_rmse;
-            row["criterion"] = m.criterion;
-            row["converged"] = m.converged;
-            ranking.append(row);
-        }
-        automatic["ranking"] = ranking;
-        report["auto"] = automatic;
-    }
+    gonio::fitting::FitResult r = value_or_raise(std::move(result));
+    r.ground_truth = ground_truth;
+    py::dict report = from_json_text(gonio::fitting::fit_report_json(r));
     return py::make_tuple(report["model"], report);
 }
 
@@ -813,6 +796,8 @@ A table (*.binary, *.merl, *.gtab) -> table dict: raw (3, n_theta_h, n_theta_d, 
   stored values as in the file (no copy; f = raw * scale per channel, raw < 0 = not measured),
   scale (3,), grid, valid (bool per bin), source, kind = "table". With samples=True, a table
   is returned as samples instead (one per valid bin centre above the horizon).
+An RGL material (*.bsdf) -> samples dict of its stored nodes, each at its own direction pair
+  (docs/file-formats-tables.md); no resampling.
 Raises gonio.Error with the reader's message (file, line, field, rule).)doc");
     m.def("save",
           &save,
@@ -873,7 +858,8 @@ Returns {"passed", "describe", "isotropic", "checks": [{"name", "violation", "to
           py::arg("options"),
           py::arg("out_dir"),
           "run_entry(id, input, options, out_dir) -> dict: fits one manifest entry into out_dir "
-          "(as `gonio fit --manifest` does); status fitted, not-converged, failed or skipped.");
+          "(as `gonio fit --manifest` does); status fitted, misfit, not-converged, failed or "
+          "skipped.");
     m.def("summary_header", &gonio::batch::summary_csv_header, "Header line of a summary CSV.");
     m.def("write_text_atomically",
           &write_text_atomically,

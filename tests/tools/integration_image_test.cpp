@@ -11,16 +11,16 @@
 
 #include <algorithm>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
 // The command's building blocks are compiled into this test (tools/ is not a library).
-#include "embedded_rig.h"
-#include "gonio/acquisition/campaign_request.h"
+#include "../../tools/acquire_image_mode.cpp"
+#include "gonio/acquisition/image_journal.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/merl.h"
 #include "gonio/brdf/model_json.h"
@@ -47,13 +47,13 @@ class ImageCampaignTest : public ::testing::Test {
         const std::string model =
             std::string(GONIO_BINARY_DIR) + "/image_truth_" + std::to_string(::getpid()) + ".json";
         std::ofstream(model) << brdf::model_to_json(truth_model());
-        acquisition::ImageRigOptions o;
+        AcquireImageOptions o;
         o.brdf_path = model;
         o.image_size = 200;
         o.supersample = 1;
         o.seed = kSeed;
         o.time_scale = 200;
-        auto rig = acquisition::start_image_rig(o, embedded_rig_starter());
+        auto rig = start_image_rig(o);
         std::filesystem::remove(model);
         if (!rig) {
             error_ = new std::string(rig.error().message);
@@ -62,8 +62,7 @@ class ImageCampaignTest : public ::testing::Test {
         rig_ = rig->release();
         config_ = new acquisition::ImageCampaignConfig(
             acquisition::image_campaign_config(rig_->rig, rig_->camera, 3, 0.5, 60));
-        auto r =
-            acquisition::run_image_campaign(acquisition::image_rig_capture(*rig_, 0.0), *config_);
+        auto r = acquisition::run_image_campaign(image_rig_capture(*rig_, 0.0), *config_);
         for (const std::string& n : rig_->pose_log.notes) {
             std::printf("note: %s\n", n.c_str());
         }
@@ -88,14 +87,14 @@ class ImageCampaignTest : public ::testing::Test {
     }
 
     static std::shared_ptr<const brdf::Brdf>* truth_;
-    static acquisition::ImageRig* rig_;
+    static ImageRig* rig_;
     static acquisition::ImageCampaignConfig* config_;
     static acquisition::ImageCampaignResult* result_;
     static std::string* error_;
 };
 
 std::shared_ptr<const brdf::Brdf>* ImageCampaignTest::truth_ = nullptr;
-acquisition::ImageRig* ImageCampaignTest::rig_ = nullptr;
+ImageRig* ImageCampaignTest::rig_ = nullptr;
 acquisition::ImageCampaignConfig* ImageCampaignTest::config_ = nullptr;
 acquisition::ImageCampaignResult* ImageCampaignTest::result_ = nullptr;
 std::string* ImageCampaignTest::error_ = nullptr;
@@ -104,13 +103,13 @@ TEST_F(ImageCampaignTest, EveryFrameCameThroughTheGigECameraWithArmsOnTarget) {
     // The camera the campaign opened is the virtual rig's GigE Vision device (gige://127.x.y.z),
     // and it rendered every frame the campaign captured.
     EXPECT_EQ(rig_->rig.camera_address.rfind("gige://127.", 0), 0u) << rig_->rig.camera_address;
-    EXPECT_EQ(simulator(*rig_)->camera().frames_rendered(),
+    EXPECT_EQ(rig_->sim->camera().frames_rendered(),
               result_->captures + rig_->pose_log.capture_retries);
     EXPECT_EQ(rig_->pose_log.repeats + rig_->pose_log.corrections, 0u);
     // The arms stand where the campaign left them: detector at 0, light at the last position.
-    const sim::RigUnits& u = simulator(*rig_)->units();
-    EXPECT_NEAR(simulator(*rig_)->motors().position_deg(u.detector), 0.0, 0.01);
-    EXPECT_NEAR(simulator(*rig_)->motors().position_deg(u.light),
+    const sim::RigUnits& u = rig_->sim->units();
+    EXPECT_NEAR(rig_->sim->motors().position_deg(u.detector), 0.0, 0.01);
+    EXPECT_NEAR(rig_->sim->motors().position_deg(u.light),
                 result_->frames.back().light_arm_rad * 180 / kPi,
                 0.01);
 }
@@ -233,7 +232,7 @@ TEST_F(ImageCampaignTest, AgreesWithPointMeasurementsThroughTheSameSensor) {
     // Point mode stand-in: a flat patch of 64 pixels at the bin's mean configuration, exposed
     // through the same sensor model, dark-corrected with the model's expectation and calibrated
     // with the sensor's known responsivity and the beam's irradiance.
-    sim::SensorParams p = simulator(*rig_)->camera().config().sensor;
+    sim::SensorParams p = rig_->sim->camera().config().sensor;
     p.width = 8;
     p.height = 8;
     p.seed = kSeed + 1;
@@ -286,20 +285,20 @@ TEST(ImagePerspective, PerspectiveCameraThroughGigEFindsTheSphereAndTheMaterial)
     const std::string model = std::string(GONIO_BINARY_DIR) + "/image_persp_truth_" +
                               std::to_string(::getpid()) + ".json";
     std::ofstream(model) << brdf::model_to_json(truth_model());
-    acquisition::ImageRigOptions o;
+    AcquireImageOptions o;
     o.brdf_path = model;
     o.image_size = 128;
     o.perspective = true;
     o.supersample = 1;
     o.seed = 77;
     o.time_scale = 500;
-    auto rig = acquisition::start_image_rig(o, embedded_rig_starter());
+    auto rig = start_image_rig(o);
     std::filesystem::remove(model);
     ASSERT_TRUE(rig) << rig.error().message;
     EXPECT_EQ((*rig)->camera.projection, acquisition::Projection::kPerspective);
     const acquisition::ImageCampaignConfig cfg =
         acquisition::image_campaign_config((*rig)->rig, (*rig)->camera, 6, 0.5, 30);
-    auto r = acquisition::run_image_campaign(acquisition::image_rig_capture(**rig, 0.0), cfg);
+    auto r = acquisition::run_image_campaign(image_rig_capture(**rig, 0.0), cfg);
     ASSERT_TRUE(r) << r.error().message;
     // Centre within 1 mm of the origin, radius as given (the fit uses it to fix the distance).
     EXPECT_LT(r->sphere.centre.norm(), 1e-3) << r->sphere.centre.transpose();
@@ -339,23 +338,21 @@ TEST(ImageCommand, RigWithoutSimSectionIsOpenedAtItsAddresses) {
     std::filesystem::create_directories(dir);
     // First without the camera model: an error naming it, nothing started.
     std::ofstream(dir + "/rig-nocam.json") << j.dump(2);
-    acquisition::CampaignRequest o;
-    o.mode = acquisition::CampaignMode::kImage;
+    AcquireImageOptions o;
     o.rig_path = dir + "/rig-nocam.json";
     o.out_dir = dir + "/run";
     o.table_factor = 6;
     o.coverage_target = 0.5;
     o.max_frames = 40;
-    auto refused = acquisition::run_image_request(o, embedded_rig_starter());
+    o.quiet = true;
+    auto refused = start_image_rig(o);
     ASSERT_FALSE(refused);
     EXPECT_NE(refused.error().message.find("camera_model: missing"), std::string::npos)
         << refused.error().message;
     j["camera_model"] = nlohmann::json::parse(acquisition::camera_model_to_json(camera));
     std::ofstream(dir + "/rig.json") << j.dump(2);
     o.rig_path = dir + "/rig.json";
-    auto ran = acquisition::run_image_request(o, embedded_rig_starter());
-    ASSERT_TRUE(ran) << ran.error().message;
-    ASSERT_TRUE(ran->result->target_met);
+    ASSERT_EQ(run_acquire_image_mode(o), 0);
     // Every frame came from the rig served by the test.
     EXPECT_GT((*served)->camera().frames_rendered(), 20u);
     auto data = brdf::read_dataset_csv(dir + "/run/dataset.csv");
@@ -383,8 +380,7 @@ TEST(ImageCommand, WritesDatasetTableAndCoverageMap) {
                              ("gonio_image_command_test_" + std::to_string(::getpid())))
                                 .string();
     std::filesystem::remove_all(dir);
-    acquisition::CampaignRequest o;
-    o.mode = acquisition::CampaignMode::kImage;
+    AcquireImageOptions o;
     o.out_dir = dir;
     o.material = "yellow-plastic";
     o.table_factor = 6;
@@ -392,9 +388,8 @@ TEST(ImageCommand, WritesDatasetTableAndCoverageMap) {
     o.coverage_target = 0.6;
     o.max_frames = 40;
     o.seed = 5;
-    auto ran = acquisition::run_image_request(o, embedded_rig_starter());
-    ASSERT_TRUE(ran) << ran.error().message;
-    ASSERT_TRUE(ran->result->target_met);
+    o.quiet = true;
+    ASSERT_EQ(run_acquire_image_mode(o), 0);
     auto data = brdf::read_dataset_csv(dir + "/dataset.csv");
     ASSERT_TRUE(data) << data.error().message;
     EXPECT_TRUE(data->rejected.empty());
@@ -407,16 +402,12 @@ TEST(ImageCommand, WritesDatasetTableAndCoverageMap) {
     EXPECT_EQ(png.rows, 15 * 4);
     EXPECT_TRUE(std::filesystem::exists(dir + "/dataset.json"));
     // A bad option is an error naming it.
-    acquisition::CampaignRequest bad = o;
+    AcquireImageOptions bad = o;
     bad.table_factor = 7;
-    auto refused = acquisition::run_image_request(bad, embedded_rig_starter());
-    ASSERT_FALSE(refused);
-    EXPECT_NE(refused.error().message.find("table factor 7: must divide 90"), std::string::npos)
-        << refused.error().message;
-    EXPECT_EQ(refused.error().message.find("--table-factor"), std::string::npos);
+    EXPECT_EQ(run_acquire_image_mode(bad), 1);
     bad = o;
     bad.material = "no-such-material";
-    EXPECT_FALSE(acquisition::run_image_request(bad, embedded_rig_starter()));
+    EXPECT_EQ(run_acquire_image_mode(bad), 1);
     std::filesystem::remove_all(dir);
 }
 
@@ -473,6 +464,252 @@ TEST(ImageCommand, GonioAcquireImageModeThroughGigERecoversTheGroundTruth) {
         return ss.str();
     }();
     EXPECT_NE(meta.find("\"camera_address\": \"gige://127."), std::string::npos);
+    std::filesystem::remove_all(dir);
+    std::filesystem::remove(model);
+}
+
+/// Runs an image campaign with a frame journal in a child process (fresh rig, seeded); the child
+/// kills itself with SIGKILL at the `kill_exposure`-th exposure the virtual camera renders or right
+/// after frame `kill_after_frames` is journaled (0: never). Returns the wait status.
+int journaled_child(const AcquireImageOptions& o,
+                    const std::string& journal,
+                    std::uint64_t kill_exposure,
+                    std::size_t kill_after_frames) {
+    const pid_t pid = fork();
+    if (pid != 0) {
+        int status = 0;
+        waitpid(pid, &status, 0);
+        return status;
+    }
+    auto rig = start_image_rig(o);
+    if (!rig) {
+        std::fprintf(stderr, "child: %s\n", rig.error().message.c_str());
+        _exit(3);
+    }
+    if (kill_exposure > 0) {
+        (*rig)->sim->world().set_exposure_hook([kill_exposure](std::uint64_t n) {
+            if (n == kill_exposure) {
+                ::raise(SIGKILL);
+            }
+        });
+    }
+    const acquisition::ImageCampaignConfig cfg = acquisition::image_campaign_config(
+        (*rig)->rig, (*rig)->camera, o.table_factor, o.coverage_target, o.max_frames);
+    auto progress = [kill_after_frames](std::size_t i, const acquisition::FrameRecord&) {
+        if (kill_after_frames > 0 && i + 1 == kill_after_frames) {
+            ::raise(SIGKILL);
+        }
+    };
+    auto r = acquisition::run_image_campaign(
+        image_rig_capture(**rig, cfg.detector_arm_rad), cfg, progress, journal);
+    if (!r) {
+        std::fprintf(stderr, "child: %s\n", r.error().message.c_str());
+    }
+    _exit(r ? 0 : 2);
+}
+
+std::string file_bytes(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+TEST(ImageResume, KillNineAtThreeMomentsLosesNoFrameAndRepeatsNone) {
+    const std::string dir =
+        std::string(GONIO_BINARY_DIR) + "/test_tools_image/resume_" + std::to_string(::getpid());
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    const std::string model = dir + "/truth.json";
+    std::ofstream(model) << brdf::model_to_json(truth_model());
+    const std::string journal = dir + "/frames.journal";
+    AcquireImageOptions o;
+    o.brdf_path = model;
+    o.image_size = 120;
+    o.supersample = 1;
+    o.table_factor = 6;
+    o.coverage_target = 0.6;
+    o.max_frames = 40;
+    o.seed = kSeed;
+    o.time_scale = 500;
+    o.quiet = true;
+
+    // 1. Inside the set-up (the white reference's third exposure): nothing is journaled.
+    int st = journaled_child(o, journal, 3, 0);
+    ASSERT_TRUE(WIFSIGNALED(st) && WTERMSIG(st) == SIGKILL) << "status " << st;
+    {
+        auto j = acquisition::ImageJournal::open(journal);
+        ASSERT_TRUE(j) << j.error().message;
+        EXPECT_FALSE(j->setup());
+        EXPECT_TRUE(j->frames().empty());
+    }
+    // 2. Right after the second frame is journaled, before the arm moves on.
+    st = journaled_child(o, journal, 0, 2);
+    ASSERT_TRUE(WIFSIGNALED(st) && WTERMSIG(st) == SIGKILL) << "status " << st;
+    const std::string after_two = file_bytes(journal);
+    {
+        auto j = acquisition::ImageJournal::open(journal);
+        ASSERT_TRUE(j) << j.error().message;
+        ASSERT_TRUE(j->setup());
+        ASSERT_EQ(j->frames().size(), 2u);
+    }
+    // 3. In the middle of a later frame's captures (the resumed run takes no set-up exposures).
+    st = journaled_child(o, journal, 20, 0);
+    ASSERT_TRUE(WIFSIGNALED(st) && WTERMSIG(st) == SIGKILL) << "status " << st;
+    const std::string after_three = file_bytes(journal);
+    ASSERT_GE(after_three.size(), after_two.size());
+    EXPECT_EQ(after_three.substr(0, after_two.size()), after_two) << "a journaled frame was lost";
+    std::size_t frames_at_kill = 0;
+    {
+        auto j = acquisition::ImageJournal::open(journal);
+        ASSERT_TRUE(j) << j.error().message;
+        frames_at_kill = j->frames().size();
+        EXPECT_GT(frames_at_kill, 2u) << "the third kill came before a new frame";
+    }
+
+    // To the end, in this process.
+    auto rig = start_image_rig(o);
+    ASSERT_TRUE(rig) << rig.error().message;
+    const acquisition::ImageCampaignConfig cfg = acquisition::image_campaign_config(
+        (*rig)->rig, (*rig)->camera, o.table_factor, o.coverage_target, o.max_frames);
+    const std::uint64_t rendered_before = (*rig)->sim->camera().frames_rendered();
+    auto r = acquisition::run_image_campaign(
+        image_rig_capture(**rig, cfg.detector_arm_rad), cfg, {}, journal);
+    ASSERT_TRUE(r) << r.error().message;
+    EXPECT_TRUE(r->target_met) << r->stop_reason;
+    EXPECT_EQ(r->resumed_frames, frames_at_kill);
+    // Only new frames were captured: no reference, no silhouette.
+    const std::size_t new_frames = r->frames.size() - frames_at_kill;
+    EXPECT_GE((*rig)->sim->camera().frames_rendered() - rendered_before, 3 * new_frames);
+    const std::string final_bytes = file_bytes(journal);
+    EXPECT_EQ(final_bytes.substr(0, after_three.size()), after_three);
+
+    auto j = acquisition::ImageJournal::open(journal);
+    ASSERT_TRUE(j) << j.error().message;
+    ASSERT_EQ(j->frames().size(), r->frames.size());
+    // No light position measured twice; every journaled frame's samples are in the table once.
+    std::vector<double> lights;
+    std::uint64_t used = 0;
+    std::uint64_t in_bins = 0;
+    for (const acquisition::ImageJournalFrame& f : j->frames()) {
+        lights.push_back(f.light_arm_rad);
+        used += f.counts.used;
+        for (const acquisition::BinAggregate& a : f.bins) {
+            in_bins += a.count;
+        }
+    }
+    std::sort(lights.begin(), lights.end());
+    EXPECT_EQ(std::adjacent_find(lights.begin(), lights.end()), lights.end())
+        << "a light position was measured twice";
+    EXPECT_EQ(used, in_bins);
+    EXPECT_EQ(r->table.total_samples(), used);
+    EXPECT_EQ(r->counts.used, used);
+    // The table rebuilt across four processes still measures the material.
+    const auto truth = brdf::make_analytic_brdf(truth_model());
+    const std::vector<double> rel = image_test::table_relative_errors(r->table, *truth, 1);
+    ASSERT_GT(rel.size(), 200u);
+    EXPECT_LT(image_test::median(rel), 0.02);
+
+    // Resuming the finished campaign captures nothing.
+    const std::uint64_t rendered_done = (*rig)->sim->camera().frames_rendered();
+    auto again = acquisition::run_image_campaign(
+        image_rig_capture(**rig, cfg.detector_arm_rad), cfg, {}, journal);
+    ASSERT_TRUE(again) << again.error().message;
+    EXPECT_EQ(again->resumed_frames, r->frames.size());
+    EXPECT_EQ(again->frames.size(), r->frames.size());
+    EXPECT_EQ((*rig)->sim->camera().frames_rendered(), rendered_done);
+    EXPECT_EQ(file_bytes(journal), final_bytes);
+    std::filesystem::remove_all(dir);
+}
+
+TEST(ImageResume, JournalOfAnotherTableIsRefused) {
+    const std::string dir =
+        std::string(GONIO_BINARY_DIR) + "/test_tools_image/other_" + std::to_string(::getpid());
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    acquisition::ImageJournalSetup s;
+    s.layout = acquisition::coarse_layout(3);
+    s.calibration = {1, 1, 1};
+    {
+        auto j = acquisition::ImageJournal::open(dir + "/frames.journal");
+        ASSERT_TRUE(j);
+        ASSERT_TRUE(j->append_setup(s));
+    }
+    AcquireImageOptions o;
+    o.material = "yellow-plastic";
+    o.image_size = 96;
+    o.supersample = 1;
+    o.time_scale = 500;
+    auto rig = start_image_rig(o);
+    ASSERT_TRUE(rig) << rig.error().message;
+    const acquisition::ImageCampaignConfig cfg =
+        acquisition::image_campaign_config((*rig)->rig, (*rig)->camera, 6, 0.5, 10);
+    auto r = acquisition::run_image_campaign(
+        image_rig_capture(**rig, 0.0), cfg, {}, dir + "/frames.journal");
+    ASSERT_FALSE(r);
+    EXPECT_NE(r.error().message.find("30x30x60"), std::string::npos) << r.error().message;
+    EXPECT_NE(r.error().message.find("15x15x30"), std::string::npos) << r.error().message;
+    EXPECT_EQ((*rig)->sim->camera().frames_rendered(), 0u);
+    std::filesystem::remove_all(dir);
+}
+
+TEST(ImageCommand, InterruptedCampaignResumesThroughTheCommand) {
+    // A journal holding the set-up and a few frames (the campaign stopped there) continued by
+    // `gonio acquire --resume DIR`, which reads the folder's settings and ground truth.
+    const std::string dir =
+        std::string(GONIO_BINARY_DIR) + "/test_tools_image/cmdresume_" + std::to_string(::getpid());
+    std::filesystem::remove_all(dir);
+    const std::string model = dir + "_truth.json";
+    std::filesystem::create_directories(std::filesystem::path(dir).parent_path());
+    std::ofstream(model) << brdf::model_to_json(truth_model());
+    const std::string base = std::string(GONIO_EXE) + " acquire --mode image --brdf " + model +
+                             " --out " + dir + " --grid 15x15x30 --coverage-target 0.5 " +
+                             "--time-scale 500 --max-frames 3 2>&1";
+    auto run = [](const std::string& cmd, std::string* out) {
+        FILE* p = popen(cmd.c_str(), "r");
+        char buf[4096];
+        while (p != nullptr && std::fgets(buf, sizeof buf, p)) {
+            *out += buf;
+        }
+        return p == nullptr ? -1 : pclose(p);
+    };
+    std::string out;
+    int st = run(base, &out);
+    // Three frames do not reach the target: exit 1, the folder holds the journal.
+    ASSERT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 1) << out;
+    ASSERT_TRUE(std::filesystem::exists(dir + "/frames.journal")) << out;
+    ASSERT_TRUE(std::filesystem::exists(dir + "/ground_truth.json")) << out;
+    // Starting again over it is refused.
+    out.clear();
+    st = run(base, &out);
+    EXPECT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 1) << out;
+    EXPECT_NE(out.find("already holds an image campaign"), std::string::npos) << out;
+    // Raise the frame limit in the stored settings (an operator allowing more frames) and resume.
+    {
+        std::ifstream in(dir + "/image_campaign.json");
+        nlohmann::json j = nlohmann::json::parse(in);
+        j["max_frames"] = 60;
+        std::ofstream(dir + "/image_campaign.json") << j.dump(2);
+    }
+    out.clear();
+    st = run(std::string(GONIO_EXE) + " acquire --resume " + dir + " 2>&1", &out);
+    ASSERT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 0) << out;
+    EXPECT_NE(out.find("resumed: 3 frames"), std::string::npos) << out;
+    EXPECT_NE(out.find("valid bins"), std::string::npos) << out;
+    auto data = brdf::read_dataset_csv(dir + "/dataset.csv");
+    ASSERT_TRUE(data) << data.error().message;
+    EXPECT_GT(data->samples.size(), 1000u);
+    // A malformed grid is a usage error naming the option.
+    out.clear();
+    st = run(
+        std::string(GONIO_EXE) + " acquire --mode image --grid 90x90 --out " + dir + "_bad 2>&1",
+        &out);
+    EXPECT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 2) << out;
+    EXPECT_NE(out.find("--grid"), std::string::npos) << out;
+    out.clear();
+    st = run(std::string(GONIO_EXE) + " acquire --grid 30x30x60 --plan-only 2>&1", &out);
+    EXPECT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 2) << out;
+    EXPECT_NE(out.find("--grid: image mode only"), std::string::npos) << out;
     std::filesystem::remove_all(dir);
     std::filesystem::remove(model);
 }
