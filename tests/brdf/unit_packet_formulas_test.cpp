@@ -235,26 +235,20 @@ TEST(PacketFormulas, SmithLambdaAndGAgreeWithScalar) {
             },
             kExactUlp);
     }
+    // V-groove from the cosines of the configuration (h and the cosines computed once in double,
+    // wi = -wo giving cos_d = 0).
+    std::vector<std::vector<double>> cosines;
+    for (const std::vector<double>& a : args) {
+        const Vec3d wi = vec(a, 0), wo = vec(a, 5);
+        const Vec3d s = wi + wo;
+        const Vec3d h = s.norm() > 0 ? Vec3d(s.normalized()) : Vec3d(0, 0, 1);
+        cosines.push_back({h.z(), wi.z(), wo.z(), s.norm() > 0 ? wo.dot(h) : 0.0});
+    }
     expect_agreement(
-        "G_vgroove",
-        args,
-        [&](const std::vector<double>& a) {
-            const Vec3d wi = vec(a, 0), wo = vec(a, 5);
-            const Vec3d s = wi + wo;
-            const Vec3d h = s.norm() > 0 ? Vec3d(s.normalized()) : Vec3d(0, 0, 1);
-            return G_vgroove(wi, wo, h);
-        },
-        [&](const std::vector<B>& a) {
-            const Vec3<B> wi = bvec(a, 0), wo = bvec(a, 5);
-            const Vec3<B> s = wi + wo;
-            const B len = xsimd::sqrt(s.x() * s.x() + s.y() * s.y() + s.z() * s.z());
-            const auto zero = len == B(0);
-            const B inv = B(1) / select(zero, B(1), len);
-            const Vec3<B> h(select(zero, B(0), s.x() * inv),
-                            select(zero, B(0), s.y() * inv),
-                            select(zero, B(1), s.z() * inv));
-            return G_vgroove(wi, wo, h);
-        },
+        "G_vgroove_from_cosines",
+        cosines,
+        [](const std::vector<double>& a) { return G_vgroove_from_cosines(a[0], a[1], a[2], a[3]); },
+        [](const std::vector<B>& a) { return G_vgroove_from_cosines(a[0], a[1], a[2], a[3]); },
         kExactUlp);
 }
 
