@@ -26,6 +26,7 @@
 
 namespace {
 
+using gonio::ends_with;
 using gonio::Expected;
 
 struct ConvertOptions {
