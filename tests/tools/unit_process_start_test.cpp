@@ -67,7 +67,7 @@ TEST(ProcessStart, DeviceCommandsRunInGonioFullWithTheirArgumentsAndStatus) {
     const CliRun help = run_gonio("sim --help");
     EXPECT_EQ(help.status, 0) << help.out;
     EXPECT_NE(help.out.find("serve the virtual rig"), std::string::npos) << help.out;
-    const CliRun bad = run_gonio("axis --no-such-option");
+    const CliRun bad = run_gonio("sim --no-such-option");
     EXPECT_EQ(bad.status, 2) << bad.out;
     EXPECT_NE(bad.out.find("--no-such-option"), std::string::npos) << bad.out;
 }
