@@ -170,7 +170,9 @@ int run_compare(const FitCliOptions& o, const gonio::brdf::Dataset& data) {
 GONIO_COMMAND(fit) {
     auto* cmd = app.add_subcommand("fit", "fit an analytic BRDF model to measured samples (Ceres)");
     auto o = std::make_shared<FitCliOptions>();
-    cmd->add_option("data", o->data, "samples: dataset CSV or table (MERL .binary, .gtab)");
+    cmd->add_option("data",
+                    o->data,
+                    "samples: dataset CSV, table (MERL .binary, .gtab) or RGL material (.bsdf)");
     cmd->add_option("--model",
                     o->model,
                     "lobe distribution: ggx, beckmann, blinn-phong, or auto (candidates ranked by "

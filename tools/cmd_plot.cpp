@@ -28,7 +28,9 @@ GONIO_COMMAND(plot) {
         "plot",
         "Polar in-plane slices, delta_phi slices and (with --fit) residual maps, as PNG files");
     auto opts = std::make_shared<Options>();
-    cmd->add_option("data", opts->data, "dataset CSV or table (*.binary, *.merl, *.gtab)")
+    cmd->add_option("data",
+                    opts->data,
+                    "dataset CSV, table (*.binary, *.merl, *.gtab) or RGL material (*.bsdf)")
         ->required();
     cmd->add_option("--fit", opts->fit, "fitted model (fit.json) or table drawn over the data");
     cmd->add_option("--out", opts->out, "output folder (created if missing)")

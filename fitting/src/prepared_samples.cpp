@@ -13,6 +13,7 @@
 #include "gonio/brdf/fresnel.h"
 #include "gonio/brdf/math.h"
 #include "gonio/brdf/microfacet.h"
+#include "gonio/fitting/vector_log.h"
 
 namespace gonio::fitting {
 
@@ -23,6 +24,8 @@ constexpr double kCbrtOffset = 1e-6;
 constexpr std::size_t kBlock = 4096;
 // Below this many items a pass stays on the calling thread (starting threads costs more).
 constexpr std::size_t kParallelMin = 16384;
+// Samples whose logarithms go to the packets together (a divisor of kBlock).
+constexpr std::size_t kRun = 64;
 
 }  // namespace
 
@@ -380,17 +383,17 @@ double PreparedSamples::g_prime(double m, std::size_t i) const {
     }
 }
 
-bool PreparedSamples::analytic_sample(const brdf::ModelD& m,
-                                      std::size_t i,
-                                      double r[3],
-                                      double* v) const {
+void PreparedSamples::analytic_parts(const brdf::ModelD& m,
+                                     std::size_t i,
+                                     double f[3],
+                                     double* d) const {
     // Per lobe: the shape S = D G / (4 cos_i cos_o) and dS/d(width) through a one-slot Jet (only
     // the width enters it), and F = f0 + (1 - f0) x5 (Schlick) or 1.
     using J1 = ceres::Jet<double, 1>;
     constexpr int kMaxLobes = 8;
     double S[kMaxLobes], dS[kMaxLobes];
     brdf::Rgbd F[kMaxLobes];
-    brdf::Rgbd f = m.has_diffuse ? brdf::Rgbd(m.diffuse * brdf::kInvPi) : brdf::Rgbd::Zero();
+    brdf::Rgbd fm = m.has_diffuse ? brdf::Rgbd(m.diffuse * brdf::kInvPi) : brdf::Rgbd::Zero();
     const int nl = static_cast<int>(m.lobes.size());
     for (int l = 0; l < nl; ++l) {
         const brdf::Lobe<double>& lobe = m.lobes[l];
@@ -407,36 +410,84 @@ bool PreparedSamples::analytic_sample(const brdf::ModelD& m,
         F[l] = lobe.fresnel.type == brdf::FresnelType::kSchlick
                    ? brdf::Rgbd(brdf::fresnel_schlick_from_pow5(x5_[i], lobe.fresnel.f0))
                    : brdf::Rgbd::Ones();
-        f += lobe.scale * F[l] * S[l];
+        fm += lobe.scale * F[l] * S[l];
     }
+    for (int c = 0; c < 3; ++c) {
+        f[c] = fm[c];
+        double* dc = d + c * slots_;
+        for (int k = 0; k < slots_; ++k) {
+            const int l = slot_lobe_[k];
+            double v = 0;
+            switch (slot_field_[k]) {
+                case Field::kDiffuse:
+                    v = brdf::kInvPi;
+                    break;
+                case Field::kAlphaX:
+                case Field::kExponent:
+                    v = m.lobes[l].scale[c] * F[l][c] * dS[l];
+                    break;
+                case Field::kScale:
+                    v = F[l][c] * S[l];
+                    break;
+                case Field::kF0:
+                    v = m.lobes[l].scale[c] * (1 - x5_[i]) * S[l];
+                    break;
+                default:
+                    break;
+            }
+            dc[k] = v;
+        }
+    }
+}
+
+bool PreparedSamples::analytic_sample(const brdf::ModelD& m,
+                                      std::size_t i,
+                                      double r[3],
+                                      double* v) const {
+    double f[3];
+    analytic_parts(m, i, f, v);
     for (int c = 0; c < 3; ++c) {
         r[c] = s_[c][i] * (g_of(f[c], i) - g_d_[c][i]);
         const double dr = s_[c][i] * g_prime(f[c], i);
         double* vc = v + c * slots_;
         for (int k = 0; k < slots_; ++k) {
-            const int l = slot_lobe_[k];
-            double d = 0;
-            switch (slot_field_[k]) {
-                case Field::kDiffuse:
-                    d = brdf::kInvPi;
-                    break;
-                case Field::kAlphaX:
-                case Field::kExponent:
-                    d = m.lobes[l].scale[c] * F[l][c] * dS[l];
-                    break;
-                case Field::kScale:
-                    d = F[l][c] * S[l];
-                    break;
-                case Field::kF0:
-                    d = m.lobes[l].scale[c] * (1 - x5_[i]) * S[l];
-                    break;
-                default:
-                    break;
-            }
-            vc[k] = dr * d;
+            vc[k] *= dr;
         }
     }
     return std::isfinite(r[0]) && std::isfinite(r[1]) && std::isfinite(r[2]);
+}
+
+bool PreparedSamples::analytic_log_run(
+    const brdf::ModelD& m, std::size_t begin, std::size_t end, double* r, double* v) const {
+    // Model values and their derivatives per sample, then the logarithms of the run on packets,
+    // then the residuals r = s (log(1 + f cos_i) - g(d)) and dr/df = s cos_i / (1 + f cos_i).
+    double arg[3 * kRun] = {};
+    double lg[3 * kRun];
+    const std::size_t n = end - begin;
+    for (std::size_t j = 0; j < n; ++j) {
+        const std::size_t i = begin + j;
+        double f[3];
+        analytic_parts(m, i, f, v + j * 3 * slots_);
+        for (int c = 0; c < 3; ++c) {
+            arg[3 * j + c] = f[c] * cos_i_[i];
+        }
+    }
+    log1p_packets(arg, lg, 3 * n);
+    bool finite = true;
+    for (std::size_t j = 0; j < n; ++j) {
+        const std::size_t i = begin + j;
+        for (int c = 0; c < 3; ++c) {
+            const double rc = s_[c][i] * (lg[3 * j + c] - g_d_[c][i]);
+            const double dr = s_[c][i] * cos_i_[i] / (1 + arg[3 * j + c]);
+            r[3 * j + c] = rc;
+            finite = finite && std::isfinite(rc);
+            double* vc = v + (3 * j + c) * slots_;
+            for (int k = 0; k < slots_; ++k) {
+                vc[k] *= dr;
+            }
+        }
+    }
+    return finite;
 }
 
 template <class T>
@@ -457,14 +508,36 @@ T PreparedSamples::g_of(const T& m, std::size_t i) const {
 bool PreparedSamples::sum_of_squares(const double* x, double* out, int threads) const {
     const brdf::ModelD m = map_->model<double>(x);
     std::vector<double>& partial = block_scratch(1);
+    const bool runs = form_ == ResidualForm::kLog;
     parallel_blocks(n_, threads, [&](std::size_t k, std::size_t b, std::size_t e) {
         double acc = 0;
+        // Log residual: the logarithms of a run of samples on packets.
+        double arg[3 * kRun] = {};
+        double lg[3 * kRun];
         for (std::size_t i = b; i < e; ++i) {
-            const brdf::Rgbd f = eval(m, i);
             double s2 = 0;
-            for (int c = 0; c < 3; ++c) {
-                const double r = s_[c][i] * (g_of(f[c], i) - g_d_[c][i]);
-                s2 += r * r;
+            if (runs) {
+                const std::size_t j = (i - b) % kRun;
+                if (j == 0) {
+                    const std::size_t n = std::min(e - i, kRun);
+                    for (std::size_t q = 0; q < n; ++q) {
+                        const brdf::Rgbd f = eval(m, i + q);
+                        for (int c = 0; c < 3; ++c) {
+                            arg[3 * q + c] = f[c] * cos_i_[i + q];
+                        }
+                    }
+                    log1p_packets(arg, lg, 3 * n);
+                }
+                for (int c = 0; c < 3; ++c) {
+                    const double r = s_[c][i] * (lg[3 * j + c] - g_d_[c][i]);
+                    s2 += r * r;
+                }
+            } else {
+                const brdf::Rgbd f = eval(m, i);
+                for (int c = 0; c < 3; ++c) {
+                    const double r = s_[c][i] * (g_of(f[c], i) - g_d_[c][i]);
+                    s2 += r * r;
+                }
             }
             if (loss_) {
                 double rho[3];
@@ -524,11 +597,27 @@ bool PreparedSamples::normal_equations_k(const double* x, NormalEquations& out, 
             bv[c].setZero();
         }
         double cost = 0;
-        double ra[3];
-        double va[3 * 32] = {};
+        // Closed-form derivatives of the log residual: a run of samples at a time, its
+        // logarithms on packets.
+        const bool runs = analytic_ && form_ == ResidualForm::kLog;
+        double ra[3 * kRun];
+        double va[3 * kRun * 32];
         for (std::size_t i = b; i < e; ++i) {
             J r[3];
-            if (analytic_) {
+            if (runs) {
+                const std::size_t j = (i - b) % kRun;
+                if (j == 0 && !analytic_log_run(md, i, std::min(e, i + kRun), ra, va)) {
+                    cost = std::numeric_limits<double>::infinity();
+                    break;
+                }
+                for (int c = 0; c < 3; ++c) {
+                    r[c].a = ra[3 * j + c];
+                    const double* vc = va + (3 * j + c) * slots_;
+                    for (int k = 0; k < K; ++k) {
+                        r[c].v[k] = k < slots_ ? vc[k] : 0.0;
+                    }
+                }
+            } else if (analytic_) {
                 if (!analytic_sample(md, i, ra, va)) {
                     cost = std::numeric_limits<double>::infinity();
                     break;
@@ -560,7 +649,9 @@ bool PreparedSamples::normal_equations_k(const double* x, NormalEquations& out, 
             for (int c = 0; c < 3; ++c) {
                 // Upper triangle of w v v^T over the slots in use (Eigen's general rank update
                 // is slow for these small fixed sizes).
-                for (int q = 0; q < slots_; ++q) {
+                // (Over all K slots: those beyond slots_ hold zeros, and a fixed bound lets the
+                // compiler unroll.)
+                for (int q = 0; q < K; ++q) {
                     const double wv = w * r[c].v[q];
                     for (int p = 0; p <= q; ++p) {
                         a[c](p, q) += wv * r[c].v[p];

@@ -19,11 +19,11 @@
 #include <utility>
 #include <vector>
 
+#include "gonio/base/atomic_file.h"
 #include "gonio/base/strings.h"
 #include "gonio/batch/fit_request.h"
 #include "gonio/batch/manifest.h"
 #include "gonio/brdf/analytic_brdf.h"
-#include "gonio/base/atomic_file.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/checks.h"
 #include "gonio/brdf/dataset.h"
@@ -42,6 +42,7 @@ namespace py = pybind11;
 namespace {
 
 using gonio::Expected;
+using gonio::ends_with;
 using gonio::brdf::Brdf;
 using gonio::brdf::Dataset;
 using gonio::brdf::Sample;
@@ -795,6 +796,8 @@ A table (*.binary, *.merl, *.gtab) -> table dict: raw (3, n_theta_h, n_theta_d, 
   stored values as in the file (no copy; f = raw * scale per channel, raw < 0 = not measured),
   scale (3,), grid, valid (bool per bin), source, kind = "table". With samples=True, a table
   is returned as samples instead (one per valid bin centre above the horizon).
+An RGL material (*.bsdf) -> samples dict of its stored nodes, each at its own direction pair
+  (docs/file-formats-tables.md); no resampling.
 Raises gonio.Error with the reader's message (file, line, field, rule).)doc");
     m.def("save",
           &save,
