@@ -5,9 +5,12 @@
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <vector>
 
-#include "gonio/brdf/analytic_brdf.h"
+#include "gonio/base/atomic_file.h"
 #include "gonio/base/data_path.h"
+#include "gonio/base/limits.h"
+#include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/material_library.h"
 
 namespace gonio::tools {
@@ -146,10 +149,85 @@ std::string new_output_dir(const std::string& material) {
     }
 }
 
+constexpr const char* kSettingsFile = "image_campaign.json";
+constexpr const char* kJournalFile = "frames.journal";
+
+/// The settings a resume needs, as stored in the campaign folder.
+std::string settings_json(const AcquireImageOptions& o, const std::string& brdf_in_dir) {
+    nlohmann::json j;
+    j["material"] = o.material;
+    j["brdf"] = brdf_in_dir;
+    j["rig"] = o.rig_path;
+    j["table_factor"] = o.table_factor;
+    j["grid"] = {o.grid.n_theta_h, o.grid.n_theta_d, o.grid.n_phi_d};
+    j["coverage_target"] = o.coverage_target;
+    j["max_frames"] = o.max_frames;
+    j["image_size"] = o.image_size;
+    j["perspective"] = o.perspective;
+    j["supersample"] = o.supersample;
+    j["time_scale"] = o.time_scale;
+    j["seed"] = o.seed;
+    return j.dump(2) + "\n";
+}
+
+/// Options of the campaign in `dir` (settings_json), the folder's ground truth resolved in it.
+Expected<AcquireImageOptions> read_settings(const std::string& dir,
+                                            const AcquireImageOptions& base) {
+    const std::string path = (std::filesystem::path(dir) / kSettingsFile).string();
+    auto text = read_input_file(path, 1 << 20);
+    if (!text) {
+        return make_error(dir + ": not an image-mode campaign folder (" + text.error().message +
+                          ")");
+    }
+    AcquireImageOptions o = base;
+    try {
+        const nlohmann::json j = nlohmann::json::parse(*text);
+        o.material = j.at("material").get<std::string>();
+        const std::string b = j.at("brdf").get<std::string>();
+        o.brdf_path = b.empty() ? std::string() : (std::filesystem::path(dir) / b).string();
+        o.rig_path = j.at("rig").get<std::string>();
+        o.table_factor = j.at("table_factor").get<int>();
+        const auto& g = j.at("grid");
+        o.grid = {g.at(0).get<int>(), g.at(1).get<int>(), g.at(2).get<int>()};
+        o.coverage_target = j.at("coverage_target").get<double>();
+        o.max_frames = j.at("max_frames").get<int>();
+        o.image_size = j.at("image_size").get<int>();
+        o.perspective = j.at("perspective").get<bool>();
+        o.supersample = j.at("supersample").get<int>();
+        o.time_scale = j.at("time_scale").get<double>();
+        o.seed = j.at("seed").get<std::uint64_t>();
+    } catch (const nlohmann::json::exception& e) {
+        return make_error(path + ": " + e.what());
+    }
+    o.out_dir = dir;
+    o.resume_dir = dir;
+    return o;
+}
+
 }  // namespace
 
-int run_acquire_image_mode(const AcquireImageOptions& o) {
-    if (o.table_factor < 1 || 90 % o.table_factor != 0) {
+int run_acquire_image_mode(const AcquireImageOptions& given) {
+    AcquireImageOptions o = given;
+    if (!given.resume_dir.empty()) {
+        auto r = read_settings(given.resume_dir, given);
+        if (!r) {
+            std::fprintf(stderr, "gonio acquire: %s\n", r.error().message.c_str());
+            return 1;
+        }
+        o = *r;
+    }
+    const bool custom_grid = o.grid.n_theta_h > 0 || o.grid.n_theta_d > 0 || o.grid.n_phi_d > 0;
+    if (custom_grid && (o.grid.n_theta_h < 1 || o.grid.n_theta_d < 1 || o.grid.n_phi_d < 1 ||
+                        o.grid.n_theta_h > 360 || o.grid.n_theta_d > 360 || o.grid.n_phi_d > 720)) {
+        std::fprintf(stderr,
+                     "gonio acquire: --grid %dx%dx%d: each count must be >= 1 (at most 360 x 360 "
+                     "x 720)\n",
+                     o.grid.n_theta_h,
+                     o.grid.n_theta_d,
+                     o.grid.n_phi_d);
+        return 1;
+    }
+    if (!custom_grid && (o.table_factor < 1 || 90 % o.table_factor != 0)) {
         std::fprintf(stderr,
                      "gonio acquire: --table-factor %d must divide 90 (1 = MERL resolution)\n",
                      o.table_factor);
@@ -177,9 +255,56 @@ int run_acquire_image_mode(const AcquireImageOptions& o) {
     const std::string motors =
         (*rig)->rig.axes[static_cast<int>(acquisition::AxisRole::kLight)].address;
     const std::string camera_address = (*rig)->rig.camera_address;
-    const acquisition::ImageCampaignConfig cfg = acquisition::image_campaign_config(
-        (*rig)->rig, (*rig)->camera, o.table_factor, o.coverage_target, o.max_frames);
+    const acquisition::ImageCampaignConfig cfg =
+        custom_grid
+            ? acquisition::image_campaign_config(
+                  (*rig)->rig, (*rig)->camera, o.grid, o.coverage_target, o.max_frames)
+            : acquisition::image_campaign_config(
+                  (*rig)->rig, (*rig)->camera, o.table_factor, o.coverage_target, o.max_frames);
     const std::string dir = o.out_dir.empty() ? new_output_dir(truth_name) : o.out_dir;
+    const std::string journal = (std::filesystem::path(dir) / kJournalFile).string();
+    if (o.resume_dir.empty()) {
+        std::error_code ec;
+        if (std::filesystem::exists(journal, ec)) {
+            std::fprintf(stderr,
+                         "gonio acquire: %s: already holds an image campaign (continue it with "
+                         "--resume %s)\n",
+                         dir.c_str(),
+                         dir.c_str());
+            return 1;
+        }
+        std::filesystem::create_directories(dir, ec);
+        if (ec) {
+            std::fprintf(stderr,
+                         "gonio acquire: %s: cannot create: %s\n",
+                         dir.c_str(),
+                         ec.message().c_str());
+            return 1;
+        }
+        // The ground truth's file is copied into the folder so that a resume reads only the
+        // folder.
+        std::string brdf_in_dir;
+        if (!o.brdf_path.empty()) {
+            brdf_in_dir = "ground_truth" + std::filesystem::path(o.brdf_path).extension().string();
+            auto bytes = read_input_file(o.brdf_path, max_memory_bytes());
+            if (!bytes) {
+                std::fprintf(stderr, "gonio acquire: %s\n", bytes.error().message.c_str());
+                return 1;
+            }
+            if (auto w =
+                    write_file_atomic((std::filesystem::path(dir) / brdf_in_dir).string(), *bytes);
+                !w) {
+                std::fprintf(stderr, "gonio acquire: %s\n", w.error().message.c_str());
+                return 1;
+            }
+        }
+        if (auto w = write_file_atomic((std::filesystem::path(dir) / kSettingsFile).string(),
+                                       settings_json(o, brdf_in_dir));
+            !w) {
+            std::fprintf(stderr, "gonio acquire: %s\n", w.error().message.c_str());
+            return 1;
+        }
+    }
     if (!o.quiet) {
         std::printf(
             "image mode: %s sphere on %s (motors %s, camera %s), %dx%dx%d table, "
@@ -204,7 +329,7 @@ int run_acquire_image_mode(const AcquireImageOptions& o) {
         }
     };
     auto result = acquisition::run_image_campaign(
-        image_rig_capture(**rig, cfg.detector_arm_rad), cfg, progress);
+        image_rig_capture(**rig, cfg.detector_arm_rad), cfg, progress, journal);
     const acquisition::PoseCheckLog& poses = (*rig)->pose_log;
     if (!result) {
         std::fprintf(stderr, "gonio acquire: %s\n", result.error().message.c_str());
@@ -228,6 +353,10 @@ int run_acquire_image_mode(const AcquireImageOptions& o) {
         return 1;
     }
     const acquisition::PixelCounts& c = result->counts;
+    if (result->resumed_frames > 0) {
+        std::printf(
+            "resumed: %zu frames read back from %s\n", result->resumed_frames, journal.c_str());
+    }
     std::printf(
         "%s: %zu frames, %llu pixel samples in %zu bins; coverage %.1f%% of %zu valid bins "
         "(reachable %zu)\n",
@@ -255,6 +384,35 @@ int run_acquire_image_mode(const AcquireImageOptions& o) {
         hole_bins,
         result->holes.size(),
         result->stop_reason.c_str());
+    {
+        // Empty valid bins by reason, in the order coverage_holes() tells them apart.
+        std::vector<std::pair<std::string, std::size_t>> by_reason;
+        for (const auto& h : result->holes) {
+            auto it = std::find_if(by_reason.begin(), by_reason.end(), [&](const auto& p) {
+                return p.first == h.reason;
+            });
+            if (it == by_reason.end()) {
+                by_reason.emplace_back(h.reason, h.bins);
+            } else {
+                it->second += h.bins;
+            }
+        }
+        std::string line;
+        for (const auto& [reason, bins] : by_reason) {
+            char pct[32];
+            std::snprintf(
+                pct,
+                sizeof pct,
+                "%.1f%%",
+                100.0 * static_cast<double>(bins) /
+                    static_cast<double>(std::max<std::size_t>(1, result->coverage.valid_bins())));
+            line +=
+                (line.empty() ? "" : ", ") + reason + " " + std::to_string(bins) + " (" + pct + ")";
+        }
+        if (!line.empty()) {
+            std::printf("empty valid bins by reason: %s\n", line.c_str());
+        }
+    }
     std::printf(
         "captures: %llu through %s (%zu retried after a camera error); pose checks: %zu "
         "exposures repeated, %zu poses corrected\n",

@@ -32,11 +32,16 @@ struct AcquireImageOptions {
     /// material / brdf_path); without one its devices are opened at their addresses.
     std::string rig_path;
     /// Fraction of the valid bins. What a sphere image can reach depends on its size in pixels
-    /// (the smallest theta_h bins) and on the 80-degree limits: the default camera reaches about
-    /// 60% of a 30 x 30 x 60 table.
+    /// (the smallest theta_h bins) and on the 80-degree grazing limits: the default
+    /// camera reaches about 60% of a 30 x 30 x 60 table.
     double coverage_target = 0.55;
     int max_frames = 200;
-    int table_factor = 3;      ///< 1 = MERL 90 x 90 x 180, 2 = 45 x 45 x 90, 3 = 30 x 30 x 60
+    int table_factor = 3;  ///< 1 = MERL 90 x 90 x 180, 2 = 45 x 45 x 90, 3 = 30 x 30 x 60
+    /// Table bins (theta_h x theta_d x phi_d); all zero: from table_factor.
+    acquisition::TableLayout grid{0, 0, 0};
+    /// Continue the campaign in this folder (its image_campaign.json and frames.journal); the
+    /// options above are then read from the folder.
+    std::string resume_dir;
     int image_size = 256;      ///< Default camera sensor size (square), px.
     bool perspective = false;  ///< Default camera: perspective at 0.5 m instead of telecentric.
     int supersample = 2;       ///< Sub-pixel rays per axis of the simulated sphere image.
@@ -46,7 +51,10 @@ struct AcquireImageOptions {
 };
 
 /// Runs the campaign and prints a summary; returns the process exit status (0 success, 1 failure
-/// with the error printed or the coverage target not met).
+/// with the error printed or the coverage target not met). The folder holds, from the start, the
+/// campaign's settings (image_campaign.json, the ground-truth file copied beside it) and its frame
+/// journal (frames.journal, acquisition/image_journal.h), so that an interrupted campaign resumes
+/// with `resume_dir`.
 int run_acquire_image_mode(const AcquireImageOptions& options);
 
 /// The image rig: the devices opened through their addresses, and the embedded virtual rig

@@ -10,7 +10,9 @@
 #include <iostream>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
+#include <utility>
 
 #include "acquire_image_mode.h"
 #include "command.h"
@@ -19,6 +21,7 @@
 #include "gonio/base/atomic_file.h"
 #include "gonio/base/data_path.h"
 #include "gonio/base/limits.h"
+#include "gonio/report/live_server.h"
 #include "gonio/sim/sim_rig.h"
 #include "option_checks.h"
 
@@ -48,6 +51,8 @@ struct AcquireOptions {
     std::string mode = "point";
     double coverage_target = 0;
     int max_frames = 0;
+    std::string grid;
+    std::string serve;  ///< "[ADDR:]PORT" of the live page; empty = none
 };
 
 std::atomic<bool> g_stop{false};
@@ -79,9 +84,54 @@ std::string ground_truth_name(const std::string& brdf) {
     return "ground_truth" + fs::path(brdf).extension().string();
 }
 
+/// "HxDxP" (theta_h x theta_d x phi_d bins) of --grid; false when malformed.
+bool parse_grid(const std::string& text, gonio::acquisition::TableLayout* out) {
+    int h = 0;
+    int d = 0;
+    int p = 0;
+    char x1 = 0;
+    char x2 = 0;
+    char extra = 0;
+    if (std::sscanf(text.c_str(), "%d%c%d%c%d%c", &h, &x1, &d, &x2, &p, &extra) != 5 || x1 != 'x' ||
+        x2 != 'x' || h < 1 || d < 1 || p < 1) {
+        return false;
+    }
+    *out = {h, d, p};
+    return true;
+}
+
 /// Image mode: a curved sample, thousands of samples per frame (docs/image-acquisition.md).
 int run_image(const AcquireOptions& o) {
     gonio::tools::AcquireImageOptions io;
+    io.resume_dir = o.resume;
+    if (!o.resume.empty()) {
+        // A resume continues with the settings stored in the folder.
+        const std::pair<bool, const char*> given[] = {{!o.grid.empty(), "--grid"},
+                                                      {o.coverage_target > 0, "--coverage-target"},
+                                                      {o.max_frames > 0, "--max-frames"},
+                                                      {!o.material.empty(), "--material"},
+                                                      {!o.brdf.empty(), "--brdf"},
+                                                      {!o.rig.empty(), "--rig"},
+                                                      {!o.out.empty(), "--out"},
+                                                      {o.time_scale > 0, "--time-scale"}};
+        for (const auto& [set, name] : given) {
+            if (set) {
+                std::fprintf(stderr,
+                             "gonio acquire: %s with --resume: an image campaign continues with "
+                             "the settings in %s/image_campaign.json\n",
+                             name,
+                             o.resume.c_str());
+                return 2;
+            }
+        }
+    }
+    if (!o.grid.empty() && !parse_grid(o.grid, &io.grid)) {
+        std::fprintf(stderr,
+                     "gonio acquire: --grid \"%s\": expected N_THETA_HxN_THETA_DxN_PHI_D, e.g. "
+                     "90x90x180\n",
+                     o.grid.c_str());
+        return 2;
+    }
     io.out_dir = o.out;
     if (!o.material.empty()) {
         io.material = o.material;
@@ -99,8 +149,37 @@ int run_image(const AcquireOptions& o) {
 }
 
 int run(const AcquireOptions& o) {
-    if (o.mode == "image") {
+    std::error_code image_ec;
+    const bool image =
+        o.mode == "image" ||
+        (!o.resume.empty() && fs::exists(fs::path(o.resume) / "image_campaign.json", image_ec));
+    std::optional<std::pair<std::string, int>> serve_at;
+    if (!o.serve.empty()) {
+        if (image) {
+            std::fprintf(stderr,
+                         "gonio acquire: --serve: the live page follows point-mode campaigns; "
+                         "image mode is not served\n");
+            return 2;
+        }
+        if (o.plan_only) {
+            std::fprintf(stderr, "gonio acquire: --serve with --plan-only: nothing to watch\n");
+            return 2;
+        }
+        auto a = gonio::report::parse_listen_address(o.serve);
+        if (!a) {
+            std::fprintf(stderr, "gonio acquire: %s\n", a.error().message.c_str());
+            return 2;
+        }
+        serve_at = *a;
+    }
+    if (image) {
         return run_image(o);
+    }
+    if (!o.grid.empty()) {
+        std::fprintf(stderr,
+                     "gonio acquire: --grid: image mode only (point mode: --plan, --n-theta, "
+                     "--n-dphi)\n");
+        return 2;
     }
     std::string dir;
     acq::RigConfig rig;
@@ -299,8 +378,33 @@ int run(const AcquireOptions& o) {
         }
         return {};
     };
+    std::unique_ptr<gonio::report::LiveServer> live;
+    if (serve_at) {
+        gonio::report::LiveOptions lo;
+        lo.title = "gonio campaign " + fs::path(dir).filename().string();
+        auto srv = gonio::report::LiveServer::start(serve_at->first, serve_at->second, lo);
+        if (!srv) {
+            return fail(srv.error().message);
+        }
+        live = std::move(*srv);
+        std::printf("live page: %s\n", live->url().c_str());
+        std::fflush(stdout);
+        gonio::report::LiveServer* l = live.get();
+        l->publish_progress(0, 0, "running");
+        // The campaign thread only hands each sample over; the server draws on its own thread.
+        hooks.on_measurement = [l](const gonio::brdf::Sample& s, std::size_t done, std::size_t n) {
+            l->publish_sample(s);
+            l->publish_progress(done, n, "running");
+        };
+    }
     std::signal(SIGINT, on_sigint);
     auto res = acq::run_campaign(dir, *dev, hooks);
+    if (live && res) {
+        const char* state = res->outcome == acq::Outcome::kCompleted     ? "completed"
+                            : res->outcome == acq::Outcome::kInterrupted ? "stopped"
+                                                                         : "paused";
+        live->publish_progress(res->measured_total, res->planned_total, state);
+    }
     std::signal(SIGINT, SIG_DFL);
     if (!res) {
         return fail(res.error().message);
@@ -364,8 +468,14 @@ GONIO_COMMAND(acquire) {
     cmd->add_option(
            "--coverage-target", o->coverage_target, "image mode: fraction of valid table bins")
         ->check(gonio::tools::finite_in(0.001, 1));
+    cmd->add_option(
+        "--grid", o->grid, "image mode: table bins N_THETA_HxN_THETA_DxN_PHI_D (90x90x180 = MERL)");
     cmd->add_option("--max-frames", o->max_frames, "image mode: most light positions")
         ->check(gonio::tools::integer_in(1, 1000000));
     cmd->add_flag("--plan-only", o->plan_only, "print the plan (and unreachable targets) and exit");
+    cmd->add_option("--serve",
+                    o->serve,
+                    "serve a live page of the campaign at [ADDR:]PORT (ADDR default 127.0.0.1, "
+                    "PORT 0 = any free port; the URL is printed); point mode");
     return [o]() { return run(*o); };
 }

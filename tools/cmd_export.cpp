@@ -72,7 +72,7 @@ GONIO_COMMAND(export) {
                 std::fprintf(stderr, "gonio export: --to merl needs an output file (*.binary)\n");
                 return 2;
             }
-            if (ends_with(opts->input, ".csv")) {
+            if (gonio::ends_with(opts->input, ".csv")) {
                 auto data = gonio::brdf::load_samples(opts->input);
                 if (!data) {
                     std::fprintf(stderr, "gonio export: %s\n", data.error().message.c_str());

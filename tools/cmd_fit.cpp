@@ -45,6 +45,7 @@ struct FitCliOptions {
     std::string truth;
     std::string manifest;
     std::string shard;
+    bool strict = false;
 };
 
 std::vector<std::string> split(const std::string& s) {
@@ -114,6 +115,7 @@ int run_compare(const FitCliOptions& o, const gonio::brdf::Dataset& data) {
     };
     std::vector<Row> rows;
     std::vector<std::string> failed;
+    std::vector<std::string> misfits;
     for (const std::string& name : split(o.compare)) {
         auto spec = build_spec(o, name);
         if (!spec) {
@@ -125,12 +127,13 @@ int run_compare(const FitCliOptions& o, const gonio::brdf::Dataset& data) {
             std::fprintf(stderr, "gonio fit: %s: %s\n", name.c_str(), r.error().message.c_str());
             return 1;
         }
-        if (!r->usable()) {
-            failed.push_back(name + ": " +
-                             (r->solver.converged
-                                  ? std::string("does not represent the data")
-                                  : r->solver.termination + " (" + r->solver.message + ")"));
+        if (!r->solver.converged) {
+            failed.push_back(name + ": " + r->solver.termination + " (" + r->solver.message + ")");
             continue;
+        }
+        if (!r->usable()) {
+            // A misfit is ranked with the others (its figures are what that model can do).
+            misfits.push_back(name);
         }
         rows.push_back({name, *r});
     }
@@ -148,21 +151,28 @@ int run_compare(const FitCliOptions& o, const gonio::brdf::Dataset& data) {
                 "time_s");
     for (std::size_t i = 0; i < rows.size(); ++i) {
         const fitting::FitResult& r = rows[i].result;
-        std::printf("%-4zu %-12s %12.6g %12.6g %12.6g %6d %9.3f\n",
+        std::printf("%-4zu %-12s %12.6g %12.6g %12.6g %6d %9.3f%s\n",
                     i + 1,
                     rows[i].model.c_str(),
                     mean(r.metrics.log_rmse),
                     mean(r.metrics.rel_rmse),
                     mean(r.metrics.rmse),
                     r.solver.iterations,
-                    r.solver.wall_time_s);
+                    r.solver.wall_time_s,
+                    r.usable() ? "" : "  (misfit: does not represent the data)");
     }
     std::printf("(errors are channel means over all %zu valid samples; ranked by log_rmse)\n",
                 rows.empty() ? std::size_t{0} : rows[0].result.samples.valid);
     for (const std::string& f : failed) {
-        std::printf("not usable, not ranked: %s\n", f.c_str());
+        std::printf("did not converge, not ranked: %s\n", f.c_str());
     }
-    return failed.empty() ? 0 : 1;
+    for (const std::string& m : misfits) {
+        std::fprintf(stderr,
+                     "gonio fit: %s: %s does not represent these data\n",
+                     o.strict ? "error" : "warning",
+                     m.c_str());
+    }
+    return failed.empty() && (misfits.empty() || !o.strict) ? 0 : 1;
 }
 
 }  // namespace
@@ -175,7 +185,8 @@ GONIO_COMMAND(fit) {
                     "samples: dataset CSV, table (MERL .binary, .gtab) or RGL material (.bsdf)");
     cmd->add_option("--model",
                     o->model,
-                    "lobe distribution: ggx, beckmann, blinn-phong, or auto (candidates ranked by "
+                    "lobe distribution: ggx, beckmann, blinn-phong, student-t, or auto (candidates "
+                    "ranked by "
                     "BIC on the reduction, the winner polished on all samples)")
         ->capture_default_str();
     cmd->add_option("--template",
@@ -207,6 +218,10 @@ GONIO_COMMAND(fit) {
     cmd->add_option("--threads", o->threads, "solver threads (0 = all cores)")
         ->capture_default_str();
     cmd->add_option("--out", o->out, "write the fitted model here and the report beside it");
+    cmd->add_flag("--strict",
+                  o->strict,
+                  "exit 1 when the model does not represent the data (a misfit is otherwise "
+                  "written, reported on stderr, and exits 0)");
     cmd->add_option("--truth", o->truth, "ground-truth model JSON, copied into the report");
     cmd->add_option("--compare",
                     o->compare,
@@ -221,7 +236,8 @@ GONIO_COMMAND(fit) {
     return [o, cmd]() -> int {
         if (!o->manifest.empty()) {
             const int threads = cmd->count("--threads") > 0 ? o->threads : -1;
-            return gonio::tools::run_fit_manifest(o->manifest, o->shard, o->out, threads);
+            return gonio::tools::run_fit_manifest(
+                o->manifest, o->shard, o->out, threads, o->strict);
         }
         if (o->data.empty()) {
             std::fprintf(stderr, "gonio fit: give DATA (or --manifest M --out DIR)\n");
@@ -304,13 +320,16 @@ GONIO_COMMAND(fit) {
             return 1;
         }
         if (!result->usable()) {
+            // A converged misfit is a finding: the best fit of that model, written with its
+            // verdict. Scripts that want it to fail ask for --strict.
             std::fprintf(stderr,
-                         "gonio fit: the model does not represent these data (%s); %s\n",
+                         "gonio fit: %s: the model does not represent these data (%s); %s\n",
+                         o->strict ? "error" : "warning",
                          result->goodness.warnings.empty()
                              ? "see the report"
                              : result->goodness.warnings.front().c_str(),
                          result->goodness.suggestion.c_str());
-            return 1;
+            return o->strict ? 1 : 0;
         }
         return 0;
     };

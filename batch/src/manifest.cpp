@@ -1,6 +1,5 @@
 // Manifests, shards and the run of one entry.
 
-#include "gonio/base/strings.h"
 #include "gonio/batch/manifest.h"
 
 #include <cerrno>
@@ -12,6 +11,7 @@
 #include <sstream>
 
 #include "gonio/base/atomic_file.h"
+#include "gonio/base/strings.h"
 #include "gonio/brdf/samples_io.h"
 #include "gonio/fitting/fit.h"
 #include "gonio/fitting/report.h"
@@ -233,6 +233,8 @@ const char* to_string(EntryStatus s) {
     switch (s) {
         case EntryStatus::kFitted:
             return "fitted";
+        case EntryStatus::kMisfit:
+            return "misfit";
         case EntryStatus::kNotConverged:
             return "not-converged";
         case EntryStatus::kFailed:
@@ -283,7 +285,7 @@ EntryOutcome run_entry(const ManifestEntry& entry, const std::string& out_dir) {
     }
     fill_metrics(o, *result);
     auto w = fitting::write_fit_report(model_path(out_dir, entry.id), *result);
-    if (!result->usable()) {
+    if (!result->solver.converged) {
         o.status = EntryStatus::kNotConverged;
         o.message = result->solver.termination + ": " + result->solver.message;
         return o;
@@ -292,6 +294,13 @@ EntryOutcome run_entry(const ManifestEntry& entry, const std::string& out_dir) {
         return fail(w.error().message);
     }
     fs::remove(error_path(out_dir, entry.id), ec);
+    if (!result->usable()) {
+        o.status = EntryStatus::kMisfit;
+        o.message = (result->goodness.warnings.empty() ? std::string("does not represent the data")
+                                                       : result->goodness.warnings.front()) +
+                    "; " + result->goodness.suggestion;
+        return o;
+    }
     o.status = EntryStatus::kFitted;
     o.message = result->solver.termination;
     return o;

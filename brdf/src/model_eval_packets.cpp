@@ -4,6 +4,8 @@
 
 #include <xsimd/xsimd.hpp>
 
+#include "gonio/brdf/model_eval.h"
+
 namespace gonio::brdf {
 
 namespace arch {
@@ -56,6 +58,23 @@ void eval_model_packets(const ModelD& m,
                         std::size_t n,
                         const DirectionPairs& dirs,
                         double* const out[3]) {
+    for (const Lobe<double>& l : m.lobes) {
+        if (l.distribution == Distribution::kStudentT) {
+            // The Student-t Lambda's continued fraction iterates a data-dependent number of times:
+            // lane by lane, through the same body.
+            for (std::size_t k = 0; k < n; ++k) {
+                double f[3];
+                eval_model_lanes(m,
+                                 Dir3<double>{dirs.wi_x[k], dirs.wi_y[k], dirs.wi_z[k]},
+                                 Dir3<double>{dirs.wo_x[k], dirs.wo_y[k], dirs.wo_z[k]},
+                                 f);
+                for (int c = 0; c < 3; ++c) {
+                    out[c][k] = f[c];
+                }
+            }
+            return;
+        }
+    }
     arch::chosen().eval(m, n, dirs, out);
 }
 

@@ -13,6 +13,7 @@
 #include "gonio/brdf/fresnel.h"
 #include "gonio/brdf/math.h"
 #include "gonio/brdf/microfacet.h"
+#include "gonio/brdf/student_t.h"
 #include "gonio/fitting/vector_log.h"
 
 namespace gonio::fitting {
@@ -143,7 +144,7 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
     // over the derivative slots.
     analytic_ = base.lobes.size() <= 8;
     for (const brdf::Lobe<double>& l : base.lobes) {
-        analytic_ = analytic_ &&
+        analytic_ = analytic_ && l.distribution != brdf::Distribution::kStudentT &&
                     !(l.anisotropic && l.distribution != brdf::Distribution::kBlinnPhong) &&
                     (l.fresnel.type == brdf::FresnelType::kSchlick ||
                      l.fresnel.type == brdf::FresnelType::kNone);
@@ -338,16 +339,51 @@ T PreparedSamples::shape(brdf::Distribution dist,
 }
 
 template <class T>
+T PreparedSamples::shape_student_t(
+    brdf::Shadowing shadowing, const T& ax, const T& ay, const T& gamma, std::size_t i) const {
+    using std::exp;
+    using std::log;
+    using std::log1p;
+    const bool aniso = anisotropic_;
+    // D (brdf/student_t.h D_student_t); both directions are above the horizon, so h_z > 0.
+    if (hz2_[i] < 1e-300) {
+        // h at the horizon through rounding: no projected area.
+        return T(0);
+    }
+    const T e = (aniso ? T(hx2_[i]) / (ax * ax) + T(hy2_[i]) / (ay * ay) : T(hx2_[i]) / (ax * ax)) /
+                T(hz2_[i]);
+    const T D = exp(-gamma * log1p(e / (gamma - T(1))) - T(2 * std::log(hz2_[i]))) /
+                (T(brdf::kPi) * ax * ay);
+    T G(1);
+    if (shadowing == brdf::Shadowing::kSmithCorrelated ||
+        shadowing == brdf::Shadowing::kSmithSeparable) {
+        const T a2i = aniso ? ax * ax * T(ti_x_[i]) + ay * ay * T(ti_y_[i]) : ax * ax * T(ti_x_[i]);
+        const T a2o = aniso ? ax * ax * T(to_x_[i]) + ay * ay * T(to_y_[i]) : ax * ax * T(to_x_[i]);
+        const T li = brdf::lambda_student_t_a2(a2i, gamma);
+        const T lo = brdf::lambda_student_t_a2(a2o, gamma);
+        G = shadowing == brdf::Shadowing::kSmithCorrelated ? T(1) / (T(1) + li + lo)
+                                                           : T(1) / ((T(1) + li) * (T(1) + lo));
+    } else if (shadowing == brdf::Shadowing::kVGroove) {
+        G = T(g_vgroove_[i]);
+    }
+    return D * G * T(inv_4cc_[i]);
+}
+
+template <class T>
 brdf::Rgb<T> PreparedSamples::eval(const brdf::Model<T>& m, std::size_t i) const {
     brdf::Rgb<T> f = m.has_diffuse ? brdf::Rgb<T>(m.diffuse * T(brdf::kInvPi))
                                    : brdf::Rgb<T>(brdf::Rgb<T>::Zero());
     for (const brdf::Lobe<T>& l : m.lobes) {
-        const T S = shape(l.distribution,
-                          l.shadowing,
-                          l.alpha_x,
-                          l.anisotropic ? l.alpha_y : l.alpha_x,
-                          l.exponent,
-                          i);
+        const T S =
+            l.distribution == brdf::Distribution::kStudentT
+                ? shape_student_t(
+                      l.shadowing, l.alpha_x, l.anisotropic ? l.alpha_y : l.alpha_x, l.gamma, i)
+                : shape(l.distribution,
+                        l.shadowing,
+                        l.alpha_x,
+                        l.anisotropic ? l.alpha_y : l.alpha_x,
+                        l.exponent,
+                        i);
         if (S == T(0)) {
             continue;
         }

@@ -858,7 +858,8 @@ Returns {"passed", "describe", "isotropic", "checks": [{"name", "violation", "to
           py::arg("options"),
           py::arg("out_dir"),
           "run_entry(id, input, options, out_dir) -> dict: fits one manifest entry into out_dir "
-          "(as `gonio fit --manifest` does); status fitted, not-converged, failed or skipped.");
+          "(as `gonio fit --manifest` does); status fitted, misfit, not-converged, failed or "
+          "skipped.");
     m.def("summary_header", &gonio::batch::summary_csv_header, "Header line of a summary CSV.");
     m.def("write_text_atomically",
           &write_text_atomically,

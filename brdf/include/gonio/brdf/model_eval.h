@@ -22,11 +22,13 @@
 
 #include <cmath>
 
+#include "gonio/base/check.h"
 #include "gonio/brdf/blinn_phong.h"
 #include "gonio/brdf/fresnel.h"
 #include "gonio/brdf/lambert.h"
 #include "gonio/brdf/microfacet.h"
 #include "gonio/brdf/model.h"
+#include "gonio/brdf/student_t.h"
 
 namespace gonio::brdf {
 
@@ -82,6 +84,16 @@ inline T lobe_D(const Lobe<P>& lobe, const Dir3<T>& h) {
                 sqr(h.x), sqr(h.y), sqr(h.z), T(lobe.alpha_x), T(lobe_alpha_y(lobe)));
         case Distribution::kBlinnPhong:
             return D_blinn_phong(Vec3<T>(h.x, h.y, h.z), T(lobe.exponent));
+        case Distribution::kStudentT:
+            if constexpr (IsPacket<T>::value) {
+                // Not reached: eval_model_packets evaluates a model with a Student-t lobe lane by
+                // lane (its Lambda's continued fraction iterates a data-dependent number of times).
+                GONIO_CHECK_MSG(false, "Student-t lobe evaluated on packets");
+                return T(0);
+            } else {
+                return D_student_t(
+                    Vec3<T>(h.x, h.y, h.z), T(lobe.alpha_x), T(lobe_alpha_y(lobe)), T(lobe.gamma));
+            }
     }
     return T(0);
 }
@@ -118,6 +130,16 @@ inline T lobe_lambda(const Lobe<P>& lobe, const Dir3<T>& w) {
         case Distribution::kBlinnPhong: {
             const T alpha = blinn_phong_equivalent_alpha(T(lobe.exponent));
             return lambda_beckmann_from_a2(sqr(alpha) * (sqr(w.x) + sqr(w.y)) / w_z2);
+        }
+        case Distribution::kStudentT: {
+            if constexpr (IsPacket<T>::value) {
+                // Not reached: see lobe_D.
+                GONIO_CHECK_MSG(false, "Student-t lobe evaluated on packets");
+                return T(0);
+            } else {
+                const T a2 = (sqr(T(lobe.alpha_x) * w.x) + sqr(T(lobe_alpha_y(lobe)) * w.y)) / w_z2;
+                return lambda_student_t_a2(a2, T(lobe.gamma));
+            }
         }
     }
     return T(0);

@@ -100,6 +100,10 @@ class PreparedSamples {
             const T& ay,
             const T& exponent,
             std::size_t i) const;
+    /// The same for a Student-t lobe (brdf/student_t.h), whose D and Lambda also take gamma.
+    template <class T>
+    T shape_student_t(
+        brdf::Shadowing shadowing, const T& ax, const T& ay, const T& gamma, std::size_t i) const;
     /// dg/dm of the residual form at m.
     double g_prime(double m, std::size_t i) const;
     /// Closed-form residuals r[3] and their derivatives v[c * slots + slot] of sample i:
