@@ -27,7 +27,9 @@ inline constexpr FullCommand kFullCommands[] = {
     {"plot",
      "Polar in-plane slices, delta_phi slices and (with --fit) residual maps, as PNG files"},
     {"preview", "Render a sphere under a directional light and a sky/ground environment (PNG)"},
-    {"report", "Write DIR/report.html: metadata, coverage, calibration, fit, plots, previews"},
+    {"report",
+     "Write DIR/report.html for a point or image-mode campaign folder: the result (verdict, model, "
+     "parameters), pictures, coverage, calibration, run history, raw descriptions"},
     {"sim", "serve the virtual rig (motor controllers and camera) until Ctrl-C"},
 };
 
