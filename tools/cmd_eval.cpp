@@ -2,6 +2,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -13,7 +14,9 @@
 #include <vector>
 
 #include "command.h"
+#include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/brdf.h"
+#include "gonio/brdf/model_eval_packets.h"
 
 namespace {
 
@@ -92,6 +95,87 @@ std::string parse_row(const std::vector<std::string>& fields,
     return {};
 }
 
+/// Rows evaluated together: directions as structure of arrays, an analytic model through
+/// eval_model_packets, any other BRDF one row at a time; values printed in row order.
+class Block {
+  public:
+    static constexpr std::size_t kRows = 4096;
+
+    void add(const double angles[4], std::size_t line_no) {
+        const gonio::brdf::Vec3d wi = gonio::brdf::spherical_to_cartesian(angles[0], angles[1]);
+        const gonio::brdf::Vec3d wo = gonio::brdf::spherical_to_cartesian(angles[2], angles[3]);
+        for (int k = 0; k < 3; ++k) {
+            dir_[k].push_back(wi[k]);
+            dir_[3 + k].push_back(wo[k]);
+        }
+        line_.push_back(line_no);
+    }
+
+    bool full() const { return line_.size() >= kRows; }
+
+    void flush(const gonio::brdf::Brdf& brdf,
+               FILE* out,
+               const std::string& in_name,
+               std::size_t& good,
+               std::size_t& bad) {
+        const std::size_t n = line_.size();
+        for (std::vector<double>& v : value_) {
+            v.resize(n);
+        }
+        const auto* analytic = dynamic_cast<const gonio::brdf::AnalyticBrdf*>(&brdf);
+        if (analytic != nullptr) {
+            double* const values[3] = {value_[0].data(), value_[1].data(), value_[2].data()};
+            gonio::brdf::eval_model_packets(analytic->model(),
+                                            n,
+                                            {dir_[0].data(),
+                                             dir_[1].data(),
+                                             dir_[2].data(),
+                                             dir_[3].data(),
+                                             dir_[4].data(),
+                                             dir_[5].data()},
+                                            values);
+        } else {
+            for (std::size_t k = 0; k < n; ++k) {
+                const gonio::brdf::Rgbd f =
+                    brdf.eval(gonio::brdf::Vec3d(dir_[0][k], dir_[1][k], dir_[2][k]),
+                              gonio::brdf::Vec3d(dir_[3][k], dir_[4][k], dir_[5][k]));
+                for (int c = 0; c < 3; ++c) {
+                    value_[c][k] = f[c];
+                }
+            }
+        }
+        for (std::size_t k = 0; k < n; ++k) {
+            const double f[3] = {value_[0][k], value_[1][k], value_[2][k]};
+            if (!std::isfinite(f[0]) || !std::isfinite(f[1]) || !std::isfinite(f[2])) {
+                std::fprintf(stderr,
+                             "gonio eval: %s:%zu: non-finite BRDF value (row skipped)\n",
+                             in_name.c_str(),
+                             line_[k]);
+                ++bad;
+                continue;
+            }
+            // %.17g, formatted by to_chars (the same digits as printf's, without its locale).
+            char buf[3 * 32];
+            char* p = buf;
+            for (int c = 0; c < 3; ++c) {
+                p = std::to_chars(p, buf + sizeof buf, f[c], std::chars_format::general, 17).ptr;
+                *p++ = c < 2 ? ',' : '\n';
+            }
+            std::fwrite(buf, 1, static_cast<std::size_t>(p - buf), out);
+            ++good;
+        }
+        for (std::vector<double>& v : dir_) {
+            v.clear();
+        }
+        line_.clear();
+    }
+
+  private:
+    std::vector<double> dir_[6];
+    std::vector<double> value_[3];
+    std::vector<std::size_t> line_;
+};
+
 int run_eval(const EvalOptions& opts) {
     auto brdf = gonio::brdf::load_brdf(opts.brdf_path);
     if (!brdf) {
@@ -123,6 +207,7 @@ int run_eval(const EvalOptions& opts) {
     int index[4] = {-1, -1, -1, -1};
     std::size_t bad = 0;
     std::size_t good = 0;
+    Block block;
     while (std::getline(*in, line)) {
         ++line_no;
         const std::string t = trim(line);
@@ -155,20 +240,12 @@ int run_eval(const EvalOptions& opts) {
             ++bad;
             continue;
         }
-        const gonio::brdf::Vec3d wi = gonio::brdf::spherical_to_cartesian(a[0], a[1]);
-        const gonio::brdf::Vec3d wo = gonio::brdf::spherical_to_cartesian(a[2], a[3]);
-        const gonio::brdf::Rgbd f = (*brdf)->eval(wi, wo);
-        if (!std::isfinite(f[0]) || !std::isfinite(f[1]) || !std::isfinite(f[2])) {
-            std::fprintf(stderr,
-                         "gonio eval: %s:%zu: non-finite BRDF value (row skipped)\n",
-                         in_name.c_str(),
-                         line_no);
-            ++bad;
-            continue;
+        block.add(a, line_no);
+        if (block.full()) {
+            block.flush(**brdf, out, in_name, good, bad);
         }
-        std::fprintf(out, "%.17g,%.17g,%.17g\n", f[0], f[1], f[2]);
-        ++good;
     }
+    block.flush(**brdf, out, in_name, good, bad);
     if (header.empty()) {
         std::fprintf(stderr,
                      "gonio eval: %s: no header line (required: theta_i,phi_i,theta_o,phi_o)\n",

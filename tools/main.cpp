@@ -3,17 +3,30 @@
 // Exit status of every command: 0 success, 1 failure of the work (bad input file, device fault,
 // paused or interrupted campaign, ...), 2 usage error (unknown command or option, bad option
 // value). CLI11's own codes (105, 106, 109, ...) are mapped onto these.
+//
+// This file is the main of two executables: gonio (GONIO_LAUNCHER defined) with the commands that
+// need no device, camera or image library, and gonio-full with every command. gonio hands the
+// commands of full_commands.h to gonio-full (see there).
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <map>
+#include <string>
 
 #include "command.h"
 #include "gonio/base/edit_distance.h"
 #include "gonio/base/limits.h"
 #include "gonio/version.h"
+
+#if defined(GONIO_LAUNCHER)
+#include <unistd.h>
+
+#include <cerrno>
+
+#include "full_commands.h"
+#endif
 
 namespace gonio::tools {
 
@@ -28,6 +41,37 @@ namespace {
 
 constexpr int kExitFailure = 1;
 constexpr int kExitUsage = 2;
+
+#if defined(GONIO_LAUNCHER)
+/// Replaces this process by gonio-full (in the folder of this executable) with the same
+/// arguments; returns only on failure, with the exit status to use.
+int run_full(char** argv) {
+    char self[4096];
+    const ssize_t len = readlink("/proc/self/exe", self, sizeof self - 1);
+    std::string path = "gonio-full";
+    if (len > 0) {
+        self[len] = '\0';
+        std::string dir(self);
+        dir.erase(dir.find_last_of('/') + 1);
+        path = dir + path;
+    }
+    execv(path.c_str(), argv);
+    std::fprintf(stderr,
+                 "gonio: cannot run %s (it serves the device, camera and image commands): %s\n",
+                 path.c_str(),
+                 std::strerror(errno));
+    return kExitFailure;
+}
+
+bool is_full_command(const char* name) {
+    for (const gonio::tools::FullCommand& c : gonio::tools::kFullCommands) {
+        if (std::strcmp(c.name, name) == 0) {
+            return true;
+        }
+    }
+    return false;
+}
+#endif
 
 }  // namespace
 
@@ -46,13 +90,33 @@ int main(int argc, char** argv) {
     app.footer(
         "Exit status: 0 success, 1 the work failed (bad input, device fault, paused or "
         "interrupted campaign), 2 usage error (unknown command or option, bad option value).");
-    std::vector<CommandEntry> entries = gonio::tools::command_registry();
-    std::sort(entries.begin(), entries.end(), [](const CommandEntry& a, const CommandEntry& b) {
-        return std::string(a.name) < b.name;
+    // Every command in name order: the registered ones (set up here) and, in gonio, those run by
+    // gonio-full (listed in --help and known to the suggestions).
+    struct Listed {
+        std::string name;
+        const CommandEntry* entry;
+        const char* description;
+    };
+    std::vector<Listed> listed;
+    for (const CommandEntry& e : gonio::tools::command_registry()) {
+        listed.push_back({e.name, &e, nullptr});
+    }
+#if defined(GONIO_LAUNCHER)
+    for (const gonio::tools::FullCommand& c : gonio::tools::kFullCommands) {
+        listed.push_back({c.name, nullptr, c.description});
+    }
+#endif
+    std::sort(listed.begin(), listed.end(), [](const Listed& a, const Listed& b) {
+        return a.name < b.name;
     });
     std::map<std::string, gonio::tools::CommandRun> runs;
-    for (const CommandEntry& e : entries) {
-        runs[e.name] = e.setup(app);
+    for (const Listed& l : listed) {
+        if (l.entry != nullptr) {
+            runs[l.name] = l.entry->setup(app);
+        } else {
+            app.add_subcommand(l.name, l.description);
+            runs[l.name] = {};
+        }
     }
     // The first word that is not an option must name a command.
     for (int i = 1; i < argc; ++i) {
@@ -85,6 +149,11 @@ int main(int argc, char** argv) {
                 all.c_str());
             return kExitUsage;
         }
+#if defined(GONIO_LAUNCHER)
+        if (is_full_command(argv[i])) {
+            return run_full(argv);
+        }
+#endif
         break;
     }
     try {

@@ -2,73 +2,164 @@
 
 #include <algorithm>
 #include <cmath>
-#include <thread>
 #include <vector>
 
 #include "gonio/base/check.h"
 #include "gonio/base/limits.h"
+#include "gonio/base/thread_pool.h"
+#include "gonio/brdf/analytic_brdf.h"
+#include "gonio/brdf/model_eval_packets.h"
 
 namespace gonio::brdf {
 namespace {
 
-unsigned resolve_threads(unsigned requested, int rows) {
-    unsigned n = requested != 0 ? requested : std::thread::hardware_concurrency();
-    if (n == 0) {
-        // hardware_concurrency() may not know: one thread.
-        n = 1;
+/// Rows of theta_h per chunk of the pool: a MERL row is 16,200 bins.
+constexpr std::size_t kRowGrain = 1;
+
+/// Stores one bin's value, or leaves it invalid and counts why.
+inline void store_bin(TabulatedBrdf& table, std::size_t flat, const Rgbd& f, TabulateReport& r) {
+    if (!f.isFinite().all()) {
+        // Breaks the Brdf contract: keep the bin invalid and count it.
+        ++r.non_finite;
+        return;
     }
-    return std::min<unsigned>(n, static_cast<unsigned>(std::max(rows, 1)));
+    if ((f > kMaxTableValue).any()) {
+        // Not storable: left invalid and counted, the caller reports it.
+        ++r.out_of_range;
+        return;
+    }
+    // Rounding can make a tiny negative value in a model; zero is the BRDF's floor.
+    table.set_bin(flat, f.max(0.0));
+    ++r.valid_bins;
 }
+
+/// Any Brdf, one bin at a time.
+void tabulate_rows(const Brdf& brdf,
+                   const TableGrid& grid,
+                   TabulatedBrdf& table,
+                   std::size_t row_begin,
+                   std::size_t row_end,
+                   TabulateReport& r) {
+    for (int ih = static_cast<int>(row_begin); ih < static_cast<int>(row_end); ++ih) {
+        for (int id = 0; id < grid.n_theta_d; ++id) {
+            for (int ip = 0; ip < grid.n_phi_d; ++ip) {
+                const std::size_t flat = grid.index(ih, id, ip);
+                const auto [wi, wo] = grid.centre_directions(ih, id, ip);
+                ++r.bins;
+                if (!(wi.z() > 0) || !(wo.z() > 0)) {
+                    // The pair is not a reflection configuration: no BRDF value.
+                    ++r.below_horizon;
+                    continue;
+                }
+                store_bin(table, flat, brdf.eval(wi, wo), r);
+            }
+        }
+    }
+}
+
+/// An analytic model: the directions of a (theta_h, theta_d) line of phi_d bins as structure of
+/// arrays, evaluated a packet at a time (eval_model_packets). The centre directions are those of
+/// TableGrid::centre_directions (from_half_diff with phi_h = 0), with the sines and cosines of the
+/// centre angles computed once per axis.
+class ModelRows {
+  public:
+    ModelRows(const ModelD& model, const TableGrid& grid) : model_(model), grid_(grid) {
+        auto sincos = [](int n, auto centre, std::vector<double>& s, std::vector<double>& c) {
+            s.resize(n);
+            c.resize(n);
+            for (int k = 0; k < n; ++k) {
+                s[k] = std::sin(centre(k));
+                c[k] = std::cos(centre(k));
+            }
+        };
+        sincos(
+            grid.n_theta_h, [&](int k) { return grid.theta_h_centre(k); }, sin_h_, cos_h_);
+        sincos(
+            grid.n_theta_d, [&](int k) { return grid.theta_d_centre(k); }, sin_d_, cos_d_);
+        sincos(
+            grid.n_phi_d, [&](int k) { return grid.phi_d_centre(k); }, sin_p_, cos_p_);
+    }
+
+    void run(TabulatedBrdf& table,
+             std::size_t row_begin,
+             std::size_t row_end,
+             TabulateReport& r) const {
+        const std::size_t np = static_cast<std::size_t>(grid_.n_phi_d);
+        std::vector<double> buf(9 * np);
+        double* w[6];
+        for (int k = 0; k < 6; ++k) {
+            w[k] = buf.data() + k * np;
+        }
+        double* const out[3] = {buf.data() + 6 * np, buf.data() + 7 * np, buf.data() + 8 * np};
+        const DirectionPairs dirs{w[0], w[1], w[2], w[3], w[4], w[5]};
+        for (int ih = static_cast<int>(row_begin); ih < static_cast<int>(row_end); ++ih) {
+            const double c = cos_h_[ih];
+            const double s = sin_h_[ih];
+            for (int id = 0; id < grid_.n_theta_d; ++id) {
+                for (std::size_t ip = 0; ip < np; ++ip) {
+                    // d = (sin theta_d cos phi_d, sin theta_d sin phi_d, cos theta_d); wi =
+                    // R_y(theta_h) d; h = (sin theta_h, 0, cos theta_h); wo = 2 (wi . h) h - wi.
+                    const double dx = sin_d_[id] * cos_p_[ip];
+                    const double dy = sin_d_[id] * sin_p_[ip];
+                    const double dz = cos_d_[id];
+                    const double ix = c * dx + s * dz;
+                    const double iz = -s * dx + c * dz;
+                    const double two_dot = 2 * (ix * s + iz * c);
+                    w[0][ip] = ix;
+                    w[1][ip] = dy;
+                    w[2][ip] = iz;
+                    w[3][ip] = two_dot * s - ix;
+                    w[4][ip] = -dy;
+                    w[5][ip] = two_dot * c - iz;
+                }
+                eval_model_packets(model_, np, dirs, out);
+                for (std::size_t ip = 0; ip < np; ++ip) {
+                    ++r.bins;
+                    if (!(w[2][ip] > 0) || !(w[5][ip] > 0)) {
+                        // The pair is not a reflection configuration: no BRDF value.
+                        ++r.below_horizon;
+                        continue;
+                    }
+                    store_bin(table,
+                              grid_.index(ih, id, static_cast<int>(ip)),
+                              Rgbd(out[0][ip], out[1][ip], out[2][ip]),
+                              r);
+                }
+            }
+        }
+    }
+
+  private:
+    const ModelD& model_;
+    const TableGrid& grid_;
+    std::vector<double> sin_h_, cos_h_, sin_d_, cos_d_, sin_p_, cos_p_;
+};
 
 }  // namespace
 
 TabulatedBrdf tabulate(const Brdf& brdf, const TabulateOptions& options, TabulateReport* report) {
     const TableGrid& grid = options.grid;
     TabulatedBrdf table = TabulatedBrdf::empty(grid, options.scale, brdf.describe());
-    const unsigned threads = resolve_threads(options.threads, grid.n_theta_h);
-    std::vector<TabulateReport> partial(threads);
-    auto work = [&](unsigned t) {
-        TabulateReport& r = partial[t];
-        // Rows of theta_h interleaved over threads: cost per row is uniform.
-        for (int ih = static_cast<int>(t); ih < grid.n_theta_h; ih += static_cast<int>(threads)) {
-            for (int id = 0; id < grid.n_theta_d; ++id) {
-                for (int ip = 0; ip < grid.n_phi_d; ++ip) {
-                    const std::size_t flat = grid.index(ih, id, ip);
-                    const auto [wi, wo] = grid.centre_directions(ih, id, ip);
-                    ++r.bins;
-                    if (!(wi.z() > 0) || !(wo.z() > 0)) {
-                        // The pair is not a reflection configuration: no BRDF value.
-                        ++r.below_horizon;
-                        continue;
-                    }
-                    const Rgbd f = brdf.eval(wi, wo);
-                    if (!f.isFinite().all()) {
-                        // Breaks the Brdf contract: keep the bin invalid and count it.
-                        ++r.non_finite;
-                        continue;
-                    }
-                    if ((f > kMaxTableValue).any()) {
-                        // Not storable: left invalid and counted, the caller reports it.
-                        ++r.out_of_range;
-                        continue;
-                    }
-                    // Rounding can make a tiny negative value in a model; zero is the BRDF's floor.
-                    table.set_bin(flat, f.max(0.0));
-                    ++r.valid_bins;
-                }
-            }
-        }
-    };
-    if (threads == 1) {
-        work(0);
+    const std::size_t rows = static_cast<std::size_t>(grid.n_theta_h);
+    const Chunking chunks = chunking(rows, kRowGrain);
+    // One report per chunk, added in chunk order: the counts do not depend on the thread count.
+    std::vector<TabulateReport> partial(chunks.count);
+    const auto* analytic = dynamic_cast<const AnalyticBrdf*>(&brdf);
+    if (analytic != nullptr) {
+        const ModelRows model_rows(analytic->model(), grid);
+        parallel_for(rows,
+                     kRowGrain,
+                     static_cast<int>(options.threads),
+                     [&](std::size_t chunk, std::size_t b, std::size_t e) {
+                         model_rows.run(table, b, e, partial[chunk]);
+                     });
     } else {
-        std::vector<std::thread> pool;
-        for (unsigned t = 0; t < threads; ++t) {
-            pool.emplace_back(work, t);
-        }
-        for (std::thread& th : pool) {
-            th.join();
-        }
+        parallel_for(rows,
+                     kRowGrain,
+                     static_cast<int>(options.threads),
+                     [&](std::size_t chunk, std::size_t b, std::size_t e) {
+                         tabulate_rows(brdf, grid, table, b, e, partial[chunk]);
+                     });
     }
     if (report != nullptr) {
         *report = {};
@@ -147,71 +238,126 @@ Expected<TabulatedBrdf> resample_dataset(const Dataset& data,
     std::vector<double> weight(n, 0.0);
     const double r2 = r * r;
     const int np = grid.n_phi_d;
+    const int nh = grid.n_theta_h;
     ResampleReport rep;
-    for (const Sample& s : data.samples) {
-        const Vec3d wi = s.wi();
-        const Vec3d wo = s.wo();
-        if (!(wi.z() > 0) || !(wo.z() > 0) || !s.value.isFinite().all()) {
-            // read_dataset_csv already rejects these; a hand-made dataset might not.
-            continue;
+    // Pass 1, over the samples: continuous index coordinates and the first theta_h row each one
+    // reaches (or -1 for a sample that is not used).
+    const std::size_t ns = data.samples.size();
+    std::vector<std::array<double, 3>> u(ns);
+    std::vector<int> first_row(ns, -1);
+    parallel_for(ns, 4096, 0, [&](std::size_t, std::size_t b, std::size_t e) {
+        for (std::size_t k = b; k < e; ++k) {
+            const Sample& s = data.samples[k];
+            const Vec3d wi = s.wi();
+            const Vec3d wo = s.wo();
+            if (!(wi.z() > 0) || !(wo.z() > 0) || !s.value.isFinite().all()) {
+                // read_dataset_csv already rejects these; a hand-made dataset might not.
+                continue;
+            }
+            const HalfDiff<double> hd = to_half_diff(wi, wo);
+            u[k] = grid.continuous_index(hd.theta_h, hd.theta_d, hd.phi_d);
+            first_row[k] = std::max(0, static_cast<int>(std::ceil(u[k][0] - r)));
         }
-        ++rep.samples_used;
-        const HalfDiff<double> hd = to_half_diff(wi, wo);
-        const std::array<double, 3> u = grid.continuous_index(hd.theta_h, hd.theta_d, hd.phi_d);
-        const int h0 = std::max(0, static_cast<int>(std::ceil(u[0] - r)));
-        const int h1 = std::min(grid.n_theta_h - 1, static_cast<int>(std::floor(u[0] + r)));
-        const int d0 = std::max(0, static_cast<int>(std::ceil(u[1] - r)));
-        const int d1 = std::min(grid.n_theta_d - 1, static_cast<int>(std::floor(u[1] + r)));
-        // phi_d is periodic: visit each bin once, at its nearest periodic image.
-        int p0 = static_cast<int>(std::ceil(u[2] - r));
-        int p1 = static_cast<int>(std::floor(u[2] + r));
-        if (p1 - p0 + 1 >= np) {
-            p0 = 0;
-            p1 = np - 1;
+    });
+    // The used samples ordered by their first row (stable: file order within a row), so that the
+    // samples reaching a band of rows are one contiguous run.
+    std::vector<std::size_t> order;
+    order.reserve(ns);
+    for (std::size_t k = 0; k < ns; ++k) {
+        if (first_row[k] >= 0) {
+            order.push_back(k);
         }
-        for (int ih = h0; ih <= h1; ++ih) {
-            const double dh = u[0] - ih;
-            for (int id = d0; id <= d1; ++id) {
-                const double dd = u[1] - id;
-                for (int k = p0; k <= p1; ++k) {
-                    const int ip = ((k % np) + np) % np;
-                    double dp = u[2] - ip;
-                    dp -= np * std::round(dp / np);
-                    const double dist2 = dh * dh + dd * dd + dp * dp;
-                    if (dist2 >= r2) {
-                        continue;
-                    }
-                    const double q = 1 - dist2 / r2;
-                    const double w = q * q;
-                    const std::size_t flat = grid.index(ih, id, ip);
-                    weight[flat] += w;
-                    for (int c = 0; c < 3; ++c) {
-                        sum[c * n + flat] += w * s.value[c];
+    }
+    rep.samples_used = order.size();
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+        return first_row[a] < first_row[b];
+    });
+    // Pass 2, over bands of theta_h rows: each band gathers the samples whose kernel reaches it and
+    // adds them to its own bins only, in the order above, so that every bin's sum is the same for
+    // any number of threads.
+    const int reach = static_cast<int>(std::ceil(2 * r)) + 1;
+    parallel_for(
+        static_cast<std::size_t>(nh), 1, 0, [&](std::size_t, std::size_t rb, std::size_t re) {
+            const int row_b = static_cast<int>(rb);
+            const int row_e = static_cast<int>(re);
+            // Samples starting at rows in [row_b - reach, row_e) can reach [row_b, row_e).
+            const auto lo = std::lower_bound(
+                order.begin(), order.end(), row_b - reach, [&](std::size_t k, int row) {
+                    return first_row[k] < row;
+                });
+            const auto hi = std::lower_bound(
+                lo, order.end(), row_e, [&](std::size_t k, int row) { return first_row[k] < row; });
+            for (auto it = lo; it != hi; ++it) {
+                const Sample& s = data.samples[*it];
+                const std::array<double, 3>& uk = u[*it];
+                const int h0 = std::max(row_b, static_cast<int>(std::ceil(uk[0] - r)));
+                const int h1 =
+                    std::min({nh - 1, row_e - 1, static_cast<int>(std::floor(uk[0] + r))});
+                const int d0 = std::max(0, static_cast<int>(std::ceil(uk[1] - r)));
+                const int d1 =
+                    std::min(grid.n_theta_d - 1, static_cast<int>(std::floor(uk[1] + r)));
+                // phi_d is periodic: visit each bin once, at its nearest periodic image.
+                int p0 = static_cast<int>(std::ceil(uk[2] - r));
+                int p1 = static_cast<int>(std::floor(uk[2] + r));
+                if (p1 - p0 + 1 >= np) {
+                    p0 = 0;
+                    p1 = np - 1;
+                }
+                for (int ih = h0; ih <= h1; ++ih) {
+                    const double dh = uk[0] - ih;
+                    for (int id = d0; id <= d1; ++id) {
+                        const double dd = uk[1] - id;
+                        for (int k = p0; k <= p1; ++k) {
+                            const int ip = ((k % np) + np) % np;
+                            double dp = uk[2] - ip;
+                            dp -= np * std::round(dp / np);
+                            const double dist2 = dh * dh + dd * dd + dp * dp;
+                            if (dist2 >= r2) {
+                                continue;
+                            }
+                            const double q = 1 - dist2 / r2;
+                            const double w = q * q;
+                            const std::size_t flat = grid.index(ih, id, ip);
+                            weight[flat] += w;
+                            for (int c = 0; c < 3; ++c) {
+                                sum[c * n + flat] += w * s.value[c];
+                            }
+                        }
                     }
                 }
             }
-        }
-    }
+        });
+    // Pass 3, over the bins: the weighted means, counts per chunk added in chunk order.
     TabulatedBrdf table = TabulatedBrdf::empty(grid, options.scale, data.source);
     rep.bins = n;
-    for (std::size_t flat = 0; flat < n; ++flat) {
-        const std::array<int, 3> b = grid.unflatten(flat);
-        const auto [wi, wo] = grid.centre_directions(b[0], b[1], b[2]);
-        if (!(wi.z() > 0) || !(wo.z() > 0)) {
-            // Not a reflection configuration: stays invalid whatever the samples near it.
-            ++rep.below_horizon;
-            continue;
+    const Chunking bin_chunks = chunking(n, 16384);
+    std::vector<ResampleReport> partial(bin_chunks.count);
+    parallel_for(n, 16384, 0, [&](std::size_t chunk, std::size_t b, std::size_t e) {
+        ResampleReport& pr = partial[chunk];
+        for (std::size_t flat = b; flat < e; ++flat) {
+            const std::array<int, 3> bin = grid.unflatten(flat);
+            const auto [wi, wo] = grid.centre_directions(bin[0], bin[1], bin[2]);
+            if (!(wi.z() > 0) || !(wo.z() > 0)) {
+                // Not a reflection configuration: stays invalid whatever the samples near it.
+                ++pr.below_horizon;
+                continue;
+            }
+            if (!(weight[flat] > 0)) {
+                // No sample within the radius: no data, left invalid and counted.
+                ++pr.empty_bins;
+                continue;
+            }
+            const Rgbd v(sum[flat] / weight[flat],
+                         sum[n + flat] / weight[flat],
+                         sum[2 * n + flat] / weight[flat]);
+            table.set_bin(flat, v.max(0.0));
+            ++pr.filled_bins;
         }
-        if (!(weight[flat] > 0)) {
-            // No sample within the radius: no data, left invalid and counted.
-            ++rep.empty_bins;
-            continue;
-        }
-        const Rgbd v(sum[flat] / weight[flat],
-                     sum[n + flat] / weight[flat],
-                     sum[2 * n + flat] / weight[flat]);
-        table.set_bin(flat, v.max(0.0));
-        ++rep.filled_bins;
+    });
+    for (const ResampleReport& pr : partial) {
+        rep.below_horizon += pr.below_horizon;
+        rep.empty_bins += pr.empty_bins;
+        rep.filled_bins += pr.filled_bins;
     }
     if (report != nullptr) {
         *report = rep;

@@ -12,10 +12,10 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <thread>
 #include <utility>
 
 #include "gonio/base/strings.h"
+#include "gonio/base/thread_pool.h"
 #include "gonio/brdf/merl.h"
 #include "gonio/brdf/rgl_bsdf.h"
 #include "sample_columns.h"
@@ -27,9 +27,9 @@ namespace {
 
 // ---------------------------------------------------------------------------------------------
 // Dataset CSV reader: the whole file is read at once, split at line boundaries into one chunk per
-// hardware thread, and each chunk is parsed in place (no per-line string, no per-field copy).
-// Numbers go through std::from_chars (correctly rounded, locale-free); a field it does not take
-// whole (for example "+1" or "0x1p3") is retried with strtod on a nul-terminated copy so that
+// thread of the project's pool, and each chunk is parsed in place (no per-line string, no per-field
+// copy). Numbers go through std::from_chars (correctly rounded, locale-free); a field it does not
+// take whole (for example "+1" or "0x1p3") is retried with strtod on a nul-terminated copy so that
 // every number strtod accepts is read.
 
 /// Accepted range of each column and its wording in messages.
@@ -385,10 +385,11 @@ Expected<Dataset> read_dataset_csv(const std::string& path) {
         return make_error(path +
                           ": empty file, expected a header theta_i,phi_i,theta_o,phi_o,r,g,b");
     }
-    // Chunks at line boundaries, one per thread for a large file.
+    // Chunks at line boundaries, one per thread of the pool for a large file (the cut depends on
+    // the pool's size only, and the chunks are joined in file order).
     const std::size_t bytes = static_cast<std::size_t>(end - p);
-    const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
-    const unsigned chunks = bytes < (1u << 20) ? 1u : std::min(hw, 16u);
+    const unsigned chunks =
+        bytes < (1u << 20) ? 1u : static_cast<unsigned>(std::min(thread_pool_size(), 16));
     std::vector<const char*> cut{p};
     for (unsigned k = 1; k < chunks; ++k) {
         const char* c = p + bytes * k / chunks;
@@ -404,19 +405,12 @@ Expected<Dataset> read_dataset_csv(const std::string& path) {
         first_line[k] =
             first_line[k - 1] + static_cast<std::size_t>(std::count(cut[k - 1], cut[k], '\n'));
     }
-    if (chunks == 1) {
-        parse_chunk(cut[0], cut[1], first_line[0], layout, path, results[0]);
-    } else {
-        std::vector<std::thread> pool;
-        for (unsigned k = 0; k < chunks; ++k) {
-            pool.emplace_back([&, k] {
-                parse_chunk(cut[k], cut[k + 1], first_line[k], layout, path, results[k]);
-            });
+    // One chunk of the pool per cut (grain 1).
+    parallel_for(chunks, 1, 0, [&](std::size_t, std::size_t b, std::size_t e) {
+        for (std::size_t k = b; k < e; ++k) {
+            parse_chunk(cut[k], cut[k + 1], first_line[k], layout, path, results[k]);
         }
-        for (std::thread& t : pool) {
-            t.join();
-        }
-    }
+    });
     std::size_t total = 0;
     for (const ChunkResult& r : results) {
         if (r.error_line != 0) {

@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "gonio/base/check.h"
+#include "gonio/brdf/blinn_phong.h"
 #include "gonio/brdf/fresnel.h"
 #include "gonio/brdf/math.h"
 #include "gonio/brdf/microfacet.h"
@@ -26,33 +27,6 @@ constexpr std::size_t kBlock = 4096;
 constexpr std::size_t kParallelMin = 16384;
 // Samples whose logarithms go to the packets together (a divisor of kBlock).
 constexpr std::size_t kRun = 64;
-constexpr double kInvSqrtPi = 0.56418958354775628695;
-
-/// Smith Lambda of Beckmann from s2 = alpha^2 tan^2(theta) (brdf/microfacet.h lambda_beckmann,
-/// with a = 1 / sqrt(s2)).
-template <class T>
-T lambda_beckmann_s2(const T& s2) {
-    using std::erfc;
-    using std::exp;
-    using std::sqrt;
-    if (s2 <= T(0)) {
-        // Along the normal: nothing is masked.
-        return T(0);
-    }
-    const T a = T(1) / sqrt(s2);
-    if (a > T(26)) {
-        // exp(-a^2) underflows; Lambda < 1e-300.
-        return T(0);
-    }
-    return (exp(-a * a) * T(kInvSqrtPi) / a - erfc(a)) / T(2);
-}
-
-/// Smith Lambda of GGX from a2 = alpha^2 tan^2(theta) (brdf/microfacet.h lambda_ggx).
-template <class T>
-T lambda_ggx_a2(const T& a2) {
-    using std::sqrt;
-    return a2 / (T(2) * (T(1) + sqrt(T(1) + a2)));
-}
 
 }  // namespace
 
@@ -311,40 +285,31 @@ T PreparedSamples::shape(brdf::Distribution dist,
                          const T& ay,
                          const T& exponent,
                          std::size_t i) const {
-    using std::exp;
-    using std::sqrt;
     // Layout: with an anisotropic lobe in the structure the x and y parts are stored apart.
     const bool aniso = anisotropic_;
-    // D (brdf/microfacet.h, brdf/blinn_phong.h); both directions are above the horizon, so
-    // h_z > 0.
+    // D, Lambda, G: the brdf/ formula bodies on the precomputed squares (microfacet.h,
+    // blinn_phong.h); both directions are above the horizon, so h_z > 0.
+    const T hy2 = aniso ? T(hy2_[i]) : T(0);
     T D;
     switch (dist) {
-        case brdf::Distribution::kGgx: {
-            const T s = aniso ? T(hx2_[i]) / (ax * ax) + T(hy2_[i]) / (ay * ay) + T(hz2_[i])
-                              : T(hx2_[i]) / (ax * ax) + T(hz2_[i]);
-            D = T(1) / (T(brdf::kPi) * ax * ay * s * s);
+        case brdf::Distribution::kGgx:
+            D = brdf::D_ggx_from_squares(T(hx2_[i]), hy2, T(hz2_[i]), ax, ay);
             break;
-        }
-        case brdf::Distribution::kBeckmann: {
-            const T e =
-                (aniso ? T(hx2_[i]) / (ax * ax) + T(hy2_[i]) / (ay * ay) : T(hx2_[i]) / (ax * ax)) /
-                T(hz2_[i]);
-            if (e > T(700)) {
-                // Far tail: exp(-e) underflows (brdf/microfacet.h D_beckmann).
-                return T(0);
-            }
-            D = exp(-e) / (T(brdf::kPi) * ax * ay * T(hz2_[i] * hz2_[i]));
+        case brdf::Distribution::kBeckmann:
+            D = brdf::D_beckmann_from_squares(T(hx2_[i]), hy2, T(hz2_[i]), ax, ay);
             break;
-        }
         case brdf::Distribution::kBlinnPhong:
-        default: {
+        default:
             if (!std::isfinite(log_cos_h_[i])) {
                 // cos^e(theta_h) underflows to 0 (h at the horizon through rounding).
                 return T(0);
             }
-            D = (exponent + T(2)) / T(2 * brdf::kPi) * exp(exponent * T(log_cos_h_[i]));
+            D = brdf::D_blinn_phong_from_log_cos(T(log_cos_h_[i]), exponent);
             break;
-        }
+    }
+    if (D == T(0)) {
+        // Far tail: the lobe contributes exactly zero.
+        return T(0);
     }
     // G (brdf/model_eval.h lobe_G); a Blinn-Phong lobe uses Beckmann's Lambda with
     // alpha = sqrt(2 / (e + 2)).
@@ -353,20 +318,20 @@ T PreparedSamples::shape(brdf::Distribution dist,
         shadowing == brdf::Shadowing::kSmithSeparable) {
         T bx = ax, by = ay;
         if (dist == brdf::Distribution::kBlinnPhong) {
-            bx = by = sqrt(T(2) / (exponent + T(2)));
+            bx = by = brdf::blinn_phong_equivalent_alpha(exponent);
         }
         const T a2i = aniso ? bx * bx * T(ti_x_[i]) + by * by * T(ti_y_[i]) : bx * bx * T(ti_x_[i]);
         const T a2o = aniso ? bx * bx * T(to_x_[i]) + by * by * T(to_y_[i]) : bx * bx * T(to_x_[i]);
         T li, lo;
         if (dist == brdf::Distribution::kGgx) {
-            li = lambda_ggx_a2(a2i);
-            lo = lambda_ggx_a2(a2o);
+            li = brdf::lambda_ggx_from_a2(a2i);
+            lo = brdf::lambda_ggx_from_a2(a2o);
         } else {
-            li = lambda_beckmann_s2(a2i);
-            lo = lambda_beckmann_s2(a2o);
+            li = brdf::lambda_beckmann_from_a2(a2i);
+            lo = brdf::lambda_beckmann_from_a2(a2o);
         }
-        G = shadowing == brdf::Shadowing::kSmithCorrelated ? T(1) / (T(1) + li + lo)
-                                                           : T(1) / ((T(1) + li) * (T(1) + lo));
+        G = shadowing == brdf::Shadowing::kSmithCorrelated ? brdf::G_smith_correlated(li, lo)
+                                                           : brdf::G_smith_separable(li, lo);
     } else if (shadowing == brdf::Shadowing::kVGroove) {
         G = T(g_vgroove_[i]);
     }
@@ -426,8 +391,7 @@ brdf::Rgb<T> PreparedSamples::eval(const brdf::Model<T>& m, std::size_t i) const
         brdf::Rgb<T> F;
         switch (l.fresnel.type) {
             case brdf::FresnelType::kSchlick: {
-                const T x5(x5_[i]);
-                F = l.fresnel.f0 + (brdf::Rgb<T>::Constant(T(1)) - l.fresnel.f0) * x5;
+                F = brdf::fresnel_schlick_from_pow5(T(x5_[i]), l.fresnel.f0);
                 break;
             }
             case brdf::FresnelType::kNone:
@@ -480,7 +444,7 @@ void PreparedSamples::analytic_parts(const brdf::ModelD& m,
         S[l] = s.a;
         dS[l] = s.v[0];
         F[l] = lobe.fresnel.type == brdf::FresnelType::kSchlick
-                   ? brdf::Rgbd(lobe.fresnel.f0 + (brdf::Rgbd::Ones() - lobe.fresnel.f0) * x5_[i])
+                   ? brdf::Rgbd(brdf::fresnel_schlick_from_pow5(x5_[i], lobe.fresnel.f0))
                    : brdf::Rgbd::Ones();
         fm += lobe.scale * F[l] * S[l];
     }

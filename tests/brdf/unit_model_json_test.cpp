@@ -97,10 +97,10 @@ TEST(ModelJson, RejectsEachRuleWithKeyPath) {
          "model.json: lobes[0]: give either \"alpha\" or \"alpha_x\" and \"alpha_y\", not both"},
         {lobe(R"("distribution":"ggx","alpha":0.1,"alhpa":0.1,)" + tail),
          "model.json: lobes[0].alhpa: unknown key (allowed here: distribution, alpha, alpha_x, "
-         "alpha_y, exponent, shadowing, fresnel, scale)"},
+         "alpha_y, exponent, gamma, shadowing, fresnel, scale)"},
         {lobe(R"("distribution":"phong","alpha":0.1,)" + tail),
          "model.json: lobes[0].distribution = \"phong\": must be one of ggx, beckmann, "
-         "blinn-phong"},
+         "blinn-phong, student-t"},
         {lobe(R"("alpha":0.1,)" + tail), "model.json: lobes[0]: missing key \"distribution\""},
         {lobe(R"("distribution":"ggx","alpha":0.1,"fresnel":{"type":"none"})"),
          "model.json: lobes[0]: missing key \"shadowing\""},
@@ -163,7 +163,7 @@ TEST(ModelJson, RejectsEachRuleWithKeyPath) {
         {R"({"lobes":{}})", "model.json: lobes: expected an array, got object"},
         {R"({"lobes":[3]})", "model.json: lobes[0]: expected an object, got number"},
         {R"({"lobes":[],"name":"x"})",
-         "model.json: name: unknown key (allowed here: diffuse, lobes)"},
+         "model.json: name: unknown key (allowed here: diffuse, lobes, fit)"},
         {R"([1,2])", "model.json: top level: expected an object, got array"},
         {R"({"lobes":[)",
          "model.json: parse error at line 1, column 11: syntax error while parsing value - "

@@ -10,6 +10,14 @@
 
 namespace gonio::brdf {
 
+/// The normalised Blinn-Phong distribution (D_blinn_phong below) from log(cos(theta_h)), finite
+/// (callers that precompute it for many exponents mask cos^e = 0 themselves).
+template <class T>
+inline T D_blinn_phong_from_log_cos(const T& log_cos_h, const T& exponent) {
+    using std::exp;
+    return (exponent + T(2)) / T(2 * kPi) * exp(exponent * log_cos_h);
+}
+
 /// Normalised Blinn-Phong distribution  D(h) = (e + 2) / (2 pi) cos^e(theta_h).
 /// Source: J. F. Blinn, "Models of Light Reflection for Computer Synthesized Pictures", SIGGRAPH
 /// 1977 (the cos^e(theta_h) lobe); normalisation over projected area as in B. Walter et al.,
@@ -20,18 +28,19 @@ namespace gonio::brdf {
 /// with pow(h_z, e) the rounding of h_z would be multiplied by e (1e-9 relative at e = 1e7).
 template <class T>
 inline T D_blinn_phong(const Vec3<T>& h, const T& exponent) {
-    using std::exp;
     using std::log1p;
-    if (h.z() <= T(0)) {
+    const auto below = h.z() <= T(0);
+    if (all_of(below)) {
         // Microfacet normals face outward only (and log(0) is -infinity).
         return T(0);
     }
     const T one_minus_cos = (h.x() * h.x() + h.y() * h.y()) / (T(1) + h.z());
-    if (one_minus_cos >= T(1)) {
-        // Only through rounding at h_z ~ 0: cos^e underflows to 0.
-        return T(0);
-    }
-    return (exponent + T(2)) / T(2 * kPi) * exp(exponent * log1p(-one_minus_cos));
+    // Only through rounding at h_z ~ 0: cos^e underflows to 0.
+    const auto underflow = mask_or(below, one_minus_cos >= T(1));
+    // The masked lanes evaluate log1p(0) and are replaced by 0 below.
+    const T log_cos = log1p(-select(underflow, T(0), one_minus_cos));
+    // Branch of the mask: below the horizon or cos^e underflowing, D = 0.
+    return select(underflow, T(0), D_blinn_phong_from_log_cos(log_cos, exponent));
 }
 
 /// The Beckmann slope parameter whose distribution matches the Blinn-Phong one near the normal:

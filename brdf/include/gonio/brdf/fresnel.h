@@ -9,6 +9,13 @@
 
 namespace gonio::brdf {
 
+/// Schlick's approximation from its factor x5 = (1 - cos(theta))^5 in [0, 1]: F = f0 + (1 - f0) x5
+/// (the body shared by the forms below and by callers that precompute x5 for many f0).
+template <class T, class F0>
+inline F0 fresnel_schlick_from_pow5(const T& x5, const F0& f0) {
+    return f0 + (T(1) - f0) * x5;
+}
+
 /// Schlick's approximation F = f0 + (1 - f0) (1 - cos)^5.
 /// Source: C. Schlick, "An Inexpensive BRDF Model for Physically-based Rendering", Computer
 /// Graphics Forum 13(3), 1994, eq. 24.
@@ -19,8 +26,7 @@ namespace gonio::brdf {
 /// between 60 and 85 degrees; both tend to 1 at grazing incidence).
 template <class T, class F0>
 inline F0 fresnel_schlick(const T& cos_theta, const F0& f0) {
-    const T c = clamp_to(cos_theta, T(0), T(1));
-    return f0 + (T(1) - f0) * pow5(T(1) - c);
+    return fresnel_schlick_from_pow5(pow5(T(1) - clamp_to(cos_theta, T(0), T(1))), f0);
 }
 
 /// Exact unpolarised Fresnel reflectance of a dielectric interface, the mean of the s and p
@@ -34,23 +40,25 @@ inline F0 fresnel_schlick(const T& cos_theta, const F0& f0) {
 /// gives exactly 1; grazing incidence (cos_i = 0) gives 1; eta = 1 gives 0.
 template <class T>
 inline T fresnel_dielectric(T cos_i, T eta) {
-    if (cos_i < T(0)) {
-        // Light from the far side: swap the media.
-        eta = T(1) / eta;
-        cos_i = -cos_i;
-    }
+    // Branch of the mask: light from the far side, the media swap (1/eta, -cos_i).
+    const auto far_side = cos_i < T(0);
+    eta = select(far_side, T(1) / eta, eta);
+    cos_i = select(far_side, -cos_i, cos_i);
     cos_i = min_of(cos_i, T(1));
     const T sin2_i = T(1) - cos_i * cos_i;
     const T sin2_t = sin2_i / (eta * eta);
-    if (sin2_t >= T(1)) {
+    const auto tir = !(sin2_t < T(1));
+    if (all_of(tir)) {
         // Total internal reflection: no transmitted wave.
         return T(1);
     }
     const T cos_t = safe_sqrt(T(1) - sin2_t);
-    // Both denominators are > 0 here: cos_i = 0 implies sin2_t = 1/eta^2 < 1, so cos_t > 0.
+    // Both denominators are > 0 outside total internal reflection: cos_i = 0 implies
+    // sin2_t = 1/eta^2 < 1, so cos_t > 0.
     const T r_s = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
     const T r_p = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-    return (r_s * r_s + r_p * r_p) / T(2);
+    // Branch of the mask: total internal reflection, F = 1.
+    return select(tir, T(1), (r_s * r_s + r_p * r_p) / T(2));
 }
 
 /// Exact unpolarised Fresnel reflectance of a conductor with complex index n = eta + i k seen
@@ -79,11 +87,17 @@ inline T fresnel_conductor(T cos_i, const T& eta, const T& k) {
     const T rs_den = sqr(cos_i + u) + v * v;
     const T rp_num = sqr(a * cos_i - u) + sqr(b * cos_i - v);
     const T rp_den = sqr(a * cos_i + u) + sqr(b * cos_i + v);
-    if (rs_den <= T(0) || rp_den <= T(0)) {
+    const auto degenerate = mask_or(rs_den <= T(0), rp_den <= T(0));
+    if (all_of(degenerate)) {
         // Only at grazing incidence onto n^2 = 1 (eta = 1, k = 0, cos_i = 0): the limit is 1.
         return T(1);
     }
-    return (rs_num / rs_den + rp_num / rp_den) / T(2);
+    // The degenerate lanes divide by 1 and are replaced by the limit 1 below.
+    const T F =
+        (rs_num / select(degenerate, T(1), rs_den) + rp_num / select(degenerate, T(1), rp_den)) /
+        T(2);
+    // Branch of the mask: grazing incidence onto n^2 = 1, F = 1.
+    return select(degenerate, T(1), F);
 }
 
 /// Schlick's approximation given 1 - cos(theta) directly (in [0, 1]): callers that can compute
@@ -91,8 +105,7 @@ inline T fresnel_conductor(T cos_i, const T& eta, const T& k) {
 /// (1 - cos)^5 term near normal incidence, where 1 - cos computed from cos would lose digits.
 template <class T, class F0>
 inline F0 fresnel_schlick_from_one_minus_cos(const T& one_minus_cos, const F0& f0) {
-    const T x = clamp_to(one_minus_cos, T(0), T(1));
-    return f0 + (T(1) - f0) * pow5(x);
+    return fresnel_schlick_from_pow5(pow5(clamp_to(one_minus_cos, T(0), T(1))), f0);
 }
 
 /// The Fresnel term of a lobe per RGB channel at cos_theta = wi . h (in [0, 1]), with

@@ -7,6 +7,12 @@
 // not a perceptual roughness). D is in 1/sr and normalised over projected area:
 // integral over the hemisphere of D(h) cos(theta_h) dh = 1.
 //
+// Every formula has one body, templated on the numeric type T (double, ceres::Jet, xsimd::batch;
+// see math.h): a "core" form on the precomputed quantities the fitting also stores (squared
+// components of h, alpha^2 tan^2 theta), branch-free, and the form on unit vectors that computes
+// those quantities and masks the horizon. Degenerate cases are masks merged with select, each one
+// named in a comment.
+//
 // Main sources:
 // [TR75] T. S. Trowbridge, K. P. Reitz, "Average irregularity representation of a rough surface
 //        for ray reflection", JOSA 65(5), 1975.
@@ -25,84 +31,146 @@
 
 namespace gonio::brdf {
 
-/// GGX (Trowbridge-Reitz) distribution, anisotropic form written with the Cartesian components of
-/// h:  D(h) = 1 / (pi alpha_x alpha_y (h_x^2/alpha_x^2 + h_y^2/alpha_y^2 + h_z^2)^2)  [TR75], [W07
-/// eq. 33], [H14 sec. 5.2]; equal to the usual form with cos^4(theta_h) (1 + tan^2 theta_h (...))^2
-/// but without trigonometry. Edge behaviour: 0 for h_z <= 0; at h = z the value is
-/// 1/(pi alpha_x alpha_y) (3.2e7 at alpha = 1e-4, no overflow).
+/// GGX (Trowbridge-Reitz) distribution from the squared Cartesian components of the unit half
+/// vector h (h_z > 0, which the caller's horizon mask guarantees):
+///   D(h) = 1 / (pi alpha_x alpha_y (h_x^2/alpha_x^2 + h_y^2/alpha_y^2 + h_z^2)^2)
+/// [TR75], [W07 eq. 33], [H14 sec. 5.2]; equal to the usual form with cos^4(theta_h) (1 +
+/// tan^2 theta_h (...))^2 but without trigonometry. An isotropic caller may pass h_x^2 + h_y^2 as
+/// hx2 and 0 as hy2. At h = z the value is 1/(pi alpha_x alpha_y) (3.2e7 at alpha = 1e-4, no
+/// overflow). No degenerate case: the bracket is >= h_z^2 > 0.
 template <class T>
-inline T D_ggx(const Vec3<T>& h, const T& alpha_x, const T& alpha_y) {
-    if (h.z() <= T(0)) {
-        // Microfacet normals face outward only.
-        return T(0);
-    }
-    const T s = sqr(h.x() / alpha_x) + sqr(h.y() / alpha_y) + sqr(h.z());
+inline T D_ggx_from_squares(
+    const T& hx2, const T& hy2, const T& hz2, const T& alpha_x, const T& alpha_y) {
+    const T s = hx2 / (alpha_x * alpha_x) + hy2 / (alpha_y * alpha_y) + hz2;
     return T(1) / (T(kPi) * alpha_x * alpha_y * s * s);
 }
 
-/// Beckmann distribution  D(h) = exp(-(h_x^2/alpha_x^2 + h_y^2/alpha_y^2) / h_z^2) /
-/// (pi alpha_x alpha_y h_z^4)  [W07 eq. 25], [H14 sec. 5.1]. Edge behaviour: 0 for h_z <= 0; when
-/// the exponent's argument exceeds 700 the value is below 1e-300 and returned as exactly 0 (this
-/// avoids 0/0 when h_z^4 underflows near the horizon).
+/// GGX distribution D(h) of a unit half vector h, 1/sr (see D_ggx_from_squares). Edge
+/// behaviour: 0 for h_z <= 0.
 template <class T>
-inline T D_beckmann(const Vec3<T>& h, const T& alpha_x, const T& alpha_y) {
-    using std::exp;
-    if (h.z() <= T(0)) {
+inline T D_ggx(const Vec3<T>& h, const T& alpha_x, const T& alpha_y) {
+    const auto below = h.z() <= T(0);
+    if (all_of(below)) {
         // Microfacet normals face outward only.
         return T(0);
     }
-    const T cos2 = sqr(h.z());
-    const T e = (sqr(h.x() / alpha_x) + sqr(h.y() / alpha_y)) / cos2;
-    if (e > T(700)) {
+    const T D = D_ggx_from_squares(sqr(h.x()), sqr(h.y()), sqr(h.z()), alpha_x, alpha_y);
+    // Branch of the mask: below the horizon, no microfacet.
+    return select(below, T(0), D);
+}
+
+/// Beckmann distribution from the squared components of the unit half vector h (h_z > 0):
+///   D(h) = exp(-(h_x^2/alpha_x^2 + h_y^2/alpha_y^2) / h_z^2) / (pi alpha_x alpha_y h_z^4)
+/// [W07 eq. 25], [H14 sec. 5.1]. Edge behaviour: when the exponent's argument exceeds 700 the
+/// value is below 1e-300 and returned as exactly 0 (this avoids 0/0 when h_z^4 underflows near
+/// the horizon).
+template <class T>
+inline T D_beckmann_from_squares(
+    const T& hx2, const T& hy2, const T& hz2, const T& alpha_x, const T& alpha_y) {
+    using std::exp;
+    const T e = (hx2 / (alpha_x * alpha_x) + hy2 / (alpha_y * alpha_y)) / hz2;
+    const auto tail = !(e <= T(700));
+    if (all_of(tail)) {
         // Far tail: exp(-e) underflows; the exact value is < 1e-300 for every alpha in use.
         return T(0);
     }
-    return exp(-e) / (T(kPi) * alpha_x * alpha_y * cos2 * cos2);
+    // The tail lanes evaluate at h = z (e = 0, hz2 = 1) and are replaced by 0 below.
+    const T e_safe = select(tail, T(0), e);
+    const T hz2_safe = select(tail, T(1), hz2);
+    const T D = exp(-e_safe) / (T(kPi) * alpha_x * alpha_y * hz2_safe * hz2_safe);
+    // Branch of the mask: far tail (or NaN from h_z = 0), exactly 0.
+    return select(tail, T(0), D);
 }
 
-/// Smith Lambda of GGX:  Lambda(w) = (sqrt(1 + a2) - 1) / 2,  a2 = (alpha_x^2 w_x^2 + alpha_y^2
-/// w_y^2) / w_z^2 = alpha(phi)^2 tan^2(theta)  [W07 eq. 34], [H14 sec. 5.2]; evaluated as
-/// a2 / (2 (1 + sqrt(1 + a2))) which has no cancellation for small a2. Output in [0, inf).
-/// Edge behaviour: 0 at w = z; +infinity for w_z <= 0 (the direction is fully masked; callers
-/// reject such directions before evaluating).
+/// Beckmann distribution D(h) of a unit half vector h, 1/sr (see D_beckmann_from_squares). Edge
+/// behaviour: 0 for h_z <= 0.
 template <class T>
-inline T lambda_ggx(const Vec3<T>& w, const T& alpha_x, const T& alpha_y) {
-    using std::sqrt;
-    if (w.z() <= T(0)) {
-        // At or below the horizon: masked.
-        return T(std::numeric_limits<double>::infinity());
+inline T D_beckmann(const Vec3<T>& h, const T& alpha_x, const T& alpha_y) {
+    const auto below = h.z() <= T(0);
+    if (all_of(below)) {
+        // Microfacet normals face outward only.
+        return T(0);
     }
-    const T a2 = (sqr(alpha_x * w.x()) + sqr(alpha_y * w.y())) / sqr(w.z());
+    // The lanes below the horizon evaluate at h = z and are replaced by 0 below.
+    const T hx2 = select(below, T(0), sqr(h.x()));
+    const T hy2 = select(below, T(0), sqr(h.y()));
+    const T hz2 = select(below, T(1), sqr(h.z()));
+    const T D = D_beckmann_from_squares(hx2, hy2, hz2, alpha_x, alpha_y);
+    // Branch of the mask: below the horizon, no microfacet.
+    return select(below, T(0), D);
+}
+
+/// alpha(phi)^2 tan^2(theta) of a direction w above the horizon, the argument of both Smith
+/// Lambdas: (alpha_x^2 w_x^2 + alpha_y^2 w_y^2) / w_z^2 [H14 sec. 5, eq. 80].
+template <class T>
+inline T smith_a2(const Vec3<T>& w, const T& alpha_x, const T& alpha_y) {
+    return (sqr(alpha_x * w.x()) + sqr(alpha_y * w.y())) / sqr(w.z());
+}
+
+/// Smith Lambda of GGX from a2 = alpha(phi)^2 tan^2(theta) >= 0:
+///   Lambda = (sqrt(1 + a2) - 1) / 2   [W07 eq. 34], [H14 sec. 5.2],
+/// evaluated as a2 / (2 (1 + sqrt(1 + a2))), which has no cancellation for small a2. Output in
+/// [0, inf); 0 at a2 = 0 (w = z). No degenerate case for finite a2 >= 0.
+template <class T>
+inline T lambda_ggx_from_a2(const T& a2) {
+    using std::sqrt;
     return a2 / (T(2) * (T(1) + sqrt(T(1) + a2)));
 }
 
-/// Smith Lambda of Beckmann, exact (with the error function):
-///   Lambda(w) = (erf(a) - 1)/2 + exp(-a^2) / (2 a sqrt(pi)),  a = w_z / sqrt(alpha_x^2 w_x^2 +
-///   alpha_y^2 w_y^2) = 1 / (alpha(phi) tan(theta))   [W07 sec. 5.1], [H14 sec. 5.1];
-/// evaluated as (exp(-a^2)/(a sqrt(pi)) - erfc(a)) / 2 to avoid erf(a) - 1 losing digits.
-/// Output in [0, inf). Edge behaviour: 0 at w = z (a infinite); +infinity for w_z <= 0.
-/// For a > 26 the value is below 1e-300 and returned as 0.
+/// Smith Lambda of GGX of a unit direction w (see lambda_ggx_from_a2). Edge behaviour: 0 at
+/// w = z; +infinity for w_z <= 0 (the direction is fully masked; callers reject such directions
+/// before evaluating).
 template <class T>
-inline T lambda_beckmann(const Vec3<T>& w, const T& alpha_x, const T& alpha_y) {
+inline T lambda_ggx(const Vec3<T>& w, const T& alpha_x, const T& alpha_y) {
+    const auto below = w.z() <= T(0);
+    const T inf(std::numeric_limits<double>::infinity());
+    if (all_of(below)) {
+        // At or below the horizon: masked.
+        return inf;
+    }
+    const T a2 = smith_a2(w, alpha_x, alpha_y);
+    // Branch of the mask: at or below the horizon, masked (the lane's a2 is not used).
+    return select(below, inf, lambda_ggx_from_a2(select(below, T(0), a2)));
+}
+
+/// Smith Lambda of Beckmann, exact (with the complementary error function), from a2 =
+/// alpha(phi)^2 tan^2(theta) >= 0:
+///   Lambda = (erf(a) - 1)/2 + exp(-a^2) / (2 a sqrt(pi)),  a = 1 / sqrt(a2)   [W07 sec. 5.1],
+///   [H14 sec. 5.1];
+/// evaluated as (exp(-a^2)/(a sqrt(pi)) - erfc(a)) / 2 to avoid erf(a) - 1 losing digits.
+/// Output in [0, inf). Edge behaviour: 0 at a2 = 0 (w = z, a infinite); for a > 26 (a2 < 1/676)
+/// the value is below 1e-300 and returned as 0.
+template <class T>
+inline T lambda_beckmann_from_a2(const T& a2) {
     using std::erfc;
     using std::exp;
     using std::sqrt;
-    if (w.z() <= T(0)) {
+    // a > 26, including a2 = 0 along the normal.
+    const auto negligible = a2 <= T(1.0 / 676.0);
+    if (all_of(negligible)) {
+        // exp(-a^2) underflows; Lambda ~ exp(-a^2)/(4 a^3 sqrt(pi)) < 1e-300 (0 along the normal).
+        return T(0);
+    }
+    // The negligible lanes evaluate at a = 1 and are replaced by 0 below.
+    const T a = T(1) / sqrt(select(negligible, T(1), a2));
+    const T lambda = (exp(-a * a) * T(kInvSqrtPi) / a - erfc(a)) / T(2);
+    // Branch of the mask: tan(theta) = 0 or exp(-a^2) underflowing, Lambda = 0.
+    return select(negligible, T(0), lambda);
+}
+
+/// Smith Lambda of Beckmann of a unit direction w (see lambda_beckmann_from_a2). Edge
+/// behaviour: 0 at w = z; +infinity for w_z <= 0.
+template <class T>
+inline T lambda_beckmann(const Vec3<T>& w, const T& alpha_x, const T& alpha_y) {
+    const auto below = w.z() <= T(0);
+    const T inf(std::numeric_limits<double>::infinity());
+    if (all_of(below)) {
         // At or below the horizon: masked.
-        return T(std::numeric_limits<double>::infinity());
+        return inf;
     }
-    const T s2 = sqr(alpha_x * w.x()) + sqr(alpha_y * w.y());
-    if (s2 <= T(0)) {
-        // Along the normal: tan(theta) = 0, nothing is masked.
-        return T(0);
-    }
-    const T a = w.z() / sqrt(s2);
-    if (a > T(26)) {
-        // exp(-a^2) underflows; Lambda ~ exp(-a^2)/(4 a^3 sqrt(pi)) < 1e-300.
-        return T(0);
-    }
-    constexpr double kInvSqrtPi = 0.56418958354775628695;
-    return (exp(-a * a) * T(kInvSqrtPi) / a - erfc(a)) / T(2);
+    const T a2 = smith_a2(w, alpha_x, alpha_y);
+    // Branch of the mask: at or below the horizon, masked (the lane's a2 is not used).
+    return select(below, inf, lambda_beckmann_from_a2(select(below, T(0), a2)));
 }
 
 /// Smith masking function of one direction given Lambda(w):
@@ -110,11 +178,13 @@ inline T lambda_beckmann(const Vec3<T>& w, const T& alpha_x, const T& alpha_y) {
 /// chi+ removes microfacets seen from behind. Output in [0, 1].
 template <class T>
 inline T G1(const Vec3<T>& w, const Vec3<T>& h, const T& lambda) {
-    if (w.dot(h) * w.z() <= T(0)) {
+    const auto hidden = w.dot(h) * w.z() <= T(0);
+    if (all_of(hidden)) {
         // Back-facing microfacet (or a direction at the horizon): invisible.
         return T(0);
     }
-    return T(1) / (T(1) + lambda);
+    // Branch of the mask: back-facing, invisible.
+    return select(hidden, T(0), T(1) / (T(1) + lambda));
 }
 
 /// Height-correlated Smith shadowing-masking  G2 = 1 / (1 + Lambda(wi) + Lambda(wo))  [H14 sec.
@@ -133,20 +203,30 @@ inline T G_smith_separable(const T& lambda_i, const T& lambda_o) {
     return T(1) / ((T(1) + lambda_i) * (T(1) + lambda_o));
 }
 
-/// Cook-Torrance V-groove shadowing-masking
+/// Cook-Torrance V-groove shadowing-masking from the cosines of the reflection configuration:
 ///   G = min(1, 2 (n.h)(n.wo) / (wo.h), 2 (n.h)(n.wi) / (wo.h))   [CT82 sec. 3],
-/// for the reflection half vector h (wo.h = wi.h). Output in [0, 1]. Edge behaviour: 0 when either
-/// direction is at the horizon; 0 when wo.h <= 0 (only for wi = -wo, where no half vector exists).
+/// cos_h = n.h, cos_i = n.wi, cos_o = n.wo, cos_d = wo.h = wi.h. Output in [0, 1]. Edge behaviour:
+/// 0 when either direction is at the horizon; 0 when cos_d <= 0 (only for wi = -wo, where no half
+/// vector exists).
 template <class T>
-inline T G_vgroove(const Vec3<T>& wi, const Vec3<T>& wo, const Vec3<T>& h) {
-    const T cos_d = wo.dot(h);
-    if (cos_d <= T(0)) {
+inline T G_vgroove_from_cosines(const T& cos_h, const T& cos_i, const T& cos_o, const T& cos_d) {
+    const auto no_half = cos_d <= T(0);
+    if (all_of(no_half)) {
         // Degenerate half vector: no reflection configuration.
         return T(0);
     }
-    const T g_o = T(2) * h.z() * wo.z() / cos_d;
-    const T g_i = T(2) * h.z() * wi.z() / cos_d;
-    return clamp_to(min_of(g_o, g_i), T(0), T(1));
+    const T inv_d = T(1) / select(no_half, T(1), cos_d);
+    const T g_o = T(2) * cos_h * cos_o * inv_d;
+    const T g_i = T(2) * cos_h * cos_i * inv_d;
+    // Branch of the mask: degenerate half vector, G = 0.
+    return select(no_half, T(0), clamp_to(min_of(g_o, g_i), T(0), T(1)));
+}
+
+/// Cook-Torrance V-groove shadowing-masking for the reflection half vector h (see
+/// G_vgroove_from_cosines).
+template <class T>
+inline T G_vgroove(const Vec3<T>& wi, const Vec3<T>& wo, const Vec3<T>& h) {
+    return G_vgroove_from_cosines(h.z(), wi.z(), wo.z(), T(wo.dot(h)));
 }
 
 }  // namespace gonio::brdf

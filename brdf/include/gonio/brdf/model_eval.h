@@ -9,7 +9,12 @@
 // of R. L. Cook, K. E. Torrance, "A Reflectance Model for Computer Graphics", ACM TOG 1(1), 1982,
 // with the 4 cos_i cos_o denominator of B. Walter et al., EGSR 2007, eq. 20.
 //
-// Everything is templated on the scalar (double, long double, ceres::Jet) and allocates nothing.
+// Everything is templated on the numeric type and allocates nothing. One body, eval_model_lanes,
+// serves every type: T is the lane type (double, ceres::Jet or an xsimd::batch of directions) and
+// P the model's parameter type (double for double and packets, the Jet for Jets); a packet
+// evaluates several directions against one model. The per-lobe choices (distribution, shadowing,
+// Fresnel) are the model's structure, the same for every lane; only the horizon and the
+// degenerate cases of the formulas are masks.
 // wi and wo are unit vectors in the local frame (z = normal), wi toward the light, wo toward the
 // camera. Blinn-Phong lobes use D = (e + 2)/(2 pi) cos^e(theta_h) (normalised over projected
 // area, blinn_phong.h) in the same microfacet form, so they compare directly with GGX and
@@ -17,6 +22,7 @@
 
 #include <cmath>
 
+#include "gonio/base/check.h"
 #include "gonio/brdf/blinn_phong.h"
 #include "gonio/brdf/fresnel.h"
 #include "gonio/brdf/lambert.h"
@@ -32,136 +38,228 @@ inline const T& lobe_alpha_y(const Lobe<T>& lobe) {
     return lobe.anisotropic ? lobe.alpha_y : lobe.alpha_x;
 }
 
-/// The lobe's normal distribution D(h), 1/sr, normalised over projected area.
+/// A direction's components as lanes (double, Jet or packet), without Eigen.
+template <class T>
+struct Dir3 {
+    T x, y, z;
+};
+
+/// The reflection geometry shared by every lobe, per lane: the unit half vector h, cos_d = wi . h
+/// and 1 - cos_d. For unit wi, wo: |wi + wo| = 2 cos_d and |wi - wo| = 2 sin_d, so
+/// cos_d = |wi + wo| / 2 and 1 - cos_d = sin_d^2 / (1 + cos_d) = |wi - wo|^2 / (4 (1 + cos_d)),
+/// which has no cancellation near the retro-reflection configuration (cos_d -> 1).
+template <class T>
+struct HalfGeometry {
+    Dir3<T> h;
+    T cos_d;
+    T one_minus_cos_d;
+};
+
+/// Half geometry of directions with wi + wo != 0 (both above the horizon gives (wi + wo).z > 0).
+template <class T>
+inline HalfGeometry<T> half_geometry(const Dir3<T>& wi, const Dir3<T>& wo) {
+    using std::sqrt;
+    const T sx = wi.x + wo.x;
+    const T sy = wi.y + wo.y;
+    const T sz = wi.z + wo.z;
+    const T len = sqrt(sx * sx + sy * sy + sz * sz);
+    const T inv_len = T(1) / len;
+    HalfGeometry<T> g;
+    g.h = {sx * inv_len, sy * inv_len, sz * inv_len};
+    g.cos_d = min_of(len / T(2), T(1));
+    g.one_minus_cos_d =
+        (sqr(wi.x - wo.x) + sqr(wi.y - wo.y) + sqr(wi.z - wo.z)) / (T(4) * (T(1) + g.cos_d));
+    return g;
+}
+
+/// The lobe's normal distribution D(h), 1/sr, normalised over projected area; h_z > 0.
+template <class T, class P>
+inline T lobe_D(const Lobe<P>& lobe, const Dir3<T>& h) {
+    switch (lobe.distribution) {
+        case Distribution::kGgx:
+            return D_ggx_from_squares(
+                sqr(h.x), sqr(h.y), sqr(h.z), T(lobe.alpha_x), T(lobe_alpha_y(lobe)));
+        case Distribution::kBeckmann:
+            return D_beckmann_from_squares(
+                sqr(h.x), sqr(h.y), sqr(h.z), T(lobe.alpha_x), T(lobe_alpha_y(lobe)));
+        case Distribution::kBlinnPhong:
+            return D_blinn_phong(Vec3<T>(h.x, h.y, h.z), T(lobe.exponent));
+        case Distribution::kStudentT:
+            if constexpr (IsPacket<T>::value) {
+                // Not reached: eval_model_packets evaluates a model with a Student-t lobe lane by
+                // lane (its Lambda's continued fraction iterates a data-dependent number of times).
+                GONIO_CHECK_MSG(false, "Student-t lobe evaluated on packets");
+                return T(0);
+            } else {
+                return D_student_t(
+                    Vec3<T>(h.x, h.y, h.z), T(lobe.alpha_x), T(lobe_alpha_y(lobe)), T(lobe.gamma));
+            }
+    }
+    return T(0);
+}
+
+/// The lobe's normal distribution D(h) of a unit h, 1/sr; 0 for h_z <= 0.
 template <class T>
 inline T lobe_D(const Lobe<T>& lobe, const Vec3<T>& h) {
-    switch (lobe.distribution) {
-        case Distribution::kGgx:
-            return D_ggx(h, lobe.alpha_x, lobe_alpha_y(lobe));
-        case Distribution::kBeckmann:
-            return D_beckmann(h, lobe.alpha_x, lobe_alpha_y(lobe));
-        case Distribution::kBlinnPhong:
-            return D_blinn_phong(h, lobe.exponent);
-        case Distribution::kStudentT:
-            return D_student_t(h, lobe.alpha_x, lobe_alpha_y(lobe), lobe.gamma);
+    const auto below = h.z() <= T(0);
+    if (all_of(below)) {
+        // Microfacet normals face outward only.
+        return T(0);
     }
-    return T(0);
+    // Branch of the mask: below the horizon, no microfacet (evaluated at h = z, replaced by 0).
+    const Dir3<T> hs{select(below, T(0), T(h.x())),
+                     select(below, T(0), T(h.y())),
+                     select(below, T(1), T(h.z()))};
+    return select(below, T(0), lobe_D(lobe, hs));
 }
 
-/// The Smith Lambda(w) of the lobe's distribution (w above the horizon).
-template <class T>
-inline T lobe_lambda(const Lobe<T>& lobe, const Vec3<T>& w) {
+/// The Smith Lambda of the lobe's distribution from a2 = alpha(phi)^2 tan^2(theta) with the
+/// lobe's alphas (a Blinn-Phong lobe uses Beckmann's with alpha = sqrt(2/(e + 2))).
+template <class T, class P>
+inline T lobe_lambda(const Lobe<P>& lobe, const Dir3<T>& w) {
+    const T w_z2 = sqr(w.z);
     switch (lobe.distribution) {
-        case Distribution::kGgx:
-            return lambda_ggx(w, lobe.alpha_x, lobe_alpha_y(lobe));
-        case Distribution::kBeckmann:
-            return lambda_beckmann(w, lobe.alpha_x, lobe_alpha_y(lobe));
-        case Distribution::kBlinnPhong: {
-            const T alpha = blinn_phong_equivalent_alpha(lobe.exponent);
-            return lambda_beckmann(w, alpha, alpha);
+        case Distribution::kGgx: {
+            const T a2 = (sqr(T(lobe.alpha_x) * w.x) + sqr(T(lobe_alpha_y(lobe)) * w.y)) / w_z2;
+            return lambda_ggx_from_a2(a2);
         }
-        case Distribution::kStudentT:
-            return lambda_student_t(w, lobe.alpha_x, lobe_alpha_y(lobe), lobe.gamma);
+        case Distribution::kBeckmann: {
+            const T a2 = (sqr(T(lobe.alpha_x) * w.x) + sqr(T(lobe_alpha_y(lobe)) * w.y)) / w_z2;
+            return lambda_beckmann_from_a2(a2);
+        }
+        case Distribution::kBlinnPhong: {
+            const T alpha = blinn_phong_equivalent_alpha(T(lobe.exponent));
+            return lambda_beckmann_from_a2(sqr(alpha) * (sqr(w.x) + sqr(w.y)) / w_z2);
+        }
+        case Distribution::kStudentT: {
+            if constexpr (IsPacket<T>::value) {
+                // Not reached: see lobe_D.
+                GONIO_CHECK_MSG(false, "Student-t lobe evaluated on packets");
+                return T(0);
+            } else {
+                const T a2 = (sqr(T(lobe.alpha_x) * w.x) + sqr(T(lobe_alpha_y(lobe)) * w.y)) / w_z2;
+                return lambda_student_t_a2(a2, T(lobe.gamma));
+            }
+        }
     }
     return T(0);
 }
 
-/// The lobe's shadowing-masking G(wi, wo) for the reflection half vector h; both directions above
-/// the horizon.
-template <class T>
-inline T lobe_G(const Lobe<T>& lobe, const Vec3<T>& wi, const Vec3<T>& wo, const Vec3<T>& h) {
+/// The lobe's shadowing-masking G(wi, wo) for the reflection half geometry g; both directions
+/// above the horizon.
+template <class T, class P>
+inline T lobe_G(const Lobe<P>& lobe,
+                const Dir3<T>& wi,
+                const Dir3<T>& wo,
+                const HalfGeometry<T>& g) {
     switch (lobe.shadowing) {
         case Shadowing::kSmithCorrelated:
             return G_smith_correlated(lobe_lambda(lobe, wi), lobe_lambda(lobe, wo));
         case Shadowing::kSmithSeparable:
             return G_smith_separable(lobe_lambda(lobe, wi), lobe_lambda(lobe, wo));
         case Shadowing::kVGroove:
-            return G_vgroove(wi, wo, h);
+            return G_vgroove_from_cosines(g.h.z, wi.z, wo.z, g.cos_d);
         case Shadowing::kNone:
             break;
     }
     return T(1);
 }
 
-namespace detail {
-
-/// The reflection geometry shared by every lobe: unit half vector h, cos_d = wi . h and
-/// 1 - cos_d. For unit wi, wo: |wi + wo| = 2 cos_d and |wi - wo| = 2 sin_d, so
-/// cos_d = |wi + wo| / 2 and 1 - cos_d = sin_d^2 / (1 + cos_d) = |wi - wo|^2 / (4 (1 + cos_d)),
-/// which has no cancellation near the retro-reflection configuration (cos_d -> 1).
-template <class T>
-struct HalfGeometry {
-    Vec3<T> h;
-    T cos_d;
-    T one_minus_cos_d;
-};
-
-/// Both directions above the horizon: wi + wo has z > 0, so it is never the zero vector.
-template <class T>
-inline HalfGeometry<T> half_geometry(const Vec3<T>& wi, const Vec3<T>& wo) {
-    using std::sqrt;
-    const Vec3<T> s = wi + wo;
-    const T len = sqrt(s.squaredNorm());
-    HalfGeometry<T> g;
-    g.h = s / len;
-    g.cos_d = min_of(len / T(2), T(1));
-    g.one_minus_cos_d = (wi - wo).squaredNorm() / (T(4) * (T(1) + g.cos_d));
-    return g;
-}
-
-/// One lobe given the half-vector geometry and cos_i = wi.z > 0, cos_o = wo.z > 0.
-template <class T>
-inline Rgb<T> eval_lobe_half(const Lobe<T>& lobe,
-                             const Vec3<T>& wi,
-                             const Vec3<T>& wo,
-                             const HalfGeometry<T>& g,
-                             const T& cos_i,
-                             const T& cos_o) {
-    const T D = lobe_D(lobe, g.h);
-    if (D == T(0)) {
-        // No microfacet with this normal: the lobe contributes exactly zero (and F, G are not
-        // needed; this also skips them in the far tail of sharp lobes).
-        return Rgb<T>::Zero();
+/// The Fresnel term of a lobe for channel c at cos_d = wi . h, with one_minus_cos = 1 - cos_d
+/// computed by the caller without cancellation.
+template <class T, class P>
+inline T lobe_F(const Fresnel<P>& f, int c, const T& cos_d, const T& one_minus_cos) {
+    switch (f.type) {
+        case FresnelType::kSchlick:
+            return fresnel_schlick_from_one_minus_cos(one_minus_cos, T(f.f0[c]));
+        case FresnelType::kDielectric:
+            return fresnel_dielectric(cos_d, T(f.eta));
+        case FresnelType::kConductor:
+            return fresnel_conductor(cos_d, T(f.eta_rgb[c]), T(f.k[c]));
+        case FresnelType::kNone:
+            break;
     }
-    const Rgb<T> F = eval_fresnel(lobe.fresnel, g.cos_d, g.one_minus_cos_d);
-    const T G = lobe_G(lobe, wi, wo, g.h);
-    return lobe.scale * F * (D * G / (T(4) * cos_i * cos_o));
+    return T(1);
 }
 
-}  // namespace detail
+/// The whole model at lanes of direction pairs, RGB into out[0..2], 1/sr: diffuse / pi (when
+/// present) plus every lobe's scale * F * D * G / (4 cos_i cos_o). Lanes with either direction at
+/// or below the horizon give 0 (a mask: they are evaluated at wi = wo = z, which is regular, and
+/// replaced by 0). The lobe term of a lane where D = 0 is exactly 0.
+/// The diffuse albedo is `diffuse` (none when null) and the lobes [lobes, lobes_end).
+template <class T, class P>
+inline void eval_lanes(const Rgb<P>* diffuse,
+                       const Lobe<P>* lobes,
+                       const Lobe<P>* lobes_end,
+                       Dir3<T> wi,
+                       Dir3<T> wo,
+                       T out[3]) {
+    const auto below = mask_or(wi.z <= T(0), wo.z <= T(0));
+    if (all_of(below)) {
+        // At or below the horizon: no reflection.
+        out[0] = out[1] = out[2] = T(0);
+        return;
+    }
+    // Branch of the mask: the lanes below the horizon (including wi = -wo, where no half vector
+    // exists) take the regular configuration wi = wo = z; their values are replaced by 0 at the
+    // end.
+    wi = {select(below, T(0), wi.x), select(below, T(0), wi.y), select(below, T(1), wi.z)};
+    wo = {select(below, T(0), wo.x), select(below, T(0), wo.y), select(below, T(1), wo.z)};
+    for (int c = 0; c < 3; ++c) {
+        out[c] = diffuse != nullptr ? lambert_from_cosines(T((*diffuse)[c]), wi.z, wo.z) : T(0);
+    }
+    if (lobes != lobes_end) {
+        const HalfGeometry<T> g = half_geometry(wi, wo);
+        const T inv_4cc = T(1) / (T(4) * wi.z * wo.z);
+        for (const Lobe<P>* it = lobes; it != lobes_end; ++it) {
+            const Lobe<P>& lobe = *it;
+            const T D = lobe_D(lobe, g.h);
+            if (all_of(D == T(0))) {
+                // No microfacet with this normal: the lobe contributes exactly zero (F and G are
+                // not needed; this also skips them in the far tail of sharp lobes).
+                continue;
+            }
+            const T S = D * lobe_G(lobe, wi, wo, g) * inv_4cc;
+            for (int c = 0; c < 3; ++c) {
+                const T F = lobe_F(lobe.fresnel, c, g.cos_d, g.one_minus_cos_d);
+                out[c] = out[c] + T(lobe.scale[c]) * F * S;
+            }
+        }
+    }
+    for (int c = 0; c < 3; ++c) {
+        // Branch of the mask: at or below the horizon, no reflection.
+        out[c] = select(below, T(0), out[c]);
+    }
+}
+
+/// The whole model at lanes of direction pairs (see eval_lanes).
+template <class T, class P>
+inline void eval_model_lanes(const Model<P>& m, const Dir3<T>& wi, const Dir3<T>& wo, T out[3]) {
+    const Lobe<P>* lobes = m.lobes.data();
+    eval_lanes(m.has_diffuse ? &m.diffuse : nullptr, lobes, lobes + m.lobes.size(), wi, wo, out);
+}
 
 /// One microfacet (or Blinn-Phong) lobe: scale * F(wi.h) * D(h) * G / (4 cos_i cos_o), RGB in
 /// 1/sr. Zero when either direction is at or below the horizon (wi.z <= 0 or wo.z <= 0).
 template <class T>
 inline Rgb<T> eval_lobe(const Lobe<T>& lobe, const Vec3<T>& wi, const Vec3<T>& wo) {
-    const T cos_i = wi.z();
-    const T cos_o = wo.z();
-    if (cos_i <= T(0) || cos_o <= T(0)) {
-        // At or below the horizon: no reflection (also keeps 1/(cos_i cos_o) finite).
-        return Rgb<T>::Zero();
-    }
-    return detail::eval_lobe_half(lobe, wi, wo, detail::half_geometry(wi, wo), cos_i, cos_o);
+    T out[3];
+    eval_lanes(static_cast<const Rgb<T>*>(nullptr),
+               &lobe,
+               &lobe + 1,
+               Dir3<T>{wi.x(), wi.y(), wi.z()},
+               Dir3<T>{wo.x(), wo.y(), wo.z()},
+               out);
+    return Rgb<T>(out[0], out[1], out[2]);
 }
 
 /// The whole model: diffuse / pi (when present) plus every lobe; RGB in 1/sr, zero when either
 /// direction is at or below the horizon. No allocation.
 template <class T>
 inline Rgb<T> eval_model(const Model<T>& m, const Vec3<T>& wi, const Vec3<T>& wo) {
-    const T cos_i = wi.z();
-    const T cos_o = wo.z();
-    if (cos_i <= T(0) || cos_o <= T(0)) {
-        // At or below the horizon: no reflection.
-        return Rgb<T>::Zero();
-    }
-    Rgb<T> f = m.has_diffuse ? Rgb<T>(m.diffuse * T(kInvPi)) : Rgb<T>(Rgb<T>::Zero());
-    if (m.lobes.empty()) {
-        return f;
-    }
-    const detail::HalfGeometry<T> g = detail::half_geometry(wi, wo);
-    for (const Lobe<T>& lobe : m.lobes) {
-        f += detail::eval_lobe_half(lobe, wi, wo, g, cos_i, cos_o);
-    }
-    return f;
+    T out[3];
+    eval_model_lanes(m, Dir3<T>{wi.x(), wi.y(), wi.z()}, Dir3<T>{wo.x(), wo.y(), wo.z()}, out);
+    return Rgb<T>(out[0], out[1], out[2]);
 }
 
 }  // namespace gonio::brdf

@@ -21,7 +21,7 @@ namespace gonio::brdf {
 struct TabulateOptions {
     TableGrid grid = TableGrid::merl();
     std::array<double, 3> scale = kMerlScale;
-    /// Worker threads; 0 = std::thread::hardware_concurrency().
+    /// Threads of the project's pool (gonio/base/thread_pool.h) to use; 0 = all of them.
     unsigned threads = 0;
 };
 

@@ -1,0 +1,41 @@
+#pragma once
+
+// The analytic model evaluated on many direction pairs at once: structure of arrays in, structure
+// of arrays out, the pairs taken a SIMD packet at a time through the same formula bodies as
+// eval_model (model_eval.h, eval_model_lanes with T = xsimd::batch<double>).
+//
+// The packet width is chosen once, at run time, from what the processor offers: AVX-512 (8
+// doubles), AVX2 with FMA (4), or the x86-64 baseline SSE2 (2); on other processors the compiler's
+// default xsimd architecture. Each width is its own translation unit compiled for that instruction
+// set only (brdf/src/arch/), so the binary runs on any x86-64 processor.
+
+#include <cstddef>
+
+#include "gonio/brdf/model.h"
+
+namespace gonio::brdf {
+
+/// n direction pairs as structure of arrays: wi = (wi_x[k], wi_y[k], wi_z[k]), likewise wo. Unit
+/// vectors in the local frame (z = normal).
+struct DirectionPairs {
+    const double* wi_x = nullptr;
+    const double* wi_y = nullptr;
+    const double* wi_z = nullptr;
+    const double* wo_x = nullptr;
+    const double* wo_y = nullptr;
+    const double* wo_z = nullptr;
+};
+
+/// f(wi_k, wo_k) of the model for k in [0, n): out[c][k] is channel c in 1/sr, 0 where either
+/// direction is at or below the horizon (the same values as eval_model up to the stated agreement
+/// of packets and scalars: see tests/brdf/unit_packet_formulas_test.cpp). Runs on the calling
+/// thread; no allocation.
+void eval_model_packets(const ModelD& m,
+                        std::size_t n,
+                        const DirectionPairs& dirs,
+                        double* const out[3]);
+
+/// The instruction set eval_model_packets runs on: "avx512", "avx2+fma", "sse2" or "default".
+const char* packet_instruction_set();
+
+}  // namespace gonio::brdf
