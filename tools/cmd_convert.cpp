@@ -31,7 +31,6 @@ namespace {
 
 using gonio::ends_with;
 using gonio::Expected;
-using gonio::ends_with;
 
 struct ConvertOptions {
     std::string input;

@@ -6,10 +6,10 @@
 #include <memory>
 
 #include "command.h"
-#include "gonio/base/strings.h"
 #include "gonio/base/atomic_file.h"
-#include "gonio/brdf/brdf.h"
 #include "gonio/base/limits.h"
+#include "gonio/base/strings.h"
+#include "gonio/brdf/brdf.h"
 #include "gonio/brdf/merl.h"
 #include "gonio/brdf/model_json.h"
 #include "gonio/brdf/resample.h"

@@ -9,8 +9,8 @@
 #include <set>
 #include <tuple>
 
-#include "gonio/brdf/dataset.h"
 #include "gonio/base/limits.h"
+#include "gonio/brdf/dataset.h"
 #include "json_fields.h"
 
 namespace gonio::acquisition {

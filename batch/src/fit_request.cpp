@@ -1,12 +1,13 @@
 // FitRequest: options by name and the fit spec they describe.
 
-#include "gonio/base/strings.h"
 #include "gonio/batch/fit_request.h"
 
 #include <cerrno>
 #include <cstdlib>
 #include <limits>
 #include <sstream>
+
+#include "gonio/base/strings.h"
 
 namespace gonio::batch {
 

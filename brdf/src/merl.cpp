@@ -1,4 +1,3 @@
-#include "gonio/base/strings.h"
 #include "gonio/brdf/merl.h"
 
 #include <cerrno>
@@ -11,6 +10,7 @@
 
 #include "gonio/base/atomic_file.h"
 #include "gonio/base/limits.h"
+#include "gonio/base/strings.h"
 
 namespace gonio::brdf {
 namespace {

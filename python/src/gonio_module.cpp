@@ -41,8 +41,8 @@ namespace py = pybind11;
 
 namespace {
 
-using gonio::Expected;
 using gonio::ends_with;
+using gonio::Expected;
 using gonio::brdf::Brdf;
 using gonio::brdf::Dataset;
 using gonio::brdf::Sample;

@@ -12,8 +12,8 @@
 // sigma_f = f sigma_r / r; the white reference's own uncertainty is a common scale factor of the
 // whole dataset, recorded separately (WhiteCalibration::rate_sigma).
 
-#include "gonio/brdf/coords.h"
 #include "gonio/base/error.h"
+#include "gonio/brdf/coords.h"
 
 namespace gonio::acquisition {
 

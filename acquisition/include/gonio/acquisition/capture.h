@@ -12,8 +12,8 @@
 #include <map>
 #include <vector>
 
-#include "gonio/brdf/coords.h"
 #include "gonio/base/error.h"
+#include "gonio/brdf/coords.h"
 #include "gonio/devices/camera.h"
 
 namespace gonio::acquisition {

@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "gonio/brdf/coords.h"
 #include "gonio/base/error.h"
+#include "gonio/brdf/coords.h"
 
 namespace gonio::acquisition {
 

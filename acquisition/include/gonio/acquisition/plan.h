@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "gonio/acquisition/kinematics.h"
-#include "gonio/brdf/coords.h"
 #include "gonio/base/error.h"
+#include "gonio/brdf/coords.h"
 
 namespace gonio::acquisition {
 

@@ -31,8 +31,8 @@
 #include <vector>
 
 #include "gonio/acquisition/camera_model.h"
-#include "gonio/brdf/coords.h"
 #include "gonio/base/error.h"
+#include "gonio/brdf/coords.h"
 
 namespace gonio::acquisition {
 

@@ -6,8 +6,8 @@
 #include <memory>
 #include <string>
 
-#include "gonio/brdf/coords.h"
 #include "gonio/base/error.h"
+#include "gonio/brdf/coords.h"
 
 namespace gonio::brdf {
 

@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "gonio/brdf/coords.h"
 #include "gonio/base/error.h"
+#include "gonio/brdf/coords.h"
 
 namespace gonio::brdf {
 

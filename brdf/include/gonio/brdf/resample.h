@@ -10,9 +10,9 @@
 #include <cstddef>
 #include <string>
 
+#include "gonio/base/error.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/dataset.h"
-#include "gonio/base/error.h"
 #include "gonio/brdf/merl.h"
 #include "gonio/brdf/table.h"
 

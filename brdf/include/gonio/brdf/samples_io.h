@@ -5,9 +5,9 @@
 
 #include <string>
 
+#include "gonio/base/error.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/dataset.h"
-#include "gonio/base/error.h"
 #include "gonio/brdf/resample.h"
 
 namespace gonio::brdf {

@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "gonio/brdf/coords.h"
 #include "gonio/base/error.h"
+#include "gonio/brdf/coords.h"
 
 namespace gonio::report {
 
