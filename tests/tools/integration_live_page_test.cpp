@@ -87,7 +87,7 @@ TEST(LivePage, ChromiumWatchesTheCampaignAndFloodingClientsDoNotStopIt) {
     // A child process: the campaign runs while the test looks at it.
     const std::string cmd =
         std::string(GONIO_EXE) + " acquire --serve 127.0.0.1:0 --out " + out.string() +
-        " --n-theta 6 --n-dphi 4 --adaptive 0 --time-scale 200 > " + log.string() + " 2>&1";
+        " --n-theta 6 --n-dphi 4 --adaptive 0 --time-scale 20 > " + log.string() + " 2>&1";
     std::thread campaign([&] { EXPECT_EQ(std::system(cmd.c_str()), 0) << "gonio acquire failed"; });
     // The URL is printed before the first measurement.
     std::string url;
