@@ -1,75 +1,16 @@
 #pragma once
 
-// `gonio acquire --mode image`: an image-mode campaign (a sphere of the material imaged by the
-// camera on the detector arm), writing the dataset CSV, the table, the coverage map and the
-// metadata into a folder. With a rig description that has a "sim" section (the default,
-// data/rigs/sim-image.json) the embedded virtual rig (sim::SimRig with its sphere option) serves
-// its motor controllers on Modbus TCP and its camera as a GigE Vision device on a loopback address
-// of its own; without one, the description's devices are used at their addresses (a real rig, or
-// a virtual rig served elsewhere). Either way the campaign opens them through the same path as a
-// point-mode campaign (acquisition::open_rig) and captures through
-// acquisition::make_device_capture. The subcommand parses its options into AcquireImageOptions and
-// calls run_acquire_image_mode().
+// `gonio acquire --mode image`: prints the run of acquisition::run_image_request (the campaign,
+// its rig set-up and its rules live in gonio::acquisition; the embedded virtual rig comes from
+// embedded_rig.h) and maps its outcome to an exit status.
 
-#include <cstdint>
-#include <memory>
-#include <string>
-
-#include "gonio/acquisition/image_campaign.h"
-#include "gonio/acquisition/rig_config.h"
-#include "gonio/sim/sim_rig.h"
-#include "gonio/sim/sphere_imaging.h"
+#include "gonio/acquisition/campaign_request.h"
 
 namespace gonio::tools {
 
-struct AcquireImageOptions {
-    std::string out_dir;  ///< Output folder; empty: a new folder image-<material>-<n>.
-    std::string material = "red-plastic";  ///< Ground truth by name (data/materials/).
-    std::string brdf_path;                 ///< Or a model JSON / table file (takes precedence).
-    /// Rig description (data/rigs/sim-image.json when empty); its "camera_model", when present,
-    /// is the camera, else (virtual rig only) the default image camera of image_size /
-    /// perspective. With a "sim" section the embedded virtual rig serves it (ground truth:
-    /// material / brdf_path); without one its devices are opened at their addresses.
-    std::string rig_path;
-    /// Fraction of the valid bins. What a sphere image can reach depends on its size in pixels
-    /// (the smallest theta_h bins) and on the 80-degree limits: the default camera reaches about
-    /// 60% of a 30 x 30 x 60 table.
-    double coverage_target = 0.55;
-    int max_frames = 200;
-    int table_factor = 3;      ///< 1 = MERL 90 x 90 x 180, 2 = 45 x 45 x 90, 3 = 30 x 30 x 60
-    int image_size = 256;      ///< Default camera sensor size (square), px.
-    bool perspective = false;  ///< Default camera: perspective at 0.5 m instead of telecentric.
-    int supersample = 2;       ///< Sub-pixel rays per axis of the simulated sphere image.
-    double time_scale = 0;     ///< Virtual rig motion time scale (> 0 overrides the rig's).
-    std::uint64_t seed = 1;
-    bool quiet = false;
-};
-
-/// Runs the campaign and prints a summary; returns the process exit status (0 success, 1 failure
-/// with the error printed or the coverage target not met).
-int run_acquire_image_mode(const AcquireImageOptions& options);
-
-/// The image rig: the devices opened through their addresses, and the embedded virtual rig
-/// serving them when the description asks for it (null otherwise).
-struct ImageRig {
-    acquisition::RigConfig rig;  ///< With the addresses the virtual rig serves.
-    acquisition::CameraModel camera;
-    std::unique_ptr<sim::SimRig> sim;
-    acquisition::RigDevices dev;
-    acquisition::PoseCheckLog pose_log;
-};
-
-/// The simulator's camera for a calibrated camera model (same intrinsics and pose).
-sim::SphereCamera to_sphere_camera(const acquisition::CameraModel& camera);
-
-/// Reads the rig description and the camera model, starts the virtual rig with the sphere of the
-/// ground truth (options.material / brdf_path) when the description has a "sim" section, and opens
-/// the devices (camera: Mono16, full sensor, the rig's capture gain).
-Expected<std::unique_ptr<ImageRig>> start_image_rig(const AcquireImageOptions& options);
-
-/// Capture function over the rig's devices (acquisition::make_device_capture): the light arm,
-/// the detector arm at `detector_arm_rad` (both read back around every exposure), the lamp
-/// shutter, the filter wheel coils and the reference changer. `rig` must outlive it.
-acquisition::CaptureFn image_rig_capture(ImageRig& rig, double detector_arm_rad);
+/// Runs the campaign (or prints its plan for request.plan_only) and prints a summary; returns the
+/// process exit status (0 success, 1 failure with the error printed or the coverage target not
+/// met).
+int run_acquire_image_mode(const acquisition::CampaignRequest& request);
 
 }  // namespace gonio::tools

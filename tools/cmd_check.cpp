@@ -9,6 +9,7 @@
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/checks.h"
 #include "gonio/brdf/table.h"
+#include "option_checks.h"
 
 namespace {
 
@@ -61,22 +62,22 @@ GONIO_COMMAND(check) {
     cmd->add_option("--seed", opts->checks.seed, "Seed of the random direction pairs")
         ->capture_default_str();
     cmd->add_option("--pairs", opts->checks.random_pairs, "Random direction pairs per check")
-        ->check(CLI::PositiveNumber)
+        ->check(gonio::tools::integer_at_least(1))
         ->capture_default_str();
     cmd->add_option("--reciprocity-tol",
                     opts->checks.reciprocity_tolerance,
                     "Largest accepted relative difference f(wi,wo) vs f(wo,wi)")
-        ->check(CLI::NonNegativeNumber)
+        ->check(gonio::tools::finite_at_least(0))
         ->capture_default_str();
     cmd->add_option("--isotropy-tol",
                     opts->checks.isotropy_tolerance,
                     "Largest accepted relative difference under a rotation about the normal")
-        ->check(CLI::NonNegativeNumber)
+        ->check(gonio::tools::finite_at_least(0))
         ->capture_default_str();
     cmd->add_option("--energy-tol",
                     opts->checks.energy_tolerance,
                     "Largest accepted directional albedo above 1 (quadrature error allowance)")
-        ->check(CLI::NonNegativeNumber)
+        ->check(gonio::tools::finite_at_least(0))
         ->capture_default_str();
     cmd->footer(
         "Exit status: 0 all checks passed, 1 a violation beyond tolerance, an unreadable BRDF or a "

@@ -27,6 +27,7 @@
 namespace {
 
 using gonio::Expected;
+using gonio::ends_with;
 
 struct ConvertOptions {
     std::string input;

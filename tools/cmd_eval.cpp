@@ -8,11 +8,13 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "command.h"
+#include "gonio/base/atomic_file.h"
 #include "gonio/brdf/brdf.h"
 
 namespace {
@@ -109,14 +111,24 @@ int run_eval(const EvalOptions& opts) {
         }
         in = &file_in;
     }
-    FILE* out = stdout;
+    // A file output goes through AtomicFile: never through a planted link, nothing left behind
+    // when the command fails before the end.
+    std::optional<gonio::AtomicFile> file_out;
     if (opts.output != "-") {
-        out = std::fopen(opts.output.c_str(), "w");
-        if (out == nullptr) {
-            std::fprintf(stderr, "gonio eval: %s: cannot open for writing\n", opts.output.c_str());
+        auto f = gonio::AtomicFile::create(opts.output);
+        if (!f) {
+            std::fprintf(stderr, "gonio eval: %s\n", f.error().message.c_str());
             return 1;
         }
+        file_out.emplace(std::move(*f));
     }
+    auto emit = [&](const std::string& text) {
+        if (file_out) {
+            (void)file_out->write(text);  // the first failure is returned by commit()
+        } else {
+            std::fputs(text.c_str(), stdout);
+        }
+    };
     std::string line;
     std::size_t line_no = 0;
     std::vector<std::string> header;
@@ -136,12 +148,9 @@ int run_eval(const EvalOptions& opts) {
             if (!find_columns(header, index, error)) {
                 std::fprintf(
                     stderr, "gonio eval: %s:%zu: %s\n", in_name.c_str(), line_no, error.c_str());
-                if (out != stdout) {
-                    std::fclose(out);
-                }
                 return 1;
             }
-            std::fprintf(out, "r,g,b\n");
+            emit("r,g,b\n");
             continue;
         }
         double a[4];
@@ -166,7 +175,9 @@ int run_eval(const EvalOptions& opts) {
             ++bad;
             continue;
         }
-        std::fprintf(out, "%.17g,%.17g,%.17g\n", f[0], f[1], f[2]);
+        char row[96];
+        std::snprintf(row, sizeof row, "%.17g,%.17g,%.17g\n", f[0], f[1], f[2]);
+        emit(row);
         ++good;
     }
     if (header.empty()) {
@@ -175,9 +186,14 @@ int run_eval(const EvalOptions& opts) {
                      in_name.c_str());
         bad = 1;
     }
-    if (out != stdout && std::fclose(out) != 0) {
-        std::fprintf(stderr, "gonio eval: %s: write error\n", opts.output.c_str());
+    if (header.empty()) {
         return 1;
+    }
+    if (file_out) {
+        if (auto c = file_out->commit(); !c) {
+            std::fprintf(stderr, "gonio eval: %s\n", c.error().message.c_str());
+            return 1;
+        }
     }
     if (bad > 0) {
         std::fprintf(stderr, "gonio eval: %zu row(s) failed, %zu evaluated\n", bad, good);

@@ -6,10 +6,10 @@
 #include <memory>
 
 #include "command.h"
-#include "gonio/base/strings.h"
 #include "gonio/base/atomic_file.h"
-#include "gonio/brdf/brdf.h"
 #include "gonio/base/limits.h"
+#include "gonio/base/strings.h"
+#include "gonio/brdf/brdf.h"
 #include "gonio/brdf/merl.h"
 #include "gonio/brdf/model_json.h"
 #include "gonio/brdf/resample.h"
@@ -57,6 +57,14 @@ GONIO_COMMAND(export) {
     cmd->add_option("--name", opts->name, "material id / name in the renderer file")
         ->capture_default_str();
     return [opts]() -> int {
+        if (!opts->out.empty() && !opts->out_positional.empty() &&
+            opts->out != opts->out_positional) {
+            std::fprintf(stderr,
+                         "gonio export: two outputs named: out_file %s and --out %s (give one)\n",
+                         opts->out_positional.c_str(),
+                         opts->out.c_str());
+            return 2;
+        }
         const std::string out = !opts->out.empty() ? opts->out : opts->out_positional;
         if (!out.empty() && out != "-") {
             // Refused before any work: a folder, a device, a missing folder.
@@ -70,7 +78,7 @@ GONIO_COMMAND(export) {
                 std::fprintf(stderr, "gonio export: --to merl needs an output file (*.binary)\n");
                 return 2;
             }
-            if (ends_with(opts->input, ".csv")) {
+            if (gonio::ends_with(opts->input, ".csv")) {
                 auto data = gonio::brdf::load_samples(opts->input);
                 if (!data) {
                     std::fprintf(stderr, "gonio export: %s\n", data.error().message.c_str());

@@ -1,4 +1,3 @@
-#include "gonio/base/strings.h"
 #include "gonio/brdf/samples_io.h"
 
 #include <fcntl.h>
@@ -16,6 +15,7 @@
 #include <thread>
 #include <utility>
 
+#include "gonio/base/strings.h"
 #include "gonio/brdf/merl.h"
 #include "sample_columns.h"
 
@@ -185,7 +185,11 @@ void parse_chunk(const char* p,
                     out.error =
                         where() + kColNames[c] + " = " + fmt_value(x) + " outside " + r.text;
                     if ((c == kTi || c == kTo) && x >= r.hi) {
-                        out.error += " (at or below the horizon)";
+                        // A polar angle in (pi/2, 90] is most likely written in degrees.
+                        out.error += x > r.hi && x <= 90
+                                         ? " (at or below the horizon; it looks like degrees: "
+                                           "angles are radians, 90 deg = 1.5708)"
+                                         : " (at or below the horizon)";
                     }
                     return;
                 }

@@ -34,6 +34,7 @@ struct PolarLayout {
     /// Colour of the fitted curve and markers of each slice, in slice order.
     std::vector<Color> slice_colors;
     std::vector<double> theta_i_deg;  ///< the slices drawn
+    std::size_t points_drawn = 0;     ///< measured samples drawn in all slices together
 };
 
 /// In-plane polar plot: measured samples (markers with radial error bars of +-1 sigma) and the fit
@@ -79,6 +80,9 @@ struct WrittenPlot {
 struct PlotSet {
     std::vector<WrittenPlot> written;
     std::vector<std::string> skipped;
+    /// Plots written that show less than they seem to (in-plane slices without one measured
+    /// point: the samples are scattered off the plane of incidence, only the fit is drawn).
+    std::vector<std::string> warnings;
 };
 
 /// Writes in_plane.png, delta_phi.png and, with a fit, residuals.png into out_dir (created if
