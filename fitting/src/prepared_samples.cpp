@@ -18,6 +18,10 @@ namespace gonio::fitting {
 namespace {
 
 constexpr double kCbrtOffset = 1e-6;
+// Samples per block of a reduction: the partition that fixes the order of every sum.
+constexpr std::size_t kBlock = 4096;
+// Below this many items a pass stays on the calling thread (starting threads costs more).
+constexpr std::size_t kParallelMin = 16384;
 constexpr double kInvSqrtPi = 0.56418958354775628695;
 
 /// Smith Lambda of Beckmann from s2 = alpha^2 tan^2(theta) (brdf/microfacet.h lambda_beckmann,
@@ -51,7 +55,7 @@ T lambda_ggx_a2(const T& a2) {
 void parallel_ranges(std::size_t n,
                      int threads,
                      const std::function<void(int, std::size_t, std::size_t)>& body) {
-    if (threads <= 1 || n < 4096) {
+    if (threads <= 1 || n < kParallelMin) {
         body(0, 0, n);
         return;
     }
@@ -66,6 +70,39 @@ void parallel_ranges(std::size_t n,
         }
     }
     body(0, 0, std::min(n, chunk));
+    for (std::thread& th : pool) {
+        th.join();
+    }
+}
+
+std::size_t block_count(std::size_t n) {
+    return (n + kBlock - 1) / kBlock;
+}
+
+void parallel_blocks(std::size_t n,
+                     int threads,
+                     const std::function<void(std::size_t, std::size_t, std::size_t)>& body) {
+    const std::size_t blocks = block_count(n);
+    auto run = [&](std::size_t k0, std::size_t k1) {
+        for (std::size_t k = k0; k < k1; ++k) {
+            body(k, k * kBlock, std::min(n, (k + 1) * kBlock));
+        }
+    };
+    if (threads <= 1 || n < kParallelMin || blocks < 2) {
+        run(0, blocks);
+        return;
+    }
+    std::vector<std::thread> pool;
+    const std::size_t t_count = std::min(static_cast<std::size_t>(threads), blocks);
+    const std::size_t chunk = (blocks + t_count - 1) / t_count;
+    for (std::size_t t = 1; t < t_count; ++t) {
+        const std::size_t b = t * chunk;
+        const std::size_t e = std::min(blocks, b + chunk);
+        if (b < e) {
+            pool.emplace_back(run, b, e);
+        }
+    }
+    run(0, std::min(blocks, chunk));
     for (std::thread& th : pool) {
         th.join();
     }
@@ -455,10 +492,8 @@ T PreparedSamples::g_of(const T& m, std::size_t i) const {
 
 bool PreparedSamples::sum_of_squares(const double* x, double* out, int threads) const {
     const brdf::ModelD m = map_->model<double>(x);
-    const int t_count = std::max(1, threads);
-    std::vector<double> partial(t_count, 0.0);
-    std::vector<char> ok(t_count, 1);
-    parallel_ranges(n_, t_count, [&](int t, std::size_t b, std::size_t e) {
+    std::vector<double>& partial = block_scratch(1);
+    parallel_blocks(n_, threads, [&](std::size_t k, std::size_t b, std::size_t e) {
         double acc = 0;
         for (std::size_t i = b; i < e; ++i) {
             const brdf::Rgbd f = eval(m, i);
@@ -474,18 +509,26 @@ bool PreparedSamples::sum_of_squares(const double* x, double* out, int threads) 
             }
             acc += s2;
         }
-        partial[t] = acc;
-        ok[t] = std::isfinite(acc);
+        partial[k] = acc;
     });
+    // Block sums added in block order: the same total for every thread count.
     double total = 0;
-    for (int t = 0; t < t_count; ++t) {
-        if (!ok[t]) {
-            return false;
-        }
-        total += partial[t];
+    for (std::size_t k = 0; k < block_count(n_); ++k) {
+        total += partial[k];
+    }
+    if (!std::isfinite(total)) {
+        return false;
     }
     *out = total;
     return true;
+}
+
+std::vector<double>& PreparedSamples::block_scratch(std::size_t stride) const {
+    const std::size_t size = block_count(n_) * stride;
+    if (scratch_.size() < size) {
+        scratch_.resize(size);
+    }
+    return scratch_;
 }
 
 template <int K>
@@ -506,15 +549,10 @@ bool PreparedSamples::normal_equations_k(const double* x, NormalEquations& out, 
     const int np = map_->size();
     const brdf::Model<J> m = jet_model<K>(x);
     const brdf::ModelD md = map_->model<double>(x);
-    const int t_count = std::max(1, threads);
-    struct Acc {
-        MatK a[3];
-        VecK b[3];
-        double cost = 0;
-        bool ok = true;
-    };
-    std::vector<Acc> acc(t_count);
-    parallel_ranges(n_, t_count, [&](int t, std::size_t b, std::size_t e) {
+    // Per block: a[3] (K x K), b[3] (K), the cost, and whether all is finite.
+    constexpr std::size_t kStride = 3 * K * K + 3 * K + 2;
+    std::vector<double>& partial = block_scratch(kStride);
+    parallel_blocks(n_, threads, [&](std::size_t blk, std::size_t b, std::size_t e) {
         MatK a[3];
         VecK bv[3];
         for (int c = 0; c < 3; ++c) {
@@ -567,14 +605,19 @@ bool PreparedSamples::normal_equations_k(const double* x, NormalEquations& out, 
                 bv[c].noalias() += (w * r[c].a) * r[c].v;
             }
         }
+        double* dst = partial.data() + blk * kStride;
         for (int c = 0; c < 3; ++c) {
-            acc[t].a[c] = a[c];
-            acc[t].b[c] = bv[c];
+            Eigen::Map<MatK>(dst + c * K * K) = a[c];
+            Eigen::Map<VecK>(dst + 3 * K * K + c * K) = bv[c];
         }
-        acc[t].cost = cost;
-        acc[t].ok = std::isfinite(cost) && a[0].allFinite() && a[1].allFinite() &&
-                    a[2].allFinite() && bv[0].allFinite() && bv[1].allFinite() && bv[2].allFinite();
+        dst[kStride - 2] = cost;
+        dst[kStride - 1] = std::isfinite(cost) && a[0].allFinite() && a[1].allFinite() &&
+                                   a[2].allFinite() && bv[0].allFinite() && bv[1].allFinite() &&
+                                   bv[2].allFinite()
+                               ? 1.0
+                               : 0.0;
     });
+    // Block sums added in block order: the same normal equations for every thread count.
     MatK a[3];
     VecK bv[3];
     for (int c = 0; c < 3; ++c) {
@@ -582,15 +625,16 @@ bool PreparedSamples::normal_equations_k(const double* x, NormalEquations& out, 
         bv[c].setZero();
     }
     out.cost_sum = 0;
-    for (const Acc& p : acc) {
-        if (!p.ok) {
+    for (std::size_t blk = 0; blk < block_count(n_); ++blk) {
+        const double* src = partial.data() + blk * kStride;
+        if (src[kStride - 1] == 0.0) {
             return false;
         }
         for (int c = 0; c < 3; ++c) {
-            a[c] += p.a[c];
-            bv[c] += p.b[c];
+            a[c] += Eigen::Map<const MatK>(src + c * K * K);
+            bv[c] += Eigen::Map<const VecK>(src + 3 * K * K + c * K);
         }
-        out.cost_sum += p.cost;
+        out.cost_sum += src[kStride - 2];
     }
     for (int c = 0; c < 3; ++c) {
         a[c] = a[c].template selfadjointView<Eigen::Upper>();
@@ -721,28 +765,32 @@ bool PreparedSamples::score_outer_products(const double* x,
                                            Eigen::MatrixXd& out,
                                            int threads) const {
     const int np = map_->size();
-    const int t_count = std::max(1, threads);
-    std::vector<Eigen::MatrixXd> partial(t_count, Eigen::MatrixXd::Zero(np, np));
-    std::vector<char> ok(t_count, 1);
-    parallel_ranges(n_, t_count, [&](int t, std::size_t b, std::size_t e) {
+    // Per block: the np x np sum and whether it is finite; added in block order.
+    const std::size_t stride = static_cast<std::size_t>(np) * np + 1;
+    std::vector<double>& partial = block_scratch(stride);
+    parallel_blocks(n_, threads, [&](std::size_t blk, std::size_t b, std::size_t e) {
+        Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(np, np);
         bool good;
         if (slots_ <= 4) {
-            good = jets_k<4>(x, b, e, nullptr, nullptr, &partial[t]);
+            good = jets_k<4>(x, b, e, nullptr, nullptr, &sum);
         } else if (slots_ <= 8) {
-            good = jets_k<8>(x, b, e, nullptr, nullptr, &partial[t]);
+            good = jets_k<8>(x, b, e, nullptr, nullptr, &sum);
         } else if (slots_ <= 16) {
-            good = jets_k<16>(x, b, e, nullptr, nullptr, &partial[t]);
+            good = jets_k<16>(x, b, e, nullptr, nullptr, &sum);
         } else {
-            good = jets_k<32>(x, b, e, nullptr, nullptr, &partial[t]);
+            good = jets_k<32>(x, b, e, nullptr, nullptr, &sum);
         }
-        ok[t] = good;
+        double* dst = partial.data() + blk * stride;
+        Eigen::Map<Eigen::MatrixXd>(dst, np, np) = sum;
+        dst[stride - 1] = good ? 1.0 : 0.0;
     });
     out = Eigen::MatrixXd::Zero(np, np);
-    for (int t = 0; t < t_count; ++t) {
-        if (!ok[t]) {
+    for (std::size_t blk = 0; blk < block_count(n_); ++blk) {
+        const double* src = partial.data() + blk * stride;
+        if (src[stride - 1] == 0.0) {
             return false;
         }
-        out += partial[t];
+        out += Eigen::Map<const Eigen::MatrixXd>(src, np, np);
     }
     out = Eigen::MatrixXd(out.selfadjointView<Eigen::Upper>());
     return out.allFinite();

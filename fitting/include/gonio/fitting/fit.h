@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "gonio/brdf/dataset.h"
 #include "gonio/base/error.h"
+#include "gonio/brdf/dataset.h"
 #include "gonio/brdf/model.h"
 #include "gonio/fitting/spec.h"
 
@@ -51,12 +51,20 @@ struct Metrics {
 struct GoodnessOfFit {
     /// Sum of squared normalised residuals / (3 N - p) when the data carry sigmas, else empty.
     std::optional<double> reduced_chi_square;
-    /// False when the misfit is far beyond measurement noise: a channel's log RMSE above 0.3,
-    /// a theta_h band's mean log residual beyond +-0.3, or a reduced chi-square above 10. The fit
-    /// is then not usable.
+    /// False when the misfit is far beyond measurement noise, and the fit is then not usable:
+    ///  - a channel's log RMSE above 0.3 (or not finite);
+    ///  - in a theta_h band holding at least 1 % of the samples, a channel's mean log residual
+    ///    beyond +-0.3 (or not finite);
+    ///  - a reduced chi-square not finite, or above 10 while the worst channel's log RMSE is above
+    ///    0.02. Above 10 with a log RMSE of at most 0.02 it is a warning only: the stated sigmas
+    ///    are then smaller than the systematic errors of the data or the model, and the misfit is
+    ///    too small to matter.
     bool represents = true;
-    std::vector<std::string> warnings;  ///< Each names the figure and the threshold.
-    std::string suggestion;             ///< What to try instead (empty when the fit is good).
+    /// Each names the figure and the threshold: the cases above, and the visible misfits that do
+    /// not make a fit unusable (a log RMSE above 0.15, a band's mean log residual beyond +-0.15,
+    /// a reduced chi-square above 2).
+    std::vector<std::string> warnings;
+    std::string suggestion;  ///< What to try instead (empty when the fit is good).
 };
 
 /// One solve of the fit (screening, reduction, polish, reweighting).
@@ -121,9 +129,10 @@ struct FitResult {
     bool usable() const { return solver.usable; }
 };
 
-/// Runs the fit. Coarse to fine: the candidates and the main solve work on a stratified
-/// reduction of FitOptions::coarse_samples; the result is then polished on all samples for at
-/// most FitOptions::polish_iterations iterations. Errors (returned): no valid sample, an
+/// Runs the fit. Coarse to fine: when the samples of the solve number more than twice
+/// FitOptions::coarse_samples, the candidates and the main solve work on a stratified reduction
+/// to about coarse_samples, and the result is then polished on all samples for at most
+/// FitOptions::polish_iterations iterations. Errors (returned): no valid sample, an
 /// inconsistent spec (a parameter of a lobe that does not exist, bounds lo > hi, a start value
 /// outside its bounds). A solve that ran but did not converge is returned as a FitResult with
 /// solver.usable == false.

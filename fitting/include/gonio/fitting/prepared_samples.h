@@ -19,6 +19,7 @@
 #include <ceres/ceres.h>
 
 #include <Eigen/Dense>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -45,6 +46,10 @@ class PreparedSamples {
 
     std::size_t size() const { return n_; }
     const ParameterMap& map() const { return *map_; }
+
+    // The passes below split the samples into blocks whose partial sums are added in block order
+    // (parallel_blocks): their results do not depend on `threads`. They share one scratch buffer:
+    // one pass at a time per object.
 
     /// Sum of squared residuals at x (robust: sum of rho). False on a non-finite residual.
     bool sum_of_squares(const double* x, double* out, int threads) const;
@@ -139,6 +144,10 @@ class PreparedSamples {
     bool analytic_ = false;
     double relative_floor_ = 1e-3;
     std::shared_ptr<const ceres::LossFunction> loss_;
+    /// Per-block partial sums of the passes (kept between passes: no allocation per iteration).
+    /// The passes of one PreparedSamples run one at a time.
+    mutable std::vector<double> scratch_;
+    std::vector<double>& block_scratch(std::size_t stride) const;
 };
 
 /// A Ceres cost function of the whole prepared set with n + 1 residuals whose Gauss-Newton
@@ -170,9 +179,20 @@ class NormalEquationCost final : public ceres::CostFunction {
 };
 
 /// Runs body(thread, begin, end) over [0, n) split into `threads` contiguous ranges (one thread
-/// when n is small).
+/// when n is below 16384).
 void parallel_ranges(std::size_t n,
                      int threads,
                      const std::function<void(int, std::size_t, std::size_t)>& body);
+
+/// Number of blocks of 4096 items in [0, n).
+std::size_t block_count(std::size_t n);
+
+/// Runs body(block, begin, end) over the blocks of 4096 items of [0, n), each thread taking a
+/// contiguous run of blocks (one thread when n is below 16384). The blocks do not depend on the
+/// thread count: sums formed per block and added in block order are the same, to the last bit,
+/// for every thread count (deterministic reduction).
+void parallel_blocks(std::size_t n,
+                     int threads,
+                     const std::function<void(std::size_t, std::size_t, std::size_t)>& body);
 
 }  // namespace gonio::fitting

@@ -1,0 +1,259 @@
+// Goodness of fit: error metrics, lobe shares and the verdict on whether the model represents the
+// data (docs/fitting-guide.md, "Goodness of fit").
+
+#include <Eigen/Dense>
+#include <array>
+#include <cmath>
+#include <cstdio>
+
+#include "fit_stages.h"
+#include "gonio/brdf/model_eval.h"
+
+namespace gonio::fitting {
+
+namespace {
+
+using brdf::ModelD;
+using brdf::Rgbd;
+using brdf::Sample;
+
+constexpr double kBandEdgesDeg[] = {0, 2, 5, 10, 20, 40, 90};
+
+}  // namespace
+
+Metrics evaluate_metrics(const ModelD& model,
+                         const std::vector<Sample>& samples,
+                         double relative_floor) {
+    Metrics m;
+    if (samples.empty()) {
+        return m;
+    }
+    constexpr int kBands = static_cast<int>(sizeof kBandEdgesDeg / sizeof kBandEdgesDeg[0]) - 1;
+    const int threads = detail::thread_count(0);
+    struct Acc {
+        Eigen::Array<double, 3, 3> sq = Eigen::Array<double, 3, 3>::Zero();
+        Eigen::Array<double, kBands, 3> band_sum = Eigen::Array<double, kBands, 3>::Zero();
+        Eigen::Array<double, kBands, 3> band_sq = Eigen::Array<double, kBands, 3>::Zero();
+        std::array<std::size_t, kBands> band_n{};
+    };
+    // Per block, added in block order (the same metrics for every thread count).
+    std::vector<Acc> partial(block_count(samples.size()));
+    double band_cos[kBands + 1];
+    for (int b = 0; b <= kBands; ++b) {
+        band_cos[b] = std::cos(kBandEdgesDeg[b] * brdf::kPi / 180);
+    }
+    auto body = [&](std::size_t blk, std::size_t b, std::size_t e) {
+        Acc acc;
+        for (std::size_t i = b; i < e; ++i) {
+            const brdf::Vec3d wi = samples[i].wi();
+            const brdf::Vec3d wo = samples[i].wo();
+            const Rgbd f = brdf::eval_model(model, wi, wo);
+            const double cos_h = (wi.z() + wo.z()) / (wi + wo).norm();
+            int band = kBands - 1;
+            for (int k = 0; k < kBands; ++k) {
+                if (cos_h > band_cos[k + 1]) {
+                    band = k;
+                    break;
+                }
+            }
+            ++acc.band_n[band];
+            for (int c = 0; c < 3; ++c) {
+                const double d = samples[i].value[c];
+                const double abs_r = f[c] - d;
+                const double rel_r =
+                    channel_residual(ResidualForm::kRelative, f[c], d, wi.z(), relative_floor);
+                const double log_r = channel_residual(ResidualForm::kLog, f[c], d, wi.z(), 0);
+                acc.sq(0, c) += abs_r * abs_r;
+                acc.sq(1, c) += rel_r * rel_r;
+                acc.sq(2, c) += log_r * log_r;
+                acc.band_sum(band, c) += log_r;
+                acc.band_sq(band, c) += log_r * log_r;
+            }
+        }
+        partial[blk] = acc;
+    };
+    parallel_blocks(samples.size(), threads, body);
+    Acc total;
+    for (const Acc& p : partial) {
+        total.sq += p.sq;
+        total.band_sum += p.band_sum;
+        total.band_sq += p.band_sq;
+        for (int k = 0; k < kBands; ++k) {
+            total.band_n[k] += p.band_n[k];
+        }
+    }
+    const double n = static_cast<double>(samples.size());
+    for (int c = 0; c < 3; ++c) {
+        m.rmse[c] = std::sqrt(total.sq(0, c) / n);
+        m.rel_rmse[c] = std::sqrt(total.sq(1, c) / n);
+        m.log_rmse[c] = std::sqrt(total.sq(2, c) / n);
+    }
+    for (int k = 0; k < kBands; ++k) {
+        if (total.band_n[k] == 0) {
+            continue;
+        }
+        BandResidual b;
+        b.theta_h_lo_deg = kBandEdgesDeg[k];
+        b.theta_h_hi_deg = kBandEdgesDeg[k + 1];
+        b.count = total.band_n[k];
+        const double bn = static_cast<double>(b.count);
+        for (int c = 0; c < 3; ++c) {
+            b.mean_log[c] = total.band_sum(k, c) / bn;
+            b.log_rmse[c] = std::sqrt(total.band_sq(k, c) / bn);
+        }
+        m.bands.push_back(b);
+    }
+    return m;
+}
+
+namespace detail {
+
+namespace {
+
+constexpr double kVanishedShare = 1e-3;  // a lobe below this share of the reflectance vanished
+// Goodness of fit: thresholds of a misfit far beyond measurement noise (docs/fitting-guide.md).
+constexpr double kLogRmseUnusable = 0.3;
+constexpr double kLogRmseWarn = 0.15;
+constexpr double kBandBiasUnusable = 0.3;
+constexpr double kBandBiasWarn = 0.15;
+constexpr double kChi2Unusable = 10;
+constexpr double kChi2Warn = 2;
+// A chi-square far above 1 makes a fit unusable only when the misfit is also of a size that matters
+// (log RMSE above 2 %): below it the stated sigmas (photon noise of a region mean, often 1e-5
+// relative) are simply smaller than the rig's systematic errors, which is a warning, not a failure.
+constexpr double kLogRmsePractical = 0.02;
+
+}  // namespace
+
+/// Each lobe's share of the model's reflectance summed (weighted, channel mean) over `samples`:
+/// sum_i w_i mean_c lobe_l(i) / sum_i w_i mean_c model(i). All zero when the model is zero on
+/// every sample (nothing to share).
+std::vector<double> lobe_shares(const ModelD& model, const std::vector<Sample>& samples) {
+    std::vector<double> lobe_sum(model.lobes.size(), 0.0);
+    double total = 0;
+    for (const Sample& s : samples) {
+        const brdf::Vec3d wi = s.wi();
+        const brdf::Vec3d wo = s.wo();
+        total += s.weight * brdf::eval_model(model, wi, wo).mean();
+        for (std::size_t l = 0; l < model.lobes.size(); ++l) {
+            lobe_sum[l] += s.weight * brdf::eval_lobe(model.lobes[l], wi, wo).mean();
+        }
+    }
+    for (double& v : lobe_sum) {
+        // A zero model (all-zero data): every lobe has vanished.
+        v = total > 0 ? v / total : 0.0;
+    }
+    return lobe_sum;
+}
+
+/// Goodness of fit from the metrics (and the reduced chi-square when the data carry sigmas).
+GoodnessOfFit judge(const Metrics& m, std::optional<double> chi2, std::size_t valid) {
+    GoodnessOfFit g;
+    g.reduced_chi_square = chi2;
+    char buf[256];
+    const char* names[3] = {"r", "g", "b"};
+    for (int c = 0; c < 3; ++c) {
+        const double v = m.log_rmse[c];
+        if (!std::isfinite(v) || v > kLogRmseUnusable) {
+            g.represents = false;
+            std::snprintf(buf,
+                          sizeof buf,
+                          "log RMSE of channel %s = %.3g above %.2g: the model does not represent "
+                          "these data",
+                          names[c],
+                          v,
+                          kLogRmseUnusable);
+            g.warnings.push_back(buf);
+        } else if (v > kLogRmseWarn) {
+            std::snprintf(buf,
+                          sizeof buf,
+                          "log RMSE of channel %s = %.3g above %.2g: a visible misfit",
+                          names[c],
+                          v,
+                          kLogRmseWarn);
+            g.warnings.push_back(buf);
+        }
+    }
+    for (const BandResidual& b : m.bands) {
+        // Bands with under 1 % of the samples do not decide.
+        if (b.count * 100 < valid) {
+            continue;
+        }
+        for (int c = 0; c < 3; ++c) {
+            const double bias = b.mean_log[c];
+            const bool bad = !std::isfinite(bias) || std::abs(bias) > kBandBiasUnusable;
+            if (bad || std::abs(bias) > kBandBiasWarn) {
+                if (bad) {
+                    g.represents = false;
+                }
+                std::snprintf(buf,
+                              sizeof buf,
+                              "theta_h in [%g, %g) deg: mean log residual of channel %s = %+.3g "
+                              "(the model is %s there; limit +-%.2g)",
+                              b.theta_h_lo_deg,
+                              b.theta_h_hi_deg,
+                              names[c],
+                              bias,
+                              bias > 0 ? "too bright" : "too dark",
+                              bad ? kBandBiasUnusable : kBandBiasWarn);
+                g.warnings.push_back(buf);
+            }
+        }
+    }
+    const double worst_log_rmse = m.log_rmse.maxCoeff();
+    if (chi2) {
+        if (std::isfinite(*chi2) && *chi2 > kChi2Unusable && worst_log_rmse <= kLogRmsePractical) {
+            std::snprintf(buf,
+                          sizeof buf,
+                          "reduced chi-square = %.3g above %g, but the worst log RMSE is only "
+                          "%.3g (limit %.2g): the stated sigmas are far smaller than the "
+                          "systematic errors of the data or the model",
+                          *chi2,
+                          kChi2Unusable,
+                          worst_log_rmse,
+                          kLogRmsePractical);
+            g.warnings.push_back(buf);
+        } else if (!std::isfinite(*chi2) || *chi2 > kChi2Unusable) {
+            g.represents = false;
+            std::snprintf(buf,
+                          sizeof buf,
+                          "reduced chi-square = %.3g above %g: the misfit is far beyond the "
+                          "stated sigmas",
+                          *chi2,
+                          kChi2Unusable);
+            g.warnings.push_back(buf);
+        } else if (*chi2 > kChi2Warn) {
+            std::snprintf(buf,
+                          sizeof buf,
+                          "reduced chi-square = %.3g above %g: misfit beyond the stated sigmas "
+                          "(or sigmas too small)",
+                          *chi2,
+                          kChi2Warn);
+            g.warnings.push_back(buf);
+        }
+    }
+    if (!g.warnings.empty()) {
+        g.suggestion =
+            "try `--model auto` (ranks ggx, beckmann, blinn-phong and two lobes), a second lobe "
+            "(`--lobes 2`), another distribution (`--model beckmann`) or `--fresnel schlick-rgb`";
+    }
+    return g;
+}
+
+std::vector<std::string> vanished_lobes(const ModelD& model, const std::vector<Sample>& samples) {
+    std::vector<std::string> out;
+    if (model.lobes.empty()) {
+        return out;
+    }
+    const std::vector<double> share = lobe_shares(model, samples);
+    for (std::size_t l = 0; l < share.size(); ++l) {
+        if (!(share[l] >= kVanishedShare)) {
+            out.push_back("lobes[" + std::to_string(l) + "]");
+        }
+    }
+    return out;
+}
+
+}  // namespace detail
+
+}  // namespace gonio::fitting

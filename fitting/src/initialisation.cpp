@@ -1,0 +1,373 @@
+// Initialisation: data-driven starts scored on a reduction, then screened by short solves.
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "fit_stages.h"
+#include "gonio/brdf/model_eval.h"
+#include "gonio/fitting/reduction.h"
+
+namespace gonio::fitting::detail {
+
+namespace {
+
+using brdf::ModelD;
+using brdf::Rgbd;
+using brdf::Sample;
+
+constexpr std::size_t kScoreSamples = 4000;   // samples used to score multi-start candidates
+constexpr std::size_t kScreenSamples = 1500;  // short solves that rank the best starts
+constexpr std::size_t kScreenStarts = 4;      // starts screened by a short solve
+constexpr int kScreenIterations = 15;         // iterations of a screening solve
+
+/// Objective value (1/2 sum of squared residuals, as Ceres reports it) of a model on prepared
+/// samples; infinity when a residual is not finite.
+double objective(const PreparedSamples& ps, const std::vector<double>& x, int threads) {
+    double s = 0;
+    if (!ps.sum_of_squares(x.data(), &s, threads)) {
+        return std::numeric_limits<double>::infinity();
+    }
+    return 0.5 * s;
+}
+
+/// Percentile (0..1) of a vector (copied).
+double percentile(std::vector<double> v, double q) {
+    if (v.empty()) {
+        return 0;
+    }
+    const std::size_t k = std::min(v.size() - 1, static_cast<std::size_t>(q * (v.size() - 1)));
+    std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
+    return v[k];
+}
+
+/// Alpha estimated from the width of the specular peak above the diffuse floor: the largest
+/// tan(theta_h) whose excess is at least half the peak's, divided by the half-maximum point of
+/// the distribution in units of alpha (GGX: (1 + t^2/a^2)^-2 = 1/2 at t = a sqrt(sqrt 2 - 1);
+/// Beckmann: exp(-t^2/a^2) = 1/2 at t = a sqrt(ln 2)). Returns 0 when there is no peak.
+double estimate_alpha(const std::vector<Sample>& samples, const Rgbd& floor, brdf::Distribution d) {
+    std::vector<double> excess(samples.size());
+    std::vector<double> tan_h(samples.size());
+    double peak = 0;
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+        const brdf::Vec3d wi = samples[i].wi();
+        const brdf::Vec3d wo = samples[i].wo();
+        brdf::Vec3d h = wi + wo;
+        const double norm = h.norm();
+        if (norm == 0) {
+            // Opposite directions: no half vector, no information on the lobe.
+            tan_h[i] = 1e9;
+            excess[i] = 0;
+            continue;
+        }
+        h /= norm;
+        const double cos_h = std::max(h.z(), 1e-9);
+        tan_h[i] = std::sqrt(std::max(0.0, 1 - cos_h * cos_h)) / cos_h;
+        // Projected-area form: D times 4 cos_i cos_o removes the 1/(cos cos) foreshortening.
+        excess[i] = ((samples[i].value - floor * brdf::kInvPi).sum() / 3) * wi.z() * wo.z();
+        peak = std::max(peak, excess[i]);
+    }
+    if (!(peak > 0)) {
+        return 0;
+    }
+    double t_half = 0;
+    double t_min = 1e9;
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+        if (excess[i] >= 0.5 * peak) {
+            t_half = std::max(t_half, tan_h[i]);
+        }
+        if (tan_h[i] > 0) {
+            t_min = std::min(t_min, tan_h[i]);
+        }
+    }
+    if (t_half <= 0) {
+        // Only the exact mirror sample is above half: the peak is narrower than the grid.
+        t_half = 0.5 * t_min;
+    }
+    const double unit = d == brdf::Distribution::kBeckmann ? 0.8326 : 0.6436;
+    return t_half / unit;
+}
+
+/// Sets the shape of lobe `i` from alpha (alpha_x = alpha_y = alpha or the Blinn-Phong exponent
+/// 2 / alpha^2 - 2, the usual correspondence of the two lobes' widths), within the bounds.
+void set_shape(ModelD& m, const ParameterMap& map, int lobe, double alpha) {
+    for (const ScalarParam& s : map.scalars()) {
+        if (s.lobe != lobe || !s.free) {
+            continue;
+        }
+        double v;
+        if (s.field == Field::kAlphaX || s.field == Field::kAlphaY) {
+            v = alpha;
+        } else if (s.field == Field::kExponent) {
+            v = 2.0 / (alpha * alpha) - 2.0;
+        } else {
+            continue;
+        }
+        ParameterMap::set(m, s, std::clamp(v, s.lower, s.upper));
+    }
+}
+
+const ScalarParam* find_free(const ParameterMap& map, Field f, int lobe, int channel) {
+    for (const ScalarParam& s : map.scalars()) {
+        if (s.free && s.field == f && s.lobe == lobe && (s.channel == channel || s.channel < 0)) {
+            return &s;
+        }
+    }
+    return nullptr;
+}
+
+/// Linear least squares of the terms that enter the model linearly, per channel, given the
+/// shapes: the diffuse albedo and lobe 0's amplitude (its scale, or Schlick's f0 when the scale is
+/// fixed: F = x^5 + f0 (1 - x^5) is linear in f0). Relative weights 1 / (d + floor)^2 so that the
+/// peak does not decide alone. A negative solution puts that term at its lower bound and solves
+/// for the other; results are brought inside the bounds (these are start values, not results).
+void linear_init(ModelD& m,
+                 const ParameterMap& map,
+                 const std::vector<Sample>& samples,
+                 const PreparedSamples& prepared,
+                 double floor,
+                 int threads) {
+    const ScalarParam* rho[3];
+    const ScalarParam* amp[3];
+    bool amp_is_f0 = false;
+    for (int c = 0; c < 3; ++c) {
+        rho[c] = find_free(map, Field::kDiffuse, -1, c);
+        amp[c] = m.lobes.empty() ? nullptr : find_free(map, Field::kScale, 0, c);
+        if (amp[c] == nullptr && !m.lobes.empty() &&
+            m.lobes[0].fresnel.type == brdf::FresnelType::kSchlick) {
+            amp[c] = find_free(map, Field::kF0, 0, c);
+            amp_is_f0 = amp[c] != nullptr;
+        }
+    }
+    // Basis values: the model without diffuse and with lobe 0's amplitude at 0 and at 1.
+    ModelD m0 = m;
+    m0.has_diffuse = false;
+    ModelD m1 = m0;
+    if (!m.lobes.empty()) {
+        if (amp_is_f0) {
+            m0.lobes[0].fresnel.f0 = Rgbd::Zero();
+            m1.lobes[0].fresnel.f0 = Rgbd::Ones();
+        } else {
+            m0.lobes[0].scale = Rgbd::Zero();
+            m1.lobes[0].scale = Rgbd::Ones();
+        }
+    }
+    Eigen::Matrix2d a[3];
+    Eigen::Vector2d b[3];
+    for (int c = 0; c < 3; ++c) {
+        a[c].setZero();
+        b[c].setZero();
+    }
+    // The basis on the prepared samples (the geometry is computed once for every start).
+    std::vector<Rgbd> v0, v1;
+    prepared.model_values(m0, v0, threads);
+    prepared.model_values(m1, v1, threads);
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+        const Sample& s = samples[i];
+        const Rgbd& f0 = v0[i];
+        const Rgbd& f1 = v1[i];
+        for (int c = 0; c < 3; ++c) {
+            const double w = s.weight / ((s.value[c] + floor) * (s.value[c] + floor));
+            const Eigen::Vector2d basis(brdf::kInvPi, f1[c] - f0[c]);
+            a[c] += w * basis * basis.transpose();
+            b[c] += w * basis * (s.value[c] - f0[c]);
+        }
+    }
+    double u_rho[3] = {0, 0, 0};
+    double u_amp[3] = {0, 0, 0};
+    for (int c = 0; c < 3; ++c) {
+        const bool use_rho = rho[c] != nullptr;
+        const bool use_amp = amp[c] != nullptr;
+        u_rho[c] = use_rho ? map.value_of(m, *rho[c]) : 0;
+        u_amp[c] = use_amp ? map.value_of(m, *amp[c]) : 0;
+        auto solve1 = [&](int k, double fixed_other) {
+            const int o = 1 - k;
+            const double rhs = b[c][k] - a[c](k, o) * fixed_other;
+            return a[c](k, k) > 0 ? rhs / a[c](k, k) : 0.0;
+        };
+        if (use_rho && use_amp) {
+            const double det = a[c].determinant();
+            if (std::abs(det) > 1e-300) {
+                const Eigen::Vector2d u = a[c].inverse() * b[c];
+                u_rho[c] = u[0];
+                u_amp[c] = u[1];
+            }
+            if (u_rho[c] < 0) {
+                u_rho[c] = 0;
+                u_amp[c] = solve1(1, 0);
+            } else if (u_amp[c] < 0) {
+                u_amp[c] = 0;
+                u_rho[c] = solve1(0, 0);
+            }
+        } else if (use_rho) {
+            // The lobe as it is (amplitude fixed) is part of the prediction.
+            double fixed_amp = 0;
+            if (!m.lobes.empty()) {
+                fixed_amp = amp_is_f0 ? m.lobes[0].fresnel.f0[c] : m.lobes[0].scale[c];
+            }
+            u_rho[c] = solve1(0, fixed_amp);
+        } else if (use_amp) {
+            u_amp[c] = solve1(1, m.has_diffuse ? m.diffuse[c] : 0.0);
+        }
+    }
+    // A shared parameter (one value for the three channels) starts at the channels' mean.
+    auto store = [&](const ScalarParam* const* p, const double* u) {
+        if (p[0] == nullptr) {
+            return;
+        }
+        for (int c = 0; c < 3; ++c) {
+            const double v = p[c]->channel < 0 ? (u[0] + u[1] + u[2]) / 3 : u[c];
+            if (std::isfinite(v)) {
+                ParameterMap::set(m, *p[c], std::clamp(v, p[c]->lower, p[c]->upper));
+            }
+        }
+    };
+    store(rho, u_rho);
+    store(amp, u_amp);
+}
+
+/// Every free scalar brought inside its bounds (start values only).
+std::vector<double> clamp_start(const ParameterMap& map, std::vector<double> x) {
+    for (int k = 0; k < map.size(); ++k) {
+        const ScalarParam& s = map.scalars()[map.free()[k]];
+        x[k] = std::clamp(x[k], s.lower, s.upper);
+    }
+    return x;
+}
+
+/// Data-driven starts scored by the objective, best first.
+std::vector<Candidate> initial_candidates(const std::shared_ptr<const ParameterMap>& map_ptr,
+                                          const std::vector<Sample>& samples,
+                                          const FitOptions& o,
+                                          const CostOptions& co) {
+    const ParameterMap& map = *map_ptr;
+    const std::vector<Sample> score_set = stratified_reduce(samples, kScoreSamples, o.seed);
+    const PreparedSamples scorer(map_ptr, score_set, co);
+    const int threads = thread_count(o.num_threads);
+    ModelD m = map.base();
+    std::vector<Candidate> out;
+    if (m.lobes.empty()) {
+        linear_init(m, map, score_set, scorer, o.relative_floor, threads);
+        Candidate c{clamp_start(map, map.values_of(m)), 0};
+        c.cost = objective(scorer, c.x, threads);
+        out.push_back(c);
+        return out;
+    }
+    // Off-specular floor: a low percentile of each channel among samples far from the mirror
+    // direction (theta_h > 45 degrees), or of all samples when there are none.
+    std::vector<char> is_far(score_set.size());
+    std::size_t n_far = 0;
+    for (std::size_t i = 0; i < score_set.size(); ++i) {
+        const brdf::HalfDiff<double> hd = brdf::to_half_diff(score_set[i].wi(), score_set[i].wo());
+        is_far[i] = hd.theta_h > brdf::kPi / 4;
+        n_far += is_far[i];
+    }
+    Rgbd floor = Rgbd::Zero();
+    for (int c = 0; c < 3; ++c) {
+        std::vector<double> v;
+        v.reserve(score_set.size());
+        for (std::size_t i = 0; i < score_set.size(); ++i) {
+            if (n_far < 10 || is_far[i]) {
+                v.push_back(score_set[i].value[c]);
+            }
+        }
+        floor[c] = brdf::kPi * percentile(std::move(v), 0.2);
+    }
+    double alpha = estimate_alpha(score_set, floor, m.lobes[0].distribution);
+    if (!(alpha > 0) || !std::isfinite(alpha)) {
+        alpha = 0.3;
+    }
+    alpha = std::clamp(alpha, 1e-3, 1.5);
+    std::vector<double> alphas = {alpha, 0.5 * alpha, 2 * alpha};
+    std::mt19937_64 rng(o.seed);
+    std::uniform_real_distribution<double> log_alpha(std::log(1e-3), std::log(1.0));
+    while (static_cast<int>(alphas.size()) < std::max(1, o.starts)) {
+        alphas.push_back(std::exp(log_alpha(rng)));
+    }
+    alphas.resize(std::max(1, o.starts));
+    if (o.starts > 1) {
+        // A fixed log-spaced ladder over the range of real lobes as well: the width estimate
+        // fails when the peak is narrower than the angular grid (only exact mirror samples see
+        // it), and scoring a start costs one pass over the small scoring set.
+        for (double a = 2e-3; a < 1.2; a *= 2.5) {
+            alphas.push_back(a);
+        }
+    }
+    for (double a : alphas) {
+        ModelD mc = m;
+        for (int i = 0; i < static_cast<int>(mc.lobes.size()); ++i) {
+            // Further lobes start wider, by a factor of 3 each.
+            set_shape(mc, map, i, a * std::pow(3.0, i));
+        }
+        linear_init(mc, map, score_set, scorer, o.relative_floor, threads);
+        Candidate c{clamp_start(map, map.values_of(mc)), 0};
+        c.cost = objective(scorer, c.x, threads);
+        out.push_back(c);
+    }
+    std::stable_sort(out.begin(), out.end(), [](const Candidate& a, const Candidate& b) {
+        return a.cost < b.cost;  // NaN/Inf costs sort last
+    });
+    return out;
+}
+
+}  // namespace
+
+Expected<std::vector<Candidate>> starting_points(const FitContext& ctx,
+                                                 const FitSpec& spec,
+                                                 const std::vector<Sample>& work) {
+    if (ctx.options.auto_init) {
+        return initial_candidates(ctx.map, work, ctx.options, ctx.cost);
+    }
+    std::vector<Candidate> candidates;
+    candidates.push_back({ctx.map->values_of(spec.model), 0});
+    for (int k = 0; k < ctx.map->size(); ++k) {
+        const ScalarParam& s = ctx.map->scalars()[ctx.map->free()[k]];
+        if (candidates[0].x[k] < s.lower || candidates[0].x[k] > s.upper) {
+            return make_error("start value of " + s.name + " = " +
+                              std::to_string(candidates[0].x[k]) + " outside its bounds [" +
+                              std::to_string(s.lower) + ", " + std::to_string(s.upper) + "]");
+        }
+    }
+    return candidates;
+}
+
+// A start's raw cost misleads when its width is right but its amplitudes are not (for example a
+// narrow lobe under a grid that misses most of its peak), and a full solve from a wrong start ends
+// in a local minimum: the tails of a wide lobe standing in for the diffuse term. Hence the short
+// solves before the ranking.
+void screen_starts(const FitContext& ctx,
+                   const std::vector<Sample>& work,
+                   std::vector<Candidate>& candidates,
+                   SolverInfo& solver) {
+    const FitOptions& o = ctx.options;
+    if (!o.auto_init || candidates.size() <= 1 || o.check_gradients) {
+        return;
+    }
+    const auto since = Clock::now();
+    const std::vector<Sample> screen = stratified_reduce(work, kScreenSamples, o.seed + 2);
+    const auto ps_screen = prepare(ctx, screen);
+    const std::size_t k = std::min(candidates.size(), kScreenStarts);
+    ceres::Solver::Summary last;
+    int its = 0;
+    for (std::size_t c = 0; c < k; ++c) {
+        SolveOutcome s = solve(
+            ctx, ps_screen, candidates[c].x, std::min(o.max_iterations, kScreenIterations), 1e-6);
+        its += iterations_of(s.summary);
+        last = s.summary;
+        if (s.summary.IsSolutionUsable() && std::isfinite(s.summary.final_cost) &&
+            all_finite(s.x)) {
+            candidates[c].x = s.x;
+            candidates[c].cost = s.summary.final_cost;
+        } else {
+            candidates[c].cost = std::numeric_limits<double>::infinity();
+        }
+    }
+    std::stable_sort(candidates.begin(),
+                     candidates.begin() + static_cast<long>(k),
+                     [](const Candidate& a, const Candidate& b) { return a.cost < b.cost; });
+    record_stage(solver, "screen", screen.size(), last, since, its);
+}
+
+}  // namespace gonio::fitting::detail
