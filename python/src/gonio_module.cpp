@@ -41,6 +41,7 @@ namespace py = pybind11;
 
 namespace {
 
+using gonio::ends_with;
 using gonio::Expected;
 using gonio::brdf::Brdf;
 using gonio::brdf::Dataset;

@@ -288,48 +288,5 @@ TEST(NormalEquationCost, ReproducesTheGaussNewtonQuantitiesOfTheFullProblem) {
     EXPECT_EQ(cost.passes(), 1);
 }
 
-TEST(PreparedSamples, ReweightRelativeSetsEachFactorFromTheModelValue) {
-    // Absolute residuals (g(m) = m, g' = 1): after reweighting at model values m the residual of
-    // a channel with data d and sigma is (m - d) / (rel m), rel = sigma / d, whatever its factor
-    // was; a channel with sigma = 0 keeps its residual.
-    const FitSpec spec = spec_of(kStructures[0]);
-    auto map = std::make_shared<const ParameterMap>(*ParameterMap::make(spec));
-    std::vector<brdf::Sample> samples = samples_for(spec.model, 200, 11);
-    for (std::size_t i = 0; i < samples.size(); ++i) {
-        for (int c = 0; c < 3; ++c) {
-            samples[i].sigma[c] = c == 2 ? 0.0 : (0.01 + 0.002 * c) * samples[i].value[c];
-        }
-    }
-    CostOptions co;
-    co.residual = ResidualForm::kAbsolute;
-    PreparedSamples ps(map, samples, co);
-    std::vector<double> x = map->values_of(spec.model);
-    x[3] *= 1.2;  // a model away from the data
-    const std::size_t n = samples.size();
-    std::vector<double> before(3 * n), after(3 * n);
-    ASSERT_TRUE(ps.evaluate(x.data(), 0, n, before.data(), nullptr));
-    std::vector<Rgbd> m;
-    ps.model_values(map->model<double>(x.data()), m, 1);
-    ps.reweight_relative(samples, m);
-    ASSERT_TRUE(ps.evaluate(x.data(), 0, n, after.data(), nullptr));
-    int changed = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-        for (int c = 0; c < 3; ++c) {
-            const double d = samples[i].value[c];
-            const double r_after = after[3 * i + c];
-            if (c == 2 || !(d > 0) || !(m[i][c] > 0)) {
-                EXPECT_EQ(r_after, before[3 * i + c]) << "sample " << i << " channel " << c;
-                continue;
-            }
-            const double rel = samples[i].sigma[c] / d;
-            const double want = (m[i][c] - d) / (rel * m[i][c]);
-            EXPECT_NEAR(r_after, want, 1e-9 * std::max(1.0, std::abs(want)))
-                << "sample " << i << " channel " << c;
-            changed += std::abs(r_after - before[3 * i + c]) > 1e-9 * std::abs(want) ? 1 : 0;
-        }
-    }
-    EXPECT_GT(changed, static_cast<int>(n));
-}
-
 }  // namespace
 }  // namespace gonio::fitting

@@ -19,6 +19,7 @@
 // The command's building blocks are compiled into this test (tools/ is not a library).
 #include "embedded_rig.h"
 #include "gonio/acquisition/campaign_request.h"
+#include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/model_json.h"
 #include "gonio/devices/modbus_axis.h"
 #include "gonio/devices/modbus_bus.h"
