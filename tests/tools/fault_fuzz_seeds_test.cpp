@@ -125,7 +125,6 @@ TEST(FuzzSeeds, OnceAcceptedSilentlyAreRefusedWithAMessage) {
 
 TEST(FuzzSeeds, TheValidSeedsStillRead) {
     for (const Seed& s : {Seed{"campaign_json", "valid.json"},
-                          Seed{"fit_template", "valid.json"},
                           Seed{"model_json", "plastic-ggx.json"},
                           Seed{"csv", "valid.csv"},
                           Seed{"merl", "valid_2x2x4.gtab"},
