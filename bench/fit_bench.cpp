@@ -13,6 +13,10 @@
 //   CrossFamily/<material>      the default fit end to end on the full table: time, iterations,
 //                               log RMSE; and the stated loss of the reduction: log RMSE of the
 //                               reduced solve alone (no polish) minus that of the polished fit
+//   Size/samples:<n>            the default fit of n noisy red-plastic samples at random
+//                               directions (1k, 6k, 100k, 1M): in process (solver.wall_time_s
+//                               and CPU), `gonio fit` (wall) and scipy least_squares, same CSV,
+//                               same run
 //   CsvRead                     read_dataset_csv of a 1M-row CSV written by write_dataset_csv
 //   GonioVsScipy                `gonio fit DATA.csv` and bench/scipy_fit.py (Debian python3-scipy,
 //                               scipy.optimize.least_squares) on the same 1M-row CSV, same run
@@ -22,6 +26,7 @@
 //   gonio_fit_bench [--table=ngan86.md] [google-benchmark flags]
 
 #include <benchmark/benchmark.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -35,12 +40,14 @@
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <random>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/dataset.h"
+#include "gonio/brdf/model_eval.h"
 #include "gonio/brdf/model_json.h"
 #include "gonio/brdf/resample.h"
 #include "gonio/fitting/fit.h"
@@ -260,6 +267,87 @@ void GonioVsScipy(benchmark::State& state) {
     }
 }
 
+/// A CSV of `n` samples of red-plastic (Ngan et al.'s Beckmann + V-groove fit: another family
+/// than the default model) at seeded uniform random directions above the horizon (cos theta in
+/// [0.05, 1]) with 1 % Gaussian multiplicative noise (seed 11); written once per size and run.
+std::string csv_of(std::size_t n) {
+    const std::string path =
+        (fs::current_path() / ("fit_bench_" + std::to_string(n) + ".csv")).string();
+    if (fs::exists(path)) {
+        return path;
+    }
+    const brdf::ModelD truth = truth_of("red-plastic");
+    std::mt19937_64 rng(11);
+    std::uniform_real_distribution<double> u(0, 1);
+    std::normal_distribution<double> noise(0, 0.01);
+    brdf::Dataset d;
+    d.samples.resize(n);
+    for (brdf::Sample& s : d.samples) {
+        s.theta_i = std::acos(0.05 + 0.95 * u(rng));
+        s.phi_i = 2 * brdf::kPi * u(rng);
+        s.theta_o = std::acos(0.05 + 0.95 * u(rng));
+        s.phi_o = 2 * brdf::kPi * u(rng);
+        s.value = brdf::eval_model(truth, s.wi(), s.wo()) * (1 + noise(rng));
+    }
+    if (!brdf::write_dataset_csv(path, d)) {
+        std::fprintf(stderr, "cannot write %s\n", path.c_str());
+        std::exit(1);
+    }
+    return path;
+}
+
+double process_cpu_s() {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
+/// The size table: at n points, the default fit in this process (the report's
+/// solver.wall_time_s and the process CPU time of the call), the whole `gonio fit` command
+/// (wall), and bench/scipy_fit.py on the same CSV in the same run (its least_squares time and its
+/// whole run).
+void Size(benchmark::State& state) {
+    const std::size_t n = static_cast<std::size_t>(state.range(0));
+    const std::string path = csv_of(n);
+    const auto data = brdf::read_dataset_csv(path);
+    if (!data) {
+        state.SkipWithError(data.error().message.c_str());
+        return;
+    }
+    const std::string gonio = self_dir() + "/../tools/gonio";
+    const std::string script = std::string(GONIO_SOURCE_DIR) + "/bench/scipy_fit.py";
+    fitting::FitResult r;
+    double cpu = 0, t_cmd = 0, t_scipy = 0;
+    std::string scipy_out, gonio_out;
+    for (auto _ : state) {
+        const double c0 = process_cpu_s();
+        r = *fitting::fit(*data, default_spec());
+        cpu = process_cpu_s() - c0;
+        t_cmd = timed(gonio + " fit " + path + " 2>&1", &gonio_out);
+        t_scipy = timed("/usr/bin/python3 " + script + " " + path, &scipy_out);
+    }
+    state.counters["samples"] = static_cast<double>(n);
+    state.counters["fit_s"] = r.solver.wall_time_s;
+    state.counters["fit_cpu_s"] = cpu;
+    state.counters["cmd_s"] = t_cmd;
+    state.counters["iterations"] = r.solver.iterations;
+    state.counters["log_rmse"] = r.metrics.log_rmse.mean();
+    for (const fitting::StageInfo& st : r.solver.stages) {
+        state.counters["s_" + st.name] = st.time_s;
+    }
+    try {
+        const nlohmann::json j = nlohmann::json::parse(scipy_out);
+        const double fit_s = j.at("fit_s").get<double>();
+        state.counters["scipy_fit_s"] = fit_s;
+        state.counters["scipy_total_s"] = t_scipy;
+        state.counters["scipy_log_rmse"] = j.at("log_rmse").get<double>();
+        state.counters["lead_fit"] = fit_s / r.solver.wall_time_s;
+        state.counters["lead_cmd"] = t_scipy / t_cmd;
+    } catch (const nlohmann::json::exception&) {
+        state.SkipWithError(("scipy: " + scipy_out).c_str());
+    }
+}
+
 void Ngan86(benchmark::State& state) {
     const nlohmann::json all = materials_json();
     struct Row {
@@ -361,6 +449,13 @@ int main(int argc, char** argv) {
     }
     for (const char* m : {"red-plastic", "white-paint", "chrome", "mix-ggx-beckmann", "two-ggx"}) {
         benchmark::RegisterBenchmark((std::string("CrossFamily/") + m).c_str(), CrossFamily, m)
+            ->Iterations(1)
+            ->Unit(benchmark::kMillisecond);
+    }
+    for (long samples : {1000L, 6000L, 100000L, 1000000L}) {
+        benchmark::RegisterBenchmark("Size", Size)
+            ->Arg(samples)
+            ->ArgName("samples")
             ->Iterations(1)
             ->Unit(benchmark::kMillisecond);
     }

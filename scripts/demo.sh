@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # Set-up (packages, configure, build), then the main job on the embedded simulated rig:
-#   1. a point-mode campaign of a real material (Modbus drives + USB3 Vision camera, simulated),
+#   1. a point-mode campaign of a real material (Modbus drives + GigE Vision camera, simulated),
 #   2. the fit of GGX + Lambert + Schlick to its dataset,
 #   3. plots, a ground-truth-versus-fit preview and the HTML report,
 #   4. an image-mode campaign (a sphere of the same material, imaged by the simulated GigE Vision
-#      camera through the same device path) straight into a half/difference table.
+#      camera through the same device path) straight into a half/difference table, the fit of that
+#      table and its HTML report (coverage map, holes, calibration).
 # Everything lands in $GONIO_OUT (default gonio-out/) under a new time-stamped folder.
 # Environment: GONIO_MATERIAL (default red-plastic; any name of data/materials/ngan2005.json).
 set -euo pipefail
@@ -30,8 +31,10 @@ mkdir -p "$dir/previews"
 "$gonio" preview "material:$material" --vs "$dir/fit.json" --out "$dir/previews/truth-vs-fit.png"
 "$gonio" report "$dir"
 
-step "4/4 image-mode campaign of $material (sphere sample)"
+step "4/4 image-mode campaign of $material (sphere sample), its fit and report"
 "$gonio" acquire --mode image --material "$material" --out "$run/image"
+"$gonio" fit "$run/image/dataset.csv" --out "$run/image/fit.json"
+"$gonio" report "$run/image"
 
-printf '\nDone.\n  dataset: %s\n  fit:     %s\n  report:  %s\n  image-mode table and coverage: %s\n' \
-  "$dir/dataset.csv" "$dir/fit.report.json" "$dir/report.html" "$run/image"
+printf '\nDone.\n  dataset: %s\n  fit:     %s\n  report:  %s\n  image-mode report: %s\n' \
+  "$dir/dataset.csv" "$dir/fit.report.json" "$dir/report.html" "$run/image/report.html"

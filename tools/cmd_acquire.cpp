@@ -9,13 +9,16 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <string>
+#include <utility>
 
 #include "acquire_image_mode.h"
 #include "command.h"
 #include "embedded_rig.h"
 #include "gonio/acquisition/campaign.h"
 #include "gonio/acquisition/campaign_request.h"
+#include "gonio/report/live_server.h"
 #include "option_checks.h"
 
 namespace {
@@ -26,6 +29,7 @@ namespace fs = std::filesystem;
 struct AcquireOptions {
     acq::CampaignRequest request;
     std::string mode = "point";
+    std::string grid;  ///< --grid as typed (HxDxP)
 };
 
 std::atomic<bool> g_stop{false};
@@ -78,12 +82,39 @@ int print_point_plan(const acq::CampaignRequest& r) {
     return 0;
 }
 
+/// "HxDxP" (theta_h x theta_d x phi_d bins) of --grid; false when malformed.
+bool parse_grid(const std::string& text, acq::TableLayout* out) {
+    int h = 0;
+    int d = 0;
+    int p = 0;
+    char x1 = 0;
+    char x2 = 0;
+    char extra = 0;
+    if (std::sscanf(text.c_str(), "%d%c%d%c%d%c", &h, &x1, &d, &x2, &p, &extra) != 5 || x1 != 'x' ||
+        x2 != 'x' || h < 1 || d < 1 || p < 1) {
+        return false;
+    }
+    *out = {h, d, p};
+    return true;
+}
+
 int run(const acq::CampaignRequest& r) {
     if (auto c = acq::find_conflict(r)) {
         return refuse(r, *c);
     }
+    std::optional<std::pair<std::string, int>> serve_at;
+    if (!r.serve.empty()) {
+        auto a = gonio::report::parse_listen_address(r.serve);
+        if (!a) {
+            return gonio::tools::usage_error("acquire", a.error().message);
+        }
+        serve_at = *a;
+    }
     if (r.mode == acq::CampaignMode::kImage) {
-        return gonio::tools::run_acquire_image_mode(r);
+        if (r.plan_only) {
+            return gonio::tools::print_image_plan(r);
+        }
+        return gonio::tools::run_acquire_image_mode(gonio::tools::image_options(r));
     }
     if (r.plan_only) {
         return print_point_plan(r);
@@ -108,8 +139,33 @@ int run(const acq::CampaignRequest& r) {
         }
         return {};
     };
+    std::unique_ptr<gonio::report::LiveServer> live;
+    if (serve_at) {
+        gonio::report::LiveOptions lo;
+        lo.title = "gonio campaign " + fs::path(dir).filename().string();
+        auto srv = gonio::report::LiveServer::start(serve_at->first, serve_at->second, lo);
+        if (!srv) {
+            return fail(srv.error().message);
+        }
+        live = std::move(*srv);
+        std::printf("live page: %s\n", live->url().c_str());
+        std::fflush(stdout);
+        gonio::report::LiveServer* l = live.get();
+        l->publish_progress(0, 0, "running");
+        // The campaign thread only hands each sample over; the server draws on its own thread.
+        hooks.on_measurement = [l](const gonio::brdf::Sample& s, std::size_t done, std::size_t n) {
+            l->publish_sample(s);
+            l->publish_progress(done, n, "running");
+        };
+    }
     std::signal(SIGINT, on_sigint);
     auto res = acq::run_campaign(dir, (*campaign)->devices, hooks);
+    if (live && res) {
+        const char* state = res->outcome == acq::Outcome::kCompleted     ? "completed"
+                            : res->outcome == acq::Outcome::kInterrupted ? "stopped"
+                                                                         : "paused";
+        live->publish_progress(res->measured_total, res->planned_total, state);
+    }
     std::signal(SIGINT, SIG_DFL);
     if (!res) {
         return fail(res.error().message);
@@ -177,12 +233,29 @@ GONIO_COMMAND(acquire) {
     cmd->add_option(
            "--coverage-target", r.coverage_target, "image mode: fraction of valid table bins")
         ->check(gonio::tools::finite_in(0.001, 1));
+    cmd->add_option(
+        "--grid", o->grid, "image mode: table bins N_THETA_HxN_THETA_DxN_PHI_D (90x90x180 = MERL)");
     cmd->add_option("--max-frames", r.max_frames, "image mode: most light positions")
         ->check(gonio::tools::integer_in(1, 1000000));
     cmd->add_flag("--plan-only", r.plan_only, "print the plan (and unreachable targets) and exit");
+    cmd->add_option("--serve",
+                    r.serve,
+                    "serve a live page of the campaign at [ADDR:]PORT (ADDR default 127.0.0.1, "
+                    "PORT 0 = any free port; the URL is printed); point mode");
     return [o]() {
-        o->request.mode =
-            o->mode == "image" ? acq::CampaignMode::kImage : acq::CampaignMode::kPoint;
-        return run(o->request);
+        acq::CampaignRequest& req = o->request;
+        // A resume of an image campaign is recognised by its folder (its settings file).
+        std::error_code ec;
+        const bool image_folder = !req.resume_dir.empty() &&
+                                  fs::exists(fs::path(req.resume_dir) / "image_campaign.json", ec);
+        req.mode = o->mode == "image" || image_folder ? acq::CampaignMode::kImage
+                                                      : acq::CampaignMode::kPoint;
+        if (!o->grid.empty() && !parse_grid(o->grid, &req.grid)) {
+            return gonio::tools::usage_error("acquire",
+                                             "--grid \"" + o->grid +
+                                                 "\": expected N_THETA_HxN_THETA_DxN_PHI_D, e.g. "
+                                                 "90x90x180");
+        }
+        return run(req);
     };
 }

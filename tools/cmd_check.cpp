@@ -2,12 +2,14 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <string>
 
 #include "command.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/checks.h"
+#include "gonio/brdf/dataset.h"
 #include "gonio/brdf/table.h"
 #include "option_checks.h"
 
@@ -16,9 +18,41 @@ namespace {
 struct CheckCliOptions {
     std::string brdf_path;
     gonio::brdf::CheckOptions checks;
+    std::string noise_from;
+    gonio::brdf::DatasetCheckOptions dataset;
 };
 
-int run_check(const CheckCliOptions& opts) {
+bool ends_with_csv(const std::string& p) {
+    return p.size() >= 4 && p.compare(p.size() - 4, 4, ".csv") == 0;
+}
+
+/// A measured dataset: checks of the samples against each other within their sigma.
+int run_dataset_check(const CheckCliOptions& opts) {
+    auto data = gonio::brdf::read_dataset_csv(opts.brdf_path);
+    if (!data) {
+        std::fprintf(stderr, "gonio check: %s\n", data.error().message.c_str());
+        return 1;
+    }
+    if (data->samples.empty()) {
+        std::fprintf(stderr, "gonio check: %s: no sample to check\n", opts.brdf_path.c_str());
+        return 1;
+    }
+    std::printf("dataset %s: %zu samples%s; pairs matched within %.3g deg\n\n",
+                opts.brdf_path.c_str(),
+                data->samples.size(),
+                data->has_sigma ? " with sigma" : " without sigma (relative floor only)",
+                opts.dataset.match_tolerance_deg);
+    const auto results = gonio::brdf::check_dataset(*data, opts.dataset);
+    std::printf("%s", gonio::brdf::format_check_table(results).c_str());
+    const bool ok = gonio::brdf::all_passed(results);
+    std::printf("\n%s\n", ok ? "all checks passed" : "VIOLATION beyond the noise");
+    return ok ? 0 : 1;
+}
+
+int run_check(CheckCliOptions opts) {
+    if (ends_with_csv(opts.brdf_path)) {
+        return run_dataset_check(opts);
+    }
     auto brdf = gonio::brdf::load_brdf(opts.brdf_path);
     if (!brdf) {
         std::fprintf(stderr, "gonio check: %s\n", brdf.error().message.c_str());
@@ -35,6 +69,36 @@ int run_check(const CheckCliOptions& opts) {
                          st.bins);
             return 1;
         }
+        // Stated noise: a dataset whose samples are the table's bins (an image-mode campaign
+        // writes dataset.csv beside its table).
+        std::string noise = opts.noise_from;
+        if (noise.empty()) {
+            const auto side = std::filesystem::path(opts.brdf_path).parent_path() / "dataset.csv";
+            if (std::filesystem::exists(side)) {
+                noise = side.string();
+            }
+        }
+        if (!noise.empty()) {
+            auto d = gonio::brdf::read_dataset_csv(noise);
+            if (!d) {
+                std::fprintf(stderr, "gonio check: noise: %s\n", d.error().message.c_str());
+                return 1;
+            }
+            opts.checks.bin_sigma = gonio::brdf::bin_sigma_from_dataset(table->grid(), *d);
+            std::printf(
+                "noise: per-bin sigma of %zu samples from %s\n", d->samples.size(), noise.c_str());
+        }
+        if (opts.checks.noise_relative > 0) {
+            std::printf("noise: stated relative sigma %.3g\n", opts.checks.noise_relative);
+        }
+        std::printf("table: reciprocity and isotropy held to the bins' spread + %.3g sigma\n",
+                    opts.checks.noise_sigmas);
+    } else if (!opts.noise_from.empty() || opts.checks.noise_relative > 0) {
+        std::fprintf(stderr,
+                     "gonio check: --noise and --noise-from apply to tables only; %s is a "
+                     "model\n",
+                     opts.brdf_path.c_str());
+        return 2;
     }
     std::printf("%s\n", (*brdf)->describe().c_str());
     const std::string stats = (*brdf)->statistics();
@@ -56,9 +120,12 @@ int run_check(const CheckCliOptions& opts) {
 
 GONIO_COMMAND(check) {
     auto* cmd = app.add_subcommand(
-        "check", "Check a BRDF for non-negativity, reciprocity, isotropy and energy conservation");
+        "check",
+        "Check a BRDF (model, table or measured dataset) for non-negativity, reciprocity, "
+        "isotropy and energy conservation");
     auto opts = std::make_shared<CheckCliOptions>();
-    cmd->add_option("brdf", opts->brdf_path, "Model JSON or tabulated BRDF file")->required();
+    cmd->add_option("brdf", opts->brdf_path, "Model JSON, tabulated BRDF or dataset CSV")
+        ->required();
     cmd->add_option("--seed", opts->checks.seed, "Seed of the random direction pairs")
         ->capture_default_str();
     cmd->add_option("--pairs", opts->checks.random_pairs, "Random direction pairs per check")
@@ -79,7 +146,24 @@ GONIO_COMMAND(check) {
                     "Largest accepted directional albedo above 1 (quadrature error allowance)")
         ->check(gonio::tools::finite_at_least(0))
         ->capture_default_str();
+    cmd->add_option("--noise",
+                    opts->checks.noise_relative,
+                    "Tables: stated relative noise (one sigma) of every value")
+        ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
+    cmd->add_option("--noise-from",
+                    opts->noise_from,
+                    "Tables: dataset CSV with one sample per bin and its sigma (default: "
+                    "dataset.csv beside the table, when present)");
+    cmd->add_option("--match-tol",
+                    opts->dataset.match_tolerance_deg,
+                    "Datasets: angle within which two samples form a pair, deg")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
     cmd->footer(
+        "A dataset (*.csv) is checked against itself: reciprocal and rotated pairs of samples "
+        "must agree within their sigma (threshold from the number of pairs, no random choice). "
+        "A table is held to its own resolution and stated noise. "
         "Exit status: 0 all checks passed, 1 a violation beyond tolerance, an unreadable BRDF or a "
         "table without valid bins, 2 usage error.");
     return [opts]() -> int { return run_check(*opts); };

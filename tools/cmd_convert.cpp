@@ -2,6 +2,8 @@
 //   MODEL.json or table -> table   evaluate at the bin centres (threads)
 //   table or MODEL.json -> CSV     one sample per valid bin at its centre
 //   CSV -> table                   kernel-weighted resampling; bins without data left invalid
+//   MODEL.json or table -> *.bsdf  RGL material file: NDF by power iteration, VNDF warps, values
+//   *.bsdf -> CSV                  the file's own nodes, one sample each (no resampling)
 
 #include <CLI/CLI.hpp>
 #include <cctype>
@@ -13,13 +15,14 @@
 #include <string>
 
 #include "command.h"
-#include "gonio/base/strings.h"
 #include "gonio/base/atomic_file.h"
+#include "gonio/base/limits.h"
+#include "gonio/base/strings.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/dataset.h"
-#include "gonio/base/limits.h"
 #include "gonio/brdf/merl.h"
 #include "gonio/brdf/resample.h"
+#include "gonio/brdf/rgl_bsdf.h"
 #include "gonio/brdf/samples_io.h"
 #include "gonio/brdf/table.h"
 #include "option_checks.h"
@@ -171,13 +174,42 @@ int to_table(const ConvertOptions& o, const gonio::brdf::TableGrid& grid) {
     return 0;
 }
 
+int to_rgl(const ConvertOptions& o) {
+    using namespace gonio::brdf;
+    const auto t0 = std::chrono::steady_clock::now();
+    Expected<std::unique_ptr<Brdf>> brdf = load_brdf(o.input);
+    if (!brdf) {
+        return fail(brdf.error().message);
+    }
+    if (auto* table = dynamic_cast<TabulatedBrdf*>(brdf->get())) {
+        table->set_interpolation(o.interpolation == "trilinear" ? Interpolation::kTrilinear
+                                                                : Interpolation::kNearest);
+    }
+    Expected<RglWriteReport> rep = write_rgl_bsdf(o.output, **brdf);
+    if (!rep) {
+        return fail(rep.error().message);
+    }
+    std::printf(
+        "%s -> %s: RGL material file, NDF by power iteration (%d iterations, last change %.1e), "
+        "%zu nodes (%zu below the horizon stored as 0), %zu bytes (%.2f s)\n",
+        o.input.c_str(),
+        o.output.c_str(),
+        rep->ndf.iterations,
+        rep->ndf.change,
+        rep->nodes,
+        rep->below_horizon,
+        rep->bytes,
+        seconds_since(t0));
+    return 0;
+}
+
 int to_csv(const ConvertOptions& o, const gonio::brdf::TableGrid& grid) {
     using namespace gonio::brdf;
     if (ends_with(o.input, ".csv")) {
         return fail(o.input + " -> " + o.output + ": both are sample CSVs, nothing to convert");
     }
     Dataset data;
-    if (is_table_path(o.input)) {
+    if (is_table_path(o.input) || is_rgl_path(o.input)) {
         Expected<Dataset> d = load_samples(o.input);
         if (!d) {
             return fail(d.error().message);
@@ -203,7 +235,9 @@ int to_csv(const ConvertOptions& o, const gonio::brdf::TableGrid& grid) {
     if (!w) {
         return fail(w.error().message);
     }
-    std::printf("%s -> %s: %zu samples (one per valid bin above the horizon)\n",
+    std::printf(is_rgl_path(o.input)
+                    ? "%s -> %s: %zu samples (one per stored node above the horizon)\n"
+                    : "%s -> %s: %zu samples (one per valid bin above the horizon)\n",
                 o.input.c_str(),
                 o.output.c_str(),
                 data.samples.size());
@@ -215,10 +249,13 @@ int to_csv(const ConvertOptions& o, const gonio::brdf::TableGrid& grid) {
 GONIO_COMMAND(convert) {
     auto* cmd = app.add_subcommand(
         "convert",
-        "Convert between models (*.json), tables (MERL *.binary/*.merl, *.gtab) and sample CSVs");
+        "Convert between models (*.json), tables (MERL *.binary/*.merl, *.gtab), RGL materials "
+        "(*.bsdf) and sample CSVs");
     auto opts = std::make_shared<ConvertOptions>();
     cmd->add_option("input", opts->input, "model JSON, table or sample CSV")->required();
-    cmd->add_option("output", opts->output, "table (*.binary, *.merl, *.gtab) or sample CSV")
+    cmd->add_option("output",
+                    opts->output,
+                    "table (*.binary, *.merl, *.gtab), RGL material (*.bsdf) or sample CSV")
         ->required();
     cmd->add_option("--grid",
                     opts->grid,
@@ -237,7 +274,7 @@ GONIO_COMMAND(convert) {
            "CSV -> table: kernel radius in bins; bins with no sample this close stay invalid")
         ->check(gonio::tools::finite_in(1e-3, 16, "bins"))
         ->capture_default_str();
-    return [opts]() -> int {
+    return [opts, cmd_ptr = cmd]() -> int {
         gonio::brdf::TableGrid grid;
         if (!parse_grid(opts->grid, &grid)) {
             return gonio::tools::usage_error("convert",
@@ -246,10 +283,32 @@ GONIO_COMMAND(convert) {
                                                  std::to_string(gonio::brdf::kMaxTableDim) + "]");
         }
         const bool table_out = gonio::brdf::is_table_path(opts->output);
-        if (!table_out && !ends_with(opts->output, ".csv")) {
+        const bool rgl_out = gonio::brdf::is_rgl_path(opts->output);
+        if (!table_out && !rgl_out && !ends_with(opts->output, ".csv")) {
             return gonio::tools::usage_error(
                 "convert",
-                opts->output + ": unknown output type (expected .binary, .merl, .gtab or .csv)");
+                opts->output +
+                    ": unknown output type (expected .binary, .merl, .gtab, .bsdf or .csv)");
+        }
+        if (rgl_out) {
+            // The RGL file has its own parameterisation: no grid, threads or kernel radius.
+            for (const char* name : {"--grid", "--threads", "--radius"}) {
+                if (cmd_ptr->count(name) > 0) {
+                    return gonio::tools::usage_error(
+                        "convert", std::string(name) + " does not apply to an RGL *.bsdf output");
+                }
+            }
+            if (ends_with(opts->input, ".csv")) {
+                return gonio::tools::usage_error(
+                    "convert",
+                    opts->input + " -> " + opts->output +
+                        ": an RGL file is written from a model or a table (resample the CSV to "
+                        "a table first)");
+            }
+            if (auto ok = gonio::check_output_path(opts->output); !ok) {
+                return fail(ok.error().message);
+            }
+            return to_rgl(*opts);
         }
         if (table_out && !ends_with(opts->output, ".gtab")) {
             grid = gonio::brdf::TableGrid::merl();
@@ -261,7 +320,8 @@ GONIO_COMMAND(convert) {
         // Memory: the table, and for CSV outputs up to one sample (about 150 bytes with its
         // text) per bin.
         const bool csv_in = ends_with(opts->input, ".csv");
-        const bool grid_used = table_out || !gonio::brdf::is_table_path(opts->input);
+        const bool grid_used = table_out || (!gonio::brdf::is_table_path(opts->input) &&
+                                             !gonio::brdf::is_rgl_path(opts->input));
         if (grid_used) {
             // A table output is encoded into one buffer before it is written: twice the table.
             const double bytes =

@@ -19,6 +19,8 @@
 
 namespace {
 
+using gonio::ends_with;
+
 struct Options {
     std::string input;
     std::string to;

@@ -49,6 +49,7 @@ struct FitCliOptions {
     std::string truth;
     std::string manifest;
     std::string shard;
+    bool strict = false;
 };
 
 std::vector<std::string> split(const std::string& s) {
@@ -127,13 +128,15 @@ gonio::Expected<void> apply(gonio::batch::FitRequest& request,
 }
 
 int run_compare(const std::vector<gonio::batch::FitRequest>& requests,
-                const gonio::brdf::Dataset& data) {
+                const gonio::brdf::Dataset& data,
+                bool strict) {
     struct Row {
         std::string model;
         fitting::FitResult result;
     };
     std::vector<Row> rows;
     std::vector<std::string> failed;
+    std::vector<std::string> misfits;
     for (const gonio::batch::FitRequest& request : requests) {
         const std::string& name = request.model;
         auto run = gonio::batch::run_fit(data, request);
@@ -142,12 +145,13 @@ int run_compare(const std::vector<gonio::batch::FitRequest>& requests,
             return 1;
         }
         const fitting::FitResult* r = &run->result;
-        if (!r->usable()) {
-            failed.push_back(name + ": " +
-                             (r->solver.converged
-                                  ? std::string("does not represent the data")
-                                  : r->solver.termination + " (" + r->solver.message + ")"));
+        if (!r->solver.converged) {
+            failed.push_back(name + ": " + r->solver.termination + " (" + r->solver.message + ")");
             continue;
+        }
+        if (!r->usable()) {
+            // A misfit is ranked with the others (its figures are what that model can do).
+            misfits.push_back(name);
         }
         rows.push_back({name, *r});
     }
@@ -165,21 +169,28 @@ int run_compare(const std::vector<gonio::batch::FitRequest>& requests,
                 "time_s");
     for (std::size_t i = 0; i < rows.size(); ++i) {
         const fitting::FitResult& r = rows[i].result;
-        std::printf("%-4zu %-12s %12.6g %12.6g %12.6g %6d %9.3f\n",
+        std::printf("%-4zu %-12s %12.6g %12.6g %12.6g %6d %9.3f%s\n",
                     i + 1,
                     rows[i].model.c_str(),
                     mean(r.metrics.log_rmse),
                     mean(r.metrics.rel_rmse),
                     mean(r.metrics.rmse),
                     r.solver.iterations,
-                    r.solver.wall_time_s);
+                    r.solver.wall_time_s,
+                    r.usable() ? "" : "  (misfit: does not represent the data)");
     }
     std::printf("(errors are channel means over all %zu valid samples; ranked by log_rmse)\n",
                 rows.empty() ? std::size_t{0} : rows[0].result.samples.valid);
     for (const std::string& f : failed) {
-        std::printf("not usable, not ranked: %s\n", f.c_str());
+        std::printf("did not converge, not ranked: %s\n", f.c_str());
     }
-    return failed.empty() ? 0 : 1;
+    for (const std::string& m : misfits) {
+        std::fprintf(stderr,
+                     "gonio fit: %s: %s does not represent these data\n",
+                     strict ? "error" : "warning",
+                     m.c_str());
+    }
+    return failed.empty() && (misfits.empty() || !strict) ? 0 : 1;
 }
 
 }  // namespace
@@ -187,10 +198,13 @@ int run_compare(const std::vector<gonio::batch::FitRequest>& requests,
 GONIO_COMMAND(fit) {
     auto* cmd = app.add_subcommand("fit", "fit an analytic BRDF model to measured samples (Ceres)");
     auto o = std::make_shared<FitCliOptions>();
-    cmd->add_option("data", o->data, "samples: dataset CSV or table (MERL .binary, .gtab)");
+    cmd->add_option("data",
+                    o->data,
+                    "samples: dataset CSV, table (MERL .binary, .gtab) or RGL material (.bsdf)");
     cmd->add_option("--model",
                     o->model,
-                    "lobe distribution: ggx, beckmann, blinn-phong, or auto (candidates ranked by "
+                    "lobe distribution: ggx, beckmann, blinn-phong, student-t, or auto (candidates "
+                    "ranked by "
                     "BIC on the reduction, the winner polished on all samples)")
         ->capture_default_str();
     cmd->add_option("--template",
@@ -222,6 +236,10 @@ GONIO_COMMAND(fit) {
     cmd->add_option("--threads", o->threads, "solver threads (0 = all cores)")
         ->capture_default_str();
     cmd->add_option("--out", o->out, "write the fitted model here and the report beside it");
+    cmd->add_flag("--strict",
+                  o->strict,
+                  "exit 1 when the model does not represent the data (a misfit is otherwise "
+                  "written, reported on stderr, and exits 0)");
     cmd->add_option("--truth", o->truth, "ground-truth model JSON, copied into the report");
     cmd->add_option("--compare",
                     o->compare,
@@ -255,7 +273,8 @@ GONIO_COMMAND(fit) {
             for (const GivenOption& g : given) {
                 overrides.emplace_back(g.key, g.value);
             }
-            return gonio::tools::run_fit_manifest(o->manifest, o->shard, o->out, overrides);
+            return gonio::tools::run_fit_manifest(
+                o->manifest, o->shard, o->out, overrides, o->strict);
         }
         if (o->data.empty()) {
             return usage_error("fit", "give DATA (or --manifest M --out DIR)");
@@ -341,7 +360,7 @@ GONIO_COMMAND(fit) {
             return 1;
         }
         if (!o->compare.empty()) {
-            return run_compare(requests, *data);
+            return run_compare(requests, *data, o->strict);
         }
         const batch::FitRequest& request = requests.front();
         auto run = batch::run_fit(*data, request);
@@ -384,13 +403,16 @@ GONIO_COMMAND(fit) {
             return 1;
         }
         if (!result->usable()) {
+            // A converged misfit is a finding: the best fit of that model, written with its
+            // verdict. Scripts that want it to fail ask for --strict.
             std::fprintf(stderr,
-                         "gonio fit: the model does not represent these data (%s); %s\n",
+                         "gonio fit: %s: the model does not represent these data (%s); %s\n",
+                         o->strict ? "error" : "warning",
                          result->goodness.warnings.empty()
                              ? "see the report"
                              : result->goodness.warnings.front().c_str(),
                          result->goodness.suggestion.c_str());
-            return 1;
+            return o->strict ? 1 : 0;
         }
         return 0;
     };

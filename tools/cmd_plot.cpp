@@ -17,6 +17,7 @@ struct Options {
     std::string fit;
     std::string out = "plots";
     bool log = false;
+    std::string scale = "auto";
     int width = 800;
     std::vector<double> theta_i_deg;
 };
@@ -28,12 +29,19 @@ GONIO_COMMAND(plot) {
         "plot",
         "Polar in-plane slices, delta_phi slices and (with --fit) residual maps, as PNG files");
     auto opts = std::make_shared<Options>();
-    cmd->add_option("data", opts->data, "dataset CSV or table (*.binary, *.merl, *.gtab)")
+    cmd->add_option("data",
+                    opts->data,
+                    "dataset CSV, table (*.binary, *.merl, *.gtab) or RGL material (*.bsdf)")
         ->required();
     cmd->add_option("--fit", opts->fit, "fitted model (fit.json) or table drawn over the data");
     cmd->add_option("--out", opts->out, "output folder (created if missing)")
         ->capture_default_str();
-    cmd->add_flag("--log", opts->log, "logarithmic BRDF axis");
+    cmd->add_option("--scale",
+                    opts->scale,
+                    "BRDF axis: auto (log when the data span more than a decade), linear, log")
+        ->check(CLI::IsMember({"auto", "linear", "log"}))
+        ->capture_default_str();
+    cmd->add_flag("--log", opts->log, "logarithmic BRDF axis (same as --scale log)");
     cmd->add_option("--width", opts->width, "picture width in pixels (>= 400)")
         ->capture_default_str()
         ->check(CLI::Range(400, 4000));
@@ -56,7 +64,13 @@ GONIO_COMMAND(plot) {
             fit = std::move(*loaded);
         }
         gonio::report::PlotOptions po;
-        po.log_scale = opts->log;
+        if (opts->log && opts->scale == "linear") {
+            std::fprintf(stderr, "gonio plot: --log contradicts --scale linear\n");
+            return 2;
+        }
+        po.scale = opts->log || opts->scale == "log" ? gonio::report::AxisScale::kLog
+                   : opts->scale == "linear"         ? gonio::report::AxisScale::kLinear
+                                                     : gonio::report::AxisScale::kAuto;
         po.width = opts->width;
         po.theta_i_deg = opts->theta_i_deg;
         // Drift-reference rows re-measure one configuration; they are not plotted as samples.

@@ -52,7 +52,10 @@ GONIO_COMMAND(preview) {
     auto* cmd = app.add_subcommand(
         "preview", "Render a sphere under a directional light and a sky/ground environment (PNG)");
     auto opts = std::make_shared<Options>();
-    cmd->add_option("brdf", opts->brdf, "model JSON (fit.json) or table (*.binary, *.merl, *.gtab)")
+    cmd->add_option(
+           "brdf",
+           opts->brdf,
+           "model JSON (fit.json), table (*.binary, *.merl, *.gtab) or RGL material (*.bsdf)")
         ->required();
     cmd->add_option("--vs", opts->vs, "a second BRDF rendered below the first for comparison");
     cmd->add_option("--out", opts->out, "output PNG")->capture_default_str();

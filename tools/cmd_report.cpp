@@ -20,7 +20,9 @@ struct Options {
 
 GONIO_COMMAND(report) {
     auto* cmd = app.add_subcommand(
-        "report", "Write DIR/report.html: metadata, coverage, calibration, fit, plots, previews");
+        "report",
+        "Write DIR/report.html for a point or image-mode campaign folder: the result (verdict, "
+        "model, parameters), pictures, coverage, calibration, run history, raw descriptions");
     auto opts = std::make_shared<Options>();
     cmd->add_option("dir", opts->dir, "campaign folder")->required();
     cmd->add_flag("--regenerate", opts->regenerate, "redraw plots and previews that already exist");

@@ -14,7 +14,8 @@ namespace gonio::tools {
 int run_fit_manifest(const std::string& manifest,
                      const std::string& shard_text,
                      const std::string& out_dir,
-                     const std::vector<std::pair<std::string, std::string>>& overrides) {
+                     const std::vector<std::pair<std::string, std::string>>& overrides,
+                     bool strict) {
     if (out_dir.empty()) {
         std::fprintf(stderr, "gonio fit: --manifest needs --out DIR (the results folder)\n");
         return 2;
@@ -72,8 +73,10 @@ int run_fit_manifest(const std::string& manifest,
     std::size_t bad = 0;
     for (std::size_t i = 0; i < mine.size(); ++i) {
         batch::EntryOutcome o = batch::run_entry(mine[i], out_dir);
-        const bool ok =
-            o.status == batch::EntryStatus::kFitted || o.status == batch::EntryStatus::kSkipped;
+        // A misfit is a finding (model and verdict written), a failure only under --strict.
+        const bool ok = o.status == batch::EntryStatus::kFitted ||
+                        o.status == batch::EntryStatus::kSkipped ||
+                        (o.status == batch::EntryStatus::kMisfit && !strict);
         bad += ok ? 0 : 1;
         std::printf("[%zu/%zu] %s: %s%s%s\n",
                     i + 1,

@@ -19,8 +19,8 @@
 #include "gonio/acquisition/journal.h"
 #include "gonio/acquisition/progress.h"
 #include "gonio/base/atomic_file.h"
-#include "gonio/brdf/dataset.h"
 #include "gonio/base/limits.h"
+#include "gonio/brdf/dataset.h"
 #include "gonio/version.h"
 #include "json_fields.h"
 
@@ -1084,6 +1084,20 @@ Expected<RunResult> Runner::run() {
             ++result_.measured_now;
             result_.measured_total = done.size();
             progress.step();
+            if (hooks_.on_measurement) {
+                brdf::Sample smp;
+                const auto si = brdf::cartesian_to_spherical(r.wi);
+                const auto so = brdf::cartesian_to_spherical(r.wo);
+                smp.theta_i = si.theta;
+                smp.phi_i = si.phi;
+                smp.theta_o = so.theta;
+                smp.phi_o = so.phi;
+                smp.value = r.value;
+                smp.sigma = r.sigma;
+                smp.weight = r.weight;
+                smp.flags = r.flags;
+                hooks_.on_measurement(smp, done.size(), planned_total);
+            }
         }
         progress.finish("pass " + std::to_string(pass) + " complete");
     }

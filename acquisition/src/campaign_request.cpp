@@ -66,6 +66,8 @@ std::vector<std::string> given_fields(const CampaignRequest& r) {
     add(r.plan_only, "plan_only");
     add(r.coverage_target > 0, "coverage_target");
     add(r.max_frames > 0, "max_frames");
+    add(r.grid.n_theta_h > 0 || r.grid.n_theta_d > 0 || r.grid.n_phi_d > 0, "grid");
+    add(!r.serve.empty(), "serve");
     return out;
 }
 
@@ -83,41 +85,8 @@ bool among(const std::string& field, std::initializer_list<const char*> fields) 
 std::optional<RequestConflict> find_conflict(const CampaignRequest& r) {
     const std::vector<std::string> given = given_fields(r);
     const bool image = r.mode == CampaignMode::kImage;
-    if (image && !r.resume_dir.empty()) {
-        return RequestConflict{"resume_dir",
-                               "mode",
-                               "an image campaign keeps no journal of its frames, so it cannot be "
-                               "resumed; start it again with --out"};
-    }
-    if (!r.resume_dir.empty()) {
-        for (const std::string& f : given) {
-            if (f != "resume_dir" && f != "accept_drift") {
-                return RequestConflict{
-                    f,
-                    "resume_dir",
-                    "a resume takes the description, rig and plan from the campaign folder"};
-            }
-        }
-        return std::nullopt;
-    }
-    if (r.plan_only) {
-        for (const std::string& f : given) {
-            if (among(f,
-                      {"out_dir",
-                       "campaigns_dir",
-                       "material",
-                       "brdf_path",
-                       "time_scale",
-                       "sample",
-                       "operator_name",
-                       "accept_drift"})) {
-                return RequestConflict{
-                    f, "plan_only", "only the plan is printed; nothing is measured or written"};
-            }
-        }
-    }
     for (const std::string& f : given) {
-        if (!image && among(f, {"coverage_target", "max_frames"})) {
+        if (!image && among(f, {"coverage_target", "max_frames", "grid"})) {
             return RequestConflict{f, "mode", "an image-mode option (give --mode image)"};
         }
         if (image && among(f,
@@ -132,6 +101,40 @@ std::optional<RequestConflict> find_conflict(const CampaignRequest& r) {
                                    "mode",
                                    "a point-mode option: image mode plans its light positions "
                                    "from the coverage of the table and checks no lamp drift"};
+        }
+        if (image && f == "serve") {
+            return RequestConflict{
+                f, "mode", "the live page follows point-mode campaigns; image mode is not served"};
+        }
+    }
+    if (!r.resume_dir.empty()) {
+        for (const std::string& f : given) {
+            if (f != "resume_dir" && f != "accept_drift" && f != "serve") {
+                return RequestConflict{f,
+                                       "resume_dir",
+                                       image ? "an image campaign continues with the settings in "
+                                               "its folder's image_campaign.json"
+                                             : "a resume takes the description, rig and plan "
+                                               "from the campaign folder"};
+            }
+        }
+        return std::nullopt;
+    }
+    if (r.plan_only) {
+        for (const std::string& f : given) {
+            if (among(f,
+                      {"out_dir",
+                       "campaigns_dir",
+                       "material",
+                       "brdf_path",
+                       "time_scale",
+                       "sample",
+                       "operator_name",
+                       "accept_drift",
+                       "serve"})) {
+                return RequestConflict{
+                    f, "plan_only", "only the plan is printed; nothing is measured or written"};
+            }
         }
     }
     if (!r.campaign_file.empty()) {
@@ -539,6 +542,13 @@ ImageRigOptions image_rig_options(const CampaignRequest& r) {
 ImageCampaignConfig image_config(const CampaignRequest& r,
                                  const RigConfig& rig,
                                  const CameraModel& camera) {
+    if (r.grid.n_theta_h > 0 || r.grid.n_theta_d > 0 || r.grid.n_phi_d > 0) {
+        return image_campaign_config(rig,
+                                     camera,
+                                     r.grid,
+                                     r.coverage_target > 0 ? r.coverage_target : 0.55,
+                                     r.max_frames > 0 ? r.max_frames : 200);
+    }
     return image_campaign_config(rig,
                                  camera,
                                  r.table_factor,
@@ -549,6 +559,16 @@ ImageCampaignConfig image_config(const CampaignRequest& r,
 }  // namespace
 
 Expected<void> check_table_factor(const CampaignRequest& r) {
+    const TableLayout& g = r.grid;
+    if (g.n_theta_h > 0 || g.n_theta_d > 0 || g.n_phi_d > 0) {
+        if (g.n_theta_h < 1 || g.n_theta_d < 1 || g.n_phi_d < 1 || g.n_theta_h > 360 ||
+            g.n_theta_d > 360 || g.n_phi_d > 720) {
+            return make_error("grid " + std::to_string(g.n_theta_h) + "x" +
+                              std::to_string(g.n_theta_d) + "x" + std::to_string(g.n_phi_d) +
+                              ": each count must be >= 1 (at most 360 x 360 x 720)");
+        }
+        return {};
+    }
     if (r.table_factor < 1 || 90 % r.table_factor != 0) {
         return make_error("table factor " + std::to_string(r.table_factor) +
                           ": must divide 90 (1 = MERL resolution, 3 = 30 x 30 x 60 bins)");
@@ -580,6 +600,11 @@ Expected<ImageCampaignRun> run_image_request(
     const ImageProgressFn& progress) {
     if (auto c = refuse_conflict(r); !c) {
         return tl::unexpected(c.error());
+    }
+    if (!r.resume_dir.empty()) {
+        return make_error("resume " + r.resume_dir +
+                          ": an image campaign resumes from its folder's settings and frame "
+                          "journal (gonio acquire --resume), not through a new run");
     }
     if (auto t = check_table_factor(r); !t) {
         return tl::unexpected(t.error());

@@ -74,6 +74,97 @@ void BinnedTable::add_to_bin(std::size_t bin,
     ++total_;
 }
 
+void BinnedTable::merge(const BinAggregate& a) {
+    GONIO_CHECK_MSG(a.bin < count_.size(), "bin " << a.bin << " of " << count_.size());
+    if (a.count == 0) {
+        // An empty group adds nothing.
+        return;
+    }
+    const std::size_t b = a.bin;
+    const double na = count_[b];
+    const double nb = a.count;
+    const double n = na + nb;
+    for (int c = 0; c < 3; ++c) {
+        GONIO_CHECK_MSG(
+            std::isfinite(a.mean[c]) && std::isfinite(a.m2[c]) && std::isfinite(a.model_var[c]),
+            "bin " << b << " channel " << c);
+        double& mean = mean_[3 * b + c];
+        const double delta = a.mean[c] - mean;
+        mean += delta * nb / n;
+        m2_[3 * b + c] += a.m2[c] + delta * delta * na * nb / n;
+        float& mv = model_var_[3 * b + c];
+        mv = static_cast<float>((na * mv + nb * a.model_var[c]) / n);
+    }
+    for (int k = 0; k < 3; ++k) {
+        float& p = position_[3 * b + k];
+        p = static_cast<float>((na * p + nb * a.position[k]) / n);
+    }
+    count_[b] += a.count;
+    total_ += a.count;
+}
+
+void FrameBins::add(const brdf::Vec3d& wi,
+                    const brdf::Vec3d& wo,
+                    const brdf::Rgbd& value,
+                    const brdf::Rgbd& model_variance) {
+    GONIO_CHECK_MSG(value.allFinite() && model_variance.allFinite(),
+                    "value " << value.transpose() << " variance " << model_variance.transpose());
+    const brdf::HalfDiff<double> hd = brdf::to_half_diff(wi, wo);
+    Entry e;
+    e.bin = static_cast<std::uint32_t>(bin_index(layout_, hd.theta_h, hd.theta_d, hd.phi_d));
+    e.position[0] = static_cast<float>(hd.theta_h);
+    e.position[1] = static_cast<float>(hd.theta_d);
+    e.position[2] = static_cast<float>(brdf::fold_phi_d(hd.phi_d));
+    for (int c = 0; c < 3; ++c) {
+        e.value[c] = value[c];
+        e.model_var[c] = model_variance[c];
+    }
+    samples_.push_back(e);
+}
+
+std::vector<BinAggregate> FrameBins::aggregates() const {
+    std::vector<std::uint32_t> order(samples_.size());
+    for (std::size_t i = 0; i < order.size(); ++i) {
+        order[i] = static_cast<std::uint32_t>(i);
+    }
+    // Stable: within a bin the samples keep their pixel order (a deterministic summary).
+    std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+        return samples_[a].bin < samples_[b].bin;
+    });
+    std::vector<BinAggregate> out;
+    std::size_t i = 0;
+    while (i < order.size()) {
+        const std::uint32_t bin = samples_[order[i]].bin;
+        double mean[3] = {0, 0, 0};
+        double m2[3] = {0, 0, 0};
+        double mv[3] = {0, 0, 0};
+        double pos[3] = {0, 0, 0};
+        std::uint32_t n = 0;
+        for (; i < order.size() && samples_[order[i]].bin == bin; ++i) {
+            const Entry& e = samples_[order[i]];
+            ++n;
+            for (int c = 0; c < 3; ++c) {
+                const double delta = e.value[c] - mean[c];
+                mean[c] += delta / n;
+                m2[c] += delta * (e.value[c] - mean[c]);
+                mv[c] += (e.model_var[c] - mv[c]) / n;
+                pos[c] += (e.position[c] - pos[c]) / n;
+            }
+        }
+        BinAggregate a;
+        a.bin = bin;
+        a.count = n;
+        for (int c = 0; c < 3; ++c) {
+            a.mean[c] = static_cast<float>(mean[c]);
+            a.m2[c] = static_cast<float>(m2[c]);
+            a.model_var[c] = static_cast<float>(mv[c]);
+            a.position[c] = static_cast<float>(pos[c]);
+        }
+        out.push_back(a);
+    }
+    return out;
+}
+
 brdf::Rgbd BinnedTable::mean(std::size_t bin) const {
     return brdf::Rgbd(mean_[3 * bin], mean_[3 * bin + 1], mean_[3 * bin + 2]);
 }

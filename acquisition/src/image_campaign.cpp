@@ -6,8 +6,10 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <thread>
 
+#include "gonio/acquisition/image_journal.h"
 #include "gonio/base/atomic_file.h"
 #include "gonio/base/check.h"
 #include "gonio/brdf/merl.h"
@@ -316,7 +318,8 @@ Expected<std::array<double, 3>> calibrate(Rig& rig,
 
 Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
                                                  const ImageCampaignConfig& cfg,
-                                                 const ImageProgressFn& progress) {
+                                                 const ImageProgressFn& progress,
+                                                 const std::string& journal_path) {
     if (!(cfg.bracket_factor > 1) || !(cfg.exposure_us > 0) || !(cfg.electrons_per_count > 0) ||
         !(cfg.lights.step_rad > 0)) {
         return make_error(
@@ -328,19 +331,64 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
     const double front = front_light(cfg);
     rig.set_light(front);
 
-    // 1. White reference: calibration constants per channel.
-    auto cal = calibrate(rig, cfg, front, &result.reference_sphere);
-    if (!cal) {
-        return tl::unexpected(cal.error());
+    std::optional<ImageJournal> journal;
+    if (!journal_path.empty()) {
+        auto j = ImageJournal::open(journal_path);
+        if (!j) {
+            return tl::unexpected(j.error());
+        }
+        journal.emplace(std::move(*j));
     }
-    result.calibration = *cal;
+    if (journal && journal->setup()) {
+        // Resume: the set-up as recorded (no reference or silhouette captures).
+        const ImageJournalSetup& s = *journal->setup();
+        const TableLayout& l = cfg.layout;
+        if (s.layout.n_theta_h != l.n_theta_h || s.layout.n_theta_d != l.n_theta_d ||
+            s.layout.n_phi_d != l.n_phi_d ||
+            std::abs(s.detector_arm_rad - cfg.detector_arm_rad) > 1e-9) {
+            return make_error(journal_path + ": the journal's campaign has a " +
+                              std::to_string(s.layout.n_theta_h) + "x" +
+                              std::to_string(s.layout.n_theta_d) + "x" +
+                              std::to_string(s.layout.n_phi_d) + " table and the detector arm at " +
+                              std::to_string(s.detector_arm_rad * 180 / brdf::kPi) +
+                              " deg; this configuration asks for " + std::to_string(l.n_theta_h) +
+                              "x" + std::to_string(l.n_theta_d) + "x" + std::to_string(l.n_phi_d) +
+                              " at " + std::to_string(cfg.detector_arm_rad * 180 / brdf::kPi) +
+                              " deg (resume with the campaign's own settings)");
+        }
+        result.calibration = s.calibration;
+        result.sphere = s.sphere;
+        result.reference_sphere = s.reference_sphere;
+        result.captures = s.captures;
+        result.exposure_time_s = s.exposure_time_s;
+    } else {
+        // 1. White reference: calibration constants per channel.
+        auto cal = calibrate(rig, cfg, front, &result.reference_sphere);
+        if (!cal) {
+            return tl::unexpected(cal.error());
+        }
+        result.calibration = *cal;
 
-    // 2. The sample sphere and its pixels.
-    auto sphere = find_sphere(rig, cfg, front, false);
-    if (!sphere) {
-        return tl::unexpected(sphere.error());
+        // 2. The sample sphere.
+        auto sphere = find_sphere(rig, cfg, front, false);
+        if (!sphere) {
+            return tl::unexpected(sphere.error());
+        }
+        result.sphere = *sphere;
+        if (journal) {
+            ImageJournalSetup s;
+            s.layout = cfg.layout;
+            s.detector_arm_rad = cfg.detector_arm_rad;
+            s.calibration = result.calibration;
+            s.sphere = result.sphere;
+            s.reference_sphere = result.reference_sphere;
+            s.captures = result.captures;
+            s.exposure_time_s = result.exposure_time_s;
+            if (auto a = journal->append_setup(s); !a) {
+                return tl::unexpected(a.error());
+            }
+        }
     }
-    result.sphere = *sphere;
     PixelCounts geometry_counts;
     const std::vector<SpherePixel> pixels =
         sphere_pixels(cfg.camera, result.sphere, cfg.rules, &geometry_counts);
@@ -364,8 +412,38 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
     }
     const std::vector<LightCandidate> all_candidates = candidates;
 
-    // 4. Frames until the coverage target.
+    // 4. Frames already journaled: merged, their light positions taken off the candidates.
     double current = front;
+    if (journal) {
+        for (const ImageJournalFrame& f : journal->frames()) {
+            for (const BinAggregate& a : f.bins) {
+                result.table.merge(a);
+            }
+            FrameRecord rec;
+            rec.light_arm_rad = f.light_arm_rad;
+            rec.counts = f.counts;
+            rec.exposures = f.exposures;
+            rec.coverage_after = f.coverage_after;
+            result.counts += f.counts;
+            result.frames.push_back(rec);
+            result.bracketed = result.bracketed || f.bracketed;
+            result.captures += f.captures;
+            result.exposure_time_s += f.exposure_time_s;
+            candidates.erase(std::remove_if(candidates.begin(),
+                                            candidates.end(),
+                                            [&](const LightCandidate& c) {
+                                                return std::abs(c.light_arm_rad - f.light_arm_rad) <
+                                                       1e-9;
+                                            }),
+                             candidates.end());
+            current = f.light_arm_rad;
+        }
+        result.resumed_frames = journal->frames().size();
+        result.coverage.cover_from(result.table, cfg.min_count);
+    }
+
+    // 5. Frames until the coverage target.
+    std::vector<std::size_t> gains = candidate_gains(candidates, result.coverage);
     const std::size_t min_gain = std::max<std::size_t>(
         1,
         static_cast<std::size_t>(cfg.min_gain_fraction *
@@ -376,21 +454,25 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
             result.stop_reason = "coverage target met";
             break;
         }
-        const int next = next_light(candidates, result.coverage, current, cfg.light_gain_fraction);
-        if (next < 0 || result.coverage.gain(candidates[next].bins) < min_gain) {
+        const int next = next_light(candidates, gains, current, cfg.light_gain_fraction);
+        if (next < 0 || gains[next] < min_gain) {
             result.stop_reason = "no light position adds enough bins";
             break;
         }
         const double a = candidates[next].light_arm_rad;
         candidates.erase(candidates.begin() + next);
+        gains.erase(gains.begin() + next);
         current = a;
         rig.set_light(a);
+        const std::uint64_t captures_before = result.captures;
+        const double exposure_before = result.exposure_time_s;
         FrameRecord rec;
         rec.light_arm_rad = a;
         rec.counts = geometry_counts;
         const brdf::Vec3d l = light_direction(a);
         const std::vector<std::uint8_t> lit = lit_pixels(pixels, l, cfg.rules, &rec.counts);
         std::array<HdrSamples, 3> hdr;
+        bool bracketed = false;
         for (int ch = 0; ch < 3; ++ch) {
             CaptureRequest r;
             r.light_arm_rad = a;
@@ -401,8 +483,9 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
             }
             hdr[ch] = std::move(*h);
             rec.exposures[ch] = hdr[ch].exposures;
-            result.bracketed = result.bracketed || hdr[ch].exposures > 1;
+            bracketed = bracketed || hdr[ch].exposures > 1;
         }
+        FrameBins frame_bins(cfg.layout);
         for (std::size_t i = 0; i < pixels.size(); ++i) {
             if (!lit[i]) {
                 continue;
@@ -426,11 +509,38 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
                 ++rec.counts.nonfinite;
                 continue;
             }
-            result.table.add(wi, wo, value, var);
+            frame_bins.add(wi, wo, value, var);
             ++rec.counts.used;
         }
-        result.coverage.cover_from(result.table, cfg.min_count);
+        ImageJournalFrame jf;
+        jf.light_arm_rad = a;
+        jf.exposures = rec.exposures;
+        jf.counts = rec.counts;
+        jf.bracketed = bracketed;
+        jf.captures = result.captures - captures_before;
+        jf.exposure_time_s = result.exposure_time_s - exposure_before;
+        jf.bins = frame_bins.aggregates();
+        int rows_lo = cfg.layout.n_theta_d;
+        int rows_hi = -1;
+        for (const BinAggregate& b : jf.bins) {
+            result.table.merge(b);
+            if (result.table.count(b.bin) >= std::max<std::uint32_t>(cfg.min_count, 1)) {
+                result.coverage.cover(b.bin);
+            }
+            const int i_d = cfg.layout.unflatten(b.bin)[1];
+            rows_lo = std::min(rows_lo, i_d);
+            rows_hi = std::max(rows_hi, i_d);
+        }
+        update_gains(candidates, result.coverage, rows_lo, rows_hi, &gains);
+        result.bracketed = result.bracketed || bracketed;
         rec.coverage_after = result.coverage.fraction();
+        jf.coverage_after = rec.coverage_after;
+        if (journal) {
+            // Durable before the light arm moves on.
+            if (auto w = journal->append_frame(jf); !w) {
+                return tl::unexpected(w.error());
+            }
+        }
         result.counts += rec.counts;
         result.frames.push_back(rec);
         if (progress) {
@@ -441,7 +551,15 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
     if (result.target_met) {
         result.stop_reason = "coverage target met";
     }
-    result.holes = coverage_holes(result.coverage, all_candidates, cfg.lights.blind_zone_rad);
+    HoleLimits limits;
+    limits.blind_zone_rad = cfg.lights.blind_zone_rad;
+    limits.max_separation_rad =
+        std::min(brdf::kPi,
+                 std::max(brdf::arm_separation(cfg.lights.min_rad, cfg.detector_arm_rad),
+                          brdf::arm_separation(cfg.lights.max_rad, cfg.detector_arm_rad)));
+    limits.max_theta_i = cfg.rules.max_theta_i;
+    limits.max_theta_o = cfg.rules.max_theta_o;
+    result.holes = coverage_holes(result.coverage, all_candidates, limits);
     return result;
 }
 
@@ -543,16 +661,36 @@ ImageCampaignConfig image_campaign_config(const RigConfig& rig,
                                           int table_factor,
                                           double coverage_target,
                                           int max_frames) {
+    return image_campaign_config(
+        rig,
+        camera,
+        table_factor <= 1 ? TableLayout::merl() : coarse_layout(table_factor),
+        coverage_target,
+        max_frames);
+}
+
+ImageCampaignConfig image_campaign_config(const RigConfig& rig,
+                                          const CameraModel& camera,
+                                          const TableLayout& layout,
+                                          double coverage_target,
+                                          int max_frames) {
     constexpr double kDeg = brdf::kPi / 180;
     ImageCampaignConfig cfg;
     cfg.camera = camera;
-    cfg.layout = table_factor <= 1 ? TableLayout::merl() : coarse_layout(table_factor);
+    cfg.layout = layout;
     cfg.detector_arm_rad = 0;
     const devices::SoftLimits& lim = rig.axes[static_cast<int>(AxisRole::kLight)].limits;
     cfg.lights.min_rad = std::max(lim.min_deg, -180.0) * kDeg;
     cfg.lights.max_rad = std::min(lim.max_deg, 180.0) * kDeg;
-    cfg.lights.step_rad = kDeg;
+    // Light positions a quarter of a theta_d row apart in separation (theta_d is half the
+    // separation), at most 1 degree: several frames per row, each sampling the sphere's pixels at
+    // other normals, fill the narrow theta_h bins of fine tables.
+    cfg.lights.step_rad = std::min(kDeg, (brdf::kPi / cfg.layout.n_theta_d) / 4);
     cfg.lights.blind_zone_rad = rig.blind_angle_deg * kDeg;
+    // The exclusion rules' grazing limits stay at their defaults (80 degrees), inside the rig's
+    // max_theta_deg: pixels beyond them are too sensitive to the normal's error.
+    cfg.rules.max_theta_i = std::min(cfg.rules.max_theta_i, rig.max_theta_deg * kDeg);
+    cfg.rules.max_theta_o = std::min(cfg.rules.max_theta_o, rig.max_theta_deg * kDeg);
     cfg.coverage_target = coverage_target;
     cfg.max_frames = max_frames;
     cfg.silhouette.radius_m = rig.sphere_radius_m;

@@ -57,6 +57,13 @@ std::vector<LightCandidate> light_candidates(const CameraModel& camera,
         }
         std::sort(c.bins.begin(), c.bins.end());
         c.bins.erase(std::unique(c.bins.begin(), c.bins.end()), c.bins.end());
+        c.theta_d_lo = layout.n_theta_d;
+        c.theta_d_hi = -1;
+        for (std::uint32_t b : c.bins) {
+            const int i_d = layout.unflatten(b)[1];
+            c.theta_d_lo = std::min(c.theta_d_lo, i_d);
+            c.theta_d_hi = std::max(c.theta_d_hi, i_d);
+        }
         if (!c.bins.empty()) {
             out.push_back(std::move(c));
         }
@@ -129,6 +136,57 @@ int next_light(const std::vector<LightCandidate>& candidates,
             continue;
         }
         // With gain_fraction = 1 only the largest gains pass: "largest gain, then shortest move".
+        const double move = std::abs(candidates[i].light_arm_rad - current_light_rad);
+        if (best < 0 || move < best_move || (move == best_move && gains[i] > chosen_gain)) {
+            best = static_cast<int>(i);
+            chosen_gain = gains[i];
+            best_move = move;
+        }
+    }
+    return best;
+}
+
+std::vector<std::size_t> candidate_gains(const std::vector<LightCandidate>& candidates,
+                                         const CoverageMap& coverage) {
+    std::vector<std::size_t> gains(candidates.size());
+    for (std::size_t i = 0; i < candidates.size(); ++i) {
+        gains[i] = coverage.gain(candidates[i].bins);
+    }
+    return gains;
+}
+
+void update_gains(const std::vector<LightCandidate>& candidates,
+                  const CoverageMap& coverage,
+                  int theta_d_lo,
+                  int theta_d_hi,
+                  std::vector<std::size_t>* gains) {
+    GONIO_CHECK(gains->size() == candidates.size());
+    for (std::size_t i = 0; i < candidates.size(); ++i) {
+        const LightCandidate& c = candidates[i];
+        if (c.theta_d_hi >= theta_d_lo && c.theta_d_lo <= theta_d_hi) {
+            (*gains)[i] = coverage.gain(c.bins);
+        }
+    }
+}
+
+int next_light(const std::vector<LightCandidate>& candidates,
+               const std::vector<std::size_t>& gains,
+               double current_light_rad,
+               double gain_fraction) {
+    GONIO_CHECK(gain_fraction > 0 && gain_fraction <= 1 && gains.size() == candidates.size());
+    const std::size_t best_gain = gains.empty() ? 0 : *std::max_element(gains.begin(), gains.end());
+    if (best_gain == 0) {
+        // Nothing left that any candidate can add.
+        return -1;
+    }
+    const double threshold = gain_fraction * static_cast<double>(best_gain);
+    int best = -1;
+    std::size_t chosen_gain = 0;
+    double best_move = 0;
+    for (std::size_t i = 0; i < candidates.size(); ++i) {
+        if (gains[i] == 0 || static_cast<double>(gains[i]) < threshold) {
+            continue;
+        }
         const double move = std::abs(candidates[i].light_arm_rad - current_light_rad);
         if (best < 0 || move < best_move || (move == best_move && gains[i] > chosen_gain)) {
             best = static_cast<int>(i);
@@ -212,6 +270,74 @@ std::vector<CoverageHole> coverage_holes(const CoverageMap& coverage,
             }
         }
         for (int r = 0; r < 3; ++r) {
+            if (by_reason[r].bins > 0) {
+                by_reason[r].theta_d_min = static_cast<double>(i_d) / l.n_theta_d * brdf::kPi / 2;
+                by_reason[r].theta_d_max =
+                    static_cast<double>(i_d + 1) / l.n_theta_d * brdf::kPi / 2;
+                by_reason[r].reason = reasons[r];
+                holes.push_back(by_reason[r]);
+            }
+        }
+    }
+    return holes;
+}
+
+std::vector<CoverageHole> coverage_holes(const CoverageMap& coverage,
+                                         const std::vector<LightCandidate>& candidates,
+                                         const HoleLimits& limits) {
+    const TableLayout& l = coverage.layout();
+    std::vector<std::uint8_t> reachable(l.size(), 0);
+    for (const LightCandidate& c : candidates) {
+        for (std::uint32_t b : c.bins) {
+            reachable[b] = 1;
+        }
+    }
+    constexpr int kReasons = 5;
+    const char* reasons[kReasons] = {"blind zone",
+                                     "arm limits",
+                                     "grazing (beyond max_theta)",
+                                     "finer than a pixel",
+                                     "not measured"};
+    const double cos_i = std::cos(limits.max_theta_i);
+    const double cos_o = std::cos(limits.max_theta_o);
+    std::vector<CoverageHole> holes;
+    for (int i_d = 0; i_d < l.n_theta_d; ++i_d) {
+        CoverageHole by_reason[kReasons];
+        const double theta_d = l.theta_d_centre(i_d);
+        for (int i_h = 0; i_h < l.n_theta_h; ++i_h) {
+            for (int i_p = 0; i_p < l.n_phi_d; ++i_p) {
+                const std::size_t b = l.index(i_h, i_d, i_p);
+                if (!coverage.valid(b) || coverage.covered(b)) {
+                    continue;
+                }
+                int r = 4;
+                if (!reachable[b]) {
+                    const auto [wi, wo] = l.centre_directions(i_h, i_d, i_p);
+                    // Reciprocity: the pair may be measured either way round.
+                    const bool within = (wi.z() >= cos_i && wo.z() >= cos_o) ||
+                                        (wo.z() >= cos_i && wi.z() >= cos_o);
+                    if (theta_d < limits.blind_zone_rad / 2) {
+                        r = 0;
+                    } else if (theta_d > limits.max_separation_rad / 2) {
+                        r = 1;
+                    } else if (!within) {
+                        r = 2;
+                    } else {
+                        r = 3;
+                    }
+                }
+                CoverageHole& h = by_reason[r];
+                const double th = l.theta_h_centre(i_h);
+                if (h.bins == 0) {
+                    h.theta_h_min = th;
+                    h.theta_h_max = th;
+                }
+                h.theta_h_min = std::min(h.theta_h_min, th);
+                h.theta_h_max = std::max(h.theta_h_max, th);
+                ++h.bins;
+            }
+        }
+        for (int r = 0; r < kReasons; ++r) {
             if (by_reason[r].bins > 0) {
                 by_reason[r].theta_d_min = static_cast<double>(i_d) / l.n_theta_d * brdf::kPi / 2;
                 by_reason[r].theta_d_max =

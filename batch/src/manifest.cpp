@@ -239,6 +239,8 @@ const char* to_string(EntryStatus s) {
     switch (s) {
         case EntryStatus::kFitted:
             return "fitted";
+        case EntryStatus::kMisfit:
+            return "misfit";
         case EntryStatus::kNotConverged:
             return "not-converged";
         case EntryStatus::kFailed:
@@ -289,7 +291,7 @@ EntryOutcome run_entry(const ManifestEntry& entry, const std::string& out_dir) {
     fitting::FitResult* result = &run->result;
     fill_metrics(o, *result);
     auto w = fitting::write_fit_report(model_path(out_dir, entry.id), *result);
-    if (!result->usable()) {
+    if (!result->solver.converged) {
         o.status = EntryStatus::kNotConverged;
         o.message = result->solver.termination + ": " + result->solver.message;
         return o;
@@ -298,6 +300,13 @@ EntryOutcome run_entry(const ManifestEntry& entry, const std::string& out_dir) {
         return fail(w.error().message);
     }
     fs::remove(error_path(out_dir, entry.id), ec);
+    if (!result->usable()) {
+        o.status = EntryStatus::kMisfit;
+        o.message = (result->goodness.warnings.empty() ? std::string("does not represent the data")
+                                                       : result->goodness.warnings.front()) +
+                    "; " + result->goodness.suggestion;
+        return o;
+    }
     o.status = EntryStatus::kFitted;
     o.message = result->solver.termination;
     return o;

@@ -114,7 +114,64 @@ void finish(CheckResult& r) {
     }
 }
 
-/// A symmetric comparison check (reciprocity, isotropy) over the pairs.
+/// Flat index of the bin holding (wi, wo).
+std::size_t bin_of(const TableGrid& g, const Vec3d& wi, const Vec3d& wo) {
+    const HalfDiff<double> hd = to_half_diff(wi, wo);
+    return g.index(
+        g.theta_h_index(hd.theta_h), g.theta_d_index(hd.theta_d), g.phi_d_index(hd.phi_d));
+}
+
+/// Largest difference, per channel, between the valid bins of the 3 x 3 x 3 neighbourhood of a
+/// bin (phi_d periodic) and the bin itself.
+Rgbd local_spread(const TabulatedBrdf& t, std::size_t flat) {
+    const TableGrid& g = t.grid();
+    const std::array<int, 3> c = g.unflatten(flat);
+    Rgbd lo = Rgbd::Constant(std::numeric_limits<double>::infinity());
+    Rgbd hi = Rgbd::Constant(-std::numeric_limits<double>::infinity());
+    for (int dh = -1; dh <= 1; ++dh) {
+        for (int dd = -1; dd <= 1; ++dd) {
+            for (int dp = -1; dp <= 1; ++dp) {
+                const int ih = c[0] + dh;
+                const int id = c[1] + dd;
+                if (ih < 0 || ih >= g.n_theta_h || id < 0 || id >= g.n_theta_d) {
+                    continue;
+                }
+                const int ip = ((c[2] + dp) % g.n_phi_d + g.n_phi_d) % g.n_phi_d;
+                const std::size_t k = g.index(ih, id, ip);
+                if (!t.bin_valid(k)) {
+                    continue;
+                }
+                const Rgbd v = t.bin_value(k);
+                lo = lo.cwiseMin(v);
+                hi = hi.cwiseMax(v);
+            }
+        }
+    }
+    if (!std::isfinite(lo[0])) {
+        return Rgbd::Zero();
+    }
+    return hi - lo;
+}
+
+/// Allowance of one table comparison (CheckOptions, table section): spread + k sigma.
+Rgbd table_allowance(const TabulatedBrdf& t,
+                     const CheckOptions& o,
+                     std::size_t bin_a,
+                     std::size_t bin_b,
+                     const Rgbd& a,
+                     const Rgbd& b) {
+    const Rgbd spread = local_spread(t, bin_a).cwiseMax(local_spread(t, bin_b));
+    Rgbd var_a = (o.noise_relative * a).cwiseAbs2();
+    Rgbd var_b = (o.noise_relative * b).cwiseAbs2();
+    if (bin_a < o.bin_sigma.size() && bin_b < o.bin_sigma.size()) {
+        var_a += o.bin_sigma[bin_a].cwiseAbs2();
+        var_b += o.bin_sigma[bin_b].cwiseAbs2();
+    }
+    return spread + o.noise_sigmas * (var_a + var_b).cwiseSqrt();
+}
+
+/// A symmetric comparison check (reciprocity, isotropy) over the pairs. `other` gives the second
+/// value and the directions it was evaluated at.
 template <class Other>
 CheckResult compare_check(const Brdf& brdf,
                           const CheckOptions& options,
@@ -123,13 +180,47 @@ CheckResult compare_check(const Brdf& brdf,
                           Other other) {
     CheckResult r;
     r.name = name;
-    r.tolerance = tolerance;
-    r.measure = "relative difference";
+    const auto* table = dynamic_cast<const TabulatedBrdf*>(&brdf);
+    r.tolerance = table != nullptr ? 1.0 : tolerance;
+    r.measure = table != nullptr ? "difference / (bin spread + noise)" : "relative difference";
     for (const Pair& p : test_pairs(options)) {
-        const Rgbd a = brdf.eval(p.wi, p.wo);
         std::string how;
-        const Rgbd b = other(p, how);
+        Pair q = p;
+        const Rgbd b = other(p, how, q);
         r.evaluations += 2;
+        if (table != nullptr) {
+            const TableLookup la = table->lookup(p.wi, p.wo);
+            const TableLookup lb = table->lookup(q.wi, q.wo);
+            if (!la.valid || !lb.valid) {
+                // An unmeasured bin on either side: nothing to compare.
+                ++r.skipped;
+                continue;
+            }
+            const Rgbd allow = table_allowance(*table,
+                                               options,
+                                               bin_of(table->grid(), p.wi, p.wo),
+                                               bin_of(table->grid(), q.wi, q.wo),
+                                               la.value,
+                                               lb.value);
+            double d = 0;
+            for (int c = 0; c < 3; ++c) {
+                const double diff = std::abs(la.value[c] - lb.value[c]);
+                // A tiny absolute floor keeps identical zero values at ratio 0.
+                d = std::max(d, diff / (allow[c] + 1e-12 * (1 + std::abs(la.value[c]))));
+            }
+            if (d > r.violation) {
+                r.violation = d;
+                char buf[160];
+                std::snprintf(buf,
+                              sizeof buf,
+                              "; values %.4g vs %.4g 1/sr (largest channel)",
+                              la.value.maxCoeff(),
+                              lb.value.maxCoeff());
+                r.where = pair_text(p) + how + buf;
+            }
+            continue;
+        }
+        const Rgbd a = brdf.eval(p.wi, p.wo);
         const double d = (finite(a) && finite(b)) ? relative_difference(a, b)
                                                   : std::numeric_limits<double>::infinity();
         if (d > r.violation || (std::isinf(d) && !std::isinf(r.violation))) {
@@ -139,6 +230,9 @@ CheckResult compare_check(const Brdf& brdf,
     }
     if (r.where.empty()) {
         r.where = "-";
+    }
+    if (r.skipped > 0) {
+        r.detail = std::to_string(r.skipped) + " pairs in unmeasured bins not compared";
     }
     finish(r);
     return r;
@@ -191,7 +285,10 @@ CheckResult check_reciprocity(const Brdf& brdf, const CheckOptions& options) {
                          options,
                          "reciprocity",
                          options.reciprocity_tolerance,
-                         [&](const Pair& p, std::string&) { return brdf.eval(p.wo, p.wi); });
+                         [&](const Pair& p, std::string&, Pair& q) {
+                             q = {p.wo, p.wi};
+                             return brdf.eval(p.wo, p.wi);
+                         });
 }
 
 CheckResult check_isotropy(const Brdf& brdf, const CheckOptions& options) {
@@ -212,10 +309,11 @@ CheckResult check_isotropy(const Brdf& brdf, const CheckOptions& options) {
                          options,
                          "isotropy",
                          options.isotropy_tolerance,
-                         [&](const Pair& p, std::string& how) {
+                         [&](const Pair& p, std::string& how, Pair& q) {
                              const double a = u(rng);
                              how = " rotated by " + fmt("%.4f", a * kDeg) + " deg";
-                             return brdf.eval(rotate_z(p.wi, a), rotate_z(p.wo, a));
+                             q = {rotate_z(p.wi, a), rotate_z(p.wo, a)};
+                             return brdf.eval(q.wi, q.wo);
                          });
 }
 
@@ -284,6 +382,12 @@ CheckResult check_energy_conservation(const Brdf& brdf, const CheckOptions& opti
     }
     r.violation = std::max(0.0, max_albedo - 1.0);
     r.detail = "max albedo " + fmt("%.6f", max_albedo);
+    if (dynamic_cast<const TabulatedBrdf*>(&brdf) != nullptr && options.noise_relative > 0) {
+        // A measured table's stated noise: the albedo may exceed 1 by that much (values fully
+        // correlated, the conservative case).
+        r.tolerance += options.noise_sigmas * options.noise_relative * std::max(max_albedo, 0.0);
+        r.detail += "; tolerance includes the stated noise";
+    }
     finish(r);
     return r;
 }
@@ -331,6 +435,206 @@ std::string format_check_table(const std::vector<CheckResult>& results) {
                       where.c_str());
         out += line;
     }
+    return out;
+}
+
+double bonferroni_threshold(std::size_t n, double false_alarm) {
+    const double p = false_alarm / static_cast<double>(std::max<std::size_t>(n, 1));
+    // Two-sided tail of the standard normal: P(|z| > k) = erfc(k / sqrt 2); solved by bisection.
+    double lo = 0, hi = 40;
+    for (int i = 0; i < 200; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        if (std::erfc(mid / std::sqrt(2.0)) > p) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    return std::max(3.0, hi);
+}
+
+std::vector<Rgbd> bin_sigma_from_dataset(const TableGrid& grid, const Dataset& data) {
+    std::vector<Rgbd> out(grid.size(), Rgbd::Zero());
+    for (const Sample& s : data.samples) {
+        out[bin_of(grid, s.wi(), s.wo())] = s.sigma;
+    }
+    return out;
+}
+
+namespace {
+
+/// Canonical angles of a sample (degrees): theta_i, theta_o, |delta_phi| in [0, 180].
+struct Canon {
+    double ti, to, dphi, phi_i;
+};
+
+Canon canon(const Sample& s) {
+    return {s.theta_i * kDeg,
+            s.theta_o * kDeg,
+            std::abs(wrap_pi(s.phi_o - s.phi_i)) * kDeg,
+            wrap_pi(s.phi_i) * kDeg};
+}
+
+std::string sample_text(const Sample& s) {
+    char buf[200];
+    std::snprintf(buf,
+                  sizeof buf,
+                  "theta_i %.2f phi_i %.2f theta_o %.2f phi_o %.2f deg%s",
+                  s.theta_i * kDeg,
+                  s.phi_i * kDeg,
+                  s.theta_o * kDeg,
+                  s.phi_o * kDeg,
+                  s.line ? (" (line " + std::to_string(s.line) + ")").c_str() : "");
+    return buf;
+}
+
+/// z of a pair (DatasetCheckOptions).
+double pair_z(const Sample& a, const Sample& b, double floor) {
+    double z = 0;
+    for (int c = 0; c < 3; ++c) {
+        const double m = std::max(std::abs(a.value[c]), std::abs(b.value[c]));
+        const double var =
+            a.sigma[c] * a.sigma[c] + b.sigma[c] * b.sigma[c] + floor * floor * m * m;
+        const double diff = std::abs(a.value[c] - b.value[c]);
+        if (var > 0) {
+            z = std::max(z, diff / std::sqrt(var));
+        } else if (diff > 0) {
+            // No uncertainty at all and a difference: infinitely many sigmas.
+            z = std::numeric_limits<double>::infinity();
+        }
+    }
+    return z;
+}
+
+/// Compares every matched pair (match(a, b) true, a < b) and keeps the worst z.
+template <class Match>
+CheckResult pair_check(const Dataset& data,
+                       const DatasetCheckOptions& o,
+                       const char* name,
+                       const std::vector<Canon>& c,
+                       Match match) {
+    CheckResult r;
+    r.name = name;
+    r.measure = "z = |a - b| / combined sigma";
+    // Buckets of theta_i keep the search near linear.
+    const double tol = o.match_tolerance_deg;
+    std::vector<std::vector<std::size_t>> by_ti(static_cast<std::size_t>(90.0 / tol) + 2);
+    for (std::size_t i = 0; i < c.size(); ++i) {
+        by_ti[std::min(by_ti.size() - 1, static_cast<std::size_t>(c[i].ti / tol))].push_back(i);
+    }
+    std::size_t pairs = 0;
+    double worst = 0;
+    std::size_t wa = 0, wb = 0;
+    for (std::size_t i = 0; i < c.size(); ++i) {
+        double key = 0;
+        if (!match(c[i], c[i], key, true)) {
+            continue;
+        }
+        const long centre = static_cast<long>(key / tol);
+        for (long k = centre - 1; k <= centre + 1; ++k) {
+            if (k < 0 || k >= static_cast<long>(by_ti.size())) {
+                continue;
+            }
+            for (std::size_t j : by_ti[static_cast<std::size_t>(k)]) {
+                if (j <= i || !match(c[i], c[j], key, false)) {
+                    continue;
+                }
+                ++pairs;
+                const double z = pair_z(data.samples[i], data.samples[j], o.relative_floor);
+                r.evaluations += 2;
+                if (z > worst || (std::isinf(z) && !std::isinf(worst))) {
+                    worst = z;
+                    wa = i;
+                    wb = j;
+                }
+            }
+        }
+    }
+    r.violation = worst;
+    r.tolerance = bonferroni_threshold(pairs, o.false_alarm);
+    if (pairs == 0) {
+        r.applicable = false;
+        r.where = "-";
+        r.detail = "no matched pair of samples";
+        return r;
+    }
+    r.where = sample_text(data.samples[wa]) + " vs " + sample_text(data.samples[wb]);
+    char buf[200];
+    std::snprintf(buf,
+                  sizeof buf,
+                  "%zu pairs; k = %.2f for a false alarm chance of %.0e; Y %.4g vs %.4g 1/sr",
+                  pairs,
+                  r.tolerance,
+                  o.false_alarm,
+                  data.samples[wa].value.mean(),
+                  data.samples[wb].value.mean());
+    r.detail = buf;
+    finish(r);
+    return r;
+}
+
+}  // namespace
+
+std::vector<CheckResult> check_dataset(const Dataset& data, const DatasetCheckOptions& o) {
+    std::vector<Canon> c;
+    c.reserve(data.samples.size());
+    for (const Sample& s : data.samples) {
+        c.push_back(canon(s));
+    }
+    const double tol = o.match_tolerance_deg;
+    std::vector<CheckResult> out;
+
+    CheckResult nn;
+    nn.name = "non-negativity";
+    nn.measure = "-(value / sigma), worst";
+    const double k = bonferroni_threshold(data.samples.size() * 3, o.false_alarm);
+    nn.tolerance = k;
+    nn.where = "-";
+    for (const Sample& s : data.samples) {
+        for (int ch = 0; ch < 3; ++ch) {
+            ++nn.evaluations;
+            const double sig = std::hypot(s.sigma[ch], o.relative_floor * std::abs(s.value[ch]));
+            const double v = s.value[ch] >= 0 ? 0.0
+                             : sig > 0        ? -s.value[ch] / sig
+                                              : std::numeric_limits<double>::infinity();
+            if (v > nn.violation) {
+                nn.violation = v;
+                nn.where = sample_text(s);
+            }
+        }
+    }
+    finish(nn);
+    out.push_back(nn);
+
+    // Reciprocity: a's (theta_i, theta_o) = b's (theta_o, theta_i), same |delta_phi|; pairs with
+    // theta_i = theta_o say nothing about reciprocity and are left out.
+    out.push_back(pair_check(
+        data, o, "reciprocity", c, [&](const Canon& a, const Canon& b, double& key, bool probe) {
+            if (probe) {
+                key = a.to;
+                return std::abs(a.ti - a.to) > tol;
+            }
+            return std::abs(a.ti - b.to) <= tol && std::abs(a.to - b.ti) <= tol &&
+                   std::abs(a.dphi - b.dphi) <= tol;
+        }));
+    // Isotropy: the same canonical configuration at another phi_i.
+    out.push_back(pair_check(
+        data, o, "isotropy", c, [&](const Canon& a, const Canon& b, double& key, bool probe) {
+            if (probe) {
+                key = a.ti;
+                return true;
+            }
+            return std::abs(a.ti - b.ti) <= tol && std::abs(a.to - b.to) <= tol &&
+                   std::abs(a.dphi - b.dphi) <= tol &&
+                   std::abs(wrap_pi((a.phi_i - b.phi_i) / kDeg)) * kDeg > tol;
+        }));
+    CheckResult e;
+    e.name = "energy";
+    e.measure = "max directional albedo - 1";
+    e.applicable = false;
+    e.where = "-";
+    e.detail = "needs the BRDF over every direction: check a fit or a table";
+    out.push_back(e);
     return out;
 }
 

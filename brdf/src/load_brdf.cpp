@@ -8,6 +8,7 @@
 #include "gonio/brdf/material_library.h"
 #include "gonio/brdf/merl.h"
 #include "gonio/brdf/model_json.h"
+#include "gonio/brdf/rgl_bsdf.h"
 #include "gonio/brdf/table.h"
 
 namespace gonio::brdf {
@@ -52,9 +53,17 @@ Expected<std::unique_ptr<Brdf>> load_brdf(const std::string& path) {
     if (is_table_path(path)) {
         return load_table(path);
     }
-    return make_error(path +
-                      ": unknown BRDF file type (expected a model *.json or a table *.binary, "
-                      "*.merl, *.gtab, or material:NAME from data/materials)");
+    if (is_rgl_path(path)) {
+        Expected<RglBsdf> rgl = read_rgl_bsdf(path);
+        if (!rgl) {
+            return tl::unexpected(rgl.error());
+        }
+        return std::unique_ptr<Brdf>(std::make_unique<RglBsdf>(std::move(*rgl)));
+    }
+    return make_error(
+        path +
+        ": unknown BRDF file type (expected a model *.json or a table *.binary, "
+        "*.merl, *.gtab, an RGL material *.bsdf, or material:NAME from data/materials)");
 }
 
 }  // namespace gonio::brdf

@@ -12,6 +12,8 @@ const char* to_string(Distribution d) {
             return "beckmann";
         case Distribution::kBlinnPhong:
             return "blinn-phong";
+        case Distribution::kStudentT:
+            return "student-t";
     }
     return "?";
 }

@@ -9,8 +9,9 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "gonio/brdf/ior.h"
 #include "gonio/base/limits.h"
+#include "gonio/brdf/ior.h"
+#include "gonio/brdf/student_t.h"
 
 namespace gonio::brdf {
 
@@ -239,6 +240,7 @@ Lobe<double> parse_lobe(const Json& j, const std::string& path) {
                 "alpha_x",
                 "alpha_y",
                 "exponent",
+                "gamma",
                 "shadowing",
                 "fresnel",
                 "scale"});
@@ -250,8 +252,23 @@ Lobe<double> parse_lobe(const Json& j, const std::string& path) {
         lobe.distribution = Distribution::kBeckmann;
     } else if (dist == "blinn-phong") {
         lobe.distribution = Distribution::kBlinnPhong;
+    } else if (dist == "student-t") {
+        lobe.distribution = Distribution::kStudentT;
     } else {
-        fail(path + ".distribution = \"" + dist + "\": must be one of ggx, beckmann, blinn-phong");
+        fail(path + ".distribution = \"" + dist +
+             "\": must be one of ggx, beckmann, blinn-phong, student-t");
+    }
+    if (lobe.distribution == Distribution::kStudentT) {
+        // The tail parameter: Smith's Lambda is finite above 3/2 only (student_t.h).
+        lobe.gamma = get_scalar(
+            require(j, path, "gamma"), path + ".gamma", Rule::kPositive, kStudentTGammaMax);
+        if (!(lobe.gamma >= kStudentTGammaMin)) {
+            fail(path + ".gamma = " + show_number(lobe.gamma) + ": must be in [" +
+                 show_number(kStudentTGammaMin) + ", " + show_number(kStudentTGammaMax) +
+                 "] (Smith masking is infinite below 3/2)");
+        }
+    } else if (j.contains("gamma")) {
+        fail(path + ".gamma: only for student-t lobes");
     }
     const bool microfacet = lobe.distribution != Distribution::kBlinnPhong;
     if (microfacet) {
@@ -319,7 +336,12 @@ Lobe<double> parse_lobe(const Json& j, const std::string& path) {
 
 ModelD parse_model(const Json& j) {
     require_object(j, "");
-    check_keys(j, "", {"diffuse", "lobes"});
+    check_keys(j, "", {"diffuse", "lobes", "fit"});
+    if (j.contains("fit") && !j["fit"].is_object()) {
+        // The verdict of the fit that produced the model (written by `gonio fit`): informative,
+        // not part of the model.
+        fail("fit: must be an object (the fit's verdict)");
+    }
     ModelD m;
     if (j.contains("diffuse")) {
         m.has_diffuse = true;
@@ -424,7 +446,7 @@ Expected<ModelD> load_model_json(const std::string& path) {
     return parse_model_json(*text, path);
 }
 
-std::string model_to_json(const ModelD& m) {
+std::string model_to_json(const ModelD& m, const std::string& fit_verdict) {
     OrderedJson j = OrderedJson::object();
     if (m.has_diffuse) {
         j["diffuse"] = rgb_json(m.diffuse);
@@ -440,6 +462,9 @@ std::string model_to_json(const ModelD& m) {
             o["alpha_y"] = l.alpha_y;
         } else {
             o["alpha"] = l.alpha_x;
+        }
+        if (l.distribution == Distribution::kStudentT) {
+            o["gamma"] = l.gamma;
         }
         o["shadowing"] = to_string(l.shadowing);
         OrderedJson f = OrderedJson::object();
@@ -463,6 +488,9 @@ std::string model_to_json(const ModelD& m) {
         lobes.push_back(o);
     }
     j["lobes"] = lobes;
+    if (!fit_verdict.empty()) {
+        j["fit"] = OrderedJson::parse(fit_verdict);
+    }
     return compact_number_arrays(j.dump(4)) + "\n";
 }
 
@@ -480,6 +508,9 @@ std::string describe_model(const ModelD& m) {
             out += "alpha_x " + show(l.alpha_x) + " alpha_y " + show(l.alpha_y);
         } else {
             out += "alpha " + show(l.alpha_x);
+        }
+        if (l.distribution == Distribution::kStudentT) {
+            out += " gamma " + show(l.gamma);
         }
         out += ", " + std::string(to_string(l.shadowing)) + ", " + to_string(l.fresnel.type);
         if (!(l.scale == Rgbd::Ones()).all()) {

@@ -17,6 +17,7 @@
 
 #include "gonio/base/strings.h"
 #include "gonio/brdf/merl.h"
+#include "gonio/brdf/rgl_bsdf.h"
 #include "sample_columns.h"
 
 namespace gonio::brdf {
@@ -452,7 +453,16 @@ Expected<Dataset> load_samples(const std::string& path) {
         data.source = path;
         return data;
     }
-    return make_error(path + ": unknown sample file type (expected .csv, .binary, .merl or .gtab)");
+    if (is_rgl_path(path)) {
+        // The file's own nodes, each at its direction pair: no resampling.
+        Expected<RglBsdf> rgl = read_rgl_bsdf(path);
+        if (!rgl) {
+            return tl::unexpected(rgl.error());
+        }
+        return rgl_nodes_to_dataset(*rgl);
+    }
+    return make_error(path +
+                      ": unknown sample file type (expected .csv, .binary, .merl, .gtab or .bsdf)");
 }
 
 Expected<TabulateReport> export_merl(const std::string& path,

@@ -39,6 +39,9 @@ bool field_used(const brdf::ModelD& m, Field f, int lobe, std::string* why) {
         case Field::kExponent:
             *why = "the exponent belongs to Blinn-Phong lobes";
             return bp;
+        case Field::kGamma:
+            *why = "gamma belongs to Student-t lobes";
+            return l.distribution == brdf::Distribution::kStudentT;
         case Field::kF0:
             *why = "f0 belongs to the Schlick Fresnel term";
             return l.fresnel.type == brdf::FresnelType::kSchlick;
@@ -111,6 +114,8 @@ double ParameterMap::value_of(const brdf::ModelD& m, const ScalarParam& s) const
             return l.alpha_y;
         case Field::kExponent:
             return l.exponent;
+        case Field::kGamma:
+            return l.gamma;
         case Field::kScale:
             return l.scale[c];
         case Field::kF0:

@@ -275,7 +275,7 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
                 : "sandwich H^-1 M H^-1 (heteroscedasticity-consistent, HC0; no sigma columns)";
     }
     result.metrics = evaluate_metrics(result.model, valid, o.relative_floor);
-    result.goodness = detail::judge(result.metrics, chi2, valid.size());
+    result.goodness = detail::judge(result.metrics, chi2, valid.size(), result.model);
     result.solver.usable = result.solver.converged && result.goodness.represents;
     result.solver.wall_time_s = std::chrono::duration<double>(detail::Clock::now() - t0).count();
     return result;
@@ -287,10 +287,12 @@ std::vector<std::pair<std::string, FitSpec>> auto_candidates(const FitOptions& o
         {"ggx", brdf::Distribution::kGgx},
         {"beckmann", brdf::Distribution::kBeckmann},
         {"blinn-phong", brdf::Distribution::kBlinnPhong},
+        {"student-t", brdf::Distribution::kStudentT},
     };
     for (int lobes : {1, 2}) {
         for (const auto& [name, dist] : families) {
-            if (lobes == 2 && dist != brdf::Distribution::kGgx) {
+            if (lobes == 2 && dist != brdf::Distribution::kGgx &&
+                dist != brdf::Distribution::kStudentT) {
                 continue;
             }
             ModelOptions mo;

@@ -157,6 +157,9 @@ std::vector<std::string> vanished_lobes(const brdf::ModelD& model,
 
 /// Goodness of fit from the metrics (and the reduced chi-square when the data carry sigmas);
 /// the rules are those documented at GoodnessOfFit (fit.h).
-GoodnessOfFit judge(const Metrics& m, std::optional<double> chi2, std::size_t valid);
+GoodnessOfFit judge(const Metrics& m,
+                    std::optional<double> chi2,
+                    std::size_t valid,
+                    const brdf::ModelD& fitted);
 
 }  // namespace gonio::fitting::detail

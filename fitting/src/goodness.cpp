@@ -2,9 +2,11 @@
 // data (docs/fitting-guide.md, "Goodness of fit").
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include "fit_stages.h"
 #include "gonio/brdf/model_eval.h"
@@ -38,6 +40,11 @@ Metrics evaluate_metrics(const ModelD& model,
     };
     // Per block, added in block order (the same metrics for every thread count).
     std::vector<Acc> partial(block_count(samples.size()));
+    // |m - d| / d per sample and channel (NaN where d <= 0: no relative error), for the medians.
+    std::vector<double> rel[3];
+    for (int c = 0; c < 3; ++c) {
+        rel[c].assign(samples.size(), std::numeric_limits<double>::quiet_NaN());
+    }
     double band_cos[kBands + 1];
     for (int b = 0; b <= kBands; ++b) {
         band_cos[b] = std::cos(kBandEdgesDeg[b] * brdf::kPi / 180);
@@ -63,6 +70,9 @@ Metrics evaluate_metrics(const ModelD& model,
                 const double rel_r =
                     channel_residual(ResidualForm::kRelative, f[c], d, wi.z(), relative_floor);
                 const double log_r = channel_residual(ResidualForm::kLog, f[c], d, wi.z(), 0);
+                if (d > 0) {
+                    rel[c][i] = std::abs(abs_r) / d;
+                }
                 acc.sq(0, c) += abs_r * abs_r;
                 acc.sq(1, c) += rel_r * rel_r;
                 acc.sq(2, c) += log_r * log_r;
@@ -87,6 +97,15 @@ Metrics evaluate_metrics(const ModelD& model,
         m.rmse[c] = std::sqrt(total.sq(0, c) / n);
         m.rel_rmse[c] = std::sqrt(total.sq(1, c) / n);
         m.log_rmse[c] = std::sqrt(total.sq(2, c) / n);
+        // Median of the relative errors (the lower median for an even count).
+        std::vector<double>& v = rel[c];
+        v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return std::isnan(x); }),
+                v.end());
+        if (!v.empty()) {
+            const std::size_t k = (v.size() - 1) / 2;
+            std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
+            m.median_rel[c] = v[k];
+        }
     }
     for (int k = 0; k < kBands; ++k) {
         if (total.band_n[k] == 0) {
@@ -116,6 +135,10 @@ constexpr double kLogRmseUnusable = 0.3;
 constexpr double kLogRmseWarn = 0.15;
 constexpr double kBandBiasUnusable = 0.3;
 constexpr double kBandBiasWarn = 0.15;
+// Median relative error |m - d| / d of a channel: 2 % multiplicative noise alone gives 1.35 %
+// (0.674 sigma), so 5 % is a misfit well beyond such noise and 15 % one that changes the colour.
+constexpr double kMedianRelWarn = 0.05;
+constexpr double kMedianRelUnusable = 0.15;
 constexpr double kChi2Unusable = 10;
 constexpr double kChi2Warn = 2;
 // A chi-square far above 1 makes a fit unusable only when the misfit is also of a size that matters
@@ -146,8 +169,33 @@ std::vector<double> lobe_shares(const ModelD& model, const std::vector<Sample>& 
     return lobe_sum;
 }
 
+/// What to try when the model `fitted` misfits: the families that could fix it and are not the
+/// one fitted.
+std::string suggest(const ModelD& fitted) {
+    std::string dist = "ggx";
+    if (!fitted.lobes.empty()) {
+        dist = brdf::to_string(fitted.lobes[0].distribution);
+    }
+    std::string s =
+        "try `--model auto` (ranks ggx, beckmann, student-t, blinn-phong and two lobes by BIC)";
+    if (fitted.lobes.size() < 2) {
+        s += ", a second lobe (`--lobes 2`)";
+    }
+    if (dist != "student-t") {
+        s += ", a distribution with a tail parameter (`--model student-t`)";
+    }
+    if (dist != "beckmann") {
+        s += ", `--model beckmann`";
+    }
+    s += " or `--fresnel schlick-rgb`";
+    return s;
+}
+
 /// Goodness of fit from the metrics (and the reduced chi-square when the data carry sigmas).
-GoodnessOfFit judge(const Metrics& m, std::optional<double> chi2, std::size_t valid) {
+GoodnessOfFit judge(const Metrics& m,
+                    std::optional<double> chi2,
+                    std::size_t valid,
+                    const ModelD& fitted) {
     GoodnessOfFit g;
     g.reduced_chi_square = chi2;
     char buf[256];
@@ -171,6 +219,25 @@ GoodnessOfFit judge(const Metrics& m, std::optional<double> chi2, std::size_t va
                           names[c],
                           v,
                           kLogRmseWarn);
+            g.warnings.push_back(buf);
+        }
+    }
+    for (int c = 0; c < 3; ++c) {
+        // The relative error of f itself: sees a dark channel that log(1 + f cos) cannot.
+        const double v = m.median_rel[c];
+        const bool bad = !std::isfinite(v) || v > kMedianRelUnusable;
+        if (bad || v > kMedianRelWarn) {
+            if (bad) {
+                g.represents = false;
+            }
+            std::snprintf(buf,
+                          sizeof buf,
+                          "median relative error |m - d| / d of channel %s = %.3g above %.2g: %s",
+                          names[c],
+                          v,
+                          bad ? kMedianRelUnusable : kMedianRelWarn,
+                          bad ? "the model does not represent this channel"
+                              : "a visible misfit in this channel");
             g.warnings.push_back(buf);
         }
     }
@@ -233,9 +300,7 @@ GoodnessOfFit judge(const Metrics& m, std::optional<double> chi2, std::size_t va
         }
     }
     if (!g.warnings.empty()) {
-        g.suggestion =
-            "try `--model auto` (ranks ggx, beckmann, blinn-phong and two lobes), a second lobe "
-            "(`--lobes 2`), another distribution (`--model beckmann`) or `--fresnel schlick-rgb`";
+        g.suggestion = suggest(fitted);
     }
     return g;
 }

@@ -12,6 +12,8 @@
 #include "gonio/brdf/fresnel.h"
 #include "gonio/brdf/math.h"
 #include "gonio/brdf/microfacet.h"
+#include "gonio/brdf/student_t.h"
+#include "gonio/fitting/vector_log.h"
 
 namespace gonio::fitting {
 
@@ -22,6 +24,8 @@ constexpr double kCbrtOffset = 1e-6;
 constexpr std::size_t kBlock = 4096;
 // Below this many items a pass stays on the calling thread (starting threads costs more).
 constexpr std::size_t kParallelMin = 16384;
+// Samples whose logarithms go to the packets together (a divisor of kBlock).
+constexpr std::size_t kRun = 64;
 constexpr double kInvSqrtPi = 0.56418958354775628695;
 
 /// Smith Lambda of Beckmann from s2 = alpha^2 tan^2(theta) (brdf/microfacet.h lambda_beckmann,
@@ -166,7 +170,7 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
     // over the derivative slots.
     analytic_ = base.lobes.size() <= 8;
     for (const brdf::Lobe<double>& l : base.lobes) {
-        analytic_ = analytic_ &&
+        analytic_ = analytic_ && l.distribution != brdf::Distribution::kStudentT &&
                     !(l.anisotropic && l.distribution != brdf::Distribution::kBlinnPhong) &&
                     (l.fresnel.type == brdf::FresnelType::kSchlick ||
                      l.fresnel.type == brdf::FresnelType::kNone);
@@ -370,16 +374,51 @@ T PreparedSamples::shape(brdf::Distribution dist,
 }
 
 template <class T>
+T PreparedSamples::shape_student_t(
+    brdf::Shadowing shadowing, const T& ax, const T& ay, const T& gamma, std::size_t i) const {
+    using std::exp;
+    using std::log;
+    using std::log1p;
+    const bool aniso = anisotropic_;
+    // D (brdf/student_t.h D_student_t); both directions are above the horizon, so h_z > 0.
+    if (hz2_[i] < 1e-300) {
+        // h at the horizon through rounding: no projected area.
+        return T(0);
+    }
+    const T e = (aniso ? T(hx2_[i]) / (ax * ax) + T(hy2_[i]) / (ay * ay) : T(hx2_[i]) / (ax * ax)) /
+                T(hz2_[i]);
+    const T D = exp(-gamma * log1p(e / (gamma - T(1))) - T(2 * std::log(hz2_[i]))) /
+                (T(brdf::kPi) * ax * ay);
+    T G(1);
+    if (shadowing == brdf::Shadowing::kSmithCorrelated ||
+        shadowing == brdf::Shadowing::kSmithSeparable) {
+        const T a2i = aniso ? ax * ax * T(ti_x_[i]) + ay * ay * T(ti_y_[i]) : ax * ax * T(ti_x_[i]);
+        const T a2o = aniso ? ax * ax * T(to_x_[i]) + ay * ay * T(to_y_[i]) : ax * ax * T(to_x_[i]);
+        const T li = brdf::lambda_student_t_a2(a2i, gamma);
+        const T lo = brdf::lambda_student_t_a2(a2o, gamma);
+        G = shadowing == brdf::Shadowing::kSmithCorrelated ? T(1) / (T(1) + li + lo)
+                                                           : T(1) / ((T(1) + li) * (T(1) + lo));
+    } else if (shadowing == brdf::Shadowing::kVGroove) {
+        G = T(g_vgroove_[i]);
+    }
+    return D * G * T(inv_4cc_[i]);
+}
+
+template <class T>
 brdf::Rgb<T> PreparedSamples::eval(const brdf::Model<T>& m, std::size_t i) const {
     brdf::Rgb<T> f = m.has_diffuse ? brdf::Rgb<T>(m.diffuse * T(brdf::kInvPi))
                                    : brdf::Rgb<T>(brdf::Rgb<T>::Zero());
     for (const brdf::Lobe<T>& l : m.lobes) {
-        const T S = shape(l.distribution,
-                          l.shadowing,
-                          l.alpha_x,
-                          l.anisotropic ? l.alpha_y : l.alpha_x,
-                          l.exponent,
-                          i);
+        const T S =
+            l.distribution == brdf::Distribution::kStudentT
+                ? shape_student_t(
+                      l.shadowing, l.alpha_x, l.anisotropic ? l.alpha_y : l.alpha_x, l.gamma, i)
+                : shape(l.distribution,
+                        l.shadowing,
+                        l.alpha_x,
+                        l.anisotropic ? l.alpha_y : l.alpha_x,
+                        l.exponent,
+                        i);
         if (S == T(0)) {
             continue;
         }
@@ -416,17 +455,17 @@ double PreparedSamples::g_prime(double m, std::size_t i) const {
     }
 }
 
-bool PreparedSamples::analytic_sample(const brdf::ModelD& m,
-                                      std::size_t i,
-                                      double r[3],
-                                      double* v) const {
+void PreparedSamples::analytic_parts(const brdf::ModelD& m,
+                                     std::size_t i,
+                                     double f[3],
+                                     double* d) const {
     // Per lobe: the shape S = D G / (4 cos_i cos_o) and dS/d(width) through a one-slot Jet (only
     // the width enters it), and F = f0 + (1 - f0) x5 (Schlick) or 1.
     using J1 = ceres::Jet<double, 1>;
     constexpr int kMaxLobes = 8;
     double S[kMaxLobes], dS[kMaxLobes];
     brdf::Rgbd F[kMaxLobes];
-    brdf::Rgbd f = m.has_diffuse ? brdf::Rgbd(m.diffuse * brdf::kInvPi) : brdf::Rgbd::Zero();
+    brdf::Rgbd fm = m.has_diffuse ? brdf::Rgbd(m.diffuse * brdf::kInvPi) : brdf::Rgbd::Zero();
     const int nl = static_cast<int>(m.lobes.size());
     for (int l = 0; l < nl; ++l) {
         const brdf::Lobe<double>& lobe = m.lobes[l];
@@ -443,36 +482,84 @@ bool PreparedSamples::analytic_sample(const brdf::ModelD& m,
         F[l] = lobe.fresnel.type == brdf::FresnelType::kSchlick
                    ? brdf::Rgbd(lobe.fresnel.f0 + (brdf::Rgbd::Ones() - lobe.fresnel.f0) * x5_[i])
                    : brdf::Rgbd::Ones();
-        f += lobe.scale * F[l] * S[l];
+        fm += lobe.scale * F[l] * S[l];
     }
+    for (int c = 0; c < 3; ++c) {
+        f[c] = fm[c];
+        double* dc = d + c * slots_;
+        for (int k = 0; k < slots_; ++k) {
+            const int l = slot_lobe_[k];
+            double v = 0;
+            switch (slot_field_[k]) {
+                case Field::kDiffuse:
+                    v = brdf::kInvPi;
+                    break;
+                case Field::kAlphaX:
+                case Field::kExponent:
+                    v = m.lobes[l].scale[c] * F[l][c] * dS[l];
+                    break;
+                case Field::kScale:
+                    v = F[l][c] * S[l];
+                    break;
+                case Field::kF0:
+                    v = m.lobes[l].scale[c] * (1 - x5_[i]) * S[l];
+                    break;
+                default:
+                    break;
+            }
+            dc[k] = v;
+        }
+    }
+}
+
+bool PreparedSamples::analytic_sample(const brdf::ModelD& m,
+                                      std::size_t i,
+                                      double r[3],
+                                      double* v) const {
+    double f[3];
+    analytic_parts(m, i, f, v);
     for (int c = 0; c < 3; ++c) {
         r[c] = s_[c][i] * (g_of(f[c], i) - g_d_[c][i]);
         const double dr = s_[c][i] * g_prime(f[c], i);
         double* vc = v + c * slots_;
         for (int k = 0; k < slots_; ++k) {
-            const int l = slot_lobe_[k];
-            double d = 0;
-            switch (slot_field_[k]) {
-                case Field::kDiffuse:
-                    d = brdf::kInvPi;
-                    break;
-                case Field::kAlphaX:
-                case Field::kExponent:
-                    d = m.lobes[l].scale[c] * F[l][c] * dS[l];
-                    break;
-                case Field::kScale:
-                    d = F[l][c] * S[l];
-                    break;
-                case Field::kF0:
-                    d = m.lobes[l].scale[c] * (1 - x5_[i]) * S[l];
-                    break;
-                default:
-                    break;
-            }
-            vc[k] = dr * d;
+            vc[k] *= dr;
         }
     }
     return std::isfinite(r[0]) && std::isfinite(r[1]) && std::isfinite(r[2]);
+}
+
+bool PreparedSamples::analytic_log_run(
+    const brdf::ModelD& m, std::size_t begin, std::size_t end, double* r, double* v) const {
+    // Model values and their derivatives per sample, then the logarithms of the run on packets,
+    // then the residuals r = s (log(1 + f cos_i) - g(d)) and dr/df = s cos_i / (1 + f cos_i).
+    double arg[3 * kRun] = {};
+    double lg[3 * kRun];
+    const std::size_t n = end - begin;
+    for (std::size_t j = 0; j < n; ++j) {
+        const std::size_t i = begin + j;
+        double f[3];
+        analytic_parts(m, i, f, v + j * 3 * slots_);
+        for (int c = 0; c < 3; ++c) {
+            arg[3 * j + c] = f[c] * cos_i_[i];
+        }
+    }
+    log1p_packets(arg, lg, 3 * n);
+    bool finite = true;
+    for (std::size_t j = 0; j < n; ++j) {
+        const std::size_t i = begin + j;
+        for (int c = 0; c < 3; ++c) {
+            const double rc = s_[c][i] * (lg[3 * j + c] - g_d_[c][i]);
+            const double dr = s_[c][i] * cos_i_[i] / (1 + arg[3 * j + c]);
+            r[3 * j + c] = rc;
+            finite = finite && std::isfinite(rc);
+            double* vc = v + (3 * j + c) * slots_;
+            for (int k = 0; k < slots_; ++k) {
+                vc[k] *= dr;
+            }
+        }
+    }
+    return finite;
 }
 
 template <class T>
@@ -493,14 +580,36 @@ T PreparedSamples::g_of(const T& m, std::size_t i) const {
 bool PreparedSamples::sum_of_squares(const double* x, double* out, int threads) const {
     const brdf::ModelD m = map_->model<double>(x);
     std::vector<double>& partial = block_scratch(1);
+    const bool runs = form_ == ResidualForm::kLog;
     parallel_blocks(n_, threads, [&](std::size_t k, std::size_t b, std::size_t e) {
         double acc = 0;
+        // Log residual: the logarithms of a run of samples on packets.
+        double arg[3 * kRun] = {};
+        double lg[3 * kRun];
         for (std::size_t i = b; i < e; ++i) {
-            const brdf::Rgbd f = eval(m, i);
             double s2 = 0;
-            for (int c = 0; c < 3; ++c) {
-                const double r = s_[c][i] * (g_of(f[c], i) - g_d_[c][i]);
-                s2 += r * r;
+            if (runs) {
+                const std::size_t j = (i - b) % kRun;
+                if (j == 0) {
+                    const std::size_t n = std::min(e - i, kRun);
+                    for (std::size_t q = 0; q < n; ++q) {
+                        const brdf::Rgbd f = eval(m, i + q);
+                        for (int c = 0; c < 3; ++c) {
+                            arg[3 * q + c] = f[c] * cos_i_[i + q];
+                        }
+                    }
+                    log1p_packets(arg, lg, 3 * n);
+                }
+                for (int c = 0; c < 3; ++c) {
+                    const double r = s_[c][i] * (lg[3 * j + c] - g_d_[c][i]);
+                    s2 += r * r;
+                }
+            } else {
+                const brdf::Rgbd f = eval(m, i);
+                for (int c = 0; c < 3; ++c) {
+                    const double r = s_[c][i] * (g_of(f[c], i) - g_d_[c][i]);
+                    s2 += r * r;
+                }
             }
             if (loss_) {
                 double rho[3];
@@ -560,11 +669,27 @@ bool PreparedSamples::normal_equations_k(const double* x, NormalEquations& out, 
             bv[c].setZero();
         }
         double cost = 0;
-        double ra[3];
-        double va[3 * 32] = {};
+        // Closed-form derivatives of the log residual: a run of samples at a time, its
+        // logarithms on packets.
+        const bool runs = analytic_ && form_ == ResidualForm::kLog;
+        double ra[3 * kRun];
+        double va[3 * kRun * 32];
         for (std::size_t i = b; i < e; ++i) {
             J r[3];
-            if (analytic_) {
+            if (runs) {
+                const std::size_t j = (i - b) % kRun;
+                if (j == 0 && !analytic_log_run(md, i, std::min(e, i + kRun), ra, va)) {
+                    cost = std::numeric_limits<double>::infinity();
+                    break;
+                }
+                for (int c = 0; c < 3; ++c) {
+                    r[c].a = ra[3 * j + c];
+                    const double* vc = va + (3 * j + c) * slots_;
+                    for (int k = 0; k < K; ++k) {
+                        r[c].v[k] = k < slots_ ? vc[k] : 0.0;
+                    }
+                }
+            } else if (analytic_) {
                 if (!analytic_sample(md, i, ra, va)) {
                     cost = std::numeric_limits<double>::infinity();
                     break;
@@ -596,7 +721,9 @@ bool PreparedSamples::normal_equations_k(const double* x, NormalEquations& out, 
             for (int c = 0; c < 3; ++c) {
                 // Upper triangle of w v v^T over the slots in use (Eigen's general rank update
                 // is slow for these small fixed sizes).
-                for (int q = 0; q < slots_; ++q) {
+                // (Over all K slots: those beyond slots_ hold zeros, and a fixed bound lets the
+                // compiler unroll.)
+                for (int q = 0; q < K; ++q) {
                     const double wv = w * r[c].v[q];
                     for (int p = 0; p <= q; ++p) {
                         a[c](p, q) += wv * r[c].v[p];

@@ -81,6 +81,7 @@ std::string fit_report_json(const FitResult& r) {
     j["metrics"] = {{"rmse", rgb_json(r.metrics.rmse)},
                     {"rel_rmse", rgb_json(r.metrics.rel_rmse)},
                     {"log_rmse", rgb_json(r.metrics.log_rmse)},
+                    {"median_rel", rgb_json(r.metrics.median_rel)},
                     {"bands", bands}};
     j["goodness"] = {{"represents", r.goodness.represents},
                      {"reduced_chi_square",
@@ -125,6 +126,23 @@ std::string fit_report_json(const FitResult& r) {
     return j.dump(2) + "\n";
 }
 
+namespace {
+
+/// The verdict written under "fit" in the model file: whether the model represents the data, the
+/// figures that decide it, the warnings, the suggestion and the report's file name.
+std::string fit_verdict_json(const FitResult& r, const std::string& report_path) {
+    const std::size_t slash = report_path.find_last_of('/');
+    json v = {{"represents", r.goodness.represents},
+              {"log_rmse", rgb_json(r.metrics.log_rmse)},
+              {"median_rel", rgb_json(r.metrics.median_rel)},
+              {"warnings", r.goodness.warnings},
+              {"suggestion", r.goodness.suggestion},
+              {"report", slash == std::string::npos ? report_path : report_path.substr(slash + 1)}};
+    return v.dump();
+}
+
+}  // namespace
+
 Expected<void> write_fit_report(const std::string& model_path, const FitResult& result) {
     const std::string report_path = report_path_for(model_path);
     // Both outputs checked before either is written: a folder or device at one of them leaves
@@ -138,18 +156,14 @@ Expected<void> write_fit_report(const std::string& model_path, const FitResult& 
     if (!w) {
         return w;
     }
-    if (!result.usable()) {
-        if (result.solver.converged) {
-            return make_error("the model does not represent the data (" +
-                              (result.goodness.warnings.empty() ? std::string("see the report")
-                                                                : result.goodness.warnings[0]) +
-                              "); " + model_path + " not written, see " + report_path);
-        }
+    if (!result.solver.converged) {
         return make_error("fit did not converge (" + result.solver.termination + ": " +
                           result.solver.message + "); " + model_path + " not written, see " +
                           report_path);
     }
-    return write_text(model_path, brdf::model_to_json(result.model));
+    // A converged misfit is the best that model can do: written, with its verdict beside it.
+    return write_text(model_path,
+                      brdf::model_to_json(result.model, fit_verdict_json(result, report_path)));
 }
 
 Expected<FitResult> read_fit_report(const std::string& path) {
@@ -217,6 +231,13 @@ Expected<FitResult> read_fit_report(const std::string& path) {
                 return make_error(v.error().message);
             }
             *dst = *v;
+        }
+        if (m.contains("median_rel")) {
+            Expected<brdf::Rgbd> v = read_rgb(m["median_rel"], path + ": metrics.median_rel");
+            if (!v) {
+                return make_error(v.error().message);
+            }
+            r.metrics.median_rel = *v;
         }
         if (m.contains("bands") && m["bands"].is_array()) {
             for (const json& b : m["bands"]) {
@@ -345,6 +366,7 @@ std::string format_summary(const FitResult& r) {
     };
     o << "goodness of fit on all " << r.samples.valid << " valid samples (r g b):\n";
     rgb("log_rmse", r.metrics.log_rmse);
+    rgb("median_rel", r.metrics.median_rel);
     rgb("rel_rmse", r.metrics.rel_rmse);
     rgb("rmse", r.metrics.rmse);
     if (r.goodness.reduced_chi_square) {
@@ -374,7 +396,8 @@ std::string format_summary(const FitResult& r) {
         o << "warning: " << w << "\n";
     }
     if (!r.goodness.represents) {
-        o << "NOT USABLE: the model cannot represent these data";
+        o << "MISFIT: the model does not represent these data (the parameters are its best fit, "
+             "not a description of the material)";
         if (!r.goodness.suggestion.empty()) {
             o << "; " << r.goodness.suggestion;
         }

@@ -9,6 +9,7 @@
 
 #include "gonio/base/limits.h"
 #include "gonio/brdf/model_json.h"
+#include "gonio/brdf/student_t.h"
 
 namespace gonio::fitting {
 
@@ -31,6 +32,10 @@ std::pair<double, double> default_bounds(Field f) {
             return {1e-4, 1.5};
         case Field::kExponent:
             return {1e-1, 1e7};
+        case Field::kGamma:
+            // Smith's Lambda of the Student-t is finite above 3/2; 100 is within a few per cent
+            // of Beckmann (brdf/student_t.h).
+            return {brdf::kStudentTGammaMin, brdf::kStudentTGammaMax};
         case Field::kScale:
             return {0.0, 1e4};
         case Field::kF0:
@@ -73,6 +78,8 @@ std::string field_path(Field f, int lobe) {
             return prefix + "alpha_y";
         case Field::kExponent:
             return prefix + "exponent";
+        case Field::kGamma:
+            return prefix + "gamma";
         case Field::kScale:
             return prefix + "scale";
         case Field::kF0:
@@ -97,7 +104,10 @@ Expected<Distribution> parse_distribution(const std::string& name) {
     if (name == "blinn-phong") {
         return Distribution::kBlinnPhong;
     }
-    return make_error("model \"" + name + "\": expected ggx, beckmann or blinn-phong");
+    if (name == "student-t") {
+        return Distribution::kStudentT;
+    }
+    return make_error("model \"" + name + "\": expected ggx, beckmann, blinn-phong or student-t");
 }
 
 Expected<std::pair<FresnelType, bool>> parse_fresnel(const std::string& name) {
@@ -211,6 +221,9 @@ std::vector<ParamSpec> default_params(const brdf::ModelD& model, bool fresnel_rg
             out.push_back(make_param(Field::kAlphaX, i, true, false));
             if (l.anisotropic) {
                 out.push_back(make_param(Field::kAlphaY, i, true, false));
+            }
+            if (l.distribution == Distribution::kStudentT) {
+                out.push_back(make_param(Field::kGamma, i, true, false));
             }
         }
         // The colour of the lobe comes either from its Fresnel term (Schlick RGB, conductor) or

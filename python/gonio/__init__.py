@@ -11,6 +11,7 @@ Errors raise ``gonio.Error`` (a ``ValueError``) with the same message the comman
 
 import json as _json
 import os as _os
+import warnings as _warnings
 
 from ._gonio import (  # noqa: F401  (re-exported)
     Error,
@@ -44,12 +45,14 @@ __all__ = [
 ]
 
 
-def fit(samples, model="ggx", residual=None, max_samples=None, truth=None, **options):
+def fit(
+    samples, model="ggx", residual=None, max_samples=None, truth=None, strict=False, **options
+):
     """Fit an analytic BRDF model to measured samples with Ceres.
 
     samples: a path (dataset CSV, or a table *.binary/*.merl/*.gtab), a samples dict or a
         table dict from ``gonio.load()``.
-    model: "ggx", "beckmann" or "blinn-phong" (structure further set by the options
+    model: "ggx", "beckmann", "blinn-phong" or "student-t" (structure further set by the options
         fresnel, shadowing, diffuse, anisotropic, lobes), "auto" (candidates ranked by BIC,
         the winner polished, as ``gonio fit --model auto``; the ranking is in
         ``report["auto"]``), a fit-template path (*.json) or a fit-template dict
@@ -70,11 +73,25 @@ def fit(samples, model="ggx", residual=None, max_samples=None, truth=None, **opt
     fit report as ``gonio fit --out`` writes it (parameters with one-sigma uncertainties,
     not_identifiable, at_bounds, vanished_lobes, metrics, sample counts, solver summary).
     Check ``report["solver"]["usable"]``: a solve that ran but did not converge is returned,
-    not raised. The GIL is released while Ceres runs, so other Python threads go on.
+    not raised. A converged fit whose model does not represent the data (a misfit,
+    ``report["goodness"]["represents"]`` false) is a finding: it is returned and a
+    ``UserWarning`` names the first warning and the suggestion; with ``strict=True`` it raises
+    gonio.Error instead. The GIL is released while Ceres runs, so other Python threads go on.
 
     Raises gonio.Error for unreadable input, no valid sample or an inconsistent spec.
     """
-    return _gonio._fit(samples, model, residual, max_samples, truth, options)
+    fitted, report = _gonio._fit(samples, model, residual, max_samples, truth, options)
+    goodness = report.get("goodness", {})
+    if report.get("solver", {}).get("converged") and not goodness.get("represents", True):
+        first = (goodness.get("warnings") or ["see the report"])[0]
+        message = (
+            f"the model does not represent these data ({first}); "
+            f"{goodness.get('suggestion', '')}"
+        )
+        if strict:
+            raise Error(message)
+        _warnings.warn(message, UserWarning, stacklevel=2)
+    return fitted, report
 
 
 def load_campaign(folder):
@@ -83,7 +100,9 @@ def load_campaign(folder):
     Returns a dict: ``dataset`` (samples dict of ``dataset.csv`` as ``gonio.load`` gives it,
     or None when the folder has none yet), and every top-level JSON file parsed into a dict
     under its name without extension (``metadata``, ``campaign``, ``rig``, ``fit``...), plus
-    ``path``. Raises gonio.Error when the folder does not exist.
+    ``path``. A JSON file whose name without extension is already a key (``dataset.json`` of an
+    image-mode campaign, beside ``dataset``) is kept under its full file name
+    (``"dataset.json"``). Raises gonio.Error when the folder does not exist.
     """
     folder = _os.fspath(folder)
     if not _os.path.isdir(folder):
@@ -95,8 +114,10 @@ def load_campaign(folder):
         full = _os.path.join(folder, name)
         if name.endswith(".json") and _os.path.isfile(full):
             with open(full, encoding="utf-8") as f:
+                stem = name[: -len(".json")]
+                key = name if stem in out else stem
                 try:
-                    out[name[: -len(".json")]] = _json.load(f)
+                    out[key] = _json.load(f)
                 except ValueError as e:
                     raise Error(f"{full}: not valid JSON: {e}") from None
     return out

@@ -11,8 +11,9 @@ existing cluster (``dask-scheduler`` plus ``dask-worker`` on other machines, eac
 Each entry writes ``DIR/ID.json`` (fitted model) and ``DIR/ID.report.json`` (full report), or
 ``DIR/ID.error.txt``; a failed entry does not stop the others. Entries whose model and report
 already exist are skipped, so a rerun resumes. ``DIR/summary.csv`` lists every entry in
-manifest order. Exit status: 0 all fitted (or already), 1 some entry failed or did not
-converge, 2 unreadable manifest or bad arguments.
+manifest order. Exit status: 0 all fitted (or already; a misfit, whose model is written with
+its verdict, counts as fitted unless ``--strict``), 1 some entry failed or did not converge (or
+is a misfit under ``--strict``), 2 unreadable manifest or bad arguments.
 """
 
 import argparse
@@ -24,7 +25,10 @@ import gonio
 
 __all__ = ["run_batch", "main"]
 
-_OK = ("fitted", "skipped")
+# A misfit (converged; the model, its verdict and the report written) is a finding, not a
+# failure, unless --strict.
+_OK = ("fitted", "skipped", "misfit")
+_OK_STRICT = ("fitted", "skipped")
 
 
 def _fit_task(entry_id, input_path, options, out_dir):
@@ -113,7 +117,7 @@ def run_batch(
     fit_threads: Ceres threads per fit (the option ``threads`` of every entry), 1 by default so
         that the workers, not the solver, use the cores.
     serial: run the entries one after the other in this process (no Dask), for comparison.
-    Each outcome is a dict: id, input, status (fitted, not-converged, failed, skipped),
+    Each outcome is a dict: id, input, status (fitted, misfit, not-converged, failed, skipped),
     message, log_rmse, rel_rmse, iterations, wall_time_s, samples_used, row (its CSV line).
     """
     stream = sys.stderr if stream is None else stream
@@ -199,6 +203,11 @@ def main(argv=None):
     p.add_argument("--fit-threads", type=int, default=1, help="Ceres threads per fit")
     p.add_argument("--serial", action="store_true", help="no Dask: fit one entry after another")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument(
+        "--strict",
+        action="store_true",
+        help="an entry whose model does not represent its data (misfit) counts as failed",
+    )
     a = p.parse_args(argv)
     if a.workers < 1 or a.fit_threads < 0:
         p.error("--workers must be >= 1 and --fit-threads >= 0")
@@ -215,7 +224,11 @@ def main(argv=None):
     except gonio.Error as e:
         print(f"gonio.batch: {e}", file=sys.stderr)
         return 2
-    bad = [o for o in outcomes if o["status"] not in _OK]
+    ok = _OK_STRICT if a.strict else _OK
+    bad = [o for o in outcomes if o["status"] not in ok]
+    for o in outcomes:
+        if o["status"] == "misfit" and not a.strict:
+            print(f"gonio.batch: warning: {o['id']}: misfit: {o['message']}", file=sys.stderr)
     for o in bad:
         print(f"gonio.batch: {o['id']}: {o['status']}: {o['message']}", file=sys.stderr)
     print(

@@ -43,6 +43,7 @@ namespace {
 
 using gonio::ends_with;
 using gonio::Expected;
+using gonio::ends_with;
 using gonio::brdf::Brdf;
 using gonio::brdf::Dataset;
 using gonio::brdf::Sample;
@@ -813,6 +814,8 @@ A table (*.binary, *.merl, *.gtab) -> table dict: raw (3, n_theta_h, n_theta_d, 
   stored values as in the file (no copy; f = raw * scale per channel, raw < 0 = not measured),
   scale (3,), grid, valid (bool per bin), source, kind = "table". With samples=True, a table
   is returned as samples instead (one per valid bin centre above the horizon).
+An RGL material (*.bsdf) -> samples dict of its stored nodes, each at its own direction pair
+  (docs/file-formats-tables.md); no resampling.
 Raises gonio.Error with the reader's message (file, line, field, rule).)doc");
     m.def("save",
           &save,
@@ -873,7 +876,8 @@ Returns {"passed", "describe", "isotropic", "checks": [{"name", "violation", "to
           py::arg("options"),
           py::arg("out_dir"),
           "run_entry(id, input, options, out_dir) -> dict: fits one manifest entry into out_dir "
-          "(as `gonio fit --manifest` does); status fitted, not-converged, failed or skipped.");
+          "(as `gonio fit --manifest` does); status fitted, misfit, not-converged, failed or "
+          "skipped.");
     m.def("summary_header", &gonio::batch::summary_csv_header, "Header line of a summary CSV.");
     m.def("write_text_atomically",
           &write_text_atomically,

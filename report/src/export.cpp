@@ -98,6 +98,28 @@ Expected<void> validate(const ModelD& m) {
     return {};
 }
 
+/// The model as the renderers' distributions hold it: a Student-t lobe at gamma = 2 is GGX exactly
+/// and is written as one; any other Student-t lobe has no counterpart in the renderer (Mitsuba 3
+/// and pbrt-v4 take GGX and Beckmann only) and the export is refused, naming the lobe.
+Expected<ModelD> representable(const ModelD& m, const char* renderer) {
+    ModelD out = m;
+    for (std::size_t i = 0; i < out.lobes.size(); ++i) {
+        Lobe<double>& l = out.lobes[i];
+        if (l.distribution != Distribution::kStudentT) {
+            continue;
+        }
+        if (std::abs(l.gamma - 2) <= 1e-9) {
+            l.distribution = Distribution::kGgx;
+            continue;
+        }
+        return make_error("lobes[" + std::to_string(i) + "]: a student-t lobe (gamma " +
+                          num(l.gamma) + ") cannot be represented by " + renderer +
+                          ", which takes ggx and beckmann only; refit with `--model ggx` or "
+                          "`--model beckmann`, or tabulate the model (`gonio convert`)");
+    }
+    return out;
+}
+
 /// Slope parameters of a lobe as the renderers take them (Blinn-Phong through its Beckmann
 /// equivalent).
 std::pair<double, double> lobe_alphas(const Lobe<double>& l) {
@@ -188,10 +210,15 @@ double k_from_f0(double f0) {
     return 2 * std::sqrt(f0) / std::sqrt(1 - f0);
 }
 
-Expected<RendererExport> export_mitsuba(const ModelD& model, const std::string& id) {
+Expected<RendererExport> export_mitsuba(const ModelD& model_in, const std::string& id) {
     if (auto v = check_name(id, "material id"); !v) {
         return make_error(v.error().message);
     }
+    const Expected<ModelD> model_or = representable(model_in, "Mitsuba 3");
+    if (!model_or) {
+        return make_error(model_or.error().message);
+    }
+    const ModelD& model = *model_or;
     if (auto v = validate(model); !v) {
         return make_error(v.error().message);
     }
@@ -326,10 +353,15 @@ Expected<RendererExport> export_mitsuba(const ModelD& model, const std::string& 
     return out;
 }
 
-Expected<RendererExport> export_pbrt(const ModelD& model, const std::string& name) {
+Expected<RendererExport> export_pbrt(const ModelD& model_in, const std::string& name) {
     if (auto v = check_name(name, "material name"); !v) {
         return make_error(v.error().message);
     }
+    const Expected<ModelD> model_or = representable(model_in, "pbrt-v4");
+    if (!model_or) {
+        return make_error(model_or.error().message);
+    }
+    const ModelD& model = *model_or;
     if (auto v = validate(model); !v) {
         return make_error(v.error().message);
     }

@@ -2,11 +2,55 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "canvas.h"
+#include "gonio/report/plot.h"
+
+namespace gonio::report {
+
+const char* axis_scale_name(AxisScale s) {
+    switch (s) {
+        case AxisScale::kLinear:
+            return "linear";
+        case AxisScale::kLog:
+            return "log";
+        case AxisScale::kAuto:
+            break;
+    }
+    return "auto";
+}
+
+AxisScale resolve_scale(AxisScale requested, double vmin_pos, double vmax) {
+    if (requested != AxisScale::kAuto) {
+        return requested;
+    }
+    if (std::isfinite(vmin_pos) && vmin_pos > 0 && std::isfinite(vmax) && vmax > 10 * vmin_pos) {
+        // More than a decade: a linear axis would squeeze the low values into the origin.
+        return AxisScale::kLog;
+    }
+    return AxisScale::kLinear;
+}
+
+}  // namespace gonio::report
 
 namespace gonio::report::plot_detail {
+
+std::string scale_caption(bool log, double vmin_pos, double vmax) {
+    char buf[160];
+    if (log) {
+        std::snprintf(buf,
+                      sizeof buf,
+                      "log10 scale (values span %.2g to %.2g, %.1f decades)",
+                      vmin_pos,
+                      vmax,
+                      std::log10(vmax / vmin_pos));
+    } else {
+        std::snprintf(buf, sizeof buf, "linear scale from 0");
+    }
+    return buf;
+}
 
 std::vector<double> pick_evenly(const std::vector<std::pair<double, int>>& sorted, std::size_t n) {
     std::vector<double> out;
@@ -36,9 +80,11 @@ std::string short_name(const std::string& source) {
 
 double log_floor(double vmin_pos, double vmax) {
     const double top = std::ceil(std::log10(vmax) - 1e-9);
-    double bottom =
-        std::isfinite(vmin_pos) && vmin_pos > 0 ? std::floor(std::log10(vmin_pos)) : top - 3;
-    bottom = std::max(bottom, top - 4);
+    // A third of a decade below the smallest value, so that it stands off the origin.
+    double bottom = std::isfinite(vmin_pos) && vmin_pos > 0
+                        ? std::floor(std::log10(vmin_pos) - 1.0 / 3.0)
+                        : top - 3;
+    bottom = std::max(bottom, top - 5);
     if (bottom >= top) {
         // A single decade of data: show one decade below.
         bottom = top - 1;

@@ -28,8 +28,12 @@ struct RadialScale {
     double radius(double v) const;
 };
 
-/// A log-axis lower bound: the decade at or below the smallest positive value, but at most 4
-/// decades below the largest.
+/// What the BRDF axis shows, for subtitles: "log10 scale (values span a to b, n decades)" or
+/// "linear scale from 0".
+std::string scale_caption(bool log, double vmin_pos, double vmax);
+
+/// A log-axis lower bound: the decade at or below a third of a decade under the smallest positive
+/// value (so that it stands off the origin), but at most 5 decades below the largest.
 double log_floor(double vmin_pos, double vmax);
 
 }  // namespace gonio::report::plot_detail

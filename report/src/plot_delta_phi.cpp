@@ -108,6 +108,16 @@ Expected<Image> plot_delta_phi(const brdf::Dataset& data,
     }
     double vmax = 0;
     double vmin_pos = std::numeric_limits<double>::infinity();
+    double data_max = 0;
+    double data_min_pos = std::numeric_limits<double>::infinity();
+    for (const AzSlice& sl : slices) {
+        for (const AzPoint& p : sl.points) {
+            data_max = std::max(data_max, p.y);
+            if (p.y > 0) {
+                data_min_pos = std::min(data_min_pos, p.y);
+            }
+        }
+    }
     auto track = [&](double v) {
         if (std::isfinite(v)) {
             vmax = std::max(vmax, v);
@@ -136,19 +146,23 @@ Expected<Image> plot_delta_phi(const brdf::Dataset& data,
                           ": delta_phi slices hold only zero values; nothing to plot");
     }
 
+    const bool have_data = data_max > 0 && std::isfinite(data_min_pos);
+    const double range_lo = have_data ? data_min_pos : vmin_pos;
+    const double range_hi = have_data ? data_max : vmax;
+    const bool log_scale = resolve_scale(options.scale, range_lo, range_hi) == AxisScale::kLog &&
+                           std::isfinite(vmin_pos);
     const int W = std::max(400, options.width);
     const int H = W * 3 / 5 + 40;
     cv::Mat img = draw::blank(
         W,
         H,
         "BRDF against azimuth (luminance Y) - " + plot_detail::short_name(data.source),
-        std::string(options.log_scale ? "log" : "linear") +
-            " scale; markers: measured +-1 sigma; curves: " + (fit ? "fit" : "(no fit given)"));
+        "markers: measured +-1 sigma; curves: " + std::string(fit ? "fit" : "(no fit given)"));
     draw::Axes ax;
     ax.area = cv::Rect(90, 60, W - 90 - 30, H - 60 - 60);
     ax.x0 = 0;
     ax.x1 = 180;
-    ax.log_y = options.log_scale;
+    ax.log_y = log_scale;
     if (ax.log_y) {
         ax.y0 = plot_detail::log_floor(vmin_pos, vmax);
         ax.y1 = std::pow(10.0, std::ceil(std::log10(vmax) - 1e-9));
@@ -159,7 +173,7 @@ Expected<Image> plot_delta_phi(const brdf::Dataset& data,
     }
     ax.draw(img,
             "delta_phi = phi_o - phi_i [deg] (0: back toward the light, 180: forward)",
-            "BRDF luminance Y [1/sr]");
+            std::string("BRDF luminance Y [1/sr]") + (log_scale ? ", log10" : ""));
 
     std::vector<draw::LegendEntry> entries;
     for (std::size_t k = 0; k < slices.size(); ++k) {

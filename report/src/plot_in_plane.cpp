@@ -39,21 +39,65 @@ std::vector<double> curve_angles() {
     return a;
 }
 
-/// Signed outgoing angle of a sample relative to the plane of incidence, or NaN when wo is out of
-/// the plane by more than tol.
+/// Signed outgoing angle of a sample in the plane of incidence (radians; + forward, - back toward
+/// the light), or NaN when wo lies farther than tol from that plane. The distance is the angle
+/// between wo and the plane: asin(sin theta_o |sin(phi_o - phi_i)|).
 double in_plane_angle(const brdf::Sample& s, double tol) {
-    if (s.theta_o < tol) {
-        // Near the normal the azimuth does not matter.
-        return s.theta_o;
+    const double dphi = brdf::wrap_pi(s.phi_o - s.phi_i);
+    const double off_plane =
+        std::asin(std::min(1.0, std::sin(s.theta_o) * std::abs(std::sin(dphi))));
+    if (off_plane > tol) {
+        return std::numeric_limits<double>::quiet_NaN();
     }
-    const double dphi = std::abs(brdf::wrap_pi(s.phi_o - s.phi_i));
-    if (dphi < tol / std::max(std::sin(s.theta_o), 1e-3)) {
-        return -s.theta_o;  // back toward the light
+    // cos(dphi) >= 0: on the light's side.
+    return std::cos(dphi) >= 0 ? -s.theta_o : s.theta_o;
+}
+
+/// Slices from the data: the theta_i of in-plane samples (degrees, sorted) grouped greedily into
+/// windows of width 2 tol holding the most samples (at least 3), up to `max_slices`, in order of
+/// theta_i; each slice at the median theta_i of its members.
+std::vector<double> slices_from_data(std::vector<double> theta_i_deg,
+                                     double tol_deg,
+                                     std::size_t max_slices) {
+    std::sort(theta_i_deg.begin(), theta_i_deg.end());
+    std::vector<std::pair<std::size_t, std::size_t>> windows;  // [first, last) in theta_i_deg
+    std::vector<bool> taken(theta_i_deg.size(), false);
+    while (true) {
+        std::size_t best_first = 0, best_count = 0;
+        std::size_t j = 0;
+        for (std::size_t i = 0; i < theta_i_deg.size(); ++i) {
+            if (taken[i]) {
+                continue;
+            }
+            j = std::max(j, i);
+            while (j < theta_i_deg.size() && !taken[j] &&
+                   theta_i_deg[j] - theta_i_deg[i] <= 2 * tol_deg) {
+                ++j;
+            }
+            if (j - i > best_count) {
+                best_count = j - i;
+                best_first = i;
+            }
+            if (j == i) {
+                j = i + 1;
+            }
+        }
+        if (best_count < 3) {
+            break;
+        }
+        windows.push_back({best_first, best_first + best_count});
+        for (std::size_t k = best_first; k < best_first + best_count; ++k) {
+            taken[k] = true;
+        }
     }
-    if (brdf::kPi - dphi < tol / std::max(std::sin(s.theta_o), 1e-3)) {
-        return s.theta_o;  // forward, specular side
+    // Keep the fullest windows, spread evenly over theta_i.
+    std::vector<std::pair<double, int>> found;
+    for (const auto& w : windows) {
+        found.push_back(
+            {theta_i_deg[(w.first + w.second - 1) / 2], static_cast<int>(w.second - w.first)});
     }
-    return std::numeric_limits<double>::quiet_NaN();
+    std::sort(found.begin(), found.end());
+    return plot_detail::pick_evenly(found, max_slices);
 }
 
 }  // namespace
@@ -65,27 +109,23 @@ Expected<Image> plot_in_plane(const brdf::Dataset& data,
     const double tol = options.angle_tolerance_deg * kDeg;
     std::vector<double> thetas = options.theta_i_deg;
     if (thetas.empty()) {
-        // Slices from the data: the distinct theta_i that have in-plane samples.
-        std::vector<std::pair<double, int>> found;  // theta_i (deg), count
+        std::vector<double> in_plane_theta_i;
         for (const brdf::Sample& s : data.samples) {
-            if (std::isnan(in_plane_angle(s, tol))) {
-                continue;
-            }
-            const double t = s.theta_i / kDeg;
-            auto it = std::find_if(found.begin(), found.end(), [&](const auto& f) {
-                return std::abs(f.first - t) <= options.angle_tolerance_deg;
-            });
-            if (it == found.end()) {
-                found.push_back({t, 1});
-            } else {
-                ++it->second;
+            if (!std::isnan(in_plane_angle(s, tol))) {
+                in_plane_theta_i.push_back(s.theta_i / kDeg);
             }
         }
-        found.erase(
-            std::remove_if(found.begin(), found.end(), [](const auto& f) { return f.second < 3; }),
-            found.end());
-        std::sort(found.begin(), found.end());
-        thetas = plot_detail::pick_evenly(found, 5);
+        thetas = slices_from_data(in_plane_theta_i, options.angle_tolerance_deg, 5);
+        if (thetas.empty() && !data.samples.empty()) {
+            // Scattered directions: no slice holds them, so show every sample against theta_h.
+            char why[200];
+            std::snprintf(why,
+                          sizeof why,
+                          "no in-plane slice: no 3 samples within %.3g deg of one theta_i and of "
+                          "the plane of incidence",
+                          options.angle_tolerance_deg);
+            return plot_half_angle(data, fit, options, why);
+        }
         if (thetas.empty() && fit != nullptr) {
             thetas = {0.0, 20.0, 40.0, 60.0};
         }
@@ -101,12 +141,21 @@ Expected<Image> plot_in_plane(const brdf::Dataset& data,
     double vmax = 0;
     double vmax_data = 0;  // the radius follows the measured data, not the model out to 90 degrees
     double vmin_pos = std::numeric_limits<double>::infinity();
+    double vmin_data = std::numeric_limits<double>::infinity();
     for (double t_deg : thetas) {
         Slice sl;
         sl.theta_i_deg = t_deg;
         std::vector<double> phis;
         for (const brdf::Sample& s : data.samples) {
-            if (std::abs(s.theta_i / kDeg - t_deg) > options.angle_tolerance_deg) {
+            // Each sample joins the slice nearest in theta_i, when within the tolerance.
+            const double ti = s.theta_i / kDeg;
+            double nearest = thetas.front();
+            for (double t : thetas) {
+                if (std::abs(t - ti) < std::abs(nearest - ti)) {
+                    nearest = t;
+                }
+            }
+            if (nearest != t_deg || std::abs(ti - t_deg) > options.angle_tolerance_deg) {
                 continue;
             }
             const double a = in_plane_angle(s, tol);
@@ -121,6 +170,7 @@ Expected<Image> plot_in_plane(const brdf::Dataset& data,
             vmax_data = std::max(vmax_data, y + sy);
             if (y > 0) {
                 vmin_pos = std::min(vmin_pos, y);
+                vmin_data = std::min(vmin_data, y);
             }
         }
         if (!phis.empty()) {
@@ -155,19 +205,25 @@ Expected<Image> plot_in_plane(const brdf::Dataset& data,
     // Below the baseline: ring values, two axis captions, then the legend (one row per slice).
     const int H = top + R + 96 + 20 * static_cast<int>(thetas.size()) + 8 + 8;
     const cv::Point origin(W / 2, top + R + 8);
-    char sub[200];
+    // The scale follows the measured values' dynamic range (the fit's alone when there is no data).
+    const bool have_data = vmax_data > 0 && std::isfinite(vmin_data);
+    const double range_lo = have_data ? vmin_data : vmin_pos;
+    const double range_hi = have_data ? vmax_data : vmax;
+    const bool log_scale = resolve_scale(options.scale, range_lo, range_hi) == AxisScale::kLog &&
+                           std::isfinite(range_lo);
+    char sub[240];
     std::snprintf(sub,
                   sizeof sub,
-                  "%s scale; markers: measured +-1 sigma; curves: %s",
-                  options.log_scale ? "log" : "linear",
+                  "markers: measured +-1 sigma at their own theta_o (slice tolerance %.3g deg); "
+                  "curves: %s",
+                  options.angle_tolerance_deg,
                   fit ? "fit" : "(no fit given)");
     cv::Mat img = draw::blank(
         W, H, "In-plane BRDF (luminance Y) - " + plot_detail::short_name(data.source), sub);
 
     // Radial scale.
     // The fit's curve beyond the largest measured value is clipped at the outer ring.
-    plot_detail::RadialScale rs = plot_detail::RadialScale::make(
-        vmin_pos, vmax_data > 0 ? vmax_data : vmax, options.log_scale, R);
+    plot_detail::RadialScale rs = plot_detail::RadialScale::make(range_lo, range_hi, log_scale, R);
 
     // Rings and their labels (along the baseline to the right of the origin).
     for (double v : rs.ticks) {
@@ -204,7 +260,8 @@ Expected<Image> plot_in_plane(const brdf::Dataset& data,
     cv::ellipse(img, origin, {R, R}, 0, 180, 360, draw::kAxis, 1, cv::LINE_AA);
     cv::line(img, {origin.x - R, origin.y}, {origin.x + R, origin.y}, draw::kAxis, 1);
     draw::text(img,
-               "radius: BRDF luminance Y [1/sr]" + std::string(options.log_scale ? " (log)" : ""),
+               "radius: BRDF luminance Y [1/sr], " +
+                   plot_detail::scale_caption(log_scale, range_lo, range_hi),
                {origin.x, origin.y + 36},
                draw::kTextScale,
                draw::kBlack,
@@ -222,6 +279,10 @@ Expected<Image> plot_in_plane(const brdf::Dataset& data,
     out.origin_x = origin.x;
     out.origin_y = origin.y;
     out.radius_px = R;
+    out.log_scale = log_scale;
+    for (double v : rs.ticks) {
+        out.ring_values.push_back(v);
+    }
     auto to_px = [&](double a, double v) {
         const double r = rs.radius(v);
         return cv::Point2d(origin.x + r * std::sin(a), origin.y - r * std::cos(a));

@@ -88,12 +88,16 @@ Expected<Image> plot_residual_map(const brdf::Dataset& data,
     char sub[240];
     std::snprintf(sub,
                   sizeof sub,
-                  "%zu samples, rms log10 residual %.3g, %zu skipped (zero value); grey: no sample",
+                  "%zu samples; rms over samples of log10(Y_meas / Y_fit) = %.3g (luminance); %zu "
+                  "skipped (zero value); grey: no sample",
                   used,
                   used ? std::sqrt(sum_sq / used) : 0.0,
                   skipped);
-    cv::Mat img = draw::blank(
-        W, H, "Residuals log10(measured / fit) - " + plot_detail::short_name(data.source), sub);
+    cv::Mat img = draw::blank(W,
+                              H,
+                              "Residuals: log10(measured / fit) luminance per 5-deg bin - " +
+                                  plot_detail::short_name(data.source),
+                              sub);
     const int side = std::min(W - 90 - 190, H - 60 - 70);
     draw::Axes ax;
     ax.area = cv::Rect(90, 60, side, side);
@@ -131,7 +135,7 @@ Expected<Image> plot_coverage(const brdf::Dataset& data, const PlotOptions& opti
     // colour bar of theta_i.
     const int R = std::max(60, (W * 3) / 16);
     const int top = 64;
-    const int H = top + 2 * R + 84;
+    const int H = top + 2 * R + 110;
     char sub[160];
     std::snprintf(
         sub, sizeof sub, "%zu samples; colour: theta_i [deg] (bar at right)", data.samples.size());
@@ -145,9 +149,9 @@ Expected<Image> plot_coverage(const brdf::Dataset& data, const PlotOptions& opti
         const int r = static_cast<int>(std::lround(R * std::sin(t * kDeg)));
         cv::circle(img, c, r, t == 90 ? draw::kAxis : draw::kGrid, 1, cv::LINE_AA);
         draw::text(img,
-                   std::to_string(t),
+                   std::to_string(t) + " deg",
                    {c.x + int(std::lround(r * 0.707)) + 4, c.y - int(std::lround(r * 0.707)) - 6},
-                   0.4,
+                   0.5,
                    draw::kAxis);
     }
     cv::line(img, {c.x - R, c.y}, {c.x + R, c.y}, draw::kGrid, 1);
@@ -174,7 +178,7 @@ Expected<Image> plot_coverage(const brdf::Dataset& data, const PlotOptions& opti
     // Right: (theta_h, theta_d).
     draw::Axes ax;
     const int ax_x = c.x + R + 110;
-    ax.area = cv::Rect(ax_x, top, std::max(80, W - ax_x - 90), 2 * R);
+    ax.area = cv::Rect(ax_x, top, std::max(80, W - ax_x - 110), 2 * R);
     ax.x0 = 0;
     ax.x1 = 90;
     ax.y0 = 0;
@@ -189,10 +193,15 @@ Expected<Image> plot_coverage(const brdf::Dataset& data, const PlotOptions& opti
                    cv::FILLED,
                    cv::LINE_AA);
     }
-    const cv::Rect bar(W - 56, top, 14, 2 * R);
+    const cv::Rect bar(W - 56, top, 16, 2 * R);
     color_bar(
         img, bar, 0, 90, [](double t) { return draw::sequential(t); }, "");
-    draw::text(img, "theta_i", {bar.x + 7, top - 12}, 0.45, draw::kBlack, draw::Align::kCenter);
+    draw::text(
+        img, "theta_i [deg]", {bar.x + 8, top - 12}, 0.5, draw::kBlack, draw::Align::kCenter);
+    draw::legend(img,
+                 {{draw::sequential(0.5), "one measured (wi, wo) pair", false, true}},
+                 {ax.area.x, ax.area.y + ax.area.height + 46},
+                 true);
     return from_mat(img);
 }
 

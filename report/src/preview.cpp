@@ -200,6 +200,45 @@ RadianceImage render_environment(const brdf::Brdf& brdf, const PreviewOptions& o
     });
 }
 
+/// Splits a label into lines no wider than width_px: at spaces, or inside a word longer than a
+/// line.
+static std::vector<std::string> wrap_text(const std::string& text, int width_px) {
+    std::vector<std::string> lines;
+    std::string line;
+    std::size_t i = 0;
+    while (i < text.size()) {
+        std::size_t j = text.find(' ', i);
+        if (j == std::string::npos) {
+            j = text.size();
+        }
+        std::string word = text.substr(i, j - i);
+        i = j + 1;
+        const std::string candidate = line.empty() ? word : line + " " + word;
+        if (draw::text_width(candidate) <= width_px) {
+            line = candidate;
+            continue;
+        }
+        if (!line.empty()) {
+            lines.push_back(line);
+            line.clear();
+        }
+        while (draw::text_width(word) > width_px && word.size() > 1) {
+            // A word wider than a line: broken where it stops fitting.
+            std::size_t n = word.size() - 1;
+            while (n > 1 && draw::text_width(word.substr(0, n)) > width_px) {
+                --n;
+            }
+            lines.push_back(word.substr(0, n));
+            word = word.substr(n);
+        }
+        line = word;
+    }
+    if (!line.empty() || lines.empty()) {
+        lines.push_back(line);
+    }
+    return lines;
+}
+
 Expected<Image> preview_sheet(const brdf::Brdf& a,
                               const std::string& label_a,
                               const brdf::Brdf* b,
@@ -211,13 +250,19 @@ Expected<Image> preview_sheet(const brdf::Brdf& a,
     }
     const int cell = options.size_px;
     const int margin = 12;
-    const int band = 26;
     const int header = 64;
     const int rows = b ? 2 : 1;
     // Columns at least 220 px apart so that their titles never overlap.
     const int column = std::max(cell, 220);
     const int W = 2 * column + 3 * margin;
-    const int H = header + rows * (band + cell + margin) + 22;
+    // Row labels are wrapped (never cut): one band line per 20 px.
+    std::vector<std::vector<std::string>> labels;
+    int rows_height = 0;
+    for (int row = 0; row < rows; ++row) {
+        labels.push_back(wrap_text(row == 0 ? label_a : label_b, W - 2 * margin));
+        rows_height += 8 + 20 * static_cast<int>(labels.back().size()) + cell + margin;
+    }
+    const int H = header + rows_height + 22;
     cv::Mat img = draw::blank(
         W, H, "Sphere preview", "one exposure for all pictures; filmic tone curve, sRGB");
     const int cx0 = margin + column / 2;
@@ -238,23 +283,23 @@ Expected<Image> preview_sheet(const brdf::Brdf& a,
                draw::Align::kCenter);
     const Color bg{48, 48, 48};
     std::vector<RadianceImage> renders;
-    std::vector<int> rows_y;
+    std::vector<int> rows_y;  // top of each row's pictures
+    int y = header;
     for (int row = 0; row < rows; ++row) {
         const brdf::Brdf& br = row == 0 ? a : *b;
-        std::string label = row == 0 ? label_a : label_b;
-        while (label.size() > 4 && draw::text_width(label) > W - 2 * margin) {
-            label = label.substr(0, label.size() - 4) + "...";
+        for (std::size_t k = 0; k < labels[row].size(); ++k) {
+            draw::text(img,
+                       labels[row][k],
+                       {W / 2, y + 14 + 20 * static_cast<int>(k)},
+                       draw::kTextScale,
+                       draw::kBlack,
+                       draw::Align::kCenter);
         }
-        const int y = header + row * (band + cell + margin);
-        draw::text(img,
-                   label,
-                   {W / 2, y + band / 2},
-                   draw::kTextScale,
-                   draw::kBlack,
-                   draw::Align::kCenter);
+        y += 8 + 20 * static_cast<int>(labels[row].size());
         renders.push_back(render_directional(br, options));
         renders.push_back(render_environment(br, options));
         rows_y.push_back(y);
+        y += cell + margin;
     }
     double exposure = options.exposure;
     if (!(exposure > 0)) {
@@ -276,10 +321,9 @@ Expected<Image> preview_sheet(const brdf::Brdf& a,
     }
     for (std::size_t row = 0; row < rows_y.size(); ++row) {
         const int y = rows_y[row];
-        to_mat(tone_map(renders[2 * row], exposure, bg))
-            .copyTo(img(cv::Rect(x0, y + band, cell, cell)));
+        to_mat(tone_map(renders[2 * row], exposure, bg)).copyTo(img(cv::Rect(x0, y, cell, cell)));
         to_mat(tone_map(renders[2 * row + 1], exposure, bg))
-            .copyTo(img(cv::Rect(x1, y + band, cell, cell)));
+            .copyTo(img(cv::Rect(x1, y, cell, cell)));
     }
     const Vec3d l = options.light_dir.normalized();
     char foot[160];

@@ -5,7 +5,9 @@
 
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <opencv2/imgcodecs.hpp>
+#include <string>
 
 #include "gonio/acquisition/image_planner.h"
 #include "gonio/brdf/rig_geometry.h"
@@ -131,6 +133,77 @@ TEST(ImagePlanner, HolesNameTheBlindZone) {
         }
     }
     EXPECT_TRUE(blind_first_cell);
+}
+
+TEST(ImagePlanner, HolesTellEveryReasonApart) {
+    const PlannerSetup s = orthographic_setup(0.0);
+    const TableLayout l = coarse_layout(6);  // theta_d rows of 6 degrees
+    LightRange r;
+    r.min_rad = -120 * kPi / 180;  // separations up to 120 degrees: theta_d <= 60
+    r.max_rad = 120 * kPi / 180;
+    r.step_rad = 2 * kPi / 180;
+    r.blind_zone_rad = 14 * kPi / 180;
+    ExclusionRules rules;
+    rules.max_theta_i = rules.max_theta_o = 70 * kPi / 180;
+    const auto cands = light_candidates(s.camera, s.sphere, rules, l, 0.0, r, 1);
+    CoverageMap map(l);
+    for (const auto& c : cands) {
+        for (std::uint32_t b : c.bins) {
+            map.cover(b);
+        }
+    }
+    HoleLimits lim;
+    lim.blind_zone_rad = r.blind_zone_rad;
+    lim.max_separation_rad = 120 * kPi / 180;
+    lim.max_theta_i = lim.max_theta_o = rules.max_theta_i;
+    std::map<std::string, std::size_t> bins;
+    std::size_t total = 0;
+    for (const CoverageHole& h : coverage_holes(map, cands, lim)) {
+        bins[h.reason] += h.bins;
+        total += h.bins;
+        if (h.reason == "blind zone") {
+            EXPECT_LT(h.theta_d_min, 7 * kPi / 180);
+        } else if (h.reason == "arm limits") {
+            EXPECT_GE(h.theta_d_max, 60 * kPi / 180 - 1e-9);
+        } else if (h.reason == "grazing (beyond max_theta)") {
+            // Both directions of such a bin's centre beyond 70 degrees means theta_d or theta_h
+            // is large.
+            EXPECT_GT(h.theta_d_max + h.theta_h_max, 35 * kPi / 180);
+        }
+    }
+    EXPECT_GT(bins["blind zone"], 0u);
+    EXPECT_GT(bins["arm limits"], 0u);
+    EXPECT_GT(bins["grazing (beyond max_theta)"], 0u);
+    EXPECT_EQ(bins["not measured"], 0u);  // every candidate's bins were covered
+    EXPECT_EQ(total, map.valid_bins() - map.covered_bins());
+}
+
+TEST(ImagePlanner, CachedGainsChooseAsTheFullScan) {
+    const PlannerSetup s = orthographic_setup(0.0);
+    const TableLayout l = coarse_layout(3);
+    LightRange r;
+    r.step_rad = 1 * kPi / 180;
+    auto cands = light_candidates(s.camera, s.sphere, {}, l, 0.0, r, 2);
+    ASSERT_GT(cands.size(), 100u);
+    CoverageMap map(l);
+    std::vector<std::size_t> gains = candidate_gains(cands, map);
+    double current = 0.3;
+    for (int frame = 0; frame < 40; ++frame) {
+        const int a = next_light(cands, map, current, 0.5);
+        const int b = next_light(cands, gains, current, 0.5);
+        ASSERT_EQ(a, b) << "frame " << frame;
+        ASSERT_GE(a, 0);
+        const LightCandidate chosen = cands[a];
+        cands.erase(cands.begin() + a);
+        gains.erase(gains.begin() + a);
+        // Cover only part of its bins, as a frame with lost pixels would.
+        for (std::size_t k = 0; k < chosen.bins.size(); k += 2) {
+            map.cover(chosen.bins[k]);
+        }
+        update_gains(cands, map, chosen.theta_d_lo, chosen.theta_d_hi, &gains);
+        EXPECT_EQ(gains, candidate_gains(cands, map)) << "frame " << frame;
+        current = chosen.light_arm_rad;
+    }
 }
 
 TEST(ImagePlanner, CoveragePngHasOneBlockPerCell) {

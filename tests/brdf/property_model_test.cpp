@@ -26,8 +26,10 @@ Vec3d random_upper(std::mt19937_64& rng) {
 
 std::vector<Lobe<double>> every_lobe() {
     std::vector<Lobe<double>> out;
-    for (Distribution d :
-         {Distribution::kGgx, Distribution::kBeckmann, Distribution::kBlinnPhong}) {
+    for (Distribution d : {Distribution::kGgx,
+                           Distribution::kBeckmann,
+                           Distribution::kBlinnPhong,
+                           Distribution::kStudentT}) {
         for (bool aniso : {false, true}) {
             for (Shadowing s : {Shadowing::kSmithCorrelated,
                                 Shadowing::kSmithSeparable,
@@ -43,6 +45,7 @@ std::vector<Lobe<double>> every_lobe() {
                     l.alpha_x = 0.15;
                     l.alpha_y = aniso ? 0.45 : 0.15;
                     l.exponent = 60;
+                    l.gamma = 3.5;
                     l.shadowing = s;
                     l.fresnel.type = f;
                     l.fresnel.f0 = Rgbd(0.04, 0.5, 0.95);
@@ -65,7 +68,7 @@ std::string name_of(const Lobe<double>& l) {
 
 TEST(ModelProperties, ReciprocityAndNonNegativityForEveryCombination) {
     const auto lobes = every_lobe();
-    ASSERT_EQ(lobes.size(), 96u);
+    ASSERT_EQ(lobes.size(), 128u);
     std::mt19937_64 rng(kSeed);
     for (const Lobe<double>& l : lobes) {
         ModelD m;

@@ -151,6 +151,8 @@ TEST(Sampling, NormalSamplersFollowDCosTheta) {
                     return sample_ggx_normal(c.ax, c.ay, u1, u2);
                 case Distribution::kBeckmann:
                     return sample_beckmann_normal(c.ax, c.ay, u1, u2);
+                case Distribution::kStudentT:
+                    return sample_student_t_normal(c.ax, c.ay, l.gamma, u1, u2);
                 case Distribution::kBlinnPhong:
                     break;
             }

@@ -99,6 +99,20 @@ const Structure kStructures[] = {
      false,
      true,
      1},
+    {"student-t-smith",
+     Distribution::kStudentT,
+     Shadowing::kSmithCorrelated,
+     FresnelType::kSchlick,
+     false,
+     false,
+     1},
+    {"student-t-anisotropic-separable-two-lobes",
+     Distribution::kStudentT,
+     Shadowing::kSmithSeparable,
+     FresnelType::kSchlick,
+     true,
+     true,
+     2},
 };
 
 /// A spec of the structure with non-trivial start values (the point where derivatives are checked).
@@ -118,6 +132,7 @@ FitSpec spec_of(const Structure& st) {
         lobe.alpha_x = 0.15 * (l + 1);
         lobe.alpha_y = 0.25 * (l + 1);
         lobe.exponent = 40;
+        lobe.gamma = 1.9 + 2.5 * l;
         lobe.scale = Rgbd(0.9, 0.7, 0.5);
         lobe.fresnel.f0 = Rgbd(0.05, 0.08, 0.11);
         lobe.fresnel.eta = 1.6;

@@ -33,6 +33,19 @@ def test_acquired_campaign_reads_as_numpy_and_dicts(workdir):
     np.testing.assert_allclose(d["value"][brdf_rows], truth, rtol=1e-2)
 
 
+def test_image_folder_keeps_dataset_json(workdir):
+    # An image-mode folder holds dataset.csv and dataset.json: both are returned.
+    out = workdir / "image"
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "dataset.csv").write_text(
+        "theta_i,phi_i,theta_o,phi_o,r,g,b\n0.5,0,0.5,3.14159,0.1,0.2,0.3\n")
+    (out / "dataset.json").write_text('{"mode": "image", "coverage": {"achieved": 0.93}}')
+    c = gonio.load_campaign(out)
+    assert c["dataset"]["value"].shape == (1, 3)
+    assert c["dataset.json"]["mode"] == "image"
+    assert c["dataset.json"]["coverage"]["achieved"] == 0.93
+
+
 def test_missing_folder_raises():
     try:
         gonio.load_campaign("/nonexistent/campaign")

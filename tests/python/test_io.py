@@ -140,3 +140,26 @@ def test_model_tabulated_to_merl_binary_matches_eval(workdir):
     k = np.arange(0, len(s["theta_i"]), 997)
     v = gonio.eval(TRUTH, s["theta_i"][k], s["phi_i"][k], s["theta_o"][k], s["phi_o"][k])
     np.testing.assert_allclose(s["value"][k], v, rtol=1e-12)
+
+
+def test_rgl_material_loads_as_its_nodes():
+    """An RGL *.bsdf (../shared/data/rgl, never copied into the repository) loads as samples: its
+    stored nodes at their own direction pairs, phi_i = 0, finite non-negative values."""
+    import os
+    import pytest
+
+    path = os.path.join(os.path.dirname(__file__), "..", "..", "..", "shared", "data", "rgl",
+                        "satin_rosaline_rgb.bsdf")
+    if not os.path.exists(path):
+        if os.environ.get("CI") == "true":
+            pytest.fail(f"CI=true but {path} is missing")
+        pytest.skip(f"RGL data {path} not found (real measurements are not in the repository)")
+    d = gonio.load(path)
+    assert d["kind"] == "samples"
+    n = len(d["theta_i"])
+    assert 3000 < n < 8 * 32 * 32
+    assert np.all(d["phi_i"] == 0.0)
+    assert np.all(np.isfinite(d["value"])) and np.all(d["value"] >= 0)
+    assert np.all(d["theta_o"] < np.pi / 2) and np.all(d["theta_i"] < np.radians(89))
+    # Distinct theta_i nodes of the file below 89 degrees: 7 of its 8.
+    assert len(np.unique(d["theta_i"])) == 7

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <random>
@@ -104,7 +105,7 @@ TEST(InPlanePlot, MeasuredMarkersPeakAtTheMirrorAngleOnLogScale) {
     SCOPED_TRACE("seed " + std::to_string(seed));
     const brdf::Dataset d = in_plane_samples(truth, 40.0, seed);
     PlotOptions o;
-    o.log_scale = true;
+    o.scale = AxisScale::kLog;
     PolarLayout lay;
     auto img = plot_in_plane(d, nullptr, o, &lay);
     ASSERT_TRUE(img) << img.error().message;
@@ -168,7 +169,7 @@ TEST(Plots, EveryModelTypeAndATableGivesEveryPlot) {
         }
         for (bool log : {false, true}) {
             PlotOptions o;
-            o.log_scale = log;
+            o.scale = log ? AxisScale::kLog : AxisScale::kLinear;
             auto ip = plot_in_plane(d, b.get(), o);
             ASSERT_TRUE(ip) << ip.error().message;
             auto dp = plot_delta_phi(d, b.get(), o);
@@ -268,6 +269,153 @@ TEST(ResidualMap, ExactFitIsWhiteAndBiasedFitIsRed) {
     }
     EXPECT_GT(white, 100);
     EXPECT_GT(red, 100);
+}
+
+}  // namespace
+}  // namespace gonio::report
+
+namespace gonio::report {
+namespace {
+
+/// Pixels that are strongly coloured (not grey, not white) in the rectangle [x0, x1) x [y0, y1).
+std::size_t coloured_pixels(const Image& img, int x0, int y0, int x1, int y1) {
+    std::size_t n = 0;
+    for (int y = std::max(0, y0); y < std::min(img.height, y1); ++y) {
+        for (int x = std::max(0, x0); x < std::min(img.width, x1); ++x) {
+            const Color c = img.at(x, y);
+            const int hi = std::max({c.r, c.g, c.b});
+            const int lo = std::min({c.r, c.g, c.b});
+            n += hi - lo > 60 ? 1 : 0;
+        }
+    }
+    return n;
+}
+
+/// Samples at uniformly random directions (seeded), none on a slice of the plane of incidence.
+brdf::Dataset scattered_samples(const brdf::Brdf& b, unsigned seed, std::size_t n) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    brdf::Dataset d;
+    d.source = "scattered.csv";
+    for (std::size_t k = 0; k < n; ++k) {
+        brdf::Sample s;
+        s.theta_i = std::acos(1 - 0.95 * u(rng));
+        s.phi_i = 2 * brdf::kPi * u(rng);
+        s.theta_o = std::acos(1 - 0.95 * u(rng));
+        // Away from the plane of incidence by 10 to 170 degrees of azimuth.
+        s.phi_o = s.phi_i + (10 + 160 * u(rng)) * kDeg;
+        s.value = b.eval(s.wi(), s.wo());
+        d.samples.push_back(s);
+    }
+    return d;
+}
+
+TEST(ScatteredPlot, SamplesOffEverySliceAreDrawnAgainstTheHalfAngle) {
+    const brdf::AnalyticBrdf truth(testing::every_model_type()[0].second);
+    for (unsigned seed : {1u, 2u, 3u}) {
+        SCOPED_TRACE("seed " + std::to_string(seed));
+        const brdf::Dataset d = scattered_samples(truth, seed, 200);
+        PlotOptions o;
+        auto img = plot_in_plane(d, nullptr, o);
+        ASSERT_TRUE(img) << img.error().message;
+        // Markers coloured by theta_d fill the plot area; an empty plot has none.
+        const std::size_t marked =
+            coloured_pixels(*img, 90, 70, img->width - 130, img->height - 64);
+        EXPECT_GT(marked, 200u * 4) << "scattered samples not drawn";
+        // The same data with nothing: the title alone would say nothing; here an empty dataset
+        // with no fit is an error, never a blank picture.
+        EXPECT_FALSE(plot_in_plane(brdf::Dataset{}, nullptr, o));
+    }
+}
+
+TEST(ScatteredPlot, SamplesNearASliceAreDrawnAtTheirOwnAngle) {
+    // theta_i within 2 degrees of 30, wo within 2 degrees of the plane: one slice at the median
+    // theta_i, each marker at its own theta_o; the brightest marker sits at the mirror angle.
+    const brdf::AnalyticBrdf truth(testing::every_model_type()[1].second);
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> jitter(-2.0, 2.0);
+    brdf::Dataset d;
+    d.source = "jittered.csv";
+    for (int t = -86; t <= 86; t += 3) {
+        brdf::Sample s;
+        s.theta_i = (30 + jitter(rng)) * kDeg;
+        s.phi_i = 0.4;
+        s.theta_o = std::abs(t) * kDeg;
+        const double off = jitter(rng) * kDeg / std::max(std::sin(s.theta_o), 0.1);
+        s.phi_o = (t >= 0 ? s.phi_i + brdf::kPi : s.phi_i) + off;
+        s.value = truth.eval(s.wi(), s.wo());
+        d.samples.push_back(s);
+    }
+    PlotOptions o;
+    PolarLayout lay;
+    auto img = plot_in_plane(d, nullptr, o, &lay);
+    ASSERT_TRUE(img) << img.error().message;
+    ASSERT_EQ(lay.theta_i_deg.size(), 1u);
+    EXPECT_NEAR(lay.theta_i_deg[0], 30.0, 2.0);
+    EXPECT_NEAR(peak_angle_deg(*img, lay, lay.slice_colors[0]), 30.0, 4.0);
+}
+
+TEST(DynamicRange, FourDecadesGetALogRadiusAndEverySampleIsVisible) {
+    // A synthetic slice whose values fall from 10 to 1e-3 1/sr (four decades) across theta_o.
+    brdf::Dataset d;
+    d.source = "decades.csv";
+    for (int t = -80; t <= 80; t += 4) {
+        brdf::Sample s;
+        s.theta_i = 40 * kDeg;
+        s.theta_o = std::abs(t) * kDeg;
+        s.phi_o = t >= 0 ? brdf::kPi : 0;
+        const double v = 10.0 * std::pow(10.0, -4.0 * (80 - t) / 160.0);
+        s.value = brdf::Rgbd::Constant(v);
+        d.samples.push_back(s);
+    }
+    PlotOptions o;  // automatic scale
+    PolarLayout lay;
+    auto img = plot_in_plane(d, nullptr, o, &lay);
+    ASSERT_TRUE(img) << img.error().message;
+    EXPECT_TRUE(lay.log_scale);
+    ASSERT_FALSE(lay.ring_values.empty());
+    EXPECT_LE(lay.ring_values.front(), 1e-2 * 1.0001);
+    EXPECT_GE(lay.ring_values.back(), 10.0 * 0.9999);
+    // The faintest sample (on the light's side, theta_o = -80) lies well away from the origin.
+    double dist = 0;
+    const double a = peak_angle_deg(*img, lay, lay.slice_colors[0], &dist);
+    EXPECT_NEAR(a, 80.0, 3.0);  // brightest at +80
+    // Marker pixels near -80 degrees at more than a tenth of the radius.
+    std::size_t far_left = 0;
+    for (int y = 0; y < img->height; ++y) {
+        for (int x = 0; x < img->width; ++x) {
+            if (color_distance(img->at(x, y), lay.slice_colors[0]) > 12) {
+                continue;
+            }
+            const double dx = x + 0.5 - lay.origin_x;
+            const double dy = lay.origin_y - (y + 0.5);
+            const double r = std::hypot(dx, dy);
+            const double ang = std::atan2(dx, dy) / kDeg;
+            if (r <= lay.radius_px && dy >= 0 && ang < -70 && r > 0.1 * lay.radius_px) {
+                ++far_left;
+            }
+        }
+    }
+    EXPECT_GT(far_left, 5u) << "the faint samples sit in the origin";
+    // The same data on a forced linear scale: the faint side collapses onto the origin.
+    o.scale = AxisScale::kLinear;
+    PolarLayout lin;
+    ASSERT_TRUE(plot_in_plane(d, nullptr, o, &lin));
+    EXPECT_FALSE(lin.log_scale);
+    // Less than a decade: automatic means linear.
+    for (brdf::Sample& s : d.samples) {
+        s.value = brdf::Rgbd::Constant(1.0 + 0.5 * std::cos(s.theta_o));
+    }
+    PolarLayout one;
+    ASSERT_TRUE(plot_in_plane(d, nullptr, PlotOptions{}, &one));
+    EXPECT_FALSE(one.log_scale);
+}
+
+TEST(DynamicRange, ResolveScaleSwitchesAboveOneDecade) {
+    EXPECT_EQ(resolve_scale(AxisScale::kAuto, 1.0, 9.9), AxisScale::kLinear);
+    EXPECT_EQ(resolve_scale(AxisScale::kAuto, 1.0, 10.5), AxisScale::kLog);
+    EXPECT_EQ(resolve_scale(AxisScale::kLinear, 1e-4, 10), AxisScale::kLinear);
+    EXPECT_EQ(resolve_scale(AxisScale::kLog, 1, 2), AxisScale::kLog);
 }
 
 }  // namespace

@@ -177,7 +177,6 @@ TEST(AcquireContract, ImageModeRefusesPointModeOptionsNamingBoth) {
     const std::string camp = dir() + "/campaign.json";
     std::ofstream(camp) << "{}";
     const std::pair<std::string, std::string> cases[] = {
-        {"--resume " + dir() + "/old", "--resume cannot be combined with --mode image"},
         {camp, "campaign.json (the positional description) cannot be combined with --mode image"},
         {"--scene s.json", "--scene cannot be combined with --mode image"},
         {"--plan uniform", "--plan cannot be combined with --mode image"},
@@ -193,7 +192,42 @@ TEST(AcquireContract, ImageModeRefusesPointModeOptionsNamingBoth) {
         EXPECT_FALSE(has(r.out, "--table-factor")) << r.out;
         EXPECT_FALSE(has(r.out, "frame 1")) << r.out;
     }
+}
+
+TEST(AcquireContract, ImageResumeReadsTheFolderAndRefusesNewCampaignOptions) {
+    // A folder that holds no image campaign: an error naming it, nothing created.
+    CliRun a = run_gonio("acquire --mode image --resume " + dir() + "/old");
+    EXPECT_EQ(a.status, 1) << a.out;
+    EXPECT_TRUE(has(a.out, "not an image-mode campaign folder")) << a.out;
     EXPECT_FALSE(fs::exists(dir() + "/old"));
+    // The settings of a resumed image campaign come from its folder.
+    const std::pair<std::string, std::string> cases[] = {
+        {"--grid 15x15x30", "--grid cannot be combined with --resume"},
+        {"--coverage-target 0.4", "--coverage-target cannot be combined with --resume"},
+        {"--max-frames 3", "--max-frames cannot be combined with --resume"},
+        {"--material gold", "--material cannot be combined with --resume"},
+        {"--serve 0", "--serve cannot be combined with --mode image"},
+    };
+    for (const auto& [args, want] : cases) {
+        CliRun r = run_gonio("acquire --mode image --resume " + dir() + "/old " + args);
+        EXPECT_EQ(r.status, 2) << args << "\n" << r.out;
+        EXPECT_TRUE(has(r.out, "gonio acquire: " + want)) << r.out;
+    }
+}
+
+TEST(AcquireContract, GridIsAnImageModeOptionHonouredByThePlan) {
+    CliRun a = run_gonio("acquire --plan-only --grid 15x15x30");
+    EXPECT_EQ(a.status, 2) << a.out;
+    EXPECT_TRUE(has(a.out, "--grid cannot be combined with --mode point")) << a.out;
+    CliRun b = run_gonio("acquire --mode image --plan-only --grid 15x15x30");
+    EXPECT_EQ(b.status, 0) << b.out;
+    EXPECT_TRUE(has(b.out, "15x15x30 table")) << b.out;
+    CliRun c = run_gonio("acquire --mode image --plan-only --grid 15x15");
+    EXPECT_EQ(c.status, 2) << c.out;
+    EXPECT_TRUE(has(c.out, "--grid")) << c.out;
+    CliRun d = run_gonio("acquire --plan-only --serve 0");
+    EXPECT_EQ(d.status, 2) << d.out;
+    EXPECT_TRUE(has(d.out, "--serve cannot be combined with --plan-only")) << d.out;
 }
 
 TEST(AcquireContract, ImagePlanOnlyPrintsThePlanAndMeasuresNothing) {

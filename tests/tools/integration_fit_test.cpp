@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -118,6 +119,45 @@ TEST(GonioFit, ANonConvergedFitExitsNonZeroAndWritesNoModel) {
     EXPECT_EQ(r.out.find("parameters:"), std::string::npos) << r.out;
     EXPECT_FALSE(std::ifstream(out).good());
     EXPECT_TRUE(std::ifstream(dir() + "/stopped.report.json").good());
+}
+
+TEST(GonioFit, AMisfitIsWrittenWithItsVerdictAndExitsZeroUnlessStrict) {
+    // A retro-reflection peak that no microfacet lobe at the mirror direction follows.
+    const std::string path = dir() + "/retro.csv";
+    gonio::brdf::Dataset d = gonio::fitting::testing::synthesize(
+        ggx_truth(), gonio::fitting::testing::measurement_grid());
+    for (gonio::brdf::Sample& s : d.samples) {
+        const double c = s.wi().dot(s.wo());
+        const double retro = c > 0 ? 20 * std::pow(c, 30) : 0;
+        s.value += Rgbd(retro, 0.5 * retro, 0.2 * retro);
+    }
+    ASSERT_TRUE(gonio::brdf::write_dataset_csv(path, d));
+    const std::string out = dir() + "/misfit.json";
+    const std::string err = dir() + "/misfit.stderr";
+    std::remove(out.c_str());
+    CliRun r = run_gonio("fit " + path + " --out " + out, err);
+    EXPECT_EQ(r.status, 0) << r.out;
+    const std::string stderr_text = r.out.substr(r.out.find("--- stderr ---"));
+    EXPECT_NE(stderr_text.find("warning: the model does not represent these data"),
+              std::string::npos)
+        << r.out;
+    EXPECT_NE(stderr_text.find("--model auto"), std::string::npos) << r.out;
+    std::ifstream in(out);
+    ASSERT_TRUE(in.good());
+    std::stringstream ss;
+    ss << in.rdbuf();
+    const nlohmann::json j = nlohmann::json::parse(ss.str());
+    EXPECT_FALSE(j.at("fit").at("represents").get<bool>());
+    // The model file reads as a model (the verdict under "fit" is ignored by readers).
+    EXPECT_TRUE(gonio::brdf::load_model_json(out));
+
+    std::remove(out.c_str());
+    CliRun strict = run_gonio("fit " + path + " --strict --out " + out);
+    EXPECT_EQ(strict.status, 1) << strict.out;
+    EXPECT_NE(strict.out.find("error: the model does not represent these data"), std::string::npos)
+        << strict.out;
+    // Still written: --strict changes the exit status, not what a converged fit leaves.
+    EXPECT_TRUE(std::ifstream(out).good());
 }
 
 TEST(GonioFit, BadInputsAreClearErrors) {

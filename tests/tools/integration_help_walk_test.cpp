@@ -174,7 +174,7 @@ TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
               {"--out", r + " --out x", ""},
               {"--out", "acquire --plan-only --out x", ""},
               {"--campaigns-dir", r + " --campaigns-dir x", ""},
-              {"--resume", "acquire --mode image --resume x", ""},
+              {"--resume", "acquire --mode image --resume x", "acquire --mode image --resume y"},
               {"--material", r + " --material gold", ""},
               {"--brdf", r + " --brdf x.json", ""},
               {"--scene", "acquire --mode image --scene s.json", ""},
@@ -195,6 +195,12 @@ TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
               {"--max-frames",
                "acquire --mode image --plan-only",
                "acquire --mode image --plan-only --max-frames 3"},
+              {"--grid", "acquire --plan-only --grid 15x15x30", ""},
+              {"--grid",
+               "acquire --mode image --plan-only",
+               "acquire --mode image --plan-only --grid 15x15x30"},
+              {"--serve", "acquire --mode image --serve 0", ""},
+              {"--serve", "acquire --plan-only --serve 0", ""},
               {"--plan-only", r + " --plan-only", ""},
           });
 }

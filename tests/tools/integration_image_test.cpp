@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -19,8 +20,10 @@
 #include <sstream>
 
 // The command's building blocks are compiled into this test (tools/ is not a library).
+#include "../../tools/acquire_image_mode.cpp"
 #include "embedded_rig.h"
 #include "gonio/acquisition/campaign_request.h"
+#include "gonio/acquisition/image_journal.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/merl.h"
 #include "gonio/brdf/model_json.h"
@@ -473,6 +476,252 @@ TEST(ImageCommand, GonioAcquireImageModeThroughGigERecoversTheGroundTruth) {
         return ss.str();
     }();
     EXPECT_NE(meta.find("\"camera_address\": \"gige://127."), std::string::npos);
+    std::filesystem::remove_all(dir);
+    std::filesystem::remove(model);
+}
+
+/// Runs an image campaign with a frame journal in a child process (fresh rig, seeded); the child
+/// kills itself with SIGKILL at the `kill_exposure`-th exposure the virtual camera renders or right
+/// after frame `kill_after_frames` is journaled (0: never). Returns the wait status.
+int journaled_child(const AcquireImageOptions& o,
+                    const std::string& journal,
+                    std::uint64_t kill_exposure,
+                    std::size_t kill_after_frames) {
+    const pid_t pid = fork();
+    if (pid != 0) {
+        int status = 0;
+        waitpid(pid, &status, 0);
+        return status;
+    }
+    auto rig = start_image_rig(o);
+    if (!rig) {
+        std::fprintf(stderr, "child: %s\n", rig.error().message.c_str());
+        _exit(3);
+    }
+    if (kill_exposure > 0) {
+        (*rig)->sim->world().set_exposure_hook([kill_exposure](std::uint64_t n) {
+            if (n == kill_exposure) {
+                ::raise(SIGKILL);
+            }
+        });
+    }
+    const acquisition::ImageCampaignConfig cfg = acquisition::image_campaign_config(
+        (*rig)->rig, (*rig)->camera, o.table_factor, o.coverage_target, o.max_frames);
+    auto progress = [kill_after_frames](std::size_t i, const acquisition::FrameRecord&) {
+        if (kill_after_frames > 0 && i + 1 == kill_after_frames) {
+            ::raise(SIGKILL);
+        }
+    };
+    auto r = acquisition::run_image_campaign(
+        image_rig_capture(**rig, cfg.detector_arm_rad), cfg, progress, journal);
+    if (!r) {
+        std::fprintf(stderr, "child: %s\n", r.error().message.c_str());
+    }
+    _exit(r ? 0 : 2);
+}
+
+std::string file_bytes(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+TEST(ImageResume, KillNineAtThreeMomentsLosesNoFrameAndRepeatsNone) {
+    const std::string dir =
+        std::string(GONIO_BINARY_DIR) + "/test_tools_image/resume_" + std::to_string(::getpid());
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    const std::string model = dir + "/truth.json";
+    std::ofstream(model) << brdf::model_to_json(truth_model());
+    const std::string journal = dir + "/frames.journal";
+    AcquireImageOptions o;
+    o.brdf_path = model;
+    o.image_size = 120;
+    o.supersample = 1;
+    o.table_factor = 6;
+    o.coverage_target = 0.6;
+    o.max_frames = 40;
+    o.seed = kSeed;
+    o.time_scale = 500;
+    o.quiet = true;
+
+    // 1. Inside the set-up (the white reference's third exposure): nothing is journaled.
+    int st = journaled_child(o, journal, 3, 0);
+    ASSERT_TRUE(WIFSIGNALED(st) && WTERMSIG(st) == SIGKILL) << "status " << st;
+    {
+        auto j = acquisition::ImageJournal::open(journal);
+        ASSERT_TRUE(j) << j.error().message;
+        EXPECT_FALSE(j->setup());
+        EXPECT_TRUE(j->frames().empty());
+    }
+    // 2. Right after the second frame is journaled, before the arm moves on.
+    st = journaled_child(o, journal, 0, 2);
+    ASSERT_TRUE(WIFSIGNALED(st) && WTERMSIG(st) == SIGKILL) << "status " << st;
+    const std::string after_two = file_bytes(journal);
+    {
+        auto j = acquisition::ImageJournal::open(journal);
+        ASSERT_TRUE(j) << j.error().message;
+        ASSERT_TRUE(j->setup());
+        ASSERT_EQ(j->frames().size(), 2u);
+    }
+    // 3. In the middle of a later frame's captures (the resumed run takes no set-up exposures).
+    st = journaled_child(o, journal, 20, 0);
+    ASSERT_TRUE(WIFSIGNALED(st) && WTERMSIG(st) == SIGKILL) << "status " << st;
+    const std::string after_three = file_bytes(journal);
+    ASSERT_GE(after_three.size(), after_two.size());
+    EXPECT_EQ(after_three.substr(0, after_two.size()), after_two) << "a journaled frame was lost";
+    std::size_t frames_at_kill = 0;
+    {
+        auto j = acquisition::ImageJournal::open(journal);
+        ASSERT_TRUE(j) << j.error().message;
+        frames_at_kill = j->frames().size();
+        EXPECT_GT(frames_at_kill, 2u) << "the third kill came before a new frame";
+    }
+
+    // To the end, in this process.
+    auto rig = start_image_rig(o);
+    ASSERT_TRUE(rig) << rig.error().message;
+    const acquisition::ImageCampaignConfig cfg = acquisition::image_campaign_config(
+        (*rig)->rig, (*rig)->camera, o.table_factor, o.coverage_target, o.max_frames);
+    const std::uint64_t rendered_before = (*rig)->sim->camera().frames_rendered();
+    auto r = acquisition::run_image_campaign(
+        image_rig_capture(**rig, cfg.detector_arm_rad), cfg, {}, journal);
+    ASSERT_TRUE(r) << r.error().message;
+    EXPECT_TRUE(r->target_met) << r->stop_reason;
+    EXPECT_EQ(r->resumed_frames, frames_at_kill);
+    // Only new frames were captured: no reference, no silhouette.
+    const std::size_t new_frames = r->frames.size() - frames_at_kill;
+    EXPECT_GE((*rig)->sim->camera().frames_rendered() - rendered_before, 3 * new_frames);
+    const std::string final_bytes = file_bytes(journal);
+    EXPECT_EQ(final_bytes.substr(0, after_three.size()), after_three);
+
+    auto j = acquisition::ImageJournal::open(journal);
+    ASSERT_TRUE(j) << j.error().message;
+    ASSERT_EQ(j->frames().size(), r->frames.size());
+    // No light position measured twice; every journaled frame's samples are in the table once.
+    std::vector<double> lights;
+    std::uint64_t used = 0;
+    std::uint64_t in_bins = 0;
+    for (const acquisition::ImageJournalFrame& f : j->frames()) {
+        lights.push_back(f.light_arm_rad);
+        used += f.counts.used;
+        for (const acquisition::BinAggregate& a : f.bins) {
+            in_bins += a.count;
+        }
+    }
+    std::sort(lights.begin(), lights.end());
+    EXPECT_EQ(std::adjacent_find(lights.begin(), lights.end()), lights.end())
+        << "a light position was measured twice";
+    EXPECT_EQ(used, in_bins);
+    EXPECT_EQ(r->table.total_samples(), used);
+    EXPECT_EQ(r->counts.used, used);
+    // The table rebuilt across four processes still measures the material.
+    const auto truth = brdf::make_analytic_brdf(truth_model());
+    const std::vector<double> rel = image_test::table_relative_errors(r->table, *truth, 1);
+    ASSERT_GT(rel.size(), 200u);
+    EXPECT_LT(image_test::median(rel), 0.02);
+
+    // Resuming the finished campaign captures nothing.
+    const std::uint64_t rendered_done = (*rig)->sim->camera().frames_rendered();
+    auto again = acquisition::run_image_campaign(
+        image_rig_capture(**rig, cfg.detector_arm_rad), cfg, {}, journal);
+    ASSERT_TRUE(again) << again.error().message;
+    EXPECT_EQ(again->resumed_frames, r->frames.size());
+    EXPECT_EQ(again->frames.size(), r->frames.size());
+    EXPECT_EQ((*rig)->sim->camera().frames_rendered(), rendered_done);
+    EXPECT_EQ(file_bytes(journal), final_bytes);
+    std::filesystem::remove_all(dir);
+}
+
+TEST(ImageResume, JournalOfAnotherTableIsRefused) {
+    const std::string dir =
+        std::string(GONIO_BINARY_DIR) + "/test_tools_image/other_" + std::to_string(::getpid());
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    acquisition::ImageJournalSetup s;
+    s.layout = acquisition::coarse_layout(3);
+    s.calibration = {1, 1, 1};
+    {
+        auto j = acquisition::ImageJournal::open(dir + "/frames.journal");
+        ASSERT_TRUE(j);
+        ASSERT_TRUE(j->append_setup(s));
+    }
+    AcquireImageOptions o;
+    o.material = "yellow-plastic";
+    o.image_size = 96;
+    o.supersample = 1;
+    o.time_scale = 500;
+    auto rig = start_image_rig(o);
+    ASSERT_TRUE(rig) << rig.error().message;
+    const acquisition::ImageCampaignConfig cfg =
+        acquisition::image_campaign_config((*rig)->rig, (*rig)->camera, 6, 0.5, 10);
+    auto r = acquisition::run_image_campaign(
+        image_rig_capture(**rig, 0.0), cfg, {}, dir + "/frames.journal");
+    ASSERT_FALSE(r);
+    EXPECT_NE(r.error().message.find("30x30x60"), std::string::npos) << r.error().message;
+    EXPECT_NE(r.error().message.find("15x15x30"), std::string::npos) << r.error().message;
+    EXPECT_EQ((*rig)->sim->camera().frames_rendered(), 0u);
+    std::filesystem::remove_all(dir);
+}
+
+TEST(ImageCommand, InterruptedCampaignResumesThroughTheCommand) {
+    // A journal holding the set-up and a few frames (the campaign stopped there) continued by
+    // `gonio acquire --resume DIR`, which reads the folder's settings and ground truth.
+    const std::string dir =
+        std::string(GONIO_BINARY_DIR) + "/test_tools_image/cmdresume_" + std::to_string(::getpid());
+    std::filesystem::remove_all(dir);
+    const std::string model = dir + "_truth.json";
+    std::filesystem::create_directories(std::filesystem::path(dir).parent_path());
+    std::ofstream(model) << brdf::model_to_json(truth_model());
+    const std::string base = std::string(GONIO_EXE) + " acquire --mode image --brdf " + model +
+                             " --out " + dir + " --grid 15x15x30 --coverage-target 0.5 " +
+                             "--time-scale 500 --max-frames 3 2>&1";
+    auto run = [](const std::string& cmd, std::string* out) {
+        FILE* p = popen(cmd.c_str(), "r");
+        char buf[4096];
+        while (p != nullptr && std::fgets(buf, sizeof buf, p)) {
+            *out += buf;
+        }
+        return p == nullptr ? -1 : pclose(p);
+    };
+    std::string out;
+    int st = run(base, &out);
+    // Three frames do not reach the target: exit 1, the folder holds the journal.
+    ASSERT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 1) << out;
+    ASSERT_TRUE(std::filesystem::exists(dir + "/frames.journal")) << out;
+    ASSERT_TRUE(std::filesystem::exists(dir + "/ground_truth.json")) << out;
+    // Starting again over it is refused.
+    out.clear();
+    st = run(base, &out);
+    EXPECT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 1) << out;
+    EXPECT_NE(out.find("already holds an image campaign"), std::string::npos) << out;
+    // Raise the frame limit in the stored settings (an operator allowing more frames) and resume.
+    {
+        std::ifstream in(dir + "/image_campaign.json");
+        nlohmann::json j = nlohmann::json::parse(in);
+        j["max_frames"] = 60;
+        std::ofstream(dir + "/image_campaign.json") << j.dump(2);
+    }
+    out.clear();
+    st = run(std::string(GONIO_EXE) + " acquire --resume " + dir + " 2>&1", &out);
+    ASSERT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 0) << out;
+    EXPECT_NE(out.find("resumed: 3 frames"), std::string::npos) << out;
+    EXPECT_NE(out.find("valid bins"), std::string::npos) << out;
+    auto data = brdf::read_dataset_csv(dir + "/dataset.csv");
+    ASSERT_TRUE(data) << data.error().message;
+    EXPECT_GT(data->samples.size(), 1000u);
+    // A malformed grid is a usage error naming the option.
+    out.clear();
+    st = run(
+        std::string(GONIO_EXE) + " acquire --mode image --grid 90x90 --out " + dir + "_bad 2>&1",
+        &out);
+    EXPECT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 2) << out;
+    EXPECT_NE(out.find("--grid"), std::string::npos) << out;
+    out.clear();
+    st = run(std::string(GONIO_EXE) + " acquire --grid 30x30x60 --plan-only 2>&1", &out);
+    EXPECT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 2) << out;
+    EXPECT_NE(out.find("--grid cannot be combined with --mode point"), std::string::npos) << out;
     std::filesystem::remove_all(dir);
     std::filesystem::remove(model);
 }

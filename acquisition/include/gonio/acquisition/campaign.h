@@ -14,6 +14,7 @@
 #include "gonio/acquisition/plan.h"
 #include "gonio/acquisition/rig_config.h"
 #include "gonio/acquisition/schedule.h"
+#include "gonio/brdf/dataset.h"
 
 namespace gonio::acquisition {
 
@@ -98,6 +99,11 @@ struct RunHooks {
     double outage_probe_s = 1.0;
     /// An outage longer than this pauses the campaign for good (resume by hand).
     double max_outage_s = 3600;
+    /// Called on the campaign thread after each measurement is in the journal: the sample (BRDF
+    /// with sigma, 1/sr), the configurations measured so far and planned so far. It must return
+    /// at once (hand the data over, never draw or wait): the next move waits for it.
+    std::function<void(const brdf::Sample& sample, std::size_t measured, std::size_t planned)>
+        on_measurement;
 };
 
 /// Runs (or resumes) the campaign in `dir` on the rig's devices until completed, interrupted or

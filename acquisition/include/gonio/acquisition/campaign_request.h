@@ -16,6 +16,7 @@
 
 #include "gonio/acquisition/camera_model.h"
 #include "gonio/acquisition/campaign.h"
+#include "gonio/acquisition/image_binning.h"
 #include "gonio/acquisition/image_campaign.h"
 #include "gonio/acquisition/plan.h"
 #include "gonio/acquisition/rig_config.h"
@@ -51,6 +52,9 @@ struct CampaignRequest {
     bool plan_only = false;      ///< Print the plan and stop; nothing is measured or written.
     double coverage_target = 0;  ///< Image mode: fraction of the valid table bins.
     int max_frames = 0;          ///< Image mode: most light positions.
+    /// Image mode: table bins (theta_h x theta_d x phi_d); all zero: from table_factor.
+    TableLayout grid{0, 0, 0};
+    std::string serve;  ///< Point mode: "[ADDR:]PORT" of the live page of the campaign.
     /// Image mode settings no command-line option gives (tests and scripts set them): the table
     /// resolution (90 / factor bins per angle; 1 = MERL), the virtual rig's default camera size
     /// and sub-pixel rays, and its noise seed.
@@ -74,13 +78,14 @@ struct RequestConflict {
 std::string option_key(const std::string& field);
 
 /// The first option the mode refuses (none: every given option is honoured). Rules:
-/// - a resume reads everything from the folder: only accept_drift goes with it;
-///   image campaigns keep no journal of frames, so an image resume is refused;
+/// - point mode refuses coverage_target, max_frames and grid (image-mode options);
+/// - image mode refuses the campaign file, scene, plan, n_theta, n_dphi, adaptive,
+///   accept_drift (point-mode plans and drift checks) and serve (the live page follows point
+///   campaigns);
+/// - a resume reads everything from the folder (an image campaign: its settings and frame
+///   journal): only accept_drift and serve go with it;
 /// - plan_only prints the plan: nothing that only matters to a run (out, campaigns_dir,
-///   material, brdf, time_scale, sample, operator, accept_drift) goes with it;
-/// - point mode refuses coverage_target and max_frames (image-mode options);
-/// - image mode refuses the campaign file, scene, plan, n_theta, n_dphi, adaptive and
-///   accept_drift (point-mode plans and drift checks);
+///   material, brdf, time_scale, sample, operator, accept_drift, serve) goes with it;
 /// - the virtual rig's options (material, brdf, time_scale) need the embedded rig: a campaign
 ///   file names its own rig; material and brdf exclude each other.
 std::optional<RequestConflict> find_conflict(const CampaignRequest& request);
@@ -199,7 +204,8 @@ struct ImageCampaignRun {
     PoseCheckLog poses;
 };
 
-/// Runs a new image campaign: refuses a conflict (find_conflict), starts the rig (start_image_rig
+/// Runs a new image campaign (no journal; a request with resume_dir is refused): refuses a
+/// conflict (find_conflict), starts the rig (start_image_rig
 /// with the request's ground truth and time scale), refuses an anisotropic virtual sample (the
 /// table is isotropic), calls `started` once the rig answers, runs the campaign and writes it
 /// into image_campaign_dir() with the sample, operator, rig, addresses and pose checks in its

@@ -14,13 +14,14 @@
 // BRDF's own variation across the bin; the bin also keeps the mean of the per-pixel noise-model
 // variance, so that both the empirical and the model standard error of the mean are available.
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
 
+#include "gonio/base/error.h"
 #include "gonio/brdf/coords.h"
 #include "gonio/brdf/dataset.h"
-#include "gonio/base/error.h"
 #include "gonio/brdf/table.h"
 
 namespace gonio::acquisition {
@@ -43,6 +44,43 @@ brdf::HalfDiff<double> bin_centre(const TableLayout& layout, std::size_t index);
 /// the MERL notion of a valid bin (the others can hold no measurement).
 bool bin_valid(const TableLayout& layout, std::size_t index);
 
+/// The samples one frame put into one bin, summarised (count, mean, sum of squared deviations,
+/// mean model variance, mean position): what the image-mode frame journal stores and what
+/// BinnedTable::merge() adds, so that a table rebuilt from the journal equals the one the campaign
+/// held.
+struct BinAggregate {
+    std::uint32_t bin = 0;
+    std::uint32_t count = 0;
+    std::array<float, 3> mean{};       ///< 1/sr
+    std::array<float, 3> m2{};         ///< Sum of squared deviations from the mean, 1/sr^2.
+    std::array<float, 3> model_var{};  ///< Mean per-sample noise-model variance, 1/sr^2.
+    std::array<float, 3> position{};   ///< Mean theta_h, theta_d, folded phi_d, radians.
+};
+
+/// Collects one frame's samples and summarises them per bin (Welford within each bin).
+class FrameBins {
+  public:
+    explicit FrameBins(TableLayout layout) : layout_(layout) {}
+    /// Adds one sample (as BinnedTable::add).
+    void add(const brdf::Vec3d& wi,
+             const brdf::Vec3d& wo,
+             const brdf::Rgbd& value,
+             const brdf::Rgbd& model_variance);
+    std::size_t samples() const { return samples_.size(); }
+    /// One aggregate per touched bin, in increasing bin order.
+    std::vector<BinAggregate> aggregates() const;
+
+  private:
+    struct Entry {
+        std::uint32_t bin;
+        float position[3];
+        double value[3];
+        double model_var[3];
+    };
+    TableLayout layout_;
+    std::vector<Entry> samples_;
+};
+
 /// Welford accumulator over a half/difference table.
 class BinnedTable {
   public:
@@ -64,6 +102,12 @@ class BinnedTable {
                     const brdf::HalfDiff<double>& hd,
                     const brdf::Rgbd& value,
                     const brdf::Rgbd& model_variance);
+
+    /// Adds a group of samples summarised by FrameBins (T. F. Chan, G. H. Golub, R. J. LeVeque,
+    /// "Updating formulae and a pairwise algorithm for computing sample variances", 1979: with
+    /// delta = mean_b - mean_a, M2 = M2_a + M2_b + delta^2 n_a n_b / n). Aborts on a bin outside
+    /// the table or a non-finite value (a journal is checked before its records reach here).
+    void merge(const BinAggregate& a);
 
     std::uint32_t count(std::size_t bin) const { return count_[bin]; }
     brdf::Rgbd mean(std::size_t bin) const;

@@ -111,18 +111,28 @@ struct ImageCampaignResult {
     bool target_met = false;
     std::string stop_reason;  ///< "coverage target met", "no light position adds enough bins", ...
     bool bracketed = false;   ///< Some pixel needed a shorter exposure.
-    std::uint64_t captures = 0;  ///< Frames captured (dark frames included).
-    double exposure_time_s = 0;  ///< Sum of exposure times (the shutter-open and dark frames).
+    std::uint64_t captures = 0;      ///< Frames captured (dark frames included).
+    double exposure_time_s = 0;      ///< Sum of exposure times (the shutter-open and dark frames).
+    std::size_t resumed_frames = 0;  ///< Frames read back from the journal, not captured now.
 };
 
 /// Campaign settings for a rig description and its calibrated camera: the white reference's
 /// albedo, the sphere radius and the blind zone from the rig, the sensor's conversion gain and
-/// read noise from its "noise" section (at the capture gain), the light arm's limits in 1-degree
-/// steps, the detector arm at 0; the table layout (factor 1 = MERL 90 x 90 x 180, f = 90/f x
+/// read noise from its "noise" section (at the capture gain), the light arm's limits, the detector
+/// arm at 0; the table layout (factor 1 = MERL 90 x 90 x 180, f = 90/f x
 /// 90/f x 180/f), coverage target and frame limit as given.
 ImageCampaignConfig image_campaign_config(const RigConfig& rig,
                                           const CameraModel& camera,
                                           int table_factor,
+                                          double coverage_target,
+                                          int max_frames);
+
+/// The same for any table layout (theta_h x theta_d x phi_d bins); the light positions are a
+/// quarter of a theta_d row apart in separation (at most 1 degree), the grazing limits the
+/// exclusion rules' defaults, never beyond the rig's max_theta_deg.
+ImageCampaignConfig image_campaign_config(const RigConfig& rig,
+                                          const CameraModel& camera,
+                                          const TableLayout& layout,
                                           double coverage_target,
                                           int max_frames);
 
@@ -131,9 +141,17 @@ using ImageProgressFn = std::function<void(std::size_t, const FrameRecord&)>;
 
 /// Runs the campaign (file comment). Errors from the capture function are returned with the
 /// request that failed.
+///
+/// With a `journal_path` (image_journal.h) the campaign is journaled and resumable: the set-up
+/// (calibration, spheres) is recorded once, each frame's binned samples are appended and fsynced
+/// before the light arm moves on. A journal that already holds records is resumed: its set-up
+/// replaces the reference and silhouette captures (its layout and detector arm must match the
+/// configuration), its frames are merged into the table and their light positions are not planned
+/// again; the campaign then continues where it stopped. Progress is reported for new frames only.
 Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
                                                  const ImageCampaignConfig& config,
-                                                 const ImageProgressFn& progress = {});
+                                                 const ImageProgressFn& progress = {},
+                                                 const std::string& journal_path = {});
 
 /// Writes the campaign's outputs into `dir` (created if missing): dataset.csv (one sample per
 /// filled bin, dataset.h schema with sigma and flags), dataset.json (metadata: camera, sphere,

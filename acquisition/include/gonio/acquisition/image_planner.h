@@ -38,6 +38,11 @@ struct LightRange {
 struct LightCandidate {
     double light_arm_rad = 0;
     std::vector<std::uint32_t> bins;  ///< Sorted, unique.
+    /// theta_d rows its bins lie in (one row for a telecentric camera; a perspective camera's
+    /// view directions spread a frame over neighbouring rows). A frame changes the gain only of
+    /// candidates sharing a row with it.
+    int theta_d_lo = 0;
+    int theta_d_hi = -1;
 };
 
 /// The candidates allowed by the range and blind zone around `detector_arm_rad`, with their
@@ -86,6 +91,27 @@ int next_light(const std::vector<LightCandidate>& candidates,
                double current_light_rad,
                double gain_fraction = 1.0);
 
+/// New-bin counts of every candidate (CoverageMap::gain), kept up to date by update_gains().
+std::vector<std::size_t> candidate_gains(const std::vector<LightCandidate>& candidates,
+                                         const CoverageMap& coverage);
+
+/// Recomputes the gains of the candidates sharing a theta_d row with [theta_d_lo, theta_d_hi]
+/// (the rows a frame covered): the others cannot have changed. Gains of removed candidates must
+/// be removed alongside (same indices as `candidates`).
+void update_gains(const std::vector<LightCandidate>& candidates,
+                  const CoverageMap& coverage,
+                  int theta_d_lo,
+                  int theta_d_hi,
+                  std::vector<std::size_t>* gains);
+
+/// next_light() over precomputed gains (candidate_gains, update_gains): the same choice without
+/// scanning every candidate's bins, so that a 90 x 90 x 180 campaign's hundreds of candidates of
+/// ten thousand bins each cost little per frame.
+int next_light(const std::vector<LightCandidate>& candidates,
+               const std::vector<std::size_t>& gains,
+               double current_light_rad,
+               double gain_fraction = 1.0);
+
 struct CoveragePlan {
     std::vector<double> light_arm_rad;       ///< In the order chosen.
     std::vector<double> predicted_coverage;  ///< Covered fraction after each light.
@@ -100,6 +126,15 @@ CoveragePlan plan_lights(const std::vector<LightCandidate>& candidates,
                          double coverage_target,
                          int max_lights,
                          double start_light_rad);
+
+/// What bounds the reachable part of the table, for naming why a bin stays empty.
+struct HoleLimits {
+    double blind_zone_rad = 0;  ///< Light-detector separations below this are not allowed.
+    /// Largest light-detector separation the light arm's limits allow (pi: opposite arms).
+    double max_separation_rad = brdf::kPi;
+    double max_theta_i = brdf::kPi / 2;  ///< The exclusion rules' limits.
+    double max_theta_o = brdf::kPi / 2;
+};
 
 /// A group of empty valid bins: one theta_d cell with its empty bin count and the reason.
 struct CoverageHole {
@@ -117,6 +152,18 @@ struct CoverageHole {
 std::vector<CoverageHole> coverage_holes(const CoverageMap& coverage,
                                          const std::vector<LightCandidate>& candidates,
                                          double blind_zone_rad);
+
+/// The same with every reason told apart, for each empty valid bin in this order:
+/// - "blind zone": theta_d below half the blind zone (the lamp cannot be that close to the camera);
+/// - "arm limits": theta_d above half the largest separation the light arm reaches;
+/// - "grazing (beyond max_theta)": the bin's centre needs theta_i and theta_o (in either order,
+///   by reciprocity) beyond the exclusion rules' limits;
+/// - "finer than a pixel": allowed by all of the above yet no candidate's predicted pixels fall in
+///   it (the smallest theta_h bins, narrower than one pixel's footprint on the sphere);
+/// - "not measured": some candidate reaches it, no frame was taken there (or its pixels were lost).
+std::vector<CoverageHole> coverage_holes(const CoverageMap& coverage,
+                                         const std::vector<LightCandidate>& candidates,
+                                         const HoleLimits& limits);
 
 /// Writes the coverage of (theta_h, theta_d) cells (coverage_cells()) as a PNG: theta_h along x,
 /// theta_d down y, `scale` pixels per cell, colour from dark blue (0) to yellow (1), cells with no

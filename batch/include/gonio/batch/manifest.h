@@ -21,8 +21,8 @@
 #include <string>
 #include <vector>
 
-#include "gonio/batch/fit_request.h"
 #include "gonio/base/error.h"
+#include "gonio/batch/fit_request.h"
 
 namespace gonio::batch {
 
@@ -62,6 +62,8 @@ bool entry_finished(const std::string& out_dir, const std::string& id);
 
 enum class EntryStatus {
     kFitted,        ///< Converged; model and report written.
+    kMisfit,        ///< Converged, but the model does not represent the data: model (with the
+                    ///< verdict) and report written; a finding, not a failure, unless strict.
     kNotConverged,  ///< The solve ran but did not converge; report written, no model.
     kFailed,        ///< The fit could not run (unreadable input, bad spec); error file written.
     kSkipped,       ///< Already finished in out_dir; nothing done.

@@ -23,6 +23,8 @@ enum class Distribution {
     kBeckmann,    ///< Beckmann, slope parameters alpha_x, alpha_y.
     kBlinnPhong,  ///< Normalised Blinn-Phong lobe (pre-PBR practice), exponent; no F, G unless
                   ///< requested.
+    kStudentT,    ///< Student-t distribution of slopes (STD, student_t.h): alpha_x, alpha_y and the
+                  ///< tail parameter gamma (2 = GGX, infinity = Beckmann).
 };
 
 /// Shadowing-masking term G of a lobe.
@@ -60,6 +62,7 @@ struct Lobe {
         T(0.1);  ///< Slope parameter along x (alpha itself, not a perceptual roughness), > 0.
     T alpha_y = T(0.1);   ///< Slope parameter along y, > 0.
     T exponent = T(100);  ///< Blinn-Phong exponent, > 0.
+    T gamma = T(2);       ///< Student-t tail parameter, > 3/2 (2 is GGX; larger is Beckmann-like).
     Shadowing shadowing = Shadowing::kSmithCorrelated;
     Fresnel<T> fresnel;
     Rgb<T> scale = Rgb<T>::Constant(T(1));  ///< Per-channel lobe weight, >= 0.
@@ -96,6 +99,7 @@ Model<To> cast_model(const Model<From>& m, Convert convert) {
         o.alpha_x = convert(l.alpha_x);
         o.alpha_y = convert(l.alpha_y);
         o.exponent = convert(l.exponent);
+        o.gamma = convert(l.gamma);
         o.shadowing = l.shadowing;
         o.fresnel.type = l.fresnel.type;
         o.fresnel.f0 = rgb(l.fresnel.f0);

@@ -22,6 +22,7 @@
 #include "gonio/brdf/lambert.h"
 #include "gonio/brdf/microfacet.h"
 #include "gonio/brdf/model.h"
+#include "gonio/brdf/student_t.h"
 
 namespace gonio::brdf {
 
@@ -41,6 +42,8 @@ inline T lobe_D(const Lobe<T>& lobe, const Vec3<T>& h) {
             return D_beckmann(h, lobe.alpha_x, lobe_alpha_y(lobe));
         case Distribution::kBlinnPhong:
             return D_blinn_phong(h, lobe.exponent);
+        case Distribution::kStudentT:
+            return D_student_t(h, lobe.alpha_x, lobe_alpha_y(lobe), lobe.gamma);
     }
     return T(0);
 }
@@ -57,6 +60,8 @@ inline T lobe_lambda(const Lobe<T>& lobe, const Vec3<T>& w) {
             const T alpha = blinn_phong_equivalent_alpha(lobe.exponent);
             return lambda_beckmann(w, alpha, alpha);
         }
+        case Distribution::kStudentT:
+            return lambda_student_t(w, lobe.alpha_x, lobe_alpha_y(lobe), lobe.gamma);
     }
     return T(0);
 }

@@ -23,7 +23,9 @@ Expected<ModelD> load_model_json(const std::string& path);
 /// Pretty JSON (4-space indent) of a model. Numbers are written with the shortest representation
 /// that reads back to the same double, so parse_model_json(model_to_json(m)) == m exactly.
 /// A conductor is written with its numeric eta and k (the material name is not kept).
-std::string model_to_json(const ModelD& m);
+/// `fit_verdict`, when not empty, is the JSON text of an object written under the key "fit" (the
+/// verdict of the fit that produced the model; parse_model_json accepts and ignores it).
+std::string model_to_json(const ModelD& m, const std::string& fit_verdict = "");
 
 /// One line summary: "diffuse [0.1 0.1 0.1] + ggx(alpha 0.2, smith-correlated, schlick)".
 std::string describe_model(const ModelD& m);

@@ -12,6 +12,8 @@
 // [W07] B. Walter et al., "Microfacet Models for Refraction through Rough Surfaces", EGSR 2007,
 //       sec. 5: sampling D(h) cos(theta_h) for Beckmann (eqs. 28-29), Phong (eqs. 35-36) and GGX
 //       (eqs. 35-36), and the reflection Jacobian d(wh)/d(wo) = 1 / (4 |wo . h|) (eq. 14).
+// [RBMS17] M. Ribardiere et al., "STD: Student's t-Distribution of Slopes for Microfacet Based
+//       BSDFs", CGF 36(2), 2017: the Student-t slope law sampled by inverting its radial CDF.
 // The anisotropic Beckmann and GGX normal samplers draw the microfacet slope from its
 // distribution (a Gaussian for Beckmann; the bivariate Student-like law for GGX) scaled by
 // alpha_x, alpha_y, which reduces to [W07] for alpha_x = alpha_y.
@@ -38,6 +40,18 @@ inline Vec3d reflect(const Vec3d& w, const Vec3d& h) {
 /// Unit microfacet normal from a slope (slope_x, slope_y): normalize(-slope_x, -slope_y, 1).
 inline Vec3d normal_from_slope(double slope_x, double slope_y) {
     return Vec3d(-slope_x, -slope_y, 1.0).normalized();
+}
+
+/// Samples h with density D_student_t(h) cos(theta_h) (1/sr). The normalised slope radius has the
+/// distribution function 1 - (1 + r^2 / (gamma - 1))^(1 - gamma) (from [RBMS17]'s slope law), so
+/// r = sqrt((gamma - 1) ((1 - u1)^(1 / (1 - gamma)) - 1)),
+/// slope = r (alpha_x cos 2 pi u2, alpha_y sin 2 pi u2).
+inline Vec3d sample_student_t_normal(
+    double alpha_x, double alpha_y, double gamma, double u1, double u2) {
+    const double r = std::sqrt(std::max(
+        0.0, (gamma - 1) * std::expm1(std::log1p(-std::min(u1, 1 - 1e-16)) / (1 - gamma))));
+    const double phi = 2 * kPi * u2;
+    return normal_from_slope(r * alpha_x * std::cos(phi), r * alpha_y * std::sin(phi));
 }
 
 /// Samples h with density D_beckmann(h) cos(theta_h) (1/sr). The slope is Gaussian:
@@ -154,6 +168,9 @@ inline DirectionSample sample_lobe(const Lobe<double>& lobe,
             break;
         case Distribution::kBlinnPhong:
             h = sample_blinn_phong_normal(lobe.exponent, u1, u2);
+            break;
+        case Distribution::kStudentT:
+            h = sample_student_t_normal(lobe.alpha_x, ay, lobe.gamma, u1, u2);
             break;
     }
     if (wi.dot(h) <= 0) {

@@ -25,8 +25,8 @@
 #include <string>
 #include <vector>
 
-#include "gonio/brdf/dataset.h"
 #include "gonio/base/error.h"
+#include "gonio/brdf/dataset.h"
 #include "gonio/brdf/model.h"
 #include "gonio/fitting/spec.h"
 
@@ -103,6 +103,9 @@ class ParameterMap {
                 break;
             case Field::kExponent:
                 l.exponent = v;
+                break;
+            case Field::kGamma:
+                l.gamma = v;
                 break;
             case Field::kScale:
                 rgb(l.scale);

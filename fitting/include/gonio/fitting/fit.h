@@ -43,6 +43,10 @@ struct Metrics {
     brdf::Rgbd rmse = brdf::Rgbd::Zero();      ///< sqrt(mean((m - d)^2)), 1/sr.
     brdf::Rgbd rel_rmse = brdf::Rgbd::Zero();  ///< sqrt(mean(((m - d) / (d + relative_floor))^2)).
     brdf::Rgbd log_rmse = brdf::Rgbd::Zero();  ///< sqrt(mean((log(1+m cos_i) - log(1+d cos_i))^2)).
+    /// Median over the samples with d > 0 of |m - d| / d: the relative error of f itself, with no
+    /// floor and no 1 + f cos, so that a dark channel's error counts as much as a bright one's
+    /// (log(1 + f cos) is nearly absolute for f cos << 1). 0 when no sample has d > 0.
+    brdf::Rgbd median_rel = brdf::Rgbd::Zero();
     /// Log residuals by theta_h band (edges 0, 2, 5, 10, 20, 40, 90 degrees); empty bands omitted.
     std::vector<BandResidual> bands;
 };
@@ -51,8 +55,10 @@ struct Metrics {
 struct GoodnessOfFit {
     /// Sum of squared normalised residuals / (3 N - p) when the data carry sigmas, else empty.
     std::optional<double> reduced_chi_square;
-    /// False when the misfit is far beyond measurement noise, and the fit is then not usable:
+    /// False when the misfit is far beyond measurement noise (a misfit; a converged misfit is
+    /// still the best that model can do and is written with this verdict):
     ///  - a channel's log RMSE above 0.3 (or not finite);
+    ///  - a channel's median relative error |m - d| / d above 0.15 (or not finite);
     ///  - in a theta_h band holding at least 1 % of the samples, a channel's mean log residual
     ///    beyond +-0.3 (or not finite);
     ///  - a reduced chi-square not finite, or above 10 while the worst channel's log RMSE is above
@@ -61,8 +67,8 @@ struct GoodnessOfFit {
     ///    too small to matter.
     bool represents = true;
     /// Each names the figure and the threshold: the cases above, and the visible misfits that do
-    /// not make a fit unusable (a log RMSE above 0.15, a band's mean log residual beyond +-0.15,
-    /// a reduced chi-square above 2).
+    /// not make a fit unusable (a log RMSE above 0.15, a median relative error above 0.05, a
+    /// band's mean log residual beyond +-0.15, a reduced chi-square above 2).
     std::vector<std::string> warnings;
     std::string suggestion;  ///< What to try instead (empty when the fit is good).
 };
@@ -162,8 +168,9 @@ struct AutoFitResult {
 Expected<AutoFitResult> fit_auto(const brdf::Dataset& data,
                                  const std::vector<std::pair<std::string, FitSpec>>& candidates);
 
-/// The candidate families of `gonio fit --model auto`: GGX, Beckmann and Blinn-Phong with Lambert
-/// and a scalar Schlick Fresnel with an RGB scale, one lobe, and GGX with two lobes.
+/// The candidate families of `gonio fit --model auto`: GGX, Beckmann, Blinn-Phong and Student-t
+/// with Lambert and a scalar Schlick Fresnel with an RGB scale, one lobe, and GGX and Student-t
+/// with two lobes.
 std::vector<std::pair<std::string, FitSpec>> auto_candidates(const FitOptions& options);
 
 /// Metrics of `model` against the valid samples of `data`.

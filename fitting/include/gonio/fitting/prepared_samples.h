@@ -100,6 +100,10 @@ class PreparedSamples {
             const T& ay,
             const T& exponent,
             std::size_t i) const;
+    /// The same for a Student-t lobe (brdf/student_t.h), whose D and Lambda also take gamma.
+    template <class T>
+    T shape_student_t(
+        brdf::Shadowing shadowing, const T& ax, const T& ay, const T& gamma, std::size_t i) const;
     /// dg/dm of the residual form at m.
     double g_prime(double m, std::size_t i) const;
     /// Closed-form residuals r[3] and their derivatives v[c * slots + slot] of sample i:
@@ -108,6 +112,12 @@ class PreparedSamples {
     ///   df_c/dalpha_l = scale_lc F_lc dS_l/dalpha (dS/dalpha by a one-slot Jet of the shape),
     /// times dr_c/df_c = s_c g'(f_c).
     bool analytic_sample(const brdf::ModelD& m, std::size_t i, double r[3], double* v) const;
+    /// The model values f[3] of sample i and df_c/d(slot) in d[c * slots + slot].
+    void analytic_parts(const brdf::ModelD& m, std::size_t i, double f[3], double* d) const;
+    /// analytic_sample for the log residual over samples [begin, end) (at most 64), the
+    /// logarithms on SIMD packets (vector_log.h): r[3 j + c], v[(3 j + c) slots + slot].
+    bool analytic_log_run(
+        const brdf::ModelD& m, std::size_t begin, std::size_t end, double* r, double* v) const;
     template <class T>
     T g_of(const T& m, std::size_t i) const;
     /// The model at x with a K-slot Jet per free parameter (its derivative slot seeded).

@@ -35,6 +35,7 @@ enum class Field {
     kAlphaX,    ///< Lobe::alpha_x (for an isotropic lobe also the implied alpha_y).
     kAlphaY,    ///< Lobe::alpha_y (anisotropic lobes only).
     kExponent,  ///< Lobe::exponent (Blinn-Phong).
+    kGamma,     ///< Lobe::gamma (Student-t tail parameter).
     kScale,     ///< Lobe::scale (RGB).
     kF0,        ///< Lobe::fresnel.f0 (RGB).
     kEta,       ///< Lobe::fresnel.eta (scalar).
@@ -100,7 +101,7 @@ struct ModelOptions {
     int lobes = 1;
 };
 
-/// Parses "ggx", "beckmann", "blinn-phong".
+/// Parses "ggx", "beckmann", "blinn-phong", "student-t".
 Expected<brdf::Distribution> parse_distribution(const std::string& name);
 /// Parses "schlick", "schlick-rgb", "dielectric", "conductor", "none" into (type, rgb).
 Expected<std::pair<brdf::FresnelType, bool>> parse_fresnel(const std::string& name);

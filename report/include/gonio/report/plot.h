@@ -10,17 +10,35 @@
 
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/dataset.h"
+#include "gonio/brdf/table.h"
 #include "gonio/report/image.h"
 
 namespace gonio::report {
 
+/// How the BRDF axis (the radius of a polar plot, the y axis of the others) is scaled.
+enum class AxisScale {
+    kAuto,    ///< logarithmic when the measured values span more than a decade, else linear
+    kLinear,  ///< linear from 0
+    kLog,     ///< logarithmic (base 10), whole decades
+};
+
+/// Name of a scale as the command line spells it: "auto", "linear", "log".
+const char* axis_scale_name(AxisScale s);
+
+/// The scale used for values spanning [vmin_pos, vmax] (vmin_pos: smallest positive value):
+/// kAuto resolves to kLog when vmax / vmin_pos > 10, else kLinear; the others stay.
+AxisScale resolve_scale(AxisScale requested, double vmin_pos, double vmax);
+
 struct PlotOptions {
-    int width = 800;         ///< picture width, px (>= 400)
-    bool log_scale = false;  ///< logarithmic BRDF axis (base 10)
+    int width = 800;                     ///< picture width, px (>= 400)
+    AxisScale scale = AxisScale::kAuto;  ///< BRDF axis scale
     /// In-plane slices: incidence angles to show, degrees. Empty: chosen from the data (up to 5
     /// distinct theta_i with in-plane samples), or 0, 20, 40, 60 when only a fit is given.
     std::vector<double> theta_i_deg;
-    double angle_tolerance_deg = 1.0;  ///< how far a sample may lie from a slice, degrees
+    /// How far a sample may lie from a slice, degrees: from the slice's theta_i, and (in-plane
+    /// plot) its outgoing direction from the plane of incidence. Each sample is drawn at its own
+    /// theta_o in the nearest slice within this tolerance (stated on the plot).
+    double angle_tolerance_deg = 2.5;
 };
 
 /// Geometry of an in-plane polar plot, for callers that place marks on it: the polar origin (the
@@ -35,15 +53,29 @@ struct PolarLayout {
     std::vector<Color> slice_colors;
     std::vector<double> theta_i_deg;  ///< the slices drawn
     std::size_t points_drawn = 0;     ///< measured samples drawn in all slices together
+    bool log_scale = false;           ///< the radius scale used (after AxisScale::kAuto)
+    std::vector<double> ring_values;  ///< BRDF values of the labelled rings, 1/sr, inner first
 };
 
 /// In-plane polar plot: measured samples (markers with radial error bars of +-1 sigma) and the fit
 /// (curves) at several theta_i. `fit` may be null (data only); the dataset may be empty when a fit
-/// is given (curves only). Error when there is nothing to draw.
+/// is given (curves only). Slices are chosen from the data: clusters of at least 3 samples whose
+/// theta_i agree within 2 angle_tolerance_deg and whose wo lies within angle_tolerance_deg of the
+/// plane of incidence (scattered directions included). When the dataset has samples but no slice
+/// holds 3 of them, the picture is plot_half_angle() instead (its title says so). Error when there
+/// is nothing to draw.
 Expected<Image> plot_in_plane(const brdf::Dataset& data,
                               const brdf::Brdf* fit,
                               const PlotOptions& options,
                               PolarLayout* layout = nullptr);
+
+/// Scattered samples: BRDF luminance against theta_h (Rusinkiewicz half angle), each sample a
+/// marker coloured by theta_d (colour bar), the fit evaluated at each sample's own directions as a
+/// hollow ring. Used when no in-plane slice holds the samples. Error on an empty dataset.
+Expected<Image> plot_half_angle(const brdf::Dataset& data,
+                                const brdf::Brdf* fit,
+                                const PlotOptions& options,
+                                const std::string& why = {});
 
 /// BRDF against delta_phi = phi_o - phi_i (degrees, 0 = back toward the light, 180 = forward) at
 /// fixed (theta_i, theta_o) pairs found in the data (or theta_i = theta_o = 20, 40, 60 degrees for
@@ -54,6 +86,8 @@ Expected<Image> plot_delta_phi(const brdf::Dataset& data,
 
 /// Residual map: log10(measured / fitted) luminance averaged in 5-degree bins of (theta_h,
 /// theta_d) (Rusinkiewicz half/difference angles), on a diverging colour scale with a colour bar.
+/// The subtitle states the rms over samples of log10(Y_measured / Y_fit) (luminance, unweighted),
+/// which is not the fit report's log RMSE (per channel, natural log of 1 + f cos theta_i).
 /// Samples whose measured or fitted luminance is not positive are counted and skipped. Error when
 /// the dataset has no sample.
 Expected<Image> plot_residual_map(const brdf::Dataset& data,
@@ -64,6 +98,19 @@ Expected<Image> plot_residual_map(const brdf::Dataset& data,
 /// projected on the unit disk (x = sin theta cos phi, y = sin theta sin phi), coloured by theta_i;
 /// right, the samples in (theta_h, theta_d). Error when the dataset has no sample.
 Expected<Image> plot_coverage(const brdf::Dataset& data, const PlotOptions& options);
+
+/// Coverage of a half/difference table (an image-mode campaign): per (theta_h, theta_d) cell the
+/// fraction of its phi_d bins that hold a measured value, axes in degrees (theta_h on its square-
+/// root bin scale's centres drawn at their angles), a colour bar, and the holes outlined.
+struct TableHole {
+    double theta_h_min_deg = 0, theta_h_max_deg = 0;
+    double theta_d_min_deg = 0, theta_d_max_deg = 0;
+    std::string reason;
+};
+Expected<Image> plot_table_coverage(const brdf::TabulatedBrdf& table,
+                                    const std::vector<TableHole>& holes,
+                                    const PlotOptions& options,
+                                    const std::string& title);
 
 /// The dataset without its drift-reference rows (flag kFlagReference): those re-measure one
 /// configuration to follow the lamp, they are not BRDF samples of the plan.

@@ -1,0 +1,88 @@
+#pragma once
+
+// The image-mode frame journal: append-only, one record per finished light position, written and
+// fsynced before the light arm moves on (as the point-mode journal, journal.h). A record holds what
+// the frame added to the table, summarised per bin (image_binning.h: BinAggregate), so that a
+// resumed campaign rebuilds exactly the table it held: no frame is lost and none is measured twice.
+// The first record (the set-up) holds what the frames depend on: the table layout and the detector
+// arm (checked on resume), the calibration constants and the fitted sample and reference spheres.
+//
+// Binary layout, little-endian: each record is
+//   "GIJ1" | type (u8: 1 set-up, 2 frame) | payload length (u32) | FNV-1a 64 of the payload (u64) |
+//   payload
+// with doubles and floats as their IEEE 754 bit patterns. A record cut short (kill -9, power cut)
+// or with a wrong hash at the end of the file was never acknowledged: it is cut off on opening and
+// its frame measured again. A damaged record followed by good ones is corruption and an error.
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "gonio/acquisition/image_binning.h"
+#include "gonio/acquisition/sphere_geometry.h"
+#include "gonio/base/error.h"
+
+namespace gonio::acquisition {
+
+/// The set-up record.
+struct ImageJournalSetup {
+    TableLayout layout;
+    double detector_arm_rad = 0;
+    std::array<double, 3> calibration{};  ///< Counts/us per 1/sr, per channel.
+    SphereGeometry sphere;
+    SphereGeometry reference_sphere;
+    std::uint64_t captures = 0;  ///< Captures taken for the set-up (reference, silhouettes).
+    double exposure_time_s = 0;
+};
+
+/// One finished light position.
+struct ImageJournalFrame {
+    double light_arm_rad = 0;
+    std::array<int, 3> exposures{};
+    PixelCounts counts;
+    double coverage_after = 0;
+    bool bracketed = false;
+    std::uint64_t captures = 0;  ///< Captures of this frame (dark frames included).
+    double exposure_time_s = 0;  ///< Exposure time of this frame's captures.
+    std::vector<BinAggregate> bins;
+};
+
+std::string encode_setup(const ImageJournalSetup& s);  ///< One whole record.
+std::string encode_frame(const ImageJournalFrame& f);  ///< One whole record.
+
+class ImageJournal {
+  public:
+    /// Opens (creating if needed) the journal, reads its records (checking every bin index against
+    /// the set-up's layout and every value for finiteness), cuts off a damaged last record
+    /// (torn_tail()) and positions for appending.
+    static Expected<ImageJournal> open(const std::string& path);
+    ImageJournal(ImageJournal&& o) noexcept;
+    ImageJournal& operator=(ImageJournal&& o) noexcept;
+    ImageJournal(const ImageJournal&) = delete;
+    ImageJournal& operator=(const ImageJournal&) = delete;
+    ~ImageJournal();
+
+    const std::optional<ImageJournalSetup>& setup() const { return setup_; }
+    const std::vector<ImageJournalFrame>& frames() const { return frames_; }
+    bool torn_tail() const { return torn_tail_; }
+    const std::string& path() const { return path_; }
+
+    /// Appends the set-up (only as the first record), then fsync.
+    Expected<void> append_setup(const ImageJournalSetup& s);
+    /// Appends a frame (after the set-up), then fsync: the frame is durable when this returns.
+    Expected<void> append_frame(const ImageJournalFrame& f);
+
+  private:
+    ImageJournal() = default;
+    Expected<void> append_bytes(const std::string& bytes);
+
+    std::string path_;
+    int fd_ = -1;
+    std::optional<ImageJournalSetup> setup_;
+    std::vector<ImageJournalFrame> frames_;
+    bool torn_tail_ = false;
+};
+
+}  // namespace gonio::acquisition

@@ -1,0 +1,359 @@
+// Writing RGL material files: the NDF by power iteration, the parameterisation, the values at the
+// warped nodes (see rgl_bsdf.h).
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "gonio/base/atomic_file.h"
+#include "gonio/brdf/rgl_bsdf.h"
+#include "gonio/brdf/tensor_file.h"
+#include "gonio/brdf/warp2d.h"
+
+namespace gonio::brdf {
+
+namespace {
+
+// The last theta_i node (pi/2, wi on the horizon) is only ever interpolated towards; its values
+// are those of the limit, taken at this elevation.
+constexpr double kMaxEvalThetaI = (90.0 - 0.5) * kPi / 180.0;
+// Sub-intervals per patch of the NDF grid in the quadrature of sigma.
+constexpr int kQuadPerPatch = 16;
+
+double luminance(const Rgbd& c) {
+    return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+}
+
+// int_0^{2 pi} max(0, a + b cos(phi)) dphi for b >= 0: the azimuthal part of <w, m>+ with
+// a = cos(theta) cos(theta_m), b = sin(theta) sin(theta_m).
+double azimuthal_cosine(double a, double b) {
+    if (b <= std::abs(a)) {
+        // The whole circle is on one side of the plane.
+        return a > 0.0 ? 2.0 * kPi * a : 0.0;
+    }
+    const double phi0 = std::acos(std::clamp(-a / b, -1.0, 1.0));
+    return 2.0 * (a * phi0 + std::sqrt(std::max(0.0, b * b - a * a)));
+}
+
+// K[j][k]: sigma(theta_j) = sum_k K[j][k] D_k with D linear in u between the nodes (hat
+// functions), by midpoint quadrature in u (d omega = 2 pi^2 u sin(theta_m) du dphi / (2 pi)).
+std::vector<double> sigma_matrix(std::size_t n) {
+    std::vector<double> K(n * n, 0.0);
+    const double h = 1.0 / static_cast<double>(n - 1);
+    for (std::size_t j = 0; j < n; ++j) {
+        const double theta = rgl_u_to_theta(static_cast<double>(j) * h);
+        const double ct = std::cos(theta), st = std::sin(theta);
+        for (std::size_t p = 0; p + 1 < n; ++p) {
+            for (int q = 0; q < kQuadPerPatch; ++q) {
+                const double t = (q + 0.5) / kQuadPerPatch;
+                const double u = (static_cast<double>(p) + t) * h;
+                const double theta_m = rgl_u_to_theta(u);
+                const double w = azimuthal_cosine(ct * std::cos(theta_m), st * std::sin(theta_m)) *
+                                 std::sin(theta_m) * kPi * u * h / kQuadPerPatch;
+                K[j * n + p] += (1.0 - t) * w;
+                K[j * n + p + 1] += t * w;
+            }
+        }
+    }
+    return K;
+}
+
+std::vector<double> sigma_of(const std::vector<double>& K, const std::vector<double>& d) {
+    const std::size_t n = d.size();
+    std::vector<double> s(n, 0.0);
+    for (std::size_t j = 0; j < n; ++j) {
+        double sum = 0.0;
+        for (std::size_t k = 0; k < n; ++k) {
+            sum += K[j * n + k] * d[k];
+        }
+        s[j] = sum;
+    }
+    return s;
+}
+
+Expected<void> check_options(const RglWriteOptions& o) {
+    if (o.theta_i_count < 2 || o.theta_i_count > 256) {
+        return make_error("RGL file: " + std::to_string(o.theta_i_count) +
+                          " theta_i nodes (2 to 256)");
+    }
+    if (o.ndf_resolution < 2 || o.ndf_resolution > 1024 || o.rgb_resolution < 2 ||
+        o.rgb_resolution > 1024) {
+        return make_error("RGL file: grid resolutions " + std::to_string(o.ndf_resolution) +
+                          " (ndf) and " + std::to_string(o.rgb_resolution) +
+                          " (rgb) must be within 2 to 1024");
+    }
+    if (o.power_iterations < 1 || !(o.ndf_floor >= 0.0 && o.ndf_floor < 1.0)) {
+        return make_error("RGL file: power iterations >= 1 and an NDF floor in [0, 1) required");
+    }
+    return {};
+}
+
+}  // namespace
+
+Expected<RglNdf> rgl_ndf_power_iteration(const Brdf& brdf, const RglWriteOptions& options) {
+    if (auto ok = check_options(options); !ok) {
+        return tl::unexpected(ok.error());
+    }
+    const std::size_t n = options.ndf_resolution;
+    const double h = 1.0 / static_cast<double>(n - 1);
+    // Retro-reflection times cos(theta) at the nodes: the kernel's diagonal factor.
+    std::vector<double> retro(n, 0.0);
+    for (std::size_t j = 0; j < n; ++j) {
+        const double theta = rgl_u_to_theta(static_cast<double>(j) * h);
+        const Vec3d w(std::sin(theta), 0.0, std::cos(theta));
+        if (!(w.z() > 0.0)) {
+            continue;  // on the horizon: cos(theta) = 0
+        }
+        const double f = luminance(brdf.eval(w, w));
+        if (!std::isfinite(f)) {
+            return make_error(
+                "NDF by power iteration: the BRDF is not finite in retro-reflection "
+                "at theta = " +
+                std::to_string(theta * 180.0 / kPi) + " deg");
+        }
+        retro[j] = std::max(0.0, f) * w.z();
+    }
+    if (*std::max_element(retro.begin(), retro.end()) <= 0.0) {
+        return make_error(
+            "NDF by power iteration: the BRDF reflects nothing back towards the "
+            "light at any elevation; no microfacet distribution to extract");
+    }
+    const std::vector<double> K = sigma_matrix(n);
+    RglNdf out;
+    std::vector<double> d(n, 1.0);
+    auto normalise = [&](std::vector<double>* v) {
+        const std::vector<double> s = sigma_of(K, *v);
+        for (double& x : *v) {
+            x /= s[0];  // sigma(normal) = int D cos = 1
+        }
+    };
+    normalise(&d);
+    for (int it = 1; it <= options.power_iterations; ++it) {
+        const std::vector<double> s = sigma_of(K, d);
+        std::vector<double> next(n);
+        for (std::size_t j = 0; j < n; ++j) {
+            next[j] = retro[j] * s[j];
+        }
+        normalise(&next);
+        double change = 0.0, peak = 0.0;
+        for (std::size_t j = 0; j < n; ++j) {
+            change = std::max(change, std::abs(next[j] - d[j]));
+            peak = std::max(peak, next[j]);
+        }
+        d = std::move(next);
+        out.iterations = it;
+        out.change = change / peak;
+        if (out.change < 1e-6) {
+            break;
+        }
+    }
+    const double peak = *std::max_element(d.begin(), d.end());
+    for (double& x : d) {
+        x = std::max(x, options.ndf_floor * peak);
+    }
+    normalise(&d);
+    out.sigma = sigma_of(K, d);
+    out.d = std::move(d);
+    return out;
+}
+
+Expected<RglLayout> rgl_layout(const RglNdf& ndf, const RglWriteOptions& options) {
+    if (auto ok = check_options(options); !ok) {
+        return tl::unexpected(ok.error());
+    }
+    const std::size_t n = options.ndf_resolution;
+    const std::size_t N = options.rgb_resolution;
+    const std::size_t T = options.theta_i_count;
+    if (ndf.d.size() != n || ndf.sigma.size() != n) {
+        return make_error("RGL layout: the NDF has " + std::to_string(ndf.d.size()) +
+                          " nodes, the options ask for " + std::to_string(n));
+    }
+    RglLayout L;
+    L.options = options;
+    for (std::size_t k = 0; k < n; ++k) {
+        if (!(ndf.d[k] > 0.0) || !(ndf.sigma[k] > 0.0) || !std::isfinite(ndf.d[k]) ||
+            !std::isfinite(ndf.sigma[k])) {
+            return make_error(
+                "RGL layout: NDF node " + std::to_string(k) + " D = " + std::to_string(ndf.d[k]) +
+                ", sigma = " + std::to_string(ndf.sigma[k]) + " (both must be finite and > 0)");
+        }
+        L.ndf.push_back(static_cast<float>(ndf.d[k]));
+        L.sigma.push_back(static_cast<float>(ndf.sigma[k]));
+    }
+    for (std::size_t k = 0; k < T; ++k) {
+        L.theta_i.push_back(
+            static_cast<float>(static_cast<double>(k) / static_cast<double>(T - 1) * kPi / 2));
+    }
+    // The VNDF of every theta_i node over u_m, times the Jacobian of the unit coordinates.
+    const double h = 1.0 / static_cast<double>(n - 1);
+    L.vndf.resize(T * n * n);
+    for (std::size_t k = 0; k < T; ++k) {
+        const double theta_i = L.theta_i[k];
+        const Vec3d wi(std::sin(theta_i), 0.0, std::cos(theta_i));
+        for (std::size_t row = 0; row < n; ++row) {
+            const double phi_m = rgl_u_to_phi(static_cast<double>(row) * h);
+            for (std::size_t col = 0; col < n; ++col) {
+                const double u = static_cast<double>(col) * h;
+                const double theta_m = rgl_u_to_theta(u);
+                const Vec3d m(std::sin(theta_m) * std::cos(phi_m),
+                              std::sin(theta_m) * std::sin(phi_m),
+                              std::cos(theta_m));
+                const double jacobian = 2.0 * kPi * kPi * u * std::sin(theta_m);
+                L.vndf[(k * n + row) * n + col] = static_cast<float>(
+                    static_cast<double>(L.ndf[col]) * std::max(0.0, wi.dot(m)) * jacobian);
+            }
+        }
+    }
+    Expected<Warp2D> warp = Warp2D::build(n, n, L.vndf, L.theta_i, "RGL layout: vndf");
+    if (!warp) {
+        return tl::unexpected(warp.error());
+    }
+    L.vndf_warp = std::move(*warp);
+    // The rgb nodes: the sample square's grid, warped onto half vectors.
+    std::vector<float> ndf_rows(L.ndf);
+    ndf_rows.insert(ndf_rows.end(), L.ndf.begin(), L.ndf.end());
+    std::vector<float> sigma_rows(L.sigma);
+    sigma_rows.insert(sigma_rows.end(), L.sigma.begin(), L.sigma.end());
+    const BilinearGrid ndf_grid(n, 2, 1, std::move(ndf_rows));
+    const BilinearGrid sigma_grid(n, 2, 1, std::move(sigma_rows));
+    const double step = 1.0 / static_cast<double>(N - 1);
+    for (std::size_t k = 0; k < T; ++k) {
+        const double theta_node = L.theta_i[k];
+        const double theta_i = std::min(theta_node, kMaxEvalThetaI);
+        const Vec3d wi(std::sin(theta_i), 0.0, std::cos(theta_i));
+        const double sigma = sigma_grid.eval({rgl_theta_to_u(theta_node), 0.5}, 0);
+        for (std::size_t row = 0; row < N; ++row) {
+            for (std::size_t col = 0; col < N; ++col) {
+                RglNode node;
+                node.theta_index = k;
+                node.row = row;
+                node.column = col;
+                node.wi = wi;
+                node.u_m = L.vndf_warp.sample(
+                    {static_cast<double>(col) * step, static_cast<double>(row) * step}, theta_node);
+                const double theta_m = rgl_u_to_theta(node.u_m[0]);
+                const double phi_m = rgl_u_to_phi(node.u_m[1]);
+                const Vec3d m(std::sin(theta_m) * std::cos(phi_m),
+                              std::sin(theta_m) * std::sin(phi_m),
+                              std::cos(theta_m));
+                node.wo = 2.0 * wi.dot(m) * m - wi;
+                node.factor = ndf_grid.eval(node.u_m, 0) / (4.0 * sigma);
+                L.nodes.push_back(node);
+            }
+        }
+    }
+    return L;
+}
+
+Expected<TensorFile> rgl_tensor(const RglLayout& L, const std::vector<Rgbd>& f_r) {
+    const std::size_t n = L.options.ndf_resolution;
+    const std::size_t N = L.options.rgb_resolution;
+    const std::size_t T = L.theta_i.size();
+    if (f_r.size() != L.nodes.size()) {
+        return make_error("RGL file: " + std::to_string(f_r.size()) + " values for " +
+                          std::to_string(L.nodes.size()) + " nodes");
+    }
+    std::vector<float> rgb(T * 3 * N * N, 0.0f);
+    std::vector<float> lum(T * N * N, 0.0f);
+    std::vector<std::uint8_t> valid((T * N * N + 7) / 8, 0);
+    for (std::size_t i = 0; i < L.nodes.size(); ++i) {
+        const RglNode& node = L.nodes[i];
+        const double cos_o = node.wo.z();
+        const bool measured = f_r[i].allFinite() && (f_r[i] >= 0.0).all();
+        if (!(cos_o > 0.0) || !measured || !(node.factor > 0.0)) {
+            continue;  // stored 0: f_r cos(theta_o) vanishes at the horizon; bit clear
+        }
+        const Rgbd v = f_r[i] * cos_o / node.factor;
+        if (!v.allFinite() || (v.abs() > 3e38).any()) {
+            return make_error("RGL file: the value at theta_i node " +
+                              std::to_string(node.theta_index) + ", row " +
+                              std::to_string(node.row) + ", column " + std::to_string(node.column) +
+                              " does not fit in float32");
+        }
+        const std::size_t plane = N * N;
+        const std::size_t at = node.row * N + node.column;
+        for (std::size_t c = 0; c < 3; ++c) {
+            rgb[(node.theta_index * 3 + c) * plane + at] =
+                static_cast<float>(v[static_cast<Eigen::Index>(c)]);
+        }
+        lum[node.theta_index * plane + at] = static_cast<float>(std::max(0.0, luminance(v)));
+        const std::size_t bit = node.theta_index * plane + at;
+        valid[bit / 8] = static_cast<std::uint8_t>(valid[bit / 8] | (0x80u >> (bit % 8)));
+    }
+    // A renderer samples the luminance: a slice without any mass would normalise to NaN there.
+    for (std::size_t k = 0; k < T; ++k) {
+        float* slice = lum.data() + k * N * N;
+        if (std::all_of(slice, slice + N * N, [](float v) { return v <= 0.0f; })) {
+            std::fill(slice, slice + N * N, 1.0f);
+        }
+    }
+    std::vector<float> ndf2(L.ndf), sigma2(L.sigma);
+    ndf2.insert(ndf2.end(), L.ndf.begin(), L.ndf.end());
+    sigma2.insert(sigma2.end(), L.sigma.begin(), L.sigma.end());
+    const std::string& text = L.options.description;
+    TensorFile f;
+    f.fields.push_back(TensorField::uint8("version", {2}, {1, 0}));
+    f.fields.push_back(TensorField::uint8(
+        "description", {text.size()}, std::vector<std::uint8_t>(text.begin(), text.end())));
+    f.fields.push_back(TensorField::float32("phi_i", {1}, {0.0f}));
+    f.fields.push_back(TensorField::float32("theta_i", {T}, L.theta_i));
+    f.fields.push_back(TensorField::float32("sigma", {2, n}, sigma2));
+    f.fields.push_back(TensorField::float32("ndf", {2, n}, ndf2));
+    f.fields.push_back(TensorField::float32("vndf", {1, T, n, n}, L.vndf));
+    f.fields.push_back(TensorField::float32("luminance", {1, T, N, N}, lum));
+    f.fields.push_back(TensorField::float32("rgb", {1, T, 3, N, N}, rgb));
+    f.fields.push_back(TensorField::uint8("jacobian", {1}, {1}));
+    f.fields.push_back(TensorField::uint8("valid", {valid.size()}, valid));
+    return f;
+}
+
+Expected<RglWriteReport> write_rgl_bsdf(const std::string& path,
+                                        const Brdf& brdf,
+                                        const RglWriteOptions& options) {
+    if (!brdf.isotropic()) {
+        return make_error(path + ": the BRDF is anisotropic; gonio writes isotropic RGL files");
+    }
+    RglWriteReport report;
+    Expected<RglNdf> ndf = rgl_ndf_power_iteration(brdf, options);
+    if (!ndf) {
+        return make_error(path + ": " + ndf.error().message);
+    }
+    report.ndf = *ndf;
+    RglWriteOptions o = options;
+    if (o.description.empty()) {
+        o.description = brdf.describe();
+    }
+    Expected<RglLayout> layout = rgl_layout(*ndf, o);
+    if (!layout) {
+        return make_error(path + ": " + layout.error().message);
+    }
+    std::vector<Rgbd> values(layout->nodes.size(), Rgbd::Zero());
+    for (std::size_t i = 0; i < layout->nodes.size(); ++i) {
+        const RglNode& node = layout->nodes[i];
+        if (!(node.wo.z() > 0.0)) {
+            ++report.below_horizon;
+            continue;
+        }
+        values[i] = brdf.eval(node.wi, node.wo);
+        if (!values[i].allFinite()) {
+            return make_error(path + ": the BRDF is not finite at theta_i node " +
+                              std::to_string(node.theta_index) + ", row " +
+                              std::to_string(node.row) + ", column " + std::to_string(node.column));
+        }
+    }
+    report.nodes = layout->nodes.size();
+    Expected<TensorFile> file = rgl_tensor(*layout, values);
+    if (!file) {
+        return make_error(path + ": " + file.error().message);
+    }
+    const std::string bytes = encode_tensor_file(*file);
+    report.bytes = bytes.size();
+    if (auto w = write_file_atomic(path, bytes); !w) {
+        return tl::unexpected(w.error());
+    }
+    return report;
+}
+
+}  // namespace gonio::brdf

@@ -1,0 +1,79 @@
+#pragma once
+
+// The live campaign page: a small read-only HTTP server (cpp-httplib) that shows a running
+// campaign's progress and ETA, the latest measurement (or camera frame), the coverage, the in-plane
+// plot and the fit of the data so far. The page polls /status.json once a second and reloads the
+// pictures when their version changes.
+//
+// Threads: the campaign thread only publishes (publish_*): a short critical section that appends
+// to a vector or swaps a value, never waiting for a client or for a picture. A render thread (at
+// lower priority) turns the published data into PNG pictures and a fit at most every
+// render_interval_s / fit_interval_s and swaps them in; the HTTP threads serve the last swapped
+// pictures. A client that never reads, or hundreds of open connections, hold HTTP threads only
+// (bounded by the read/write timeouts), never the campaign.
+//
+// Routes: GET / (the page), /status.json, /img/in_plane.png, /img/coverage.png, /img/frame.png.
+// Everything else is 404; methods other than GET are refused (the page is read-only).
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <utility>
+
+#include "gonio/base/error.h"
+#include "gonio/brdf/dataset.h"
+#include "gonio/report/image.h"
+
+namespace gonio::report {
+
+struct LiveOptions {
+    std::string title = "gonio campaign";
+    double render_interval_s = 1.0;     ///< Pictures redrawn at most this often.
+    double fit_interval_s = 5.0;        ///< The fit of the data so far redone at most this often.
+    std::size_t fit_min_samples = 12;   ///< No fit before this many samples.
+    std::size_t fit_max_samples = 400;  ///< Stratified reduction of the live fit.
+    int plot_width = 640;
+    int io_timeout_s = 2;  ///< Read and write timeout of one connection.
+};
+
+/// "[ADDR:]PORT" -> (address, port): ADDR defaults to 127.0.0.1, PORT in [0, 65535] (0: a free
+/// port chosen by the system). Error naming the text and the rule.
+Expected<std::pair<std::string, int>> parse_listen_address(const std::string& spec);
+
+class LiveServer {
+  public:
+    /// Binds host:port and starts serving; error naming the address when it cannot bind.
+    static Expected<std::unique_ptr<LiveServer>> start(const std::string& host,
+                                                       int port,
+                                                       const LiveOptions& options = {});
+    ~LiveServer();
+    LiveServer(const LiveServer&) = delete;
+    LiveServer& operator=(const LiveServer&) = delete;
+
+    /// "http://HOST:PORT/" with the bound port.
+    std::string url() const;
+    int port() const;
+
+    /// Campaign thread: measurements done of planned, and the state ("running", "completed",
+    /// "paused", "stopped").
+    void publish_progress(std::size_t done, std::size_t planned, const std::string& state);
+    /// Campaign thread: one finished measurement.
+    void publish_sample(const brdf::Sample& sample);
+    /// Campaign thread: the latest camera frame (8-bit picture), moved in.
+    void publish_frame(Image frame);
+
+    /// Stops serving and joins the threads (also done by the destructor).
+    void stop();
+
+    /// Requests answered so far (all routes).
+    std::uint64_t requests_served() const;
+    /// Times the pictures were redrawn.
+    std::uint64_t renders() const;
+
+  private:
+    struct Impl;
+    explicit LiveServer(std::unique_ptr<Impl> impl);
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace gonio::report

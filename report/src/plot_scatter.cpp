@@ -1,0 +1,209 @@
+// Scattered samples against the half angle, and the coverage map of a half/difference table.
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <opencv2/imgproc.hpp>
+
+#include "canvas.h"
+#include "gonio/report/plot.h"
+#include "image_cv.h"
+#include "plot_common.h"
+
+namespace gonio::report {
+
+namespace {
+
+constexpr double kDeg = brdf::kPi / 180.0;
+
+/// A vertical colour bar in `area` for values in [lo, hi]; colour(t), t in [0, 1] from bottom to
+/// top; ticks at the right and a rotated label beyond them.
+template <class ColorFn>
+void vertical_bar(
+    cv::Mat& img, cv::Rect area, double lo, double hi, ColorFn colour, const std::string& label) {
+    for (int y = 0; y < area.height; ++y) {
+        const double t = 1.0 - (y + 0.5) / area.height;
+        cv::line(img, {area.x, area.y + y}, {area.x + area.width - 1, area.y + y}, colour(t), 1);
+    }
+    cv::rectangle(img, area, draw::kAxis, 1);
+    for (double v : draw::nice_ticks(lo, hi, 5)) {
+        const int y = area.y + area.height -
+                      static_cast<int>(std::lround((v - lo) / (hi - lo) * area.height));
+        cv::line(img, {area.x + area.width, y}, {area.x + area.width + 4, y}, draw::kAxis, 1);
+        draw::text(img, draw::format_tick(v), {area.x + area.width + 7, y}, 0.5);
+    }
+    draw::text_vertical(img, label, {area.x + area.width + 58, area.y + area.height / 2}, 0.5);
+}
+
+}  // namespace
+
+Expected<Image> plot_half_angle(const brdf::Dataset& data,
+                                const brdf::Brdf* fit,
+                                const PlotOptions& options,
+                                const std::string& why) {
+    if (data.samples.empty()) {
+        return make_error(data.source + ": empty dataset: nothing to plot against theta_h");
+    }
+    struct Point {
+        double theta_h_deg, theta_d_deg, y, fit_y;
+    };
+    std::vector<Point> pts;
+    double vmax = 0;
+    double vmin_pos = std::numeric_limits<double>::infinity();
+    std::size_t zero = 0;
+    for (const brdf::Sample& s : data.samples) {
+        const brdf::HalfDiff<double> hd = brdf::to_half_diff(s.wi(), s.wo());
+        const double y = luminance(s.value);
+        const double fy = fit != nullptr ? luminance(fit->eval(s.wi(), s.wo()))
+                                         : std::numeric_limits<double>::quiet_NaN();
+        pts.push_back({hd.theta_h / kDeg, hd.theta_d / kDeg, y, fy});
+        if (y > 0 && std::isfinite(y)) {
+            vmax = std::max(vmax, y);
+            vmin_pos = std::min(vmin_pos, y);
+        } else {
+            ++zero;
+        }
+    }
+    if (!(vmax > 0)) {
+        return make_error(data.source + ": every sample is zero; nothing to plot against theta_h");
+    }
+    const bool log_scale = resolve_scale(options.scale, vmin_pos, vmax) == AxisScale::kLog;
+    const int W = std::max(400, options.width);
+    const int H = W * 3 / 5 + 60;
+    char sub[320];
+    std::snprintf(sub,
+                  sizeof sub,
+                  "%zu samples at their own directions%s; colour: theta_d [deg]; rings: %s%s",
+                  pts.size() - zero,
+                  zero ? " (zero values not shown)" : "",
+                  fit ? "fit at the same directions" : "(no fit given)",
+                  why.empty() ? "" : ("; " + why).c_str());
+    cv::Mat img = draw::blank(
+        W,
+        H,
+        "BRDF against the half angle (luminance Y) - " + plot_detail::short_name(data.source),
+        sub);
+    draw::Axes ax;
+    ax.area = cv::Rect(90, 70, W - 90 - 130, H - 70 - 64);
+    ax.x0 = 0;
+    ax.x1 = 90;
+    ax.log_y = log_scale;
+    if (log_scale) {
+        ax.y0 = plot_detail::log_floor(vmin_pos, vmax);
+        ax.y1 = std::pow(10.0, std::ceil(std::log10(vmax) - 1e-9));
+    } else {
+        ax.y0 = 0;
+        const std::vector<double> t = draw::nice_ticks(0, vmax, 6);
+        ax.y1 = t.back() >= vmax ? t.back() : t.back() + (t.size() > 1 ? t[1] - t[0] : vmax);
+    }
+    ax.draw(img,
+            "theta_h [deg] (half vector from the normal)",
+            std::string("BRDF luminance Y [1/sr]") + (log_scale ? ", log10" : ""));
+    for (const Point& p : pts) {
+        if (fit != nullptr && std::isfinite(p.fit_y) && ax.inside_y(p.fit_y)) {
+            cv::circle(img, ax.pt(p.theta_h_deg, p.fit_y), 4, draw::kAxis, 1, cv::LINE_AA);
+        }
+    }
+    for (const Point& p : pts) {
+        if (!(p.y > 0) || !ax.inside_y(p.y)) {
+            continue;
+        }
+        draw::marker(img, ax.pt(p.theta_h_deg, p.y), draw::sequential(p.theta_d_deg / 90.0), 3);
+    }
+    vertical_bar(
+        img,
+        cv::Rect(ax.area.x + ax.area.width + 16, ax.area.y, 16, ax.area.height),
+        0,
+        90,
+        [](double t) { return draw::sequential(t); },
+        "theta_d [deg]");
+    return from_mat(img);
+}
+
+Expected<Image> plot_table_coverage(const brdf::TabulatedBrdf& table,
+                                    const std::vector<TableHole>& holes,
+                                    const PlotOptions& options,
+                                    const std::string& title) {
+    const brdf::TableGrid& g = table.grid();
+    if (g.size() == 0) {
+        return make_error(title + ": empty table grid: no coverage to plot");
+    }
+    // Fraction of measured phi_d bins per (theta_h, theta_d) cell.
+    std::vector<double> frac(static_cast<std::size_t>(g.n_theta_h) * g.n_theta_d, 0.0);
+    std::size_t valid = 0;
+    for (int ih = 0; ih < g.n_theta_h; ++ih) {
+        for (int id = 0; id < g.n_theta_d; ++id) {
+            int n = 0;
+            for (int ip = 0; ip < g.n_phi_d; ++ip) {
+                n += table.bin_valid(g.index(ih, id, ip)) ? 1 : 0;
+            }
+            valid += static_cast<std::size_t>(n);
+            frac[static_cast<std::size_t>(ih) * g.n_theta_d + id] =
+                static_cast<double>(n) / g.n_phi_d;
+        }
+    }
+    const int W = std::max(400, options.width);
+    const int side = std::min(W - 90 - 150, 560);
+    const int H = 70 + side + 56 + 60;
+    char sub[240];
+    std::snprintf(sub,
+                  sizeof sub,
+                  "%zu of %zu bins measured (%.1f %%), grid %dx%dx%d; %zu holes outlined",
+                  valid,
+                  g.size(),
+                  100.0 * static_cast<double>(valid) / static_cast<double>(g.size()),
+                  g.n_theta_h,
+                  g.n_theta_d,
+                  g.n_phi_d,
+                  holes.size());
+    cv::Mat img = draw::blank(W, H, "Coverage of the table - " + title, sub);
+    draw::Axes ax;
+    ax.area = cv::Rect(90, 70, side, side);
+    ax.x0 = 0;
+    ax.x1 = 90;
+    ax.y0 = 0;
+    ax.y1 = 90;
+    auto colour = [](double t) {
+        // Empty cells light grey, then the sequential map.
+        return t <= 0 ? cv::Scalar(225, 225, 225) : draw::sequential(t);
+    };
+    // theta_h bins are uniform in sqrt(theta_h / (pi/2)): cell edges at ((i / n)^2) 90 deg.
+    for (int ih = 0; ih < g.n_theta_h; ++ih) {
+        const double h0 = std::pow(static_cast<double>(ih) / g.n_theta_h, 2) * 90;
+        const double h1 = std::pow(static_cast<double>(ih + 1) / g.n_theta_h, 2) * 90;
+        for (int id = 0; id < g.n_theta_d; ++id) {
+            const double d0 = 90.0 * id / g.n_theta_d;
+            const double d1 = 90.0 * (id + 1) / g.n_theta_d;
+            const cv::Point a = ax.pt(h0, d1);
+            const cv::Point b = ax.pt(h1, d0);
+            cv::rectangle(img,
+                          cv::Rect(a, b),
+                          colour(frac[static_cast<std::size_t>(ih) * g.n_theta_d + id]),
+                          cv::FILLED);
+        }
+    }
+    const cv::Scalar hole_colour(40, 39, 214);  // red (BGR)
+    for (const TableHole& h : holes) {
+        const cv::Point a = ax.pt(h.theta_h_min_deg, h.theta_d_max_deg);
+        const cv::Point b = ax.pt(h.theta_h_max_deg, h.theta_d_min_deg);
+        cv::rectangle(img, cv::Rect(a, b), hole_colour, 1, cv::LINE_AA);
+    }
+    ax.draw(img, "theta_h [deg] (half vector from the normal)", "theta_d [deg] (difference angle)");
+    vertical_bar(
+        img,
+        cv::Rect(ax.area.x + ax.area.width + 20, ax.area.y, 18, ax.area.height),
+        0,
+        1,
+        [](double t) { return draw::sequential(t); },
+        "fraction of phi_d bins measured");
+    std::vector<draw::LegendEntry> entries = {
+        {cv::Scalar(225, 225, 225), "no bin measured", false, true}};
+    if (!holes.empty()) {
+        entries.push_back({hole_colour, "hole: empty valid bins (dataset.json)", true, false});
+    }
+    draw::legend(img, entries, {ax.area.x, ax.area.y + ax.area.height + 56}, true);
+    return from_mat(img);
+}
+
+}  // namespace gonio::report
