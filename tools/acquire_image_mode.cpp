@@ -15,23 +15,6 @@
 
 namespace gonio::tools {
 
-sim::SphereCamera to_sphere_camera(const acquisition::CameraModel& c) {
-    sim::SphereCamera sc;
-    sc.projection = c.projection == acquisition::Projection::kPerspective
-                        ? sim::SphereProjection::kPerspective
-                        : sim::SphereProjection::kOrthographic;
-    sc.width = c.intrinsics.width;
-    sc.height = c.intrinsics.height;
-    sc.fx = c.intrinsics.fx;
-    sc.fy = c.intrinsics.fy;
-    sc.cx = c.intrinsics.cx;
-    sc.cy = c.intrinsics.cy;
-    sc.distortion = c.intrinsics.distortion;
-    sc.rotation = c.rotation;
-    sc.translation = c.translation;
-    return sc;
-}
-
 Expected<std::unique_ptr<ImageRig>> start_image_rig(const AcquireImageOptions& o) {
     std::string rig_path = o.rig_path;
     if (rig_path.empty()) {

@@ -15,6 +15,7 @@
 #include <memory>
 #include <string>
 
+#include "embedded_rig.h"
 #include "gonio/acquisition/campaign_request.h"
 #include "gonio/acquisition/image_campaign.h"
 #include "gonio/acquisition/rig_config.h"
@@ -78,9 +79,6 @@ struct ImageRig {
     acquisition::RigDevices dev;
     acquisition::PoseCheckLog pose_log;
 };
-
-/// The simulator's camera for a calibrated camera model (same intrinsics and pose).
-sim::SphereCamera to_sphere_camera(const acquisition::CameraModel& camera);
 
 /// Reads the rig description and the camera model, starts the virtual rig with the sphere of the
 /// ground truth (options.material / brdf_path) when the description has a "sim" section, and opens
