@@ -15,23 +15,6 @@
 
 namespace gonio::tools {
 
-sim::SphereCamera to_sphere_camera(const acquisition::CameraModel& c) {
-    sim::SphereCamera sc;
-    sc.projection = c.projection == acquisition::Projection::kPerspective
-                        ? sim::SphereProjection::kPerspective
-                        : sim::SphereProjection::kOrthographic;
-    sc.width = c.intrinsics.width;
-    sc.height = c.intrinsics.height;
-    sc.fx = c.intrinsics.fx;
-    sc.fy = c.intrinsics.fy;
-    sc.cx = c.intrinsics.cx;
-    sc.cy = c.intrinsics.cy;
-    sc.distortion = c.intrinsics.distortion;
-    sc.rotation = c.rotation;
-    sc.translation = c.translation;
-    return sc;
-}
-
 Expected<std::unique_ptr<ImageRig>> start_image_rig(const AcquireImageOptions& o) {
     std::string rig_path = o.rig_path;
     if (rig_path.empty()) {
@@ -140,11 +123,13 @@ acquisition::CaptureFn image_rig_capture(ImageRig& rig, double detector_arm_rad)
 
 namespace {
 
-std::string new_output_dir(const std::string& material) {
+std::string new_output_dir(const std::string& parent, const std::string& material) {
+    const std::filesystem::path base =
+        parent.empty() ? std::filesystem::path(".") : std::filesystem::path(parent);
     for (int n = 1;; ++n) {
-        const std::string d = "image-" + material + "-" + std::to_string(n);
+        const std::filesystem::path d = base / ("image-" + material + "-" + std::to_string(n));
         if (!std::filesystem::exists(d)) {
-            return d;
+            return parent.empty() ? d.filename().string() : d.string();
         }
     }
 }
@@ -167,6 +152,8 @@ std::string settings_json(const AcquireImageOptions& o, const std::string& brdf_
     j["supersample"] = o.supersample;
     j["time_scale"] = o.time_scale;
     j["seed"] = o.seed;
+    j["sample"] = o.sample;
+    j["operator"] = o.operator_name;
     return j.dump(2) + "\n";
 }
 
@@ -196,6 +183,8 @@ Expected<AcquireImageOptions> read_settings(const std::string& dir,
         o.supersample = j.at("supersample").get<int>();
         o.time_scale = j.at("time_scale").get<double>();
         o.seed = j.at("seed").get<std::uint64_t>();
+        o.sample = j.value("sample", std::string());
+        o.operator_name = j.value("operator", std::string());
     } catch (const nlohmann::json::exception& e) {
         return make_error(path + ": " + e.what());
     }
@@ -261,7 +250,10 @@ int run_acquire_image_mode(const AcquireImageOptions& given) {
                   (*rig)->rig, (*rig)->camera, o.grid, o.coverage_target, o.max_frames)
             : acquisition::image_campaign_config(
                   (*rig)->rig, (*rig)->camera, o.table_factor, o.coverage_target, o.max_frames);
-    const std::string dir = o.out_dir.empty() ? new_output_dir(truth_name) : o.out_dir;
+    const std::string dir =
+        o.out_dir.empty()
+            ? new_output_dir(o.campaigns_dir, o.sample.empty() ? truth_name : o.sample)
+            : o.out_dir;
     const std::string journal = (std::filesystem::path(dir) / kJournalFile).string();
     if (o.resume_dir.empty()) {
         std::error_code ec;
@@ -336,7 +328,10 @@ int run_acquire_image_mode(const AcquireImageOptions& given) {
         return 1;
     }
     nlohmann::json extra;
-    extra["sample"] = truth_name;
+    extra["sample"] = o.sample.empty() ? truth_name : o.sample;
+    if (!o.operator_name.empty()) {
+        extra["operator"] = o.operator_name;
+    }
     if (embedded) {
         extra["ground_truth"] = (*rig)->sim->sample()->describe();
     }
@@ -428,6 +423,55 @@ int run_acquire_image_mode(const AcquireImageOptions& given) {
                      100 * result->coverage.fraction());
         return 1;
     }
+    return 0;
+}
+
+AcquireImageOptions image_options(const acquisition::CampaignRequest& r) {
+    AcquireImageOptions io;
+    io.resume_dir = r.resume_dir;
+    io.out_dir = r.out_dir;
+    if (!r.material.empty()) {
+        io.material = r.material;
+    }
+    io.brdf_path = r.brdf_path;
+    io.rig_path = r.rig_path;
+    if (r.coverage_target > 0) {
+        io.coverage_target = r.coverage_target;
+    }
+    if (r.max_frames > 0) {
+        io.max_frames = r.max_frames;
+    }
+    io.table_factor = r.table_factor;
+    io.grid = r.grid;
+    io.image_size = r.image_size;
+    io.supersample = r.supersample;
+    io.time_scale = r.time_scale;
+    io.seed = r.seed;
+    io.sample = r.sample;
+    io.operator_name = r.operator_name;
+    io.campaigns_dir = r.campaigns_dir;
+    return io;
+}
+
+int print_image_plan(const acquisition::CampaignRequest& request) {
+    auto plan = acquisition::plan_image_campaign(request);
+    if (!plan) {
+        std::fprintf(stderr, "gonio acquire: %s\n", plan.error().message.c_str());
+        return 1;
+    }
+    const acquisition::ImageCampaignConfig& c = plan->config;
+    std::printf(
+        "image mode plan on %s: %dx%dx%d table, coverage target %.0f%%, at most %d light "
+        "positions in [%.1f, %.1f] deg, detector arm %.1f deg\n",
+        plan->embedded ? "the embedded virtual rig" : plan->rig_name.c_str(),
+        c.layout.n_theta_h,
+        c.layout.n_theta_d,
+        c.layout.n_phi_d,
+        100 * c.coverage_target,
+        c.max_frames,
+        c.lights.min_rad * 180 / brdf::kPi,
+        c.lights.max_rad * 180 / brdf::kPi,
+        c.detector_arm_rad * 180 / brdf::kPi);
     return 0;
 }
 

@@ -15,6 +15,8 @@
 #include <memory>
 #include <string>
 
+#include "embedded_rig.h"
+#include "gonio/acquisition/campaign_request.h"
 #include "gonio/acquisition/image_campaign.h"
 #include "gonio/acquisition/rig_config.h"
 #include "gonio/sim/sim_rig.h"
@@ -48,6 +50,9 @@ struct AcquireImageOptions {
     double time_scale = 0;     ///< Virtual rig motion time scale (> 0 overrides the rig's).
     std::uint64_t seed = 1;
     bool quiet = false;
+    std::string sample;         ///< Sample name in the metadata (default: the ground truth's name).
+    std::string operator_name;  ///< Operator name in the metadata (none when empty).
+    std::string campaigns_dir;  ///< Parent of an automatically named folder (current folder).
 };
 
 /// Runs the campaign and prints a summary; returns the process exit status (0 success, 1 failure
@@ -56,6 +61,14 @@ struct AcquireImageOptions {
 /// journal (frames.journal, acquisition/image_journal.h), so that an interrupted campaign resumes
 /// with `resume_dir`.
 int run_acquire_image_mode(const AcquireImageOptions& options);
+
+/// The options of an image-mode request (acquisition::find_conflict already passed): the fields
+/// the request gives replace the defaults.
+AcquireImageOptions image_options(const acquisition::CampaignRequest& request);
+
+/// Prints the plan of an image campaign (request.plan_only): table, coverage target and the light
+/// arm's range, without touching a device. Returns the exit status (0, or 1 with the error).
+int print_image_plan(const acquisition::CampaignRequest& request);
 
 /// The image rig: the devices opened through their addresses, and the embedded virtual rig
 /// serving them when the description asks for it (null otherwise).
@@ -66,9 +79,6 @@ struct ImageRig {
     acquisition::RigDevices dev;
     acquisition::PoseCheckLog pose_log;
 };
-
-/// The simulator's camera for a calibrated camera model (same intrinsics and pose).
-sim::SphereCamera to_sphere_camera(const acquisition::CameraModel& camera);
 
 /// Reads the rig description and the camera model, starts the virtual rig with the sphere of the
 /// ground truth (options.material / brdf_path) when the description has a "sim" section, and opens

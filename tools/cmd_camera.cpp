@@ -5,14 +5,6 @@
 //       [--format PFNC] [--roi X,Y,W,H] out.exr
 //   gonio camera serve [--ip 127.0.0.1] [--material NAME | --brdf PATH] [--exposure-abs]
 
-#include <OpenEXR/ImfChannelList.h>
-#include <OpenEXR/ImfDoubleAttribute.h>
-#include <OpenEXR/ImfFrameBuffer.h>
-#include <OpenEXR/ImfHeader.h>
-#include <OpenEXR/ImfIntAttribute.h>
-#include <OpenEXR/ImfOutputFile.h>
-#include <OpenEXR/ImfStandardAttributes.h>
-#include <OpenEXR/ImfStringAttribute.h>
 #include <signal.h>
 
 #include <CLI/CLI.hpp>
@@ -25,6 +17,7 @@
 #include <vector>
 
 #include "command.h"
+#include "gonio/acquisition/frame_exr.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/material_library.h"
@@ -103,45 +96,8 @@ gonio::Expected<std::shared_ptr<gonio::sim::GigeCamera>> make_sim_camera(const C
 }
 
 int write_exr(const gonio::devices::Frame& f, const std::string& path) {
-    const int w = f.image.cols, h = f.image.rows;
-    std::vector<float> pixels(static_cast<std::size_t>(w) * h);
-    for (int y = 0; y < h; ++y) {
-        for (int x = 0; x < w; ++x) {
-            pixels[static_cast<std::size_t>(y) * w + x] =
-                f.image.type() == CV_32F ? f.image.at<float>(y, x)
-                                         : static_cast<float>(f.image.at<std::uint16_t>(y, x));
-        }
-    }
-    try {
-        Imf::Header header(w, h);
-        header.channels().insert("Y", Imf::Channel(Imf::FLOAT));
-        Imf::addExpTime(header, static_cast<float>(f.exposure_us * 1e-6));
-        header.insert("gonio.exposure_us", Imf::DoubleAttribute(f.exposure_us));
-        header.insert("gonio.gain", Imf::DoubleAttribute(f.gain));
-        header.insert("gonio.black_level", Imf::DoubleAttribute(f.black_level));
-        header.insert("gonio.saturation_level", Imf::DoubleAttribute(f.saturation_level));
-        header.insert("gonio.bit_depth", Imf::IntAttribute(f.bit_depth));
-        header.insert("gonio.timestamp_ns", Imf::StringAttribute(std::to_string(f.timestamp_ns)));
-        header.insert("gonio.linear", Imf::IntAttribute(f.linear ? 1 : 0));
-        header.insert("gonio.frame_id", Imf::StringAttribute(std::to_string(f.frame_id)));
-        if (!f.pixel_format.empty()) {
-            header.insert("gonio.pixel_format", Imf::StringAttribute(f.pixel_format));
-        }
-        if (!f.cfa.empty()) {
-            // A raw Bayer mosaic, one value per pixel: not demosaiced (see docs/camera.md).
-            header.insert("gonio.cfa", Imf::StringAttribute(f.cfa));
-        }
-        Imf::OutputFile file(path.c_str(), header);
-        Imf::FrameBuffer fb;
-        fb.insert("Y",
-                  Imf::Slice(Imf::FLOAT,
-                             reinterpret_cast<char*>(pixels.data()),
-                             sizeof(float),
-                             sizeof(float) * static_cast<std::size_t>(w)));
-        file.setFrameBuffer(fb);
-        file.writePixels(h);
-    } catch (const std::exception& e) {
-        std::fprintf(stderr, "gonio camera: writing %s: %s\n", path.c_str(), e.what());
+    if (auto w = gonio::acquisition::write_frame_exr(path, f); !w) {
+        std::fprintf(stderr, "gonio camera: %s\n", w.error().message.c_str());
         return 1;
     }
     return 0;

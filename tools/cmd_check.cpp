@@ -1,16 +1,20 @@
 // gonio check MODEL_OR_TABLE: property checks with a table of the worst violations.
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "command.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/checks.h"
 #include "gonio/brdf/dataset.h"
 #include "gonio/brdf/table.h"
+#include "option_checks.h"
 
 namespace {
 
@@ -19,7 +23,26 @@ struct CheckCliOptions {
     gonio::brdf::CheckOptions checks;
     std::string noise_from;
     gonio::brdf::DatasetCheckOptions dataset;
+    /// Options given on the command line, by name: each mode refuses those it cannot honour.
+    std::vector<std::pair<std::string, const CLI::Option*>> given;
 };
+
+/// Exit 2 naming the first option in `names` that was given: `mode` cannot honour it.
+bool refuse_given(const CheckCliOptions& opts,
+                  const std::vector<std::string>& names,
+                  const std::string& mode) {
+    for (const auto& [name, option] : opts.given) {
+        if (option->count() > 0 && std::find(names.begin(), names.end(), name) != names.end()) {
+            std::fprintf(stderr,
+                         "gonio check: %s does not apply to %s (%s)\n",
+                         name.c_str(),
+                         mode.c_str(),
+                         opts.brdf_path.c_str());
+            return true;
+        }
+    }
+    return false;
+}
 
 bool ends_with_csv(const std::string& p) {
     return p.size() >= 4 && p.compare(p.size() - 4, 4, ".csv") == 0;
@@ -27,6 +50,19 @@ bool ends_with_csv(const std::string& p) {
 
 /// A measured dataset: checks of the samples against each other within their sigma.
 int run_dataset_check(const CheckCliOptions& opts) {
+    // A dataset is checked against itself, pair by pair, with a threshold from its sigma and the
+    // number of pairs: no random pairs, tolerances or stated noise enter.
+    if (refuse_given(opts,
+                     {"--seed",
+                      "--pairs",
+                      "--reciprocity-tol",
+                      "--isotropy-tol",
+                      "--energy-tol",
+                      "--noise",
+                      "--noise-from"},
+                     "a measured dataset, whose own sigma sets the thresholds")) {
+        return 2;
+    }
     auto data = gonio::brdf::read_dataset_csv(opts.brdf_path);
     if (!data) {
         std::fprintf(stderr, "gonio check: %s\n", data.error().message.c_str());
@@ -51,6 +87,9 @@ int run_dataset_check(const CheckCliOptions& opts) {
 int run_check(CheckCliOptions opts) {
     if (ends_with_csv(opts.brdf_path)) {
         return run_dataset_check(opts);
+    }
+    if (refuse_given(opts, {"--match-tol"}, "a model or table; it pairs dataset samples")) {
+        return 2;
     }
     auto brdf = gonio::brdf::load_brdf(opts.brdf_path);
     if (!brdf) {
@@ -128,22 +167,22 @@ GONIO_COMMAND(check) {
     cmd->add_option("--seed", opts->checks.seed, "Seed of the random direction pairs")
         ->capture_default_str();
     cmd->add_option("--pairs", opts->checks.random_pairs, "Random direction pairs per check")
-        ->check(CLI::PositiveNumber)
+        ->check(gonio::tools::integer_at_least(1))
         ->capture_default_str();
     cmd->add_option("--reciprocity-tol",
                     opts->checks.reciprocity_tolerance,
                     "Largest accepted relative difference f(wi,wo) vs f(wo,wi)")
-        ->check(CLI::NonNegativeNumber)
+        ->check(gonio::tools::finite_at_least(0))
         ->capture_default_str();
     cmd->add_option("--isotropy-tol",
                     opts->checks.isotropy_tolerance,
                     "Largest accepted relative difference under a rotation about the normal")
-        ->check(CLI::NonNegativeNumber)
+        ->check(gonio::tools::finite_at_least(0))
         ->capture_default_str();
     cmd->add_option("--energy-tol",
                     opts->checks.energy_tolerance,
                     "Largest accepted directional albedo above 1 (quadrature error allowance)")
-        ->check(CLI::NonNegativeNumber)
+        ->check(gonio::tools::finite_at_least(0))
         ->capture_default_str();
     cmd->add_option("--noise",
                     opts->checks.noise_relative,
@@ -159,10 +198,21 @@ GONIO_COMMAND(check) {
                     "Datasets: angle within which two samples form a pair, deg")
         ->check(CLI::PositiveNumber)
         ->capture_default_str();
+    for (const char* name : {"--seed",
+                             "--pairs",
+                             "--reciprocity-tol",
+                             "--isotropy-tol",
+                             "--energy-tol",
+                             "--noise",
+                             "--noise-from",
+                             "--match-tol"}) {
+        opts->given.emplace_back(name, cmd->get_option(name));
+    }
     cmd->footer(
         "A dataset (*.csv) is checked against itself: reciprocal and rotated pairs of samples "
         "must agree within their sigma (threshold from the number of pairs, no random choice). "
-        "A table is held to its own resolution and stated noise. "
+        "A table is held to its own resolution and stated noise. An option that does not apply "
+        "to the input's kind is refused (exit 2). "
         "Exit status: 0 all checks passed, 1 a violation beyond tolerance, an unreadable BRDF or a "
         "table without valid bins, 2 usage error.");
     return [opts]() -> int { return run_check(*opts); };

@@ -9,11 +9,13 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "command.h"
+#include "gonio/base/atomic_file.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/model_eval_packets.h"
@@ -113,8 +115,10 @@ class Block {
 
     bool full() const { return line_.size() >= kRows; }
 
+    /// Evaluates the rows held and hands their text to `emit` in one piece.
+    template <typename Emit>
     void flush(const gonio::brdf::Brdf& brdf,
-               FILE* out,
+               Emit&& emit,
                const std::string& in_name,
                std::size_t& good,
                std::size_t& bad) {
@@ -144,6 +148,7 @@ class Block {
                 }
             }
         }
+        text_.clear();
         for (std::size_t k = 0; k < n; ++k) {
             const double f[3] = {value_[0][k], value_[1][k], value_[2][k]};
             if (!std::isfinite(f[0]) || !std::isfinite(f[1]) || !std::isfinite(f[2])) {
@@ -161,8 +166,11 @@ class Block {
                 p = std::to_chars(p, buf + sizeof buf, f[c], std::chars_format::general, 17).ptr;
                 *p++ = c < 2 ? ',' : '\n';
             }
-            std::fwrite(buf, 1, static_cast<std::size_t>(p - buf), out);
+            text_.append(buf, static_cast<std::size_t>(p - buf));
             ++good;
+        }
+        if (!text_.empty()) {
+            emit(text_);
         }
         for (std::vector<double>& v : dir_) {
             v.clear();
@@ -174,6 +182,7 @@ class Block {
     std::vector<double> dir_[6];
     std::vector<double> value_[3];
     std::vector<std::size_t> line_;
+    std::string text_;
 };
 
 int run_eval(const EvalOptions& opts) {
@@ -193,14 +202,24 @@ int run_eval(const EvalOptions& opts) {
         }
         in = &file_in;
     }
-    FILE* out = stdout;
+    // A file output goes through AtomicFile: never through a planted link, nothing left behind
+    // when the command fails before the end.
+    std::optional<gonio::AtomicFile> file_out;
     if (opts.output != "-") {
-        out = std::fopen(opts.output.c_str(), "w");
-        if (out == nullptr) {
-            std::fprintf(stderr, "gonio eval: %s: cannot open for writing\n", opts.output.c_str());
+        auto f = gonio::AtomicFile::create(opts.output);
+        if (!f) {
+            std::fprintf(stderr, "gonio eval: %s\n", f.error().message.c_str());
             return 1;
         }
+        file_out.emplace(std::move(*f));
     }
+    auto emit = [&](const std::string& text) {
+        if (file_out) {
+            (void)file_out->write(text);  // the first failure is returned by commit()
+        } else {
+            std::fwrite(text.data(), 1, text.size(), stdout);
+        }
+    };
     std::string line;
     std::size_t line_no = 0;
     std::vector<std::string> header;
@@ -221,12 +240,9 @@ int run_eval(const EvalOptions& opts) {
             if (!find_columns(header, index, error)) {
                 std::fprintf(
                     stderr, "gonio eval: %s:%zu: %s\n", in_name.c_str(), line_no, error.c_str());
-                if (out != stdout) {
-                    std::fclose(out);
-                }
                 return 1;
             }
-            std::fprintf(out, "r,g,b\n");
+            emit("r,g,b\n");
             continue;
         }
         double a[4];
@@ -242,19 +258,24 @@ int run_eval(const EvalOptions& opts) {
         }
         block.add(a, line_no);
         if (block.full()) {
-            block.flush(**brdf, out, in_name, good, bad);
+            block.flush(**brdf, emit, in_name, good, bad);
         }
     }
-    block.flush(**brdf, out, in_name, good, bad);
+    block.flush(**brdf, emit, in_name, good, bad);
     if (header.empty()) {
         std::fprintf(stderr,
                      "gonio eval: %s: no header line (required: theta_i,phi_i,theta_o,phi_o)\n",
                      in_name.c_str());
         bad = 1;
     }
-    if (out != stdout && std::fclose(out) != 0) {
-        std::fprintf(stderr, "gonio eval: %s: write error\n", opts.output.c_str());
+    if (header.empty()) {
         return 1;
+    }
+    if (file_out) {
+        if (auto c = file_out->commit(); !c) {
+            std::fprintf(stderr, "gonio eval: %s\n", c.error().message.c_str());
+            return 1;
+        }
     }
     if (bad > 0) {
         std::fprintf(stderr, "gonio eval: %zu row(s) failed, %zu evaluated\n", bad, good);

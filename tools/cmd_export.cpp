@@ -59,6 +59,14 @@ GONIO_COMMAND(export) {
     cmd->add_option("--name", opts->name, "material id / name in the renderer file")
         ->capture_default_str();
     return [opts]() -> int {
+        if (!opts->out.empty() && !opts->out_positional.empty() &&
+            opts->out != opts->out_positional) {
+            std::fprintf(stderr,
+                         "gonio export: two outputs named: out_file %s and --out %s (give one)\n",
+                         opts->out_positional.c_str(),
+                         opts->out.c_str());
+            return 2;
+        }
         const std::string out = !opts->out.empty() ? opts->out : opts->out_positional;
         if (!out.empty() && out != "-") {
             // Refused before any work: a folder, a device, a missing folder.

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -13,11 +14,14 @@
 #include "command.h"
 #include "fit_manifest.h"
 #include "gonio/base/atomic_file.h"
+#include "gonio/base/strings.h"
+#include "gonio/batch/fit_request.h"
 #include "gonio/brdf/model_json.h"
 #include "gonio/brdf/samples_io.h"
 #include "gonio/fitting/fit.h"
 #include "gonio/fitting/report.h"
 #include "gonio/fitting/spec.h"
+#include "option_checks.h"
 
 namespace {
 
@@ -25,11 +29,11 @@ namespace fitting = gonio::fitting;
 
 struct FitCliOptions {
     std::string data;
-    std::string model = "ggx";
+    std::string model = gonio::batch::default_distribution();
     std::string template_path;
     bool no_diffuse = false;
-    std::string fresnel = "schlick";
-    std::string shadowing = "smith-correlated";
+    std::string fresnel = gonio::batch::default_fresnel();
+    std::string shadowing = gonio::batch::default_shadowing();
     bool anisotropic = false;
     int lobes = 1;
     std::string residual = "log";
@@ -60,55 +64,72 @@ std::vector<std::string> split(const std::string& s) {
     return out;
 }
 
-/// The spec from the command line (or the template) and the options; prints the error.
-gonio::Expected<fitting::FitSpec> build_spec(const FitCliOptions& o, const std::string& model) {
-    gonio::Expected<fitting::FitSpec> spec = gonio::make_error("");
-    if (!o.template_path.empty()) {
-        spec = fitting::load_fit_template(o.template_path);
-    } else {
-        fitting::ModelOptions mo;
-        auto dist = fitting::parse_distribution(model);
-        auto fres = fitting::parse_fresnel(o.fresnel);
-        auto shad = fitting::parse_shadowing(o.shadowing);
-        for (const gonio::Error* e : {dist ? nullptr : &dist.error(),
-                                      fres ? nullptr : &fres.error(),
-                                      shad ? nullptr : &shad.error()}) {
-            if (e != nullptr) {
-                return gonio::make_error(e->message);
-            }
+/// The request options the command line gave (only those: the rest keep the request's defaults),
+/// as (request key, value text, option as typed).
+struct GivenOption {
+    const char* key;
+    std::string value;
+    const char* flag;
+};
+
+std::vector<GivenOption> given_options(const FitCliOptions& o, const CLI::App& cmd) {
+    std::vector<GivenOption> out;
+    auto add = [&](const char* flag, const char* key, std::string value) {
+        if (cmd.count(flag) > 0) {
+            out.push_back({key, std::move(value), flag});
         }
-        mo.distribution = *dist;
-        mo.fresnel = fres->first;
-        mo.fresnel_rgb = fres->second;
-        mo.shadowing = *shad;
-        mo.diffuse = !o.no_diffuse;
-        mo.anisotropic = o.anisotropic;
-        mo.lobes = o.lobes;
-        spec = fitting::make_fit_spec(mo);
-    }
-    if (!spec) {
-        return spec;
-    }
-    auto residual = fitting::parse_residual(o.residual);
-    if (!residual) {
-        return gonio::make_error(residual.error().message);
-    }
-    auto loss = fitting::parse_loss(o.loss);
-    if (!loss) {
-        return gonio::make_error(loss.error().message);
-    }
-    spec->options.residual = *residual;
-    spec->options.loss = *loss;
-    spec->options.loss_scale = o.loss_scale;
-    spec->options.max_samples = o.max_samples;
-    spec->options.starts = o.starts;
-    spec->options.seed = o.seed;
-    spec->options.max_iterations = o.max_iterations;
-    spec->options.num_threads = o.threads;
-    return spec;
+    };
+    add("--no-diffuse", "diffuse", o.no_diffuse ? "false" : "true");
+    add("--fresnel", "fresnel", o.fresnel);
+    add("--shadowing", "shadowing", o.shadowing);
+    add("--anisotropic", "anisotropic", o.anisotropic ? "true" : "false");
+    add("--lobes", "lobes", std::to_string(o.lobes));
+    add("--residual", "residual", o.residual);
+    add("--loss", "loss", o.loss);
+    std::ostringstream scale;
+    scale.precision(17);
+    scale << o.loss_scale;
+    add("--loss-scale", "loss_scale", scale.str());
+    add("--max-samples", "max_samples", std::to_string(o.max_samples));
+    add("--starts", "starts", std::to_string(o.starts));
+    add("--seed", "seed", std::to_string(o.seed));
+    add("--max-iterations", "max_iterations", std::to_string(o.max_iterations));
+    add("--threads", "threads", std::to_string(o.threads));
+    return out;
 }
 
-int run_compare(const FitCliOptions& o, const gonio::brdf::Dataset& data) {
+/// The option as typed for a request key (for messages).
+std::string flag_for(const std::vector<GivenOption>& given, const std::string& key) {
+    for (const GivenOption& g : given) {
+        if (key == g.key) {
+            return g.flag;
+        }
+    }
+    std::string flag = "--" + key;
+    std::replace(flag.begin(), flag.end(), '_', '-');
+    return flag;
+}
+
+/// Applies the given options to a request; a bad value or a conflict is a usage error whose
+/// message names the options as typed. `model_flag` names the option that set the model.
+gonio::Expected<void> apply(gonio::batch::FitRequest& request,
+                            const std::vector<GivenOption>& given,
+                            const std::string& model_flag) {
+    for (const GivenOption& g : given) {
+        if (auto s = gonio::batch::set_option(request, g.key, g.value); !s) {
+            return gonio::make_error(std::string(g.flag) + ": " + s.error().message);
+        }
+    }
+    if (auto c = gonio::batch::find_conflict(request)) {
+        return gonio::make_error(flag_for(given, c->option) + " cannot be combined with " +
+                                 model_flag + ": " + c->rule);
+    }
+    return {};
+}
+
+int run_compare(const std::vector<gonio::batch::FitRequest>& requests,
+                const gonio::brdf::Dataset& data,
+                bool strict) {
     struct Row {
         std::string model;
         fitting::FitResult result;
@@ -116,17 +137,14 @@ int run_compare(const FitCliOptions& o, const gonio::brdf::Dataset& data) {
     std::vector<Row> rows;
     std::vector<std::string> failed;
     std::vector<std::string> misfits;
-    for (const std::string& name : split(o.compare)) {
-        auto spec = build_spec(o, name);
-        if (!spec) {
-            std::fprintf(stderr, "gonio fit: %s\n", spec.error().message.c_str());
-            return 2;
-        }
-        auto r = fitting::fit(data, *spec);
-        if (!r) {
-            std::fprintf(stderr, "gonio fit: %s: %s\n", name.c_str(), r.error().message.c_str());
+    for (const gonio::batch::FitRequest& request : requests) {
+        const std::string& name = request.model;
+        auto run = gonio::batch::run_fit(data, request);
+        if (!run) {
+            std::fprintf(stderr, "gonio fit: %s: %s\n", name.c_str(), run.error().message.c_str());
             return 1;
         }
+        const fitting::FitResult* r = &run->result;
         if (!r->solver.converged) {
             failed.push_back(name + ": " + r->solver.termination + " (" + r->solver.message + ")");
             continue;
@@ -169,10 +187,10 @@ int run_compare(const FitCliOptions& o, const gonio::brdf::Dataset& data) {
     for (const std::string& m : misfits) {
         std::fprintf(stderr,
                      "gonio fit: %s: %s does not represent these data\n",
-                     o.strict ? "error" : "warning",
+                     strict ? "error" : "warning",
                      m.c_str());
     }
-    return failed.empty() && (misfits.empty() || !o.strict) ? 0 : 1;
+    return failed.empty() && (misfits.empty() || !strict) ? 0 : 1;
 }
 
 }  // namespace
@@ -233,15 +251,102 @@ GONIO_COMMAND(fit) {
                     "with --manifest: only entries i with i mod N == K (--threads, if given, "
                     "applies to every entry)")
         ->needs("--manifest");
+    cmd->get_option("--loss-scale")->check(gonio::tools::finite_above(0));
     return [o, cmd]() -> int {
+        namespace batch = gonio::batch;
+        using gonio::tools::usage_error;
+        const std::vector<GivenOption> given = given_options(*o, *cmd);
+        const bool model_given = cmd->count("--model") > 0;
+        const bool template_given = cmd->count("--template") > 0;
         if (!o->manifest.empty()) {
-            const int threads = cmd->count("--threads") > 0 ? o->threads : -1;
+            // Each entry names its input and model; the other options apply to every entry.
+            for (const char* flag : {"--model", "--template", "--compare", "--truth"}) {
+                if (cmd->count(flag) > 0) {
+                    return usage_error("fit",
+                                       std::string(flag) +
+                                           " cannot be combined with --manifest (each entry names "
+                                           "its input and model; the other options apply to "
+                                           "every entry)");
+                }
+            }
+            std::vector<std::pair<std::string, std::string>> overrides;
+            for (const GivenOption& g : given) {
+                overrides.emplace_back(g.key, g.value);
+            }
             return gonio::tools::run_fit_manifest(
-                o->manifest, o->shard, o->out, threads, o->strict);
+                o->manifest, o->shard, o->out, overrides, o->strict);
         }
         if (o->data.empty()) {
-            std::fprintf(stderr, "gonio fit: give DATA (or --manifest M --out DIR)\n");
-            return 2;
+            return usage_error("fit", "give DATA (or --manifest M --out DIR)");
+        }
+        std::vector<batch::FitRequest> requests;
+        if (!o->compare.empty()) {
+            for (const char* flag : {"--model", "--template", "--out", "--truth"}) {
+                if (cmd->count(flag) > 0) {
+                    return usage_error("fit",
+                                       std::string(flag) +
+                                           " cannot be combined with --compare (it fits and ranks "
+                                           "each listed model or *.json template; nothing is "
+                                           "written)");
+                }
+            }
+            for (const std::string& name : split(o->compare)) {
+                batch::FitRequest request;
+                if (name == batch::kAutoModel) {
+                    return usage_error("fit",
+                                       "--compare " + o->compare +
+                                           ": auto is no model to compare; use --model auto");
+                }
+                if (auto s = batch::set_option(request, "model", name); !s) {
+                    return usage_error("fit", "--compare: " + s.error().message);
+                }
+                if (auto a = apply(request, given, "--compare " + name); !a) {
+                    return usage_error("fit", a.error().message);
+                }
+                requests.push_back(std::move(request));
+            }
+            if (requests.empty()) {
+                return usage_error("fit", "--compare: no model named");
+            }
+        } else {
+            batch::FitRequest request;
+            if (model_given && template_given) {
+                return usage_error("fit", "--model and --template: give one of them");
+            }
+            const std::string model_flag = template_given ? "--template" : "--model " + o->model;
+            if (auto s = batch::set_option(
+                    request, "model", template_given ? o->template_path : o->model);
+                !s) {
+                return usage_error("fit",
+                                   std::string(template_given ? "--template" : "--model") + ": " +
+                                       s.error().message);
+            }
+            if (template_given && !gonio::ends_with(o->template_path, ".json")) {
+                return usage_error(
+                    "fit", "--template " + o->template_path + ": expected a *.json fit template");
+            }
+            if (auto a = apply(request, given, model_flag); !a) {
+                return usage_error("fit", a.error().message);
+            }
+            requests.push_back(std::move(request));
+        }
+        // The request as run (every option, defaults included), so that a log shows what was
+        // asked for.
+        for (const batch::FitRequest& request : requests) {
+            std::printf("request: %s\n", batch::format_options(request).c_str());
+        }
+        std::printf("on a misfit: %s\n",
+                    o->strict ? "exit status 1 (--strict), the model still written"
+                              : "the model written with its verdict, exit status 0");
+        std::fflush(stdout);
+        // Everything named on the command line is read or checked before the fit runs.
+        std::optional<gonio::brdf::ModelD> truth;
+        if (!o->truth.empty()) {
+            auto t = gonio::brdf::load_model_json(o->truth);
+            if (!t) {
+                return usage_error("fit", "--truth: " + t.error().message);
+            }
+            truth = *t;
         }
         if (!o->out.empty()) {
             // Refused before the fit runs: an output that is a folder, a device, a missing folder.
@@ -258,25 +363,19 @@ GONIO_COMMAND(fit) {
             return 1;
         }
         if (!o->compare.empty()) {
-            return run_compare(*o, *data);
+            return run_compare(requests, *data, o->strict);
         }
-        const bool automatic = o->model == "auto" && o->template_path.empty();
-        auto spec = build_spec(*o, automatic ? std::string("ggx") : o->model);
-        if (!spec) {
-            std::fprintf(stderr, "gonio fit: %s\n", spec.error().message.c_str());
-            return 2;
+        const batch::FitRequest& request = requests.front();
+        auto run = batch::run_fit(*data, request);
+        if (!run) {
+            std::fprintf(stderr, "gonio fit: %s\n", run.error().message.c_str());
+            return 1;
         }
-        gonio::Expected<fitting::FitResult> result = gonio::make_error("");
-        if (automatic) {
-            auto chosen = fitting::fit_auto(*data, fitting::auto_candidates(spec->options));
-            if (!chosen) {
-                std::fprintf(stderr, "gonio fit: %s\n", chosen.error().message.c_str());
-                return 1;
-            }
-            std::printf("model auto: %s\n", chosen->criterion.c_str());
+        if (request.is_auto()) {
+            std::printf("model auto: %s\n", run->criterion.c_str());
             std::printf("%-4s %-12s %6s %12s %16s\n", "rank", "model", "params", "log_rmse", "BIC");
-            for (std::size_t i = 0; i < chosen->ranking.size(); ++i) {
-                const fitting::RankedModel& m = chosen->ranking[i];
+            for (std::size_t i = 0; i < run->ranking.size(); ++i) {
+                const fitting::RankedModel& m = run->ranking[i];
                 std::printf("%-4zu %-12s %6d %12.6g %16.8g%s\n",
                             i + 1,
                             m.name.c_str(),
@@ -285,23 +384,10 @@ GONIO_COMMAND(fit) {
                             m.criterion,
                             m.converged ? "" : "  (did not converge)");
             }
-            std::printf("chosen: %s\n", chosen->chosen.c_str());
-            result = chosen->best;
-        } else {
-            result = fitting::fit(*data, *spec);
+            std::printf("chosen: %s\n", run->chosen.c_str());
         }
-        if (!result) {
-            std::fprintf(stderr, "gonio fit: %s\n", result.error().message.c_str());
-            return 1;
-        }
-        if (!o->truth.empty()) {
-            auto truth = gonio::brdf::load_model_json(o->truth);
-            if (!truth) {
-                std::fprintf(stderr, "gonio fit: %s\n", truth.error().message.c_str());
-                return 2;
-            }
-            result->ground_truth = *truth;
-        }
+        fitting::FitResult* result = &run->result;
+        result->ground_truth = truth;
         std::fputs(fitting::format_summary(*result).c_str(), stdout);
         if (!o->out.empty()) {
             auto w = fitting::write_fit_report(o->out, *result);

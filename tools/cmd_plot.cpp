@@ -83,6 +83,9 @@ GONIO_COMMAND(plot) {
         for (const auto& s : set->skipped) {
             std::fprintf(stderr, "gonio plot: skipped %s\n", s.c_str());
         }
+        for (const auto& w : set->warnings) {
+            std::fprintf(stderr, "gonio plot: warning: %s\n", w.c_str());
+        }
         for (const auto& w : set->written) {
             std::printf("%s\n", w.path.c_str());
         }

@@ -2,6 +2,7 @@
 
 #include "fit_manifest.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <vector>
@@ -13,7 +14,7 @@ namespace gonio::tools {
 int run_fit_manifest(const std::string& manifest,
                      const std::string& shard_text,
                      const std::string& out_dir,
-                     int threads,
+                     const std::vector<std::pair<std::string, std::string>>& overrides,
                      bool strict) {
     if (out_dir.empty()) {
         std::fprintf(stderr, "gonio fit: --manifest needs --out DIR (the results folder)\n");
@@ -33,6 +34,29 @@ int run_fit_manifest(const std::string& manifest,
         std::fprintf(stderr, "gonio fit: %s\n", entries.error().message.c_str());
         return 2;
     }
+    // The command line's options replace the entries' own: checked for every entry (not only
+    // this shard's) so that all shards of a job array refuse the same manifest.
+    for (batch::ManifestEntry& e : *entries) {
+        for (const auto& [key, value] : overrides) {
+            if (auto s = batch::set_option(e.request, key, value); !s) {
+                std::fprintf(
+                    stderr, "gonio fit: --%s: %s\n", key.c_str(), s.error().message.c_str());
+                return 2;
+            }
+        }
+        if (auto c = batch::find_conflict(e.request)) {
+            std::string flag = c->option == "diffuse" ? "no-diffuse" : c->option;
+            std::replace(flag.begin(), flag.end(), '_', '-');
+            std::fprintf(stderr,
+                         "gonio fit: --%s cannot be combined with %s line %zu, model %s: %s\n",
+                         flag.c_str(),
+                         manifest.c_str(),
+                         e.line,
+                         e.request.model.c_str(),
+                         c->rule.c_str());
+            return 2;
+        }
+    }
     std::error_code ec;
     std::filesystem::create_directories(out_dir, ec);
     if (ec) {
@@ -40,14 +64,9 @@ int run_fit_manifest(const std::string& manifest,
                      "gonio fit: %s: cannot create the folder: %s\n",
                      out_dir.c_str(),
                      ec.message().c_str());
-        return 2;
+        return 1;
     }
     std::vector<batch::ManifestEntry> mine = batch::select_shard(*entries, shard);
-    if (threads >= 0) {
-        for (batch::ManifestEntry& e : mine) {
-            e.request.threads = threads;
-        }
-    }
     std::printf(
         "shard %zu/%zu: %zu of %zu entries\n", shard.k, shard.n, mine.size(), entries->size());
     std::vector<batch::EntryOutcome> rows;

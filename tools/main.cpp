@@ -19,6 +19,7 @@
 #include "gonio/base/edit_distance.h"
 #include "gonio/base/limits.h"
 #include "gonio/version.h"
+#include "parse_errors.h"
 
 #if defined(GONIO_LAUNCHER)
 #include <unistd.h>
@@ -165,8 +166,7 @@ int main(int argc, char** argv) {
     } catch (const CLI::CallForVersion& e) {
         return app.exit(e) == 0 ? 0 : kExitUsage;
     } catch (const CLI::ParseError& e) {
-        app.exit(e);
-        return kExitUsage;
+        return gonio::tools::report_parse_error(app, e);
     }
     if (!max_memory.empty()) {
         gonio::Expected<std::size_t> bytes = gonio::parse_byte_size(max_memory);

@@ -7,18 +7,21 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <functional>
+#include <limits>
 #include <string>
 
 #include "gonio/base/limits.h"
 
 namespace gonio::tools {
 
-/// A finite number in [lo, hi] (NaN and infinities refused; CLI::Range lets NaN through).
-inline CLI::Validator finite_in(double lo, double hi, const std::string& unit = "") {
-    const std::string range =
-        "[" + show_number(lo) + ", " + show_number(hi) + "]" + (unit.empty() ? "" : " " + unit);
+namespace detail {
+
+/// A finite number whose rule `ok` states; `rule` says it as people write it ("> 0",
+/// "in [0.001, 1]").
+inline CLI::Validator finite_where(std::function<bool(double)> ok, const std::string& rule) {
     return CLI::Validator(
-        [lo, hi, range](std::string& text) -> std::string {
+        [ok, rule](std::string& text) -> std::string {
             char* end = nullptr;
             errno = 0;
             const double v = std::strtod(text.c_str(), &end);
@@ -26,14 +29,52 @@ inline CLI::Validator finite_in(double lo, double hi, const std::string& unit = 
                 return "\"" + text.substr(0, 64) + "\" is not a number";
             }
             if (!std::isfinite(v) || errno == ERANGE) {
-                return text.substr(0, 64) + " is not a finite number; allowed: " + range;
+                return text.substr(0, 64) + " is not a finite number; it must be " + rule;
             }
-            if (v < lo || v > hi) {
-                return show_number(v) + " is outside " + range;
+            if (!ok(v)) {
+                return show_number(v) + ": must be " + rule;
             }
             return {};
         },
-        "in " + range);
+        rule);
+}
+
+}  // namespace detail
+
+/// A finite number in [lo, hi] (NaN and infinities refused; CLI::Range lets NaN through).
+inline CLI::Validator finite_in(double lo, double hi, const std::string& unit = "") {
+    return detail::finite_where(
+        [lo, hi](double v) { return v >= lo && v <= hi; },
+        "in [" + show_number(lo) + ", " + show_number(hi) + "]" + (unit.empty() ? "" : " " + unit));
+}
+
+/// A finite number > lo.
+inline CLI::Validator finite_above(double lo) {
+    return detail::finite_where([lo](double v) { return v > lo; }, "> " + show_number(lo));
+}
+
+/// A finite number >= lo.
+inline CLI::Validator finite_at_least(double lo) {
+    return detail::finite_where([lo](double v) { return v >= lo; }, ">= " + show_number(lo));
+}
+
+/// A whole number >= lo (no upper bound beyond the type's).
+inline CLI::Validator integer_at_least(long long lo) {
+    const std::string rule = ">= " + std::to_string(lo);
+    return CLI::Validator(
+        [lo, rule](std::string& text) -> std::string {
+            char* end = nullptr;
+            errno = 0;
+            const long long v = std::strtoll(text.c_str(), &end, 10);
+            if (end == text.c_str() || *end != '\0') {
+                return "\"" + text.substr(0, 64) + "\" is not a whole number";
+            }
+            if (errno == ERANGE || v < lo || v > std::numeric_limits<int>::max()) {
+                return text.substr(0, 64) + ": must be a whole number " + rule;
+            }
+            return {};
+        },
+        rule);
 }
 
 /// A whole number in [lo, hi].

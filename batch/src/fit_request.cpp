@@ -78,6 +78,40 @@ std::string default_shadowing() {
     return brdf::to_string(fitting::ModelOptions{}.shadowing);
 }
 
+bool FitRequest::is_template() const {
+    return !template_json.empty() || ends_with(model, ".json");
+}
+
+bool FitRequest::was_given(const std::string& key) const {
+    for (const std::string& k : given) {
+        if (k == key) {
+            return true;
+        }
+    }
+    return false;
+}
+
+std::optional<OptionConflict> find_conflict(const FitRequest& r) {
+    if (!r.is_auto() && !r.is_template()) {
+        return std::nullopt;
+    }
+    for (const char* key : {"fresnel", "shadowing", "diffuse", "anisotropic", "lobes"}) {
+        if (r.was_given(key)) {
+            return OptionConflict{key,
+                                  "model",
+                                  r.is_auto() ? "model auto chooses the structure itself"
+                                              : "a fit template states the structure itself"};
+        }
+    }
+    return std::nullopt;
+}
+
+namespace {
+
+Expected<void> set_option_value(FitRequest& r, const std::string& key, const std::string& v);
+
+}  // namespace
+
 Expected<void> set_option(FitRequest& r, const std::string& key_in, const std::string& value_in) {
     std::string key = trim(key_in);
     for (char& c : key) {
@@ -85,11 +119,28 @@ Expected<void> set_option(FitRequest& r, const std::string& key_in, const std::s
             c = '_';
         }
     }
-    const std::string v = trim(value_in);
+    auto s = set_option_value(r, key, trim(value_in));
+    if (s && !r.was_given(key)) {
+        r.given.push_back(key);
+    }
+    return s;
+}
+
+namespace {
+
+Expected<void> set_option_value(FitRequest& r, const std::string& key, const std::string& v) {
     constexpr long long kIntMax = std::numeric_limits<int>::max();
     if (key == "model") {
         if (v.empty()) {
             return make_error("option model is empty");
+        }
+        if (v != kAutoModel && !ends_with(v, ".json")) {
+            auto d = fitting::parse_distribution(v);
+            if (!d) {
+                return make_error("option model: " + d.error().message +
+                                  ", auto or a *.json fit "
+                                  "template");
+            }
         }
         r.model = v;
     } else if (key == "fresnel") {
@@ -179,6 +230,8 @@ Expected<void> set_option(FitRequest& r, const std::string& key_in, const std::s
     return {};
 }
 
+}  // namespace
+
 Expected<void> set_options(FitRequest& r, const std::string& options) {
     std::stringstream ss(options);
     std::string item;
@@ -201,7 +254,17 @@ Expected<void> set_options(FitRequest& r, const std::string& options) {
 
 std::string format_options(const FitRequest& r) {
     std::ostringstream o;
-    o.precision(17);
+    // The shortest precision that reads back to the same double (0.1, not 0.10000000000000001).
+    int digits = 15;
+    for (; digits < 17; ++digits) {
+        std::ostringstream t;
+        t.precision(digits);
+        t << r.loss_scale;
+        if (std::strtod(t.str().c_str(), nullptr) == r.loss_scale) {
+            break;
+        }
+    }
+    o.precision(digits);
     o << "model=" << r.model << ";fresnel=" << r.fresnel << ";shadowing=" << r.shadowing
       << ";diffuse=" << (r.diffuse ? "true" : "false")
       << ";anisotropic=" << (r.anisotropic ? "true" : "false") << ";lobes=" << r.lobes
@@ -213,10 +276,12 @@ std::string format_options(const FitRequest& r) {
 
 Expected<fitting::FitSpec> make_fit_spec(const FitRequest& r) {
     Expected<fitting::FitSpec> spec = make_error("");
-    if (ends_with(r.model, ".json")) {
+    if (!r.template_json.empty()) {
+        spec = fitting::parse_fit_template(r.template_json, "<template>");
+    } else if (ends_with(r.model, ".json")) {
         spec = fitting::load_fit_template(r.model);
     } else {
-        auto dist = fitting::parse_distribution(r.model);
+        auto dist = fitting::parse_distribution(r.is_auto() ? default_distribution() : r.model);
         if (!dist) {
             return tl::unexpected(dist.error());
         }
@@ -258,6 +323,35 @@ Expected<fitting::FitSpec> make_fit_spec(const FitRequest& r) {
     spec->options.max_iterations = r.max_iterations;
     spec->options.num_threads = r.threads;
     return spec;
+}
+
+Expected<FitRun> run_fit(const brdf::Dataset& data, const FitRequest& r) {
+    if (auto c = find_conflict(r)) {
+        return make_error("option " + c->option + " cannot be combined with model " +
+                          (r.is_auto() ? std::string(kAutoModel) : r.model) + ": " + c->rule);
+    }
+    auto spec = make_fit_spec(r);
+    if (!spec) {
+        return tl::unexpected(spec.error());
+    }
+    FitRun run;
+    if (r.is_auto()) {
+        auto chosen = fitting::fit_auto(data, fitting::auto_candidates(spec->options));
+        if (!chosen) {
+            return tl::unexpected(chosen.error());
+        }
+        run.result = std::move(chosen->best);
+        run.ranking = std::move(chosen->ranking);
+        run.chosen = std::move(chosen->chosen);
+        run.criterion = std::move(chosen->criterion);
+        return run;
+    }
+    auto result = fitting::fit(data, *spec);
+    if (!result) {
+        return tl::unexpected(result.error());
+    }
+    run.result = std::move(*result);
+    return run;
 }
 
 }  // namespace gonio::batch

@@ -151,11 +151,17 @@ Expected<std::vector<ManifestEntry>> read_manifest(const std::string& path) {
             const std::string& m = fields[col_model];
             e.request.model = ends_with(m, ".json") ? resolve(base, m) : m;
         }
-        if (!ends_with(e.request.model, ".json")) {
+        if (!ends_with(e.request.model, ".json") && e.request.model != kAutoModel) {
             auto d = fitting::parse_distribution(e.request.model);
             if (!d) {
-                return make_error(at + ": model: " + d.error().message);
+                return make_error(at + ": model: " + d.error().message +
+                                  ", auto or a *.json fit "
+                                  "template");
             }
+        }
+        if (auto c = find_conflict(e.request)) {
+            return make_error(at + ": option " + c->option + " cannot be combined with model " +
+                              e.request.model + ": " + c->rule);
         }
         e.id = col_id >= 0 && !fields[col_id].empty() ? fields[col_id]
                                                       : fs::path(e.input).stem().string();
@@ -271,18 +277,18 @@ EntryOutcome run_entry(const ManifestEntry& entry, const std::string& out_dir) {
         }
         return o;
     };
-    auto spec = make_fit_spec(entry.request);
-    if (!spec) {
+    if (auto spec = make_fit_spec(entry.request); !spec) {
         return fail(spec.error().message);
     }
     auto data = brdf::load_samples(entry.input);
     if (!data) {
         return fail(data.error().message);
     }
-    auto result = fitting::fit(*data, *spec);
-    if (!result) {
-        return fail(result.error().message);
+    auto run = run_fit(*data, entry.request);
+    if (!run) {
+        return fail(run.error().message);
     }
+    fitting::FitResult* result = &run->result;
     fill_metrics(o, *result);
     auto w = fitting::write_fit_report(model_path(out_dir, entry.id), *result);
     if (!result->solver.converged) {

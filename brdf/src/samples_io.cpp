@@ -186,7 +186,11 @@ void parse_chunk(const char* p,
                     out.error =
                         where() + kColNames[c] + " = " + fmt_value(x) + " outside " + r.text;
                     if ((c == kTi || c == kTo) && x >= r.hi) {
-                        out.error += " (at or below the horizon)";
+                        // A polar angle in (pi/2, 90] is most likely written in degrees.
+                        out.error += x > r.hi && x <= 90
+                                         ? " (at or below the horizon; it looks like degrees: "
+                                           "angles are radians, 90 deg = 1.5708)"
+                                         : " (at or below the horizon)";
                     }
                     return;
                 }

@@ -52,10 +52,13 @@ def fit(
 
     samples: a path (dataset CSV, or a table *.binary/*.merl/*.gtab), a samples dict or a
         table dict from ``gonio.load()``.
-    model: "ggx", "beckmann", "blinn-phong" or "student-t" (structure set by the options
-        fresnel, shadowing, diffuse, anisotropic, lobes), a fit-template path (*.json) or a
-        fit-template dict ``{"model": {...}, "free": [...], "fixed": [...], "shared": [...],
-        "bounds": {...}}`` (docs/fitting-guide.md).
+    model: "ggx", "beckmann", "blinn-phong" or "student-t" (structure further set by the options
+        fresnel, shadowing, diffuse, anisotropic, lobes), "auto" (candidates ranked by BIC,
+        the winner polished, as ``gonio fit --model auto``; the ranking is in
+        ``report["auto"]``), a fit-template path (*.json) or a fit-template dict
+        ``{"model": {...}, "free": [...], "fixed": [...], "shared": [...], "bounds": {...}}``
+        (docs/fitting-guide.md). With "auto" or a template the structure options are refused
+        (gonio.Error naming both).
     residual: "absolute", "relative", "log", "cosine" or "cbrt" (None: the default of
         ``gonio fit``, "log").
     max_samples: stratified reduction to about this many samples for the solve (0 = all;

@@ -556,9 +556,9 @@ py::tuple fit(const py::object& samples,
               const py::object& max_samples,
               const py::object& truth,
               const py::dict& options) {
-    // Options left at None keep the fitting library's defaults (those of `gonio fit`).
+    // Options left at None keep the fitting library's defaults (those of `gonio fit`); the one
+    // request of every front end (batch::FitRequest), run by batch::run_fit.
     gonio::batch::FitRequest request;
-    gonio::fitting::FitSpec spec;
     if (!residual.is_none()) {
         ok_or_raise(gonio::batch::set_option(request, "residual", option_text(residual)));
     }
@@ -572,21 +572,21 @@ py::tuple fit(const py::object& samples,
     std::string model_name;
     if (as_path(model, model_name)) {
         ok_or_raise(gonio::batch::set_option(request, "model", model_name));
-        spec = value_or_raise(gonio::batch::make_fit_spec(request));
     } else if (py::isinstance<py::dict>(model)) {
         // A fit template given inline: {"model": {...}, "free": [...], ...}.
-        gonio::batch::FitRequest names_only = request;
-        names_only.model = "ggx";
-        const gonio::fitting::FitSpec solver =
-            value_or_raise(gonio::batch::make_fit_spec(names_only));
-        spec =
-            value_or_raise(gonio::fitting::parse_fit_template(to_json_text(model), "<template>"));
-        spec.options = solver.options;
+        request.template_json = to_json_text(model);
     } else {
         throw GonioError(
-            "model: expected a name (ggx, beckmann, blinn-phong), a fit template path "
+            "model: expected a name (ggx, beckmann, blinn-phong, auto), a fit template path "
             "or a fit template dict");
     }
+    if (auto c = gonio::batch::find_conflict(request)) {
+        throw GonioError(
+            c->option + " cannot be combined with model=" +
+            (request.is_auto() ? std::string("\"auto\"") : std::string("<fit template>")) + ": " +
+            c->rule);
+    }
+    value_or_raise(gonio::batch::make_fit_spec(request));
     Dataset data;
     std::string path;
     if (as_path(samples, path)) {
@@ -615,15 +615,32 @@ py::tuple fit(const py::object& samples,
                 value_or_raise(gonio::brdf::parse_model_json(to_json_text(truth), "<truth>"));
         }
     }
-    Expected<gonio::fitting::FitResult> result = gonio::make_error("");
+    Expected<gonio::batch::FitRun> run = gonio::make_error("");
     {
         // Ceres runs without the GIL: other Python threads go on during the solve.
         py::gil_scoped_release release;
-        result = gonio::fitting::fit(data, spec);
+        run = gonio::batch::run_fit(data, request);
     }
-    gonio::fitting::FitResult r = value_or_raise(std::move(result));
-    r.ground_truth = ground_truth;
-    py::dict report = from_json_text(gonio::fitting::fit_report_json(r));
+    gonio::batch::FitRun r = value_or_raise(std::move(run));
+    r.result.ground_truth = ground_truth;
+    py::dict report = from_json_text(gonio::fitting::fit_report_json(r.result));
+    if (request.is_auto()) {
+        py::dict automatic;
+        automatic["chosen"] = r.chosen;
+        automatic["criterion"] = r.criterion;
+        py::list ranking;
+        for (const gonio::fitting::RankedModel& m : r.ranking) {
+            py::dict row;
+            row["name"] = m.name;
+            row["parameters"] = m.parameters;
+            row["log_rmse"] = m.log_rmse;
+            row["criterion"] = m.criterion;
+            row["converged"] = m.converged;
+            ranking.append(row);
+        }
+        automatic["ranking"] = ranking;
+        report["auto"] = automatic;
+    }
     return py::make_tuple(report["model"], report);
 }
 

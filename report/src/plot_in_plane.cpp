@@ -327,6 +327,7 @@ Expected<Image> plot_in_plane(const brdf::Dataset& data,
                           cv::saturate_cast<uchar>(col[2]));
         out.slice_colors.push_back({c[2], c[1], c[0]});
         out.theta_i_deg.push_back(sl.theta_i_deg);
+        out.points_drawn += sl.points.size();
     }
     const cv::Size ls = draw::legend_size(entries);
     draw::legend(img, entries, {origin.x - ls.width / 2, origin.y + 72}, true);

@@ -1,5 +1,6 @@
 #include <filesystem>
 
+#include "gonio/base/limits.h"
 #include "gonio/report/plot.h"
 
 namespace gonio::report {
@@ -39,9 +40,10 @@ Expected<PlotSet> write_plots(const brdf::Dataset& data,
         Expected<Image> image;
     };
     std::vector<Job> jobs;
+    PolarLayout in_plane;
     jobs.push_back({"in_plane.png",
                     "In-plane slices: BRDF against theta_o in the plane of incidence",
-                    plot_in_plane(data, fit, options)});
+                    plot_in_plane(data, fit, options, &in_plane)});
     jobs.push_back({"delta_phi.png",
                     "Azimuthal slices: BRDF against delta_phi at fixed theta_i, theta_o",
                     plot_delta_phi(data, fit, options)});
@@ -51,6 +53,14 @@ Expected<PlotSet> write_plots(const brdf::Dataset& data,
                         plot_residual_map(data, *fit, options)});
     }
     PlotSet out;
+    if (jobs.front().image && in_plane.points_drawn == 0) {
+        out.warnings.push_back(
+            "in_plane.png: none of the " + std::to_string(data.samples.size()) +
+            " samples lies in the plane of incidence of a slice drawn (within " +
+            show_number(options.angle_tolerance_deg) +
+            " deg): every slice shows 0 points, only the fit; the samples are scattered (see "
+            "delta_phi.png and residuals.png)");
+    }
     for (Job& j : jobs) {
         if (!j.image) {
             out.skipped.push_back(std::string(j.file) + ": " + j.image.error().message);

@@ -9,6 +9,7 @@
 
 #include <cmath>
 
+#include "embedded_rig.h"
 #include "gonio/acquisition/camera_model.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/sim/sphere_imaging.h"
@@ -18,20 +19,21 @@ namespace {
 
 using brdf::kPi;
 
+/// The conversion `gonio acquire --mode image` uses (distortion included).
 sim::SphereCamera as_sim(const acquisition::CameraModel& c) {
-    sim::SphereCamera s;
-    s.projection = c.projection == acquisition::Projection::kPerspective
-                       ? sim::SphereProjection::kPerspective
-                       : sim::SphereProjection::kOrthographic;
-    s.width = c.intrinsics.width;
-    s.height = c.intrinsics.height;
-    s.fx = c.intrinsics.fx;
-    s.fy = c.intrinsics.fy;
-    s.cx = c.intrinsics.cx;
-    s.cy = c.intrinsics.cy;
-    s.rotation = c.rotation;
-    s.translation = c.translation;
-    return s;
+    return tools::to_sphere_camera(c);
+}
+
+TEST(ImageSimCamera, ConversionKeepsTheDistortion) {
+    acquisition::CameraModel c = acquisition::default_image_camera(64, true, 0.02);
+    c.intrinsics.distortion = {0.1, -0.02, 0.001, 0.002, 0.003};
+    const sim::SphereCamera s = as_sim(c);
+    for (std::size_t i = 0; i < c.intrinsics.distortion.size(); ++i) {
+        EXPECT_EQ(s.distortion[i], c.intrinsics.distortion[i]) << "coefficient " << i;
+    }
+    EXPECT_EQ(s.fx, c.intrinsics.fx);
+    EXPECT_EQ(s.cy, c.intrinsics.cy);
+    EXPECT_EQ(s.projection, sim::SphereProjection::kPerspective);
 }
 
 TEST(ImageSimCamera, PoseOnTheDetectorArmMatchesTheAcquisitionModel) {

@@ -111,6 +111,8 @@ TEST(Manifest, ErrorsNameFileLineAndRule) {
          "m.csv:3: id \"x\" already used on line 2"},
         {"input,model,options,id\nx.csv,ggx,,a/b\n", "m.csv:2: id \"a/b\""},
         {"# only a comment\n", "m.csv: no header line"},
+        {"input,model,options\nx.csv,auto,lobes=2\n",
+         "m.csv:2: option lobes cannot be combined with model auto"},
     };
     for (const Case& c : cases) {
         const fs::path m = write(dir / "m.csv", c.text);
@@ -158,3 +160,59 @@ TEST(RunEntry, UnreadableInputIsReportedAndRetriedNotSkipped) {
     EXPECT_EQ(std::count(row.begin(), row.end(), ','), 8);
     EXPECT_EQ(row.find('\n'), std::string::npos);
 }
+
+namespace gonio::batch {
+namespace {
+
+TEST(FitRequestContract, AutoAndTemplatesRefuseEveryStructureOptionGivenByName) {
+    for (const char* key : {"fresnel", "shadowing", "diffuse", "anisotropic", "lobes"}) {
+        const std::string value = std::string(key) == "fresnel"     ? "none"
+                                  : std::string(key) == "shadowing" ? "v-groove"
+                                  : std::string(key) == "lobes"     ? "2"
+                                                                    : "true";
+        FitRequest r;
+        ASSERT_TRUE(set_option(r, "model", "auto"));
+        EXPECT_FALSE(find_conflict(r)) << "nothing given yet";
+        ASSERT_TRUE(set_option(r, key, value));
+        auto c = find_conflict(r);
+        ASSERT_TRUE(c) << key;
+        EXPECT_EQ(c->option, key);
+        EXPECT_EQ(c->with, "model");
+        FitRequest t;
+        ASSERT_TRUE(set_option(t, "model", "tmpl.json"));
+        ASSERT_TRUE(set_option(t, key, value));
+        EXPECT_TRUE(find_conflict(t)) << key;
+        FitRequest g;
+        ASSERT_TRUE(set_option(g, "model", "beckmann"));
+        ASSERT_TRUE(set_option(g, key, value));
+        EXPECT_FALSE(find_conflict(g)) << key << " is honoured by a named distribution";
+    }
+    // Solver options go with auto: the candidates share them.
+    FitRequest a;
+    ASSERT_TRUE(set_option(a, "model", "auto"));
+    ASSERT_TRUE(set_option(a, "residual", "relative"));
+    ASSERT_TRUE(set_option(a, "max_samples", "500"));
+    EXPECT_FALSE(find_conflict(a));
+    auto spec = make_fit_spec(a);
+    ASSERT_TRUE(spec) << spec.error().message;
+    EXPECT_EQ(spec->options.max_samples, 500u);
+    EXPECT_EQ(spec->options.residual, fitting::ResidualForm::kRelative);
+}
+
+TEST(FitRequestContract, ManifestAcceptsAuto) {
+    const fs::path dir = fresh_dir();
+    const fs::path m = write(dir / "m.csv", "input,model,options\nx.csv,auto,residual=relative\n");
+    auto r = read_manifest(m.string());
+    ASSERT_TRUE(r) << r.error().message;
+    EXPECT_TRUE(r->front().request.is_auto());
+}
+
+TEST(FitRequestContract, UnknownModelNamesAutoAmongTheChoices) {
+    FitRequest r;
+    auto s = set_option(r, "model", "ggz");
+    ASSERT_FALSE(s);
+    EXPECT_NE(s.error().message.find("auto"), std::string::npos) << s.error().message;
+}
+
+}  // namespace
+}  // namespace gonio::batch

@@ -89,3 +89,18 @@ def test_gil_measure_detects_a_call_that_holds_it():
     values = np.random.default_rng(0).random(3_000_000).tolist()
     _, tenths = tenths_with_progress(lambda: sorted(values))
     assert len(tenths) <= 3, sorted(tenths)
+
+
+def test_fit_auto_ranks_candidates_and_refuses_structure_options():
+    data = synthetic_samples(TRUTH, n_theta=8, n_phi=9)
+    model, report = gonio.fit(data, model="auto", threads=1, max_samples=400)
+    assert report["auto"]["chosen"] in [r["name"] for r in report["auto"]["ranking"]]
+    assert len(report["auto"]["ranking"]) >= 3
+    assert "BIC" in report["auto"]["criterion"]
+    for key, value in [("lobes", 2), ("fresnel", "none"), ("diffuse", False)]:
+        try:
+            gonio.fit(data, model="auto", **{key: value})
+        except gonio.Error as e:
+            assert key in str(e) and "auto" in str(e), str(e)
+        else:
+            raise AssertionError(f"{key} with model='auto' was not refused")

@@ -17,7 +17,9 @@
 #include <mutex>
 
 // The command's building blocks are compiled into this test (tools/ is not a library).
-#include "../../tools/acquire_image_mode.cpp"
+#include "embedded_rig.h"
+#include "gonio/acquisition/campaign_request.h"
+#include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/model_json.h"
 #include "gonio/devices/modbus_axis.h"
 #include "gonio/devices/modbus_bus.h"
@@ -33,7 +35,7 @@ brdf::ModelD truth_model() {
 }
 
 struct Live {
-    std::unique_ptr<ImageRig> rig;
+    std::unique_ptr<acquisition::ImageRig> rig;
     std::shared_ptr<devices::ModbusBus> bus;
     std::unique_ptr<devices::ModbusAxis> intruder;  ///< A second client on the light arm.
 };
@@ -43,26 +45,27 @@ Live start(std::uint64_t seed) {
     const std::string model =
         std::string(GONIO_BINARY_DIR) + "/image_pose_truth_" + std::to_string(::getpid()) + ".json";
     std::ofstream(model) << brdf::model_to_json(truth_model());
-    AcquireImageOptions o;
+    acquisition::ImageRigOptions o;
     o.brdf_path = model;
     o.image_size = 96;
     o.supersample = 1;
     o.seed = seed;
     o.time_scale = 500;
-    auto rig = start_image_rig(o);
+    auto rig = acquisition::start_image_rig(o, embedded_rig_starter());
     std::filesystem::remove(model);
     EXPECT_TRUE(rig) << rig.error().message;
     if (!rig) {
         return l;
     }
     l.rig = std::move(*rig);
-    auto bus = devices::ModbusBus::open(*devices::parse_bus_address(l.rig->sim->motor_address()));
+    auto bus =
+        devices::ModbusBus::open(*devices::parse_bus_address(simulator(*l.rig)->motor_address()));
     EXPECT_TRUE(bus) << bus.error().message;
     l.bus = *bus;
     auto profile = devices::load_axis_profile("generic");
     EXPECT_TRUE(profile);
     l.intruder = std::make_unique<devices::ModbusAxis>(l.bus,
-                                                       l.rig->sim->units().light,
+                                                       simulator(*l.rig)->units().light,
                                                        *profile,
                                                        "intruder",
                                                        devices::SoftLimits{-178, 178},
@@ -71,7 +74,7 @@ Live start(std::uint64_t seed) {
 }
 
 /// The pose-check notes (not the camera retries).
-std::vector<std::string> pose_notes(const ImageRig& rig) {
+std::vector<std::string> pose_notes(const acquisition::ImageRig& rig) {
     std::vector<std::string> out;
     for (const std::string& n : rig.pose_log.notes) {
         if (n.rfind("pose check", 0) == 0) {
@@ -98,7 +101,7 @@ TEST(ImagePose, ArmMovedDuringExposuresRepeatsThoseCapturesAndTheTableStaysTrue)
     // camera asks the world for the rig state when the software trigger arrives).
     std::mutex mu;
     int intrusions = 0;
-    l.rig->sim->world().set_exposure_hook([&](std::uint64_t n) {
+    simulator(*l.rig)->world().set_exposure_hook([&](std::uint64_t n) {
         if (n == 8 || n == 20 || n == 32) {
             std::lock_guard<std::mutex> lock(mu);
             intrusions += push(*l.intruder, 3) ? 1 : 0;
@@ -106,7 +109,7 @@ TEST(ImagePose, ArmMovedDuringExposuresRepeatsThoseCapturesAndTheTableStaysTrue)
     });
     const acquisition::ImageCampaignConfig cfg =
         acquisition::image_campaign_config(l.rig->rig, l.rig->camera, 6, 0.5, 40);
-    auto res = acquisition::run_image_campaign(image_rig_capture(*l.rig, 0.0), cfg);
+    auto res = acquisition::run_image_campaign(acquisition::image_rig_capture(*l.rig, 0.0), cfg);
     ASSERT_TRUE(res) << res.error().message;
     EXPECT_EQ(intrusions, 3);
     EXPECT_EQ(l.rig->pose_log.repeats, 3u);
@@ -119,7 +122,7 @@ TEST(ImagePose, ArmMovedDuringExposuresRepeatsThoseCapturesAndTheTableStaysTrue)
     }
     // Every frame the camera rendered was captured: the campaign's count plus the 3 repeats (and
     // any capture retried after a lost frame).
-    EXPECT_EQ(l.rig->sim->camera().frames_rendered(),
+    EXPECT_EQ(simulator(*l.rig)->camera().frames_rendered(),
               res->captures + 3 + l.rig->pose_log.capture_retries);
     // No frame taken while the arm moved reached the table.
     const auto truth = brdf::make_analytic_brdf(truth_model());
@@ -131,14 +134,14 @@ TEST(ImagePose, ArmMovedDuringExposuresRepeatsThoseCapturesAndTheTableStaysTrue)
 TEST(ImagePose, ArmThatKeepsMovingFailsTheCampaignNamingIt) {
     Live l = start(12);
     ASSERT_TRUE(l.rig && l.intruder);
-    l.rig->sim->world().set_exposure_hook([&](std::uint64_t n) {
+    simulator(*l.rig)->world().set_exposure_hook([&](std::uint64_t n) {
         if (n >= 10) {
             (void)push(*l.intruder, 2);
         }
     });
     const acquisition::ImageCampaignConfig cfg =
         acquisition::image_campaign_config(l.rig->rig, l.rig->camera, 6, 0.5, 40);
-    auto res = acquisition::run_image_campaign(image_rig_capture(*l.rig, 0.0), cfg);
+    auto res = acquisition::run_image_campaign(acquisition::image_rig_capture(*l.rig, 0.0), cfg);
     ASSERT_FALSE(res);
     const std::string& m = res.error().message;
     EXPECT_NE(m.find("pose check"), std::string::npos) << m;
@@ -151,21 +154,21 @@ TEST(ImagePose, ArmThatKeepsMovingFailsTheCampaignNamingIt) {
 TEST(ImagePose, ArmPushedAwayBetweenCapturesIsMovedBackBeforeTheExposure) {
     Live l = start(13);
     ASSERT_TRUE(l.rig && l.intruder);
-    acquisition::CaptureFn capture = image_rig_capture(*l.rig, 0.0);
+    acquisition::CaptureFn capture = acquisition::image_rig_capture(*l.rig, 0.0);
     acquisition::CaptureRequest r;
     r.light_arm_rad = 40 * kPi / 180;
     r.exposure_us = 2000;
     auto first = capture(r);
     ASSERT_TRUE(first) << first.error().message;
-    const sim::MotorControllerServer& motors = l.rig->sim->motors();
-    const int light = l.rig->sim->units().light;
+    const sim::MotorControllerServer& motors = simulator(*l.rig)->motors();
+    const int light = simulator(*l.rig)->units().light;
     EXPECT_NEAR(motors.position_deg(light), 40, 0.01);
     // Between captures another client moves the arm 5 degrees; the next capture at the same
     // position (no move commanded: the arm should still be there) finds it off target first.
     ASSERT_TRUE(push(*l.intruder, 5));
     EXPECT_NEAR(motors.position_deg(light), 35, 0.01);
     std::atomic<double> at_exposure{0};
-    l.rig->sim->world().set_exposure_hook(
+    simulator(*l.rig)->world().set_exposure_hook(
         [&](std::uint64_t) { at_exposure.store(motors.position_deg(light)); });
     auto second = capture(r);
     ASSERT_TRUE(second) << second.error().message;
@@ -185,41 +188,41 @@ TEST(ImagePose, ArmPushedAwayBetweenCapturesIsMovedBackBeforeTheExposure) {
 TEST(ImagePose, DriveAlarmMidMoveFailsTheCaptureWithTheDrivesError) {
     Live l = start(14);
     ASSERT_TRUE(l.rig);
-    acquisition::CaptureFn capture = image_rig_capture(*l.rig, 0.0);
+    acquisition::CaptureFn capture = acquisition::image_rig_capture(*l.rig, 0.0);
     // The motor controller's fault injection: the light arm's next move stops half way with an
     // overload alarm.
     sim::Fault f;
     f.kind = sim::FaultKind::kAlarmMidMove;
-    f.unit = l.rig->sim->units().light;
+    f.unit = simulator(*l.rig)->units().light;
     f.fraction = 0.5;
-    l.rig->sim->motors().inject(f);
+    simulator(*l.rig)->motors().inject(f);
     acquisition::CaptureRequest r;
     r.light_arm_rad = -60 * kPi / 180;
     r.exposure_us = 2000;
-    const std::uint64_t rendered = l.rig->sim->camera().frames_rendered();
+    const std::uint64_t rendered = simulator(*l.rig)->camera().frames_rendered();
     auto frame = capture(r);
     ASSERT_FALSE(frame);
     EXPECT_NE(frame.error().message.find("alarm"), std::string::npos) << frame.error().message;
     EXPECT_NE(frame.error().message.find("light arm"), std::string::npos) << frame.error().message;
     // Nothing was exposed at the wrong place.
-    EXPECT_EQ(l.rig->sim->camera().frames_rendered(), rendered);
+    EXPECT_EQ(simulator(*l.rig)->camera().frames_rendered(), rendered);
 }
 
 TEST(ImagePose, FrameLostByTheCameraIsCapturedAgain) {
     Live l = start(15);
     ASSERT_TRUE(l.rig);
     l.rig->rig.capture.timeout_ms = 1500;  // the wait for the lost frame
-    acquisition::CaptureFn capture = image_rig_capture(*l.rig, 0.0);
+    acquisition::CaptureFn capture = acquisition::image_rig_capture(*l.rig, 0.0);
     acquisition::CaptureRequest r;
     r.light_arm_rad = 30 * kPi / 180;
     r.exposure_us = 2000;
     ASSERT_TRUE(capture(r));
     const std::size_t retries_before = l.rig->pose_log.capture_retries;
-    const std::uint64_t rendered_before = l.rig->sim->camera().frames_rendered();
+    const std::uint64_t rendered_before = simulator(*l.rig)->camera().frames_rendered();
     // The camera's fault injection: the next frame is exposed but none of its packets is sent.
     sim::GigeFaults f;
     f.drop_frames = 1;
-    l.rig->sim->camera().set_faults(f);
+    simulator(*l.rig)->camera().set_faults(f);
     auto frame = capture(r);
     ASSERT_TRUE(frame) << frame.error().message;
     // One retry for the dropped frame (more only if the loaded machine lost another one: each
@@ -231,13 +234,13 @@ TEST(ImagePose, FrameLostByTheCameraIsCapturedAgain) {
     for (const std::string& n : l.rig->pose_log.notes) {
         EXPECT_NE(n.find("captured again"), std::string::npos) << n;
     }
-    EXPECT_EQ(l.rig->sim->camera().frames_rendered(), rendered_before + 1 + retries);
+    EXPECT_EQ(simulator(*l.rig)->camera().frames_rendered(), rendered_before + 1 + retries);
     // Every frame lost: the error comes back after the retries.
     f.drop_frames = 1000;
-    l.rig->sim->camera().set_faults(f);
+    simulator(*l.rig)->camera().set_faults(f);
     l.rig->rig.retries = 1;
     l.rig->rig.capture.timeout_ms = 300;
-    acquisition::CaptureFn once = image_rig_capture(*l.rig, 0.0);
+    acquisition::CaptureFn once = acquisition::image_rig_capture(*l.rig, 0.0);
     const std::size_t before_lost = l.rig->pose_log.capture_retries;
     auto lost = once(r);
     ASSERT_FALSE(lost);

@@ -15,11 +15,14 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
 // The command's building blocks are compiled into this test (tools/ is not a library).
 #include "../../tools/acquire_image_mode.cpp"
+#include "embedded_rig.h"
+#include "gonio/acquisition/campaign_request.h"
 #include "gonio/acquisition/image_journal.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/merl.h"
@@ -47,13 +50,13 @@ class ImageCampaignTest : public ::testing::Test {
         const std::string model =
             std::string(GONIO_BINARY_DIR) + "/image_truth_" + std::to_string(::getpid()) + ".json";
         std::ofstream(model) << brdf::model_to_json(truth_model());
-        AcquireImageOptions o;
+        acquisition::ImageRigOptions o;
         o.brdf_path = model;
         o.image_size = 200;
         o.supersample = 1;
         o.seed = kSeed;
         o.time_scale = 200;
-        auto rig = start_image_rig(o);
+        auto rig = acquisition::start_image_rig(o, embedded_rig_starter());
         std::filesystem::remove(model);
         if (!rig) {
             error_ = new std::string(rig.error().message);
@@ -62,7 +65,8 @@ class ImageCampaignTest : public ::testing::Test {
         rig_ = rig->release();
         config_ = new acquisition::ImageCampaignConfig(
             acquisition::image_campaign_config(rig_->rig, rig_->camera, 3, 0.5, 60));
-        auto r = acquisition::run_image_campaign(image_rig_capture(*rig_, 0.0), *config_);
+        auto r =
+            acquisition::run_image_campaign(acquisition::image_rig_capture(*rig_, 0.0), *config_);
         for (const std::string& n : rig_->pose_log.notes) {
             std::printf("note: %s\n", n.c_str());
         }
@@ -87,14 +91,14 @@ class ImageCampaignTest : public ::testing::Test {
     }
 
     static std::shared_ptr<const brdf::Brdf>* truth_;
-    static ImageRig* rig_;
+    static acquisition::ImageRig* rig_;
     static acquisition::ImageCampaignConfig* config_;
     static acquisition::ImageCampaignResult* result_;
     static std::string* error_;
 };
 
 std::shared_ptr<const brdf::Brdf>* ImageCampaignTest::truth_ = nullptr;
-ImageRig* ImageCampaignTest::rig_ = nullptr;
+acquisition::ImageRig* ImageCampaignTest::rig_ = nullptr;
 acquisition::ImageCampaignConfig* ImageCampaignTest::config_ = nullptr;
 acquisition::ImageCampaignResult* ImageCampaignTest::result_ = nullptr;
 std::string* ImageCampaignTest::error_ = nullptr;
@@ -103,13 +107,13 @@ TEST_F(ImageCampaignTest, EveryFrameCameThroughTheGigECameraWithArmsOnTarget) {
     // The camera the campaign opened is the virtual rig's GigE Vision device (gige://127.x.y.z),
     // and it rendered every frame the campaign captured.
     EXPECT_EQ(rig_->rig.camera_address.rfind("gige://127.", 0), 0u) << rig_->rig.camera_address;
-    EXPECT_EQ(rig_->sim->camera().frames_rendered(),
+    EXPECT_EQ(simulator(*rig_)->camera().frames_rendered(),
               result_->captures + rig_->pose_log.capture_retries);
     EXPECT_EQ(rig_->pose_log.repeats + rig_->pose_log.corrections, 0u);
     // The arms stand where the campaign left them: detector at 0, light at the last position.
-    const sim::RigUnits& u = rig_->sim->units();
-    EXPECT_NEAR(rig_->sim->motors().position_deg(u.detector), 0.0, 0.01);
-    EXPECT_NEAR(rig_->sim->motors().position_deg(u.light),
+    const sim::RigUnits& u = simulator(*rig_)->units();
+    EXPECT_NEAR(simulator(*rig_)->motors().position_deg(u.detector), 0.0, 0.01);
+    EXPECT_NEAR(simulator(*rig_)->motors().position_deg(u.light),
                 result_->frames.back().light_arm_rad * 180 / kPi,
                 0.01);
 }
@@ -232,7 +236,7 @@ TEST_F(ImageCampaignTest, AgreesWithPointMeasurementsThroughTheSameSensor) {
     // Point mode stand-in: a flat patch of 64 pixels at the bin's mean configuration, exposed
     // through the same sensor model, dark-corrected with the model's expectation and calibrated
     // with the sensor's known responsivity and the beam's irradiance.
-    sim::SensorParams p = rig_->sim->camera().config().sensor;
+    sim::SensorParams p = simulator(*rig_)->camera().config().sensor;
     p.width = 8;
     p.height = 8;
     p.seed = kSeed + 1;
@@ -285,20 +289,20 @@ TEST(ImagePerspective, PerspectiveCameraThroughGigEFindsTheSphereAndTheMaterial)
     const std::string model = std::string(GONIO_BINARY_DIR) + "/image_persp_truth_" +
                               std::to_string(::getpid()) + ".json";
     std::ofstream(model) << brdf::model_to_json(truth_model());
-    AcquireImageOptions o;
+    acquisition::ImageRigOptions o;
     o.brdf_path = model;
     o.image_size = 128;
     o.perspective = true;
     o.supersample = 1;
     o.seed = 77;
     o.time_scale = 500;
-    auto rig = start_image_rig(o);
+    auto rig = acquisition::start_image_rig(o, embedded_rig_starter());
     std::filesystem::remove(model);
     ASSERT_TRUE(rig) << rig.error().message;
     EXPECT_EQ((*rig)->camera.projection, acquisition::Projection::kPerspective);
     const acquisition::ImageCampaignConfig cfg =
         acquisition::image_campaign_config((*rig)->rig, (*rig)->camera, 6, 0.5, 30);
-    auto r = acquisition::run_image_campaign(image_rig_capture(**rig, 0.0), cfg);
+    auto r = acquisition::run_image_campaign(acquisition::image_rig_capture(**rig, 0.0), cfg);
     ASSERT_TRUE(r) << r.error().message;
     // Centre within 1 mm of the origin, radius as given (the fit uses it to fix the distance).
     EXPECT_LT(r->sphere.centre.norm(), 1e-3) << r->sphere.centre.transpose();
@@ -338,21 +342,23 @@ TEST(ImageCommand, RigWithoutSimSectionIsOpenedAtItsAddresses) {
     std::filesystem::create_directories(dir);
     // First without the camera model: an error naming it, nothing started.
     std::ofstream(dir + "/rig-nocam.json") << j.dump(2);
-    AcquireImageOptions o;
+    acquisition::CampaignRequest o;
+    o.mode = acquisition::CampaignMode::kImage;
     o.rig_path = dir + "/rig-nocam.json";
     o.out_dir = dir + "/run";
     o.table_factor = 6;
     o.coverage_target = 0.5;
     o.max_frames = 40;
-    o.quiet = true;
-    auto refused = start_image_rig(o);
+    auto refused = acquisition::run_image_request(o, embedded_rig_starter());
     ASSERT_FALSE(refused);
     EXPECT_NE(refused.error().message.find("camera_model: missing"), std::string::npos)
         << refused.error().message;
     j["camera_model"] = nlohmann::json::parse(acquisition::camera_model_to_json(camera));
     std::ofstream(dir + "/rig.json") << j.dump(2);
     o.rig_path = dir + "/rig.json";
-    ASSERT_EQ(run_acquire_image_mode(o), 0);
+    auto ran = acquisition::run_image_request(o, embedded_rig_starter());
+    ASSERT_TRUE(ran) << ran.error().message;
+    ASSERT_TRUE(ran->result->target_met);
     // Every frame came from the rig served by the test.
     EXPECT_GT((*served)->camera().frames_rendered(), 20u);
     auto data = brdf::read_dataset_csv(dir + "/run/dataset.csv");
@@ -380,7 +386,8 @@ TEST(ImageCommand, WritesDatasetTableAndCoverageMap) {
                              ("gonio_image_command_test_" + std::to_string(::getpid())))
                                 .string();
     std::filesystem::remove_all(dir);
-    AcquireImageOptions o;
+    acquisition::CampaignRequest o;
+    o.mode = acquisition::CampaignMode::kImage;
     o.out_dir = dir;
     o.material = "yellow-plastic";
     o.table_factor = 6;
@@ -388,8 +395,9 @@ TEST(ImageCommand, WritesDatasetTableAndCoverageMap) {
     o.coverage_target = 0.6;
     o.max_frames = 40;
     o.seed = 5;
-    o.quiet = true;
-    ASSERT_EQ(run_acquire_image_mode(o), 0);
+    auto ran = acquisition::run_image_request(o, embedded_rig_starter());
+    ASSERT_TRUE(ran) << ran.error().message;
+    ASSERT_TRUE(ran->result->target_met);
     auto data = brdf::read_dataset_csv(dir + "/dataset.csv");
     ASSERT_TRUE(data) << data.error().message;
     EXPECT_TRUE(data->rejected.empty());
@@ -402,12 +410,16 @@ TEST(ImageCommand, WritesDatasetTableAndCoverageMap) {
     EXPECT_EQ(png.rows, 15 * 4);
     EXPECT_TRUE(std::filesystem::exists(dir + "/dataset.json"));
     // A bad option is an error naming it.
-    AcquireImageOptions bad = o;
+    acquisition::CampaignRequest bad = o;
     bad.table_factor = 7;
-    EXPECT_EQ(run_acquire_image_mode(bad), 1);
+    auto refused = acquisition::run_image_request(bad, embedded_rig_starter());
+    ASSERT_FALSE(refused);
+    EXPECT_NE(refused.error().message.find("table factor 7: must divide 90"), std::string::npos)
+        << refused.error().message;
+    EXPECT_EQ(refused.error().message.find("--table-factor"), std::string::npos);
     bad = o;
     bad.material = "no-such-material";
-    EXPECT_EQ(run_acquire_image_mode(bad), 1);
+    EXPECT_FALSE(acquisition::run_image_request(bad, embedded_rig_starter()));
     std::filesystem::remove_all(dir);
 }
 
@@ -709,7 +721,7 @@ TEST(ImageCommand, InterruptedCampaignResumesThroughTheCommand) {
     out.clear();
     st = run(std::string(GONIO_EXE) + " acquire --grid 30x30x60 --plan-only 2>&1", &out);
     EXPECT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 2) << out;
-    EXPECT_NE(out.find("--grid: image mode only"), std::string::npos) << out;
+    EXPECT_NE(out.find("--grid cannot be combined with --mode point"), std::string::npos) << out;
     std::filesystem::remove_all(dir);
     std::filesystem::remove(model);
 }

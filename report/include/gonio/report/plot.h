@@ -52,6 +52,7 @@ struct PolarLayout {
     /// Colour of the fitted curve and markers of each slice, in slice order.
     std::vector<Color> slice_colors;
     std::vector<double> theta_i_deg;  ///< the slices drawn
+    std::size_t points_drawn = 0;     ///< measured samples drawn in all slices together
     bool log_scale = false;           ///< the radius scale used (after AxisScale::kAuto)
     std::vector<double> ring_values;  ///< BRDF values of the labelled rings, 1/sr, inner first
 };
@@ -126,6 +127,9 @@ struct WrittenPlot {
 struct PlotSet {
     std::vector<WrittenPlot> written;
     std::vector<std::string> skipped;
+    /// Plots written that show less than they seem to (in-plane slices without one measured
+    /// point: the samples are scattered off the plane of incidence, only the fit is drawn).
+    std::vector<std::string> warnings;
 };
 
 /// Writes in_plane.png, delta_phi.png and, with a fit, residuals.png into out_dir (created if

@@ -1,0 +1,679 @@
+// CampaignRequest: which options each mode honours, and the set-up of point and image campaigns.
+
+#include "gonio/acquisition/campaign_request.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <utility>
+#include <vector>
+
+#include "gonio/base/atomic_file.h"
+#include "gonio/base/data_path.h"
+#include "gonio/base/limits.h"
+
+namespace gonio::acquisition {
+
+namespace fs = std::filesystem;
+
+std::string option_key(const std::string& field) {
+    static const std::pair<const char*, const char*> renamed[] = {
+        {"resume_dir", "resume"},
+        {"campaign_file", "campaign"},
+        {"operator_name", "operator"},
+        {"brdf_path", "brdf"},
+        {"rig_path", "rig"},
+        {"out_dir", "out"},
+        {"plan_kind", "plan"},
+    };
+    for (const auto& [from, to] : renamed) {
+        if (field == from) {
+            return to;
+        }
+    }
+    std::string key = field;
+    std::replace(key.begin(), key.end(), '_', '-');
+    return key;
+}
+
+namespace {
+
+/// The fields a request gives, by key, in the order of the struct.
+std::vector<std::string> given_fields(const CampaignRequest& r) {
+    std::vector<std::string> out;
+    auto add = [&](bool given, const char* field) {
+        if (given) {
+            out.emplace_back(field);
+        }
+    };
+    add(!r.campaign_file.empty(), "campaign_file");
+    add(!r.rig_path.empty(), "rig_path");
+    add(!r.out_dir.empty(), "out_dir");
+    add(!r.resume_dir.empty(), "resume_dir");
+    add(!r.campaigns_dir.empty(), "campaigns_dir");
+    add(!r.material.empty(), "material");
+    add(!r.brdf_path.empty(), "brdf_path");
+    add(!r.scene.empty(), "scene");
+    add(!r.sample.empty(), "sample");
+    add(!r.operator_name.empty(), "operator_name");
+    add(!r.plan_kind.empty(), "plan_kind");
+    add(r.n_theta > 0, "n_theta");
+    add(r.n_dphi > 0, "n_dphi");
+    add(r.adaptive >= 0, "adaptive");
+    add(r.time_scale > 0, "time_scale");
+    add(r.accept_drift, "accept_drift");
+    add(r.plan_only, "plan_only");
+    add(r.coverage_target > 0, "coverage_target");
+    add(r.max_frames > 0, "max_frames");
+    add(r.grid.n_theta_h > 0 || r.grid.n_theta_d > 0 || r.grid.n_phi_d > 0, "grid");
+    add(!r.serve.empty(), "serve");
+    return out;
+}
+
+bool among(const std::string& field, std::initializer_list<const char*> fields) {
+    for (const char* f : fields) {
+        if (field == f) {
+            return true;
+        }
+    }
+    return false;
+}
+
+}  // namespace
+
+std::optional<RequestConflict> find_conflict(const CampaignRequest& r) {
+    const std::vector<std::string> given = given_fields(r);
+    const bool image = r.mode == CampaignMode::kImage;
+    for (const std::string& f : given) {
+        if (!image && among(f, {"coverage_target", "max_frames", "grid"})) {
+            return RequestConflict{f, "mode", "an image-mode option (give --mode image)"};
+        }
+        if (image && among(f,
+                           {"campaign_file",
+                            "scene",
+                            "plan_kind",
+                            "n_theta",
+                            "n_dphi",
+                            "adaptive",
+                            "accept_drift"})) {
+            return RequestConflict{f,
+                                   "mode",
+                                   "a point-mode option: image mode plans its light positions "
+                                   "from the coverage of the table and checks no lamp drift"};
+        }
+        if (image && f == "serve") {
+            return RequestConflict{
+                f, "mode", "the live page follows point-mode campaigns; image mode is not served"};
+        }
+    }
+    if (!r.resume_dir.empty()) {
+        for (const std::string& f : given) {
+            if (f != "resume_dir" && f != "accept_drift" && f != "serve") {
+                return RequestConflict{f,
+                                       "resume_dir",
+                                       image ? "an image campaign continues with the settings in "
+                                               "its folder's image_campaign.json"
+                                             : "a resume takes the description, rig and plan "
+                                               "from the campaign folder"};
+            }
+        }
+        return std::nullopt;
+    }
+    if (r.plan_only) {
+        for (const std::string& f : given) {
+            if (among(f,
+                      {"out_dir",
+                       "campaigns_dir",
+                       "material",
+                       "brdf_path",
+                       "time_scale",
+                       "sample",
+                       "operator_name",
+                       "accept_drift",
+                       "serve"})) {
+                return RequestConflict{
+                    f, "plan_only", "only the plan is printed; nothing is measured or written"};
+            }
+        }
+    }
+    if (!r.campaign_file.empty()) {
+        for (const std::string& f : given) {
+            if (among(f, {"material", "brdf_path", "time_scale"})) {
+                return RequestConflict{f,
+                                       "campaign_file",
+                                       "an option of the embedded virtual rig; a campaign "
+                                       "description names its own rig"};
+            }
+        }
+    }
+    if (!r.material.empty() && !r.brdf_path.empty()) {
+        return RequestConflict{"material", "brdf_path", "give one ground truth"};
+    }
+    return std::nullopt;
+}
+
+// ---- point mode ----------------------------------------------------------------------------
+
+namespace {
+
+/// The rig description marks campaigns that ran on the embedded virtual rig, so a resume restarts
+/// it.
+bool is_embedded(const std::string& rig_json) {
+    const nlohmann::json j = nlohmann::json::parse(rig_json, nullptr, false);
+    return !j.is_discarded() && j.is_object() && j.value("embedded_virtual_rig", false);
+}
+
+/// "ground_truth.json" for a model file, "ground_truth.gtab" for a table; empty for a library
+/// material ("material:NAME"), which is no file.
+std::string ground_truth_name(const std::string& brdf) {
+    if (brdf.rfind("material:", 0) == 0) {
+        return {};
+    }
+    return "ground_truth" + fs::path(brdf).extension().string();
+}
+
+/// The campaign description of a new campaign with the request's overrides, its paths resolved.
+/// `embedded` tells whether the embedded virtual rig serves it (no description given).
+Expected<CampaignSpec> new_campaign_spec(const CampaignRequest& r, bool* embedded) {
+    CampaignSpec spec;
+    *embedded = r.campaign_file.empty();
+    if (!r.campaign_file.empty()) {
+        auto s = read_campaign_spec(r.campaign_file);
+        if (!s) {
+            return s;
+        }
+        spec = *s;
+        const fs::path base = fs::path(r.campaign_file).parent_path();
+        if (!spec.rig.empty() && fs::path(spec.rig).is_relative()) {
+            spec.rig = (base / spec.rig).string();
+        }
+        if (!spec.scene.empty() && fs::path(spec.scene).is_relative()) {
+            spec.scene = (base / spec.scene).string();
+        }
+    } else {
+        spec = default_campaign_spec(!r.brdf_path.empty()  ? fs::path(r.brdf_path).stem().string()
+                                     : !r.material.empty() ? r.material
+                                                           : "red-plastic");
+    }
+    if (!r.rig_path.empty()) {
+        spec.rig = r.rig_path;
+    }
+    if (spec.rig.empty()) {
+        auto p = find_data_file("rigs/sim4.json");
+        if (!p) {
+            return tl::unexpected(p.error());
+        }
+        spec.rig = *p;
+    }
+    if (!r.scene.empty()) {
+        spec.scene = r.scene;
+    }
+    if (!r.sample.empty()) {
+        spec.sample = r.sample;
+    }
+    if (!r.operator_name.empty()) {
+        spec.operator_name = r.operator_name;
+    }
+    if (!r.plan_kind.empty()) {
+        spec.plan_kind = r.plan_kind;
+    }
+    if (r.n_theta > 0) {
+        spec.uniform.n_theta = r.n_theta;
+    }
+    if (r.n_dphi > 0) {
+        spec.uniform.n_dphi = r.n_dphi;
+    }
+    if (r.adaptive >= 0) {
+        spec.adaptive = r.adaptive > 0;
+        spec.adaptive_passes = r.adaptive;
+    }
+    return spec;
+}
+
+Expected<void> refuse_conflict(const CampaignRequest& r) {
+    if (auto c = find_conflict(r)) {
+        return make_error(option_key(c->option) + " cannot be combined with " +
+                          option_key(c->with) + ": " + c->rule);
+    }
+    return {};
+}
+
+}  // namespace
+
+Expected<Plan> plan_point_campaign(const CampaignRequest& r) {
+    if (auto c = refuse_conflict(r); !c) {
+        return tl::unexpected(c.error());
+    }
+    bool embedded = false;
+    auto spec = new_campaign_spec(r, &embedded);
+    if (!spec) {
+        return tl::unexpected(spec.error());
+    }
+    auto rig = read_rig_config(spec->rig);
+    if (!rig) {
+        return tl::unexpected(rig.error());
+    }
+    return build_plan(*spec, *rig);
+}
+
+Expected<std::unique_ptr<PointCampaign>> start_point_campaign(const CampaignRequest& r,
+                                                              const EmbeddedRigStarter& start_rig,
+                                                              std::FILE* log) {
+    if (auto c = refuse_conflict(r); !c) {
+        return tl::unexpected(c.error());
+    }
+    auto out = std::make_unique<PointCampaign>();
+    bool embedded = false;
+    EmbeddedRigOptions so;
+    // A new campaign's folder is created only once everything is checked: description, plan,
+    // scene, rig, ground truth and devices reachable. Until then nothing is written.
+    CampaignSpec new_spec;
+    std::string ground_truth_copy;
+    if (!r.resume_dir.empty()) {
+        out->dir = r.resume_dir;
+        out->resumed = true;
+        auto rig = read_rig_config((fs::path(out->dir) / "rig.json").string());
+        if (!rig) {
+            return tl::unexpected(rig.error());
+        }
+        out->rig = *rig;
+        embedded = is_embedded(out->rig.json);
+        if (embedded) {
+            // The virtual rig's ground truth, when a file, is read from the campaign folder only.
+            const nlohmann::json j = nlohmann::json::parse(out->rig.json, nullptr, false);
+            const std::string b = j.is_object() && j.contains("sim") && j["sim"].is_object()
+                                      ? j["sim"].value("brdf", std::string())
+                                      : std::string();
+            if (!b.empty() && b.rfind("material:", 0) != 0) {
+                const fs::path bp(b);
+                bool outside = bp.is_absolute();
+                for (const auto& part : bp) {
+                    outside = outside || part == "..";
+                }
+                if (outside) {
+                    return make_error(out->dir + "/rig.json: sim.brdf = \"" + b +
+                                      "\" lies outside the campaign folder; a resume reads only "
+                                      "the folder (copy the file into it and name it relative "
+                                      "to it)");
+                }
+                so.brdf_path = (fs::path(out->dir) / bp).string();
+            }
+        }
+    } else {
+        auto spec = new_campaign_spec(r, &embedded);
+        if (!spec) {
+            return tl::unexpected(spec.error());
+        }
+        auto rig = read_rig_config(spec->rig);
+        if (!rig) {
+            return tl::unexpected(rig.error());
+        }
+        out->rig = *rig;
+        if (auto plan = build_plan(*spec, out->rig); !plan) {
+            return tl::unexpected(plan.error());
+        }
+        out->dir = !r.out_dir.empty()
+                       ? r.out_dir
+                       : auto_campaign_dir(r.campaigns_dir.empty() ? "campaigns" : r.campaigns_dir,
+                                           spec->sample);
+        if (embedded) {
+            // Record that the virtual rig served this campaign, and its ground truth, so that a
+            // resume restarts the same world.
+            nlohmann::json j = nlohmann::json::parse(out->rig.json, nullptr, false);
+            if (!j.is_object()) {
+                return make_error(spec->rig + ": not a JSON object");
+            }
+            j["embedded_virtual_rig"] = true;
+            if (!r.brdf_path.empty()) {
+                // The ground truth is copied into the folder (ground_truth.<ext>) so that a resume
+                // reads nothing outside it; the simulator starts from the given file.
+                ground_truth_copy = ground_truth_name(r.brdf_path);
+                j["sim"]["brdf"] = ground_truth_copy.empty() ? r.brdf_path : ground_truth_copy;
+                so.brdf_path = r.brdf_path;
+                j["sim"].erase("material");
+            } else if (!r.material.empty()) {
+                j["sim"]["material"] = r.material;
+                j["sim"].erase("brdf");
+            }
+            if (r.time_scale > 0) {
+                j["sim"]["time_scale"] = r.time_scale;
+            }
+            auto rr = parse_rig_config(j.dump(2), spec->rig);
+            if (!rr) {
+                return tl::unexpected(rr.error());
+            }
+            out->rig = *rr;
+        }
+        std::error_code ec;
+        if (fs::exists(fs::path(out->dir) / "journal.log", ec) ||
+            fs::exists(fs::path(out->dir) / "campaign.json", ec)) {
+            return make_error(out->dir + ": already holds a campaign (use --resume " + out->dir +
+                              ")");
+        }
+        if (fs::exists(out->dir, ec) && !fs::is_directory(out->dir, ec)) {
+            return make_error(out->dir + ": exists and is not a folder");
+        }
+        new_spec = *spec;
+    }
+    if (embedded) {
+        if (!start_rig) {
+            return make_error(out->dir +
+                              ": the campaign runs on the embedded virtual rig, which "
+                              "this front end cannot start");
+        }
+        auto s = start_rig(out->rig.json, so);
+        if (!s) {
+            return tl::unexpected(s.error());
+        }
+        out->embedded = std::move(*s);
+        if (log != nullptr) {
+            std::fprintf(log,
+                         "virtual rig: %s; motors %s, camera %s\n",
+                         out->embedded->describe().c_str(),
+                         out->embedded->motor_address().c_str(),
+                         out->embedded->camera_address().c_str());
+        }
+        out->rig = with_addresses(
+            out->rig, out->embedded->motor_address(), out->embedded->camera_address());
+    }
+    if (log != nullptr) {
+        std::fprintf(log, "campaign folder: %s\n", out->dir.c_str());
+        std::fflush(log);
+    }
+    auto dev = open_rig(out->rig);
+    if (!dev) {
+        return tl::unexpected(dev.error());
+    }
+    out->devices = std::move(*dev);
+    if (!out->resumed) {
+        if (auto c = create_campaign_dir(out->dir, new_spec, out->rig); !c) {
+            return tl::unexpected(c.error());
+        }
+        if (!ground_truth_copy.empty()) {
+            auto bytes = read_input_file(r.brdf_path, max_memory_bytes());
+            if (!bytes) {
+                return tl::unexpected(bytes.error());
+            }
+            const std::string to = (fs::path(out->dir) / ground_truth_copy).string();
+            if (auto w = write_file_atomic(to, *bytes); !w) {
+                return tl::unexpected(w.error());
+            }
+        }
+    }
+    return out;
+}
+
+// ---- image mode ----------------------------------------------------------------------------
+
+Expected<std::pair<RigConfig, CameraModel>> image_rig_description(const ImageRigOptions& o,
+                                                                  bool* embedded) {
+    std::string rig_path = o.rig_path;
+    if (rig_path.empty()) {
+        auto p = find_data_file("rigs/sim-image.json");
+        if (!p) {
+            return tl::unexpected(p.error());
+        }
+        rig_path = *p;
+    }
+    auto rig = read_rig_config(rig_path);
+    if (!rig) {
+        return tl::unexpected(rig.error());
+    }
+    const nlohmann::json j = nlohmann::json::parse(rig->json, nullptr, false);
+    *embedded = j.is_object() && j.contains("sim");
+    CameraModel camera;
+    if (j.is_object() && j.contains("camera_model")) {
+        auto c = read_camera_model(rig_path);
+        if (!c) {
+            return tl::unexpected(c.error());
+        }
+        camera = *c;
+    } else if (*embedded) {
+        camera = default_image_camera(o.image_size, o.perspective, rig->sphere_radius_m);
+    } else {
+        return make_error(rig_path +
+                          ": camera_model: missing (image mode on a rig needs the calibrated "
+                          "camera; see docs/image-acquisition.md)");
+    }
+    return std::make_pair(*rig, camera);
+}
+
+Expected<std::unique_ptr<ImageRig>> start_image_rig(const ImageRigOptions& o,
+                                                    const EmbeddedRigStarter& start_rig) {
+    bool embedded = false;
+    auto described = image_rig_description(o, &embedded);
+    if (!described) {
+        return tl::unexpected(described.error());
+    }
+    auto out = std::make_unique<ImageRig>();
+    out->rig = described->first;
+    out->camera = described->second;
+    if (embedded) {
+        if (o.supersample < 1) {
+            return make_error("supersample " + std::to_string(o.supersample) + ": must be >= 1");
+        }
+        if (!start_rig) {
+            return make_error(out->rig.name +
+                              ": the rig is the embedded virtual rig, which this front end "
+                              "cannot start");
+        }
+        EmbeddedRigOptions so;
+        so.material = o.material;
+        so.brdf_path = o.brdf_path;
+        so.time_scale = o.time_scale;
+        so.seed = o.seed;
+        so.sphere_camera = out->camera;
+        so.sphere_radius_m = out->rig.sphere_radius_m;
+        so.supersample = o.supersample;
+        auto s = start_rig(out->rig.json, so);
+        if (!s) {
+            return tl::unexpected(s.error());
+        }
+        out->embedded = std::move(*s);
+        out->rig = with_addresses(
+            out->rig, out->embedded->motor_address(), out->embedded->camera_address());
+    }
+    auto dev = open_rig(out->rig);
+    if (!dev) {
+        return tl::unexpected(dev.error());
+    }
+    out->dev = std::move(*dev);
+    devices::Camera& cam = *out->dev.camera;
+    if (auto r = cam.set_pixel_format(devices::PixelFormat::kMono16); !r) {
+        return tl::unexpected(r.error());
+    }
+    if (auto r = cam.set_roi(devices::Roi{}); !r) {
+        return tl::unexpected(r.error());
+    }
+    if (auto r = cam.set_gain(out->rig.capture.gain); !r) {
+        return tl::unexpected(r.error());
+    }
+    return out;
+}
+
+CaptureFn image_rig_capture(ImageRig& rig, double detector_arm_rad) {
+    RigDevices& d = rig.dev;
+    std::function<Expected<void>(int)> select_filter;
+    if (d.filter_wheel) {
+        devices::FilterWheel* fw = d.filter_wheel.get();
+        select_filter = [fw](int c) { return fw->set_filter(c); };
+    }
+    std::function<Expected<void>(bool)> swap_target;
+    if (d.reference_changer) {
+        devices::Light* changer = d.reference_changer.get();
+        swap_target = [changer](bool white) { return changer->set_shutter_open(white); };
+    }
+    DeviceCaptureOptions opt;
+    opt.move_timeout = std::chrono::milliseconds(rig.rig.move_timeout_ms);
+    const auto& light_axis = rig.rig.axes[static_cast<int>(AxisRole::kLight)];
+    const auto& detector_axis = rig.rig.axes[static_cast<int>(AxisRole::kDetector)];
+    opt.settle = std::chrono::milliseconds(static_cast<std::int64_t>(
+        std::ceil(std::max(light_axis.motion.settle_ms, detector_axis.motion.settle_ms))));
+    opt.detector_arm = d.axes[static_cast<int>(AxisRole::kDetector)].get();
+    opt.detector_arm_rad = detector_arm_rad;
+    opt.log = &rig.pose_log;
+    opt.capture_timeout = std::chrono::milliseconds(rig.rig.capture.timeout_ms);
+    opt.capture_retries = rig.rig.retries;
+    return make_device_capture(*d.camera,
+                               *d.shutter,
+                               *d.axes[static_cast<int>(AxisRole::kLight)],
+                               std::move(select_filter),
+                               std::move(swap_target),
+                               opt);
+}
+
+namespace {
+
+ImageRigOptions image_rig_options(const CampaignRequest& r) {
+    ImageRigOptions io;
+    io.rig_path = r.rig_path;
+    if (!r.material.empty()) {
+        io.material = r.material;
+    }
+    io.brdf_path = r.brdf_path;
+    io.time_scale = r.time_scale;
+    io.image_size = r.image_size;
+    io.supersample = r.supersample;
+    io.seed = r.seed;
+    return io;
+}
+
+ImageCampaignConfig image_config(const CampaignRequest& r,
+                                 const RigConfig& rig,
+                                 const CameraModel& camera) {
+    if (r.grid.n_theta_h > 0 || r.grid.n_theta_d > 0 || r.grid.n_phi_d > 0) {
+        return image_campaign_config(rig,
+                                     camera,
+                                     r.grid,
+                                     r.coverage_target > 0 ? r.coverage_target : 0.55,
+                                     r.max_frames > 0 ? r.max_frames : 200);
+    }
+    return image_campaign_config(rig,
+                                 camera,
+                                 r.table_factor,
+                                 r.coverage_target > 0 ? r.coverage_target : 0.55,
+                                 r.max_frames > 0 ? r.max_frames : 200);
+}
+
+}  // namespace
+
+Expected<void> check_table_factor(const CampaignRequest& r) {
+    const TableLayout& g = r.grid;
+    if (g.n_theta_h > 0 || g.n_theta_d > 0 || g.n_phi_d > 0) {
+        if (g.n_theta_h < 1 || g.n_theta_d < 1 || g.n_phi_d < 1 || g.n_theta_h > 360 ||
+            g.n_theta_d > 360 || g.n_phi_d > 720) {
+            return make_error("grid " + std::to_string(g.n_theta_h) + "x" +
+                              std::to_string(g.n_theta_d) + "x" + std::to_string(g.n_phi_d) +
+                              ": each count must be >= 1 (at most 360 x 360 x 720)");
+        }
+        return {};
+    }
+    if (r.table_factor < 1 || 90 % r.table_factor != 0) {
+        return make_error("table factor " + std::to_string(r.table_factor) +
+                          ": must divide 90 (1 = MERL resolution, 3 = 30 x 30 x 60 bins)");
+    }
+    return {};
+}
+
+Expected<ImagePlan> plan_image_campaign(const CampaignRequest& r) {
+    if (auto c = refuse_conflict(r); !c) {
+        return tl::unexpected(c.error());
+    }
+    if (auto t = check_table_factor(r); !t) {
+        return tl::unexpected(t.error());
+    }
+    ImagePlan plan;
+    auto described = image_rig_description(image_rig_options(r), &plan.embedded);
+    if (!described) {
+        return tl::unexpected(described.error());
+    }
+    plan.rig_name = described->first.name;
+    plan.config = image_config(r, described->first, described->second);
+    return plan;
+}
+
+Expected<ImageCampaignRun> run_image_request(
+    const CampaignRequest& r,
+    const EmbeddedRigStarter& start_rig,
+    const std::function<void(const ImageCampaignRun&)>& started,
+    const ImageProgressFn& progress) {
+    if (auto c = refuse_conflict(r); !c) {
+        return tl::unexpected(c.error());
+    }
+    if (!r.resume_dir.empty()) {
+        return make_error("resume " + r.resume_dir +
+                          ": an image campaign resumes from its folder's settings and frame "
+                          "journal (gonio acquire --resume), not through a new run");
+    }
+    if (auto t = check_table_factor(r); !t) {
+        return tl::unexpected(t.error());
+    }
+    auto rig = start_image_rig(image_rig_options(r), start_rig);
+    if (!rig) {
+        return tl::unexpected(rig.error());
+    }
+    ImageCampaignRun run;
+    run.embedded = (*rig)->embedded != nullptr;
+    run.rig_name = (*rig)->rig.name;
+    std::string truth_name = "sample";
+    if (run.embedded) {
+        truth_name = r.brdf_path.empty() ? (r.material.empty() ? "red-plastic" : r.material)
+                                         : fs::path(r.brdf_path).stem().string();
+        if (!(*rig)->embedded->isotropic_sample()) {
+            return make_error("image mode bins into an isotropic half/difference table; " +
+                              (*rig)->embedded->ground_truth() + " is anisotropic");
+        }
+    }
+    run.sample = r.sample.empty() ? truth_name : r.sample;
+    run.motor_address = (*rig)->rig.axes[static_cast<int>(AxisRole::kLight)].address;
+    run.camera_address = (*rig)->rig.camera_address;
+    run.config = image_config(r, (*rig)->rig, (*rig)->camera);
+    run.dir = image_campaign_dir(r, run.sample);
+    if (started) {
+        started(run);
+    }
+    auto result = run_image_campaign(
+        image_rig_capture(**rig, run.config.detector_arm_rad), run.config, progress);
+    run.poses = (*rig)->pose_log;
+    if (!result) {
+        return tl::unexpected(result.error());
+    }
+    nlohmann::json extra;
+    extra["sample"] = run.sample;
+    if (!r.operator_name.empty()) {
+        extra["operator"] = r.operator_name;
+    }
+    if (run.embedded) {
+        extra["ground_truth"] = (*rig)->embedded->ground_truth();
+    }
+    extra["rig"] = r.rig_path.empty() ? "embedded virtual rig (sim-image)" : r.rig_path;
+    extra["embedded_virtual_rig"] = run.embedded;
+    extra["camera_address"] = run.camera_address;
+    extra["seed"] = r.seed;
+    extra["pose_repeats"] = run.poses.repeats;
+    extra["pose_corrections"] = run.poses.corrections;
+    extra["capture_retries"] = run.poses.capture_retries;
+    extra["pose_notes"] = run.poses.notes;
+    if (auto w = write_image_campaign(run.dir, *result, run.config, extra.dump()); !w) {
+        return tl::unexpected(w.error());
+    }
+    run.result.emplace(std::move(*result));
+    return run;
+}
+
+std::string image_campaign_dir(const CampaignRequest& r, const std::string& name) {
+    if (!r.out_dir.empty()) {
+        return r.out_dir;
+    }
+    const fs::path parent = r.campaigns_dir.empty() ? fs::path() : fs::path(r.campaigns_dir);
+    for (int n = 1;; ++n) {
+        const fs::path d = parent / ("image-" + name + "-" + std::to_string(n));
+        std::error_code ec;
+        if (!fs::exists(d, ec)) {
+            return d.string();
+        }
+    }
+}
+
+}  // namespace gonio::acquisition

@@ -1,0 +1,258 @@
+// Every option of a command does something or is refused: this walks the `--help` of the
+// commands below and, for each option it lists, requires an entry in the table that shows it --
+// either two runs whose output differs only by that option, or a run in a mode that cannot honour
+// it, refused with exit status 2 and a message naming it. An option added without an entry here
+// turns the test red, as does one that stops changing anything or stops being refused.
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "cli_run.h"
+#include "gonio/brdf/model_json.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using gonio::testing::CliRun;
+using gonio::testing::run_gonio;
+
+std::string dir() {
+    static const std::string d = gonio::testing::fresh_test_dir("help_walk").string();
+    return d;
+}
+
+/// The options and positionals a command's --help lists (without --help itself).
+std::set<std::string> listed_options(const std::string& command) {
+    CliRun r = run_gonio(command + " --help");
+    EXPECT_EQ(r.status, 0) << r.out;
+    std::set<std::string> out;
+    std::istringstream lines(r.out);
+    std::string section;
+    for (std::string line; std::getline(lines, line);) {
+        if (!line.empty() && line[0] != ' ') {
+            section = line;
+            continue;
+        }
+        // An entry starts at an indent of two; deeper lines continue a description.
+        if (line.size() < 3 || line.compare(0, 2, "  ") != 0 || line[2] == ' ') {
+            continue;
+        }
+        std::istringstream words(line);
+        std::string first;
+        if (!(words >> first)) {
+            continue;
+        }
+        if (section.rfind("Positionals", 0) == 0) {
+            out.insert(first);
+        } else if (section.rfind("Options", 0) == 0 && first[0] == '-') {
+            std::stringstream names(first);
+            for (std::string n; std::getline(names, n, ',');) {
+                if (n.rfind("--", 0) == 0 && n != "--help") {
+                    out.insert(n);
+                }
+            }
+        }
+    }
+    return out;
+}
+
+/// How one option is shown to matter.
+struct Proof {
+    std::string option;
+    /// Refused: `a` exits 2 with a message naming the option ("gonio CMD:" prefixed).
+    /// Changes: `a` and `b` differ only by the option, and their outputs differ.
+    std::string a;
+    std::string b;           ///< empty: a refusal
+    std::string named = "";  ///< for a refusal: the text naming the option (default: option)
+};
+
+std::string model_json() {
+    gonio::brdf::ModelD m;
+    m.has_diffuse = true;
+    m.diffuse = gonio::brdf::Rgbd(0.3, 0.2, 0.1);
+    gonio::brdf::Lobe<double> l;
+    l.distribution = gonio::brdf::Distribution::kGgx;
+    l.alpha_x = l.alpha_y = 0.2;
+    l.fresnel.type = gonio::brdf::FresnelType::kSchlick;
+    l.fresnel.f0 = gonio::brdf::Rgbd::Constant(0.04);
+    m.lobes.push_back(l);
+    const std::string p = dir() + "/m.json";
+    std::ofstream(p) << gonio::brdf::model_to_json(m);
+    return p;
+}
+
+std::string other_model_json() {
+    gonio::brdf::ModelD m;
+    m.has_diffuse = true;
+    m.diffuse = gonio::brdf::Rgbd(0.5, 0.5, 0.5);
+    const std::string p = dir() + "/m2.json";
+    std::ofstream(p) << gonio::brdf::model_to_json(m);
+    return p;
+}
+
+std::string dirs_csv(const std::string& name, const std::string& row) {
+    const std::string p = dir() + "/" + name;
+    std::ofstream(p) << "theta_i,phi_i,theta_o,phi_o\n" << row << "\n";
+    return p;
+}
+
+void prove(const std::string& command, const std::vector<Proof>& table) {
+    const std::set<std::string> listed = listed_options(command);
+    ASSERT_FALSE(listed.empty()) << command;
+    std::map<std::string, int> proofs;
+    for (const Proof& p : table) {
+        ++proofs[p.option];
+        SCOPED_TRACE(command + " " + p.option);
+        CliRun a = run_gonio(p.a);
+        if (p.b.empty()) {
+            EXPECT_EQ(a.status, 2) << p.a << "\n" << a.out;
+            EXPECT_NE(a.out.find("gonio " + command), std::string::npos) << a.out;
+            EXPECT_NE(a.out.find(p.named.empty() ? p.option : p.named), std::string::npos)
+                << p.a << "\n"
+                << a.out;
+        } else {
+            CliRun b = run_gonio(p.b);
+            EXPECT_NE(a.out, b.out) << p.a << "\n  and\n" << p.b << "\nprint the same:\n" << a.out;
+        }
+    }
+    for (const std::string& o : listed) {
+        EXPECT_GT(proofs[o], 0) << "gonio " << command << " " << o
+                                << ": listed in --help, but nothing shows that it is honoured or "
+                                   "refused";
+    }
+}
+
+TEST(HelpWalk, FitEveryOptionHonouredOrRefused) {
+    const std::string d = dir() + "/absent.csv";  // the request line prints before the data load
+    const std::string f = "fit " + d;
+    prove("fit",
+          {
+              {"data", "fit --manifest m.csv " + d, "", "data"},
+              {"--model", f + " --compare ggx --model beckmann", ""},
+              {"--template", f + " --compare ggx --template t.json", ""},
+              {"--no-diffuse", f + " --model auto --no-diffuse", ""},
+              {"--no-diffuse", f, f + " --no-diffuse"},
+              {"--fresnel", f + " --model auto --fresnel none", ""},
+              {"--fresnel", f, f + " --fresnel none"},
+              {"--shadowing", f + " --model auto --shadowing v-groove", ""},
+              {"--shadowing", f, f + " --shadowing v-groove"},
+              {"--anisotropic", f + " --model auto --anisotropic", ""},
+              {"--anisotropic", f, f + " --anisotropic"},
+              {"--lobes", f + " --model auto --lobes 2", ""},
+              {"--lobes", f, f + " --lobes 2"},
+              {"--residual", f, f + " --residual relative"},
+              {"--loss", f, f + " --loss huber"},
+              {"--loss-scale", f, f + " --loss-scale 0.5"},
+              {"--max-samples", f, f + " --max-samples 100"},
+              {"--starts", f, f + " --starts 2"},
+              {"--seed", f, f + " --seed 9"},
+              {"--max-iterations", f, f + " --max-iterations 7"},
+              {"--threads", f, f + " --threads 2"},
+              {"--out", f, f + " --out " + dir() + "/no/such/folder/f.json"},
+              {"--truth", f, f + " --truth " + dir() + "/absent-truth.json"},
+              {"--compare", "fit --manifest m.csv --out o --compare ggx", ""},
+              {"--manifest", "fit --manifest m.csv --out o --model ggx", "", "--manifest"},
+              {"--shard", f + " --shard 0/2", ""},
+              {"--strict", f, f + " --strict"},
+          });
+}
+
+TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
+    const std::string r = "acquire --resume " + dir() + "/camp";
+    const std::string camp = dir() + "/c.json";
+    std::ofstream(camp) << R"({"plan": {"kind": "uniform", "n_theta": 3, "n_dphi": 2}})";
+    prove("acquire",
+          {
+              {"campaign", "acquire --mode image " + camp, "", "campaign.json"},
+              {"--rig", r + " --rig x.json", ""},
+              {"--out", r + " --out x", ""},
+              {"--out", "acquire --plan-only --out x", ""},
+              {"--campaigns-dir", r + " --campaigns-dir x", ""},
+              {"--resume", "acquire --mode image --resume x", "acquire --mode image --resume y"},
+              {"--material", r + " --material gold", ""},
+              {"--brdf", r + " --brdf x.json", ""},
+              {"--scene", "acquire --mode image --scene s.json", ""},
+              {"--sample", r + " --sample s", ""},
+              {"--operator", r + " --operator o", ""},
+              {"--plan", "acquire --plan-only", "acquire --plan-only --plan half-diff"},
+              {"--n-theta", "acquire --plan-only", "acquire --plan-only --n-theta 3"},
+              {"--n-dphi", "acquire --plan-only", "acquire --plan-only --n-dphi 3"},
+              {"--adaptive", "acquire --mode image --adaptive 2", ""},
+              {"--time-scale", r + " --time-scale 2", ""},
+              {"--accept-drift", "acquire --mode image --accept-drift", ""},
+              {"--mode", "acquire --plan-only", "acquire --plan-only --mode image"},
+              {"--coverage-target", "acquire --plan-only --coverage-target 0.3", ""},
+              {"--coverage-target",
+               "acquire --mode image --plan-only",
+               "acquire --mode image --plan-only --coverage-target 0.3"},
+              {"--max-frames", "acquire --plan-only --max-frames 3", ""},
+              {"--max-frames",
+               "acquire --mode image --plan-only",
+               "acquire --mode image --plan-only --max-frames 3"},
+              {"--grid", "acquire --plan-only --grid 15x15x30", ""},
+              {"--grid",
+               "acquire --mode image --plan-only",
+               "acquire --mode image --plan-only --grid 15x15x30"},
+              {"--serve", "acquire --mode image --serve 0", ""},
+              {"--serve", "acquire --plan-only --serve 0", ""},
+              {"--plan-only", r + " --plan-only", ""},
+          });
+}
+
+TEST(HelpWalk, ExportEvalCheckEveryOptionHonouredOrRefused) {
+    const std::string m = model_json();
+    const std::string m2 = other_model_json();
+    prove("export",
+          {
+              {"input", "export " + m + " --to mitsuba", "export " + m2 + " --to mitsuba"},
+              {"--to", "export " + m + " --to mitsuba", "export " + m + " --to pbrt"},
+              {"--name", "export " + m + " --to mitsuba", "export " + m + " --to mitsuba --name x"},
+              {"out_file", "export " + m + " --to pbrt a.pbrt --out b.pbrt", ""},
+              {"--out",
+               "export " + m + " --to pbrt",
+               "export " + m + " --to pbrt --out " + dir() + "/x.pbrt"},
+          });
+    const std::string in1 = dirs_csv("d1.csv", "0.3,0,0.4,3.1");
+    const std::string in2 = dirs_csv("d2.csv", "0.5,0,0.2,3.1");
+    prove("eval",
+          {
+              {"brdf", "eval " + m + " -i " + in1, "eval " + m2 + " -i " + in1},
+              {"--input", "eval " + m + " -i " + in1, "eval " + m + " -i " + in2},
+              {"--output",
+               "eval " + m + " -i " + in1,
+               "eval " + m + " -i " + in1 + " -o " + dir() + "/e.csv"},
+          });
+    const std::string c = "check " + m + " --pairs 200";
+    // A measured dataset: two samples 0.7 deg from each other's reciprocal.
+    const std::string data = dir() + "/measured.csv";
+    std::ofstream(data) << "theta_i,phi_i,theta_o,phi_o,r,g,b\n0.5236,0,0.7854,3.1416,0.5,0.5,0.5\n"
+                           "0.7976,0,0.5236,3.1416,0.52,0.5,0.5\n";
+    prove("check",
+          {
+              {"brdf", c, "check " + m2 + " --pairs 200"},
+              {"--seed", c, c + " --seed 5"},
+              {"--pairs", c, "check " + m + " --pairs 300"},
+              {"--reciprocity-tol", c, c + " --reciprocity-tol 0.5"},
+              {"--isotropy-tol", c, c + " --isotropy-tol 0.5"},
+              {"--energy-tol", c, c + " --energy-tol 0.5"},
+              {"--noise", c + " --noise 0.1", "", "--noise"},
+              {"--noise-from", c + " --noise-from " + data, "", "--noise-from"},
+              {"--match-tol", c + " --match-tol 2", ""},
+              {"--match-tol", "check " + data, "check " + data + " --match-tol 2"},
+              {"--seed", "check " + data + " --seed 5", ""},
+              {"--pairs", "check " + data + " --pairs 300", ""},
+              {"--reciprocity-tol", "check " + data + " --reciprocity-tol 0.5", ""},
+              {"--isotropy-tol", "check " + data + " --isotropy-tol 0.5", ""},
+              {"--energy-tol", "check " + data + " --energy-tol 0.5", ""},
+              {"--noise", "check " + data + " --noise 0.1", ""},
+          });
+}
+
+}  // namespace
