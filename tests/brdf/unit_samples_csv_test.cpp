@@ -193,7 +193,7 @@ TEST(SamplesCsv, KeepGoingListsEachRefusedRowWithItsLineAndReason) {
     ASSERT_EQ(d->samples.size(), 2u);
     EXPECT_EQ(d->samples[0].line, 2u);
     EXPECT_EQ(d->samples[1].line, 8u);
-    EXPECT_EQ(d->samples[1].value, Rgbd(0.25, 0.5, 0.75));
+    EXPECT_TRUE((d->samples[1].value == Rgbd(0.25, 0.5, 0.75)).all());
     ASSERT_EQ(d->rejected.size(), 4u);
     const std::size_t lines[] = {4, 5, 6, 7};
     const char* reasons[] = {"theta_i = 1.7 outside [0, pi/2)",
