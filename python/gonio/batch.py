@@ -35,7 +35,9 @@ def _fit_task(entry_id, input_path, options, out_dir):
     """One manifest entry on a worker (the C++ run of `gonio fit --manifest`, GIL released)."""
     import gonio as g  # imported on the worker
 
-    return g.run_entry(entry_id, input_path, options, out_dir)
+    outcome = g.run_entry(entry_id, input_path, options, out_dir)
+    outcome["pid"] = os.getpid()  # the process that fitted it: a worker's on a cluster
+    return outcome
 
 
 def _finished(out_dir, entry_id):
@@ -93,6 +95,7 @@ def _failed_outcome(entry, message):
         "iterations": 0,
         "wall_time_s": 0.0,
         "samples_used": 0,
+        "pid": None,
         "row": ",".join(
             [entry["id"], entry["input"].replace(",", ";"), "failed", "0", "0", "0", "0", "0",
              message.replace(",", ";").replace("\n", " ")]
@@ -118,7 +121,9 @@ def run_batch(
         that the workers, not the solver, use the cores.
     serial: run the entries one after the other in this process (no Dask), for comparison.
     Each outcome is a dict: id, input, status (fitted, misfit, not-converged, failed, skipped),
-    message, log_rmse, rel_rmse, iterations, wall_time_s, samples_used, row (its CSV line).
+    message, log_rmse, rel_rmse, iterations, wall_time_s, samples_used, row (its CSV line), pid
+    (the process that ran the entry: this one when serial or skipped, a worker's on a cluster;
+    None when the task itself failed).
     """
     stream = sys.stderr if stream is None else stream
     entries = gonio.read_manifest(os.fspath(manifest))
@@ -131,6 +136,7 @@ def run_batch(
         if _finished(out_dir, e["id"]):
             # Reads the metrics back from the report; nothing is fitted again.
             outcomes[i] = gonio.run_entry(e["id"], e["input"], options, out_dir)
+            outcomes[i]["pid"] = os.getpid()
         else:
             todo.append((i, e, options))
     bar = _Progress(len(todo), stream, progress)

@@ -52,9 +52,14 @@ brdf::Dataset noisy(const brdf::ModelD& truth, std::uint64_t seed, bool with_sig
 }
 
 struct Coverage {
-    int inside = 0;
+    int inside = 0;    ///< within 3 sigma
+    int inside_1 = 0;  ///< within 1 sigma
     int total = 0;
 };
+
+/// Upper bound on the fraction of parameters within one sigma of the truth (0.68 expected): the
+/// sigmas are not inflated.
+constexpr double kMaxWithinOneSigma = 0.85;
 
 Coverage coverage(bool with_sigma) {
     const brdf::ModelD truths[] = {
@@ -89,6 +94,9 @@ Coverage coverage(bool with_sigma) {
                     }
                 }
                 ++cov.total;
+                if (p.sigma && std::abs(p.value - expect) <= *p.sigma) {
+                    ++cov.inside_1;
+                }
                 if (p.sigma && std::abs(p.value - expect) <= 3 * *p.sigma) {
                     ++cov.inside;
                 } else {
@@ -110,12 +118,18 @@ TEST(FitStatistics, SandwichSigmasCoverUnderMultiplicativeNoiseWithoutSigmaColum
     const Coverage c = coverage(false);
     ASSERT_GE(c.total, 100);
     EXPECT_GE(c.inside, 0.9 * c.total) << c.inside << " of " << c.total << " within 3 sigma";
+    // Not too wide either: about 68% within one sigma for a Gaussian estimate; sigmas twice too
+    // large would put 95% there.
+    EXPECT_LE(c.inside_1, kMaxWithinOneSigma * c.total)
+        << c.inside_1 << " of " << c.total << " within 1 sigma";
 }
 
 TEST(FitStatistics, ReweightedRelativeSigmasCoverWhenSigmaColumnsAreGiven) {
     const Coverage c = coverage(true);
     ASSERT_GE(c.total, 100);
     EXPECT_GE(c.inside, 0.9 * c.total) << c.inside << " of " << c.total << " within 3 sigma";
+    EXPECT_LE(c.inside_1, kMaxWithinOneSigma * c.total)
+        << c.inside_1 << " of " << c.total << " within 1 sigma";
 }
 
 TEST(FitStatistics, ModelAutoPicksTheGeneratingFamily) {

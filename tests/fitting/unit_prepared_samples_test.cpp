@@ -189,6 +189,55 @@ TEST(PreparedSamples, ModelValuesEqualBrdfEvalModelToRounding) {
     }
 }
 
+TEST(PreparedSamples, ReweightRelativeMovesEachFactorFromTheMeasuredToTheModelValue) {
+    // Before: s = 1 / (g'(d) sigma). After reweight_relative at the model values m: s = 1 / (g'(m)
+    // rel m) with rel = sigma / d. At the same parameters the residual g(m) - g(d) is unchanged, so
+    // r_after / r_before = g'(d) d / (g'(m) m): d / m for the absolute form, and
+    // (1 + m cos_i) d / ((1 + d cos_i) m) for the log form (g'(x) = cos_i / (1 + x cos_i)). A
+    // channel without sigma keeps its factor.
+    const FitSpec spec = spec_of(kStructures[0]);
+    auto map = std::make_shared<const ParameterMap>(*ParameterMap::make(spec));
+    std::vector<brdf::Sample> samples = samples_for(spec.model, 200, 11);
+    for (std::size_t i = 0; i < samples.size(); i += 4) {
+        samples[i].sigma[1] = 0;  // no uncertainty in this channel
+    }
+    const std::vector<double> x = map->values_of(spec.model);
+    for (const ResidualForm form : {ResidualForm::kAbsolute, ResidualForm::kLog}) {
+        CostOptions co;
+        co.residual = form;
+        PreparedSamples ps(map, samples, co);
+        std::vector<double> before(3 * samples.size()), after(3 * samples.size());
+        ASSERT_TRUE(ps.evaluate(x.data(), 0, samples.size(), before.data(), nullptr));
+        std::vector<Rgbd> m;
+        ps.model_values(spec.model, m, 1);
+        ps.reweight_relative(samples, m);
+        ASSERT_TRUE(ps.evaluate(x.data(), 0, samples.size(), after.data(), nullptr));
+        double worst = 0;
+        int compared = 0;
+        for (std::size_t i = 0; i < samples.size(); ++i) {
+            const double cos_i = std::cos(samples[i].theta_i);
+            for (int c = 0; c < 3; ++c) {
+                const double d = samples[i].value[c];
+                const double mc = m[i][c];
+                if (std::abs(before[3 * i + c]) < 1e-9) {
+                    continue;  // a ratio of two zeros
+                }
+                double expect = 1;
+                if (samples[i].sigma[c] > 0) {
+                    expect = form == ResidualForm::kAbsolute
+                                 ? d / mc
+                                 : (1 + mc * cos_i) * d / ((1 + d * cos_i) * mc);
+                }
+                worst =
+                    std::max(worst, std::abs(after[3 * i + c] / before[3 * i + c] / expect - 1));
+                ++compared;
+            }
+        }
+        EXPECT_GT(compared, 400);
+        EXPECT_LT(worst, 1e-9) << "form " << static_cast<int>(form);
+    }
+}
+
 TEST(PreparedSamples, DerivativesPassCeresGradientCheckerForEveryStructureAndForm) {
     const ResidualForm forms[] = {ResidualForm::kLog,
                                   ResidualForm::kAbsolute,

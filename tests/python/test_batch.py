@@ -84,6 +84,11 @@ def test_serial_and_cluster_give_the_same_fits(workdir):
     assert [o["status"] for o in serial] == ["fitted"] * 8 + ["failed"]
     assert [o["status"] for o in cluster] == [o["status"] for o in serial]
     assert [o["iterations"] for o in cluster] == [o["iterations"] for o in serial]
+    # The serial run fitted here; the cluster's fits ran in its worker processes (at most 2).
+    assert {o["pid"] for o in serial} == {os.getpid()}
+    workers = {o["pid"] for o in cluster}
+    assert os.getpid() not in workers and None not in workers, workers
+    assert 1 <= len(workers) <= 2, workers
     for k in range(8):
         a = gonio.load_campaign(workdir / "serial")[f"mat{k}"]
         b = gonio.load_campaign(workdir / "cluster")[f"mat{k}"]

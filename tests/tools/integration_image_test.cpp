@@ -19,8 +19,6 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
-// The command's building blocks are compiled into this test (tools/ is not a library).
-#include "../../tools/acquire_image_mode.cpp"
 #include "embedded_rig.h"
 #include "gonio/acquisition/campaign_request.h"
 #include "gonio/acquisition/image_journal.h"
@@ -483,7 +481,19 @@ TEST(ImageCommand, GonioAcquireImageModeThroughGigERecoversTheGroundTruth) {
 /// Runs an image campaign with a frame journal in a child process (fresh rig, seeded); the child
 /// kills itself with SIGKILL at the `kill_exposure`-th exposure the virtual camera renders or right
 /// after frame `kill_after_frames` is journaled (0: never). Returns the wait status.
-int journaled_child(const AcquireImageOptions& o,
+/// A journaled campaign: the rig and the campaign's table, coverage target and frame limit.
+struct JournaledCampaign {
+    acquisition::ImageRigOptions rig;
+    int table_factor = 6;
+    double coverage_target = 0.6;
+    int max_frames = 40;
+};
+
+Expected<std::unique_ptr<acquisition::ImageRig>> start_rig(const JournaledCampaign& o) {
+    return acquisition::start_image_rig(o.rig, embedded_rig_starter());
+}
+
+int journaled_child(const JournaledCampaign& o,
                     const std::string& journal,
                     std::uint64_t kill_exposure,
                     std::size_t kill_after_frames) {
@@ -493,13 +503,13 @@ int journaled_child(const AcquireImageOptions& o,
         waitpid(pid, &status, 0);
         return status;
     }
-    auto rig = start_image_rig(o);
+    auto rig = start_rig(o);
     if (!rig) {
         std::fprintf(stderr, "child: %s\n", rig.error().message.c_str());
         _exit(3);
     }
     if (kill_exposure > 0) {
-        (*rig)->sim->world().set_exposure_hook([kill_exposure](std::uint64_t n) {
+        simulator(**rig)->world().set_exposure_hook([kill_exposure](std::uint64_t n) {
             if (n == kill_exposure) {
                 ::raise(SIGKILL);
             }
@@ -513,7 +523,7 @@ int journaled_child(const AcquireImageOptions& o,
         }
     };
     auto r = acquisition::run_image_campaign(
-        image_rig_capture(**rig, cfg.detector_arm_rad), cfg, progress, journal);
+        acquisition::image_rig_capture(**rig, cfg.detector_arm_rad), cfg, progress, journal);
     if (!r) {
         std::fprintf(stderr, "child: %s\n", r.error().message.c_str());
     }
@@ -535,16 +545,15 @@ TEST(ImageResume, KillNineAtThreeMomentsLosesNoFrameAndRepeatsNone) {
     const std::string model = dir + "/truth.json";
     std::ofstream(model) << brdf::model_to_json(truth_model());
     const std::string journal = dir + "/frames.journal";
-    AcquireImageOptions o;
-    o.brdf_path = model;
-    o.image_size = 120;
-    o.supersample = 1;
+    JournaledCampaign o;
+    o.rig.brdf_path = model;
+    o.rig.image_size = 120;
+    o.rig.supersample = 1;
+    o.rig.seed = kSeed;
+    o.rig.time_scale = 500;
     o.table_factor = 6;
     o.coverage_target = 0.6;
     o.max_frames = 40;
-    o.seed = kSeed;
-    o.time_scale = 500;
-    o.quiet = true;
 
     // 1. Inside the set-up (the white reference's third exposure): nothing is journaled.
     int st = journaled_child(o, journal, 3, 0);
@@ -580,19 +589,19 @@ TEST(ImageResume, KillNineAtThreeMomentsLosesNoFrameAndRepeatsNone) {
     }
 
     // To the end, in this process.
-    auto rig = start_image_rig(o);
+    auto rig = start_rig(o);
     ASSERT_TRUE(rig) << rig.error().message;
     const acquisition::ImageCampaignConfig cfg = acquisition::image_campaign_config(
         (*rig)->rig, (*rig)->camera, o.table_factor, o.coverage_target, o.max_frames);
-    const std::uint64_t rendered_before = (*rig)->sim->camera().frames_rendered();
+    const std::uint64_t rendered_before = simulator(**rig)->camera().frames_rendered();
     auto r = acquisition::run_image_campaign(
-        image_rig_capture(**rig, cfg.detector_arm_rad), cfg, {}, journal);
+        acquisition::image_rig_capture(**rig, cfg.detector_arm_rad), cfg, {}, journal);
     ASSERT_TRUE(r) << r.error().message;
     EXPECT_TRUE(r->target_met) << r->stop_reason;
     EXPECT_EQ(r->resumed_frames, frames_at_kill);
     // Only new frames were captured: no reference, no silhouette.
     const std::size_t new_frames = r->frames.size() - frames_at_kill;
-    EXPECT_GE((*rig)->sim->camera().frames_rendered() - rendered_before, 3 * new_frames);
+    EXPECT_GE(simulator(**rig)->camera().frames_rendered() - rendered_before, 3 * new_frames);
     const std::string final_bytes = file_bytes(journal);
     EXPECT_EQ(final_bytes.substr(0, after_three.size()), after_three);
 
@@ -623,13 +632,13 @@ TEST(ImageResume, KillNineAtThreeMomentsLosesNoFrameAndRepeatsNone) {
     EXPECT_LT(image_test::median(rel), 0.02);
 
     // Resuming the finished campaign captures nothing.
-    const std::uint64_t rendered_done = (*rig)->sim->camera().frames_rendered();
+    const std::uint64_t rendered_done = simulator(**rig)->camera().frames_rendered();
     auto again = acquisition::run_image_campaign(
-        image_rig_capture(**rig, cfg.detector_arm_rad), cfg, {}, journal);
+        acquisition::image_rig_capture(**rig, cfg.detector_arm_rad), cfg, {}, journal);
     ASSERT_TRUE(again) << again.error().message;
     EXPECT_EQ(again->resumed_frames, r->frames.size());
     EXPECT_EQ(again->frames.size(), r->frames.size());
-    EXPECT_EQ((*rig)->sim->camera().frames_rendered(), rendered_done);
+    EXPECT_EQ(simulator(**rig)->camera().frames_rendered(), rendered_done);
     EXPECT_EQ(file_bytes(journal), final_bytes);
     std::filesystem::remove_all(dir);
 }
@@ -647,21 +656,21 @@ TEST(ImageResume, JournalOfAnotherTableIsRefused) {
         ASSERT_TRUE(j);
         ASSERT_TRUE(j->append_setup(s));
     }
-    AcquireImageOptions o;
+    acquisition::ImageRigOptions o;
     o.material = "yellow-plastic";
     o.image_size = 96;
     o.supersample = 1;
     o.time_scale = 500;
-    auto rig = start_image_rig(o);
+    auto rig = acquisition::start_image_rig(o, embedded_rig_starter());
     ASSERT_TRUE(rig) << rig.error().message;
     const acquisition::ImageCampaignConfig cfg =
         acquisition::image_campaign_config((*rig)->rig, (*rig)->camera, 6, 0.5, 10);
     auto r = acquisition::run_image_campaign(
-        image_rig_capture(**rig, 0.0), cfg, {}, dir + "/frames.journal");
+        acquisition::image_rig_capture(**rig, 0.0), cfg, {}, dir + "/frames.journal");
     ASSERT_FALSE(r);
     EXPECT_NE(r.error().message.find("30x30x60"), std::string::npos) << r.error().message;
     EXPECT_NE(r.error().message.find("15x15x30"), std::string::npos) << r.error().message;
-    EXPECT_EQ((*rig)->sim->camera().frames_rendered(), 0u);
+    EXPECT_EQ(simulator(**rig)->camera().frames_rendered(), 0u);
     std::filesystem::remove_all(dir);
 }
 
