@@ -298,6 +298,12 @@ GONIO_COMMAND(convert) {
                         "convert", std::string(name) + " does not apply to an RGL *.bsdf output");
                 }
             }
+            if (cmd_ptr->count("--interpolation") > 0 && !gonio::brdf::is_table_path(opts->input)) {
+                return gonio::tools::usage_error("convert",
+                                                 "--interpolation does not apply to " +
+                                                     opts->input + " -> " + opts->output +
+                                                     ": only a table input is looked up");
+            }
             if (ends_with(opts->input, ".csv")) {
                 return gonio::tools::usage_error(
                     "convert",
@@ -310,7 +316,41 @@ GONIO_COMMAND(convert) {
             }
             return to_rgl(*opts);
         }
-        if (table_out && !ends_with(opts->output, ".gtab")) {
+        // The options each conversion honours; the others are refused, naming the conversion.
+        const bool csv_in = ends_with(opts->input, ".csv");
+        const bool table_in = gonio::brdf::is_table_path(opts->input);
+        const bool stored_in = table_in || gonio::brdf::is_rgl_path(opts->input);
+        const bool merl_out = table_out && !ends_with(opts->output, ".gtab");
+        const char* refused = nullptr;
+        std::string why;
+        if (cmd_ptr->count("--grid") > 0 && merl_out) {
+            refused = "--grid";
+            why =
+                "a MERL output (*.binary, *.merl) is always 90x90x180; write a *.gtab for "
+                "another grid";
+        } else if (cmd_ptr->count("--grid") > 0 && !table_out && stored_in) {
+            refused = "--grid";
+            why = "a stored file is written to CSV at its own bins or nodes";
+        } else if (cmd_ptr->count("--interpolation") > 0 && (!table_in || !table_out)) {
+            refused = "--interpolation";
+            why = table_in ? "a table is written to CSV at its bin centres, without lookups"
+                           : "only a table input is looked up";
+        } else if (cmd_ptr->count("--threads") > 0 && (csv_in || stored_in) && !table_out) {
+            refused = "--threads";
+            why = "nothing is tabulated when a stored file is written to CSV";
+        } else if (cmd_ptr->count("--threads") > 0 && csv_in) {
+            refused = "--threads";
+            why = "resampling a CSV onto a table runs on one thread";
+        } else if (cmd_ptr->count("--radius") > 0 && !(csv_in && table_out)) {
+            refused = "--radius";
+            why = "the kernel radius is for resampling a sample CSV onto a table";
+        }
+        if (refused != nullptr) {
+            return gonio::tools::usage_error("convert",
+                                             std::string(refused) + " does not apply to " +
+                                                 opts->input + " -> " + opts->output + ": " + why);
+        }
+        if (merl_out) {
             grid = gonio::brdf::TableGrid::merl();
         }
         // Refused before any work: an output that is a folder or a device, a missing folder.
@@ -319,7 +359,6 @@ GONIO_COMMAND(convert) {
         }
         // Memory: the table, and for CSV outputs up to one sample (about 150 bytes with its
         // text) per bin.
-        const bool csv_in = ends_with(opts->input, ".csv");
         const bool grid_used = table_out || (!gonio::brdf::is_table_path(opts->input) &&
                                              !gonio::brdf::is_rgl_path(opts->input));
         if (grid_used) {

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -71,7 +72,35 @@ struct Proof {
     std::string a;
     std::string b;           ///< empty: a refusal
     std::string named = "";  ///< for a refusal: the text naming the option (default: option)
+    /// For a change: a file or folder both runs write, compared instead of the printed output
+    /// (for options that change a picture or a table, not what is printed).
+    std::string written = "";
 };
+
+/// The bytes of a file, or of every file under a folder (names and contents, in name order);
+/// removes it afterwards so that the next run writes it anew.
+std::string take_written(const std::string& path) {
+    std::string out;
+    std::vector<fs::path> files;
+    if (fs::is_directory(path)) {
+        for (const auto& e : fs::recursive_directory_iterator(path)) {
+            if (e.is_regular_file()) {
+                files.push_back(e.path());
+            }
+        }
+        std::sort(files.begin(), files.end());
+    } else if (fs::exists(path)) {
+        files.push_back(path);
+    }
+    for (const fs::path& f : files) {
+        std::ifstream in(f, std::ios::binary);
+        std::stringstream ss;
+        ss << in.rdbuf();
+        out += f.filename().string() + "\n" + ss.str();
+    }
+    fs::remove_all(path);
+    return out;
+}
 
 std::string model_json() {
     gonio::brdf::ModelD m;
@@ -110,8 +139,19 @@ void prove(const std::string& command, const std::vector<Proof>& table) {
     for (const Proof& p : table) {
         ++proofs[p.option];
         SCOPED_TRACE(command + " " + p.option);
+        if (!p.written.empty()) {
+            fs::remove_all(p.written);
+        }
         CliRun a = run_gonio(p.a);
-        if (p.b.empty()) {
+        if (!p.written.empty()) {
+            const std::string wa = take_written(p.written);
+            CliRun b = run_gonio(p.b);
+            const std::string wb = take_written(p.written);
+            EXPECT_EQ(a.status, 0) << p.a << "\n" << a.out;
+            EXPECT_EQ(b.status, 0) << p.b << "\n" << b.out;
+            EXPECT_FALSE(wa.empty()) << p.a << " wrote nothing at " << p.written;
+            EXPECT_NE(wa, wb) << p.a << "\n  and\n" << p.b << "\nwrite the same " << p.written;
+        } else if (p.b.empty()) {
             EXPECT_EQ(a.status, 2) << p.a << "\n" << a.out;
             EXPECT_NE(a.out.find("gonio " + command), std::string::npos) << a.out;
             EXPECT_NE(a.out.find(p.named.empty() ? p.option : p.named), std::string::npos)
@@ -252,6 +292,106 @@ TEST(HelpWalk, ExportEvalCheckEveryOptionHonouredOrRefused) {
               {"--isotropy-tol", "check " + data + " --isotropy-tol 0.5", ""},
               {"--energy-tol", "check " + data + " --energy-tol 0.5", ""},
               {"--noise", "check " + data + " --noise 0.1", ""},
+          });
+}
+
+TEST(HelpWalk, ConvertEveryOptionHonouredOrRefused) {
+    const std::string m = model_json();
+    const std::string m2 = other_model_json();
+    const std::string d = dir();
+    // A table and a sample CSV to convert from (made by the command itself).
+    ASSERT_EQ(run_gonio("convert " + m + " " + d + "/t.gtab --grid 6x6x12").status, 0);
+    ASSERT_EQ(run_gonio("convert " + m + " " + d + "/s.csv --grid 6x6x12").status, 0);
+    const std::string out = d + "/o.gtab";
+    const std::string csv = d + "/o.csv";
+    prove("convert",
+          {
+              {"input",
+               "convert " + m + " " + out + " --grid 4x4x8",
+               "convert " + m2 + " " + out + " --grid 4x4x8",
+               "",
+               out},
+              {"output", "convert " + m + " " + csv, "convert " + m + " " + out},
+              {"--grid",
+               "convert " + m + " " + out + " --grid 4x4x8",
+               "convert " + m + " " + out + " --grid 5x4x8",
+               "",
+               out},
+              {"--grid", "convert " + m + " " + d + "/o.binary --grid 4x4x8", ""},
+              {"--grid", "convert " + d + "/t.gtab " + csv + " --grid 4x4x8", ""},
+              {"--interpolation",
+               "convert " + d + "/t.gtab " + out + " --grid 5x5x10",
+               "convert " + d + "/t.gtab " + out + " --grid 5x5x10 --interpolation trilinear",
+               "",
+               out},
+              {"--interpolation", "convert " + m + " " + out + " --interpolation trilinear", ""},
+              {"--interpolation",
+               "convert " + d + "/t.gtab " + csv + " --interpolation trilinear",
+               ""},
+              {"--interpolation", "convert " + m + " " + d + "/o.bsdf --interpolation nearest", ""},
+              {"--threads", "convert " + d + "/t.gtab " + csv + " --threads 2", ""},
+              {"--threads", "convert " + d + "/s.csv " + out + " --threads 2", ""},
+              {"--threads", "convert " + m + " " + d + "/o.bsdf --threads 2", ""},
+              {"--radius",
+               "convert " + d + "/s.csv " + out + " --grid 8x8x16 --radius 0.5",
+               "convert " + d + "/s.csv " + out + " --grid 8x8x16 --radius 4",
+               "",
+               out},
+              {"--radius", "convert " + m + " " + out + " --radius 2", ""},
+          });
+}
+
+TEST(HelpWalk, PlotPreviewReportEveryOptionHonouredOrRefused) {
+    const std::string m = model_json();
+    const std::string m2 = other_model_json();
+    const std::string d = dir();
+    ASSERT_EQ(run_gonio("convert " + m + " " + d + "/s.csv --grid 6x6x12").status, 0);
+    ASSERT_EQ(run_gonio("convert " + m2 + " " + d + "/s2.csv --grid 6x6x12").status, 0);
+    const std::string plots = d + "/plots";
+    const std::string p = "plot " + d + "/s.csv --out " + plots;
+    prove("plot",
+          {
+              {"data", p, "plot " + d + "/s2.csv --out " + plots, "", plots},
+              {"--fit", p, p + " --fit " + m2, "", plots},
+              {"--out", p, "plot " + d + "/s.csv --out " + d + "/plots2"},
+              {"--scale", p + " --scale linear", p + " --scale log", "", plots},
+              {"--log", p + " --scale linear", p + " --log", "", plots},
+              {"--log", p + " --log --scale linear", "", "--log"},
+              {"--width", p, p + " --width 500", "", plots},
+              {"--theta-i", p, p + " --theta-i 10,50", "", plots},
+          });
+    const std::string png = d + "/p.png";
+    const std::string v = "preview " + m + " --out " + png + " --size 24 --samples 12";
+    prove(
+        "preview",
+        {
+            {"brdf", v, "preview " + m2 + " --out " + png + " --size 24 --samples 12", "", png},
+            {"--vs", v, v + " --vs " + m2, "", png},
+            {"--out", v, "preview " + m + " --out " + d + "/q.png --size 24 --samples 12"},
+            {"--size", v, "preview " + m + " --out " + png + " --size 32 --samples 12", "", png},
+            {"--samples", v, "preview " + m + " --out " + png + " --size 24 --samples 48", "", png},
+        });
+    // A campaign folder: a dataset and a fit.
+    const std::string camp = d + "/camp";
+    fs::create_directories(camp);
+    fs::copy_file(d + "/s.csv", camp + "/dataset.csv");
+    fs::copy_file(m, camp + "/fit.json");
+    const std::string r = "report " + camp + " --preview-size 24 --preview-samples 12";
+    ASSERT_EQ(run_gonio(r).status, 0);
+    prove("report",
+          {
+              {"dir", r, "report " + d + "/absent"},
+              {"--regenerate", r, r + " --regenerate"},
+              {"--preview-size",
+               r + " --regenerate",
+               "report " + camp + " --regenerate --preview-size 32 --preview-samples 12",
+               "",
+               camp + "/previews"},
+              {"--preview-samples",
+               r + " --regenerate",
+               "report " + camp + " --regenerate --preview-size 24 --preview-samples 48",
+               "",
+               camp + "/previews"},
           });
 }
 
