@@ -3,8 +3,10 @@
 // (a real rig, or a `gonio sim` process).
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -67,18 +69,40 @@ int refuse(const acq::CampaignRequest& r, const acq::RequestConflict& c) {
         "acquire", flag_of(c.option) + " cannot be combined with " + with + ": " + c.rule);
 }
 
+/// Polar and azimuth angles of a direction, degrees.
+std::pair<double, double> angles_deg(const gonio::brdf::Vec3d& w) {
+    constexpr double kDeg = 180.0 / 3.14159265358979323846;
+    const double theta = std::acos(std::clamp(w.z(), -1.0, 1.0)) * kDeg;
+    const double phi = std::atan2(w.y(), w.x()) * kDeg;
+    return {theta, phi};
+}
+
+/// The plan as it would be measured: a summary line, then one CSV row per configuration (its
+/// index in the pass and the target directions in degrees, sample frame), then one row per
+/// target that no arm position reaches, with why.
 int print_point_plan(const acq::CampaignRequest& r) {
     auto plan = acq::plan_point_campaign(r);
     if (!plan) {
         return fail(plan.error().message);
     }
-    std::printf("%zu configurations, %zu unreachable, %llu outside the ROI, naive 4D grid %llu\n",
-                plan->configs.size(),
-                plan->unreachable.size(),
-                static_cast<unsigned long long>(plan->outside_roi),
-                static_cast<unsigned long long>(plan->naive_count));
-    for (const auto& u : plan->unreachable) {
-        std::printf("unreachable: %s\n", u.reason.c_str());
+    std::printf(
+        "# %s plan: %zu configurations, %zu unreachable, %llu outside the ROI, naive 4D grid "
+        "%llu\n",
+        plan->kind.c_str(),
+        plan->configs.size(),
+        plan->unreachable.size(),
+        static_cast<unsigned long long>(plan->outside_roi),
+        static_cast<unsigned long long>(plan->naive_count));
+    std::printf("status,index,theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,weight,reason\n");
+    for (const acq::PlannedConfig& c : plan->configs) {
+        const auto [ti, pi] = angles_deg(c.wi);
+        const auto [to, po] = angles_deg(c.wo);
+        std::printf("planned,%u,%.4f,%.4f,%.4f,%.4f,%.6g,\n", c.index, ti, pi, to, po, c.weight);
+    }
+    for (const acq::UnreachableConfig& u : plan->unreachable) {
+        const auto [ti, pi] = angles_deg(u.wi);
+        const auto [to, po] = angles_deg(u.wo);
+        std::printf("unreachable,,%.4f,%.4f,%.4f,%.4f,,\"%s\"\n", ti, pi, to, po, u.reason.c_str());
     }
     return 0;
 }
