@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -138,7 +139,12 @@ int run(const acq::CampaignRequest& r) {
         if (r.plan_only) {
             return gonio::tools::print_image_plan(r);
         }
-        return gonio::tools::run_acquire_image_mode(gonio::tools::image_options(r));
+        gonio::tools::AcquireImageOptions io = gonio::tools::image_options(r);
+        if (serve_at) {
+            io.serve_host = serve_at->first;
+            io.serve_port = serve_at->second;
+        }
+        return gonio::tools::run_acquire_image_mode(io);
     }
     if (r.plan_only) {
         return print_point_plan(r);
@@ -180,6 +186,23 @@ int run(const acq::CampaignRequest& r) {
         hooks.on_measurement = [l](const gonio::brdf::Sample& s, std::size_t done, std::size_t n) {
             l->publish_sample(s);
             l->publish_progress(done, n, "running");
+        };
+        // The frame each measurement's exposure settled on, as a small picture (at most four a
+        // second).
+        using Clock = std::chrono::steady_clock;
+        hooks.on_frame = [l, last = Clock::time_point()](const gonio::devices::Frame& f) mutable {
+            const Clock::time_point now = Clock::now();
+            if (now - last < std::chrono::milliseconds(250)) {
+                return;
+            }
+            last = now;
+            gonio::report::Image picture =
+                gonio::tools::live_frame_picture(f, gonio::tools::kLiveFrameWidth);
+            std::string caption = gonio::tools::live_frame_description(
+                f,
+                picture,
+                "the detector camera (the measurement averages a centred square of it)");
+            l->publish_frame(std::move(picture), std::move(caption));
         };
     }
     std::signal(SIGINT, on_sigint);
@@ -265,7 +288,7 @@ GONIO_COMMAND(acquire) {
     cmd->add_option("--serve",
                     r.serve,
                     "serve a live page of the campaign at [ADDR:]PORT (ADDR default 127.0.0.1, "
-                    "PORT 0 = any free port; the URL is printed); point mode");
+                    "PORT 0 = any free port; the URL is printed)");
     return [o]() {
         acq::CampaignRequest& req = o->request;
         // A resume of an image campaign is recognised by its folder (its settings file).
