@@ -1,10 +1,12 @@
 #include "acquire_image_mode.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
 #include <vector>
 
 #include "gonio/base/atomic_file.h"
@@ -12,8 +14,78 @@
 #include "gonio/base/limits.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/material_library.h"
+#include "gonio/report/live_server.h"
 
 namespace gonio::tools {
+
+report::Image live_frame_picture(const devices::Frame& frame, int max_width) {
+    report::Image out;
+    const cv::Mat& src = frame.image;
+    if (src.empty() || max_width < 1) {
+        return out;
+    }
+    cv::Mat grey;
+    if (src.channels() == 3) {
+        cv::cvtColor(src, grey, cv::COLOR_BGR2GRAY);
+    } else if (src.channels() == 1) {
+        grey = src;
+    } else {
+        return out;
+    }
+    // Counts above black relative to the range up to saturation (8-bit frames: their own range).
+    double black = frame.black_level;
+    double range = frame.saturation_level - frame.black_level;
+    if (!(range > 0)) {
+        black = 0;
+        range = grey.depth() == CV_8U ? 255.0 : grey.depth() == CV_16U ? 65535.0 : 1.0;
+    }
+    cv::Mat linear;
+    grey.convertTo(linear, CV_32F, 1.0 / range, -black / range);
+    if (linear.cols > max_width) {
+        const int h =
+            std::max(1,
+                     static_cast<int>(std::lround(static_cast<double>(linear.rows) * max_width /
+                                                  static_cast<double>(linear.cols))));
+        cv::Mat small;
+        cv::resize(linear, small, cv::Size(max_width, h), 0, 0, cv::INTER_AREA);
+        linear = small;
+    }
+    cv::max(linear, 0.0, linear);
+    cv::min(linear, 1.0, linear);
+    cv::sqrt(linear, linear);
+    cv::Mat bytes;
+    linear.convertTo(bytes, CV_8U, 255.0);
+    out.width = bytes.cols;
+    out.height = bytes.rows;
+    out.rgb.resize(static_cast<std::size_t>(out.width) * out.height * 3);
+    for (int y = 0; y < bytes.rows; ++y) {
+        const std::uint8_t* row = bytes.ptr<std::uint8_t>(y);
+        for (int x = 0; x < bytes.cols; ++x) {
+            const std::size_t i = (static_cast<std::size_t>(y) * out.width + x) * 3;
+            out.rgb[i] = out.rgb[i + 1] = out.rgb[i + 2] = row[x];
+        }
+    }
+    return out;
+}
+
+std::string live_frame_description(const devices::Frame& frame,
+                                   const report::Image& picture,
+                                   const std::string& what) {
+    char buf[400];
+    std::snprintf(buf,
+                  sizeof buf,
+                  "Latest camera frame: %s; frame %llu, exposure %.3g ms, %d x %d px, shown at "
+                  "%d x %d px as the square root of the counts above black relative to "
+                  "saturation (white: saturated).",
+                  what.c_str(),
+                  static_cast<unsigned long long>(frame.frame_id),
+                  frame.exposure_us / 1000,
+                  frame.image.cols,
+                  frame.image.rows,
+                  picture.width,
+                  picture.height);
+    return buf;
+}
 
 Expected<std::unique_ptr<ImageRig>> start_image_rig(const AcquireImageOptions& o) {
     std::string rig_path = o.rig_path;
@@ -255,6 +327,19 @@ int run_acquire_image_mode(const AcquireImageOptions& given) {
             ? new_output_dir(o.campaigns_dir, o.sample.empty() ? truth_name : o.sample)
             : o.out_dir;
     const std::string journal = (std::filesystem::path(dir) / kJournalFile).string();
+    std::unique_ptr<report::LiveServer> live;
+    if (o.serve_port >= 0) {
+        // Before anything is written: an address that cannot be served leaves no folder behind.
+        report::LiveOptions lo;
+        lo.title = "gonio image campaign " + std::filesystem::path(dir).filename().string();
+        lo.frame_note = "no camera frame yet (the first comes with the white reference)";
+        auto srv = report::LiveServer::start(o.serve_host, o.serve_port, lo);
+        if (!srv) {
+            std::fprintf(stderr, "gonio acquire: %s\n", srv.error().message.c_str());
+            return 1;
+        }
+        live = std::move(*srv);
+    }
     if (o.resume_dir.empty()) {
         std::error_code ec;
         if (std::filesystem::exists(journal, ec)) {
@@ -320,9 +405,80 @@ int run_acquire_image_mode(const AcquireImageOptions& given) {
             std::fflush(stdout);
         }
     };
-    auto result = acquisition::run_image_campaign(
-        image_rig_capture(**rig, cfg.detector_arm_rad), cfg, progress, journal);
+    acquisition::CaptureFn capture = image_rig_capture(**rig, cfg.detector_arm_rad);
+    acquisition::ImageStateFn state;
+    if (live) {
+        std::printf("live page: %s\n", live->url().c_str());
+        std::fflush(stdout);
+        report::LiveServer* l = live.get();
+        const std::size_t max_frames = static_cast<std::size_t>(std::max(cfg.max_frames, 0));
+        l->publish_image_progress(0, max_frames, 0, cfg.coverage_target, "running");
+        // The campaign thread hands over a small picture of a frame (at most four a second) and the
+        // coverage per (theta_h, theta_d) cell; the server draws them on its own thread.
+        using Clock = std::chrono::steady_clock;
+        capture = [inner = std::move(capture), l, last = Clock::time_point()](
+                      const acquisition::CaptureRequest& q) mutable -> Expected<devices::Frame> {
+            auto f = inner(q);
+            const Clock::time_point now = Clock::now();
+            if (f && q.shutter_open && now - last >= std::chrono::milliseconds(250)) {
+                last = now;
+                static const char* const kFilters[] = {"red", "green", "blue"};
+                char what[160];
+                std::snprintf(what,
+                              sizeof what,
+                              "%s, light arm at %.1f deg, %s filter",
+                              q.reference ? "white reference sphere" : "sample sphere",
+                              q.light_arm_rad * 180 / brdf::kPi,
+                              kFilters[std::clamp(q.channel, 0, 2)]);
+                report::Image picture = live_frame_picture(*f, kLiveFrameWidth);
+                std::string caption = live_frame_description(*f, picture, what);
+                l->publish_frame(std::move(picture), std::move(caption));
+            }
+            return f;
+        };
+        state = [l, max_frames, target = cfg.coverage_target](
+                    const acquisition::ImageCampaignResult& so_far) {
+            const acquisition::CoverageMap& c = so_far.coverage;
+            const acquisition::TableLayout& lay = c.layout();
+            report::CoverageCells cells;
+            cells.n_theta_h = lay.n_theta_h;
+            cells.n_theta_d = lay.n_theta_d;
+            cells.n_phi_d = lay.n_phi_d;
+            cells.fraction.assign(static_cast<std::size_t>(lay.n_theta_h) * lay.n_theta_d, -1.0);
+            for (int ih = 0; ih < lay.n_theta_h; ++ih) {
+                for (int id = 0; id < lay.n_theta_d; ++id) {
+                    int valid = 0;
+                    int covered = 0;
+                    for (int ip = 0; ip < lay.n_phi_d; ++ip) {
+                        const std::size_t b = lay.index(ih, id, ip);
+                        if (acquisition::bin_valid(lay, b)) {
+                            ++valid;
+                            covered += c.covered(b) ? 1 : 0;
+                        }
+                    }
+                    if (valid > 0) {
+                        cells.fraction[static_cast<std::size_t>(ih) * lay.n_theta_d + id] =
+                            static_cast<double>(covered) / valid;
+                    }
+                }
+            }
+            cells.measured_bins = c.covered_bins();
+            cells.total_bins = c.valid_bins();
+            cells.total_is_valid_bins = true;
+            l->publish_coverage(std::move(cells));
+            l->publish_image_progress(
+                so_far.frames.size(), max_frames, c.fraction(), target, "running");
+        };
+    }
+    auto result = acquisition::run_image_campaign(capture, cfg, progress, journal, state);
     const acquisition::PoseCheckLog& poses = (*rig)->pose_log;
+    if (live) {
+        live->publish_image_progress(result ? result->frames.size() : 0,
+                                     static_cast<std::size_t>(std::max(cfg.max_frames, 0)),
+                                     result ? result->coverage.fraction() : 0,
+                                     cfg.coverage_target,
+                                     result ? "completed" : "failed");
+    }
     if (!result) {
         std::fprintf(stderr, "gonio acquire: %s\n", result.error().message.c_str());
         return 1;

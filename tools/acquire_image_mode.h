@@ -19,6 +19,8 @@
 #include "gonio/acquisition/campaign_request.h"
 #include "gonio/acquisition/image_campaign.h"
 #include "gonio/acquisition/rig_config.h"
+#include "gonio/devices/camera.h"
+#include "gonio/report/image.h"
 #include "gonio/sim/sim_rig.h"
 #include "gonio/sim/sphere_imaging.h"
 
@@ -53,7 +55,28 @@ struct AcquireImageOptions {
     std::string sample;         ///< Sample name in the metadata (default: the ground truth's name).
     std::string operator_name;  ///< Operator name in the metadata (none when empty).
     std::string campaigns_dir;  ///< Parent of an automatically named folder (current folder).
+    /// Live page of the campaign (report::LiveServer) at serve_host:serve_port once the folder is
+    /// known; not served when serve_port < 0 (0: a free port). Its URL is printed before the
+    /// first capture.
+    std::string serve_host = "127.0.0.1";
+    int serve_port = -1;
 };
+
+/// Width of the camera frames the live page shows, px (a frame narrower than this is shown at its
+/// own size).
+constexpr int kLiveFrameWidth = 480;
+
+/// A camera frame as the live page shows it: 8-bit grey, box-averaged down to at most `max_width`
+/// px wide (aspect kept), each pixel sqrt((counts - black) / (saturation - black)) clamped to
+/// [0, 1] (a display gamma that keeps the dim parts of a linear frame visible; saturated pixels
+/// white). Frames that are not 16-bit or float are converted as they are.
+report::Image live_frame_picture(const devices::Frame& frame, int max_width);
+
+/// The caption of such a picture: `what` (the pose, filter or role of the frame), the frame's id,
+/// exposure and size, and how its counts are shown.
+std::string live_frame_description(const devices::Frame& frame,
+                                   const report::Image& picture,
+                                   const std::string& what);
 
 /// Runs the campaign and prints a summary; returns the process exit status (0 success, 1 failure
 /// with the error printed or the coverage target not met). The folder holds, from the start, the

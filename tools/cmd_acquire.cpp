@@ -3,7 +3,10 @@
 // (a real rig, or a `gonio sim` process).
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -66,18 +69,40 @@ int refuse(const acq::CampaignRequest& r, const acq::RequestConflict& c) {
         "acquire", flag_of(c.option) + " cannot be combined with " + with + ": " + c.rule);
 }
 
+/// Polar and azimuth angles of a direction, degrees.
+std::pair<double, double> angles_deg(const gonio::brdf::Vec3d& w) {
+    constexpr double kDeg = 180.0 / 3.14159265358979323846;
+    const double theta = std::acos(std::clamp(w.z(), -1.0, 1.0)) * kDeg;
+    const double phi = std::atan2(w.y(), w.x()) * kDeg;
+    return {theta, phi};
+}
+
+/// The plan as it would be measured: a summary line, then one CSV row per configuration (its
+/// index in the pass and the target directions in degrees, sample frame), then one row per
+/// target that no arm position reaches, with why.
 int print_point_plan(const acq::CampaignRequest& r) {
     auto plan = acq::plan_point_campaign(r);
     if (!plan) {
         return fail(plan.error().message);
     }
-    std::printf("%zu configurations, %zu unreachable, %llu outside the ROI, naive 4D grid %llu\n",
-                plan->configs.size(),
-                plan->unreachable.size(),
-                static_cast<unsigned long long>(plan->outside_roi),
-                static_cast<unsigned long long>(plan->naive_count));
-    for (const auto& u : plan->unreachable) {
-        std::printf("unreachable: %s\n", u.reason.c_str());
+    std::printf(
+        "# %s plan: %zu configurations, %zu unreachable, %llu outside the ROI, naive 4D grid "
+        "%llu\n",
+        plan->kind.c_str(),
+        plan->configs.size(),
+        plan->unreachable.size(),
+        static_cast<unsigned long long>(plan->outside_roi),
+        static_cast<unsigned long long>(plan->naive_count));
+    std::printf("status,index,theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,weight,reason\n");
+    for (const acq::PlannedConfig& c : plan->configs) {
+        const auto [ti, pi] = angles_deg(c.wi);
+        const auto [to, po] = angles_deg(c.wo);
+        std::printf("planned,%u,%.4f,%.4f,%.4f,%.4f,%.6g,\n", c.index, ti, pi, to, po, c.weight);
+    }
+    for (const acq::UnreachableConfig& u : plan->unreachable) {
+        const auto [ti, pi] = angles_deg(u.wi);
+        const auto [to, po] = angles_deg(u.wo);
+        std::printf("unreachable,,%.4f,%.4f,%.4f,%.4f,,\"%s\"\n", ti, pi, to, po, u.reason.c_str());
     }
     return 0;
 }
@@ -114,7 +139,12 @@ int run(const acq::CampaignRequest& r) {
         if (r.plan_only) {
             return gonio::tools::print_image_plan(r);
         }
-        return gonio::tools::run_acquire_image_mode(gonio::tools::image_options(r));
+        gonio::tools::AcquireImageOptions io = gonio::tools::image_options(r);
+        if (serve_at) {
+            io.serve_host = serve_at->first;
+            io.serve_port = serve_at->second;
+        }
+        return gonio::tools::run_acquire_image_mode(io);
     }
     if (r.plan_only) {
         return print_point_plan(r);
@@ -156,6 +186,23 @@ int run(const acq::CampaignRequest& r) {
         hooks.on_measurement = [l](const gonio::brdf::Sample& s, std::size_t done, std::size_t n) {
             l->publish_sample(s);
             l->publish_progress(done, n, "running");
+        };
+        // The frame each measurement's exposure settled on, as a small picture (at most four a
+        // second).
+        using Clock = std::chrono::steady_clock;
+        hooks.on_frame = [l, last = Clock::time_point()](const gonio::devices::Frame& f) mutable {
+            const Clock::time_point now = Clock::now();
+            if (now - last < std::chrono::milliseconds(250)) {
+                return;
+            }
+            last = now;
+            gonio::report::Image picture =
+                gonio::tools::live_frame_picture(f, gonio::tools::kLiveFrameWidth);
+            std::string caption = gonio::tools::live_frame_description(
+                f,
+                picture,
+                "the detector camera (the measurement averages a centred square of it)");
+            l->publish_frame(std::move(picture), std::move(caption));
         };
     }
     std::signal(SIGINT, on_sigint);
@@ -241,7 +288,7 @@ GONIO_COMMAND(acquire) {
     cmd->add_option("--serve",
                     r.serve,
                     "serve a live page of the campaign at [ADDR:]PORT (ADDR default 127.0.0.1, "
-                    "PORT 0 = any free port; the URL is printed); point mode");
+                    "PORT 0 = any free port; the URL is printed)");
     return [o]() {
         acq::CampaignRequest& req = o->request;
         // A resume of an image campaign is recognised by its folder (its settings file).

@@ -962,6 +962,7 @@ Expected<RunResult> Runner::run() {
     }
     current_ = *pose;
     session_.emplace(dev_.camera.get(), dev_.shutter.get(), rig_.capture, rig_.noise);
+    session_->set_frame_observer(hooks_.on_frame);
     if (auto p = session_->prepare(); !p) {
         return finish(Outcome::kPaused, "camera: " + p.error().message, plan);
     }

@@ -102,10 +102,6 @@ std::optional<RequestConflict> find_conflict(const CampaignRequest& r) {
                                    "a point-mode option: image mode plans its light positions "
                                    "from the coverage of the table and checks no lamp drift"};
         }
-        if (image && f == "serve") {
-            return RequestConflict{
-                f, "mode", "the live page follows point-mode campaigns; image mode is not served"};
-        }
     }
     if (!r.resume_dir.empty()) {
         for (const std::string& f : given) {

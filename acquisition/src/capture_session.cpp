@@ -152,6 +152,9 @@ Expected<SignalRate> CaptureSession::measure() {
         t = next;
     }
     last_exposure_us_ = t;
+    if (frame_observer_) {
+        frame_observer_(s.frame);
+    }
     std::vector<devices::Frame> frames{s.frame};
     std::vector<cv::Mat> darks{s.dark};
     // HDR: the darkest part of the ROI sits too low on the sensor for its noise: add longer

@@ -319,7 +319,8 @@ Expected<std::array<double, 3>> calibrate(Rig& rig,
 Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
                                                  const ImageCampaignConfig& cfg,
                                                  const ImageProgressFn& progress,
-                                                 const std::string& journal_path) {
+                                                 const std::string& journal_path,
+                                                 const ImageStateFn& state) {
     if (!(cfg.bracket_factor > 1) || !(cfg.exposure_us > 0) || !(cfg.electrons_per_count > 0) ||
         !(cfg.lights.step_rad > 0)) {
         return make_error(
@@ -449,6 +450,9 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
         static_cast<std::size_t>(cfg.min_gain_fraction *
                                  static_cast<double>(result.coverage.valid_bins())));
     result.stop_reason = "frame limit";
+    if (state) {
+        state(result);
+    }
     while (static_cast<int>(result.frames.size()) < cfg.max_frames) {
         if (result.coverage.fraction() >= cfg.coverage_target) {
             result.stop_reason = "coverage target met";
@@ -545,6 +549,9 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
         result.frames.push_back(rec);
         if (progress) {
             progress(result.frames.size() - 1, rec);
+        }
+        if (state) {
+            state(result);
         }
     }
     result.target_met = result.coverage.fraction() >= cfg.coverage_target;

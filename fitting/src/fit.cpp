@@ -10,9 +10,9 @@
 #include <limits>
 #include <memory>
 #include <optional>
-#include <thread>
 
 #include "fit_stages.h"
+#include "gonio/base/thread_pool.h"
 #include "gonio/fitting/cost.h"
 #include "gonio/fitting/power_iteration.h"
 #include "gonio/fitting/prepared_samples.h"
@@ -23,11 +23,7 @@ namespace gonio::fitting {
 namespace detail {
 
 int thread_count(int requested) {
-    if (requested > 0) {
-        return requested;
-    }
-    const unsigned hw = std::thread::hardware_concurrency();
-    return hw == 0 ? 1 : static_cast<int>(hw);
+    return gonio::resolve_threads(requested);
 }
 
 Bound at_bound(double value, const ScalarParam& s) {
@@ -89,7 +85,7 @@ std::vector<Sample> select_samples(const brdf::Dataset& data,
     std::size_t rejected_here = 0;
     // (wi.z = cos theta_i.)
     std::vector<SampleKind> kind(data.samples.size(), SampleKind::kValid);
-    parallel_ranges(data.samples.size(), threads, [&](int, std::size_t b, std::size_t e) {
+    parallel_ranges(data.samples.size(), threads, [&](std::size_t, std::size_t b, std::size_t e) {
         for (std::size_t i = b; i < e; ++i) {
             const Sample& s = data.samples[i];
             if (!brdf::validate_sample(s).empty() || !(std::cos(s.theta_i) > 0) ||

@@ -31,7 +31,7 @@ enum class SampleKind : std::uint8_t {
     kSaturated,  ///< Saturated (flag bit 0): its value is only a lower bound, left out, counted.
 };
 
-/// Threads of a pass: `requested`, or the hardware's when 0.
+/// Threads of a pass: `requested` clamped to the project's pool, or the whole pool when 0.
 int thread_count(int requested);
 
 /// Which bound of its range a free scalar lies on.

@@ -36,13 +36,14 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-const char* kPage = R"(<!DOCTYPE html>
+const char* kPage = R"PAGE(<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><meta name="viewport" content="width=device-width, initial-scale=1">
 <title>TITLE</title><style>
 *{box-sizing:border-box}body{font-family:sans-serif;max-width:1000px;margin:1em auto;padding:0 1em;color:#222}
 h1{font-size:1.4em}#bar{height:18px;background:#eee;border:1px solid #bbb}#fill{height:100%;width:0;background:#3a7}
 .grid{display:flex;flex-wrap:wrap;gap:1em}.grid figure{margin:0;flex:1 1 460px;max-width:100%}
 img{max-width:100%;height:auto;border:1px solid #ddd}figcaption{font-size:.9em;color:#444}
+.note{border:1px dashed #bbb;padding:2em 1em;color:#555;text-align:center}
 #fit{font-family:monospace;white-space:pre-wrap;overflow-wrap:anywhere}
 </style></head><body>
 <h1>TITLE</h1>
@@ -50,33 +51,40 @@ img{max-width:100%;height:auto;border:1px solid #ddd}figcaption{font-size:.9em;c
 <div id="bar"><div id="fill"></div></div>
 <p id="latest"></p>
 <div class="grid">
-<figure id="in_plane-figure" style="display:none"><img id="in_plane" alt="in-plane plot of the data so far"><figcaption>In-plane slices of the data so far and the live fit: BRDF luminance Y [1/sr].</figcaption></figure>
-<figure id="coverage-figure" style="display:none"><img id="coverage" alt="coverage of the angular domain"><figcaption>Coverage: outgoing directions and (theta_h, theta_d) of every measurement so far.</figcaption></figure>
-<figure id="frame-figure" style="display:none"><img id="frame" alt="latest camera frame"><figcaption>Latest camera frame.</figcaption></figure>
+<figure id="in_plane-figure" style="display:none"><img id="in_plane" alt="in-plane plot of the data so far" onload="loaded(this)"><figcaption>In-plane slices of the data so far and the live fit: BRDF luminance Y [1/sr].</figcaption></figure>
+<figure id="coverage-figure" style="display:none"><img id="coverage" alt="coverage of the angular domain" onload="loaded(this)"><figcaption id="coverage-caption"></figcaption></figure>
+<figure id="frame-figure"><img id="frame" alt="latest camera frame" style="display:none" onload="loaded(this)"><p id="frame-note" class="note">FRAME_NOTE</p><figcaption id="frame-caption">Latest camera frame.</figcaption></figure>
 </div>
 <h2>Fit of the data so far</h2><p id="fit">no fit yet</p>
 <script>
 var shown = {};
+function loaded(img) { img.setAttribute('data-natural-width', img.naturalWidth); }
 function show(name, v) {
   if (v > 0 && shown[name] !== v) {
-    shown[name] = v; document.getElementById(name).src = '/img/' + name + '.png?v=' + v;
+    shown[name] = v; var img = document.getElementById(name);
+    img.src = '/img/' + name + '.png?v=' + v; img.style.display = '';
     var fig = document.getElementById(name + '-figure'); if (fig) { fig.style.display = ''; }
+    var note = document.getElementById(name + '-note'); if (note) { note.style.display = 'none'; }
   }
 }
+function text(id, t) { if (t !== undefined) { document.getElementById(id).textContent = t; } }
 function tick() {
   fetch('/status.json', {cache: 'no-store'}).then(function (r) { return r.json(); }).then(function (s) {
-    document.getElementById('progress').textContent = s.done + ' of ' + s.planned + ' measured (' +
-      s.percent.toFixed(1) + ' %), ' + s.state + '; ' + s.rate_per_min.toFixed(1) + ' per minute; ETA ' + s.eta;
+    text('progress', s.progress);
     document.getElementById('progress').setAttribute('data-done', s.done);
-    document.getElementById('fill').style.width = s.percent + '%';
-    document.getElementById('latest').textContent = s.latest;
-    document.getElementById('fit').textContent = s.fit;
+    document.getElementById('progress').setAttribute('data-state', s.state);
+    if (s.mode === 'image') {
+      document.getElementById('progress').setAttribute('data-coverage', s.coverage_percent.toFixed(2));
+    }
+    document.getElementById('fill').style.width = Math.min(100, s.bar_percent) + '%';
+    text('latest', s.latest); text('fit', s.fit);
+    text('coverage-caption', s.captions.coverage); text('frame-caption', s.captions.frame);
     show('in_plane', s.versions.in_plane); show('coverage', s.versions.coverage); show('frame', s.versions.frame);
   }).catch(function () {}).then(function () { setTimeout(tick, 1000); });
 }
 tick();
 </script></body></html>
-)";
+)PAGE";
 
 std::string replace_all(std::string s, const std::string& from, const std::string& to) {
     for (std::size_t p = s.find(from); p != std::string::npos; p = s.find(from, p + to.size())) {
@@ -142,7 +150,14 @@ struct LiveServer::Impl {
     std::mutex in_mu;
     std::vector<brdf::Sample> samples;
     std::optional<Image> frame;
+    std::string frame_description;
+    std::optional<CoverageCells> cells;
     std::string state = "starting";
+    // Image campaigns: covered fraction, target, and (frames done, coverage) of the last frames.
+    std::atomic<bool> image_mode{false};
+    double coverage = 0;
+    double coverage_target = 0;
+    std::vector<std::pair<std::size_t, double>> coverage_history;
     std::atomic<std::size_t> done{0};
     std::atomic<std::size_t> planned{0};
     std::atomic<std::size_t> first_done{static_cast<std::size_t>(-1)};
@@ -155,6 +170,8 @@ struct LiveServer::Impl {
         std::map<std::string, std::uint64_t> versions;
         std::string fit = "no fit yet";
         std::string latest;
+        std::string coverage_caption;
+        std::string frame_caption = "Latest camera frame.";
     };
     std::mutex out_mu;
     Rendered out;
@@ -172,12 +189,19 @@ struct LiveServer::Impl {
 std::string LiveServer::Impl::status_json() {
     const std::size_t d = done.load();
     const std::size_t p = planned.load();
+    const bool image = image_mode.load();
     std::string st;
     Clock::time_point t0;
+    double cov = 0;
+    double target = 0;
+    std::vector<std::pair<std::size_t, double>> history;
     {
         std::lock_guard<std::mutex> lock(in_mu);
         st = state;
         t0 = first_done_at;
+        cov = coverage;
+        target = coverage_target;
+        history = coverage_history;
     }
     // Rate over this run's measurements (a resumed campaign starts with some done).
     const std::size_t d0 = first_done.load();
@@ -186,20 +210,79 @@ std::string LiveServer::Impl::status_json() {
         const double secs = std::chrono::duration<double>(Clock::now() - t0).count();
         rate_per_s = secs > 0 ? static_cast<double>(d - d0) / secs : 0;
     }
-    const double eta =
-        rate_per_s > 0 && p >= d ? static_cast<double>(p - d) / rate_per_s : std::nan("");
+    // What is left: the rest of the plan; for an image campaign the sooner of the frame limit
+    // and the frames that reach the target at the coverage gained per frame lately.
+    double left = p >= d ? static_cast<double>(p - d) : 0;
+    std::string basis = "the plan";
+    if (image) {
+        basis = "the frame limit";
+        if (cov >= target) {
+            left = 0;
+        } else if (history.size() >= 2) {
+            const auto& first = history.front();
+            const auto& last = history.back();
+            const double gain_per_frame =
+                last.first > first.first
+                    ? (last.second - first.second) / static_cast<double>(last.first - first.first)
+                    : 0;
+            if (gain_per_frame > 0) {
+                const double to_target = std::ceil((target - cov) / gain_per_frame);
+                if (to_target < left) {
+                    left = to_target;
+                    basis = "the coverage target at the recent gain per frame";
+                }
+            }
+        }
+    }
+    const double eta = rate_per_s > 0 ? left / rate_per_s : std::nan("");
+    const std::string eta_text = st == "running" ? duration_text(eta) : "-";
     nlohmann::json j;
+    j["mode"] = image ? "image" : "point";
     j["done"] = d;
     j["planned"] = p;
-    j["percent"] = p > 0 ? 100.0 * static_cast<double>(d) / static_cast<double>(p) : 0.0;
+    const double percent = p > 0 ? 100.0 * static_cast<double>(d) / static_cast<double>(p) : 0.0;
+    j["percent"] = percent;
     j["state"] = st;
     j["rate_per_min"] = rate_per_s * 60;
-    j["eta"] = st == "running" ? duration_text(eta) : "-";
+    j["eta"] = eta_text;
+    j["eta_basis"] = basis;
     j["elapsed_s"] = std::chrono::duration<double>(Clock::now() - started).count();
+    char buf[400];
+    if (image) {
+        j["coverage_percent"] = 100 * cov;
+        j["target_percent"] = 100 * target;
+        // The campaign ends at the target or at the frame limit, whichever comes first.
+        j["bar_percent"] = std::max(percent, target > 0 ? 100 * cov / target : 0.0);
+        std::snprintf(buf,
+                      sizeof buf,
+                      "%zu of at most %zu light positions; coverage %.1f %% of the valid bins "
+                      "(target %.1f %%); %s; %.1f frames per minute; ETA %s (by %s)",
+                      d,
+                      p,
+                      100 * cov,
+                      100 * target,
+                      st.c_str(),
+                      rate_per_s * 60,
+                      eta_text.c_str(),
+                      basis.c_str());
+    } else {
+        j["bar_percent"] = percent;
+        std::snprintf(buf,
+                      sizeof buf,
+                      "%zu of %zu measured (%.1f %%), %s; %.1f per minute; ETA %s",
+                      d,
+                      p,
+                      percent,
+                      st.c_str(),
+                      rate_per_s * 60,
+                      eta_text.c_str());
+    }
+    j["progress"] = buf;
     std::lock_guard<std::mutex> lock(out_mu);
     j["versions"] = out.versions;
     j["fit"] = out.fit;
     j["latest"] = out.latest;
+    j["captions"] = {{"coverage", out.coverage_caption}, {"frame", out.frame_caption}};
     return j.dump();
 }
 
@@ -229,6 +312,8 @@ void LiveServer::Impl::render_loop() {
         }
         seen = v;
         std::optional<Image> new_frame;
+        std::string frame_description;
+        std::optional<CoverageCells> new_cells;
         {
             // Only what is new is copied: the campaign thread waits at most for this.
             std::lock_guard<std::mutex> lock(in_mu);
@@ -238,6 +323,11 @@ void LiveServer::Impl::render_loop() {
             if (frame) {
                 new_frame = std::move(frame);
                 frame.reset();
+                frame_description = this->frame_description;
+            }
+            if (cells) {
+                new_cells = std::move(cells);
+                cells.reset();
             }
         }
         Rendered r;
@@ -249,6 +339,11 @@ void LiveServer::Impl::render_loop() {
         PlotOptions po;
         po.width = options.plot_width;
         const Clock::time_point now = Clock::now();
+        if (image_mode.load() && data.samples.empty()) {
+            r.fit =
+                "An image campaign fills a half/difference table; it is fitted when the campaign "
+                "ends (gonio fit on the campaign's dataset.csv).";
+        }
         if (data.samples.size() >= options.fit_min_samples && data.samples.size() > fitted_at &&
             now - last_fit >= std::chrono::duration<double>(options.fit_interval_s)) {
             last_fit = now;
@@ -292,6 +387,8 @@ void LiveServer::Impl::render_loop() {
         if (!data.samples.empty()) {
             put("in_plane", plot_in_plane(data, fit.get(), po));
             put("coverage", plot_coverage(data, po));
+            r.coverage_caption =
+                "Coverage: outgoing directions and (theta_h, theta_d) of every measurement so far.";
             const brdf::Sample& s = data.samples.back();
             char buf[200];
             std::snprintf(buf,
@@ -307,8 +404,18 @@ void LiveServer::Impl::render_loop() {
                           s.value[2]);
             r.latest = buf;
         }
+        if (new_cells) {
+            put("coverage", plot_coverage_cells(*new_cells, {}, po, "so far"));
+            r.coverage_caption =
+                "Coverage of the half/difference table so far: fraction of the phi_d bins of each "
+                "(theta_h, theta_d) cell holding a measured value.";
+        }
         if (new_frame) {
             put("frame", *new_frame);
+            r.frame_caption = frame_description.empty()
+                                  ? "Latest camera frame (" + std::to_string(new_frame->width) +
+                                        " x " + std::to_string(new_frame->height) + " px)."
+                                  : frame_description;
         }
         {
             std::lock_guard<std::mutex> lock(out_mu);
@@ -336,7 +443,9 @@ Expected<std::unique_ptr<LiveServer>> LiveServer::start(const std::string& host,
     s.set_write_timeout(options.io_timeout_s, 0);
     s.set_keep_alive_timeout(options.io_timeout_s);
     s.set_keep_alive_max_count(100);
-    const std::string page = replace_all(kPage, "TITLE", html_escape(options.title));
+    const std::string page = replace_all(replace_all(kPage, "TITLE", html_escape(options.title)),
+                                         "FRAME_NOTE",
+                                         html_escape(options.frame_note));
     s.Get("/", [p, page](const httplib::Request&, httplib::Response& res) {
         ++p->requests;
         res.set_content(page, "text/html; charset=utf-8");
@@ -410,10 +519,42 @@ void LiveServer::publish_sample(const brdf::Sample& sample) {
     ++impl_->version;
 }
 
-void LiveServer::publish_frame(Image frame) {
+void LiveServer::publish_frame(Image frame, std::string description) {
     {
         std::lock_guard<std::mutex> lock(impl_->in_mu);
         impl_->frame = std::move(frame);
+        impl_->frame_description = std::move(description);
+    }
+    ++impl_->version;
+}
+
+void LiveServer::publish_image_progress(std::size_t frames_done,
+                                        std::size_t max_frames,
+                                        double coverage,
+                                        double coverage_target,
+                                        const std::string& state) {
+    // Frames whose gain sets the ETA's pace.
+    constexpr std::size_t kGainFrames = 6;
+    {
+        std::lock_guard<std::mutex> lock(impl_->in_mu);
+        impl_->image_mode.store(true);
+        impl_->coverage = std::isfinite(coverage) ? coverage : 0;
+        impl_->coverage_target = std::isfinite(coverage_target) ? coverage_target : 0;
+        auto& h = impl_->coverage_history;
+        if (h.empty() || h.back().first != frames_done) {
+            h.emplace_back(frames_done, impl_->coverage);
+            if (h.size() > kGainFrames) {
+                h.erase(h.begin());
+            }
+        }
+    }
+    publish_progress(frames_done, max_frames, state);
+}
+
+void LiveServer::publish_coverage(CoverageCells cells) {
+    {
+        std::lock_guard<std::mutex> lock(impl_->in_mu);
+        impl_->cells = std::move(cells);
     }
     ++impl_->version;
 }

@@ -121,27 +121,17 @@ Expected<Image> plot_half_angle(const brdf::Dataset& data,
     return from_mat(img);
 }
 
-Expected<Image> plot_table_coverage(const brdf::TabulatedBrdf& table,
+Expected<Image> plot_coverage_cells(const CoverageCells& cells,
                                     const std::vector<TableHole>& holes,
                                     const PlotOptions& options,
                                     const std::string& title) {
-    const brdf::TableGrid& g = table.grid();
-    if (g.size() == 0) {
-        return make_error(title + ": empty table grid: no coverage to plot");
-    }
-    // Fraction of measured phi_d bins per (theta_h, theta_d) cell.
-    std::vector<double> frac(static_cast<std::size_t>(g.n_theta_h) * g.n_theta_d, 0.0);
-    std::size_t valid = 0;
-    for (int ih = 0; ih < g.n_theta_h; ++ih) {
-        for (int id = 0; id < g.n_theta_d; ++id) {
-            int n = 0;
-            for (int ip = 0; ip < g.n_phi_d; ++ip) {
-                n += table.bin_valid(g.index(ih, id, ip)) ? 1 : 0;
-            }
-            valid += static_cast<std::size_t>(n);
-            frac[static_cast<std::size_t>(ih) * g.n_theta_d + id] =
-                static_cast<double>(n) / g.n_phi_d;
-        }
+    const std::size_t n_cells = static_cast<std::size_t>(std::max(cells.n_theta_h, 0)) *
+                                static_cast<std::size_t>(std::max(cells.n_theta_d, 0));
+    if (n_cells == 0 || cells.fraction.size() != n_cells) {
+        return make_error(title + ": coverage of " + std::to_string(cells.fraction.size()) +
+                          " cells for a " + std::to_string(cells.n_theta_h) + " x " +
+                          std::to_string(cells.n_theta_d) +
+                          " (theta_h x theta_d) grid: no coverage to plot");
     }
     const int W = std::max(400, options.width);
     const int side = std::min(W - 90 - 150, 560);
@@ -149,13 +139,16 @@ Expected<Image> plot_table_coverage(const brdf::TabulatedBrdf& table,
     char sub[240];
     std::snprintf(sub,
                   sizeof sub,
-                  "%zu of %zu bins measured (%.1f %%), grid %dx%dx%d; %zu holes outlined",
-                  valid,
-                  g.size(),
-                  100.0 * static_cast<double>(valid) / static_cast<double>(g.size()),
-                  g.n_theta_h,
-                  g.n_theta_d,
-                  g.n_phi_d,
+                  "%zu of %zu %sbins measured (%.1f %%), grid %dx%dx%d; %zu holes outlined",
+                  cells.measured_bins,
+                  cells.total_bins,
+                  cells.total_is_valid_bins ? "valid " : "",
+                  cells.total_bins > 0 ? 100.0 * static_cast<double>(cells.measured_bins) /
+                                             static_cast<double>(cells.total_bins)
+                                       : 0.0,
+                  cells.n_theta_h,
+                  cells.n_theta_d,
+                  cells.n_phi_d,
                   holes.size());
     cv::Mat img = draw::blank(W, H, "Coverage of the table - " + title, sub);
     draw::Axes ax;
@@ -164,23 +157,31 @@ Expected<Image> plot_table_coverage(const brdf::TabulatedBrdf& table,
     ax.x1 = 90;
     ax.y0 = 0;
     ax.y1 = 90;
-    auto colour = [](double t) {
-        // Empty cells light grey, then the sequential map.
-        return t <= 0 ? cv::Scalar(225, 225, 225) : draw::sequential(t);
+    const cv::Scalar empty_colour(225, 225, 225);
+    const cv::Scalar invalid_colour(150, 150, 150);
+    bool any_invalid = false;
+    auto colour = [&](double t) {
+        // Cells without a valid bin mid grey, empty cells light grey, then the sequential map.
+        if (t < 0) {
+            any_invalid = true;
+            return invalid_colour;
+        }
+        return t <= 0 ? empty_colour : draw::sequential(std::min(t, 1.0));
     };
     // theta_h bins are uniform in sqrt(theta_h / (pi/2)): cell edges at ((i / n)^2) 90 deg.
-    for (int ih = 0; ih < g.n_theta_h; ++ih) {
-        const double h0 = std::pow(static_cast<double>(ih) / g.n_theta_h, 2) * 90;
-        const double h1 = std::pow(static_cast<double>(ih + 1) / g.n_theta_h, 2) * 90;
-        for (int id = 0; id < g.n_theta_d; ++id) {
-            const double d0 = 90.0 * id / g.n_theta_d;
-            const double d1 = 90.0 * (id + 1) / g.n_theta_d;
+    for (int ih = 0; ih < cells.n_theta_h; ++ih) {
+        const double h0 = std::pow(static_cast<double>(ih) / cells.n_theta_h, 2) * 90;
+        const double h1 = std::pow(static_cast<double>(ih + 1) / cells.n_theta_h, 2) * 90;
+        for (int id = 0; id < cells.n_theta_d; ++id) {
+            const double d0 = 90.0 * id / cells.n_theta_d;
+            const double d1 = 90.0 * (id + 1) / cells.n_theta_d;
             const cv::Point a = ax.pt(h0, d1);
             const cv::Point b = ax.pt(h1, d0);
-            cv::rectangle(img,
-                          cv::Rect(a, b),
-                          colour(frac[static_cast<std::size_t>(ih) * g.n_theta_d + id]),
-                          cv::FILLED);
+            cv::rectangle(
+                img,
+                cv::Rect(a, b),
+                colour(cells.fraction[static_cast<std::size_t>(ih) * cells.n_theta_d + id]),
+                cv::FILLED);
         }
     }
     const cv::Scalar hole_colour(40, 39, 214);  // red (BGR)
@@ -197,13 +198,45 @@ Expected<Image> plot_table_coverage(const brdf::TabulatedBrdf& table,
         1,
         [](double t) { return draw::sequential(t); },
         "fraction of phi_d bins measured");
-    std::vector<draw::LegendEntry> entries = {
-        {cv::Scalar(225, 225, 225), "no bin measured", false, true}};
+    std::vector<draw::LegendEntry> entries = {{empty_colour, "no bin measured", false, true}};
+    if (any_invalid) {
+        entries.push_back(
+            {invalid_colour, "no valid bin (beyond the table's domain)", false, true});
+    }
     if (!holes.empty()) {
         entries.push_back({hole_colour, "hole: empty valid bins (dataset.json)", true, false});
     }
     draw::legend(img, entries, {ax.area.x, ax.area.y + ax.area.height + 56}, true);
     return from_mat(img);
+}
+
+Expected<Image> plot_table_coverage(const brdf::TabulatedBrdf& table,
+                                    const std::vector<TableHole>& holes,
+                                    const PlotOptions& options,
+                                    const std::string& title) {
+    const brdf::TableGrid& g = table.grid();
+    if (g.size() == 0) {
+        return make_error(title + ": empty table grid: no coverage to plot");
+    }
+    // Fraction of measured phi_d bins per (theta_h, theta_d) cell.
+    CoverageCells cells;
+    cells.n_theta_h = g.n_theta_h;
+    cells.n_theta_d = g.n_theta_d;
+    cells.n_phi_d = g.n_phi_d;
+    cells.fraction.assign(static_cast<std::size_t>(g.n_theta_h) * g.n_theta_d, 0.0);
+    for (int ih = 0; ih < g.n_theta_h; ++ih) {
+        for (int id = 0; id < g.n_theta_d; ++id) {
+            int n = 0;
+            for (int ip = 0; ip < g.n_phi_d; ++ip) {
+                n += table.bin_valid(g.index(ih, id, ip)) ? 1 : 0;
+            }
+            cells.measured_bins += static_cast<std::size_t>(n);
+            cells.fraction[static_cast<std::size_t>(ih) * g.n_theta_d + id] =
+                static_cast<double>(n) / g.n_phi_d;
+        }
+    }
+    cells.total_bins = g.size();
+    return plot_coverage_cells(cells, holes, options, title);
 }
 
 }  // namespace gonio::report

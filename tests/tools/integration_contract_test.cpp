@@ -206,13 +206,15 @@ TEST(AcquireContract, ImageResumeReadsTheFolderAndRefusesNewCampaignOptions) {
         {"--coverage-target 0.4", "--coverage-target cannot be combined with --resume"},
         {"--max-frames 3", "--max-frames cannot be combined with --resume"},
         {"--material gold", "--material cannot be combined with --resume"},
-        {"--serve 0", "--serve cannot be combined with --mode image"},
     };
     for (const auto& [args, want] : cases) {
         CliRun r = run_gonio("acquire --mode image --resume " + dir() + "/old " + args);
         EXPECT_EQ(r.status, 2) << args << "\n" << r.out;
         EXPECT_TRUE(has(r.out, "gonio acquire: " + want)) << r.out;
-    }
+    }  // The live page goes with a resume as with a new campaign: the folder is read first.
+    CliRun s = run_gonio("acquire --mode image --resume " + dir() + "/old --serve 127.0.0.1:0");
+    EXPECT_EQ(s.status, 1) << s.out;
+    EXPECT_TRUE(has(s.out, "not an image-mode campaign folder")) << s.out;
 }
 
 TEST(AcquireContract, GridIsAnImageModeOptionHonouredByThePlan) {

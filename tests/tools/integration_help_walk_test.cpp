@@ -4,7 +4,11 @@
 // it, refused with exit status 2 and a message naming it. An option added without an entry here
 // turns the test red, as does one that stops changing anything or stops being refused.
 
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -164,7 +168,38 @@ TEST(HelpWalk, FitEveryOptionHonouredOrRefused) {
           });
 }
 
+/// A TCP port on 127.0.0.1 held by a listening socket for the object's lifetime.
+class BusyPort {
+  public:
+    BusyPort() {
+        fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
+        sockaddr_in a{};
+        a.sin_family = AF_INET;
+        a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+        socklen_t len = sizeof a;
+        if (fd_ >= 0 && ::bind(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0 &&
+            ::listen(fd_, 1) == 0 &&
+            ::getsockname(fd_, reinterpret_cast<sockaddr*>(&a), &len) == 0) {
+            port_ = ntohs(a.sin_port);
+        }
+    }
+    ~BusyPort() {
+        if (fd_ >= 0) {
+            ::close(fd_);
+        }
+    }
+    BusyPort(const BusyPort&) = delete;
+    BusyPort& operator=(const BusyPort&) = delete;
+    int port() const { return port_; }
+
+  private:
+    int fd_ = -1;
+    int port_ = 0;
+};
+
 TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
+    const BusyPort busy;
+    ASSERT_GT(busy.port(), 0);
     const std::string r = "acquire --resume " + dir() + "/camp";
     const std::string camp = dir() + "/c.json";
     std::ofstream(camp) << R"({"plan": {"kind": "uniform", "n_theta": 3, "n_dphi": 2}})";
@@ -200,7 +235,12 @@ TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
               {"--grid",
                "acquire --mode image --plan-only",
                "acquire --mode image --plan-only --grid 15x15x30"},
-              {"--serve", "acquire --mode image --serve 0", ""},
+              // Image mode serves its live page: given an address already in use, it says so
+              // and stops before it writes anything; without the option the campaign runs.
+              {"--serve",
+               "acquire --mode image --max-frames 1 --out " + dir() +
+                   "/served --serve 127.0.0.1:" + std::to_string(busy.port()),
+               "acquire --mode image --max-frames 1 --out " + dir() + "/served"},
               {"--serve", "acquire --plan-only --serve 0", ""},
               {"--plan-only", r + " --plan-only", ""},
           });

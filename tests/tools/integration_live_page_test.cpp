@@ -1,8 +1,9 @@
 // The live campaign page: `gonio acquire --serve 127.0.0.1:0` on the embedded virtual rig prints
-// its URL; headless Chromium shows the progress advancing; 200 idle connections and a client that
-// never reads leave the campaign running to the end. The measurement rate with and without those
-// clients is printed (the figures in docs/benchmarks.md), not asserted: timing is no test's
-// business.
+// its URL; headless Chromium shows the progress advancing and the latest camera frame decoded (a
+// point campaign's and an image campaign's, whose coverage map fills too); 200 idle connections
+// and a client that never reads leave the campaign running to the end. The measurement rate with
+// and without those clients is printed (the figures in docs/benchmarks.md), not asserted: timing is
+// no test's business.
 
 #include <arpa/inet.h>
 #include <fcntl.h>
@@ -13,6 +14,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -81,6 +83,30 @@ long done_in(const std::string& dom) {
     return -1;
 }
 
+/// The attribute `name` of the element with this id in a dumped DOM ("" when absent).
+std::string attribute_of(const std::string& dom, const std::string& id, const std::string& name) {
+    std::smatch tag;
+    if (!std::regex_search(dom, tag, std::regex("<[a-z]+[^>]* id=\"" + id + "\"[^>]*>"))) {
+        return {};
+    }
+    const std::string t = tag.str();
+    std::smatch m;
+    if (std::regex_search(t, m, std::regex(" " + name + "=\"([^\"]*)\""))) {
+        return m[1];
+    }
+    return {};
+}
+
+/// The text inside the element with this id (up to its first child or end tag), whatever
+/// attributes the page's script added to it.
+std::string inner_text(const std::string& dom, const std::string& id) {
+    std::smatch m;
+    if (std::regex_search(dom, m, std::regex("<[a-z]+[^>]* id=\"" + id + "\"[^>]*>([^<]*)<"))) {
+        return m[1];
+    }
+    return {};
+}
+
 TEST(LivePage, ChromiumWatchesTheCampaignAndFloodingClientsDoNotStopIt) {
     GONIO_REQUIRE_CHROMIUM();
     const fs::path dir = fresh_test_dir("live_page");
@@ -143,6 +169,11 @@ TEST(LivePage, ChromiumWatchesTheCampaignAndFloodingClientsDoNotStopIt) {
     EXPECT_GE(d1, 0) << dom1.substr(0, 2000);
     EXPECT_GT(d2, d1) << "the page's progress did not advance";
     EXPECT_NE(dom2.find("of "), std::string::npos);
+    // The camera frame a measurement was exposed on is shown, decoded, with what it is.
+    const std::string fw = attribute_of(dom2, "frame", "data-natural-width");
+    EXPECT_GT(fw.empty() ? 0 : std::stol(fw), 0) << dom2.substr(0, 3000);
+    EXPECT_NE(element_text(dom2, "frame-caption").find("detector camera"), std::string::npos)
+        << element_text(dom2, "frame-caption");
 
     // Rates: quiet, then 200 idle connections and a client that requests pictures and never
     // reads, then quiet again.
@@ -208,9 +239,116 @@ TEST(LivePage, ServeOptionIsCheckedBeforeAnyWork) {
         EXPECT_NE(r.out.find("--serve"), std::string::npos) << r.out;
         EXPECT_FALSE(fs::exists(dir / "x")) << bad;
     }
-    const CliRun img = run_gonio("acquire --mode image --serve 0 --out " + (dir / "y").string());
+    // Image mode checks the address the same way, before the rig starts or a folder is made.
+    const CliRun img =
+        run_gonio("acquire --mode image --serve 70000 --out " + (dir / "y").string());
     EXPECT_EQ(img.status, 2) << img.out;
     EXPECT_NE(img.out.find("--serve"), std::string::npos);
+    EXPECT_FALSE(fs::exists(dir / "y"));
+}
+
+TEST(LivePage, ChromiumWatchesAnImageCampaignFillItsTable) {
+    GONIO_REQUIRE_CHROMIUM();
+    const fs::path dir = fresh_test_dir("live_page_image");
+    const fs::path out = dir / "campaign";
+    const fs::path log = dir / "acquire.log";
+    const fs::path pid_file = dir / "acquire.pid";
+    // An image campaign on the embedded virtual rig, its arms at half of real speed so that each
+    // light position takes seconds: it ends at 45 % coverage (about fifteen positions).
+    const std::string cmd = "echo $$ > " + pid_file.string() + "; exec " + std::string(GONIO_EXE) +
+                            " acquire --mode image --serve 127.0.0.1:0 --out " + out.string() +
+                            " --coverage-target 0.45 --max-frames 40 --time-scale 0.5 > " +
+                            log.string() + " 2>&1";
+    int status = -1;
+    std::atomic<bool> finished{false};
+    std::thread campaign([&] {
+        status = std::system(cmd.c_str());
+        finished = true;
+    });
+    struct Reaper {
+        std::thread& t;
+        fs::path pid_file;
+        ~Reaper() {
+            if (t.joinable()) {
+                std::ifstream in(pid_file);
+                long pid = 0;
+                if (in >> pid && pid > 0) {
+                    ::kill(static_cast<pid_t>(pid), SIGKILL);
+                }
+                t.join();
+            }
+        }
+    } reaper{campaign, pid_file};
+    auto log_text = [&] {
+        std::ifstream in(log);
+        std::stringstream ss;
+        ss << in.rdbuf();
+        return ss.str();
+    };
+    std::string url;
+    for (int i = 0; i < 1200 && url.empty() && !finished; ++i) {
+        std::smatch m;
+        const std::string text = log_text();
+        if (std::regex_search(text, m, std::regex("live page: (http://127\\.0\\.0\\.1:[0-9]+/)"))) {
+            url = m[1];
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    ASSERT_FALSE(url.empty()) << "no live page URL printed\n" << log_text();
+
+    // Chromium looks at the page until the campaign ends: the light positions it reports
+    // advance, the coverage grows, the camera frame and the coverage map decode.
+    std::vector<long> done;
+    std::vector<double> coverage;
+    long frame_width = 0;
+    long coverage_width = 0;
+    std::string frame_caption;
+    std::string last_dom;
+    for (int k = 0; k < 30 && !finished; ++k) {
+        const std::string dom = chromium_dump_dom(url, dir / ("profile" + std::to_string(k)), 3000);
+        const long d = done_in(dom);
+        if (d < 0) {
+            continue;  // the campaign ended while Chromium loaded the page
+        }
+        last_dom = dom;
+        done.push_back(d);
+        const std::string c = attribute_of(dom, "progress", "data-coverage");
+        coverage.push_back(c.empty() ? -1.0 : std::stod(c));
+        const std::string fw = attribute_of(dom, "frame", "data-natural-width");
+        const std::string cw = attribute_of(dom, "coverage", "data-natural-width");
+        frame_width = std::max(frame_width, fw.empty() ? 0L : std::stol(fw));
+        coverage_width = std::max(coverage_width, cw.empty() ? 0L : std::stol(cw));
+        if (!fw.empty()) {
+            frame_caption = inner_text(dom, "frame-caption");
+        }
+        if (done.size() >= 2 && done.back() > done.front() && frame_width > 0 &&
+            coverage_width > 0) {
+            break;
+        }
+    }
+    for (std::size_t i = 0; i < done.size(); ++i) {
+        std::printf("Chromium saw %ld light positions, coverage %.2f %%\n", done[i], coverage[i]);
+    }
+    ASSERT_GE(done.size(), 2u) << "Chromium saw the running campaign fewer than twice\n"
+                               << last_dom.substr(0, 3000);
+    EXPECT_GT(done.back(), done.front()) << "the light positions shown did not advance";
+    EXPECT_GT(coverage.back(), coverage.front()) << "the coverage shown did not grow";
+    EXPECT_GT(frame_width, 0) << "the camera frame did not decode\n" << last_dom.substr(0, 3000);
+    EXPECT_LE(frame_width, 480);
+    EXPECT_GT(coverage_width, 0) << "the coverage map did not decode";
+    EXPECT_NE(frame_caption.find("light arm at"), std::string::npos) << frame_caption;
+    const std::string progress = inner_text(last_dom, "progress");
+    EXPECT_NE(progress.find("light positions; coverage"), std::string::npos) << progress;
+    EXPECT_NE(progress.find("ETA"), std::string::npos) << progress;
+    EXPECT_NE(progress.find("target 45.0 %"), std::string::npos) << progress;
+
+    // The campaign ends by itself, at its target, with its table written.
+    campaign.join();
+    const std::string text = log_text();
+    ASSERT_TRUE(WIFEXITED(status)) << text;
+    EXPECT_EQ(WEXITSTATUS(status), 0) << text;
+    EXPECT_NE(text.find("stopped: coverage target met"), std::string::npos) << text;
+    EXPECT_TRUE(fs::exists(out / "dataset.csv"));
 }
 
 }  // namespace

@@ -104,6 +104,10 @@ struct RunHooks {
     /// at once (hand the data over, never draw or wait): the next move waits for it.
     std::function<void(const brdf::Sample& sample, std::size_t measured, std::size_t planned)>
         on_measurement;
+    /// Called on the campaign thread with the camera frame each measurement's exposure was set
+    /// on (the white reference's and the drift checks' too), before the HDR merge. The same rule:
+    /// hand it over and return.
+    std::function<void(const devices::Frame& frame)> on_frame;
 };
 
 /// Runs (or resumes) the campaign in `dir` on the rig's devices until completed, interrupted or

@@ -54,7 +54,7 @@ struct CampaignRequest {
     int max_frames = 0;          ///< Image mode: most light positions.
     /// Image mode: table bins (theta_h x theta_d x phi_d); all zero: from table_factor.
     TableLayout grid{0, 0, 0};
-    std::string serve;  ///< Point mode: "[ADDR:]PORT" of the live page of the campaign.
+    std::string serve;  ///< "[ADDR:]PORT" of the live page of the campaign (both modes).
     /// Image mode settings no command-line option gives (tests and scripts set them): the table
     /// resolution (90 / factor bins per angle; 1 = MERL), the virtual rig's default camera size
     /// and sub-pixel rays, and its noise seed.
@@ -80,8 +80,7 @@ std::string option_key(const std::string& field);
 /// The first option the mode refuses (none: every given option is honoured). Rules:
 /// - point mode refuses coverage_target, max_frames and grid (image-mode options);
 /// - image mode refuses the campaign file, scene, plan, n_theta, n_dphi, adaptive,
-///   accept_drift (point-mode plans and drift checks) and serve (the live page follows point
-///   campaigns);
+///   accept_drift (point-mode plans and drift checks);
 /// - a resume reads everything from the folder (an image campaign: its settings and frame
 ///   journal): only accept_drift and serve go with it;
 /// - plan_only prints the plan: nothing that only matters to a run (out, campaigns_dir,

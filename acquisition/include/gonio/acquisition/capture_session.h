@@ -3,6 +3,7 @@
 // The device side of calibrated capture: auto exposure on a ladder of exposures, dark frames taken
 // with the shutter closed and cached per (exposure, gain), exposure bracketing and HDR merge.
 
+#include <functional>
 #include <map>
 #include <utility>
 
@@ -32,6 +33,11 @@ class CaptureSession {
     std::size_t frames_taken() const { return frames_taken_; }
     /// Forgets the cached dark frames (after a camera reconnect).
     void clear_dark_cache() { dark_.clear(); }
+    /// Called by measure() with the frame its auto exposure settled on (shutter open, not dark
+    /// subtracted); it must return at once.
+    void set_frame_observer(std::function<void(const devices::Frame&)> observer) {
+        frame_observer_ = std::move(observer);
+    }
 
   private:
     Expected<devices::Frame> grab(double exposure_us);
@@ -52,6 +58,7 @@ class CaptureSession {
     std::map<std::pair<long long, long long>, cv::Mat> dark_;
     std::size_t dark_taken_ = 0;
     std::size_t frames_taken_ = 0;
+    std::function<void(const devices::Frame&)> frame_observer_;
 };
 
 }  // namespace gonio::acquisition

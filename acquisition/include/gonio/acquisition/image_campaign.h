@@ -139,6 +139,12 @@ ImageCampaignConfig image_campaign_config(const RigConfig& rig,
 /// Called after each light position: index, record.
 using ImageProgressFn = std::function<void(std::size_t, const FrameRecord&)>;
 
+/// Called on the campaign thread with the campaign so far (its table, coverage and frames): once
+/// when the set-up is done (with a resumed journal's frames merged) and after each new light
+/// position. It must return at once (hand the data over, never draw or wait for a reader): the
+/// light arm waits for it.
+using ImageStateFn = std::function<void(const ImageCampaignResult& so_far)>;
+
 /// Runs the campaign (file comment). Errors from the capture function are returned with the
 /// request that failed.
 ///
@@ -147,11 +153,13 @@ using ImageProgressFn = std::function<void(std::size_t, const FrameRecord&)>;
 /// before the light arm moves on. A journal that already holds records is resumed: its set-up
 /// replaces the reference and silhouette captures (its layout and detector arm must match the
 /// configuration), its frames are merged into the table and their light positions are not planned
-/// again; the campaign then continues where it stopped. Progress is reported for new frames only.
+/// again; the campaign then continues where it stopped. Progress is reported for new frames only;
+/// `state` (when given) sees the campaign so far after the set-up and after each new frame.
 Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
                                                  const ImageCampaignConfig& config,
                                                  const ImageProgressFn& progress = {},
-                                                 const std::string& journal_path = {});
+                                                 const std::string& journal_path = {},
+                                                 const ImageStateFn& state = {});
 
 /// Writes the campaign's outputs into `dir` (created if missing): dataset.csv (one sample per
 /// filled bin, dataset.h schema with sigma and flags), dataset.json (metadata: camera, sphere,

@@ -188,17 +188,18 @@ class NormalEquationCost final : public ceres::CostFunction {
     mutable NormalEquations cache_;
 };
 
-/// Runs body(thread, begin, end) over [0, n) split into `threads` contiguous ranges (one thread
-/// when n is below 16384).
+/// Runs body(chunk, begin, end) over [0, n) on up to `threads` threads of the project's pool
+/// (gonio/base/thread_pool.h; 0 = all of them); n up to 16384 stays on the calling thread.
 void parallel_ranges(std::size_t n,
                      int threads,
-                     const std::function<void(int, std::size_t, std::size_t)>& body);
+                     const std::function<void(std::size_t, std::size_t, std::size_t)>& body);
 
 /// Number of blocks of 4096 items in [0, n).
 std::size_t block_count(std::size_t n);
 
-/// Runs body(block, begin, end) over the blocks of 4096 items of [0, n), each thread taking a
-/// contiguous run of blocks (one thread when n is below 16384). The blocks do not depend on the
+/// Runs body(block, begin, end) over the blocks of 4096 items of [0, n) on up to `threads` threads
+/// of the project's pool, which takes runs of whole blocks (a single block stays on the calling
+/// thread). The blocks do not depend on the
 /// thread count: sums formed per block and added in block order are the same, to the last bit,
 /// for every thread count (deterministic reduction).
 void parallel_blocks(std::size_t n,

@@ -1,9 +1,16 @@
 #pragma once
 
 // The live campaign page: a small read-only HTTP server (cpp-httplib) that shows a running
-// campaign's progress and ETA, the latest measurement (or camera frame), the coverage, the in-plane
+// campaign's progress and ETA, the latest measurement and camera frame, the coverage, the in-plane
 // plot and the fit of the data so far. The page polls /status.json once a second and reloads the
 // pictures when their version changes.
+//
+// Two kinds of campaign: a point campaign publishes each measurement (publish_sample) and its
+// progress in configurations (publish_progress); an image campaign publishes its progress in light
+// positions with the covered fraction of its table (publish_image_progress) and the coverage of
+// the table's (theta_h, theta_d) cells (publish_coverage). Both publish camera frames
+// (publish_frame); until one arrives the page says that no frame has been seen, and why when the
+// campaign's detector gives none (LiveOptions::frame_note).
 //
 // Threads: the campaign thread only publishes (publish_*): a short critical section that appends
 // to a vector or swaps a value, never waiting for a client or for a picture. A render thread (at
@@ -23,6 +30,7 @@
 #include "gonio/base/error.h"
 #include "gonio/brdf/dataset.h"
 #include "gonio/report/image.h"
+#include "gonio/report/plot.h"
 
 namespace gonio::report {
 
@@ -34,6 +42,8 @@ struct LiveOptions {
     std::size_t fit_max_samples = 400;  ///< Stratified reduction of the live fit.
     int plot_width = 640;
     int io_timeout_s = 2;  ///< Read and write timeout of one connection.
+    /// Shown in place of the frame until the first one is published.
+    std::string frame_note = "no camera frame yet";
 };
 
 /// "[ADDR:]PORT" -> (address, port): ADDR defaults to 127.0.0.1, PORT in [0, 65535] (0: a free
@@ -59,8 +69,22 @@ class LiveServer {
     void publish_progress(std::size_t done, std::size_t planned, const std::string& state);
     /// Campaign thread: one finished measurement.
     void publish_sample(const brdf::Sample& sample);
-    /// Campaign thread: the latest camera frame (8-bit picture), moved in.
-    void publish_frame(Image frame);
+    /// Campaign thread: the latest camera frame (8-bit picture), moved in; the description (what
+    /// the frame is and how its counts are shown) becomes its caption.
+    void publish_frame(Image frame, std::string description = {});
+
+    /// Campaign thread, image campaigns: light positions done of at most max_frames, the covered
+    /// fraction of the table's valid bins and the target fraction that ends the campaign, the
+    /// state as in publish_progress. The ETA is the sooner of the frame limit and the target at the
+    /// coverage gained per frame over the last frames.
+    void publish_image_progress(std::size_t frames_done,
+                                std::size_t max_frames,
+                                double coverage,
+                                double coverage_target,
+                                const std::string& state);
+    /// Campaign thread, image campaigns: the coverage of the table so far, moved in (drawn by the
+    /// render thread with plot_coverage_cells).
+    void publish_coverage(CoverageCells cells);
 
     /// Stops serving and joins the threads (also done by the destructor).
     void stop();

@@ -112,6 +112,25 @@ Expected<Image> plot_table_coverage(const brdf::TabulatedBrdf& table,
                                     const PlotOptions& options,
                                     const std::string& title);
 
+/// The coverage of a half/difference table as counts per (theta_h, theta_d) cell, for a table
+/// still being filled (the live page of an image campaign).
+struct CoverageCells {
+    int n_theta_h = 0, n_theta_d = 0, n_phi_d = 0;
+    /// Per cell, theta_h-major (index ih * n_theta_d + id): the fraction of its phi_d bins that
+    /// hold a measured value, or -1 when the cell has no valid bin.
+    std::vector<double> fraction;
+    std::size_t measured_bins = 0;     ///< Bins holding a measured value.
+    std::size_t total_bins = 0;        ///< Bins the percentage is of.
+    bool total_is_valid_bins = false;  ///< total_bins counts the valid bins only.
+};
+
+/// plot_table_coverage() drawn from cells: the same axes, colour bar, legend and hole outlines;
+/// cells without a valid bin in mid grey. Error when the cells do not match the grid.
+Expected<Image> plot_coverage_cells(const CoverageCells& cells,
+                                    const std::vector<TableHole>& holes,
+                                    const PlotOptions& options,
+                                    const std::string& title);
+
 /// The dataset without its drift-reference rows (flag kFlagReference): those re-measure one
 /// configuration to follow the lamp, they are not BRDF samples of the plan.
 brdf::Dataset without_reference_rows(const brdf::Dataset& data);
