@@ -477,7 +477,10 @@ int run_acquire_image_mode(const AcquireImageOptions& given) {
                                      static_cast<std::size_t>(std::max(cfg.max_frames, 0)),
                                      result ? result->coverage.fraction() : 0,
                                      cfg.coverage_target,
-                                     result ? "completed" : "failed");
+                                     !result              ? "failed"
+                                     : result->target_met ? "completed"
+                                                          : "ended without reaching the target (" +
+                                                                result->stop_reason + ")");
     }
     if (!result) {
         std::fprintf(stderr, "gonio acquire: %s\n", result.error().message.c_str());

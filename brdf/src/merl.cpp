@@ -9,6 +9,7 @@
 #include <system_error>
 
 #include "gonio/base/atomic_file.h"
+#include "gonio/base/huge_pages.h"
 #include "gonio/base/limits.h"
 #include "gonio/base/strings.h"
 
@@ -125,7 +126,8 @@ Expected<TabulatedBrdf> parse_merl(const std::uint8_t* data,
     if (size != merl_file_size(grid)) {
         return make_error(size_message(name, size, grid));
     }
-    std::vector<double> raw(3 * grid.size());
+    std::vector<double> raw;
+    resize_huge(raw, 3 * grid.size());
     std::memcpy(raw.data(), data + kHeaderBytes, raw.size() * sizeof(double));
     if (!kHostLittleEndian) {
         swap_doubles(raw.data(), raw.size());
@@ -179,7 +181,8 @@ Expected<TabulatedBrdf> read_merl(const std::string& path, MerlDims dims) {
     if (auto ok = check_memory(static_cast<double>(grid.size()) * (3 * 8 + 1), path); !ok) {
         return tl::unexpected(ok.error());
     }
-    std::vector<double> raw(3 * grid.size());
+    std::vector<double> raw;
+    resize_huge(raw, 3 * grid.size());
     const std::size_t want = raw.size() * sizeof(double);
     const std::size_t got = std::fread(raw.data(), 1, want, f.get());
     if (std::ferror(f.get())) {

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "gonio/base/check.h"
+#include "gonio/base/huge_pages.h"
 #include "gonio/base/limits.h"
 #include "gonio/base/thread_pool.h"
 #include "gonio/brdf/analytic_brdf.h"
@@ -178,6 +179,8 @@ Dataset table_to_dataset(const TabulatedBrdf& table) {
     Dataset data;
     data.source = table.source();
     const TableGrid& grid = table.grid();
+    // At most one sample per bin: one allocation, advised for huge pages.
+    reserve_huge(data.samples, grid.size());
     for (std::size_t flat = 0; flat < grid.size(); ++flat) {
         if (!table.bin_valid(flat)) {
             continue;

@@ -14,6 +14,7 @@
 #include <cstring>
 #include <utility>
 
+#include "gonio/base/huge_pages.h"
 #include "gonio/base/strings.h"
 #include "gonio/base/thread_pool.h"
 #include "gonio/brdf/merl.h"
@@ -124,7 +125,7 @@ void parse_chunk(const char* p,
                  const std::string& path,
                  ChunkResult& out) {
     std::size_t line_no = first_line;
-    out.samples.reserve(static_cast<std::size_t>(end - p) / 40 + 1);
+    reserve_huge(out.samples, static_cast<std::size_t>(end - p) / 40 + 1);
     double v[kNumCols];
     while (p < end) {
         const char* nl = static_cast<const char*>(std::memchr(p, '\n', end - p));
@@ -425,7 +426,7 @@ Expected<Dataset> read_dataset_csv(const std::string& path) {
     if (chunks == 1) {
         data.samples = std::move(results[0].samples);
     } else {
-        data.samples.reserve(total);
+        reserve_huge(data.samples, total);
         for (ChunkResult& r : results) {
             data.samples.insert(data.samples.end(), r.samples.begin(), r.samples.end());
             std::vector<Sample>().swap(r.samples);

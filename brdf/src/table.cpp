@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "gonio/base/check.h"
+#include "gonio/base/huge_pages.h"
 
 namespace gonio::brdf {
 namespace {
@@ -147,8 +148,19 @@ TabulatedBrdf::TabulatedBrdf(TableGrid grid,
 TabulatedBrdf TabulatedBrdf::empty(TableGrid grid,
                                    std::array<double, 3> scale,
                                    std::string source) {
-    std::vector<double> raw(3 * grid.size(), -1.0);
-    return TabulatedBrdf(grid, scale, std::move(raw), std::move(source));
+    return TabulatedBrdf(grid, scale, std::move(source));
+}
+
+TabulatedBrdf::TabulatedBrdf(TableGrid grid, std::array<double, 3> scale, std::string source)
+    : grid_(grid), scale_(scale), source_(std::move(source)) {
+    GONIO_CHECK_MSG(grid_.n_theta_h > 0 && grid_.n_theta_d > 0 && grid_.n_phi_d > 0,
+                    "grid " << grid_.n_theta_h << "x" << grid_.n_theta_d << "x" << grid_.n_phi_d);
+    for (double s : scale_) {
+        GONIO_CHECK_MSG(std::isfinite(s) && s > 0, "scale " << s);
+    }
+    // Every bin invalid (raw -1) without the check of the public constructor: nothing to check.
+    resize_huge(raw_, 3 * grid_.size(), -1.0);
+    resize_huge(valid_, grid_.size(), std::uint8_t{0});
 }
 
 Rgbd TabulatedBrdf::bin_value(std::size_t flat) const {

@@ -12,6 +12,7 @@
 #include <optional>
 
 #include "fit_stages.h"
+#include "gonio/base/huge_pages.h"
 #include "gonio/base/thread_pool.h"
 #include "gonio/fitting/cost.h"
 #include "gonio/fitting/power_iteration.h"
@@ -77,7 +78,7 @@ std::vector<Sample> select_samples(const brdf::Dataset& data,
                                    int threads,
                                    SampleCounts& counts) {
     std::vector<Sample> valid;
-    valid.reserve(data.samples.size());
+    reserve_huge(valid, data.samples.size());
     std::vector<std::size_t> rejected_lines;
     for (const brdf::RejectedRow& r : data.rejected) {
         rejected_lines.push_back(r.line);

@@ -8,6 +8,7 @@
 #include <limits>
 
 #include "gonio/base/check.h"
+#include "gonio/base/huge_pages.h"
 #include "gonio/base/thread_pool.h"
 #include "gonio/brdf/blinn_phong.h"
 #include "gonio/brdf/fresnel.h"
@@ -138,7 +139,7 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
     }
     auto alloc = [&](std::vector<double>& v, bool need) {
         if (need) {
-            v.resize(n_);
+            resize_huge(v, n_);
         }
     };
     alloc(cos_i_, true);
@@ -156,8 +157,8 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
     alloc(x5_, need_schlick);
     alloc(g_vgroove_, need_vg);
     for (int c = 0; c < 3; ++c) {
-        g_d_[c].resize(n_);
-        s_[c].resize(n_);
+        resize_huge(g_d_[c], n_);
+        resize_huge(s_[c], n_);
     }
     const bool any_lobe = !base.lobes.empty();
     parallel_ranges(n_, 0, [&](std::size_t, std::size_t b, std::size_t e) {

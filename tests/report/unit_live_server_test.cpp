@@ -10,6 +10,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <nlohmann/json.hpp>
 #include <thread>
 #include <vector>
@@ -184,6 +185,119 @@ TEST(LiveServer, PublishingGoesOnWhileClientsHoldEveryConnection) {
     auto st = cli.Get("/status.json");
     ASSERT_TRUE(st);
     EXPECT_EQ(nlohmann::json::parse(st->body)["done"].get<std::size_t>(), 20001u);
+    s.stop();
+}
+
+/// The status of the server once it shows the pictures named (the render thread draws them on
+/// its own).
+nlohmann::json status_with(httplib::Client& cli, const std::vector<std::string>& pictures) {
+    nlohmann::json j;
+    for (int i = 0; i < 400; ++i) {
+        j = nlohmann::json::parse(cli.Get("/status.json")->body);
+        bool all = true;
+        for (const std::string& p : pictures) {
+            all = all && j["versions"].contains(p);
+        }
+        if (all) {
+            break;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(25));
+    }
+    return j;
+}
+
+TEST(LiveServer, ImageCampaignShowsCoverageTargetEtaFrameAndMap) {
+    LiveOptions o;
+    o.render_interval_s = 0.05;
+    o.frame_note = "no frame from this detector";
+    auto srv = LiveServer::start("127.0.0.1", 0, o);
+    ASSERT_TRUE(srv) << srv.error().message;
+    LiveServer& s = **srv;
+    httplib::Client cli("127.0.0.1", s.port());
+    // Until a frame is published the page says why there is none.
+    auto page = cli.Get("/");
+    ASSERT_TRUE(page);
+    EXPECT_NE(page->body.find(">no frame from this detector<"), std::string::npos);
+    // Five light positions gaining 5 % coverage each, target 50 %, at most 40 positions: six more
+    // reach the target, sooner than the 36 the frame limit allows.
+    for (int f = 0; f <= 4; ++f) {
+        s.publish_image_progress(f, 40, 0.05 * f, 0.5, "running");
+    }
+    CoverageCells cells;
+    cells.n_theta_h = 3;
+    cells.n_theta_d = 2;
+    cells.n_phi_d = 4;
+    cells.fraction = {1, 0.5, 0, 0.25, -1, 0};
+    cells.measured_bins = 7;
+    cells.total_bins = 20;
+    cells.total_is_valid_bins = true;
+    s.publish_coverage(std::move(cells));
+    Image frame;
+    frame.width = 120;
+    frame.height = 80;
+    frame.rgb.assign(120 * 80 * 3, 77);
+    s.publish_frame(std::move(frame), "sample sphere, light arm at 12.0 deg");
+    nlohmann::json j = status_with(cli, {"frame", "coverage"});
+    EXPECT_EQ(j["mode"], "image");
+    EXPECT_EQ(j["done"].get<std::size_t>(), 4u);
+    EXPECT_EQ(j["planned"].get<std::size_t>(), 40u);
+    EXPECT_NEAR(j["coverage_percent"].get<double>(), 20.0, 1e-9);
+    EXPECT_NEAR(j["target_percent"].get<double>(), 50.0, 1e-9);
+    EXPECT_NEAR(j["bar_percent"].get<double>(), 40.0, 1e-9);  // 20 % of a 50 % target
+    EXPECT_EQ(j["eta_basis"], "the coverage target at the recent gain per frame");
+    const std::string progress = j["progress"];
+    EXPECT_EQ(progress.find("4 of at most 40 light positions; coverage 20.0 % of the valid bins "
+                            "(target 50.0 %); running"),
+              0u)
+        << progress;
+    EXPECT_EQ(j["captions"]["frame"], "sample sphere, light arm at 12.0 deg");
+    EXPECT_NE(j["captions"]["coverage"].get<std::string>().find("half/difference table"),
+              std::string::npos);
+    EXPECT_NE(j["fit"].get<std::string>().find("fitted when the campaign ends"), std::string::npos);
+    // The pictures decode: the frame at the size it was published, the map at the plot width.
+    const std::string dir = ::testing::TempDir();
+    for (const char* name : {"frame", "coverage"}) {
+        auto png = cli.Get(std::string("/img/") + name + ".png");
+        ASSERT_TRUE(png);
+        ASSERT_EQ(png->status, 200) << name;
+        const std::string path = dir + "/live_" + name + ".png";
+        FILE* f = std::fopen(path.c_str(), "wb");
+        ASSERT_NE(f, nullptr);
+        std::fwrite(png->body.data(), 1, png->body.size(), f);
+        std::fclose(f);
+        auto img = read_png(path);
+        ASSERT_TRUE(img) << img.error().message;
+        if (std::string(name) == "frame") {
+            EXPECT_EQ(img->width, 120);
+            EXPECT_EQ(img->height, 80);
+            EXPECT_EQ(img->at(60, 40), (Color{77, 77, 77}));
+        } else {
+            EXPECT_EQ(img->width, o.plot_width);
+        }
+    }
+    s.stop();
+}
+
+TEST(LiveServer, ImageCampaignEtaFallsBackToTheFrameLimit) {
+    LiveOptions o;
+    o.render_interval_s = 0.05;
+    auto srv = LiveServer::start("127.0.0.1", 0, o);
+    ASSERT_TRUE(srv) << srv.error().message;
+    LiveServer& s = **srv;
+    httplib::Client cli("127.0.0.1", s.port());
+    // 1 % per position from 10 %: 40 more to a 50 % target, but only 4 positions are left.
+    for (int f = 0; f <= 4; ++f) {
+        s.publish_image_progress(f, 8, 0.10 + 0.01 * f, 0.5, "running");
+    }
+    nlohmann::json j = status_with(cli, {});
+    EXPECT_EQ(j["eta_basis"], "the frame limit");
+    EXPECT_NEAR(j["bar_percent"].get<double>(), 50.0, 1e-9);  // 4 of 8 positions
+    // Once the target is met nothing is left, and a finished campaign shows no ETA.
+    s.publish_image_progress(5, 8, 0.55, 0.5, "completed");
+    j = status_with(cli, {});
+    EXPECT_EQ(j["state"], "completed");
+    EXPECT_EQ(j["eta"], "-");
+    EXPECT_GT(j["bar_percent"].get<double>(), 100.0);
     s.stop();
 }
 

@@ -418,5 +418,45 @@ TEST(DynamicRange, ResolveScaleSwitchesAboveOneDecade) {
     EXPECT_EQ(resolve_scale(AxisScale::kLog, 1, 2), AxisScale::kLog);
 }
 
+TEST(CoverageCells, EachCellDrawnInTheColourOfItsFraction) {
+    // A 2 x 2 (theta_h x theta_d) grid, theta_h-major: (0,0) full, (0,1) half, (1,0) empty,
+    // (1,1) without a valid bin. theta_h cell edges are at (i/2)^2 90 deg: 0, 22.5, 90.
+    CoverageCells c;
+    c.n_theta_h = 2;
+    c.n_theta_d = 2;
+    c.n_phi_d = 4;
+    c.fraction = {1.0, 0.5, 0.0, -1.0};
+    c.measured_bins = 6;
+    c.total_bins = 12;
+    c.total_is_valid_bins = true;
+    PlotOptions o;
+    o.width = 640;
+    auto img = plot_coverage_cells(c, {}, o, "cells");
+    ASSERT_TRUE(img) << img.error().message;
+    EXPECT_EQ(img->width, 640);
+    // The axes: 400 px square from (90, 70), 0..90 deg on both axes, theta_d up.
+    auto at = [&](double theta_h_deg, double theta_d_deg) {
+        const int x = 90 + static_cast<int>(std::lround(theta_h_deg / 90 * 400));
+        const int y = 70 + 400 - static_cast<int>(std::lround(theta_d_deg / 90 * 400));
+        return img->at(x, y);
+    };
+    const Color empty = at(56, 22);    // cell (1, 0)
+    const Color invalid = at(56, 67);  // cell (1, 1)
+    EXPECT_EQ(empty, (Color{225, 225, 225}));
+    EXPECT_EQ(invalid, (Color{150, 150, 150}));
+    // Measured cells are coloured, the full one differently from the half one.
+    const Color full = at(11, 22);
+    const Color half = at(11, 67);
+    EXPECT_NE(full, empty);
+    EXPECT_NE(half, empty);
+    EXPECT_NE(full, half);
+    EXPECT_NE(full, invalid);
+    // Cells that do not match the grid: an error, no picture.
+    c.fraction.pop_back();
+    auto bad = plot_coverage_cells(c, {}, o, "cells");
+    ASSERT_FALSE(bad);
+    EXPECT_NE(bad.error().message.find("3 cells"), std::string::npos) << bad.error().message;
+}
+
 }  // namespace
 }  // namespace gonio::report

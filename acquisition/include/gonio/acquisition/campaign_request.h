@@ -54,7 +54,10 @@ struct CampaignRequest {
     int max_frames = 0;          ///< Image mode: most light positions.
     /// Image mode: table bins (theta_h x theta_d x phi_d); all zero: from table_factor.
     TableLayout grid{0, 0, 0};
-    std::string serve;  ///< "[ADDR:]PORT" of the live page of the campaign (both modes).
+    /// "[ADDR:]PORT" of the live page of the campaign (both modes). The front end serves it
+    /// (`gonio acquire` starts a report::LiveServer and feeds it through the campaign's hooks);
+    /// start_point_campaign and run_image_request do not.
+    std::string serve;
     /// Image mode settings no command-line option gives (tests and scripts set them): the table
     /// resolution (90 / factor bins per angle; 1 = MERL), the virtual rig's default camera size
     /// and sub-pixel rays, and its noise seed.

@@ -163,6 +163,9 @@ class TabulatedBrdf : public Brdf {
     TableStatistics compute_statistics() const;
 
   private:
+    /// The table of empty(): every bin invalid.
+    TabulatedBrdf(TableGrid grid, std::array<double, 3> scale, std::string source);
+
     TableGrid grid_;
     std::array<double, 3> scale_;
     std::vector<double> raw_;
