@@ -23,6 +23,7 @@ class Cursor {
   public:
     Cursor(const std::uint8_t* bytes, std::size_t size) : bytes_(bytes), size_(size) {}
     bool has(std::size_t n) const { return n <= size_ - pos_; }
+    /// An unsigned little-endian integer of n <= 8 bytes.
     std::uint64_t uint(std::size_t n) {
         std::uint64_t v = 0;
         for (std::size_t k = 0; k < n; ++k) {
@@ -31,6 +32,7 @@ class Cursor {
         pos_ += n;
         return v;
     }
+    void skip(std::size_t n) { pos_ += n; }
     std::string text(std::size_t n) {
         std::string s(reinterpret_cast<const char*>(bytes_ + pos_), n);
         pos_ += n;
@@ -195,7 +197,7 @@ Expected<TensorFile> parse_tensor_file(const std::uint8_t* bytes,
                           ": not a tensor file (the first 12 bytes are not \"tensor_file\\0\")");
     }
     Cursor in(bytes, size);
-    in.uint(12);
+    in.skip(sizeof kMagic);
     TensorFile file;
     file.version_major = static_cast<std::uint8_t>(in.uint(1));
     file.version_minor = static_cast<std::uint8_t>(in.uint(1));
