@@ -203,8 +203,8 @@ GONIO_COMMAND(fit) {
                     "samples: dataset CSV, table (MERL .binary, .gtab) or RGL material (.bsdf)");
     cmd->add_option("--model",
                     o->model,
-                    "lobe distribution: ggx, beckmann, blinn-phong, student-t, or auto (candidates "
-                    "ranked by "
+                    "lobe distribution: ggx, beckmann, blinn-phong, student-t, tabulated (D "
+                    "extracted from the data by power iteration), or auto (candidates ranked by "
                     "BIC on the reduction, the winner polished on all samples)")
         ->capture_default_str();
     cmd->add_option("--template",

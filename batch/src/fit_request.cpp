@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "gonio/base/strings.h"
+#include "gonio/fitting/power_iteration.h"
 
 namespace gonio::batch {
 
@@ -346,7 +347,7 @@ Expected<FitRun> run_fit(const brdf::Dataset& data, const FitRequest& r) {
         run.criterion = std::move(chosen->criterion);
         return run;
     }
-    auto result = fitting::fit(data, *spec);
+    auto result = fitting::fit_any(data, *spec);
     if (!result) {
         return tl::unexpected(result.error());
     }

@@ -14,6 +14,8 @@ const char* to_string(Distribution d) {
             return "blinn-phong";
         case Distribution::kStudentT:
             return "student-t";
+        case Distribution::kTabulated:
+            return "tabulated";
     }
     return "?";
 }

@@ -59,9 +59,10 @@ void eval_model_packets(const ModelD& m,
                         const DirectionPairs& dirs,
                         double* const out[3]) {
     for (const Lobe<double>& l : m.lobes) {
-        if (l.distribution == Distribution::kStudentT) {
-            // The Student-t Lambda's continued fraction iterates a data-dependent number of times:
-            // lane by lane, through the same body.
+        if (l.distribution == Distribution::kStudentT ||
+            l.distribution == Distribution::kTabulated) {
+            // The Student-t Lambda's continued fraction iterates a data-dependent number of times,
+            // and a table is looked up at each lane's value: lane by lane, through the same body.
             for (std::size_t k = 0; k < n; ++k) {
                 double f[3];
                 eval_model_lanes(m,

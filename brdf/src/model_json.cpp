@@ -14,6 +14,7 @@
 #include "gonio/base/strings.h"
 #include "gonio/brdf/ior.h"
 #include "gonio/brdf/student_t.h"
+#include "gonio/brdf/tabulated_ndf.h"
 
 namespace gonio::brdf {
 
@@ -41,6 +42,9 @@ constexpr double kMaxAlpha = 100;
 constexpr double kMinAlpha = 1e-4;
 constexpr double kMaxExponent = 1e7;
 constexpr double kMaxEta = 100;
+// Largest value of a tabulated D (1/sr): above the peak of the sharpest analytic lobe
+// (1 / (pi kMinAlpha^2) = 3.2e7).
+constexpr double kMaxTableD = 1e8;
 
 /// `shown` is the value as written in the document; `max` an upper bound (inclusive).
 void check_rule(
@@ -171,6 +175,7 @@ Lobe<double> parse_lobe(const Json& j, const std::string& path) {
                      "alpha_y",
                      "exponent",
                      "gamma",
+                     "ndf",
                      "shadowing",
                      "fresnel",
                      "scale"});
@@ -185,9 +190,11 @@ Lobe<double> parse_lobe(const Json& j, const std::string& path) {
         lobe.distribution = Distribution::kBlinnPhong;
     } else if (dist == "student-t") {
         lobe.distribution = Distribution::kStudentT;
+    } else if (dist == "tabulated") {
+        lobe.distribution = Distribution::kTabulated;
     } else {
         json_fail(path + ".distribution = \"" + excerpt(dist) +
-                  "\": must be one of ggx, beckmann, blinn-phong, student-t");
+                  "\": must be one of ggx, beckmann, blinn-phong, student-t, tabulated");
     }
     if (lobe.distribution == Distribution::kStudentT) {
         // The tail parameter: Smith's Lambda is finite above 3/2 only (student_t.h).
@@ -202,7 +209,33 @@ Lobe<double> parse_lobe(const Json& j, const std::string& path) {
         json_fail(path + ".gamma: only for student-t lobes");
     }
     const bool microfacet = lobe.distribution != Distribution::kBlinnPhong;
-    if (microfacet) {
+    if (lobe.distribution == Distribution::kTabulated) {
+        for (const char* key : {"alpha", "alpha_x", "alpha_y", "exponent"}) {
+            if (j.contains(key)) {
+                json_fail(json_key_path(path, key) +
+                          ": not used by tabulated lobes (their D is \"ndf\")");
+            }
+        }
+        const Json& nd = json_member(j, path, "ndf");
+        const std::string at = path + ".ndf";
+        if (!nd.is_array()) {
+            json_fail(at +
+                      ": expected an array of D values at theta_h = (pi/2) (k / (n - 1))^2, got " +
+                      json_type(nd));
+        }
+        std::vector<double> d;
+        for (std::size_t k = 0; k < nd.size() && k <= kTabulatedNdfMaxNodes; ++k) {
+            d.push_back(get_scalar(
+                nd[k], at + "[" + std::to_string(k) + "]", Rule::kNonNegative, kMaxTableD));
+        }
+        Expected<TabulatedNdf> table = make_tabulated_ndf(std::move(d), at);
+        if (!table) {
+            json_fail(table.error().message);
+        }
+        lobe.table = std::make_shared<const TabulatedNdf>(std::move(*table));
+    } else if (j.contains("ndf")) {
+        json_fail(path + ".ndf: only for tabulated lobes");
+    } else if (microfacet) {
         if (j.contains("exponent")) {
             json_fail(path + ".exponent: only for blinn-phong lobes (" + dist + " uses alpha)");
         }
@@ -371,6 +404,10 @@ std::string model_to_json(const ModelD& m, const std::string& fit_verdict) {
         o["distribution"] = to_string(l.distribution);
         if (l.distribution == Distribution::kBlinnPhong) {
             o["exponent"] = l.exponent;
+        } else if (l.distribution == Distribution::kTabulated) {
+            if (l.table != nullptr) {
+                o["ndf"] = l.table->d;
+            }
         } else if (l.anisotropic) {
             o["alpha_x"] = l.alpha_x;
             o["alpha_y"] = l.alpha_y;
@@ -418,6 +455,9 @@ std::string describe_model(const ModelD& m) {
         out += std::string(to_string(l.distribution)) + "(";
         if (l.distribution == Distribution::kBlinnPhong) {
             out += "exponent " + show(l.exponent);
+        } else if (l.distribution == Distribution::kTabulated) {
+            out += l.table != nullptr ? std::to_string(l.table->d.size()) + " nodes"
+                                      : std::string("table to extract");
         } else if (l.anisotropic) {
             out += "alpha_x " + show(l.alpha_x) + " alpha_y " + show(l.alpha_y);
         } else {

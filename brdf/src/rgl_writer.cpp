@@ -9,6 +9,7 @@
 
 #include "gonio/base/atomic_file.h"
 #include "gonio/brdf/rgl_bsdf.h"
+#include "gonio/brdf/tabulated_ndf.h"
 #include "gonio/brdf/tensor_file.h"
 #include "gonio/brdf/warp2d.h"
 
@@ -19,58 +20,9 @@ namespace {
 // The last theta_i node (pi/2, wi on the horizon) is only ever interpolated towards; its values
 // are those of the limit, taken at this elevation.
 constexpr double kMaxEvalThetaI = (90.0 - 0.5) * kPi / 180.0;
-// Sub-intervals per patch of the NDF grid in the quadrature of sigma.
-constexpr int kQuadPerPatch = 16;
 
 double luminance(const Rgbd& c) {
     return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
-}
-
-// int_0^{2 pi} max(0, a + b cos(phi)) dphi for b >= 0: the azimuthal part of <w, m>+ with
-// a = cos(theta) cos(theta_m), b = sin(theta) sin(theta_m).
-double azimuthal_cosine(double a, double b) {
-    if (b <= std::abs(a)) {
-        // The whole circle is on one side of the plane.
-        return a > 0.0 ? 2.0 * kPi * a : 0.0;
-    }
-    const double phi0 = std::acos(std::clamp(-a / b, -1.0, 1.0));
-    return 2.0 * (a * phi0 + std::sqrt(std::max(0.0, b * b - a * a)));
-}
-
-// K[j][k]: sigma(theta_j) = sum_k K[j][k] D_k with D linear in u between the nodes (hat
-// functions), by midpoint quadrature in u (d omega = 2 pi^2 u sin(theta_m) du dphi / (2 pi)).
-std::vector<double> sigma_matrix(std::size_t n) {
-    std::vector<double> K(n * n, 0.0);
-    const double h = 1.0 / static_cast<double>(n - 1);
-    for (std::size_t j = 0; j < n; ++j) {
-        const double theta = rgl_u_to_theta(static_cast<double>(j) * h);
-        const double ct = std::cos(theta), st = std::sin(theta);
-        for (std::size_t p = 0; p + 1 < n; ++p) {
-            for (int q = 0; q < kQuadPerPatch; ++q) {
-                const double t = (q + 0.5) / kQuadPerPatch;
-                const double u = (static_cast<double>(p) + t) * h;
-                const double theta_m = rgl_u_to_theta(u);
-                const double w = azimuthal_cosine(ct * std::cos(theta_m), st * std::sin(theta_m)) *
-                                 std::sin(theta_m) * kPi * u * h / kQuadPerPatch;
-                K[j * n + p] += (1.0 - t) * w;
-                K[j * n + p + 1] += t * w;
-            }
-        }
-    }
-    return K;
-}
-
-std::vector<double> sigma_of(const std::vector<double>& K, const std::vector<double>& d) {
-    const std::size_t n = d.size();
-    std::vector<double> s(n, 0.0);
-    for (std::size_t j = 0; j < n; ++j) {
-        double sum = 0.0;
-        for (std::size_t k = 0; k < n; ++k) {
-            sum += K[j * n + k] * d[k];
-        }
-        s[j] = sum;
-    }
-    return s;
 }
 
 Expected<void> check_options(const RglWriteOptions& o) {
@@ -120,18 +72,19 @@ Expected<RglNdf> rgl_ndf_power_iteration(const Brdf& brdf, const RglWriteOptions
             "NDF by power iteration: the BRDF reflects nothing back towards the "
             "light at any elevation; no microfacet distribution to extract");
     }
-    const std::vector<double> K = sigma_matrix(n);
+    // The NDF grid of a file is that of a tabulated NDF (u = sqrt(theta / (pi/2))).
+    const std::vector<double> K = tabulated_ndf_sigma_matrix(n);
     RglNdf out;
     std::vector<double> d(n, 1.0);
     auto normalise = [&](std::vector<double>* v) {
-        const std::vector<double> s = sigma_of(K, *v);
+        const std::vector<double> s = tabulated_ndf_sigma(K, *v);
         for (double& x : *v) {
             x /= s[0];  // sigma(normal) = int D cos = 1
         }
     };
     normalise(&d);
     for (int it = 1; it <= options.power_iterations; ++it) {
-        const std::vector<double> s = sigma_of(K, d);
+        const std::vector<double> s = tabulated_ndf_sigma(K, d);
         std::vector<double> next(n);
         for (std::size_t j = 0; j < n; ++j) {
             next[j] = retro[j] * s[j];
@@ -154,7 +107,7 @@ Expected<RglNdf> rgl_ndf_power_iteration(const Brdf& brdf, const RglWriteOptions
         x = std::max(x, options.ndf_floor * peak);
     }
     normalise(&d);
-    out.sigma = sigma_of(K, d);
+    out.sigma = tabulated_ndf_sigma(K, d);
     out.d = std::move(d);
     return out;
 }

@@ -29,13 +29,15 @@ bool field_used(const brdf::ModelD& m, Field f, int lobe, std::string* why) {
     }
     const brdf::Lobe<double>& l = m.lobes[lobe];
     const bool bp = l.distribution == brdf::Distribution::kBlinnPhong;
+    const bool tab = l.distribution == brdf::Distribution::kTabulated;
     switch (f) {
         case Field::kAlphaX:
-            *why = "a Blinn-Phong lobe has an exponent, not alpha";
-            return !bp;
+            *why = bp ? "a Blinn-Phong lobe has an exponent, not alpha"
+                      : "a tabulated lobe has a table, not alpha";
+            return !bp && !tab;
         case Field::kAlphaY:
             *why = "alpha_y is used by anisotropic ggx/beckmann lobes only";
-            return !bp && l.anisotropic;
+            return !bp && !tab && l.anisotropic;
         case Field::kExponent:
             *why = "the exponent belongs to Blinn-Phong lobes";
             return bp;
@@ -62,6 +64,14 @@ bool field_used(const brdf::ModelD& m, Field f, int lobe, std::string* why) {
 Expected<ParameterMap> ParameterMap::make(const FitSpec& spec) {
     ParameterMap map;
     map.base_ = spec.model;
+    for (std::size_t i = 0; i < spec.model.lobes.size(); ++i) {
+        const brdf::Lobe<double>& l = spec.model.lobes[i];
+        if (l.distribution == brdf::Distribution::kTabulated && l.table == nullptr) {
+            return make_error("lobes[" + std::to_string(i) +
+                              "]: a tabulated lobe without its table (fit_power_iteration "
+                              "extracts it from the data)");
+        }
+    }
     for (const ParamSpec& p : spec.params) {
         const std::string path = field_path(p.field, p.lobe);
         std::string why;

@@ -15,6 +15,7 @@
 #include "gonio/base/huge_pages.h"
 #include "gonio/base/thread_pool.h"
 #include "gonio/fitting/cost.h"
+#include "gonio/fitting/power_iteration.h"
 #include "gonio/fitting/prepared_samples.h"
 #include "gonio/fitting/reduction.h"
 
@@ -303,6 +304,12 @@ std::vector<std::pair<std::string, FitSpec>> auto_candidates(const FitOptions& o
             out.emplace_back(std::string(name) + (lobes == 2 ? " x2" : ""), *spec);
         }
     }
+    ModelOptions tab;
+    tab.distribution = brdf::Distribution::kTabulated;
+    if (Expected<FitSpec> spec = make_fit_spec(tab)) {
+        spec->options = options;
+        out.emplace_back("tabulated", *spec);
+    }
     return out;
 }
 
@@ -321,7 +328,7 @@ Expected<AutoFitResult> fit_auto(const brdf::Dataset& data,
         spec.options.reweight_rounds = 0;
         spec.options.covariance = false;
         spec.options.residual = ResidualForm::kLog;
-        Expected<FitResult> r = fit(data, spec);
+        Expected<FitResult> r = fit_any(data, spec);
         if (!r) {
             if (first_error.empty()) {
                 first_error = candidates[i].first + ": " + r.error().message;
@@ -335,6 +342,8 @@ Expected<AutoFitResult> fit_auto(const brdf::Dataset& data,
         for (const FittedParameter& fp : r->parameters) {
             p += fp.free ? 1 : 0;
         }
+        // A table's nodes are parameters estimated from the data too.
+        p += table_nodes(r->model);
         rm.parameters = p;
         rm.log_rmse = r->metrics.log_rmse.mean();
         // RSS on the samples of the reduced solve: final_cost = RSS / 2 with the reduction's
@@ -365,7 +374,7 @@ Expected<AutoFitResult> fit_auto(const brdf::Dataset& data,
     std::sort(order.begin(), order.end());
     const std::size_t win = order.front().second;
     out.chosen = candidates[win].first;
-    Expected<FitResult> best = fit(data, candidates[win].second);
+    Expected<FitResult> best = fit_any(data, candidates[win].second);
     if (!best) {
         return make_error(out.chosen + ": " + best.error().message);
     }

@@ -14,6 +14,7 @@
 #include "gonio/brdf/fresnel.h"
 #include "gonio/brdf/math.h"
 #include "gonio/brdf/microfacet.h"
+#include "gonio/brdf/model_eval.h"
 #include "gonio/brdf/student_t.h"
 #include "gonio/fitting/vector_log.h"
 
@@ -121,6 +122,7 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
     analytic_ = base.lobes.size() <= 8;
     for (const brdf::Lobe<double>& l : base.lobes) {
         analytic_ = analytic_ && l.distribution != brdf::Distribution::kStudentT &&
+                    l.distribution != brdf::Distribution::kTabulated &&
                     !(l.anisotropic && l.distribution != brdf::Distribution::kBlinnPhong) &&
                     (l.fresnel.type == brdf::FresnelType::kSchlick ||
                      l.fresnel.type == brdf::FresnelType::kNone);
@@ -348,7 +350,16 @@ brdf::Rgb<T> PreparedSamples::eval(const brdf::Model<T>& m, std::size_t i) const
                                    : brdf::Rgb<T>(brdf::Rgb<T>::Zero());
     for (const brdf::Lobe<T>& l : m.lobes) {
         const T S =
-            l.distribution == brdf::Distribution::kStudentT
+            l.distribution == brdf::Distribution::kTabulated
+                ? T(brdf::tabulated_lobe_shape(
+                        *l.table,
+                        l.shadowing,
+                        hz2_[i],
+                        ti_x_.empty() ? 0.0 : ti_x_[i] + (ti_y_.empty() ? 0.0 : ti_y_[i]),
+                        to_x_.empty() ? 0.0 : to_x_[i] + (to_y_.empty() ? 0.0 : to_y_[i]),
+                        g_vgroove_.empty() ? 1.0 : g_vgroove_[i]) *
+                    inv_4cc_[i])
+            : l.distribution == brdf::Distribution::kStudentT
                 ? shape_student_t(
                       l.shadowing, l.alpha_x, l.anisotropic ? l.alpha_y : l.alpha_x, l.gamma, i)
                 : shape(l.distribution,

@@ -108,8 +108,11 @@ Expected<Distribution> parse_distribution(const std::string& name) {
     if (name == "student-t") {
         return Distribution::kStudentT;
     }
+    if (name == "tabulated") {
+        return Distribution::kTabulated;
+    }
     return make_error("model \"" + excerpt(name) +
-                      "\": expected ggx, beckmann, blinn-phong or student-t");
+                      "\": expected ggx, beckmann, blinn-phong, student-t or tabulated");
 }
 
 Expected<std::pair<FresnelType, bool>> parse_fresnel(const std::string& name) {
@@ -219,6 +222,9 @@ std::vector<ParamSpec> default_params(const brdf::ModelD& model, bool fresnel_rg
         const brdf::Lobe<double>& l = model.lobes[i];
         if (l.distribution == Distribution::kBlinnPhong) {
             out.push_back(make_param(Field::kExponent, i, true, false));
+        } else if (l.distribution == Distribution::kTabulated) {
+            // The shape is the table (extracted by power iteration, power_iteration.h): no slope
+            // parameter.
         } else {
             out.push_back(make_param(Field::kAlphaX, i, true, false));
             if (l.anisotropic) {
@@ -258,6 +264,11 @@ Expected<FitSpec> make_fit_spec(const ModelOptions& o) {
     }
     if (o.lobes == 0 && !o.diffuse) {
         return make_error("model has neither a diffuse term nor a lobe: nothing to fit");
+    }
+    if (o.distribution == Distribution::kTabulated && (o.lobes != 1 || o.anisotropic)) {
+        return make_error(std::string("model tabulated: one isotropic lobe (") +
+                          (o.anisotropic ? "--anisotropic" : "--lobes " + std::to_string(o.lobes)) +
+                          " given); its D is extracted from the backscattering of the data");
     }
     FitSpec spec;
     spec.model.has_diffuse = o.diffuse;

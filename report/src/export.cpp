@@ -100,11 +100,21 @@ Expected<void> validate(const ModelD& m) {
 
 /// The model as the renderers' distributions hold it: a Student-t lobe at gamma = 2 is GGX exactly
 /// and is written as one; any other Student-t lobe has no counterpart in the renderer (Mitsuba 3
-/// and pbrt-v4 take GGX and Beckmann only) and the export is refused, naming the lobe.
+/// and pbrt-v4 take GGX and Beckmann only) and the export is refused, naming the lobe; so is a
+/// tabulated lobe, which an RGL material file holds instead.
 Expected<ModelD> representable(const ModelD& m, const char* renderer) {
     ModelD out = m;
     for (std::size_t i = 0; i < out.lobes.size(); ++i) {
         Lobe<double>& l = out.lobes[i];
+        if (l.distribution == Distribution::kTabulated) {
+            return make_error("lobes[" + std::to_string(i) +
+                              "]: a tabulated NDF (extracted by power iteration) cannot be "
+                              "represented by " +
+                              renderer +
+                              ", which takes ggx and beckmann only; write it as an RGL material "
+                              "file, which Mitsuba 3's measured plugin renders (`gonio convert "
+                              "fit.json out.bsdf`), or refit with `--model ggx`");
+        }
         if (l.distribution != Distribution::kStudentT) {
             continue;
         }

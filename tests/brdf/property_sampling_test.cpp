@@ -153,6 +153,8 @@ TEST(Sampling, NormalSamplersFollowDCosTheta) {
                     return sample_beckmann_normal(c.ax, c.ay, u1, u2);
                 case Distribution::kStudentT:
                     return sample_student_t_normal(c.ax, c.ay, l.gamma, u1, u2);
+                case Distribution::kTabulated:
+                    // No table among these cases (unit_tabulated_ndf_test samples one).
                 case Distribution::kBlinnPhong:
                     break;
             }

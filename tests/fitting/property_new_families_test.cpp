@@ -22,6 +22,7 @@
 #include "gonio/brdf/samples_io.h"
 #include "gonio/fitting/cost.h"
 #include "gonio/fitting/fit.h"
+#include "gonio/fitting/power_iteration.h"
 #include "gonio/fitting/report.h"
 
 namespace gonio::fitting {
@@ -172,8 +173,9 @@ TEST(Verdict, DarkChannelMisfitOfRedPlasticIsFlaggedWithASuggestionThatFixesIt) 
     EXPECT_TRUE(blue_flagged);
     EXPECT_NE(g->goodness.suggestion.find("--model auto"), std::string::npos);
 
-    // The suggestion fixes it: auto picks the truth's family, whose blue error is less than half
-    // (what remains is the truth's V-groove shadowing, which the candidates replace by Smith's).
+    // The suggestion fixes it: auto picks the truth's family or the tabulated NDF (whose table,
+    // with Smith's G from it, also absorbs the truth's V-groove shadowing and ranks first by BIC),
+    // and the blue error is less than half.
     Expected<AutoFitResult> a = fit_auto(data, auto_candidates(make_fit_spec({})->options));
     ASSERT_TRUE(a) << a.error().message;
     std::printf("auto chose %s: median_rel %.4g %.4g %.4g\n",
@@ -181,7 +183,7 @@ TEST(Verdict, DarkChannelMisfitOfRedPlasticIsFlaggedWithASuggestionThatFixesIt) 
                 a->best.metrics.median_rel[0],
                 a->best.metrics.median_rel[1],
                 a->best.metrics.median_rel[2]);
-    EXPECT_EQ(a->chosen, "beckmann");
+    EXPECT_TRUE(a->chosen == "beckmann" || a->chosen == "tabulated") << a->chosen;
     EXPECT_LT(a->best.metrics.median_rel[2], 0.5 * g->metrics.median_rel[2]);
     EXPECT_LT(a->best.metrics.median_rel[1], 0.5 * g->metrics.median_rel[1]);
     EXPECT_TRUE(a->best.goodness.represents);
@@ -256,7 +258,7 @@ TEST(RealMaterials, NestedFamiliesAndAutoOnTheRglReferenceValues) {
         double ggx = 0;
         double ggx_time_s = 0;
         for (const auto& [label, spec] : auto_candidates(options)) {
-            Expected<FitResult> r = fit(*data, spec);
+            Expected<FitResult> r = fit_any(*data, spec);
             ASSERT_TRUE(r) << label << ": " << r.error().message;
             EXPECT_TRUE(r->solver.converged) << label;
             const double v = r->metrics.log_rmse.mean();

@@ -110,5 +110,30 @@ TEST_F(RglCli, BrokenFileIsAnInputErrorNamingTheFile) {
     EXPECT_NE(r.out.find(path("bad.bsdf")), std::string::npos) << r.out;
 }
 
+TEST_F(RglCli, TabulatedFitIsWrittenAsBsdfAndRefusedByRendererExports) {
+    // A table fitted by power iteration from the nodes of a file written from a GGX model: the
+    // model file evaluates, the renderer exports refuse it naming the RGL file as the way out, and
+    // `convert` writes it as one.
+    CliRun r = run_gonio("convert " + path("model.json") + " " + path("m.bsdf"));
+    ASSERT_EQ(r.status, 0) << r.out;
+    r = run_gonio("fit " + path("m.bsdf") + " --model tabulated --out " + path("fit.json"));
+    ASSERT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("power iteration"), std::string::npos) << r.out;
+    auto fitted = brdf::load_model_json(path("fit.json"));
+    ASSERT_TRUE(fitted) << fitted.error().message;
+    ASSERT_EQ(fitted->lobes.size(), 1u);
+    EXPECT_EQ(fitted->lobes[0].distribution, brdf::Distribution::kTabulated);
+    for (const char* to : {"mitsuba", "pbrt"}) {
+        r = run_gonio(std::string("export ") + path("fit.json") + " --to " + to);
+        EXPECT_EQ(r.status, 1) << to << ": " << r.out;
+        EXPECT_NE(r.out.find("tabulated NDF"), std::string::npos) << r.out;
+        EXPECT_NE(r.out.find(".bsdf"), std::string::npos) << r.out;
+    }
+    r = run_gonio("convert " + path("fit.json") + " " + path("t.bsdf"));
+    ASSERT_EQ(r.status, 0) << r.out;
+    r = run_gonio("check " + path("fit.json"));
+    EXPECT_EQ(r.status, 0) << r.out;
+}
+
 }  // namespace
 }  // namespace gonio::testing

@@ -10,6 +10,7 @@
 // during a fit. Evaluation lives in model_eval.h; JSON reading and writing in model_json.h (schema:
 // docs/model-schema.md).
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -25,7 +26,11 @@ enum class Distribution {
                   ///< requested.
     kStudentT,    ///< Student-t distribution of slopes (STD, student_t.h): alpha_x, alpha_y and the
                   ///< tail parameter gamma (2 = GGX, infinity = Beckmann).
+    kTabulated,   ///< Isotropic D(theta_h) tabulated from data by power iteration
+                  ///< (tabulated_ndf.h) with its own Smith Lambda; Lobe::table holds it.
 };
+
+struct TabulatedNdf;
 
 /// Shadowing-masking term G of a lobe.
 enum class Shadowing {
@@ -63,6 +68,10 @@ struct Lobe {
     T alpha_y = T(0.1);   ///< Slope parameter along y, > 0.
     T exponent = T(100);  ///< Blinn-Phong exponent, > 0.
     T gamma = T(2);       ///< Student-t tail parameter, > 3/2 (2 is GGX; larger is Beckmann-like).
+    /// The table of a kTabulated lobe (data, never a fitted parameter; shared by copies). Null for
+    /// the analytic distributions, and in a fit specification whose table is still to be extracted
+    /// from the data (fitting/power_iteration.h).
+    std::shared_ptr<const TabulatedNdf> table;
     Shadowing shadowing = Shadowing::kSmithCorrelated;
     Fresnel<T> fresnel;
     Rgb<T> scale = Rgb<T>::Constant(T(1));  ///< Per-channel lobe weight, >= 0.
@@ -100,6 +109,7 @@ Model<To> cast_model(const Model<From>& m, Convert convert) {
         o.alpha_y = convert(l.alpha_y);
         o.exponent = convert(l.exponent);
         o.gamma = convert(l.gamma);
+        o.table = l.table;
         o.shadowing = l.shadowing;
         o.fresnel.type = l.fresnel.type;
         o.fresnel.f0 = rgb(l.fresnel.f0);

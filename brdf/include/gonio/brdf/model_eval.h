@@ -29,6 +29,7 @@
 #include "gonio/brdf/microfacet.h"
 #include "gonio/brdf/model.h"
 #include "gonio/brdf/student_t.h"
+#include "gonio/brdf/tabulated_ndf.h"
 
 namespace gonio::brdf {
 
@@ -94,6 +95,16 @@ inline T lobe_D(const Lobe<P>& lobe, const Dir3<T>& h) {
                 return D_student_t(
                     Vec3<T>(h.x, h.y, h.z), T(lobe.alpha_x), T(lobe_alpha_y(lobe)), T(lobe.gamma));
             }
+        case Distribution::kTabulated:
+            if constexpr (IsPacket<T>::value) {
+                // Not reached: eval_model_packets evaluates a model with a tabulated lobe lane by
+                // lane (the table is looked up at each lane's value).
+                GONIO_CHECK_MSG(false, "tabulated lobe evaluated on packets");
+                return T(0);
+            } else {
+                GONIO_CHECK_MSG(lobe.table != nullptr, "tabulated lobe without its table");
+                return D_tabulated(*lobe.table, h.z);
+            }
     }
     return T(0);
 }
@@ -141,6 +152,16 @@ inline T lobe_lambda(const Lobe<P>& lobe, const Dir3<T>& w) {
                 return lambda_student_t_a2(a2, T(lobe.gamma));
             }
         }
+        case Distribution::kTabulated: {
+            if constexpr (IsPacket<T>::value) {
+                // Not reached: see lobe_D.
+                GONIO_CHECK_MSG(false, "tabulated lobe evaluated on packets");
+                return T(0);
+            } else {
+                GONIO_CHECK_MSG(lobe.table != nullptr, "tabulated lobe without its table");
+                return lambda_tabulated(*lobe.table, w.z);
+            }
+        }
     }
     return T(0);
 }
@@ -163,6 +184,34 @@ inline T lobe_G(const Lobe<P>& lobe,
             break;
     }
     return T(1);
+}
+
+/// D G of a tabulated lobe (the lobe term without F, scale and 1 / (4 cos_i cos_o)) from the
+/// squares the fitting precomputes per sample: cos2_h = cos^2(theta_h), tan2_i and tan2_o the
+/// squared tangents of the two directions, g_vgroove the V-groove G (used for that shadowing
+/// only). The same table lookups as lobe_D and lobe_G; both directions above the horizon.
+inline double tabulated_lobe_shape(const TabulatedNdf& table,
+                                   Shadowing shadowing,
+                                   double cos2_h,
+                                   double tan2_i,
+                                   double tan2_o,
+                                   double g_vgroove) {
+    using std::sqrt;
+    const double D = D_tabulated(table, sqrt(cos2_h));
+    switch (shadowing) {
+        case Shadowing::kSmithCorrelated:
+        case Shadowing::kSmithSeparable: {
+            const double li = lambda_tabulated(table, 1.0 / sqrt(1.0 + tan2_i));
+            const double lo = lambda_tabulated(table, 1.0 / sqrt(1.0 + tan2_o));
+            return D * (shadowing == Shadowing::kSmithCorrelated ? G_smith_correlated(li, lo)
+                                                                 : G_smith_separable(li, lo));
+        }
+        case Shadowing::kVGroove:
+            return D * g_vgroove;
+        case Shadowing::kNone:
+            break;
+    }
+    return D;
 }
 
 /// The Fresnel term of a lobe for channel c at cos_d = wi . h, with one_minus_cos = 1 - cos_d

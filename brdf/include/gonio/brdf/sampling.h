@@ -141,6 +141,10 @@ inline double pdf_lobe(const Lobe<double>& lobe, const Vec3d& wi, const Vec3d& w
     if (lobe.distribution == Distribution::kGgx) {
         return pdf_ggx_vndf(wi, h, lobe.alpha_x, ay) / (4.0 * cos_d);
     }
+    if (lobe.distribution == Distribution::kTabulated) {
+        // The table's normals are drawn by interval (sample_tabulated_normal).
+        return pdf_tabulated_normal(*lobe.table, h.z()) / (4.0 * cos_d);
+    }
     return lobe_D(lobe, h) * std::max(0.0, h.z()) / (4.0 * cos_d);
 }
 
@@ -171,6 +175,9 @@ inline DirectionSample sample_lobe(const Lobe<double>& lobe,
             break;
         case Distribution::kStudentT:
             h = sample_student_t_normal(lobe.alpha_x, ay, lobe.gamma, u1, u2);
+            break;
+        case Distribution::kTabulated:
+            h = sample_tabulated_normal(*lobe.table, u1, u2);
             break;
     }
     if (wi.dot(h) <= 0) {

@@ -169,8 +169,9 @@ Expected<AutoFitResult> fit_auto(const brdf::Dataset& data,
                                  const std::vector<std::pair<std::string, FitSpec>>& candidates);
 
 /// The candidate families of `gonio fit --model auto`: GGX, Beckmann, Blinn-Phong and Student-t
-/// with Lambert and a scalar Schlick Fresnel with an RGB scale, one lobe, and GGX and Student-t
-/// with two lobes.
+/// with Lambert and a scalar Schlick Fresnel with an RGB scale, one lobe, GGX and Student-t
+/// with two lobes, and the tabulated NDF by power iteration (power_iteration.h; its table's nodes
+/// count as parameters of the criterion).
 std::vector<std::pair<std::string, FitSpec>> auto_candidates(const FitOptions& options);
 
 /// Metrics of `model` against the valid samples of `data`.
