@@ -12,7 +12,7 @@
 #include "gonio/base/atomic_file.h"
 #include "gonio/base/check.h"
 #include "gonio/base/limits.h"
-#include "json_fields.h"
+#include "gonio/base/strict_json.h"
 
 namespace gonio::acquisition {
 
@@ -416,7 +416,7 @@ Expected<CameraModel> camera_model_from_json(const std::string& text, const std:
     try {
         j = nlohmann::json::parse(text);
     } catch (const nlohmann::json::exception& e) {
-        return make_error(where + ": " + detail::json_error_text(e.what()));
+        return make_error(where + ": " + json_error_text(e.what()));
     }
     return from_json_object(j, where);
 }
@@ -430,7 +430,7 @@ Expected<CameraModel> read_camera_model(const std::string& rig_path) {
     try {
         in >> j;
     } catch (const nlohmann::json::exception& e) {
-        return make_error(rig_path + ": " + detail::json_error_text(e.what()));
+        return make_error(rig_path + ": " + json_error_text(e.what()));
     }
     if (!j.is_object() || !j.contains("camera_model")) {
         return make_error(rig_path + ": camera_model: missing (calibrate the camera first)");
@@ -446,7 +446,7 @@ Expected<void> write_camera_model(const std::string& rig_path, const CameraModel
             try {
                 in >> j;
             } catch (const nlohmann::json::exception& e) {
-                return make_error(rig_path + ": " + detail::json_error_text(e.what()));
+                return make_error(rig_path + ": " + json_error_text(e.what()));
             }
             if (!j.is_object()) {
                 return make_error(rig_path + ": the rig description must be a JSON object");

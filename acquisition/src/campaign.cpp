@@ -20,10 +20,10 @@
 #include "gonio/acquisition/progress.h"
 #include "gonio/base/atomic_file.h"
 #include "gonio/base/limits.h"
+#include "gonio/base/strict_json.h"
 #include "gonio/base/strings.h"
 #include "gonio/brdf/dataset.h"
 #include "gonio/version.h"
-#include "json_fields.h"
 
 namespace gonio::acquisition {
 
@@ -92,12 +92,11 @@ std::array<double, 4> pose_deg(const RigPosed& p) {
 // Campaign description
 
 Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::string& source) {
-    using detail::JsonFields;
     CampaignSpec s;
     s.json = text;
     try {
-        const json j = detail::parse_json_checked(text, source);
-        JsonFields top(j, "");
+        const json j = parse_json_checked(text, source);
+        JsonObject top(j, "");
         s.sample = top.string("sample", s.sample, kMaxNameLength);
         s.operator_name = top.string("operator", s.operator_name, kMaxNameLength);
         s.notes = top.string("notes", s.notes, kMaxJsonString);
@@ -106,11 +105,11 @@ Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::s
         for (const char* key : {"rig", "scene"}) {
             const std::string& p = key[0] == 'r' ? s.rig : s.scene;
             if (auto bad = contained_path_problem(p); !bad.empty()) {
-                detail::json_fail(std::string(key) + " = \"" + excerpt(p) + "\": " + bad);
+                json_fail(std::string(key) + " = \"" + excerpt(p) + "\": " + bad);
             }
         }
         if (top.has("plan")) {
-            JsonFields p(top.raw("plan"), "plan");
+            JsonObject p(top.raw("plan"), "plan");
             s.plan_kind = p.string("kind", s.plan_kind, 16);
             if (s.plan_kind == "uniform") {
                 s.uniform.n_theta = p.integer("n_theta", s.uniform.n_theta, 2, kMaxPlanAxis);
@@ -126,13 +125,13 @@ Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::s
                 s.half_diff.theta_max =
                     p.number("theta_max_deg", s.half_diff.theta_max / kDeg, 1, 89, "deg") * kDeg;
             } else {
-                detail::json_fail("plan.kind = \"" + s.plan_kind +
-                                  "\": must be \"uniform\" or \"half-diff\"");
+                json_fail("plan.kind = \"" + s.plan_kind +
+                          "\": must be \"uniform\" or \"half-diff\"");
             }
             p.finish();
         }
         if (top.has("adaptive")) {
-            JsonFields a(top.raw("adaptive"), "adaptive");
+            JsonObject a(top.raw("adaptive"), "adaptive");
             s.adaptive = a.boolean("enabled", true);
             s.adaptive_passes = a.integer("passes", s.adaptive_passes, 0, 100);
             s.refine.budget = a.integer("budget", s.refine.budget, 0, kMaxPlanConfigs);
@@ -142,7 +141,7 @@ Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::s
             a.finish();
         }
         if (top.has("drift")) {
-            JsonFields d(top.raw("drift"), "drift");
+            JsonObject d(top.raw("drift"), "drift");
             s.drift_every = d.integer("every", s.drift_every, 0, kMaxPlanConfigs);
             s.drift_threshold = d.number("threshold", s.drift_threshold, 1e-6, 10);
             s.drift_theta_i_deg = d.number("theta_i_deg", s.drift_theta_i_deg, 0, 89, "deg");
@@ -152,7 +151,7 @@ Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::s
         }
         s.schedule_budget_s = top.number("schedule_budget_s", s.schedule_budget_s, 0, 3600, "s");
         top.finish();
-    } catch (const detail::JsonFailure& f) {
+    } catch (const JsonFailure& f) {
         const bool named = f.message.compare(0, source.size(), source) == 0;
         return make_error(named ? f.message : source + ": " + f.message);
     }
@@ -768,8 +767,8 @@ Expected<void> Runner::write_metadata(const std::string& state, const Plan& plan
     json meta = json::object();
     if (auto old = read_text(path("metadata.json")); old) {
         try {
-            meta = detail::parse_json_checked(*old, path("metadata.json"));
-        } catch (const detail::JsonFailure& f) {
+            meta = parse_json_checked(*old, path("metadata.json"));
+        } catch (const JsonFailure& f) {
             say("metadata.json unreadable (" + f.message + "); written anew from the journal");
             meta = json::object();
         }

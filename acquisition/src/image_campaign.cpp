@@ -12,9 +12,9 @@
 #include "gonio/acquisition/image_journal.h"
 #include "gonio/base/atomic_file.h"
 #include "gonio/base/check.h"
+#include "gonio/base/strict_json.h"
 #include "gonio/brdf/merl.h"
 #include "gonio/brdf/rig_geometry.h"
-#include "json_fields.h"
 
 namespace gonio::acquisition {
 namespace {
@@ -656,8 +656,7 @@ Expected<void> write_image_campaign(const std::string& dir,
             j.update(extra);
         }
     } catch (const nlohmann::json::exception& e) {
-        return make_error(std::string("dataset.json extra metadata: ") +
-                          detail::json_error_text(e.what()));
+        return make_error(std::string("dataset.json extra metadata: ") + json_error_text(e.what()));
     }
     const std::string path = base + "dataset.json";
     return write_file_atomic(path, j.dump(2) + "\n");

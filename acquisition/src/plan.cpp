@@ -10,8 +10,8 @@
 #include <tuple>
 
 #include "gonio/base/limits.h"
+#include "gonio/base/strict_json.h"
 #include "gonio/brdf/dataset.h"
-#include "json_fields.h"
 
 namespace gonio::acquisition {
 
@@ -48,7 +48,6 @@ void renumber(Plan* plan) {
 
 // A direction: [x, y, z] (any length > 0) or {"theta_deg", "phi_deg"}.
 Vec3d dir_from_json(const nlohmann::json& j, const std::string& where) {
-    using detail::json_fail;
     if (j.is_array()) {
         if (j.size() != 3) {
             json_fail(where + ": expected [x, y, z], got an array of " + std::to_string(j.size()));
@@ -66,7 +65,7 @@ Vec3d dir_from_json(const nlohmann::json& j, const std::string& where) {
         }
         return v.normalized();
     }
-    detail::JsonFields f(j, where);
+    JsonObject f(j, where);
     if (!f.has("theta_deg")) {
         json_fail(where + ": expected [x, y, z] or {\"theta_deg\", \"phi_deg\"}");
     }
@@ -193,44 +192,44 @@ Expected<Scene> read_scene(const std::string& path) {
     }
     Scene sc;
     try {
-        const nlohmann::json j = detail::parse_json_checked(*text, path);
-        detail::JsonFields top(j, "");
+        const nlohmann::json j = parse_json_checked(*text, path);
+        JsonObject top(j, "");
         sc.name = top.string("name", path, kMaxNameLength);
         sc.margin = top.number("margin_deg", 5.0, 0, 90, "deg") * kDeg;
         if (top.has("pairs")) {
             const nlohmann::json& pairs = top.raw("pairs");
             if (!pairs.is_array()) {
-                detail::json_fail("pairs: expected an array, got " + detail::json_type(pairs));
+                json_fail("pairs: expected an array, got " + json_type(pairs));
             }
             if (pairs.size() > kMaxScenePairs) {
-                detail::json_fail("pairs: " + std::to_string(pairs.size()) + " pairs, at most " +
-                                  std::to_string(kMaxScenePairs) + " allowed");
+                json_fail("pairs: " + std::to_string(pairs.size()) + " pairs, at most " +
+                          std::to_string(kMaxScenePairs) + " allowed");
             }
             for (std::size_t k = 0; k < pairs.size(); ++k) {
                 const std::string w = "pairs[" + std::to_string(k) + "]";
-                detail::JsonFields pf(pairs[k], w);
+                JsonObject pf(pairs[k], w);
                 sc.pairs.emplace_back(dir_from_json(pf.raw("light"), w + ".light"),
                                       dir_from_json(pf.raw("view"), w + ".view"));
                 pf.finish();
                 if (sc.pairs.back().first.z() <= 0 || sc.pairs.back().second.z() <= 0) {
-                    detail::json_fail(w + ": direction at or below the horizon");
+                    json_fail(w + ": direction at or below the horizon");
                 }
             }
         }
         if (top.has("theta_i_deg") || top.has("theta_r_deg")) {
             auto range = [&](const char* key, double* lo, double* hi) {
                 if (!top.has(key)) {
-                    detail::json_fail(std::string(key) + ": missing (give both ranges)");
+                    json_fail(std::string(key) + ": missing (give both ranges)");
                 }
                 const nlohmann::json& r = top.raw(key);
                 if (!r.is_array() || r.size() != 2 || !r[0].is_number() || !r[1].is_number()) {
-                    detail::json_fail(std::string(key) + ": expected [min, max] in deg");
+                    json_fail(std::string(key) + ": expected [min, max] in deg");
                 }
                 const double a = r[0].get<double>();
                 const double b = r[1].get<double>();
                 if (!(a >= 0 && b <= 90 && a <= b)) {
-                    detail::json_fail(std::string(key) + " = [" + show_number(a) + ", " +
-                                      show_number(b) + "]: must satisfy 0 <= min <= max <= 90 deg");
+                    json_fail(std::string(key) + " = [" + show_number(a) + ", " + show_number(b) +
+                              "]: must satisfy 0 <= min <= max <= 90 deg");
                 }
                 *lo = a * kDeg;
                 *hi = b * kDeg;
@@ -240,7 +239,7 @@ Expected<Scene> read_scene(const std::string& path) {
             range("theta_r_deg", &sc.theta_r_min, &sc.theta_r_max);
         }
         top.finish();
-    } catch (const detail::JsonFailure& f) {
+    } catch (const JsonFailure& f) {
         const bool named = f.message.compare(0, path.size(), path) == 0;
         return make_error(named ? f.message : path + ": " + f.message);
     }

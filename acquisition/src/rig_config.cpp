@@ -9,11 +9,11 @@
 #include <vector>
 
 #include "gonio/base/limits.h"
+#include "gonio/base/strict_json.h"
 #include "gonio/base/strings.h"
 #include "gonio/devices/camera_factory.h"
 #include "gonio/devices/modbus_axis.h"
 #include "gonio/devices/modbus_light.h"
-#include "json_fields.h"
 
 namespace gonio::acquisition {
 
@@ -30,10 +30,10 @@ int modbus_int(const json& j, const char* key, int lo, int hi) {
     if (!v.is_number() || !std::isfinite(v.get<double>()) ||
         v.get<double>() != std::floor(v.get<double>()) || v.get<double>() < lo ||
         v.get<double>() > hi) {
-        detail::json_fail(std::string(key) + " = " +
-                          (v.is_number() ? show_number(v.get<double>()) : v.dump().substr(0, 64)) +
-                          ": must be a whole number in [" + std::to_string(lo) + ", " +
-                          std::to_string(hi) + "]");
+        json_fail(std::string(key) + " = " +
+                  (v.is_number() ? show_number(v.get<double>()) : v.dump().substr(0, 64)) +
+                  ": must be a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) +
+                  "]");
     }
     return static_cast<int>(v.get<double>());
 }
@@ -104,25 +104,8 @@ void check_rig_keys(const json& j) {
                                                 "speed_deg_per_s",
                                                 "accel_deg_per_s2",
                                                 "settle_ms"};
-    auto list = [](const std::set<std::string>& keys) {
-        std::string out;
-        for (const std::string& k : keys) {
-            out += out.empty() ? "" : ", ";
-            out += k;
-        }
-        return out;
-    };
-    auto check = [&](const json& obj, const std::string& path, const std::set<std::string>& keys) {
-        if (!obj.is_object()) {
-            detail::json_fail((path.empty() ? std::string("top level") : path) +
-                              ": expected an object, got " + detail::json_type(obj));
-        }
-        for (auto it = obj.begin(); it != obj.end(); ++it) {
-            if (keys.count(it.key()) == 0) {
-                detail::json_fail((path.empty() ? "" : path + ".") + it.key().substr(0, 64) +
-                                  ": unknown key (allowed here: " + list(keys) + ")");
-            }
-        }
+    auto check = [](const json& obj, const std::string& path, const std::set<std::string>& keys) {
+        check_json_keys(obj, path, std::vector<std::string>(keys.begin(), keys.end()));
     };
     check(j, "", kTop);
     for (const auto& [name, keys] : kSections) {
@@ -141,8 +124,7 @@ void check_rig_keys(const json& j) {
     }
     if (j.contains("axes") && j.at("axes").is_array()) {
         if (j.at("axes").size() > 16) {
-            detail::json_fail("axes: " + std::to_string(j.at("axes").size()) +
-                              " axes, at most 16 allowed");
+            json_fail("axes: " + std::to_string(j.at("axes").size()) + " axes, at most 16 allowed");
         }
         for (std::size_t k = 0; k < j.at("axes").size(); ++k) {
             check(j.at("axes")[k], "axes[" + std::to_string(k) + "]", kAxis);
@@ -161,9 +143,9 @@ void check_rig_keys(const json& j) {
         if (v->is_number()) {
             const double x = v->get<double>();
             if (!std::isfinite(x) || std::abs(x) > 1e9) {
-                detail::json_fail(path + " = " + show_number(x) +
-                                  ": out of range (numbers of a rig description lie in [-1e9, "
-                                  "1e9])");
+                json_fail(path + " = " + show_number(x) +
+                          ": out of range (numbers of a rig description lie in [-1e9, "
+                          "1e9])");
             }
         } else if (v->is_object()) {
             for (auto it = v->begin(); it != v->end(); ++it) {
@@ -174,8 +156,8 @@ void check_rig_keys(const json& j) {
                 pending.emplace_back(&(*v)[i], path + "[" + std::to_string(i) + "]");
             }
         } else if (v->is_string() && v->get_ref<const std::string&>().size() > kMaxJsonString) {
-            detail::json_fail(path + ": string longer than " + std::to_string(kMaxJsonString) +
-                              " characters");
+            json_fail(path + ": string longer than " + std::to_string(kMaxJsonString) +
+                      " characters");
         }
     }
 }
@@ -192,7 +174,7 @@ Expected<RigConfig> parse_rig_config(const std::string& text, const std::string&
     rig.json = text;
     std::string at = "";
     try {
-        const json j = detail::parse_json_checked(text, source);
+        const json j = parse_json_checked(text, source);
         check_rig_keys(j);
         rig.name = j.value("name", source);
         bool seen[kNumAxes] = {false, false, false, false};
@@ -334,7 +316,7 @@ Expected<RigConfig> parse_rig_config(const std::string& text, const std::string&
         }
         rig.move_timeout_ms = j.value("move_timeout_ms", rig.move_timeout_ms);
         rig.retries = j.value("retries", rig.retries);
-    } catch (const detail::JsonFailure& f) {
+    } catch (const JsonFailure& f) {
         const bool named = f.message.compare(0, source.size(), source) == 0;
         return make_error(named ? f.message
                                 : source + ": " + (at.empty() ? "" : at + ": ") + f.message);

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "gonio/base/limits.h"
+#include "gonio/base/strict_json.h"
 #include "gonio/base/strings.h"
 #include "gonio/brdf/ior.h"
 #include "gonio/brdf/student_t.h"
@@ -21,80 +22,6 @@ namespace {
 
 using Json = nlohmann::json;
 using OrderedJson = nlohmann::ordered_json;
-
-/// Internal to this file: carries the first problem up to parse_model_json, which turns it into an
-/// Error. Never leaves this translation unit.
-struct ParseFailure {
-    std::string message;
-};
-
-[[noreturn]] void fail(const std::string& message) {
-    throw ParseFailure{message};
-}
-
-std::string type_name(const Json& j) {
-    if (j.is_number()) {
-        return "number";
-    }
-    return j.type_name();
-}
-
-std::string key_path(const std::string& parent, const std::string& key) {
-    return parent.empty() ? key : parent + "." + key;
-}
-
-/// Rejects every key of `obj` that is not in `allowed`.
-void check_keys(const Json& obj,
-                const std::string& path,
-                std::initializer_list<const char*> allowed) {
-    for (auto it = obj.begin(); it != obj.end(); ++it) {
-        bool known = false;
-        for (const char* a : allowed) {
-            known = known || it.key() == a;
-        }
-        if (!known) {
-            std::string list;
-            for (const char* a : allowed) {
-                list += list.empty() ? "" : ", ";
-                list += a;
-            }
-            fail(key_path(path, excerpt(it.key())) + ": unknown key (allowed here: " + list + ")");
-        }
-    }
-}
-
-const Json& require(const Json& obj, const std::string& path, const char* key) {
-    auto it = obj.find(key);
-    if (it == obj.end()) {
-        fail((path.empty() ? std::string("top level") : path) + ": missing key \"" + key + "\"");
-    }
-    return *it;
-}
-
-void require_object(const Json& j, const std::string& path) {
-    if (!j.is_object()) {
-        fail((path.empty() ? std::string("top level") : path) + ": expected an object, got " +
-             type_name(j));
-    }
-}
-
-std::string get_string(const Json& j, const std::string& path) {
-    if (!j.is_string()) {
-        fail(path + ": expected a string, got " + type_name(j));
-    }
-    return j.get<std::string>();
-}
-
-double get_number(const Json& j, const std::string& path) {
-    if (!j.is_number()) {
-        fail(path + ": expected a number, got " + type_name(j));
-    }
-    const double v = j.get<double>();
-    if (!std::isfinite(v)) {
-        fail(path + " = " + show_number(v) + ": must be finite");
-    }
-    return v;
-}
 
 /// Short form for summaries (six significant digits).
 std::string show(double v) {
@@ -125,27 +52,27 @@ void check_rule(
     switch (rule) {
         case Rule::kPositive:
             if (!(v > 0)) {
-                fail(path + " = " + shown + ": must be > 0");
+                json_fail(path + " = " + shown + ": must be > 0");
             }
             break;
         case Rule::kNonNegative:
             if (!(v >= 0)) {
-                fail(path + " = " + shown + ": must be >= 0");
+                json_fail(path + " = " + shown + ": must be >= 0");
             }
             break;
         case Rule::kUnit:
             if (!(v >= 0 && v <= 1)) {
-                fail(path + " = " + shown + ": must be in [0, 1]");
+                json_fail(path + " = " + shown + ": must be in [0, 1]");
             }
             break;
     }
     if (v > max) {
-        fail(path + " = " + shown + ": must be <= " + show_number(max));
+        json_fail(path + " = " + shown + ": must be <= " + show_number(max));
     }
 }
 
 double get_scalar(const Json& j, const std::string& path, Rule rule, double max) {
-    const double v = get_number(j, path);
+    const double v = json_number_at(j, path);
     check_rule(v, path, show_number(v), rule, max);
     return v;
 }
@@ -154,8 +81,8 @@ double get_scalar(const Json& j, const std::string& path, Rule rule, double max)
 double get_alpha(const Json& j, const std::string& path) {
     const double v = get_scalar(j, path, Rule::kPositive, kMaxAlpha);
     if (v < kMinAlpha) {
-        fail(path + " = " + show_number(v) + ": must be in [" + show_number(kMinAlpha) + ", " +
-             show_number(kMaxAlpha) + "]");
+        json_fail(path + " = " + show_number(v) + ": must be in [" + show_number(kMinAlpha) + ", " +
+                  show_number(kMaxAlpha) + "]");
     }
     return v;
 }
@@ -166,8 +93,8 @@ Rgbd get_rgb(const Json& j, const std::string& path, Rule rule, double max) {
         return Rgbd::Constant(get_scalar(j, path, rule, max));
     }
     if (!j.is_array() || j.size() != 3) {
-        fail(path + ": expected a number or an array of 3 numbers, got " +
-             (j.is_array() ? "an array of " + std::to_string(j.size()) : type_name(j)));
+        json_fail(path + ": expected a number or an array of 3 numbers, got " +
+                  (j.is_array() ? "an array of " + std::to_string(j.size()) : json_type(j)));
     }
     Rgbd out;
     for (int c = 0; c < 3; ++c) {
@@ -177,81 +104,84 @@ Rgbd get_rgb(const Json& j, const std::string& path, Rule rule, double max) {
 }
 
 const IorEntry& get_material(const Json& j, const std::string& path) {
-    const std::string name = get_string(j, path);
+    const std::string name = json_string_at(j, path);
     const IorEntry* e = find_ior(name);
     if (e == nullptr) {
-        fail(path + " = \"" + excerpt(name) + "\": unknown material (known: " + ior_names() + ")");
+        json_fail(path + " = \"" + excerpt(name) + "\": unknown material (known: " + ior_names() +
+                  ")");
     }
     return *e;
 }
 
 Fresnel<double> parse_fresnel(const Json& j, const std::string& path) {
-    require_object(j, path);
+    require_json_object(j, path);
     Fresnel<double> f;
-    const std::string type = get_string(require(j, path, "type"), path + ".type");
+    const std::string type = json_string_at(json_member(j, path, "type"), path + ".type");
     if (type == "none") {
-        check_keys(j, path, {"type"});
+        check_json_keys(j, path, {"type"});
         f.type = FresnelType::kNone;
     } else if (type == "schlick") {
-        check_keys(j, path, {"type", "f0"});
+        check_json_keys(j, path, {"type", "f0"});
         f.type = FresnelType::kSchlick;
-        f.f0 = get_rgb(require(j, path, "f0"), path + ".f0", Rule::kUnit, 1);
+        f.f0 = get_rgb(json_member(j, path, "f0"), path + ".f0", Rule::kUnit, 1);
     } else if (type == "dielectric") {
-        check_keys(j, path, {"type", "eta", "material"});
+        check_json_keys(j, path, {"type", "eta", "material"});
         f.type = FresnelType::kDielectric;
         const bool has_eta = j.contains("eta");
         const bool has_material = j.contains("material");
         if (has_eta == has_material) {
-            fail(path + ": give exactly one of \"eta\" and \"material\"");
+            json_fail(path + ": give exactly one of \"eta\" and \"material\"");
         }
         if (has_eta) {
             f.eta = get_scalar(j["eta"], path + ".eta", Rule::kPositive, kMaxEta);
         } else {
             const IorEntry& e = get_material(j["material"], path + ".material");
             if (e.conductor) {
-                fail(path + ".material = \"" + excerpt(e.name) +
-                     "\": is a conductor, use \"type\": \"conductor\"");
+                json_fail(path + ".material = \"" + excerpt(e.name) +
+                          "\": is a conductor, use \"type\": \"conductor\"");
             }
             f.eta = e.eta[0];
         }
     } else if (type == "conductor") {
-        check_keys(j, path, {"type", "eta", "k", "material"});
+        check_json_keys(j, path, {"type", "eta", "k", "material"});
         f.type = FresnelType::kConductor;
         const bool has_material = j.contains("material");
         if (has_material) {
             if (j.contains("eta") || j.contains("k")) {
-                fail(path + ": give either \"material\" or \"eta\" and \"k\", not both");
+                json_fail(path + ": give either \"material\" or \"eta\" and \"k\", not both");
             }
             const IorEntry& e = get_material(j["material"], path + ".material");
             f.eta_rgb = e.eta;
             f.k = e.k;
         } else {
-            f.eta_rgb = get_rgb(require(j, path, "eta"), path + ".eta", Rule::kPositive, kMaxEta);
-            f.k = get_rgb(require(j, path, "k"), path + ".k", Rule::kNonNegative, kMaxEta);
+            f.eta_rgb =
+                get_rgb(json_member(j, path, "eta"), path + ".eta", Rule::kPositive, kMaxEta);
+            f.k = get_rgb(json_member(j, path, "k"), path + ".k", Rule::kNonNegative, kMaxEta);
         }
     } else {
-        fail(path + ".type = \"" + excerpt(type) +
-             "\": must be one of schlick, dielectric, conductor, none");
+        json_fail(path + ".type = \"" + excerpt(type) +
+                  "\": must be one of schlick, dielectric, conductor, none");
     }
     return f;
 }
 
 Lobe<double> parse_lobe(const Json& j, const std::string& path) {
-    require_object(j, path);
-    check_keys(j,
-               path,
-               {"distribution",
-                "alpha",
-                "alpha_x",
-                "alpha_y",
-                "exponent",
-                "gamma",
-                "ndf",
-                "shadowing",
-                "fresnel",
-                "scale"});
+    require_json_object(j, path);
+    check_json_keys(j,
+                    path,
+                    {"distribution",
+                     "alpha",
+                     "alpha_x",
+                     "alpha_y",
+                     "exponent",
+                     "gamma",
+                     "ndf",
+                     "shadowing",
+                     "fresnel",
+                     "scale"});
     Lobe<double> lobe;
-    const std::string dist = get_string(require(j, path, "distribution"), path + ".distribution");
+    const std::string dist =
+        json_string_at(json_member(j, path, "distribution"), path + ".distribution");
     if (dist == "ggx") {
         lobe.distribution = Distribution::kGgx;
     } else if (dist == "beckmann") {
@@ -263,33 +193,35 @@ Lobe<double> parse_lobe(const Json& j, const std::string& path) {
     } else if (dist == "tabulated") {
         lobe.distribution = Distribution::kTabulated;
     } else {
-        fail(path + ".distribution = \"" + excerpt(dist) +
-             "\": must be one of ggx, beckmann, blinn-phong, student-t, tabulated");
+        json_fail(path + ".distribution = \"" + excerpt(dist) +
+                  "\": must be one of ggx, beckmann, blinn-phong, student-t, tabulated");
     }
     if (lobe.distribution == Distribution::kStudentT) {
         // The tail parameter: Smith's Lambda is finite above 3/2 only (student_t.h).
         lobe.gamma = get_scalar(
-            require(j, path, "gamma"), path + ".gamma", Rule::kPositive, kStudentTGammaMax);
+            json_member(j, path, "gamma"), path + ".gamma", Rule::kPositive, kStudentTGammaMax);
         if (!(lobe.gamma >= kStudentTGammaMin)) {
-            fail(path + ".gamma = " + show_number(lobe.gamma) + ": must be in [" +
-                 show_number(kStudentTGammaMin) + ", " + show_number(kStudentTGammaMax) +
-                 "] (Smith masking is infinite below 3/2)");
+            json_fail(path + ".gamma = " + show_number(lobe.gamma) + ": must be in [" +
+                      show_number(kStudentTGammaMin) + ", " + show_number(kStudentTGammaMax) +
+                      "] (Smith masking is infinite below 3/2)");
         }
     } else if (j.contains("gamma")) {
-        fail(path + ".gamma: only for student-t lobes");
+        json_fail(path + ".gamma: only for student-t lobes");
     }
     const bool microfacet = lobe.distribution != Distribution::kBlinnPhong;
     if (lobe.distribution == Distribution::kTabulated) {
         for (const char* key : {"alpha", "alpha_x", "alpha_y", "exponent"}) {
             if (j.contains(key)) {
-                fail(key_path(path, key) + ": not used by tabulated lobes (their D is \"ndf\")");
+                json_fail(json_key_path(path, key) +
+                          ": not used by tabulated lobes (their D is \"ndf\")");
             }
         }
-        const Json& nd = require(j, path, "ndf");
+        const Json& nd = json_member(j, path, "ndf");
         const std::string at = path + ".ndf";
         if (!nd.is_array()) {
-            fail(at + ": expected an array of D values at theta_h = (pi/2) (k / (n - 1))^2, got " +
-                 type_name(nd));
+            json_fail(at +
+                      ": expected an array of D values at theta_h = (pi/2) (k / (n - 1))^2, got " +
+                      json_type(nd));
         }
         std::vector<double> d;
         for (std::size_t k = 0; k < nd.size() && k <= kTabulatedNdfMaxNodes; ++k) {
@@ -298,20 +230,20 @@ Lobe<double> parse_lobe(const Json& j, const std::string& path) {
         }
         Expected<TabulatedNdf> table = make_tabulated_ndf(std::move(d), at);
         if (!table) {
-            fail(table.error().message);
+            json_fail(table.error().message);
         }
         lobe.table = std::make_shared<const TabulatedNdf>(std::move(*table));
     } else if (j.contains("ndf")) {
-        fail(path + ".ndf: only for tabulated lobes");
+        json_fail(path + ".ndf: only for tabulated lobes");
     } else if (microfacet) {
         if (j.contains("exponent")) {
-            fail(path + ".exponent: only for blinn-phong lobes (" + dist + " uses alpha)");
+            json_fail(path + ".exponent: only for blinn-phong lobes (" + dist + " uses alpha)");
         }
         const bool has_alpha = j.contains("alpha");
         const bool has_x = j.contains("alpha_x");
         const bool has_y = j.contains("alpha_y");
         if (has_alpha && (has_x || has_y)) {
-            fail(path + ": give either \"alpha\" or \"alpha_x\" and \"alpha_y\", not both");
+            json_fail(path + ": give either \"alpha\" or \"alpha_x\" and \"alpha_y\", not both");
         }
         if (has_alpha) {
             lobe.anisotropic = false;
@@ -319,25 +251,26 @@ Lobe<double> parse_lobe(const Json& j, const std::string& path) {
             lobe.alpha_y = lobe.alpha_x;
         } else if (has_x || has_y) {
             lobe.anisotropic = true;
-            lobe.alpha_x = get_alpha(require(j, path, "alpha_x"), path + ".alpha_x");
-            lobe.alpha_y = get_alpha(require(j, path, "alpha_y"), path + ".alpha_y");
+            lobe.alpha_x = get_alpha(json_member(j, path, "alpha_x"), path + ".alpha_x");
+            lobe.alpha_y = get_alpha(json_member(j, path, "alpha_y"), path + ".alpha_y");
         } else {
-            fail(path + ": missing key \"alpha\" (or \"alpha_x\" and \"alpha_y\")");
+            json_fail(path + ": missing key \"alpha\" (or \"alpha_x\" and \"alpha_y\")");
         }
     } else {
         for (const char* key : {"alpha", "alpha_x", "alpha_y"}) {
             if (j.contains(key)) {
-                fail(key_path(path, key) +
-                     ": not used by blinn-phong lobes (they take \"exponent\")");
+                json_fail(json_key_path(path, key) +
+                          ": not used by blinn-phong lobes (they take \"exponent\")");
             }
         }
         lobe.exponent = get_scalar(
-            require(j, path, "exponent"), path + ".exponent", Rule::kPositive, kMaxExponent);
+            json_member(j, path, "exponent"), path + ".exponent", Rule::kPositive, kMaxExponent);
     }
     // Shadowing and Fresnel: required for microfacet lobes; a Blinn-Phong lobe has neither unless
     // it asks for them.
     if (microfacet || j.contains("shadowing")) {
-        const std::string s = get_string(require(j, path, "shadowing"), path + ".shadowing");
+        const std::string s =
+            json_string_at(json_member(j, path, "shadowing"), path + ".shadowing");
         if (s == "smith-correlated") {
             lobe.shadowing = Shadowing::kSmithCorrelated;
         } else if (s == "smith-separable") {
@@ -347,14 +280,14 @@ Lobe<double> parse_lobe(const Json& j, const std::string& path) {
         } else if (s == "none") {
             lobe.shadowing = Shadowing::kNone;
         } else {
-            fail(path + ".shadowing = \"" + excerpt(s) +
-                 "\": must be one of smith-correlated, smith-separable, v-groove, none");
+            json_fail(path + ".shadowing = \"" + excerpt(s) +
+                      "\": must be one of smith-correlated, smith-separable, v-groove, none");
         }
     } else {
         lobe.shadowing = Shadowing::kNone;
     }
     if (microfacet || j.contains("fresnel")) {
-        lobe.fresnel = parse_fresnel(require(j, path, "fresnel"), path + ".fresnel");
+        lobe.fresnel = parse_fresnel(json_member(j, path, "fresnel"), path + ".fresnel");
     } else {
         lobe.fresnel.type = FresnelType::kNone;
     }
@@ -367,12 +300,12 @@ Lobe<double> parse_lobe(const Json& j, const std::string& path) {
 }
 
 ModelD parse_model(const Json& j) {
-    require_object(j, "");
-    check_keys(j, "", {"diffuse", "lobes", "fit"});
+    require_json_object(j, "");
+    check_json_keys(j, "", {"diffuse", "lobes", "fit"});
     if (j.contains("fit") && !j["fit"].is_object()) {
         // The verdict of the fit that produced the model (written by `gonio fit`): informative,
         // not part of the model.
-        fail("fit: must be an object (the fit's verdict)");
+        json_fail("fit: must be an object (the fit's verdict)");
     }
     ModelD m;
     if (j.contains("diffuse")) {
@@ -382,13 +315,13 @@ ModelD parse_model(const Json& j) {
         m.has_diffuse = false;
         m.diffuse = Rgbd::Zero();
     }
-    const Json& lobes = require(j, "", "lobes");
+    const Json& lobes = json_member(j, "", "lobes");
     if (!lobes.is_array()) {
-        fail("lobes: expected an array, got " + type_name(lobes));
+        json_fail("lobes: expected an array, got " + json_type(lobes));
     }
     if (lobes.size() > kMaxModelLobes) {
-        fail("lobes: " + std::to_string(lobes.size()) + " lobes, at most " +
-             std::to_string(kMaxModelLobes) + " allowed");
+        json_fail("lobes: " + std::to_string(lobes.size()) + " lobes, at most " +
+                  std::to_string(kMaxModelLobes) + " allowed");
     }
     for (std::size_t i = 0; i < lobes.size(); ++i) {
         m.lobes.push_back(parse_lobe(lobes[i], "lobes[" + std::to_string(i) + "]"));
@@ -447,22 +380,9 @@ std::string compact_number_arrays(const std::string& s) {
 }  // namespace
 
 Expected<ModelD> parse_model_json(const std::string& text, const std::string& source_name) {
-    if (auto ok = check_json_text(text, source_name); !ok) {
-        return tl::unexpected(ok.error());
-    }
-    Json j;
-    try {
-        j = Json::parse(text);
-    } catch (const Json::exception& e) {
-        // Syntax errors and numbers out of the double range.
-        // Without nlohmann's code, with line, column and a cut quote of the input.
-        return make_error(source_name + ": " + gonio::json_error_text(e.what()));
-    }
-    try {
-        return parse_model(j);
-    } catch (const ParseFailure& f) {
-        return make_error(source_name + ": " + f.message);
-    }
+    // Size and depth first, then syntax (line, column, a cut quote of the input), then the schema.
+    return read_strict_json(source_name,
+                            [&] { return parse_model(parse_json_checked(text, source_name)); });
 }
 
 Expected<ModelD> load_model_json(const std::string& path) {

@@ -111,11 +111,13 @@ struct Layout {
     std::size_t num_fields = 0;
 };
 
-/// The first error of a chunk (the lowest line).
+/// The first error of a chunk (the lowest line), or with keep_going the rows it refused (at most
+/// max_rejected + 1: one more than allowed is enough to know that the file has too many).
 struct ChunkResult {
     std::vector<Sample> samples;
     std::size_t error_line = 0;  ///< 0 = none
     std::string error;
+    std::vector<RejectedRow> rejected;
 };
 
 void parse_chunk(const char* p,
@@ -123,8 +125,20 @@ void parse_chunk(const char* p,
                  std::size_t first_line,
                  const Layout& layout,
                  const std::string& path,
+                 const DatasetReadOptions& options,
                  ChunkResult& out) {
     std::size_t line_no = first_line;
+    // A refused row: the first error of the chunk, or (keep_going) a row recorded with its reason
+    // and skipped. Returns whether parsing goes on.
+    const auto refuse = [&](const std::string& where, const std::string& reason) {
+        if (!options.keep_going || out.rejected.size() > options.max_rejected) {
+            out.error_line = line_no;
+            out.error = where + reason;
+            return false;
+        }
+        out.rejected.push_back(RejectedRow{line_no, reason});
+        return true;
+    };
     reserve_huge(out.samples, static_cast<std::size_t>(end - p) / 40 + 1);
     double v[kNumCols];
     while (p < end) {
@@ -146,6 +160,7 @@ void parse_chunk(const char* p,
         v[kF] = 0;
         std::size_t field = 0;
         const char* fb = p;
+        bool row_ok = true;
         for (;;) {
             const char* fe = static_cast<const char*>(std::memchr(fb, ',', le - fb));
             const bool last = fe == nullptr;
@@ -168,32 +183,34 @@ void parse_chunk(const char* p,
                     return path + ":" + std::to_string(line_no) + ":" + std::to_string(field + 1) +
                            ": ";
                 };
-                if (!parse_number(b, e, &x)) {
-                    out.error_line = line_no;
-                    out.error =
-                        where() + kColNames[c] + " = \"" + shown(b, e) + "\" is not a number";
-                    return;
-                }
                 const Range r = column_range(c);
-                if (!std::isfinite(x)) {
-                    out.error_line = line_no;
-                    out.error = where() + kColNames[c] + " = " + shown(b, e) +
-                                " is not finite (allowed " + r.text + ")";
-                    return;
-                }
-                if (x < r.lo || x > r.hi || (r.hi_open && x >= r.hi) ||
-                    (c == kF && x != std::floor(x))) {
-                    out.error_line = line_no;
-                    out.error =
-                        where() + kColNames[c] + " = " + fmt_value(x) + " outside " + r.text;
+                std::string reason;
+                if (!parse_number(b, e, &x)) {
+                    reason =
+                        std::string(kColNames[c]) + " = \"" + shown(b, e) + "\" is not a number";
+                } else if (!std::isfinite(x)) {
+                    reason = std::string(kColNames[c]) + " = " + shown(b, e) +
+                             " is not finite (allowed " + r.text + ")";
+                } else if (x < r.lo || x > r.hi || (r.hi_open && x >= r.hi) ||
+                           (c == kF && x != std::floor(x))) {
+                    reason =
+                        std::string(kColNames[c]) + " = " + fmt_value(x) + " outside " + r.text;
                     if ((c == kTi || c == kTo) && x >= r.hi) {
                         // A polar angle in (pi/2, 90] is most likely written in degrees.
-                        out.error += x > r.hi && x <= 90
-                                         ? " (at or below the horizon; it looks like degrees: "
-                                           "angles are radians, 90 deg = 1.5708)"
-                                         : " (at or below the horizon)";
+                        reason += x > r.hi && x <= 90
+                                      ? " (at or below the horizon; it looks like degrees: "
+                                        "angles are radians, 90 deg = 1.5708)"
+                                      : " (at or below the horizon)";
                     }
-                    return;
+                }
+                if (!reason.empty()) {
+                    // The first problem of a row is its reason; the row's other fields are not
+                    // read.
+                    if (!refuse(where(), reason)) {
+                        return;
+                    }
+                    row_ok = false;
+                    break;
                 }
                 v[c] = x;
             }
@@ -203,11 +220,18 @@ void parse_chunk(const char* p,
             }
             fb = fe + 1;
         }
-        if (field != layout.num_fields) {
-            out.error_line = line_no;
-            out.error = path + ":" + std::to_string(line_no) + ": " + std::to_string(field) +
-                        " fields, the header has " + std::to_string(layout.num_fields);
-            return;
+        if (row_ok && field != layout.num_fields) {
+            if (!refuse(path + ":" + std::to_string(line_no) + ": ",
+                        std::to_string(field) + " fields, the header has " +
+                            std::to_string(layout.num_fields))) {
+                return;
+            }
+            row_ok = false;
+        }
+        if (!row_ok) {
+            p = next;
+            ++line_no;
+            continue;
         }
         Sample s;
         s.theta_i = v[kTi];
@@ -355,7 +379,7 @@ class FileBytes {
 
 }  // namespace
 
-Expected<Dataset> read_dataset_csv(const std::string& path) {
+Expected<Dataset> read_dataset_csv(const std::string& path, const DatasetReadOptions& options) {
     auto text = FileBytes::read(path);
     if (!text) {
         return tl::unexpected(text.error());
@@ -413,11 +437,21 @@ Expected<Dataset> read_dataset_csv(const std::string& path) {
     // One chunk of the pool per cut (grain 1).
     parallel_for(chunks, 1, 0, [&](std::size_t, std::size_t b, std::size_t e) {
         for (std::size_t k = b; k < e; ++k) {
-            parse_chunk(cut[k], cut[k + 1], first_line[k], layout, path, results[k]);
+            parse_chunk(cut[k], cut[k + 1], first_line[k], layout, path, options, results[k]);
         }
     });
     std::size_t total = 0;
-    for (const ChunkResult& r : results) {
+    for (ChunkResult& r : results) {
+        // Rows refused before a chunk's error come first in the file: they count toward the limit.
+        for (RejectedRow& row : r.rejected) {
+            if (data.rejected.size() == options.max_rejected) {
+                return make_error(path + ":" + std::to_string(row.line) + ": " + row.reason +
+                                  " (more than " + std::to_string(options.max_rejected) +
+                                  " rows refused; the first at line " +
+                                  std::to_string(data.rejected.front().line) + ")");
+            }
+            data.rejected.push_back(std::move(row));
+        }
         if (r.error_line != 0) {
             return make_error(r.error);
         }
@@ -435,9 +469,9 @@ Expected<Dataset> read_dataset_csv(const std::string& path) {
     return data;
 }
 
-Expected<Dataset> load_samples(const std::string& path) {
+Expected<Dataset> load_samples(const std::string& path, const DatasetReadOptions& csv) {
     if (ends_with(path, ".csv")) {
-        return read_dataset_csv(path);
+        return read_dataset_csv(path, csv);
     }
     if (is_table_path(path)) {
         Expected<TabulatedBrdf> table = read_table_file(path);

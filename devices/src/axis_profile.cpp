@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "gonio/base/data_path.h"
+#include "gonio/base/strict_json.h"
 #include "gonio/base/strings.h"
 
 namespace gonio::devices {
@@ -260,6 +261,40 @@ Expected<AxisProfile> parse_axis_profile(const std::string& json_text,
     }
     if (!j.is_object()) {
         return make_error(source_name + ": expected a JSON object");
+    }
+    // Every key known (docs/profiles.md): a misspelt optional key is an error, not a
+    // default silently kept.
+    auto known = read_strict_json(source_name, [&] {
+        check_json_keys(j,
+                        "",
+                        {"name",
+                         "description",
+                         "source",
+                         "address_base",
+                         "word_order",
+                         "steps_per_degree",
+                         "max_speed_deg_per_s",
+                         "home_speed_deg_per_s",
+                         "direction",
+                         "registers",
+                         "status_bits",
+                         "actions",
+                         "timeouts",
+                         "alarm_codes"});
+        const std::pair<const char*, std::vector<std::string>> sections[] = {
+            {"registers", {"position", "status", "alarm_code"}},
+            {"status_bits", {"moving", "in_position", "homed", "alarm", "homing", "ready"}},
+            {"actions", {"move", "home", "stop", "reset_alarm"}},
+            {"timeouts", {"response_ms", "retries", "backoff_ms", "poll_ms", "stall_ms"}},
+            {"alarm_codes", {"overtravel", "overload", "deviation"}}};
+        for (const auto& [section, keys] : sections) {
+            if (j.contains(section) && j[section].is_object()) {
+                check_json_keys(j[section], section, keys);
+            }
+        }
+    });
+    if (!known) {
+        return tl::unexpected(known.error());
     }
     AxisProfile p;
     const std::string& s = source_name;

@@ -444,10 +444,14 @@ py::dict table_to_dict(std::unique_ptr<TabulatedBrdf> table) {
     return out;
 }
 
-py::dict load(const py::object& path_obj, bool samples) {
+py::dict load(const py::object& path_obj, bool samples, bool keep_going) {
     std::string path;
     if (!as_path(path_obj, path)) {
         throw GonioError("load: expected a path (str or os.PathLike)");
+    }
+    if (keep_going && !gonio::ends_with(path, ".csv")) {
+        throw GonioError("load: keep_going applies to dataset CSV files only (" + path +
+                         " is read whole or refused)");
     }
     if (gonio::brdf::is_table_path(path) && !samples) {
         auto t = value_or_raise(gonio::brdf::read_table_file(path));
@@ -456,7 +460,9 @@ py::dict load(const py::object& path_obj, bool samples) {
     std::unique_ptr<Dataset> data;
     {
         py::gil_scoped_release release;
-        auto d = gonio::brdf::load_samples(path);
+        gonio::brdf::DatasetReadOptions csv;
+        csv.keep_going = keep_going;
+        auto d = gonio::brdf::load_samples(path, csv);
         if (d) {
             data = std::make_unique<Dataset>(std::move(*d));
         } else {
@@ -803,12 +809,17 @@ The same from spherical angles in radians (1-D arrays of equal length N), exactl
           &load,
           py::arg("path"),
           py::arg("samples") = false,
-          R"doc(load(path, samples=False) -> dict
+          py::arg("keep_going") = false,
+          R"doc(load(path, samples=False, keep_going=False) -> dict
 
 A dataset CSV -> samples dict of read-only numpy views into the C++ dataset (no copy):
   theta_i, phi_i, theta_o, phi_o (N,), value (N, 3) 1/sr, sigma (N, 3), weight (N,),
   flags (N,) uint32, line (N,) source line numbers, has_sigma/has_weight/has_flags,
-  rejected: [(line, reason)] for rows the reader refused, source, kind = "samples".
+  rejected: [(line, reason)] for the rows refused with keep_going=True (empty otherwise),
+  source, kind = "samples". Strict by default: the first bad row raises gonio.Error naming it;
+  with keep_going=True a row with a field that is not a number, not finite or out of range, or
+  with the wrong number of fields, is skipped and listed in rejected (more than 10000 such
+  rows raise). keep_going applies to dataset CSV files only.
 A table (*.binary, *.merl, *.gtab) -> table dict: raw (3, n_theta_h, n_theta_d, n_phi_d), the
   stored values as in the file (no copy; f = raw * scale per channel, raw < 0 = not measured),
   scale (3,), grid, valid (bool per bin), source, kind = "table". With samples=True, a table

@@ -1,5 +1,6 @@
-// The dataset CSV reader: exact round trip, line numbers across the parallel chunks, and strict
-// errors that name file, line, column and the allowed range.
+// The dataset CSV reader: exact round trip, line numbers across the parallel chunks, strict errors
+// that name file, line, column and the allowed range, and the keep-going mode that lists the rows
+// it refused (Dataset::rejected) instead.
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -167,6 +168,98 @@ TEST(SamplesCsv, HeaderProblemsAreErrors) {
     Expected<Dataset> missing = read_dataset_csv(temp_path("none.csv"));
     ASSERT_FALSE(missing);
     EXPECT_NE(missing.error().message.find("cannot open"), std::string::npos);
+}
+
+TEST(SamplesCsv, KeepGoingListsEachRefusedRowWithItsLineAndReason) {
+    const std::string text =
+        "theta_i,phi_i,theta_o,phi_o,r,g,b\n"
+        "0.1,0,0.2,3,0.5,0.5,0.5\n"      // line 2: kept
+        "# a comment\n"                  // line 3
+        "1.7,0,0.2,3,0.5,0.5,0.5\n"      // line 4: degrees? below the horizon
+        "0.1,0,0.2,3,nan,0.5,0.5\n"      // line 5: not finite
+        "0.1,0,0.2,3,0.5,abc,0.5\n"      // line 6: not a number
+        "0.1,0,0.2,3,0.5,0.5\n"          // line 7: 6 fields
+        "0.2,1,0.3,-3,0.25,0.5,0.75\n";  // line 8: kept
+    const std::string p = write("keep.csv", text);
+    // Strict (the default): the first bad row refuses the file.
+    Expected<Dataset> strict = read_dataset_csv(p);
+    ASSERT_FALSE(strict);
+    EXPECT_NE(strict.error().message.find(p + ":4:1: theta_i = 1.7"), std::string::npos)
+        << strict.error().message;
+    DatasetReadOptions o;
+    o.keep_going = true;
+    Expected<Dataset> d = read_dataset_csv(p, o);
+    ASSERT_TRUE(d) << d.error().message;
+    ASSERT_EQ(d->samples.size(), 2u);
+    EXPECT_EQ(d->samples[0].line, 2u);
+    EXPECT_EQ(d->samples[1].line, 8u);
+    EXPECT_TRUE((d->samples[1].value == Rgbd(0.25, 0.5, 0.75)).all());
+    ASSERT_EQ(d->rejected.size(), 4u);
+    const std::size_t lines[] = {4, 5, 6, 7};
+    const char* reasons[] = {"theta_i = 1.7 outside [0, pi/2)",
+                             "r = nan is not finite",
+                             "g = \"abc\" is not a number",
+                             "6 fields, the header has 7"};
+    for (std::size_t k = 0; k < 4; ++k) {
+        EXPECT_EQ(d->rejected[k].line, lines[k]);
+        EXPECT_EQ(d->rejected[k].reason.rfind(reasons[k], 0), 0u) << d->rejected[k].reason;
+    }
+    // The same through load_samples; the header stays strict either way.
+    Expected<Dataset> l = load_samples(p, o);
+    ASSERT_TRUE(l);
+    EXPECT_EQ(l->rejected.size(), 4u);
+    const std::string bad_head = write("keep_head.csv", "theta_i,phi_i,theta_o,phi_o,r,g,x\n");
+    EXPECT_FALSE(read_dataset_csv(bad_head, o));
+}
+
+TEST(SamplesCsv, KeepGoingAcrossParallelChunksKeepsFileOrderAndItsLimit) {
+    // Every 1000th row of a file parsed in several chunks has a negative theta_i.
+    const Dataset d = random_dataset(40000);
+    const std::string p = temp_path("keep_big.csv");
+    ASSERT_TRUE(write_dataset_csv(p, d));
+    std::string text;
+    {
+        std::ifstream in(p, std::ios::binary);
+        text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    }
+    // Sample i is on line i + 2.
+    std::string out;
+    std::size_t line = 1, start = 0;
+    std::vector<std::size_t> bad;
+    while (start < text.size()) {
+        const std::size_t nl = text.find('\n', start);
+        std::string row = text.substr(start, nl - start);
+        if (line >= 2 && (line - 2) % 1000 == 999) {
+            row = "-" + row;
+            bad.push_back(line);
+        }
+        out += row + "\n";
+        start = nl + 1;
+        ++line;
+    }
+    std::ofstream(p, std::ios::binary | std::ios::trunc) << out;
+    DatasetReadOptions o;
+    o.keep_going = true;
+    Expected<Dataset> r = read_dataset_csv(p, o);
+    ASSERT_TRUE(r) << r.error().message;
+    EXPECT_EQ(r->samples.size(), 40000u - bad.size());
+    ASSERT_EQ(r->rejected.size(), bad.size());
+    for (std::size_t k = 0; k < bad.size(); ++k) {
+        EXPECT_EQ(r->rejected[k].line, bad[k]);
+        EXPECT_EQ(r->rejected[k].reason.rfind("theta_i = -", 0), 0u) << r->rejected[k].reason;
+    }
+    // One more refused row than allowed: an error naming the row past the limit and the first.
+    o.max_rejected = bad.size() - 1;
+    Expected<Dataset> over = read_dataset_csv(p, o);
+    ASSERT_FALSE(over);
+    EXPECT_NE(over.error().message.find(p + ":" + std::to_string(bad.back()) + ": theta_i = -"),
+              std::string::npos)
+        << over.error().message;
+    EXPECT_NE(over.error().message.find("(more than " + std::to_string(bad.size() - 1) +
+                                        " rows refused; the first at line " +
+                                        std::to_string(bad.front()) + ")"),
+              std::string::npos)
+        << over.error().message;
 }
 
 }  // namespace

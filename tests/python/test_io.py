@@ -5,6 +5,7 @@ import json
 import struct
 
 import numpy as np
+import pytest
 
 import gonio
 from conftest import TRUTH, synthetic_samples
@@ -89,17 +90,20 @@ def test_rejected_rows_are_listed_with_line_and_reason(workdir):
         "1.7,0,0.2,3,0.5,0.5,0.5\n"
         "0.1,0,0.2,3,-1,0.5,0.5\n"
     )
-    # The reader either keeps the valid rows and lists the others, or (strict mode) refuses the
-    # file at the first bad row; either way the line and the rule reach Python.
-    try:
-        d = gonio.load(path)
-    except gonio.Error as e:
-        assert "bad.csv:3" in str(e) and "theta_i" in str(e), str(e)
-        return
+    # Strict by default: the first bad row refuses the file, naming its line and column.
+    with pytest.raises(gonio.Error) as e:
+        gonio.load(path)
+    assert "bad.csv:3:1: theta_i = 1.7" in str(e.value), str(e.value)
+    # keep_going: the valid rows are read, the others listed with their line and reason.
+    d = gonio.load(path, keep_going=True)
     assert len(d["theta_i"]) == 1
-    lines = [line for line, _ in d["rejected"]]
-    assert lines == [3, 4]
-    assert "theta_i" in d["rejected"][0][1]
+    np.testing.assert_array_equal(d["line"], [2])
+    assert [line for line, _ in d["rejected"]] == [3, 4]
+    assert d["rejected"][0][1].startswith("theta_i = 1.7 outside [0, pi/2)")
+    assert d["rejected"][1][1].startswith("r = -1 outside [0, 1e9] 1/sr")
+    # Only a dataset CSV can be read row by row.
+    with pytest.raises(gonio.Error, match="keep_going applies to dataset CSV files only"):
+        gonio.load(workdir / "t.binary", keep_going=True)
 
 
 def test_model_json_round_trip(workdir):

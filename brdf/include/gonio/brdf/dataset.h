@@ -40,7 +40,8 @@ struct Sample {
     Vec3d wo() const { return spherical_to_cartesian(theta_o, phi_o); }
 };
 
-/// A row that was read but not accepted, with the reason ("theta_i = 1.7 below the horizon").
+/// A row that was read but not accepted (DatasetReadOptions::keep_going), with the reason
+/// ("theta_i = 1.7 outside [0, pi/2) (at or below the horizon)"; the column's name says which).
 struct RejectedRow {
     std::size_t line = 0;
     std::string reason;
@@ -52,7 +53,9 @@ struct Dataset {
     bool has_sigma = false;
     bool has_weight = false;
     bool has_flags = false;
-    std::vector<RejectedRow> rejected;  ///< rows dropped while reading, never used
+    /// Rows the reader refused and skipped, in file order (only with
+    /// DatasetReadOptions::keep_going; a strict read refuses the file instead).
+    std::vector<RejectedRow> rejected;
 };
 
 /// Checks one sample against the rules of a valid measurement: finite values, value >= 0, sigma >=
@@ -67,14 +70,26 @@ std::string validate_sample(const Sample& s);
 inline constexpr double kMaxSampleValue = 1e9;
 inline constexpr double kMaxSampleWeight = 1e9;
 
-/// Reads a dataset CSV (implemented in samples_io.cpp). Strict: every problem is an error and
-/// nothing is skipped silently. A missing file, a missing, unknown or repeated column, a row with
-/// the wrong number of fields ("data.csv:17: 6 fields, the header has 7") and a field that is not
-/// a number, not finite or outside its range ("data.csv:17:3: theta_o = 1.7 outside [0, pi/2)
-/// (at or below the horizon)") are errors naming file:line[:column]. Ranges: theta in [0, pi/2),
-/// phi in [-2 pi, 2 pi], r, g, b and sigmas in [0, kMaxSampleValue], weight in
-/// [0, kMaxSampleWeight], flag an unsigned 32-bit integer. Dataset::rejected stays empty.
-Expected<Dataset> read_dataset_csv(const std::string& path);
+/// How read_dataset_csv() treats a row it cannot accept.
+struct DatasetReadOptions {
+    /// false (strict): the first bad row is an error naming it. true: a bad row (a field that is
+    /// not a number, not finite or outside its range; the wrong number of fields) is recorded in
+    /// Dataset::rejected with its line and reason and skipped; the header stays strict.
+    bool keep_going = false;
+    /// With keep_going: more refused rows than this is an error (a file that is mostly wrong is
+    /// not a dataset with a few bad rows).
+    std::size_t max_rejected = 10000;
+};
+
+/// Reads a dataset CSV (implemented in samples_io.cpp). Strict by default: every problem is an
+/// error and nothing is skipped silently. A missing file, a missing, unknown or repeated column, a
+/// row with the wrong number of fields ("data.csv:17: 6 fields, the header has 7") and a field that
+/// is not a number, not finite or outside its range ("data.csv:17:3: theta_o = 1.7 outside
+/// [0, pi/2) (at or below the horizon)") are errors naming file:line[:column]. Ranges:
+/// theta in [0, pi/2), phi in [-2 pi, 2 pi], r, g, b and sigmas in [0, kMaxSampleValue], weight
+/// in [0, kMaxSampleWeight], flag an unsigned 32-bit integer. With options.keep_going the bad rows
+/// are listed in Dataset::rejected instead (see DatasetReadOptions).
+Expected<Dataset> read_dataset_csv(const std::string& path, const DatasetReadOptions& options = {});
 
 /// Writes a dataset CSV with full double precision (%.17g); sigma/weight/flag columns when the
 /// dataset has them. Writes to path + ".tmp" and renames, so a reader never sees a half-written
