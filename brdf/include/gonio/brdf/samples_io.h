@@ -13,9 +13,9 @@
 namespace gonio::brdf {
 
 /// Loads samples by extension: *.csv through read_dataset_csv() (strict unless csv.keep_going: a
-/// bad row is an error naming file:line:column and the range); a table through read_table_file() and table_to_dataset() (one
-/// sample per valid bin above the horizon, at the bin centre, in 1/sr). Other extensions are an
-/// error naming the path.
+/// bad row is an error naming file:line:column and the range); a table through read_table_file()
+/// and table_to_dataset() (one sample per valid bin above the horizon, at the bin centre, in 1/sr).
+/// Other extensions are an error naming the path.
 Expected<Dataset> load_samples(const std::string& path, const DatasetReadOptions& csv = {});
 
 /// Tabulates any BRDF (model or table) at the bin centres of the MERL grid and writes it to path
