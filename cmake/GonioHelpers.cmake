@@ -49,9 +49,15 @@ function(gonio_add_tests module)
         set(labels stream)
         set(lock RESOURCE_LOCK gige)
       endif()
+      # Instrumented code runs several times slower (the model-selection tests fit dozens of models):
+      # the sanitizer build gives every test three times as long.
+      set(timeout 300)
+      if(GONIO_SANITIZE)
+        set(timeout 900)
+      endif()
       gtest_discover_tests(${exe}
         TEST_PREFIX "${module}."
-        PROPERTIES LABELS "${labels}" TIMEOUT 300 ${lock}
+        PROPERTIES LABELS "${labels}" TIMEOUT ${timeout} ${lock}
         DISCOVERY_TIMEOUT 60)
     endif()
   endforeach()
