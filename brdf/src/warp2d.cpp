@@ -93,8 +93,9 @@ double BilinearGrid::eval(const Point2& p, std::size_t slice, std::size_t stride
 
 float BilinearGrid::eval_f(
     float x, float y, std::size_t slice, std::size_t stride, float w1) const {
-    x = std::min(std::max(x, 0.0f), 1.0f) * static_cast<float>(nx_ - 1);
-    y = std::min(std::max(y, 0.0f), 1.0f) * static_cast<float>(ny_ - 1);
+    // NaN goes to 0 (clamp01's rule): a lookup never leaves the table.
+    x = (x > 0.0f ? std::min(x, 1.0f) : 0.0f) * static_cast<float>(nx_ - 1);
+    y = (y > 0.0f ? std::min(y, 1.0f) : 0.0f) * static_cast<float>(ny_ - 1);
     const std::size_t i = std::min(static_cast<std::size_t>(x), nx_ - 2);
     const std::size_t j = std::min(static_cast<std::size_t>(y), ny_ - 2);
     const float x1 = x - static_cast<float>(i), y1 = y - static_cast<float>(j);
@@ -173,11 +174,14 @@ Expected<Warp2D> Warp2D::build(std::size_t nx,
             sum += 0.5 * (static_cast<double>(cond[j * nx + nx - 1]) + cond[(j + 1) * nx + nx - 1]);
             marg[j + 1] = static_cast<float>(sum);
         }
-        if (!(marg[ny - 1] > 0.0f) || !std::isfinite(marg[ny - 1])) {
-            return make_error(label + ": slice " + std::to_string(s) +
-                              " has no mass (every node is zero) or overflows");
-        }
+        // The arithmetic stays in single precision, as in the format's readers; a total below
+        // float's normal range would make 1 / total infinite (and 0 x inf NaN), so it is refused.
         const float norm = 1.0f / marg[ny - 1];
+        if (!(marg[ny - 1] > 0.0f) || !std::isfinite(marg[ny - 1]) || !std::isfinite(norm)) {
+            return make_error(label + ": slice " + std::to_string(s) +
+                              " has no mass (every node is zero), too little to normalise, or "
+                              "overflows");
+        }
         for (std::size_t k = 0; k < n; ++k) {
             cond[k] *= norm;
             w.density_[s * n + k] = v[k] * norm;
@@ -292,8 +296,9 @@ std::array<float, 2> Warp2D::invert_f(float x, float y, float param) const {
     }
     const float w0 = 1.0f - w1;
     const std::size_t n = nx_ * ny_;
-    x = std::min(std::max(x, 0.0f), 1.0f) * static_cast<float>(nx_ - 1);
-    y = std::min(std::max(y, 0.0f), 1.0f) * static_cast<float>(ny_ - 1);
+    // NaN goes to 0 (clamp01's rule): a lookup never leaves the table.
+    x = (x > 0.0f ? std::min(x, 1.0f) : 0.0f) * static_cast<float>(nx_ - 1);
+    y = (y > 0.0f ? std::min(y, 1.0f) : 0.0f) * static_cast<float>(ny_ - 1);
     const std::size_t c = std::min(static_cast<std::size_t>(x), nx_ - 2);
     const std::size_t r = std::min(static_cast<std::size_t>(y), ny_ - 2);
     x -= static_cast<float>(c);
@@ -310,7 +315,9 @@ std::array<float, 2> Warp2D::invert_f(float x, float y, float param) const {
     x += (1.0f - y) * at(conditional_, r * nx_ + c) + y * at(conditional_, (r + 1) * nx_ + c);
     const float r0 = at(conditional_, r * nx_ + nx_ - 1);
     const float r1 = at(conditional_, (r + 1) * nx_ + nx_ - 1);
-    x /= (1.0f - y) * r0 + y * r1;
+    // A row without mass has no inverse: x goes to 0, as in invert() (0 / 0 would be NaN).
+    const float row_mass = (1.0f - y) * r0 + y * r1;
+    x = row_mass > 0.0f ? x / row_mass : 0.0f;
     y *= r0 + 0.5f * y * (r1 - r0);
     y += lerp_f(marginal_, ny_, r, slice, w0, w1);
     return {x, y};
