@@ -122,7 +122,7 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
     analytic_ = base.lobes.size() <= 8;
     for (const brdf::Lobe<double>& l : base.lobes) {
         analytic_ = analytic_ && l.distribution != brdf::Distribution::kStudentT &&
-                    l.distribution != brdf::Distribution::kTabulated &&
+                    l.distribution != brdf::Distribution::kTabulated && !l.rgb_roughness &&
                     !(l.anisotropic && l.distribution != brdf::Distribution::kBlinnPhong) &&
                     (l.fresnel.type == brdf::FresnelType::kSchlick ||
                      l.fresnel.type == brdf::FresnelType::kNone);
@@ -349,6 +349,33 @@ brdf::Rgb<T> PreparedSamples::eval(const brdf::Model<T>& m, std::size_t i) const
     brdf::Rgb<T> f = m.has_diffuse ? brdf::Rgb<T>(m.diffuse * T(brdf::kInvPi))
                                    : brdf::Rgb<T>(brdf::Rgb<T>::Zero());
     for (const brdf::Lobe<T>& l : m.lobes) {
+        if (l.rgb_roughness) {
+            // RGB-varying roughness (brdf/model_eval.h eval_lanes): the shape of each channel
+            // with that channel's alpha; an isotropic analytic lobe (ParameterMap::make).
+            for (int c = 0; c < 3; ++c) {
+                const T& a = l.alpha_rgb[c];
+                const T S = l.distribution == brdf::Distribution::kStudentT
+                                ? shape_student_t(l.shadowing, a, a, l.gamma, i)
+                                : shape(l.distribution, l.shadowing, a, a, l.exponent, i);
+                if (S == T(0)) {
+                    continue;
+                }
+                T F;
+                switch (l.fresnel.type) {
+                    case brdf::FresnelType::kSchlick:
+                        F = brdf::fresnel_schlick_from_pow5(T(x5_[i]), l.fresnel.f0[c]);
+                        break;
+                    case brdf::FresnelType::kNone:
+                        F = T(1);
+                        break;
+                    default:
+                        F = brdf::eval_fresnel(l.fresnel, T(cos_d_[i]), T(omc_d_[i]))[c];
+                        break;
+                }
+                f[c] += l.scale[c] * F * S;
+            }
+            continue;
+        }
         const T S =
             l.distribution == brdf::Distribution::kTabulated
                 ? T(brdf::tabulated_lobe_shape(
