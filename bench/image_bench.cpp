@@ -16,7 +16,8 @@
 #include <map>
 #include <random>
 
-#include "../tools/acquire_image_mode.cpp"
+#include "embedded_rig.h"
+#include "gonio/acquisition/campaign_request.h"
 #include "gonio/acquisition/kinematics.h"
 #include "gonio/acquisition/schedule.h"
 #include "gonio/brdf/analytic_brdf.h"
@@ -62,18 +63,18 @@ std::pair<double, double> fit_errors(const brdf::Dataset& data) {
 
 /// The virtual image rig with the ground truth, a `size` px telecentric camera and one ray per
 /// pixel; motion at 1000x speed (the rig time is computed, not waited for).
-Expected<std::unique_ptr<tools::ImageRig>> start_rig(int size, std::uint64_t seed) {
+Expected<std::unique_ptr<acquisition::ImageRig>> start_rig(int size, std::uint64_t seed) {
     const std::string model = (std::filesystem::temp_directory_path() /
                                ("gonio_image_bench_" + std::to_string(::getpid()) + ".json"))
                                   .string();
     std::ofstream(model) << brdf::model_to_json(truth_model());
-    tools::AcquireImageOptions o;
+    acquisition::ImageRigOptions o;
     o.brdf_path = model;
     o.image_size = size;
     o.supersample = 1;
     o.seed = seed;
     o.time_scale = 1000;
-    auto rig = tools::start_image_rig(o);
+    auto rig = acquisition::start_image_rig(o, tools::embedded_rig_starter());
     std::filesystem::remove(model);
     return rig;
 }
@@ -102,7 +103,7 @@ void BM_ImageModeCampaign(benchmark::State& state) {
         auto cfg =
             acquisition::image_campaign_config((*rig)->rig, (*rig)->camera, 3, 0.99, max_frames);
         const auto t0 = std::chrono::steady_clock::now();
-        auto r = acquisition::run_image_campaign(tools::image_rig_capture(**rig, 0.0), cfg);
+        auto r = acquisition::run_image_campaign(acquisition::image_rig_capture(**rig, 0.0), cfg);
         const double wall =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         if (!r) {
@@ -152,7 +153,7 @@ void BM_ImageModeMerlCoverage(benchmark::State& state) {
         // Grazing limits at the rig's max_theta_deg (85 degrees) instead of the default 80.
         cfg.rules.max_theta_i = cfg.rules.max_theta_o = (*rig)->rig.max_theta_deg * kPi / 180;
         const auto t0 = std::chrono::steady_clock::now();
-        auto r = acquisition::run_image_campaign(tools::image_rig_capture(**rig, 0.0), cfg);
+        auto r = acquisition::run_image_campaign(acquisition::image_rig_capture(**rig, 0.0), cfg);
         const double wall =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         if (!r) {
@@ -290,7 +291,7 @@ void BM_ImageFrameThroughput(benchmark::State& state) {
     auto cfg = acquisition::image_campaign_config((*rig)->rig, (*rig)->camera, 1, 1.0, 1);
     std::uint64_t samples = 0;
     for (auto _ : state) {
-        auto r = acquisition::run_image_campaign(tools::image_rig_capture(**rig, 0.0), cfg);
+        auto r = acquisition::run_image_campaign(acquisition::image_rig_capture(**rig, 0.0), cfg);
         if (!r) {
             state.SkipWithError(r.error().message.c_str());
             return;

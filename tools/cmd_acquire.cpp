@@ -139,12 +139,8 @@ int run(const acq::CampaignRequest& r) {
         if (r.plan_only) {
             return gonio::tools::print_image_plan(r);
         }
-        gonio::tools::AcquireImageOptions io = gonio::tools::image_options(r);
-        if (serve_at) {
-            io.serve_host = serve_at->first;
-            io.serve_port = serve_at->second;
-        }
-        return gonio::tools::run_acquire_image_mode(io);
+        return gonio::tools::run_acquire_image_mode(
+            r, serve_at ? serve_at->first : std::string(), serve_at ? serve_at->second : -1);
     }
     if (r.plan_only) {
         return print_point_plan(r);
@@ -292,9 +288,7 @@ GONIO_COMMAND(acquire) {
     return [o]() {
         acq::CampaignRequest& req = o->request;
         // A resume of an image campaign is recognised by its folder (its settings file).
-        std::error_code ec;
-        const bool image_folder = !req.resume_dir.empty() &&
-                                  fs::exists(fs::path(req.resume_dir) / "image_campaign.json", ec);
+        const bool image_folder = acq::is_image_campaign_dir(req.resume_dir);
         req.mode = o->mode == "image" || image_folder ? acq::CampaignMode::kImage
                                                       : acq::CampaignMode::kPoint;
         if (!o->grid.empty() && !parse_grid(o->grid, &req.grid)) {

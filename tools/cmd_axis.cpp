@@ -2,16 +2,20 @@
 // serve simulated controllers for manual tests.
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <csignal>
 #include <cstdio>
 #include <memory>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include "command.h"
 #include "gonio/devices/axis_profile.h"
 #include "gonio/devices/modbus_axis.h"
 #include "gonio/devices/modbus_bus.h"
 #include "gonio/sim/motor_controller_server.h"
+#include "option_checks.h"
 
 namespace {
 
@@ -40,6 +44,62 @@ struct AxisCliOptions {
     int shutter_unit = 0;
     int shutter_coil = 0;
 };
+
+/// Which actions use each option of `gonio axis`; an option given to an action that does not use
+/// it is refused (exit 2) rather than dropped.
+struct OptionUse {
+    const char* option;
+    std::vector<std::string> actions;
+};
+
+const std::vector<OptionUse>& axis_option_uses() {
+    static const std::vector<OptionUse> uses = {
+        {"--connect", {"status", "home", "stop", "reset", "move", "fault"}},
+        {"--unit", {"status", "home", "stop", "reset", "move", "fault"}},
+        {"--profile", {"status", "home", "stop", "reset", "move", "serve"}},
+        {"--name", {"status", "home", "stop", "reset", "move"}},
+        {"--min", {"move"}},
+        {"--max", {"move"}},
+        {"--speed", {"move"}},
+        {"--accel", {"move"}},
+        {"--timeout-ms", {"home", "move"}},
+    };
+    return uses;
+}
+
+/// Which fault kinds use each option of `gonio axis fault`.
+const std::vector<OptionUse>& fault_option_uses() {
+    static const std::vector<OptionUse> uses = {
+        {"--count", {"delay", "drop", "exception"}},
+        {"--delay-ms", {"delay"}},
+        {"--code", {"exception", "alarm"}},
+        {"--fraction", {"alarm", "stall"}},
+    };
+    return uses;
+}
+
+std::string join(const std::vector<std::string>& v) {
+    std::string out;
+    for (std::size_t i = 0; i < v.size(); ++i) {
+        out += (i == 0 ? "" : i + 1 == v.size() ? " and " : ", ") + v[i];
+    }
+    return out;
+}
+
+/// The message for the first option given on `app` that `mode` does not use, or "".
+std::string unused_option(const CLI::App& app,
+                          const std::vector<OptionUse>& uses,
+                          const std::string& mode,
+                          const char* what) {
+    for (const OptionUse& u : uses) {
+        if (app.count(u.option) > 0 &&
+            std::find(u.actions.begin(), u.actions.end(), mode) == u.actions.end()) {
+            return std::string(u.option) + " is not used by " + what + mode + " (only by " +
+                   join(u.actions) + ")";
+        }
+    }
+    return {};
+}
 
 int fail(const std::string& msg) {
     std::fprintf(stderr, "gonio axis: %s\n", msg.c_str());
@@ -168,11 +228,15 @@ int run_serve(const AxisCliOptions& o) {
     for (size_t i = 0; i < o.units.size(); ++i) {
         units << (i ? "," : "") << o.units[i];
     }
-    std::printf("serving %s units %s profile %s time-scale %g\n",
+    std::printf("serving %s units %s profile %s time-scale %g",
                 server.address().c_str(),
                 units.str().c_str(),
                 profile->name.c_str(),
                 o.time_scale);
+    if (o.shutter_unit > 0) {
+        std::printf(" shutter unit %d coil %d", o.shutter_unit, o.shutter_coil);
+    }
+    std::printf("\n");
     std::fflush(stdout);
     int sig = 0;
     sigwait(&set, &sig);
@@ -232,7 +296,29 @@ GONIO_COMMAND(axis) {
     serve->add_option("--shutter-unit", o->shutter_unit, "unit carrying a shutter coil");
     serve->add_option("--shutter-coil", o->shutter_coil, "shutter coil address");
     serve->callback([action] { *action = "serve"; });
-    return [o, action]() -> int {
+    return [o, action, cmd, fault, serve]() -> int {
+        // An option the chosen action would drop is a usage error naming it.
+        const std::string where = "axis " + *action;
+        if (std::string m = unused_option(*cmd, axis_option_uses(), *action, ""); !m.empty()) {
+            return gonio::tools::usage_error(where.c_str(), m);
+        }
+        if (*action == "fault" && gonio::sim::parse_fault_kind(o->fault_kind)) {
+            if (std::string m =
+                    unused_option(*fault, fault_option_uses(), o->fault_kind, "the fault kind ");
+                !m.empty()) {
+                return gonio::tools::usage_error(where.c_str(), m);
+            }
+        }
+        if (*action == "serve") {
+            if (o->rtu && serve->count("--port") > 0) {
+                return gonio::tools::usage_error(
+                    where.c_str(), "--port is the TCP port; --rtu serves on a pseudo-terminal");
+            }
+            if (serve->count("--shutter-coil") > 0 && o->shutter_unit <= 0) {
+                return gonio::tools::usage_error(
+                    where.c_str(), "--shutter-coil needs --shutter-unit (the unit carrying it)");
+            }
+        }
         if (*action == "serve") {
             return run_serve(*o);
         }

@@ -27,6 +27,7 @@
 #include "gonio/devices/uvc_camera.h"
 #include "gonio/sim/gige_camera.h"
 #include "gonio/sim/gige_server.h"
+#include "option_checks.h"
 
 namespace {
 
@@ -371,7 +372,39 @@ GONIO_COMMAND(camera) {
         sub->add_option("--phi-o-deg", o->phi_o_deg, "detector azimuth (simulated)");
         sub->add_option("--irradiance", o->irradiance, "beam irradiance W/m^2 (simulated)");
     }
-    return [o, info, capture, serve]() -> int {
+    return [o, cmd, info, capture, serve]() -> int {
+        // Options the chosen mode would drop are usage errors naming them.
+        if (serve->parsed() && cmd->count("--connect") > 0) {
+            return gonio::tools::usage_error(
+                "camera serve", "--connect is not used: serve makes the camera it serves");
+        }
+        if (serve->parsed() && serve->count("--brdf") > 0 && serve->count("--material") > 0) {
+            return gonio::tools::usage_error(
+                "camera serve", "--brdf and --material both name the ground truth: give one");
+        }
+        if (capture->parsed()) {
+            const bool simulated = o->connect == "sim" || o->connect.rfind("sim:", 0) == 0;
+            for (const char* sim_only : {"--width",
+                                         "--height",
+                                         "--seed",
+                                         "--theta-i-deg",
+                                         "--phi-i-deg",
+                                         "--theta-o-deg",
+                                         "--phi-o-deg",
+                                         "--irradiance"}) {
+                if (!simulated && !o->connect.empty() && capture->count(sim_only) > 0) {
+                    return gonio::tools::usage_error(
+                        "camera capture",
+                        std::string(sim_only) +
+                            " sets up the simulated camera; it is not used with --connect " +
+                            o->connect);
+                }
+            }
+            if (capture->count("--gain") > 0 && capture->count("--camera-gain") > 0) {
+                return gonio::tools::usage_error("camera capture",
+                                                 "--camera-gain replaces --gain: give one of them");
+            }
+        }
         if (info->parsed()) {
             return run_info(*o);
         }

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "command.h"
+#include "gonio/base/strings.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/checks.h"
 #include "gonio/brdf/dataset.h"
@@ -42,10 +43,6 @@ bool refuse_given(const CheckCliOptions& opts,
         }
     }
     return false;
-}
-
-bool ends_with_csv(const std::string& p) {
-    return p.size() >= 4 && p.compare(p.size() - 4, 4, ".csv") == 0;
 }
 
 /// A measured dataset: checks of the samples against each other within their sigma.
@@ -85,7 +82,7 @@ int run_dataset_check(const CheckCliOptions& opts) {
 }
 
 int run_check(CheckCliOptions opts) {
-    if (ends_with_csv(opts.brdf_path)) {
+    if (gonio::ends_with(opts.brdf_path, ".csv")) {
         return run_dataset_check(opts);
     }
     if (refuse_given(opts, {"--match-tol"}, "a model or table; it pairs dataset samples")) {

@@ -15,6 +15,7 @@
 #include "gonio/base/atomic_file.h"
 #include "gonio/base/data_path.h"
 #include "gonio/sim/sim_rig.h"
+#include "option_checks.h"
 
 namespace {
 
@@ -108,8 +109,11 @@ GONIO_COMMAND(sim) {
     cmd->add_option("--config", o->config, "rig description (default data/rigs/sim4.json)");
     cmd->add_option("--material", o->material, "ground truth: named material (data/materials)");
     cmd->add_option("--brdf", o->brdf, "ground truth: model JSON or table");
-    cmd->add_option("--time-scale", o->time_scale, "motion time scale (simulated s per real s)");
-    cmd->add_option("--seed", o->seed, "sensor and encoder noise seed");
+    cmd->add_option("--time-scale", o->time_scale, "motion time scale (simulated s per real s)")
+        ->check(gonio::tools::finite_above(0));
+    // 0 is the rig description's seed: an explicit seed starts at 1.
+    cmd->add_option("--seed", o->seed, "sensor and encoder noise seed")
+        ->check(gonio::tools::integer_at_least(1));
     cmd->add_option("--camera-ip",
                     o->camera_ip,
                     "address of the GigE Vision camera, port 3956 (default 127.0.0.1; auto: a "
@@ -119,5 +123,11 @@ GONIO_COMMAND(sim) {
                   "name the camera's exposure feature ExposureTimeAbs instead of ExposureTime");
     cmd->add_option(
         "--rig-out", o->rig_out, "write the rig description with the served addresses here");
-    return [o]() { return run(*o); };
+    return [o, cmd]() {
+        if (cmd->count("--brdf") > 0 && cmd->count("--material") > 0) {
+            return gonio::tools::usage_error(
+                "sim", "--brdf and --material both name the ground truth: give one");
+        }
+        return run(*o);
+    };
 }

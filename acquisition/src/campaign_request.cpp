@@ -12,6 +12,7 @@
 #include "gonio/base/atomic_file.h"
 #include "gonio/base/data_path.h"
 #include "gonio/base/limits.h"
+#include "gonio/base/strict_json.h"
 
 namespace gonio::acquisition {
 
@@ -530,6 +531,7 @@ ImageRigOptions image_rig_options(const CampaignRequest& r) {
     io.brdf_path = r.brdf_path;
     io.time_scale = r.time_scale;
     io.image_size = r.image_size;
+    io.perspective = r.perspective;
     io.supersample = r.supersample;
     io.seed = r.seed;
     return io;
@@ -589,18 +591,107 @@ Expected<ImagePlan> plan_image_campaign(const CampaignRequest& r) {
     return plan;
 }
 
-Expected<ImageCampaignRun> run_image_request(
-    const CampaignRequest& r,
-    const EmbeddedRigStarter& start_rig,
-    const std::function<void(const ImageCampaignRun&)>& started,
-    const ImageProgressFn& progress) {
-    if (auto c = refuse_conflict(r); !c) {
+namespace {
+
+constexpr const char* kImageSettingsFile = "image_campaign.json";
+constexpr const char* kImageJournalFile = "frames.journal";
+
+/// The settings a resume needs, as stored in the campaign folder (image_campaign.json). `brdf` is
+/// the ground truth's copy in the folder ("" for a named material).
+std::string image_settings_json(const CampaignRequest& r, const std::string& brdf_in_dir) {
+    nlohmann::ordered_json j;
+    j["material"] = r.material.empty() ? std::string("red-plastic") : r.material;
+    j["brdf"] = brdf_in_dir;
+    j["rig"] = r.rig_path;
+    j["table_factor"] = r.table_factor;
+    j["grid"] = {r.grid.n_theta_h, r.grid.n_theta_d, r.grid.n_phi_d};
+    j["coverage_target"] = r.coverage_target > 0 ? r.coverage_target : 0.55;
+    j["max_frames"] = r.max_frames > 0 ? r.max_frames : 200;
+    j["image_size"] = r.image_size;
+    j["perspective"] = r.perspective;
+    j["supersample"] = r.supersample;
+    j["time_scale"] = r.time_scale;
+    j["seed"] = r.seed;
+    j["sample"] = r.sample;
+    j["operator"] = r.operator_name;
+    return j.dump(2) + "\n";
+}
+
+/// The request of the campaign in `dir` (image_settings_json), its ground truth resolved in the
+/// folder; read with the strict reader (every key known, every value typed and in range).
+Expected<CampaignRequest> read_image_settings(const std::string& dir) {
+    const std::string path = (fs::path(dir) / kImageSettingsFile).string();
+    auto text = read_input_file(path, 1 << 20);
+    if (!text) {
+        return make_error(dir + ": not an image-mode campaign folder (" + text.error().message +
+                          ")");
+    }
+    return read_strict_json(path, [&] {
+        const nlohmann::json j = parse_json_checked(*text, path);
+        JsonObject o(j, "");
+        CampaignRequest r;
+        r.mode = CampaignMode::kImage;
+        r.material = o.string("material", "", 256);
+        const std::string brdf = o.string("brdf", "", 4096);
+        r.brdf_path = brdf.empty() ? std::string() : (fs::path(dir) / brdf).string();
+        r.rig_path = o.string("rig", "", 4096);
+        r.table_factor = o.integer("table_factor", 3, 1, 90);
+        if (const nlohmann::json* g = o.find("grid")) {
+            if (!g->is_array() || g->size() != 3) {
+                json_fail("grid: expected [n_theta_h, n_theta_d, n_phi_d]");
+            }
+            int n[3];
+            for (int k = 0; k < 3; ++k) {
+                const std::string at = "grid[" + std::to_string(k) + "]";
+                const double v = json_number_at((*g)[k], at);
+                if (v != std::floor(v) || v < 0 || v > 720) {
+                    json_fail(at + " = " + show_number(v) + ": must be a whole number in [0, 720]");
+                }
+                n[k] = static_cast<int>(v);
+            }
+            r.grid = {n[0], n[1], n[2]};
+        }
+        r.coverage_target = o.number("coverage_target", 0.55, 0.001, 1);
+        r.max_frames = o.integer("max_frames", 200, 1, 1000000);
+        r.image_size = o.integer("image_size", 256, 16, 16384);
+        r.perspective = o.boolean("perspective", false);
+        r.supersample = o.integer("supersample", 2, 1, 64);
+        r.time_scale = o.number("time_scale", 0, 0, 1e6);
+        const double seed = o.number("seed", 1, 0, 9007199254740992.0);
+        if (seed != std::floor(seed)) {
+            json_fail("seed = " + show_number(seed) + ": must be a whole number");
+        }
+        r.seed = static_cast<std::uint64_t>(seed);
+        r.sample = o.string("sample", "", 256);
+        r.operator_name = o.string("operator", "", 256);
+        o.finish();
+        r.out_dir = dir;
+        r.resume_dir = dir;
+        return r;
+    });
+}
+
+}  // namespace
+
+bool is_image_campaign_dir(const std::string& dir) {
+    std::error_code ec;
+    return !dir.empty() && fs::exists(fs::path(dir) / kImageSettingsFile, ec);
+}
+
+Expected<ImageCampaignRun> run_image_request(const CampaignRequest& given,
+                                             const EmbeddedRigStarter& start_rig,
+                                             const ImageRunHooks& hooks) {
+    if (auto c = refuse_conflict(given); !c) {
         return tl::unexpected(c.error());
     }
-    if (!r.resume_dir.empty()) {
-        return make_error("resume " + r.resume_dir +
-                          ": an image campaign resumes from its folder's settings and frame "
-                          "journal (gonio acquire --resume), not through a new run");
+    CampaignRequest r = given;
+    if (!given.resume_dir.empty()) {
+        auto settings = read_image_settings(given.resume_dir);
+        if (!settings) {
+            return tl::unexpected(settings.error());
+        }
+        r = *settings;
+        r.serve = given.serve;
     }
     if (auto t = check_table_factor(r); !t) {
         return tl::unexpected(t.error());
@@ -610,6 +701,7 @@ Expected<ImageCampaignRun> run_image_request(
         return tl::unexpected(rig.error());
     }
     ImageCampaignRun run;
+    run.resumed = !given.resume_dir.empty();
     run.embedded = (*rig)->embedded != nullptr;
     run.rig_name = (*rig)->rig.name;
     std::string truth_name = "sample";
@@ -625,12 +717,49 @@ Expected<ImageCampaignRun> run_image_request(
     run.motor_address = (*rig)->rig.axes[static_cast<int>(AxisRole::kLight)].address;
     run.camera_address = (*rig)->rig.camera_address;
     run.config = image_config(r, (*rig)->rig, (*rig)->camera);
-    run.dir = image_campaign_dir(r, run.sample);
-    if (started) {
-        started(run);
+    run.dir = run.resumed ? r.resume_dir : image_campaign_dir(r, run.sample);
+    run.journal = (fs::path(run.dir) / kImageJournalFile).string();
+    if (hooks.started) {
+        if (auto s = hooks.started(run); !s) {
+            return tl::unexpected(s.error());
+        }
     }
-    auto result = run_image_campaign(
-        image_rig_capture(**rig, run.config.detector_arm_rad), run.config, progress);
+    if (!run.resumed) {
+        std::error_code ec;
+        if (fs::exists(run.journal, ec)) {
+            return make_error(run.dir +
+                              ": already holds an image campaign (continue it with --resume " +
+                              run.dir + ")");
+        }
+        fs::create_directories(run.dir, ec);
+        if (ec) {
+            return make_error(run.dir + ": cannot create: " + ec.message());
+        }
+        // The ground truth's file is copied into the folder so that a resume reads only the
+        // folder.
+        std::string brdf_in_dir;
+        if (!r.brdf_path.empty()) {
+            brdf_in_dir = "ground_truth" + fs::path(r.brdf_path).extension().string();
+            auto bytes = read_input_file(r.brdf_path, max_memory_bytes());
+            if (!bytes) {
+                return tl::unexpected(bytes.error());
+            }
+            if (auto w = write_file_atomic((fs::path(run.dir) / brdf_in_dir).string(), *bytes);
+                !w) {
+                return tl::unexpected(w.error());
+            }
+        }
+        if (auto w = write_file_atomic((fs::path(run.dir) / kImageSettingsFile).string(),
+                                       image_settings_json(r, brdf_in_dir));
+            !w) {
+            return tl::unexpected(w.error());
+        }
+    }
+    CaptureFn capture = image_rig_capture(**rig, run.config.detector_arm_rad);
+    if (hooks.wrap_capture) {
+        capture = hooks.wrap_capture(std::move(capture));
+    }
+    auto result = run_image_campaign(capture, run.config, hooks.progress, run.journal, hooks.state);
     run.poses = (*rig)->pose_log;
     if (!result) {
         return tl::unexpected(result.error());
@@ -656,6 +785,22 @@ Expected<ImageCampaignRun> run_image_request(
     }
     run.result.emplace(std::move(*result));
     return run;
+}
+
+Expected<ImageCampaignRun> run_image_request(
+    const CampaignRequest& request,
+    const EmbeddedRigStarter& start_rig,
+    const std::function<void(const ImageCampaignRun&)>& started,
+    const ImageProgressFn& progress) {
+    ImageRunHooks hooks;
+    if (started) {
+        hooks.started = [&started](const ImageCampaignRun& run) -> Expected<void> {
+            started(run);
+            return {};
+        };
+    }
+    hooks.progress = progress;
+    return run_image_request(request, start_rig, hooks);
 }
 
 std::string image_campaign_dir(const CampaignRequest& r, const std::string& name) {

@@ -10,6 +10,8 @@
 #include <cstdio>
 #include <cstring>
 
+#include "gonio/base/strings.h"
+
 namespace gonio {
 namespace {
 
@@ -65,7 +67,7 @@ Expected<std::size_t> parse_byte_size(const std::string& text) {
     std::string unit(end);
     for (const char* suffix : {"iB", "B"}) {
         const std::size_t n = std::strlen(suffix);
-        if (unit.size() > n && unit.compare(unit.size() - n, n, suffix) == 0) {
+        if (unit.size() > n && ends_with(unit, suffix)) {
             unit.resize(unit.size() - n);
             break;
         }

@@ -3,6 +3,7 @@
 #include <memory>
 #include <string>
 
+#include "gonio/base/strings.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/material_library.h"
@@ -14,11 +15,6 @@
 namespace gonio::brdf {
 
 namespace {
-
-bool has_suffix(const std::string& s, const std::string& suffix) {
-    return s.size() >= suffix.size() &&
-           s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
 
 Expected<std::unique_ptr<Brdf>> load_model(const std::string& path) {
     Expected<ModelD> m = load_model_json(path);
@@ -47,7 +43,7 @@ Expected<std::unique_ptr<Brdf>> load_brdf(const std::string& path) {
         }
         return std::unique_ptr<Brdf>(std::make_unique<AnalyticBrdf>(std::move(*m), path));
     }
-    if (has_suffix(path, ".json")) {
+    if (ends_with(path, ".json")) {
         return load_model(path);
     }
     if (is_table_path(path)) {

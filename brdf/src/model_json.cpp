@@ -313,32 +313,34 @@ Lobe<double> parse_lobe(const Json& j, const std::string& path) {
     return lobe;
 }
 
-ModelD parse_model(const Json& j) {
-    require_json_object(j, "");
-    check_json_keys(j, "", {"diffuse", "lobes", "fit"});
+ModelD parse_model(const Json& j, const std::string& path) {
+    require_json_object(j, path);
+    check_json_keys(j, path, {"diffuse", "lobes", "fit"});
     if (j.contains("fit") && !j["fit"].is_object()) {
         // The verdict of the fit that produced the model (written by `gonio fit`): informative,
         // not part of the model.
-        json_fail("fit: must be an object (the fit's verdict)");
+        json_fail(json_key_path(path, "fit") + ": must be an object (the fit's verdict)");
     }
     ModelD m;
     if (j.contains("diffuse")) {
         m.has_diffuse = true;
-        m.diffuse = get_rgb(j["diffuse"], "diffuse", Rule::kNonNegative, kMaxAlbedo);
+        m.diffuse =
+            get_rgb(j["diffuse"], json_key_path(path, "diffuse"), Rule::kNonNegative, kMaxAlbedo);
     } else {
         m.has_diffuse = false;
         m.diffuse = Rgbd::Zero();
     }
-    const Json& lobes = json_member(j, "", "lobes");
+    const std::string lobes_path = json_key_path(path, "lobes");
+    const Json& lobes = json_member(j, path, "lobes");
     if (!lobes.is_array()) {
-        json_fail("lobes: expected an array, got " + json_type(lobes));
+        json_fail(lobes_path + ": expected an array, got " + json_type(lobes));
     }
     if (lobes.size() > kMaxModelLobes) {
-        json_fail("lobes: " + std::to_string(lobes.size()) + " lobes, at most " +
+        json_fail(lobes_path + ": " + std::to_string(lobes.size()) + " lobes, at most " +
                   std::to_string(kMaxModelLobes) + " allowed");
     }
     for (std::size_t i = 0; i < lobes.size(); ++i) {
-        m.lobes.push_back(parse_lobe(lobes[i], "lobes[" + std::to_string(i) + "]"));
+        m.lobes.push_back(parse_lobe(lobes[i], lobes_path + "[" + std::to_string(i) + "]"));
     }
     return m;
 }
@@ -396,7 +398,11 @@ std::string compact_number_arrays(const std::string& s) {
 Expected<ModelD> parse_model_json(const std::string& text, const std::string& source_name) {
     // Size and depth first, then syntax (line, column, a cut quote of the input), then the schema.
     return read_strict_json(source_name,
-                            [&] { return parse_model(parse_json_checked(text, source_name)); });
+                            [&] { return parse_model(parse_json_checked(text, source_name), ""); });
+}
+
+ModelD read_model_json(const nlohmann::json& j, const std::string& path) {
+    return parse_model(j, path);
 }
 
 Expected<ModelD> load_model_json(const std::string& path) {

@@ -490,9 +490,8 @@ Expected<AxisProfile> parse_axis_profile(const std::string& json_text,
 
 Expected<AxisProfile> load_axis_profile(const std::string& name_or_path) {
     std::string path = name_or_path;
-    const bool is_path =
-        name_or_path.find('/') != std::string::npos ||
-        (name_or_path.size() > 5 && name_or_path.compare(name_or_path.size() - 5, 5, ".json") == 0);
+    const bool is_path = name_or_path.find('/') != std::string::npos ||
+                         (name_or_path.size() > 5 && ends_with(name_or_path, ".json"));
     if (!is_path) {
         auto found = find_data_file("devices/" + name_or_path + ".json");
         if (!found) {

@@ -49,8 +49,7 @@ Expected<brdf::Rgbd> read_rgb(const json& j, const std::string& at) {
 
 std::string report_path_for(const std::string& model_path) {
     const std::string ext = ".json";
-    if (model_path.size() > ext.size() &&
-        model_path.compare(model_path.size() - ext.size(), ext.size(), ext) == 0) {
+    if (model_path.size() > ext.size() && ends_with(model_path, ext)) {
         return model_path.substr(0, model_path.size() - ext.size()) + ".report.json";
     }
     return model_path + ".report.json";

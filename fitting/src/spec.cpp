@@ -2,12 +2,12 @@
 
 #include "gonio/fitting/spec.h"
 
-#include <cmath>
-#include <fstream>
 #include <nlohmann/json.hpp>
-#include <sstream>
+#include <string>
+#include <tuple>
 
 #include "gonio/base/limits.h"
+#include "gonio/base/strict_json.h"
 #include "gonio/base/strings.h"
 #include "gonio/brdf/model_json.h"
 #include "gonio/brdf/student_t.h"
@@ -345,121 +345,83 @@ std::string known_paths(const std::vector<ParamSpec>& params) {
 }  // namespace
 
 Expected<FitSpec> parse_fit_template(const std::string& json_text, const std::string& source) {
-    if (auto ok = check_json_text(json_text, source); !ok) {
-        return tl::unexpected(ok.error());
-    }
-    nlohmann::json j;
-    try {
-        j = nlohmann::json::parse(json_text);
-    } catch (const nlohmann::json::exception& e) {
-        // Keep the line and column, drop nlohmann's "[json.exception.parse_error.101]" code.
-        return make_error(source + ": not JSON: " + gonio::json_error_text(e.what()));
-    }
-    if (!j.is_object() || !j.contains("model")) {
-        return make_error(source + ": a fit template is an object with a \"model\" key");
-    }
-    for (auto it = j.begin(); it != j.end(); ++it) {
-        const std::string& key = it.key();
-        if (key != "model" && key != "free" && key != "fixed" && key != "shared" &&
-            key != "bounds") {
-            return make_error(source + ": unknown key \"" + excerpt(key) +
-                              "\" (expected model, free, fixed, shared, bounds)");
-        }
-    }
-    Expected<brdf::ModelD> model = brdf::parse_model_json(j["model"].dump(), source + ": model");
-    if (!model) {
-        return make_error(model.error().message);
-    }
-    FitSpec spec;
-    spec.model = *model;
-    // Schlick f0 per channel unless "shared" says otherwise below.
-    spec.params = default_params(spec.model, true);
-    auto path_list = [&](const char* key, auto apply) -> Expected<void> {
-        if (!j.contains(key)) {
-            return {};
-        }
-        if (!j[key].is_array()) {
-            return make_error(source + ": \"" + key + "\" must be an array of parameter paths");
-        }
-        for (std::size_t i = 0; i < j[key].size(); ++i) {
-            const nlohmann::json& v = j[key][i];
-            if (!v.is_string()) {
-                return make_error(source + ": " + key + "[" + std::to_string(i) +
-                                  "] must be a string");
+    // The same reader as every other JSON file (base/strict_json.h): size and depth first, then
+    // syntax, then the schema; every message names the key path and the rule.
+    return read_strict_json(source, [&] {
+        const nlohmann::json j = parse_json_checked(json_text, source);
+        JsonObject top(j, "");
+        top.allow({"model", "free", "fixed", "shared", "bounds"});
+        top.finish();
+        FitSpec spec;
+        spec.model = brdf::read_model_json(top.raw("model"), "model");
+        // Schlick f0 per channel unless "shared" says otherwise below.
+        spec.params = default_params(spec.model, true);
+        // "free", "fixed" and "shared": arrays of parameter paths, applied in that order.
+        auto path_list = [&](const char* key, auto apply) {
+            const nlohmann::json* list = top.find(key);
+            if (list == nullptr) {
+                return;
             }
-            ParamSpec* p = find_param(spec.params, v.get<std::string>());
-            if (p == nullptr) {
-                return make_error(source + ": " + key + "[" + std::to_string(i) + "] = \"" +
-                                  v.get<std::string>() + "\" is not a parameter of this model (" +
-                                  known_paths(spec.params) + ")");
+            if (!list->is_array()) {
+                json_fail(std::string(key) + ": expected an array of parameter paths, got " +
+                          json_type(*list));
             }
-            Expected<void> r = apply(*p, std::string(key) + "[" + std::to_string(i) + "]");
-            if (!r) {
-                return r;
+            for (std::size_t i = 0; i < list->size(); ++i) {
+                const std::string at = std::string(key) + "[" + std::to_string(i) + "]";
+                const std::string name = json_string_at((*list)[i], at);
+                ParamSpec* p = find_param(spec.params, name);
+                if (p == nullptr) {
+                    json_fail(at + " = \"" + excerpt(name) + "\": not a parameter of this model (" +
+                              known_paths(spec.params) + ")");
+                }
+                apply(*p, at);
             }
-        }
-        return {};
-    };
-    Expected<void> r = path_list("free", [](ParamSpec& p, const std::string&) -> Expected<void> {
-        p.free = true;
-        return {};
-    });
-    if (r) {
-        r = path_list("fixed", [](ParamSpec& p, const std::string&) -> Expected<void> {
-            p.free = false;
-            return {};
-        });
-    }
-    if (r) {
-        r = path_list("shared", [&](ParamSpec& p, const std::string& at) -> Expected<void> {
+        };
+        path_list("free", [](ParamSpec& p, const std::string&) { p.free = true; });
+        path_list("fixed", [](ParamSpec& p, const std::string&) { p.free = false; });
+        path_list("shared", [](ParamSpec& p, const std::string& at) {
             if (!is_rgb(p.field)) {
-                return make_error(source + ": " + at + ": " + field_path(p.field, p.lobe) +
-                                  " is a scalar; only RGB parameters can be shared");
+                json_fail(at + ": " + field_path(p.field, p.lobe) +
+                          " is a scalar; only RGB parameters can be shared");
             }
             p.shared = true;
-            return {};
         });
-    }
-    if (!r) {
-        return make_error(r.error().message);
-    }
-    if (j.contains("bounds")) {
-        if (!j["bounds"].is_object()) {
-            return make_error(source + ": \"bounds\" must be an object {path: [lower, upper]}");
-        }
-        for (auto it = j["bounds"].begin(); it != j["bounds"].end(); ++it) {
-            ParamSpec* p = find_param(spec.params, it.key());
-            const std::string at = source + ": bounds." + it.key();
-            if (p == nullptr) {
-                return make_error(at + ": not a parameter of this model (" +
-                                  known_paths(spec.params) + ")");
-            }
-            const nlohmann::json& b = it.value();
-            if (!b.is_array() || b.size() != 2 || !b[0].is_number() || !b[1].is_number()) {
-                return make_error(at + ": expected [lower, upper]");
-            }
-            p->lower = b[0].get<double>();
-            p->upper = b[1].get<double>();
-            if (!std::isfinite(p->lower) || !std::isfinite(p->upper)) {
-                return make_error(at + " = [" + show_number(p->lower) + ", " +
-                                  show_number(p->upper) + "]: bounds must be finite");
-            }
-            if (!(p->lower < p->upper)) {
-                return make_error(at + ": lower bound must be below the upper bound");
+        // "bounds": {path: [lower, upper]}.
+        if (const nlohmann::json* bounds = top.find("bounds")) {
+            require_json_object(*bounds, "bounds");
+            for (auto it = bounds->begin(); it != bounds->end(); ++it) {
+                const std::string at = json_key_path("bounds", it.key());
+                ParamSpec* p = find_param(spec.params, it.key());
+                if (p == nullptr) {
+                    json_fail(at + ": not a parameter of this model (" + known_paths(spec.params) +
+                              ")");
+                }
+                const nlohmann::json& b = it.value();
+                if (!b.is_array() || b.size() != 2) {
+                    json_fail(
+                        at + ": expected [lower, upper], got " +
+                        (b.is_array() ? "an array of " + std::to_string(b.size()) : json_type(b)));
+                }
+                const double lower = json_number_at(b[0], at + "[0]");
+                const double upper = json_number_at(b[1], at + "[1]");
+                if (!(lower < upper)) {
+                    json_fail(at + " = [" + show_number(lower) + ", " + show_number(upper) +
+                              "]: the lower bound must be below the upper bound");
+                }
+                p->lower = lower;
+                p->upper = upper;
             }
         }
-    }
-    return spec;
+        return spec;
+    });
 }
 
 Expected<FitSpec> load_fit_template(const std::string& path) {
-    std::ifstream in(path);
-    if (!in) {
-        return make_error(path + ": cannot open the fit template");
+    Expected<std::string> text = read_input_file(path, kMaxJsonBytes);
+    if (!text) {
+        return make_error(text.error().message + " (fit template)");
     }
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return parse_fit_template(ss.str(), path);
+    return parse_fit_template(*text, path);
 }
 
 }  // namespace gonio::fitting

@@ -280,6 +280,47 @@ TEST(Spec, TemplateErrorsNameTheKey) {
     EXPECT_FALSE(parse_fit_template("not json", "t.json"));
 }
 
+TEST(Spec, TemplateRefusesUnknownKeysAndWrongTypesNamingTheKeyPath) {
+    const std::string model = brdf::model_to_json(make_fit_spec(ModelOptions{})->model);
+    // The message of each refused template; "" when the reader accepted it.
+    auto err = [&](const std::string& text) {
+        Expected<FitSpec> s = parse_fit_template(text, "t.json");
+        return s ? std::string() : s.error().message;
+    };
+    auto with = [&](const std::string& extra) { return err("{\"model\": " + model + extra + "}"); };
+    ASSERT_EQ(with(""), "");  // the template itself is valid
+    struct Case {
+        std::string text;
+        std::string message;  // the whole message: file, key path, rule
+    };
+    const std::vector<Case> cases = {
+        // Unknown keys, at the top level and inside the model (the model's own schema).
+        {"{\"model\": " + model + ", \"bonds\": {}}",
+         "t.json: bonds: unknown key (allowed here: model, free, fixed, shared, bounds)"},
+        {"{\"model\": {\"lobes\": [], \"difuse\": 0.1}}",
+         "t.json: model.difuse: unknown key (allowed here: diffuse, lobes, fit)"},
+        // Wrongly typed fields.
+        {"{\"model\": " + model + ", \"free\": \"diffuse\"}",
+         "t.json: free: expected an array of parameter paths, got string"},
+        {"{\"model\": " + model + ", \"fixed\": [\"diffuse\", 3]}",
+         "t.json: fixed[1]: expected a string, got number"},
+        {"{\"model\": " + model + ", \"bounds\": [0, 1]}",
+         "t.json: bounds: expected an object, got array"},
+        {"{\"model\": " + model + ", \"bounds\": {\"lobes[0].alpha_x\": [\"0.1\", 1]}}",
+         "t.json: bounds.lobes[0].alpha_x[0]: expected a number, got string"},
+        {"{\"model\": " + model + ", \"bounds\": {\"lobes[0].alpha_x\": [0.1]}}",
+         "t.json: bounds.lobes[0].alpha_x: expected [lower, upper], got an array of 1"},
+        {"{\"model\": {\"lobes\": [{\"distribution\": \"ggx\", \"alpha\": \"0.2\"}]}}",
+         "t.json: model.lobes[0].alpha: expected a number, got string"},
+        {"{\"model\": []}", "t.json: model: expected an object, got array"},
+        {"[]", "t.json: top level: expected an object, got array"},
+        {"{\"free\": []}", "t.json: top level: missing key \"model\""},
+    };
+    for (const Case& c : cases) {
+        EXPECT_EQ(err(c.text), c.message) << c.text;
+    }
+}
+
 TEST(Spec, NamesParseAndUnknownNamesFail) {
     EXPECT_EQ(*parse_distribution("beckmann"), brdf::Distribution::kBeckmann);
     EXPECT_EQ(parse_fresnel("schlick")->second, false);

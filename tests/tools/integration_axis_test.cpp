@@ -49,10 +49,11 @@ class AxisCli : public ::testing::Test {
         cfg.initial_deg = 7;
         ASSERT_TRUE(server_.add_unit(1, *p, cfg));
         ASSERT_TRUE(server_.start());
-        base_ =
-            "axis --connect " + server_.address() + " --unit 1 --profile oriental-az --name arm";
+        bus_ = "axis --connect " + server_.address() + " --unit 1";
+        base_ = bus_ + " --profile oriental-az --name arm";
     }
     gonio::sim::MotorControllerServer server_;
+    std::string bus_;  ///< what `fault` takes: the bus and the unit
     std::string base_;
 };
 
@@ -83,7 +84,7 @@ TEST_F(AxisCli, RefusalsAndAlarmsExitNonZeroWithTheReason) {
     EXPECT_NE(far.out.find("outside soft limits"), std::string::npos) << far.out;
     EXPECT_EQ(server_.request_count(), before);
 
-    auto f = run(base_ + " fault alarm --code 48 --fraction 0.5");
+    auto f = run(bus_ + " fault alarm --code 48 --fraction 0.5");
     ASSERT_EQ(f.status, 0) << f.out;
     auto m = run(base_ + " move 40");
     EXPECT_NE(m.status, 0);
@@ -94,7 +95,7 @@ TEST_F(AxisCli, RefusalsAndAlarmsExitNonZeroWithTheReason) {
     EXPECT_EQ(r.status, 0) << r.out;
     EXPECT_NE(r.out.find("idle"), std::string::npos) << r.out;
 
-    auto e = run(base_ + " fault exception --code 2");
+    auto e = run(bus_ + " fault exception --code 2");
     ASSERT_EQ(e.status, 0) << e.out;
     auto bad = run(base_ + " status");
     EXPECT_NE(bad.status, 0);

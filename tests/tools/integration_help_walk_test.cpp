@@ -1,109 +1,29 @@
-// Every option of a command does something or is refused: this walks the `--help` of the
-// commands below and, for each option it lists, requires an entry in the table that shows it --
-// either two runs whose output differs only by that option, or a run in a mode that cannot honour
-// it, refused with exit status 2 and a message naming it. An option added without an entry here
-// turns the test red, as does one that stops changing anything or stops being refused.
+// Every option of a command does something or is refused (help_walk.h): the walk of fit, acquire,
+// export, eval, check, convert, plot, preview and report.
 
-#include <arpa/inet.h>
 #include <gtest/gtest.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <unistd.h>
 
-#include <algorithm>
 #include <filesystem>
 #include <fstream>
-#include <map>
-#include <set>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include "cli_run.h"
 #include "gonio/brdf/model_json.h"
+#include "help_walk.h"
 
 namespace {
 
 namespace fs = std::filesystem;
+using gonio::testing::BusyPort;
 using gonio::testing::CliRun;
+using gonio::testing::Proof;
+using gonio::testing::prove;
 using gonio::testing::run_gonio;
 
 std::string dir() {
     static const std::string d = gonio::testing::fresh_test_dir("help_walk").string();
     return d;
-}
-
-/// The options and positionals a command's --help lists (without --help itself).
-std::set<std::string> listed_options(const std::string& command) {
-    CliRun r = run_gonio(command + " --help");
-    EXPECT_EQ(r.status, 0) << r.out;
-    std::set<std::string> out;
-    std::istringstream lines(r.out);
-    std::string section;
-    for (std::string line; std::getline(lines, line);) {
-        if (!line.empty() && line[0] != ' ') {
-            section = line;
-            continue;
-        }
-        // An entry starts at an indent of two; deeper lines continue a description.
-        if (line.size() < 3 || line.compare(0, 2, "  ") != 0 || line[2] == ' ') {
-            continue;
-        }
-        std::istringstream words(line);
-        std::string first;
-        if (!(words >> first)) {
-            continue;
-        }
-        if (section.rfind("Positionals", 0) == 0) {
-            out.insert(first);
-        } else if (section.rfind("Options", 0) == 0 && first[0] == '-') {
-            std::stringstream names(first);
-            for (std::string n; std::getline(names, n, ',');) {
-                if (n.rfind("--", 0) == 0 && n != "--help") {
-                    out.insert(n);
-                }
-            }
-        }
-    }
-    return out;
-}
-
-/// How one option is shown to matter.
-struct Proof {
-    std::string option;
-    /// Refused: `a` exits 2 with a message naming the option ("gonio CMD:" prefixed).
-    /// Changes: `a` and `b` differ only by the option, and their outputs differ.
-    std::string a;
-    std::string b;           ///< empty: a refusal
-    std::string named = "";  ///< for a refusal: the text naming the option (default: option)
-    /// For a change: a file or folder both runs write, compared instead of the printed output
-    /// (for options that change a picture or a table, not what is printed).
-    std::string written = "";
-};
-
-/// The bytes of a file, or of every file under a folder (names and contents, in name order);
-/// removes it afterwards so that the next run writes it anew.
-std::string take_written(const std::string& path) {
-    std::string out;
-    std::vector<fs::path> files;
-    if (fs::is_directory(path)) {
-        for (const auto& e : fs::recursive_directory_iterator(path)) {
-            if (e.is_regular_file()) {
-                files.push_back(e.path());
-            }
-        }
-        std::sort(files.begin(), files.end());
-    } else if (fs::exists(path)) {
-        files.push_back(path);
-    }
-    for (const fs::path& f : files) {
-        std::ifstream in(f, std::ios::binary);
-        std::stringstream ss;
-        ss << in.rdbuf();
-        out += f.filename().string() + "\n" + ss.str();
-    }
-    fs::remove_all(path);
-    return out;
 }
 
 std::string model_json() {
@@ -134,43 +54,6 @@ std::string dirs_csv(const std::string& name, const std::string& row) {
     const std::string p = dir() + "/" + name;
     std::ofstream(p) << "theta_i,phi_i,theta_o,phi_o\n" << row << "\n";
     return p;
-}
-
-void prove(const std::string& command, const std::vector<Proof>& table) {
-    const std::set<std::string> listed = listed_options(command);
-    ASSERT_FALSE(listed.empty()) << command;
-    std::map<std::string, int> proofs;
-    for (const Proof& p : table) {
-        ++proofs[p.option];
-        SCOPED_TRACE(command + " " + p.option);
-        if (!p.written.empty()) {
-            fs::remove_all(p.written);
-        }
-        CliRun a = run_gonio(p.a);
-        if (!p.written.empty()) {
-            const std::string wa = take_written(p.written);
-            CliRun b = run_gonio(p.b);
-            const std::string wb = take_written(p.written);
-            EXPECT_EQ(a.status, 0) << p.a << "\n" << a.out;
-            EXPECT_EQ(b.status, 0) << p.b << "\n" << b.out;
-            EXPECT_FALSE(wa.empty()) << p.a << " wrote nothing at " << p.written;
-            EXPECT_NE(wa, wb) << p.a << "\n  and\n" << p.b << "\nwrite the same " << p.written;
-        } else if (p.b.empty()) {
-            EXPECT_EQ(a.status, 2) << p.a << "\n" << a.out;
-            EXPECT_NE(a.out.find("gonio " + command), std::string::npos) << a.out;
-            EXPECT_NE(a.out.find(p.named.empty() ? p.option : p.named), std::string::npos)
-                << p.a << "\n"
-                << a.out;
-        } else {
-            CliRun b = run_gonio(p.b);
-            EXPECT_NE(a.out, b.out) << p.a << "\n  and\n" << p.b << "\nprint the same:\n" << a.out;
-        }
-    }
-    for (const std::string& o : listed) {
-        EXPECT_GT(proofs[o], 0) << "gonio " << command << " " << o
-                                << ": listed in --help, but nothing shows that it is honoured or "
-                                   "refused";
-    }
 }
 
 TEST(HelpWalk, FitEveryOptionHonouredOrRefused) {
@@ -209,35 +92,6 @@ TEST(HelpWalk, FitEveryOptionHonouredOrRefused) {
               {"--strict", f, f + " --strict"},
           });
 }
-
-/// A TCP port on 127.0.0.1 held by a listening socket for the object's lifetime.
-class BusyPort {
-  public:
-    BusyPort() {
-        fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
-        sockaddr_in a{};
-        a.sin_family = AF_INET;
-        a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-        socklen_t len = sizeof a;
-        if (fd_ >= 0 && ::bind(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0 &&
-            ::listen(fd_, 1) == 0 &&
-            ::getsockname(fd_, reinterpret_cast<sockaddr*>(&a), &len) == 0) {
-            port_ = ntohs(a.sin_port);
-        }
-    }
-    ~BusyPort() {
-        if (fd_ >= 0) {
-            ::close(fd_);
-        }
-    }
-    BusyPort(const BusyPort&) = delete;
-    BusyPort& operator=(const BusyPort&) = delete;
-    int port() const { return port_; }
-
-  private:
-    int fd_ = -1;
-    int port_ = 0;
-};
 
 TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
     const BusyPort busy;

@@ -674,6 +674,85 @@ TEST(ImageResume, JournalOfAnotherTableIsRefused) {
     std::filesystem::remove_all(dir);
 }
 
+TEST(ImageCommand, RequestResumesFromTheFolderWhoseSettingsAreReadStrictly) {
+    // The library runs the whole campaign a front end asks for: folder, settings, journal and
+    // resume (the command only prints).
+    const std::string dir =
+        std::string(GONIO_BINARY_DIR) + "/test_tools_image/reqresume_" + std::to_string(::getpid());
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    const std::string model = dir + "/truth.json";
+    std::ofstream(model) << brdf::model_to_json(truth_model());
+    acquisition::CampaignRequest r;
+    r.mode = acquisition::CampaignMode::kImage;
+    r.brdf_path = model;
+    r.out_dir = dir + "/camp";
+    r.grid = {15, 15, 30};
+    r.coverage_target = 0.5;
+    r.max_frames = 2;
+    r.time_scale = 500;
+    r.image_size = 96;
+    // A front end that cannot start (its live page's address in use): nothing is written.
+    acquisition::ImageRunHooks refuse;
+    refuse.started = [](const acquisition::ImageCampaignRun&) -> Expected<void> {
+        return make_error("address in use");
+    };
+    auto stopped = acquisition::run_image_request(r, embedded_rig_starter(), refuse);
+    ASSERT_FALSE(stopped);
+    EXPECT_EQ(stopped.error().message, "address in use");
+    EXPECT_FALSE(std::filesystem::exists(r.out_dir));
+    // Two frames do not reach the target; the folder keeps the settings and the journal.
+    auto first = acquisition::run_image_request(r, embedded_rig_starter());
+    ASSERT_TRUE(first) << first.error().message;
+    EXPECT_FALSE(first->resumed);
+    EXPECT_FALSE(first->result->target_met);
+    ASSERT_EQ(first->result->frames.size(), 2u);
+    EXPECT_TRUE(acquisition::is_image_campaign_dir(r.out_dir));
+    EXPECT_EQ(first->journal, r.out_dir + "/frames.journal");
+    const std::string settings_path = r.out_dir + "/image_campaign.json";
+    nlohmann::json settings;
+    {
+        std::ifstream in(settings_path);
+        settings = nlohmann::json::parse(in);
+    }
+    EXPECT_EQ(settings.at("max_frames"), 2);
+    EXPECT_EQ(settings.at("brdf"), "ground_truth.json");
+    auto resume_with = [&](const nlohmann::json& j) {
+        std::ofstream(settings_path) << j.dump(2);
+        acquisition::CampaignRequest again;
+        again.mode = acquisition::CampaignMode::kImage;
+        again.resume_dir = r.out_dir;
+        return acquisition::run_image_request(again, embedded_rig_starter());
+    };
+    // The settings file is read like every other: an unknown key or a wrong type is refused with
+    // the file and the key path, before any device is touched.
+    nlohmann::json misspelt = settings;
+    misspelt["max_frame"] = 60;
+    auto bad = resume_with(misspelt);
+    ASSERT_FALSE(bad);
+    EXPECT_NE(bad.error().message.find("image_campaign.json: max_frame: unknown key"),
+              std::string::npos)
+        << bad.error().message;
+    nlohmann::json typed = settings;
+    typed["max_frames"] = "60";
+    bad = resume_with(typed);
+    ASSERT_FALSE(bad);
+    EXPECT_NE(bad.error().message.find("max_frames: expected a whole number, got string"),
+              std::string::npos)
+        << bad.error().message;
+    // More frames allowed: the resume reads the two journaled frames back and goes on.
+    nlohmann::json more = settings;
+    more["max_frames"] = 4;
+    auto resumed = resume_with(more);
+    ASSERT_TRUE(resumed) << resumed.error().message;
+    EXPECT_TRUE(resumed->resumed);
+    EXPECT_EQ(resumed->dir, r.out_dir);
+    EXPECT_EQ(resumed->result->resumed_frames, 2u);
+    EXPECT_GT(resumed->result->frames.size(), 2u);
+    EXPECT_LE(resumed->result->frames.size(), 4u);
+    std::filesystem::remove_all(dir);
+}
+
 TEST(ImageCommand, InterruptedCampaignResumesThroughTheCommand) {
     // A journal holding the set-up and a few frames (the campaign stopped there) continued by
     // `gonio acquire --resume DIR`, which reads the folder's settings and ground truth.

@@ -63,6 +63,7 @@ struct CampaignRequest {
     /// and sub-pixel rays, and its noise seed.
     int table_factor = 3;
     int image_size = 256;
+    bool perspective = false;  ///< Default camera: perspective at 0.5 m instead of telecentric.
     int supersample = 2;
     std::uint64_t seed = 1;
 };
@@ -196,6 +197,8 @@ Expected<ImagePlan> plan_image_campaign(const CampaignRequest& request);
 /// What an image campaign run did.
 struct ImageCampaignRun {
     std::string dir;        ///< Where its outputs were written.
+    std::string journal;    ///< Its frame journal (image_journal.h), inside `dir`.
+    bool resumed = false;   ///< A resume of the campaign in `dir`.
     std::string sample;     ///< Sample name (request.sample, else the ground truth's name).
     bool embedded = false;  ///< Served by the embedded virtual rig.
     std::string rig_name;
@@ -206,17 +209,42 @@ struct ImageCampaignRun {
     PoseCheckLog poses;
 };
 
-/// Runs a new image campaign (no journal; a request with resume_dir is refused): refuses a
-/// conflict (find_conflict), starts the rig (start_image_rig
-/// with the request's ground truth and time scale), refuses an anisotropic virtual sample (the
-/// table is isotropic), calls `started` once the rig answers, runs the campaign and writes it
-/// into image_campaign_dir() with the sample, operator, rig, addresses and pose checks in its
-/// metadata.
+/// The hooks of a front end into an image campaign run; each may be empty.
+struct ImageRunHooks {
+    /// Once the rig answers and the folder is known, before anything is written: an error ends
+    /// the run with nothing written (a live page whose address is in use, for one).
+    std::function<Expected<void>(const ImageCampaignRun&)> started;
+    ImageProgressFn progress;
+    ImageStateFn state;
+    /// Wraps the capture function (to show the frames on a live page).
+    std::function<CaptureFn(CaptureFn)> wrap_capture;
+};
+
+/// Runs an image campaign, new or resumed, journaled so that a campaign ended by a crash or a
+/// kill resumes where it stopped:
+/// - refuses a conflict (find_conflict) and a bad table resolution;
+/// - a resume (request.resume_dir) takes every setting from the folder's image_campaign.json;
+/// - starts the rig (start_image_rig with the ground truth, time scale and seed), refuses an
+///   anisotropic virtual sample (the table is isotropic), calls hooks.started;
+/// - a new campaign refuses a folder that already holds one, creates it and writes its settings
+///   (and the ground truth's file, copied in, so that a resume reads only the folder);
+/// - runs the campaign on the folder's frames.journal and writes its outputs into the folder
+///   with the sample, operator, rig, addresses and pose checks in its metadata.
+/// The run is returned whether or not the coverage target was met (result->target_met).
+Expected<ImageCampaignRun> run_image_request(const CampaignRequest& request,
+                                             const EmbeddedRigStarter& start_rig,
+                                             const ImageRunHooks& hooks);
+
+/// The same with a `started` that cannot fail and a progress report only.
 Expected<ImageCampaignRun> run_image_request(
     const CampaignRequest& request,
     const EmbeddedRigStarter& start_rig,
     const std::function<void(const ImageCampaignRun&)>& started = {},
     const ImageProgressFn& progress = {});
+
+/// Whether `dir` holds an image campaign (its image_campaign.json): how a resume tells the modes
+/// apart.
+bool is_image_campaign_dir(const std::string& dir);
 
 /// The folder of a new image campaign: request.out_dir, else "image-<name>-<n>" under
 /// request.campaigns_dir (the current folder when empty), the first n not in use.

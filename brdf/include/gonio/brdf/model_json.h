@@ -7,6 +7,7 @@
 // Unknown keys, missing keys, wrong types and out-of-domain values are rejected with the key path
 // and the rule: "model.json: lobes[0].alpha = -0.1: must be > 0".
 
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "gonio/base/error.h"
@@ -16,6 +17,11 @@ namespace gonio::brdf {
 
 /// Parses a model from JSON text; source_name prefixes every message (a file name or "<stdin>").
 Expected<ModelD> parse_model_json(const std::string& text, const std::string& source_name);
+
+/// Reads a model from a parsed JSON value whose key path is `path` ("" for a model file, "model"
+/// inside a fit template), so that messages name "model.lobes[0].alpha". On the first problem it
+/// throws gonio::JsonFailure: call it inside gonio::read_strict_json (base/strict_json.h).
+ModelD read_model_json(const nlohmann::json& j, const std::string& path);
 
 /// Reads and parses a model file; the error names the path.
 Expected<ModelD> load_model_json(const std::string& path);
