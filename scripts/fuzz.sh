@@ -8,7 +8,7 @@
 #   scripts/fuzz.sh [SECONDS] [TARGET...]      targets: the names in fuzz/CMakeLists.txt (csv, gvcp, ...)
 # Environment: FUZZ_BUILD_DIR (default build-fuzz), JOBS (build jobs, default: number of cores),
 # MERGE (1: merge new coverage into the corpus), FUZZ_ARGS (more libFuzzer options), FUZZ_SKIP_BUILD
-# (1: run the targets as already built in the build folder).
+# (1: run the targets as already built in the build folder), FUZZ_PARALLEL (targets run at once, default 1).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
@@ -38,11 +38,9 @@ binary() { echo "$build_dir/fuzz/gonio_fuzz_$1"; }
 if [ "${FUZZ_SKIP_BUILD:-0}" != 1 ]; then
   # GONIO_BUILD_FUZZ instruments every library for coverage and the sanitizers (CMakeLists.txt).
   # Warnings are the gcc build's gate (-Werror there); clang's own warnings do not stop fuzzing.
-  # -O1 with line tables only: a quicker build (CI builds it from nothing), and findings still
-  # come with file and line.
-  cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only -DNDEBUG" \
-    -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only -DNDEBUG" \
+  # Build type Instrumented: -O1 with line tables only (a quicker build; findings still come with file
+  # and line).
+  cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Instrumented \
     -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 \
     -DGONIO_BUILD_FUZZ=ON -DGONIO_BUILD_TESTS=OFF -DGONIO_BUILD_PYTHON=OFF -DGONIO_WERROR=OFF >/dev/null
   build_targets=()
@@ -52,24 +50,24 @@ fi
 
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
-status=0
-summary=()
-for t in $targets; do
-  run_dir="$build_dir/fuzz/run/$t"
+
+# Runs one target; its summary line goes to $run_dir/summary, and it returns 1 on a finding.
+fuzz_one() {
+  local t=$1
+  local run_dir="$build_dir/fuzz/run/$t"
   rm -rf "$run_dir"
   mkdir -p "$run_dir/new" "$run_dir/artifacts"
-  corpus="fuzz/corpus/$t"
-  log="$run_dir/log.txt"
+  local corpus="fuzz/corpus/$t"
+  local log="$run_dir/log.txt"
   echo "fuzz.sh: $t for ${seconds} s (log $log)"
   # -timeout: one input that takes 30 s on this machine is a finding (a hang), not patience.
-  set +e
+  local rc=0
   nice -n 10 "$(binary "$t")" -max_total_time="$seconds" -timeout=30 -rss_limit_mb=2048 \
     -print_final_stats=1 -artifact_prefix="$run_dir/artifacts/" ${FUZZ_ARGS:-} \
-    "$run_dir/new" "$corpus" >"$log" 2>&1
-  rc=$?
-  set -e
+    "$run_dir/new" "$corpus" >"$log" 2>&1 || rc=$?
+  local execs
   execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1)
-  findings=0
+  local findings=0 f
   for f in "$run_dir"/artifacts/*; do
     [ -e "$f" ] || continue
     findings=$((findings + 1))
@@ -81,13 +79,35 @@ for t in $targets; do
     echo "fuzz.sh: $t: libFuzzer exited $rc without an artifact; see $log"
   fi
   if [ "$findings" -gt 0 ]; then
-    status=1
     tail -n 40 "$log"
   fi
   if [ "${MERGE:-0}" = 1 ]; then
     nice -n 10 "$(binary "$t")" -merge=1 "$corpus" "$run_dir/new" >>"$log" 2>&1
   fi
-  summary+=("$t: ${seconds} s, ${execs:-0} executions, $findings findings")
+  echo "$t: ${seconds} s, ${execs:-0} executions, $findings findings" >"$run_dir/summary"
+  [ "$findings" -eq 0 ]
+}
+
+# FUZZ_PARALLEL targets at a time (default 1).
+parallel=${FUZZ_PARALLEL:-1}
+case "$parallel" in
+  ''|*[!0-9]*|0) echo "fuzz.sh: FUZZ_PARALLEL must be a whole number above 0, got '$parallel'" >&2; exit 2 ;;
+esac
+status=0
+running=0
+for t in $targets; do
+  if [ "$running" -ge "$parallel" ]; then
+    wait -n || status=1
+    running=$((running - 1))
+  fi
+  fuzz_one "$t" &
+  running=$((running + 1))
 done
-printf 'fuzz.sh: %s\n' "${summary[@]}"
+while [ "$running" -gt 0 ]; do
+  wait -n || status=1
+  running=$((running - 1))
+done
+for t in $targets; do
+  cat "$build_dir/fuzz/run/$t/summary" 2>/dev/null | sed 's/^/fuzz.sh: /' || echo "fuzz.sh: $t: no summary"
+done
 exit $status

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Installs what is missing (Debian 12 packages), configures and builds gonio.
 # Environment: BUILD_DIR (default build), GONIO_SANITIZE (ON/OFF), GONIO_BUILD_BENCH (ON/OFF),
-# GONIO_WERROR (default ON), JOBS (default: number of cores).
+# GONIO_WERROR (default ON), BUILD_TYPE (default Release: -O2
+# without debug information, about a third less build time; RelWithDebInfo adds -g), JOBS (default: number of cores),
+# CMAKE_ARGS (more cmake options, e.g. another compiler).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -28,7 +30,7 @@ fi
 
 build_dir=${BUILD_DIR:-build}
 jobs=${JOBS:-$(nproc)}
-cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=${BUILD_TYPE:-RelWithDebInfo} \
+cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=${BUILD_TYPE:-Release} \
   -DGONIO_WERROR=${GONIO_WERROR:-ON} -DGONIO_SANITIZE=${GONIO_SANITIZE:-OFF} \
-  -DGONIO_BUILD_BENCH=${GONIO_BUILD_BENCH:-OFF} >/dev/null
+  -DGONIO_BUILD_BENCH=${GONIO_BUILD_BENCH:-OFF} ${CMAKE_ARGS:-} >/dev/null
 cmake --build "$build_dir" -j "$jobs"

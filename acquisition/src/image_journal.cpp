@@ -1,12 +1,9 @@
 #include "gonio/acquisition/image_journal.h"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
-#include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <optional>
+#include <utility>
 
 #include "gonio/acquisition/journal.h"
 #include "gonio/base/check.h"
@@ -18,10 +15,6 @@ constexpr char kMagic[4] = {'G', 'I', 'J', '1'};
 constexpr std::size_t kHeaderBytes = 4 + 1 + 4 + 8;
 constexpr std::uint8_t kTypeSetup = 1;
 constexpr std::uint8_t kTypeFrame = 2;
-
-std::string errno_text() {
-    return std::strerror(errno);
-}
 
 /// Little-endian writer.
 class Writer {
@@ -280,35 +273,15 @@ std::string encode_frame(const ImageJournalFrame& f) {
 
 Expected<ImageJournal> ImageJournal::open(const std::string& path) {
     ImageJournal jn;
-    jn.path_ = path;
-    std::string content;
-    {
-        const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW);
-        if (fd >= 0) {
-            char buf[1 << 16];
-            ssize_t n;
-            while ((n = ::read(fd, buf, sizeof buf)) > 0) {
-                content.append(buf, static_cast<std::size_t>(n));
-            }
-            const bool failed = n < 0;
-            ::close(fd);
-            if (failed) {
-                return make_error(path + ": read failed: " + errno_text());
-            }
-        } else if (errno != ENOENT) {
-            return make_error(path + ": cannot open: " + errno_text());
-        }
-    }
-    std::size_t pos = 0;
     std::size_t record = 0;
-    while (pos < content.size()) {
+    auto next = [&](const std::string& content,
+                    std::size_t pos) -> Expected<std::optional<std::size_t>> {
         ++record;
         const std::string where =
             path + ": record " + std::to_string(record) + " at byte " + std::to_string(pos) + ": ";
         if (content.size() - pos < kHeaderBytes) {
             // The last write stopped inside the record header: never acknowledged.
-            jn.torn_tail_ = true;
-            break;
+            return std::optional<std::size_t>();
         }
         const std::string head = content.substr(pos, kHeaderBytes);
         Reader hr(head);
@@ -323,8 +296,7 @@ Expected<ImageJournal> ImageJournal::open(const std::string& path) {
         const bool magic_ok = std::memcmp(magic, kMagic, 4) == 0;
         if (magic_ok && end > content.size()) {
             // Cut short inside the payload.
-            jn.torn_tail_ = true;
-            break;
+            return std::optional<std::size_t>();
         }
         const std::string payload =
             magic_ok ? content.substr(pos + kHeaderBytes, length) : std::string();
@@ -332,8 +304,7 @@ Expected<ImageJournal> ImageJournal::open(const std::string& path) {
             if (!magic_ok ? content.find_first_not_of('\0', pos) == std::string::npos
                           : end == content.size()) {
                 // The last record is damaged (or the file ends in zeros after a crash).
-                jn.torn_tail_ = true;
-                break;
+                return std::optional<std::size_t>();
             }
             return make_error(where + (magic_ok ? "wrong hash" : "no record header") +
                               " with more data after it: the journal is corrupt");
@@ -359,74 +330,19 @@ Expected<ImageJournal> ImageJournal::open(const std::string& path) {
         } else {
             return make_error(where + "unknown record type " + std::to_string(type));
         }
-        pos = end;
+        return std::optional<std::size_t>(end);
+    };
+    auto log = AppendLog::replay(path, next, &jn.torn_tail_);
+    if (!log) {
+        return tl::unexpected(log.error());
     }
-    jn.fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0644);
-    if (jn.fd_ < 0) {
-        return make_error(path + ": cannot open for appending: " + errno_text());
-    }
-    if (pos != content.size()) {
-        if (::ftruncate(jn.fd_, static_cast<off_t>(pos)) != 0 || ::fsync(jn.fd_) != 0) {
-            return make_error(path + ": cannot cut the damaged last record: " + errno_text());
-        }
-    }
-    if (::lseek(jn.fd_, static_cast<off_t>(pos), SEEK_SET) < 0) {
-        return make_error(path + ": seek failed: " + errno_text());
-    }
+    jn.log_ = std::move(*log);
     return jn;
 }
 
-ImageJournal::ImageJournal(ImageJournal&& o) noexcept
-    : path_(std::move(o.path_)),
-      fd_(o.fd_),
-      setup_(std::move(o.setup_)),
-      frames_(std::move(o.frames_)),
-      torn_tail_(o.torn_tail_) {
-    o.fd_ = -1;
-}
-
-ImageJournal& ImageJournal::operator=(ImageJournal&& o) noexcept {
-    if (this != &o) {
-        if (fd_ >= 0) {
-            ::close(fd_);
-        }
-        path_ = std::move(o.path_);
-        fd_ = o.fd_;
-        setup_ = std::move(o.setup_);
-        frames_ = std::move(o.frames_);
-        torn_tail_ = o.torn_tail_;
-        o.fd_ = -1;
-    }
-    return *this;
-}
-
-ImageJournal::~ImageJournal() {
-    if (fd_ >= 0) {
-        ::close(fd_);
-    }
-}
-
-Expected<void> ImageJournal::append_bytes(const std::string& bytes) {
-    std::size_t done = 0;
-    while (done < bytes.size()) {
-        const ssize_t n = ::write(fd_, bytes.data() + done, bytes.size() - done);
-        if (n < 0) {
-            if (errno == EINTR) {
-                continue;
-            }
-            return make_error(path_ + ": write failed: " + errno_text());
-        }
-        done += static_cast<std::size_t>(n);
-    }
-    if (::fsync(fd_) != 0) {
-        return make_error(path_ + ": fsync failed: " + errno_text());
-    }
-    return {};
-}
-
 Expected<void> ImageJournal::append_setup(const ImageJournalSetup& s) {
-    GONIO_CHECK_MSG(!setup_ && frames_.empty(), path_ << ": set-up after other records");
-    if (auto w = append_bytes(encode_setup(s)); !w) {
+    GONIO_CHECK_MSG(!setup_ && frames_.empty(), path() << ": set-up after other records");
+    if (auto w = log_.append(encode_setup(s)); !w) {
         return w;
     }
     setup_ = s;
@@ -434,8 +350,8 @@ Expected<void> ImageJournal::append_setup(const ImageJournalSetup& s) {
 }
 
 Expected<void> ImageJournal::append_frame(const ImageJournalFrame& f) {
-    GONIO_CHECK_MSG(setup_.has_value(), path_ << ": frame before the set-up");
-    if (auto w = append_bytes(encode_frame(f)); !w) {
+    GONIO_CHECK_MSG(setup_.has_value(), path() << ": frame before the set-up");
+    if (auto w = log_.append(encode_frame(f)); !w) {
         return w;
     }
     frames_.push_back(f);

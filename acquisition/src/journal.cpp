@@ -1,14 +1,10 @@
 #include "gonio/acquisition/journal.h"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
-#include <cerrno>
 #include <cinttypes>
 #include <cstdio>
-#include <cstring>
 #include <nlohmann/json.hpp>
+#include <optional>
+#include <utility>
 
 #include "gonio/base/strings.h"
 
@@ -48,10 +44,6 @@ void get_arr(const nlohmann::json& j, const char* key, V* out, int n) {
     for (int k = 0; k < n; ++k) {
         (*out)[k] = a[k].get<double>();
     }
-}
-
-std::string errno_text() {
-    return std::strerror(errno);
 }
 
 }  // namespace
@@ -138,109 +130,38 @@ Expected<JournalRecord> decode_record(const std::string& line) {
 
 Expected<Journal> Journal::open(const std::string& path) {
     Journal jn;
-    jn.path_ = path;
-    std::string content;
-    {
-        const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW);
-        if (fd >= 0) {
-            char buf[65536];
-            ssize_t n;
-            while ((n = ::read(fd, buf, sizeof buf)) > 0) {
-                content.append(buf, static_cast<std::size_t>(n));
-            }
-            const bool failed = n < 0;
-            ::close(fd);
-            if (failed) {
-                return make_error(path + ": read failed: " + errno_text());
-            }
-        } else if (errno != ENOENT) {
-            return make_error(path + ": cannot open: " + errno_text());
-        }
-    }
-    std::size_t pos = 0;
-    std::size_t good_end = 0;
     std::size_t line_no = 0;
-    while (pos < content.size()) {
+    auto next = [&](const std::string& content,
+                    std::size_t pos) -> Expected<std::optional<std::size_t>> {
         ++line_no;
         const auto nl = content.find('\n', pos);
-        const bool last =
-            (nl == std::string::npos) || content.find('\n', nl + 1) == std::string::npos;
         if (nl == std::string::npos) {
             // The last write was cut before its newline: never acknowledged.
-            jn.torn_tail_ = true;
-            break;
+            return std::optional<std::size_t>();
         }
         auto rec = decode_record(content.substr(pos, nl - pos));
         if (!rec) {
+            const bool last = content.find('\n', nl + 1) == std::string::npos;
             if (last && content.find_first_not_of('\0', nl + 1) == std::string::npos) {
-                jn.torn_tail_ = true;
-                break;
+                return std::optional<std::size_t>();
             }
             return make_error(path + ":" + std::to_string(line_no) + ": " + rec.error().message +
                               " with good records after it: the journal is corrupt");
         }
         jn.records_.push_back(std::move(*rec));
-        pos = nl + 1;
-        good_end = pos;
+        return std::optional<std::size_t>(nl + 1);
+    };
+    auto log = AppendLog::replay(path, next, &jn.torn_tail_);
+    if (!log) {
+        return tl::unexpected(log.error());
     }
-    jn.fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0644);
-    if (jn.fd_ < 0) {
-        return make_error(path + ": cannot open for appending: " + errno_text());
-    }
-    if (jn.torn_tail_ || good_end != content.size()) {
-        if (::ftruncate(jn.fd_, static_cast<off_t>(good_end)) != 0 || ::fsync(jn.fd_) != 0) {
-            return make_error(path + ": cannot cut the damaged last line: " + errno_text());
-        }
-    }
-    if (::lseek(jn.fd_, static_cast<off_t>(good_end), SEEK_SET) < 0) {
-        return make_error(path + ": seek failed: " + errno_text());
-    }
+    jn.log_ = std::move(*log);
     return jn;
 }
 
-Journal::Journal(Journal&& o) noexcept
-    : path_(std::move(o.path_)),
-      fd_(o.fd_),
-      records_(std::move(o.records_)),
-      torn_tail_(o.torn_tail_) {
-    o.fd_ = -1;
-}
-
-Journal& Journal::operator=(Journal&& o) noexcept {
-    if (this != &o) {
-        if (fd_ >= 0) {
-            ::close(fd_);
-        }
-        path_ = std::move(o.path_);
-        fd_ = o.fd_;
-        records_ = std::move(o.records_);
-        torn_tail_ = o.torn_tail_;
-        o.fd_ = -1;
-    }
-    return *this;
-}
-
-Journal::~Journal() {
-    if (fd_ >= 0) {
-        ::close(fd_);
-    }
-}
-
 Expected<void> Journal::append(const JournalRecord& r) {
-    const std::string line = encode_record(r);
-    std::size_t done = 0;
-    while (done < line.size()) {
-        const ssize_t n = ::write(fd_, line.data() + done, line.size() - done);
-        if (n < 0) {
-            if (errno == EINTR) {
-                continue;
-            }
-            return make_error(path_ + ": write failed: " + errno_text());
-        }
-        done += static_cast<std::size_t>(n);
-    }
-    if (::fsync(fd_) != 0) {
-        return make_error(path_ + ": fsync failed: " + errno_text());
+    if (auto w = log_.append(encode_record(r)); !w) {
+        return w;
     }
     records_.push_back(r);
     return {};

@@ -258,4 +258,47 @@ cv::Mat blank(int width, int height, const std::string& title, const std::string
     return img;
 }
 
+Axes half_diff_axes(cv::Rect area) {
+    Axes ax;
+    ax.area = area;
+    ax.x0 = 0;
+    ax.x1 = 90;
+    ax.y0 = 0;
+    ax.y1 = 90;
+    return ax;
+}
+
+void draw_half_diff_axes(cv::Mat& img, const Axes& ax, bool brief) {
+    ax.draw(img,
+            brief ? "theta_h [deg]" : "theta_h [deg] (half vector from the normal)",
+            brief ? "theta_d [deg]" : "theta_d [deg] (difference angle)");
+}
+
+void colour_bar(cv::Mat& img,
+                cv::Rect area,
+                double lo,
+                double hi,
+                const std::function<cv::Scalar(double)>& colour,
+                const std::string& label,
+                int ticks) {
+    for (int y = 0; y < area.height; ++y) {
+        const double t = 1.0 - (y + 0.5) / area.height;
+        cv::line(img, {area.x, area.y + y}, {area.x + area.width - 1, area.y + y}, colour(t), 1);
+    }
+    cv::rectangle(img, area, kAxis, 1);
+    int widest = 0;
+    for (double v : nice_ticks(lo, hi, ticks)) {
+        const int y = area.y + area.height -
+                      static_cast<int>(std::lround((v - lo) / (hi - lo) * area.height));
+        cv::line(img, {area.x + area.width, y}, {area.x + area.width + 4, y}, kAxis, 1);
+        const std::string s = format_tick(v);
+        text(img, s, {area.x + area.width + 7, y});
+        widest = std::max(widest, text_width(s));
+    }
+    if (!label.empty()) {
+        text_vertical(
+            img, label, {area.x + area.width + 7 + widest + 14, area.y + area.height / 2});
+    }
+}
+
 }  // namespace gonio::report::draw

@@ -65,6 +65,25 @@ struct Axes {
     void draw(cv::Mat& img, const std::string& x_label, const std::string& y_label) const;
 };
 
+/// Axes of the half/difference plane over `area`: theta_h [deg] along x, theta_d [deg] up, both
+/// over [0, 90] (Rusinkiewicz 1998; the residual and coverage maps).
+Axes half_diff_axes(cv::Rect area);
+
+/// Draws half_diff_axes: frame, grid, ticks and the plane's axis labels (`brief`: the angles'
+/// names alone, for a narrow panel).
+void draw_half_diff_axes(cv::Mat& img, const Axes& ax, bool brief = false);
+
+/// A vertical colour bar in `area` for values in [lo, hi]: colour(t), t in [0, 1] from bottom to
+/// top; about `ticks` ticks at the right, and `label` (when not empty) rotated beyond the widest
+/// tick label.
+void colour_bar(cv::Mat& img,
+                cv::Rect area,
+                double lo,
+                double hi,
+                const std::function<cv::Scalar(double)>& colour,
+                const std::string& label,
+                int ticks = 5);
+
 /// A legend entry: a colour, a style (line, marker or both) and a label.
 struct LegendEntry {
     cv::Scalar color;

@@ -16,24 +16,6 @@ namespace {
 
 constexpr double kDeg = brdf::kPi / 180.0;
 
-/// A vertical colour bar at `area` for values in [lo, hi] drawn with colour(t), t in [0, 1].
-template <class ColorFn>
-void color_bar(
-    cv::Mat& img, cv::Rect area, double lo, double hi, ColorFn colour, const std::string& label) {
-    for (int y = 0; y < area.height; ++y) {
-        const double t = 1.0 - (y + 0.5) / area.height;
-        cv::line(img, {area.x, area.y + y}, {area.x + area.width - 1, area.y + y}, colour(t), 1);
-    }
-    cv::rectangle(img, area, draw::kAxis, 1);
-    for (double v : draw::nice_ticks(lo, hi, 6)) {
-        const int y = area.y + area.height -
-                      static_cast<int>(std::lround((v - lo) / (hi - lo) * area.height));
-        cv::line(img, {area.x + area.width, y}, {area.x + area.width + 4, y}, draw::kAxis, 1);
-        draw::text(img, draw::format_tick(v), {area.x + area.width + 7, y}, 0.45);
-    }
-    draw::text_vertical(img, label, {area.x + area.width + 72, area.y + area.height / 2}, 0.5);
-}
-
 }  // namespace
 
 Expected<Image> plot_residual_map(const brdf::Dataset& data,
@@ -99,12 +81,7 @@ Expected<Image> plot_residual_map(const brdf::Dataset& data,
                                   plot_detail::short_name(data.source),
                               sub);
     const int side = std::min(W - 90 - 190, H - 60 - 70);
-    draw::Axes ax;
-    ax.area = cv::Rect(90, 60, side, side);
-    ax.x0 = 0;
-    ax.x1 = 90;
-    ax.y0 = 0;
-    ax.y1 = 90;
+    const draw::Axes ax = draw::half_diff_axes(cv::Rect(90, 60, side, side));
     for (int id = 0; id < kBins; ++id) {
         for (int ih = 0; ih < kBins; ++ih) {
             const int i = id * kBins + ih;
@@ -115,14 +92,15 @@ Expected<Image> plot_residual_map(const brdf::Dataset& data,
             cv::rectangle(img, cv::Rect(a, b), c, cv::FILLED);
         }
     }
-    ax.draw(img, "theta_h [deg] (half vector from the normal)", "theta_d [deg] (difference angle)");
-    color_bar(
+    draw::draw_half_diff_axes(img, ax);
+    draw::colour_bar(
         img,
         cv::Rect(ax.area.x + ax.area.width + 24, ax.area.y, 22, ax.area.height),
         -range,
         range,
         [](double t) { return draw::diverging(2 * t - 1); },
-        "log10(measured / fit); red: data above fit");
+        "log10(measured / fit); red: data above fit",
+        6);
     return from_mat(img);
 }
 
@@ -176,14 +154,10 @@ Expected<Image> plot_coverage(const brdf::Dataset& data, const PlotOptions& opti
                draw::Align::kCenter);
 
     // Right: (theta_h, theta_d).
-    draw::Axes ax;
     const int ax_x = c.x + R + 110;
-    ax.area = cv::Rect(ax_x, top, std::max(80, W - ax_x - 110), 2 * R);
-    ax.x0 = 0;
-    ax.x1 = 90;
-    ax.y0 = 0;
-    ax.y1 = 90;
-    ax.draw(img, "theta_h [deg]", "theta_d [deg]");
+    const draw::Axes ax =
+        draw::half_diff_axes(cv::Rect(ax_x, top, std::max(80, W - ax_x - 110), 2 * R));
+    draw::draw_half_diff_axes(img, ax, true);
     for (const brdf::Sample& s : data.samples) {
         const brdf::HalfDiff<double> hd = brdf::to_half_diff(s.wi(), s.wo());
         cv::circle(img,
@@ -194,8 +168,8 @@ Expected<Image> plot_coverage(const brdf::Dataset& data, const PlotOptions& opti
                    cv::LINE_AA);
     }
     const cv::Rect bar(W - 56, top, 16, 2 * R);
-    color_bar(
-        img, bar, 0, 90, [](double t) { return draw::sequential(t); }, "");
+    draw::colour_bar(
+        img, bar, 0, 90, [](double t) { return draw::sequential(t); }, "", 6);
     draw::text(
         img, "theta_i [deg]", {bar.x + 8, top - 12}, 0.5, draw::kBlack, draw::Align::kCenter);
     draw::legend(img,

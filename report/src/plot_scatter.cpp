@@ -17,25 +17,6 @@ namespace {
 
 constexpr double kDeg = brdf::kPi / 180.0;
 
-/// A vertical colour bar in `area` for values in [lo, hi]; colour(t), t in [0, 1] from bottom to
-/// top; ticks at the right and a rotated label beyond them.
-template <class ColorFn>
-void vertical_bar(
-    cv::Mat& img, cv::Rect area, double lo, double hi, ColorFn colour, const std::string& label) {
-    for (int y = 0; y < area.height; ++y) {
-        const double t = 1.0 - (y + 0.5) / area.height;
-        cv::line(img, {area.x, area.y + y}, {area.x + area.width - 1, area.y + y}, colour(t), 1);
-    }
-    cv::rectangle(img, area, draw::kAxis, 1);
-    for (double v : draw::nice_ticks(lo, hi, 5)) {
-        const int y = area.y + area.height -
-                      static_cast<int>(std::lround((v - lo) / (hi - lo) * area.height));
-        cv::line(img, {area.x + area.width, y}, {area.x + area.width + 4, y}, draw::kAxis, 1);
-        draw::text(img, draw::format_tick(v), {area.x + area.width + 7, y}, 0.5);
-    }
-    draw::text_vertical(img, label, {area.x + area.width + 58, area.y + area.height / 2}, 0.5);
-}
-
 }  // namespace
 
 Expected<Image> plot_half_angle(const brdf::Dataset& data,
@@ -111,7 +92,7 @@ Expected<Image> plot_half_angle(const brdf::Dataset& data,
         }
         draw::marker(img, ax.pt(p.theta_h_deg, p.y), draw::sequential(p.theta_d_deg / 90.0), 3);
     }
-    vertical_bar(
+    draw::colour_bar(
         img,
         cv::Rect(ax.area.x + ax.area.width + 16, ax.area.y, 16, ax.area.height),
         0,
@@ -151,12 +132,7 @@ Expected<Image> plot_coverage_cells(const CoverageCells& cells,
                   cells.n_phi_d,
                   holes.size());
     cv::Mat img = draw::blank(W, H, "Coverage of the table - " + title, sub);
-    draw::Axes ax;
-    ax.area = cv::Rect(90, 70, side, side);
-    ax.x0 = 0;
-    ax.x1 = 90;
-    ax.y0 = 0;
-    ax.y1 = 90;
+    const draw::Axes ax = draw::half_diff_axes(cv::Rect(90, 70, side, side));
     const cv::Scalar empty_colour(225, 225, 225);
     const cv::Scalar invalid_colour(150, 150, 150);
     bool any_invalid = false;
@@ -190,8 +166,8 @@ Expected<Image> plot_coverage_cells(const CoverageCells& cells,
         const cv::Point b = ax.pt(h.theta_h_max_deg, h.theta_d_min_deg);
         cv::rectangle(img, cv::Rect(a, b), hole_colour, 1, cv::LINE_AA);
     }
-    ax.draw(img, "theta_h [deg] (half vector from the normal)", "theta_d [deg] (difference angle)");
-    vertical_bar(
+    draw::draw_half_diff_axes(img, ax);
+    draw::colour_bar(
         img,
         cv::Rect(ax.area.x + ax.area.width + 20, ax.area.y, 18, ax.area.height),
         0,

@@ -418,6 +418,49 @@ TEST(DynamicRange, ResolveScaleSwitchesAboveOneDecade) {
     EXPECT_EQ(resolve_scale(AxisScale::kLog, 1, 2), AxisScale::kLog);
 }
 
+TEST(ResidualMap, CellOfASampleSitsWhereTheHalfDiffAxesPutIt) {
+    // One in-plane sample at theta_i = 42 deg, theta_o = 20 deg on the other side: theta_h = 11
+    // deg, theta_d = 31 deg, the 5-degree cell [10, 15) x [30, 35). The map's axes are the
+    // half/difference plane, 0..90 deg both ways, on a square of side min(W - 280, H - 130) px
+    // from (90, 60): at 800 x 600 px, 470 px.
+    brdf::ModelD m;
+    m.has_diffuse = true;
+    m.diffuse = brdf::Rgbd::Constant(0.2);
+    const brdf::AnalyticBrdf fit(m);
+    brdf::Dataset d;
+    d.source = "one.csv";
+    brdf::Sample s;
+    s.theta_i = 42 * kDeg;
+    s.phi_i = 0;
+    s.theta_o = 20 * kDeg;
+    s.phi_o = brdf::kPi;
+    s.value = 2.0 * fit.eval(s.wi(), s.wo());  // data above the fit: a red cell
+    d.samples.push_back(s);
+    PlotOptions o;
+    o.width = 800;
+    auto img = plot_residual_map(d, fit, o);
+    ASSERT_TRUE(img) << img.error().message;
+    const double side = 470;
+    int x_lo = img->width, x_hi = -1, y_lo = img->height, y_hi = -1;
+    for (int y = 60; y < 60 + 470; ++y) {
+        for (int x = 90; x < 90 + 470; ++x) {
+            const Color c = img->at(x, y);
+            if (c.r > c.b + 60) {
+                x_lo = std::min(x_lo, x);
+                x_hi = std::max(x_hi, x);
+                y_lo = std::min(y_lo, y);
+                y_hi = std::max(y_hi, y);
+            }
+        }
+    }
+    ASSERT_GE(x_hi, 0) << "no red cell inside the axes";
+    // Grid lines may cover a cell's edge pixel.
+    EXPECT_NEAR(x_lo, 90 + 10 / 90.0 * side, 2);
+    EXPECT_NEAR(x_hi, 90 + 15 / 90.0 * side, 2);
+    EXPECT_NEAR(y_lo, 60 + side - 35 / 90.0 * side, 2);
+    EXPECT_NEAR(y_hi, 60 + side - 30 / 90.0 * side, 2);
+}
+
 TEST(CoverageCells, EachCellDrawnInTheColourOfItsFraction) {
     // A 2 x 2 (theta_h x theta_d) grid, theta_h-major: (0,0) full, (0,1) half, (1,0) empty,
     // (1,1) without a valid bin. theta_h cell edges are at (i/2)^2 90 deg: 0, 22.5, 90.

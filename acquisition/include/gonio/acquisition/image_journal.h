@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "gonio/acquisition/append_log.h"
 #include "gonio/acquisition/image_binning.h"
 #include "gonio/acquisition/sphere_geometry.h"
 #include "gonio/base/error.h"
@@ -58,16 +59,11 @@ class ImageJournal {
     /// the set-up's layout and every value for finiteness), cuts off a damaged last record
     /// (torn_tail()) and positions for appending.
     static Expected<ImageJournal> open(const std::string& path);
-    ImageJournal(ImageJournal&& o) noexcept;
-    ImageJournal& operator=(ImageJournal&& o) noexcept;
-    ImageJournal(const ImageJournal&) = delete;
-    ImageJournal& operator=(const ImageJournal&) = delete;
-    ~ImageJournal();
 
     const std::optional<ImageJournalSetup>& setup() const { return setup_; }
     const std::vector<ImageJournalFrame>& frames() const { return frames_; }
     bool torn_tail() const { return torn_tail_; }
-    const std::string& path() const { return path_; }
+    const std::string& path() const { return log_.path(); }
 
     /// Appends the set-up (only as the first record), then fsync.
     Expected<void> append_setup(const ImageJournalSetup& s);
@@ -76,10 +72,7 @@ class ImageJournal {
 
   private:
     ImageJournal() = default;
-    Expected<void> append_bytes(const std::string& bytes);
-
-    std::string path_;
-    int fd_ = -1;
+    AppendLog log_;
     std::optional<ImageJournalSetup> setup_;
     std::vector<ImageJournalFrame> frames_;
     bool torn_tail_ = false;

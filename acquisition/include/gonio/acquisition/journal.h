@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "gonio/acquisition/append_log.h"
 #include "gonio/base/error.h"
 #include "gonio/brdf/coords.h"
 
@@ -54,21 +55,16 @@ class Journal {
     /// Opens (creating if needed) the journal at `path`, reads its records, cuts off a damaged last
     /// line (reported through torn_tail()), and positions for appending.
     static Expected<Journal> open(const std::string& path);
-    Journal(Journal&& o) noexcept;
-    Journal& operator=(Journal&& o) noexcept;
-    Journal(const Journal&) = delete;
-    ~Journal();
 
     const std::vector<JournalRecord>& records() const { return records_; }
     bool torn_tail() const { return torn_tail_; }
     /// Writes the record, then fsync; the record is durable when this returns.
     Expected<void> append(const JournalRecord& r);
-    const std::string& path() const { return path_; }
+    const std::string& path() const { return log_.path(); }
 
   private:
     Journal() = default;
-    std::string path_;
-    int fd_ = -1;
+    AppendLog log_;
     std::vector<JournalRecord> records_;
     bool torn_tail_ = false;
 };
