@@ -36,6 +36,7 @@ struct FitCliOptions {
     std::string shadowing = gonio::batch::default_shadowing();
     bool anisotropic = false;
     int lobes = 1;
+    std::string roughness = "shared";
     std::string residual = "log";
     std::string loss = "none";
     double loss_scale = 0.1;
@@ -84,6 +85,7 @@ std::vector<GivenOption> given_options(const FitCliOptions& o, const CLI::App& c
     add("--shadowing", "shadowing", o.shadowing);
     add("--anisotropic", "anisotropic", o.anisotropic ? "true" : "false");
     add("--lobes", "lobes", std::to_string(o.lobes));
+    add("--roughness", "roughness", o.roughness);
     add("--residual", "residual", o.residual);
     add("--loss", "loss", o.loss);
     std::ostringstream scale;
@@ -218,6 +220,11 @@ GONIO_COMMAND(fit) {
         ->capture_default_str();
     cmd->add_flag("--anisotropic", o->anisotropic, "fit alpha_x and alpha_y separately");
     cmd->add_option("--lobes", o->lobes, "number of specular lobes (0-4)")->capture_default_str();
+    cmd->add_option("--roughness",
+                    o->roughness,
+                    "shared (one alpha for the three channels) or rgb (one alpha per channel; "
+                    "isotropic ggx, beckmann, student-t)")
+        ->capture_default_str();
     cmd->add_option("--residual", o->residual, "absolute, relative, log, cosine, cbrt")
         ->capture_default_str();
     cmd->add_option("--loss", o->loss, "robust loss: none, huber, cauchy")->capture_default_str();
@@ -373,10 +380,10 @@ GONIO_COMMAND(fit) {
         }
         if (request.is_auto()) {
             std::printf("model auto: %s\n", run->criterion.c_str());
-            std::printf("%-4s %-12s %6s %12s %16s\n", "rank", "model", "params", "log_rmse", "BIC");
+            std::printf("%-4s %-26s %6s %12s %16s\n", "rank", "model", "params", "log_rmse", "BIC");
             for (std::size_t i = 0; i < run->ranking.size(); ++i) {
                 const fitting::RankedModel& m = run->ranking[i];
-                std::printf("%-4zu %-12s %6d %12.6g %16.8g%s\n",
+                std::printf("%-4zu %-26s %6d %12.6g %16.8g%s\n",
                             i + 1,
                             m.name.c_str(),
                             m.parameters,

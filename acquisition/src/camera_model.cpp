@@ -13,6 +13,7 @@
 #include "gonio/base/check.h"
 #include "gonio/base/limits.h"
 #include "gonio/base/strict_json.h"
+#include "gonio/base/strings.h"
 
 namespace gonio::acquisition {
 
@@ -303,139 +304,108 @@ std::string camera_model_to_json(const CameraModel& m) {
 
 namespace {
 
-Expected<double> number(const nlohmann::json& j, const std::string& key, const std::string& where) {
-    if (!j.contains(key)) {
-        return make_error(where + ": camera_model." + key + ": missing");
-    }
-    if (!j[key].is_number()) {
-        return make_error(where + ": camera_model." + key + ": must be a number");
-    }
-    const double v = j[key].get<double>();
-    if (!std::isfinite(v)) {
-        return make_error(where + ": camera_model." + key + ": must be finite");
-    }
-    return v;
-}
-
-Expected<std::vector<double>> numbers(const nlohmann::json& j,
-                                      const std::string& key,
-                                      std::size_t n,
-                                      const std::string& where) {
-    const std::string place = where + ": camera_model." + key;
-    if (!j.contains(key) || !j[key].is_array() || j[key].size() != n) {
-        return make_error(place + ": must be an array of " + std::to_string(n) + " numbers");
+/// `n` finite numbers at `at` (a key path).
+std::vector<double> numbers_at(const nlohmann::json& v, const std::string& at, std::size_t n) {
+    if (!v.is_array() || v.size() != n) {
+        json_fail(at + ": must be an array of " + std::to_string(n) + " numbers, got " +
+                  (v.is_array() ? std::to_string(v.size()) + " values" : json_type(v)));
     }
     std::vector<double> out;
-    for (const auto& e : j[key]) {
-        if (!e.is_number() || !std::isfinite(e.get<double>())) {
-            return make_error(place + ": must be an array of " + std::to_string(n) +
-                              " finite numbers");
-        }
-        out.push_back(e.get<double>());
+    for (std::size_t i = 0; i < n; ++i) {
+        out.push_back(json_number_at(v[i], at + "[" + std::to_string(i) + "]"));
     }
     return out;
 }
 
-Expected<CameraModel> from_json_object(const nlohmann::json& j, const std::string& where) {
-    if (!j.is_object()) {
-        return make_error(where + ": camera_model: must be an object");
-    }
+/// The camera model object at key path `path` ("camera_model"), read with the strict reader:
+/// every key known, every value typed, finite and in its domain. Throws JsonFailure (inside
+/// read_strict_json).
+CameraModel read_model_object(const nlohmann::json& j, const std::string& path) {
+    JsonObject o(j, path);
+    auto required = [&](const char* key) -> const nlohmann::json& {
+        if (!o.has(key)) {
+            json_fail(o.key_path(key) + ": missing");
+        }
+        return o.raw(key);
+    };
     CameraModel m;
-    const std::string proj = j.value("projection", std::string("perspective"));
+    const std::string proj = o.string("projection", "perspective", 32);
     if (proj == "perspective") {
         m.projection = Projection::kPerspective;
     } else if (proj == "orthographic") {
         m.projection = Projection::kOrthographic;
     } else {
-        return make_error(where + ": camera_model.projection: \"" + proj +
-                          "\" is not perspective or orthographic");
+        json_fail(o.key_path("projection") + ": \"" + excerpt(proj) +
+                  "\" is not perspective or orthographic");
     }
     CameraIntrinsics& k = m.intrinsics;
     for (const char* key : {"width", "height"}) {
-        auto v = number(j, key, where);
-        if (!v) {
-            return tl::unexpected(v.error());
+        const double v = json_number_at(required(key), o.key_path(key));
+        if (v < 1 || v > 1e6 || std::floor(v) != v) {
+            json_fail(o.key_path(key) + " = " + show_number(v) + ": must be a positive integer");
         }
-        if (*v < 1 || *v > 1e6 || std::floor(*v) != *v) {
-            return make_error(where + ": camera_model." + key + ": must be a positive integer");
-        }
-        (std::string(key) == "width" ? k.width : k.height) = static_cast<int>(*v);
+        (std::string(key) == "width" ? k.width : k.height) = static_cast<int>(v);
     }
     double* fields[] = {&k.fx, &k.fy, &k.cx, &k.cy};
     const char* names[] = {"fx", "fy", "cx", "cy"};
     for (int i = 0; i < 4; ++i) {
-        auto v = number(j, names[i], where);
-        if (!v) {
-            return tl::unexpected(v.error());
+        const double v = json_number_at(required(names[i]), o.key_path(names[i]));
+        if (i < 2 && !(v > 0)) {
+            json_fail(o.key_path(names[i]) + " = " + show_number(v) + ": must be > 0");
         }
-        if (i < 2 && !(*v > 0)) {
-            return make_error(where + ": camera_model." + names[i] + ": must be > 0");
+        *fields[i] = v;
+    }
+    if (const nlohmann::json* v = o.find("pixel_size_um")) {
+        k.pixel_size_um = json_number_at(*v, o.key_path("pixel_size_um"));
+        if (k.pixel_size_um < 0) {
+            json_fail(o.key_path("pixel_size_um") + " = " + show_number(k.pixel_size_um) +
+                      ": must be >= 0");
         }
-        *fields[i] = *v;
     }
-    k.pixel_size_um = j.value("pixel_size_um", 0.0);
-    if (j.contains("distortion")) {
-        auto d = numbers(j, "distortion", 5, where);
-        if (!d) {
-            return tl::unexpected(d.error());
-        }
-        std::copy(d->begin(), d->end(), k.distortion.begin());
+    if (const nlohmann::json* v = o.find("distortion")) {
+        const std::vector<double> d = numbers_at(*v, o.key_path("distortion"), 5);
+        std::copy(d.begin(), d.end(), k.distortion.begin());
     }
-    auto r = numbers(j, "rotation_world_to_camera", 9, where);
-    if (!r) {
-        return tl::unexpected(r.error());
-    }
+    const std::string rot = o.key_path("rotation_world_to_camera");
+    const std::vector<double> r = numbers_at(required("rotation_world_to_camera"), rot, 9);
     for (int i = 0; i < 3; ++i) {
         for (int c = 0; c < 3; ++c) {
-            m.rotation(i, c) = (*r)[3 * i + c];
+            m.rotation(i, c) = r[3 * i + c];
         }
     }
     const double ortho_err =
         (m.rotation * m.rotation.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
     if (ortho_err > 1e-6 || m.rotation.determinant() < 0) {
-        return make_error(where +
-                          ": camera_model.rotation_world_to_camera: not a rotation (R R^T "
-                          "differs from I by " +
-                          std::to_string(ortho_err) + " or det < 0)");
+        json_fail(rot + ": not a rotation (R R^T differs from I by " + show_number(ortho_err) +
+                  " or det < 0)");
     }
-    auto t = numbers(j, "translation_world_to_camera_m", 3, where);
-    if (!t) {
-        return tl::unexpected(t.error());
-    }
-    m.translation = Eigen::Vector3d((*t)[0], (*t)[1], (*t)[2]);
+    const std::vector<double> t = numbers_at(
+        required("translation_world_to_camera_m"), o.key_path("translation_world_to_camera_m"), 3);
+    m.translation = Eigen::Vector3d(t[0], t[1], t[2]);
+    o.finish();
     return m;
 }
 
 }  // namespace
 
 Expected<CameraModel> camera_model_from_json(const std::string& text, const std::string& where) {
-    if (auto ok = check_json_text(text, where); !ok) {
-        return tl::unexpected(ok.error());
-    }
-    nlohmann::json j;
-    try {
-        j = nlohmann::json::parse(text);
-    } catch (const nlohmann::json::exception& e) {
-        return make_error(where + ": " + json_error_text(e.what()));
-    }
-    return from_json_object(j, where);
+    return read_strict_json(
+        where, [&] { return read_model_object(parse_json_checked(text, where), "camera_model"); });
 }
 
 Expected<CameraModel> read_camera_model(const std::string& rig_path) {
-    std::ifstream in(rig_path);
-    if (!in) {
-        return make_error(rig_path + ": cannot open");
+    Expected<std::string> text = read_input_file(rig_path, kMaxJsonBytes);
+    if (!text) {
+        return tl::unexpected(text.error());
     }
-    nlohmann::json j;
-    try {
-        in >> j;
-    } catch (const nlohmann::json::exception& e) {
-        return make_error(rig_path + ": " + json_error_text(e.what()));
-    }
-    if (!j.is_object() || !j.contains("camera_model")) {
-        return make_error(rig_path + ": camera_model: missing (calibrate the camera first)");
-    }
-    return from_json_object(j["camera_model"], rig_path);
+    return read_strict_json(rig_path, [&] {
+        const nlohmann::json j = parse_json_checked(*text, rig_path);
+        require_json_object(j, "");
+        if (!j.contains("camera_model")) {
+            json_fail("camera_model: missing (calibrate the camera first)");
+        }
+        return read_model_object(j["camera_model"], "camera_model");
+    });
 }
 
 Expected<void> write_camera_model(const std::string& rig_path, const CameraModel& m) {

@@ -130,9 +130,12 @@ Expected<Solution> solve(const Target& tg,
                           fmt_deg(lim.blind_angle) + " deg (detector would shadow the light)");
     }
     bool found = false;
-    Solution best;
-    std::string why;
-    const char* names[kNumAxes] = {"light", "detector", "tilt", "spin"};
+    RigPosed best_pose;
+    double best_cost = 0;
+    bool best_swapped = false;
+    // The rule the last rejected candidate broke, worded only when no candidate is left.
+    int why_axis = -1;
+    double why_value = 0;
     for (int swap = 0; swap < (tg.reciprocal ? 2 : 1); ++swap) {
         const Vec3d& wi = swap ? tg.wo : tg.wi;
         const Vec3d& wo = swap ? tg.wi : tg.wo;
@@ -148,8 +151,8 @@ Expected<Solution> solve(const Target& tg,
                 double placed = 0;
                 if (!place_in_range(axis_val(p, k), lim.range[k], axis_val(current, k), &placed)) {
                     ok = false;
-                    why = std::string(names[k]) + " " + fmt_deg(axis_val(p, k)) + " deg outside [" +
-                          fmt_deg(lim.range[k].min) + ", " + fmt_deg(lim.range[k].max) + "] deg";
+                    why_axis = k;
+                    why_value = axis_val(p, k);
                 } else {
                     axis_ref(p, k) = placed;
                 }
@@ -158,17 +161,24 @@ Expected<Solution> solve(const Target& tg,
                 continue;
             }
             const double cost = move_time(current, p, dyn);
-            if (!found || cost < best.cost_s) {
-                const auto [fi, fo] = brdf::rig_forward(p);
-                best = Solution{p, fi, fo, swap == 1, cost};
+            if (!found || cost < best_cost) {
+                best_pose = p;
+                best_cost = cost;
+                best_swapped = swap == 1;
                 found = true;
             }
         }
     }
     if (!found) {
-        return make_error(why);
+        // Every target has candidates (rig_inverse gives two), so a rejected one is on record.
+        GONIO_CHECK(why_axis >= 0);
+        const char* names[kNumAxes] = {"light", "detector", "tilt", "spin"};
+        const auto& r = lim.range[why_axis];
+        return make_error(std::string(names[why_axis]) + " " + fmt_deg(why_value) +
+                          " deg outside [" + fmt_deg(r.min) + ", " + fmt_deg(r.max) + "] deg");
     }
-    return best;
+    const auto [fi, fo] = brdf::rig_forward(best_pose);
+    return Solution{best_pose, fi, fo, best_swapped, best_cost};
 }
 
 }  // namespace gonio::acquisition

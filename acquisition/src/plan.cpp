@@ -298,6 +298,7 @@ void apply_roi(const Scene& sc, Plan* plan) {
 
 void remove_unreachable(const RigLimits& lim, Plan* plan) {
     std::vector<PlannedConfig> kept;
+    kept.reserve(plan->configs.size());
     const std::array<AxisDynamics, kNumAxes> dyn{};
     const brdf::RigPosed rest{};
     for (const PlannedConfig& c : plan->configs) {

@@ -96,7 +96,8 @@ std::optional<OptionConflict> find_conflict(const FitRequest& r) {
     if (!r.is_auto() && !r.is_template()) {
         return std::nullopt;
     }
-    for (const char* key : {"fresnel", "shadowing", "diffuse", "anisotropic", "lobes"}) {
+    for (const char* key :
+         {"fresnel", "shadowing", "diffuse", "anisotropic", "lobes", "roughness"}) {
         if (r.was_given(key)) {
             return OptionConflict{key,
                                   "model",
@@ -174,6 +175,12 @@ Expected<void> set_option_value(FitRequest& r, const std::string& key, const std
             return tl::unexpected(n.error());
         }
         r.lobes = static_cast<int>(*n);
+    } else if (key == "roughness") {
+        auto g = fitting::parse_roughness(v);
+        if (!g) {
+            return make_error("option roughness: " + g.error().message);
+        }
+        r.roughness = v;
     } else if (key == "residual") {
         auto f = fitting::parse_residual(v);
         if (!f) {
@@ -225,8 +232,8 @@ Expected<void> set_option_value(FitRequest& r, const std::string& key, const std
     } else {
         return make_error("unknown option \"" + key +
                           "\" (known: model, fresnel, shadowing, diffuse, anisotropic, lobes, "
-                          "residual, loss, loss_scale, max_samples, starts, seed, max_iterations, "
-                          "threads)");
+                          "roughness, residual, loss, loss_scale, max_samples, starts, seed, "
+                          "max_iterations, threads)");
     }
     return {};
 }
@@ -269,9 +276,10 @@ std::string format_options(const FitRequest& r) {
     o << "model=" << r.model << ";fresnel=" << r.fresnel << ";shadowing=" << r.shadowing
       << ";diffuse=" << (r.diffuse ? "true" : "false")
       << ";anisotropic=" << (r.anisotropic ? "true" : "false") << ";lobes=" << r.lobes
-      << ";residual=" << r.residual << ";loss=" << r.loss << ";loss_scale=" << r.loss_scale
-      << ";max_samples=" << r.max_samples << ";starts=" << r.starts << ";seed=" << r.seed
-      << ";max_iterations=" << r.max_iterations << ";threads=" << r.threads;
+      << ";roughness=" << r.roughness << ";residual=" << r.residual << ";loss=" << r.loss
+      << ";loss_scale=" << r.loss_scale << ";max_samples=" << r.max_samples
+      << ";starts=" << r.starts << ";seed=" << r.seed << ";max_iterations=" << r.max_iterations
+      << ";threads=" << r.threads;
     return o.str();
 }
 
@@ -294,7 +302,12 @@ Expected<fitting::FitSpec> make_fit_spec(const FitRequest& r) {
         if (!shad) {
             return tl::unexpected(shad.error());
         }
+        auto rough = fitting::parse_roughness(r.roughness);
+        if (!rough) {
+            return tl::unexpected(rough.error());
+        }
         fitting::ModelOptions mo;
+        mo.rgb_roughness = *rough;
         mo.distribution = *dist;
         mo.fresnel = fres->first;
         mo.fresnel_rgb = fres->second;

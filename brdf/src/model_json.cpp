@@ -245,10 +245,24 @@ Lobe<double> parse_lobe(const Json& j, const std::string& path) {
         if (has_alpha && (has_x || has_y)) {
             json_fail(path + ": give either \"alpha\" or \"alpha_x\" and \"alpha_y\", not both");
         }
-        if (has_alpha) {
+        if (has_alpha && j["alpha"].is_array()) {
+            // RGB-varying roughness: one alpha per channel (model.h, Lobe::rgb_roughness).
+            const std::string at = path + ".alpha";
+            if (j["alpha"].size() != 3) {
+                json_fail(at + ": expected a number or an array of 3 numbers (one per channel), " +
+                          "got an array of " + std::to_string(j["alpha"].size()));
+            }
+            lobe.anisotropic = false;
+            lobe.rgb_roughness = true;
+            for (int c = 0; c < 3; ++c) {
+                lobe.alpha_rgb[c] = get_alpha(j["alpha"][c], at + "[" + std::to_string(c) + "]");
+            }
+            lobe.alpha_x = lobe.alpha_y = lobe.alpha_rgb[1];
+        } else if (has_alpha) {
             lobe.anisotropic = false;
             lobe.alpha_x = get_alpha(j["alpha"], path + ".alpha");
             lobe.alpha_y = lobe.alpha_x;
+            lobe.alpha_rgb = Rgbd::Constant(lobe.alpha_x);
         } else if (has_x || has_y) {
             lobe.anisotropic = true;
             lobe.alpha_x = get_alpha(json_member(j, path, "alpha_x"), path + ".alpha_x");
@@ -417,6 +431,8 @@ std::string model_to_json(const ModelD& m, const std::string& fit_verdict) {
         } else if (l.anisotropic) {
             o["alpha_x"] = l.alpha_x;
             o["alpha_y"] = l.alpha_y;
+        } else if (l.rgb_roughness) {
+            o["alpha"] = rgb_json(l.alpha_rgb);
         } else {
             o["alpha"] = l.alpha_x;
         }
@@ -466,6 +482,8 @@ std::string describe_model(const ModelD& m) {
                                       : std::string("table to extract");
         } else if (l.anisotropic) {
             out += "alpha_x " + show(l.alpha_x) + " alpha_y " + show(l.alpha_y);
+        } else if (l.rgb_roughness) {
+            out += "alpha " + fmt_rgb(l.alpha_rgb);
         } else {
             out += "alpha " + show(l.alpha_x);
         }

@@ -32,12 +32,16 @@ bool field_used(const brdf::ModelD& m, Field f, int lobe, std::string* why) {
     const bool tab = l.distribution == brdf::Distribution::kTabulated;
     switch (f) {
         case Field::kAlphaX:
-            *why = bp ? "a Blinn-Phong lobe has an exponent, not alpha"
-                      : "a tabulated lobe has a table, not alpha";
-            return !bp && !tab;
+            *why = bp    ? "a Blinn-Phong lobe has an exponent, not alpha"
+                   : tab ? "a tabulated lobe has a table, not alpha"
+                         : "a lobe with RGB-varying roughness has alpha_rgb, not alpha_x";
+            return !bp && !tab && !l.rgb_roughness;
         case Field::kAlphaY:
             *why = "alpha_y is used by anisotropic ggx/beckmann lobes only";
             return !bp && !tab && l.anisotropic;
+        case Field::kAlphaRgb:
+            *why = "alpha_rgb is used by lobes with RGB-varying roughness only";
+            return !bp && !tab && !l.anisotropic && l.rgb_roughness;
         case Field::kExponent:
             *why = "the exponent belongs to Blinn-Phong lobes";
             return bp;
@@ -66,6 +70,13 @@ Expected<ParameterMap> ParameterMap::make(const FitSpec& spec) {
     map.base_ = spec.model;
     for (std::size_t i = 0; i < spec.model.lobes.size(); ++i) {
         const brdf::Lobe<double>& l = spec.model.lobes[i];
+        if (l.rgb_roughness &&
+            (l.anisotropic || l.distribution == brdf::Distribution::kBlinnPhong ||
+             l.distribution == brdf::Distribution::kTabulated)) {
+            return make_error("lobes[" + std::to_string(i) +
+                              "]: RGB-varying roughness needs an isotropic ggx, beckmann or "
+                              "student-t lobe");
+        }
         if (l.distribution == brdf::Distribution::kTabulated && l.table == nullptr) {
             return make_error("lobes[" + std::to_string(i) +
                               "]: a tabulated lobe without its table (fit_power_iteration "
@@ -122,6 +133,8 @@ double ParameterMap::value_of(const brdf::ModelD& m, const ScalarParam& s) const
             return l.alpha_x;
         case Field::kAlphaY:
             return l.alpha_y;
+        case Field::kAlphaRgb:
+            return l.alpha_rgb[c];
         case Field::kExponent:
             return l.exponent;
         case Field::kGamma:

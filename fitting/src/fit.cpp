@@ -313,52 +313,279 @@ std::vector<std::pair<std::string, FitSpec>> auto_candidates(const FitOptions& o
     return out;
 }
 
+namespace {
+
+/// The smallest gain in log RMSE (channel mean, on the ranking set) for which the RGB-roughness
+/// variant may replace the winner: below it the difference is rounding in noise-free data, far
+/// below the noise of any measurement (2 % noise alone gives 0.02).
+constexpr double kMinRgbRoughnessGain = 1e-4;
+
+/// Samples of the stratified set on which the candidates of an automatic choice are fitted and
+/// ranked. Every candidate's fit costs in proportion to its samples; 2000 strata-balanced samples
+/// keep the specular peak's share (the reduction's strata are sqrt-spaced in theta_h).
+constexpr std::size_t kRankSamples = 2000;
+
+/// Ratio of the half-maximum points of GGX and Beckmann in units of alpha (initialisation.cpp,
+/// estimate_alpha): a Beckmann lobe as wide as a GGX lobe of slope alpha has 0.773 alpha.
+constexpr double kBeckmannPerGgxAlpha = 0.6436 / 0.8326;
+
+/// The spec with one slope parameter per channel in every lobe (Lobe::rgb_roughness), when
+/// every lobe is an isotropic ggx, beckmann or student-t one whose alpha the spec fits; else
+/// empty.
+std::optional<FitSpec> with_rgb_roughness(const FitSpec& spec) {
+    FitSpec out = spec;
+    if (out.model.lobes.empty()) {
+        return std::nullopt;
+    }
+    for (brdf::Lobe<double>& l : out.model.lobes) {
+        const bool analytic = l.distribution == brdf::Distribution::kGgx ||
+                              l.distribution == brdf::Distribution::kBeckmann ||
+                              l.distribution == brdf::Distribution::kStudentT;
+        if (!analytic || l.anisotropic || l.rgb_roughness) {
+            return std::nullopt;
+        }
+        l.rgb_roughness = true;
+        l.alpha_rgb = Rgbd::Constant(l.alpha_x);
+    }
+    bool any = false;
+    for (ParamSpec& p : out.params) {
+        if (p.field == Field::kAlphaX) {
+            p.field = Field::kAlphaRgb;
+            p.shared = false;
+            any = any || p.free;
+        }
+    }
+    if (!any) {
+        return std::nullopt;
+    }
+    return out;
+}
+
+/// Whether `m` can seed the other candidates: one isotropic GGX lobe with a single alpha.
+bool seeds_candidates(const brdf::ModelD& m) {
+    return m.lobes.size() == 1 && m.lobes[0].distribution == brdf::Distribution::kGgx &&
+           !m.lobes[0].anisotropic && !m.lobes[0].rgb_roughness;
+}
+
+/// A shared start: the candidate `spec` started from the fitted GGX model `ref` (one lobe): the
+/// same diffuse albedo, Fresnel f0 and scale; the width mapped so that the half-maximum of D
+/// stays where the data put it (Beckmann 0.773 alpha, Blinn-Phong e = 2 / alpha_B^2 - 2,
+/// Student-t at gamma = 2, which is GGX itself); further lobes 3x wider each at a tenth of the
+/// scale, as the data-driven starts place them. Every free value is brought inside its bounds.
+/// A single start (no multi-start, no screening): `ref` is already near the optimum.
+FitSpec started_from(FitSpec spec, const brdf::ModelD& ref) {
+    const brdf::Lobe<double>& r = ref.lobes[0];
+    brdf::ModelD& m = spec.model;
+    if (m.has_diffuse && ref.has_diffuse) {
+        m.diffuse = ref.diffuse;
+    }
+    for (std::size_t i = 0; i < m.lobes.size(); ++i) {
+        brdf::Lobe<double>& l = m.lobes[i];
+        const double alpha = r.alpha_x * std::pow(3.0, static_cast<double>(i));
+        const double alpha_b = alpha * kBeckmannPerGgxAlpha;
+        switch (l.distribution) {
+            case brdf::Distribution::kBeckmann:
+                l.alpha_x = l.alpha_y = alpha_b;
+                break;
+            case brdf::Distribution::kBlinnPhong:
+                l.exponent = 2 / (alpha_b * alpha_b) - 2;
+                break;
+            case brdf::Distribution::kStudentT:
+                l.gamma = 2;
+                l.alpha_x = l.alpha_y = alpha;
+                break;
+            default:
+                l.alpha_x = l.alpha_y = alpha;
+                break;
+        }
+        l.alpha_rgb = Rgbd::Constant(l.alpha_x);
+        if (l.fresnel.type == brdf::FresnelType::kSchlick &&
+            r.fresnel.type == brdf::FresnelType::kSchlick) {
+            l.fresnel.f0 = r.fresnel.f0;
+        }
+        l.scale = r.scale * (i == 0 ? 1.0 : 0.1);
+    }
+    Expected<ParameterMap> map = ParameterMap::make(spec);
+    if (map) {
+        for (const ScalarParam& s : map->scalars()) {
+            if (s.free) {
+                ParameterMap::set(m, s, std::clamp(map->value_of(m, s), s.lower, s.upper));
+            }
+        }
+    }
+    spec.options.auto_init = false;
+    spec.options.starts = 1;
+    return spec;
+}
+
+/// A spec that continues from the fitted model `m` (single start).
+FitSpec continued_from(FitSpec spec, const brdf::ModelD& m) {
+    spec.model = m;
+    spec.options.auto_init = false;
+    spec.options.starts = 1;
+    return spec;
+}
+
+/// One candidate fitted on the ranking set and its standing.
+struct RankedFit {
+    RankedModel rank;
+    brdf::ModelD model;  ///< Its fitted model (the start of the polish if it wins).
+};
+
+/// Fits one candidate on the ranking set (no polish, no covariance, log residual) and scores it
+/// by BIC; empty with `error` set when the fit could not run. `total_weight` is the sum of the
+/// ranking samples' weights (a stratified reduction's weights sum to the samples it stands for).
+std::optional<RankedFit> rank_candidate(const brdf::Dataset& ranking,
+                                        double total_weight,
+                                        const std::string& name,
+                                        FitSpec spec,
+                                        std::string* error) {
+    spec.options.polish_iterations = 0;
+    spec.options.reweight_rounds = 0;
+    spec.options.covariance = false;
+    spec.options.residual = ResidualForm::kLog;
+    Expected<FitResult> r = fit_any(ranking, spec);
+    if (!r) {
+        *error = name + ": " + r.error().message;
+        return std::nullopt;
+    }
+    RankedFit out;
+    out.model = r->model;
+    RankedModel& rm = out.rank;
+    rm.name = name;
+    rm.converged = r->solver.converged;
+    int p = 0;
+    for (const FittedParameter& fp : r->parameters) {
+        p += fp.free ? 1 : 0;
+    }
+    // A table's nodes are parameters estimated from the data too.
+    p += table_nodes(r->model);
+    rm.parameters = p;
+    rm.log_rmse = r->metrics.log_rmse.mean();
+    // RSS on the samples of the last solve: final_cost = RSS / 2 with the samples' weights, which
+    // sum to the number of samples they stand for: normalise to the solve's size. (The ranking
+    // set is at most twice FitOptions::coarse_samples, so the solve is on all of it.)
+    const std::size_t n_red =
+        r->solver.stages.empty() ? r->samples.used : r->solver.stages.back().samples;
+    const double n = 3.0 * static_cast<double>(n_red);
+    const double rss = total_weight > 0
+                           ? 2 * r->solver.final_cost * static_cast<double>(n_red) / total_weight
+                           : 0.0;
+    rm.criterion = rss > 0 ? n * std::log(rss / n) + p * std::log(n)
+                           : -std::numeric_limits<double>::infinity();
+    return out;
+}
+
+}  // namespace
+
 Expected<AutoFitResult> fit_auto(const brdf::Dataset& data,
                                  const std::vector<std::pair<std::string, FitSpec>>& candidates) {
     AutoFitResult out;
     out.criterion =
-        "BIC = n log(RSS/n) + p log(n) of the log residuals on the stratified reduction "
-        "(n = 3 x samples, p = free parameters); lower is better";
-    std::vector<std::pair<double, std::size_t>> order;
+        "BIC = n log(RSS/n) + p log(n) of the log residuals on a stratified set of at most " +
+        std::to_string(kRankSamples) +
+        " samples (n = 3 x samples, p = free parameters); lower is better";
+    if (candidates.empty()) {
+        return make_error("--model auto: no candidate");
+    }
+    const FitOptions& o0 = candidates.front().second.options;
+    // The first candidate (the default family) fitted in full on all samples: the result when it
+    // wins, and the start that every other candidate shares.
+    Expected<FitResult> reference = fit_any(data, candidates.front().second);
+    if (!reference) {
+        return make_error("--model auto: " + candidates.front().first + ": " +
+                          reference.error().message);
+    }
+    const bool shared_start = reference->solver.converged && seeds_candidates(reference->model);
+
+    // The ranking set: a stratified reduction of the valid samples (their weights kept, so the
+    // objective estimates the one on all samples).
+    SampleCounts counts;
+    const std::vector<Sample> valid =
+        select_samples(data, o0, detail::thread_count(o0.num_threads), counts);
+    brdf::Dataset ranking;
+    ranking.source = data.source;
+    ranking.has_sigma = data.has_sigma;
+    ranking.samples = stratified_reduce(valid, kRankSamples, o0.seed + 3);
+    double total_weight = 0;
+    for (const Sample& s : ranking.samples) {
+        total_weight += s.weight;
+    }
+
+    std::vector<RankedFit> fits;
+    std::vector<std::size_t> spec_of;  // index into candidates (or candidates.size(): the RGB one)
     std::string first_error;
     for (std::size_t i = 0; i < candidates.size(); ++i) {
-        FitSpec spec = candidates[i].second;
-        // Ranking on the reduction alone: no polish, no covariance.
-        spec.options.polish_iterations = 0;
-        spec.options.reweight_rounds = 0;
-        spec.options.covariance = false;
-        spec.options.residual = ResidualForm::kLog;
-        Expected<FitResult> r = fit_any(data, spec);
-        if (!r) {
+        const FitSpec& spec = candidates[i].second;
+        // The reference continues from its own optimum; the analytic candidates start from it;
+        // a tabulated one extracts its table from the ranking set; without a reference to share,
+        // each uses its own data-driven starts.
+        FitSpec start = spec;
+        if (shared_start && !needs_power_iteration(spec)) {
+            start = i == 0 ? continued_from(spec, reference->model)
+                           : started_from(spec, reference->model);
+        }
+        std::string error;
+        std::optional<RankedFit> rf =
+            rank_candidate(ranking, total_weight, candidates[i].first, start, &error);
+        if (!rf) {
             if (first_error.empty()) {
-                first_error = candidates[i].first + ": " + r.error().message;
+                first_error = error;
             }
             continue;
         }
-        RankedModel rm;
-        rm.name = candidates[i].first;
-        rm.converged = r->solver.converged;
-        int p = 0;
-        for (const FittedParameter& fp : r->parameters) {
-            p += fp.free ? 1 : 0;
+        fits.push_back(std::move(*rf));
+        spec_of.push_back(i);
+    }
+    std::size_t win = fits.size();
+    for (std::size_t k = 0; k < fits.size(); ++k) {
+        if (fits[k].rank.converged &&
+            (win == fits.size() || fits[k].rank.criterion < fits[win].rank.criterion)) {
+            win = k;
         }
-        // A table's nodes are parameters estimated from the data too.
-        p += table_nodes(r->model);
-        rm.parameters = p;
-        rm.log_rmse = r->metrics.log_rmse.mean();
-        // RSS on the samples of the reduced solve: final_cost = RSS / 2 with the reduction's
-        // weights (which sum to the number of samples it stands for): normalise to its size.
-        std::size_t n_red =
-            r->solver.stages.empty() ? r->samples.used : r->solver.stages.back().samples;
-        const double n = 3.0 * static_cast<double>(n_red);
-        const double total_weight = static_cast<double>(r->samples.used);
-        const double rss = 2 * r->solver.final_cost * static_cast<double>(n_red) / total_weight;
-        rm.criterion = rss > 0 ? n * std::log(rss / n) + p * std::log(n)
-                               : -std::numeric_limits<double>::infinity();
-        out.ranking.push_back(rm);
-        if (rm.converged) {
-            order.emplace_back(rm.criterion, i);
+    }
+    if (win == fits.size()) {
+        return make_error("--model auto: no candidate converged" +
+                          (first_error.empty() ? std::string() : " (" + first_error + ")"));
+    }
+    FitSpec chosen_spec = candidates[spec_of[win]].second;
+    std::string chosen = candidates[spec_of[win]].first;
+    brdf::ModelD chosen_model = fits[win].model;
+    bool chosen_is_reference = spec_of[win] == 0;
+    // RGB-varying roughness as a refinement of the winner: its structure with one alpha per
+    // channel, fitted on the ranking set from the winner's optimum, replaces it when BIC prefers
+    // it and the log RMSE drops by at least kMinRgbRoughnessGain. One more fit of one structure
+    // instead of doubling the candidates.
+    if (std::optional<FitSpec> rgb = with_rgb_roughness(chosen_spec)) {
+        brdf::ModelD start = chosen_model;
+        for (brdf::Lobe<double>& l : start.lobes) {
+            l.rgb_roughness = true;
+            l.alpha_rgb = Rgbd::Constant(l.alpha_x);
         }
+        std::string error;
+        const std::string name = chosen + " rgb-roughness";
+        std::optional<RankedFit> rf =
+            rank_candidate(ranking, total_weight, name, continued_from(*rgb, start), &error);
+        if (rf) {
+            const RankedModel& w = fits[win].rank;
+            const bool better = rf->rank.converged && rf->rank.criterion < w.criterion &&
+                                w.log_rmse - rf->rank.log_rmse >= kMinRgbRoughnessGain;
+            // Listed in the ranking unless it ranks above the winner by BIC without the gain
+            // (noise-free data, where RSS is rounding): the ranking stays ordered, chosen first.
+            if (better || !(rf->rank.criterion < w.criterion)) {
+                fits.push_back(*rf);
+                spec_of.push_back(candidates.size());
+            }
+            if (better) {
+                chosen = name;
+                chosen_spec = *rgb;
+                chosen_model = rf->model;
+                chosen_is_reference = false;
+            }
+        }
+    }
+    for (const RankedFit& f : fits) {
+        out.ranking.push_back(f.rank);
     }
     std::sort(
         out.ranking.begin(), out.ranking.end(), [](const RankedModel& a, const RankedModel& b) {
@@ -367,14 +594,16 @@ Expected<AutoFitResult> fit_auto(const brdf::Dataset& data,
             }
             return a.criterion < b.criterion;
         });
-    if (order.empty()) {
-        return make_error("--model auto: no candidate converged" +
-                          (first_error.empty() ? std::string() : " (" + first_error + ")"));
+    out.chosen = chosen;
+    // The winner on all samples: the reference fit itself, or a polish from the ranking optimum
+    // (a tabulated winner extracts its table again from all samples).
+    if (chosen_is_reference) {
+        out.best = *reference;
+        return out;
     }
-    std::sort(order.begin(), order.end());
-    const std::size_t win = order.front().second;
-    out.chosen = candidates[win].first;
-    Expected<FitResult> best = fit_any(data, candidates[win].second);
+    Expected<FitResult> best = needs_power_iteration(chosen_spec) || !shared_start
+                                   ? fit_any(data, chosen_spec)
+                                   : fit(data, continued_from(chosen_spec, chosen_model));
     if (!best) {
         return make_error(out.chosen + ": " + best.error().message);
     }

@@ -187,7 +187,11 @@ std::string suggest(const ModelD& fitted) {
     if (dist != "beckmann") {
         s += ", `--model beckmann`";
     }
-    s += " or `--fresnel schlick-rgb`";
+    const bool rgb_roughness_possible =
+        !fitted.lobes.empty() && !fitted.lobes[0].rgb_roughness && !fitted.lobes[0].anisotropic &&
+        (dist == "ggx" || dist == "beckmann" || dist == "student-t");
+    s += rgb_roughness_possible ? ", `--fresnel schlick-rgb` or `--roughness rgb`"
+                                : " or `--fresnel schlick-rgb`";
     return s;
 }
 

@@ -101,7 +101,7 @@ void set_shape(ModelD& m, const ParameterMap& map, int lobe, double alpha) {
             continue;
         }
         double v;
-        if (s.field == Field::kAlphaX || s.field == Field::kAlphaY) {
+        if (s.field == Field::kAlphaX || s.field == Field::kAlphaY || s.field == Field::kAlphaRgb) {
             v = alpha;
         } else if (s.field == Field::kExponent) {
             v = 2.0 / (alpha * alpha) - 2.0;

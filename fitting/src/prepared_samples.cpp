@@ -117,12 +117,12 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
     }
     GONIO_CHECK(slots_ <= 32);
     // Analytic derivatives (analytic_sample) cover isotropic lobes with a Schlick or no Fresnel
-    // term and the fields diffuse, alpha_x, exponent, scale and f0; other structures use Jets
-    // over the derivative slots.
+    // term and the fields diffuse, alpha_x, exponent, gamma (Student-t), scale and f0; other
+    // structures use Jets over the derivative slots.
     analytic_ = base.lobes.size() <= 8;
     for (const brdf::Lobe<double>& l : base.lobes) {
-        analytic_ = analytic_ && l.distribution != brdf::Distribution::kStudentT &&
-                    l.distribution != brdf::Distribution::kTabulated &&
+        analytic_ = analytic_ && l.distribution != brdf::Distribution::kTabulated &&
+                    !l.rgb_roughness &&
                     !(l.anisotropic && l.distribution != brdf::Distribution::kBlinnPhong) &&
                     (l.fresnel.type == brdf::FresnelType::kSchlick ||
                      l.fresnel.type == brdf::FresnelType::kNone);
@@ -134,8 +134,8 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
         slot_field_[slot_[k]] = sp.field;
         slot_lobe_[slot_[k]] = sp.lobe;
         analytic_ = analytic_ && (sp.field == Field::kDiffuse || sp.field == Field::kAlphaX ||
-                                  sp.field == Field::kExponent || sp.field == Field::kScale ||
-                                  sp.field == Field::kF0);
+                                  sp.field == Field::kExponent || sp.field == Field::kGamma ||
+                                  sp.field == Field::kScale || sp.field == Field::kF0);
     }
     auto alloc = [&](std::vector<double>& v, bool need) {
         if (need) {
@@ -349,6 +349,33 @@ brdf::Rgb<T> PreparedSamples::eval(const brdf::Model<T>& m, std::size_t i) const
     brdf::Rgb<T> f = m.has_diffuse ? brdf::Rgb<T>(m.diffuse * T(brdf::kInvPi))
                                    : brdf::Rgb<T>(brdf::Rgb<T>::Zero());
     for (const brdf::Lobe<T>& l : m.lobes) {
+        if (l.rgb_roughness) {
+            // RGB-varying roughness (brdf/model_eval.h eval_lanes): the shape of each channel
+            // with that channel's alpha; an isotropic analytic lobe (ParameterMap::make).
+            for (int c = 0; c < 3; ++c) {
+                const T& a = l.alpha_rgb[c];
+                const T S = l.distribution == brdf::Distribution::kStudentT
+                                ? shape_student_t(l.shadowing, a, a, l.gamma, i)
+                                : shape(l.distribution, l.shadowing, a, a, l.exponent, i);
+                if (S == T(0)) {
+                    continue;
+                }
+                T F;
+                switch (l.fresnel.type) {
+                    case brdf::FresnelType::kSchlick:
+                        F = brdf::fresnel_schlick_from_pow5(T(x5_[i]), l.fresnel.f0[c]);
+                        break;
+                    case brdf::FresnelType::kNone:
+                        F = T(1);
+                        break;
+                    default:
+                        F = brdf::eval_fresnel(l.fresnel, T(cos_d_[i]), T(omc_d_[i]))[c];
+                        break;
+                }
+                f[c] += l.scale[c] * F * S;
+            }
+            continue;
+        }
         const T S =
             l.distribution == brdf::Distribution::kTabulated
                 ? T(brdf::tabulated_lobe_shape(
@@ -408,25 +435,37 @@ void PreparedSamples::analytic_parts(const brdf::ModelD& m,
                                      double f[3],
                                      double* d) const {
     // Per lobe: the shape S = D G / (4 cos_i cos_o) and dS/d(width) through a one-slot Jet (only
-    // the width enters it), and F = f0 + (1 - f0) x5 (Schlick) or 1.
+    // the width enters it; a Student-t lobe's shape also takes its tail gamma: a two-slot Jet),
+    // and F = f0 + (1 - f0) x5 (Schlick) or 1.
     using J1 = ceres::Jet<double, 1>;
+    using J2 = ceres::Jet<double, 2>;
     constexpr int kMaxLobes = 8;
-    double S[kMaxLobes], dS[kMaxLobes];
+    double S[kMaxLobes], dS[kMaxLobes], dS_gamma[kMaxLobes];
     brdf::Rgbd F[kMaxLobes];
     brdf::Rgbd fm = m.has_diffuse ? brdf::Rgbd(m.diffuse * brdf::kInvPi) : brdf::Rgbd::Zero();
     const int nl = static_cast<int>(m.lobes.size());
     for (int l = 0; l < nl; ++l) {
         const brdf::Lobe<double>& lobe = m.lobes[l];
-        J1 s;
-        if (lobe.distribution == brdf::Distribution::kBlinnPhong) {
-            const J1 e(lobe.exponent, 0);
-            s = shape(lobe.distribution, lobe.shadowing, J1(0.1), J1(0.1), e, i);
+        dS_gamma[l] = 0;
+        if (lobe.distribution == brdf::Distribution::kStudentT) {
+            const J2 a(lobe.alpha_x, 0);
+            const J2 g(lobe.gamma, 1);
+            const J2 s2 = shape_student_t(lobe.shadowing, a, a, g, i);
+            S[l] = s2.a;
+            dS[l] = s2.v[0];
+            dS_gamma[l] = s2.v[1];
         } else {
-            const J1 a(lobe.alpha_x, 0);
-            s = shape(lobe.distribution, lobe.shadowing, a, a, J1(lobe.exponent), i);
+            J1 s;
+            if (lobe.distribution == brdf::Distribution::kBlinnPhong) {
+                const J1 e(lobe.exponent, 0);
+                s = shape(lobe.distribution, lobe.shadowing, J1(0.1), J1(0.1), e, i);
+            } else {
+                const J1 a(lobe.alpha_x, 0);
+                s = shape(lobe.distribution, lobe.shadowing, a, a, J1(lobe.exponent), i);
+            }
+            S[l] = s.a;
+            dS[l] = s.v[0];
         }
-        S[l] = s.a;
-        dS[l] = s.v[0];
         F[l] = lobe.fresnel.type == brdf::FresnelType::kSchlick
                    ? brdf::Rgbd(brdf::fresnel_schlick_from_pow5(x5_[i], lobe.fresnel.f0))
                    : brdf::Rgbd::Ones();
@@ -445,6 +484,9 @@ void PreparedSamples::analytic_parts(const brdf::ModelD& m,
                 case Field::kAlphaX:
                 case Field::kExponent:
                     v = m.lobes[l].scale[c] * F[l][c] * dS[l];
+                    break;
+                case Field::kGamma:
+                    v = m.lobes[l].scale[c] * F[l][c] * dS_gamma[l];
                     break;
                 case Field::kScale:
                     v = F[l][c] * S[l];

@@ -3,12 +3,15 @@
 #include "gonio/fitting/report.h"
 
 #include <cmath>
+#include <cstddef>
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "gonio/base/atomic_file.h"
+#include "gonio/base/limits.h"
+#include "gonio/base/strict_json.h"
 #include "gonio/base/strings.h"
 #include "gonio/brdf/model_json.h"
 
@@ -29,20 +32,6 @@ json number_or_null(double v) {
 
 Expected<void> write_text(const std::string& path, const std::string& text) {
     return write_file_atomic(path, text);
-}
-
-Expected<brdf::Rgbd> read_rgb(const json& j, const std::string& at) {
-    if (!j.is_array() || j.size() != 3) {
-        return make_error(at + ": expected [r, g, b]");
-    }
-    brdf::Rgbd v;
-    for (int c = 0; c < 3; ++c) {
-        if (!j[c].is_number()) {
-            return make_error(at + "[" + std::to_string(c) + "]: expected a number");
-        }
-        v[c] = j[c].get<double>();
-    }
-    return v;
 }
 
 }  // namespace
@@ -166,156 +155,288 @@ Expected<void> write_fit_report(const std::string& model_path, const FitResult& 
                       brdf::model_to_json(result.model, fit_verdict_json(result, report_path)));
 }
 
+namespace {
+
+// The fit report's reader: the strict reader of base/strict_json.h, so that an unknown key is
+// refused with the keys allowed there, a wrong type names its key path, and the model inside is
+// read by the model reader itself. The schema is the writer's, fit_report_json() above
+// (docs/file-formats.md, "Fit files").
+
+constexpr double kMaxCount = 9007199254740992.0;  // 2^53: every count a double holds exactly
+
+/// A count (a whole number in [0, 2^53]) at `path`.
+std::size_t read_count(const json& v, const std::string& path) {
+    if (!v.is_number()) {
+        json_fail(path + ": expected a whole number, got " + json_type(v));
+    }
+    const double x = v.get<double>();
+    if (!std::isfinite(x) || x != std::floor(x) || x < 0 || x > kMaxCount) {
+        json_fail(path + " = " + show_number(x) + ": must be a whole number in [0, 2^53]");
+    }
+    return static_cast<std::size_t>(x);
+}
+
+std::size_t count_key(JsonObject& o, const char* key) {
+    return read_count(o.raw(key), o.key_path(key));
+}
+
+/// A number, or NaN for null (the writer's number_or_null).
+double number_or_nan(const json& v, const std::string& path) {
+    return v.is_null() ? std::nan("") : json_number_at(v, path);
+}
+
+/// An optional cost that may be null (not finite when written): 0 when absent or null, as in a
+/// FitResult that never had it.
+double optional_cost(JsonObject& o, const char* key) {
+    const json* v = o.find(key);
+    return v == nullptr || v->is_null() ? 0.0 : json_number_at(*v, o.key_path(key));
+}
+
+std::string text_at(const json& v, const std::string& path) {
+    std::string s = json_string_at(v, path);
+    if (s.size() > kMaxJsonString) {
+        json_fail(path + ": " + std::to_string(s.size()) + " characters, at most " +
+                  std::to_string(kMaxJsonString) + " allowed");
+    }
+    return s;
+}
+
+std::vector<std::string> string_list(JsonObject& o, const char* key) {
+    std::vector<std::string> out;
+    const json* v = o.find(key);
+    if (v == nullptr) {
+        return out;
+    }
+    const std::string at = o.key_path(key);
+    if (!v->is_array()) {
+        json_fail(at + ": expected an array of strings, got " + json_type(*v));
+    }
+    for (std::size_t i = 0; i < v->size(); ++i) {
+        out.push_back(text_at((*v)[i], at + "[" + std::to_string(i) + "]"));
+    }
+    return out;
+}
+
+const json& array_key(JsonObject& o, const char* key) {
+    const json& v = o.raw(key);
+    if (!v.is_array()) {
+        json_fail(o.key_path(key) + ": expected an array, got " + json_type(v));
+    }
+    return v;
+}
+
+brdf::Rgbd rgb_at(const json& v, const std::string& path) {
+    if (!v.is_array() || v.size() != 3) {
+        json_fail(path + ": expected [r, g, b], got " + json_type(v) +
+                  (v.is_array() ? " of " + std::to_string(v.size()) : std::string()));
+    }
+    brdf::Rgbd out;
+    for (int c = 0; c < 3; ++c) {
+        out[c] = json_number_at(v[c], path + "[" + std::to_string(c) + "]");
+    }
+    return out;
+}
+
+brdf::Rgbd rgb_key(JsonObject& o, const char* key) {
+    return rgb_at(o.raw(key), o.key_path(key));
+}
+
+std::string item_path(const std::string& at, std::size_t i) {
+    return at + "[" + std::to_string(i) + "]";
+}
+
+FitResult read_report_document(const json& j) {
+    JsonObject top(j, "");
+    top.allow({"model",
+               "parameters",
+               "not_identifiable",
+               "at_bounds",
+               "vanished_lobes",
+               "metrics",
+               "goodness",
+               "covariance",
+               "samples",
+               "residual",
+               "loss",
+               "solver",
+               "data",
+               "ground_truth"});
+    top.finish();
+    FitResult r;
+    r.model = brdf::read_model_json(top.raw("model"), "model");
+    if (const json* gt = top.find("ground_truth")) {
+        r.ground_truth = brdf::read_model_json(*gt, "ground_truth");
+    }
+    const json& params = array_key(top, "parameters");
+    for (std::size_t i = 0; i < params.size(); ++i) {
+        JsonObject p(params[i], item_path("parameters", i));
+        p.allow({"name", "value", "sigma", "free", "identifiable", "at_bound"});
+        p.finish();
+        FittedParameter fp;
+        fp.name = text_at(p.raw("name"), p.key_path("name"));
+        fp.value = number_or_nan(p.raw("value"), p.key_path("value"));
+        if (const json& s = p.raw("sigma"); !s.is_null()) {
+            fp.sigma = json_number_at(s, p.key_path("sigma"));
+        }
+        if (!p.raw("free").is_boolean() || !p.raw("identifiable").is_boolean()) {
+            const char* bad = p.raw("free").is_boolean() ? "identifiable" : "free";
+            json_fail(p.key_path(bad) + ": expected true or false, got " + json_type(p.raw(bad)));
+        }
+        fp.free = p.raw("free").get<bool>();
+        fp.identifiable = p.raw("identifiable").get<bool>();
+        if (const json* b = p.find("at_bound"); b != nullptr && !b->is_null()) {
+            fp.at_bound = text_at(*b, p.key_path("at_bound"));
+            if (fp.at_bound != "lower" && fp.at_bound != "upper") {
+                json_fail(p.key_path("at_bound") + " = \"" + excerpt(fp.at_bound) +
+                          "\": must be \"lower\", \"upper\" or null");
+            }
+        }
+        r.parameters.push_back(fp);
+    }
+    r.not_identifiable = string_list(top, "not_identifiable");
+    r.at_bounds = string_list(top, "at_bounds");
+    r.vanished_lobes = string_list(top, "vanished_lobes");
+
+    JsonObject m(top.raw("metrics"), "metrics");
+    m.allow({"rmse", "rel_rmse", "log_rmse", "median_rel", "bands"});
+    m.finish();
+    r.metrics.rmse = rgb_key(m, "rmse");
+    r.metrics.rel_rmse = rgb_key(m, "rel_rmse");
+    r.metrics.log_rmse = rgb_key(m, "log_rmse");
+    if (m.has("median_rel")) {
+        r.metrics.median_rel = rgb_key(m, "median_rel");
+    }
+    if (m.has("bands")) {
+        const json& bands = array_key(m, "bands");
+        for (std::size_t i = 0; i < bands.size(); ++i) {
+            JsonObject b(bands[i], item_path("metrics.bands", i));
+            b.allow({"theta_h_deg", "count", "mean_log", "log_rmse"});
+            b.finish();
+            BandResidual br;
+            const json& range = b.raw("theta_h_deg");
+            const std::string at = b.key_path("theta_h_deg");
+            if (!range.is_array() || range.size() != 2) {
+                json_fail(at + ": expected [lo, hi] in degrees, got " + json_type(range));
+            }
+            br.theta_h_lo_deg = json_number_at(range[0], at + "[0]");
+            br.theta_h_hi_deg = json_number_at(range[1], at + "[1]");
+            br.count = count_key(b, "count");
+            br.mean_log = rgb_key(b, "mean_log");
+            br.log_rmse = rgb_key(b, "log_rmse");
+            r.metrics.bands.push_back(br);
+        }
+    }
+
+    if (const json* gj = top.find("goodness")) {
+        JsonObject g(*gj, "goodness");
+        g.allow({"represents", "reduced_chi_square", "warnings", "suggestion"});
+        g.finish();
+        r.goodness.represents = g.boolean("represents", true);
+        if (const json* chi = g.find("reduced_chi_square"); chi != nullptr && !chi->is_null()) {
+            r.goodness.reduced_chi_square = json_number_at(*chi, g.key_path("reduced_chi_square"));
+        }
+        r.goodness.warnings = string_list(g, "warnings");
+        if (const json* s = g.find("suggestion")) {
+            r.goodness.suggestion = text_at(*s, g.key_path("suggestion"));
+        }
+    }
+    if (const json* c = top.find("covariance")) {
+        r.covariance_method = text_at(*c, "covariance");
+    }
+
+    JsonObject s(top.raw("samples"), "samples");
+    s.allow({"input", "valid", "used", "rejected", "reference", "saturated", "rejected_lines"});
+    s.finish();
+    r.samples.input = count_key(s, "input");
+    r.samples.valid = count_key(s, "valid");
+    r.samples.used = count_key(s, "used");
+    r.samples.rejected = count_key(s, "rejected");
+    if (s.has("reference")) {
+        r.samples.reference = count_key(s, "reference");
+    }
+    if (s.has("saturated")) {
+        r.samples.saturated = count_key(s, "saturated");
+    }
+    const json& lines = array_key(s, "rejected_lines");
+    for (std::size_t i = 0; i < lines.size(); ++i) {
+        r.samples.rejected_lines.push_back(
+            read_count(lines[i], item_path("samples.rejected_lines", i)));
+    }
+
+    const std::string residual = top.string("residual", "log", kMaxJsonString);
+    const std::string loss = top.string("loss", "none", kMaxJsonString);
+    Expected<ResidualForm> form = parse_residual(residual);
+    if (!form) {
+        json_fail("residual: " + form.error().message);
+    }
+    Expected<LossKind> loss_kind = parse_loss(loss);
+    if (!loss_kind) {
+        json_fail("loss: " + loss_kind.error().message);
+    }
+    r.residual = *form;
+    r.loss = *loss_kind;
+
+    JsonObject sv(top.raw("solver"), "solver");
+    sv.allow({"iterations",
+              "stages",
+              "termination",
+              "message",
+              "converged",
+              "usable",
+              "wall_time_s",
+              "solve_time_s",
+              "initial_cost",
+              "final_cost",
+              "starts"});
+    sv.finish();
+    constexpr int kMaxIterations = 1 << 30;
+    sv.raw("iterations");  // required
+    r.solver.iterations = sv.integer("iterations", 0, 0, kMaxIterations);
+    r.solver.termination = text_at(sv.raw("termination"), "solver.termination");
+    r.solver.message = text_at(sv.raw("message"), "solver.message");
+    if (!sv.raw("usable").is_boolean()) {
+        json_fail("solver.usable: expected true or false, got " + json_type(sv.raw("usable")));
+    }
+    r.solver.usable = sv.raw("usable").get<bool>();
+    r.solver.converged = sv.boolean("converged", r.solver.usable);
+    if (sv.has("stages")) {
+        const json& stages = array_key(sv, "stages");
+        for (std::size_t i = 0; i < stages.size(); ++i) {
+            JsonObject st(stages[i], item_path("solver.stages", i));
+            st.allow({"name", "samples", "iterations", "termination", "time_s", "final_cost"});
+            st.finish();
+            StageInfo si;
+            si.name = text_at(st.raw("name"), st.key_path("name"));
+            si.samples = count_key(st, "samples");
+            st.raw("iterations");
+            si.iterations = st.integer("iterations", 0, 0, kMaxIterations);
+            si.termination = text_at(st.raw("termination"), st.key_path("termination"));
+            si.time_s = json_number_at(st.raw("time_s"), st.key_path("time_s"));
+            si.final_cost = optional_cost(st, "final_cost");
+            r.solver.stages.push_back(si);
+        }
+    }
+    r.solver.wall_time_s = json_number_at(sv.raw("wall_time_s"), "solver.wall_time_s");
+    r.solver.initial_cost = optional_cost(sv, "initial_cost");
+    r.solver.final_cost = optional_cost(sv, "final_cost");
+    r.solver.starts = sv.integer("starts", 0, 0, kMaxIterations);
+    r.solver.solve_time_s = sv.number("solve_time_s", 0.0, 0.0, 1e12, "s");
+    r.data = top.string("data", "", kMaxJsonString);
+    return r;
+}
+
+}  // namespace
+
 Expected<FitResult> read_fit_report(const std::string& path) {
-    std::ifstream in(path);
+    std::ifstream in(path, std::ios::binary);
     if (!in) {
         return make_error(path + ": cannot open the fit report");
     }
     std::stringstream ss;
     ss << in.rdbuf();
-    json j;
-    try {
-        j = json::parse(ss.str());
-    } catch (const json::exception& e) {
-        return make_error(path + ": not JSON: " + gonio::json_error_text(e.what()));
-    }
-    FitResult r;
-    try {
-        for (const char* key : {"model", "parameters", "metrics", "samples", "solver"}) {
-            if (!j.contains(key)) {
-                return make_error(path + ": missing key \"" + key + "\"");
-            }
-        }
-        Expected<brdf::ModelD> model = brdf::parse_model_json(j["model"].dump(), path + ": model");
-        if (!model) {
-            return make_error(model.error().message);
-        }
-        r.model = *model;
-        if (j.contains("ground_truth")) {
-            Expected<brdf::ModelD> gt =
-                brdf::parse_model_json(j["ground_truth"].dump(), path + ": ground_truth");
-            if (!gt) {
-                return make_error(gt.error().message);
-            }
-            r.ground_truth = *gt;
-        }
-        for (const json& p : j.at("parameters")) {
-            FittedParameter fp;
-            fp.name = p.at("name").get<std::string>();
-            fp.value = p.at("value").is_null() ? std::nan("") : p.at("value").get<double>();
-            if (!p.at("sigma").is_null()) {
-                fp.sigma = p.at("sigma").get<double>();
-            }
-            fp.free = p.at("free").get<bool>();
-            fp.identifiable = p.at("identifiable").get<bool>();
-            if (p.contains("at_bound") && p["at_bound"].is_string()) {
-                fp.at_bound = p["at_bound"].get<std::string>();
-            }
-            r.parameters.push_back(fp);
-        }
-        if (j.contains("not_identifiable")) {
-            r.not_identifiable = j["not_identifiable"].get<std::vector<std::string>>();
-        }
-        if (j.contains("at_bounds")) {
-            r.at_bounds = j["at_bounds"].get<std::vector<std::string>>();
-        }
-        if (j.contains("vanished_lobes")) {
-            r.vanished_lobes = j["vanished_lobes"].get<std::vector<std::string>>();
-        }
-        const json& m = j.at("metrics");
-        for (auto [key, dst] : {std::make_pair("rmse", &r.metrics.rmse),
-                                std::make_pair("rel_rmse", &r.metrics.rel_rmse),
-                                std::make_pair("log_rmse", &r.metrics.log_rmse)}) {
-            Expected<brdf::Rgbd> v = read_rgb(m.at(key), path + ": metrics." + key);
-            if (!v) {
-                return make_error(v.error().message);
-            }
-            *dst = *v;
-        }
-        if (m.contains("median_rel")) {
-            Expected<brdf::Rgbd> v = read_rgb(m["median_rel"], path + ": metrics.median_rel");
-            if (!v) {
-                return make_error(v.error().message);
-            }
-            r.metrics.median_rel = *v;
-        }
-        if (m.contains("bands") && m["bands"].is_array()) {
-            for (const json& b : m["bands"]) {
-                BandResidual br;
-                br.theta_h_lo_deg = b.at("theta_h_deg").at(0).get<double>();
-                br.theta_h_hi_deg = b.at("theta_h_deg").at(1).get<double>();
-                br.count = b.at("count").get<std::size_t>();
-                Expected<brdf::Rgbd> mean = read_rgb(b.at("mean_log"), path + ": bands.mean_log");
-                Expected<brdf::Rgbd> rm = read_rgb(b.at("log_rmse"), path + ": bands.log_rmse");
-                if (!mean || !rm) {
-                    return make_error(!mean ? mean.error().message : rm.error().message);
-                }
-                br.mean_log = *mean;
-                br.log_rmse = *rm;
-                r.metrics.bands.push_back(br);
-            }
-        }
-        if (j.contains("goodness") && j["goodness"].is_object()) {
-            const json& g = j["goodness"];
-            r.goodness.represents = g.value("represents", true);
-            if (g.contains("reduced_chi_square") && g["reduced_chi_square"].is_number()) {
-                r.goodness.reduced_chi_square = g["reduced_chi_square"].get<double>();
-            }
-            if (g.contains("warnings")) {
-                r.goodness.warnings = g["warnings"].get<std::vector<std::string>>();
-            }
-            r.goodness.suggestion = g.value("suggestion", std::string());
-        }
-        r.covariance_method = j.value("covariance", std::string());
-        const json& s = j.at("samples");
-        r.samples.reference = s.value("reference", std::size_t{0});
-        r.samples.saturated = s.value("saturated", std::size_t{0});
-        r.samples.input = s.at("input").get<std::size_t>();
-        r.samples.valid = s.at("valid").get<std::size_t>();
-        r.samples.used = s.at("used").get<std::size_t>();
-        r.samples.rejected = s.at("rejected").get<std::size_t>();
-        r.samples.rejected_lines = s.at("rejected_lines").get<std::vector<std::size_t>>();
-        Expected<ResidualForm> form = parse_residual(j.value("residual", std::string("log")));
-        Expected<LossKind> loss = parse_loss(j.value("loss", std::string("none")));
-        if (!form || !loss) {
-            return make_error(path + ": " + (!form ? form.error().message : loss.error().message));
-        }
-        r.residual = *form;
-        r.loss = *loss;
-        const json& sv = j.at("solver");
-        r.solver.iterations = sv.at("iterations").get<int>();
-        r.solver.termination = sv.at("termination").get<std::string>();
-        r.solver.message = sv.at("message").get<std::string>();
-        r.solver.usable = sv.at("usable").get<bool>();
-        r.solver.converged = sv.value("converged", r.solver.usable);
-        if (sv.contains("stages") && sv["stages"].is_array()) {
-            for (const json& st : sv["stages"]) {
-                StageInfo si;
-                si.name = st.at("name").get<std::string>();
-                si.samples = st.at("samples").get<std::size_t>();
-                si.iterations = st.at("iterations").get<int>();
-                si.termination = st.at("termination").get<std::string>();
-                si.time_s = st.at("time_s").get<double>();
-                if (st.contains("final_cost") && st["final_cost"].is_number()) {
-                    si.final_cost = st["final_cost"].get<double>();
-                }
-                r.solver.stages.push_back(si);
-            }
-        }
-        r.solver.wall_time_s = sv.at("wall_time_s").get<double>();
-        if (sv.contains("initial_cost") && sv["initial_cost"].is_number()) {
-            r.solver.initial_cost = sv["initial_cost"].get<double>();
-        }
-        if (sv.contains("final_cost") && sv["final_cost"].is_number()) {
-            r.solver.final_cost = sv["final_cost"].get<double>();
-        }
-        r.solver.starts = sv.value("starts", 0);
-        r.solver.solve_time_s = sv.value("solve_time_s", 0.0);
-        r.data = j.value("data", std::string());
-    } catch (const json::exception& e) {
-        return make_error(path + ": malformed fit report: " + gonio::json_error_text(e.what()));
-    }
-    return r;
+    const std::string text = ss.str();
+    return read_strict_json(path,
+                            [&] { return read_report_document(parse_json_checked(text, path)); });
 }
 
 std::string format_summary(const FitResult& r) {

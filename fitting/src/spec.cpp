@@ -30,6 +30,7 @@ std::pair<double, double> default_bounds(Field f) {
             return {0.0, 10.0};
         case Field::kAlphaX:
         case Field::kAlphaY:
+        case Field::kAlphaRgb:
             return {1e-4, 1.5};
         case Field::kExponent:
             return {1e-1, 1e7};
@@ -65,7 +66,7 @@ ParamSpec make_param(Field f, int lobe, bool free, bool shared) {
 
 bool is_rgb(Field f) {
     return f == Field::kDiffuse || f == Field::kScale || f == Field::kF0 || f == Field::kEtaRgb ||
-           f == Field::kK;
+           f == Field::kK || f == Field::kAlphaRgb;
 }
 
 std::string field_path(Field f, int lobe) {
@@ -77,6 +78,8 @@ std::string field_path(Field f, int lobe) {
             return prefix + "alpha_x";
         case Field::kAlphaY:
             return prefix + "alpha_y";
+        case Field::kAlphaRgb:
+            return prefix + "alpha_rgb";
         case Field::kExponent:
             return prefix + "exponent";
         case Field::kGamma:
@@ -133,6 +136,16 @@ Expected<std::pair<FresnelType, bool>> parse_fresnel(const std::string& name) {
     }
     return make_error("fresnel \"" + name +
                       "\": expected schlick, schlick-rgb, dielectric, conductor or none");
+}
+
+Expected<bool> parse_roughness(const std::string& name) {
+    if (name == "shared") {
+        return false;
+    }
+    if (name == "rgb") {
+        return true;
+    }
+    return make_error("roughness \"" + excerpt(name) + "\": expected shared or rgb");
 }
 
 Expected<brdf::Shadowing> parse_shadowing(const std::string& name) {
@@ -225,6 +238,12 @@ std::vector<ParamSpec> default_params(const brdf::ModelD& model, bool fresnel_rg
         } else if (l.distribution == Distribution::kTabulated) {
             // The shape is the table (extracted by power iteration, power_iteration.h): no slope
             // parameter.
+        } else if (l.rgb_roughness) {
+            // One slope parameter per channel (model.h, Lobe::rgb_roughness).
+            out.push_back(make_param(Field::kAlphaRgb, i, true, false));
+            if (l.distribution == Distribution::kStudentT) {
+                out.push_back(make_param(Field::kGamma, i, true, false));
+            }
         } else {
             out.push_back(make_param(Field::kAlphaX, i, true, false));
             if (l.anisotropic) {
@@ -270,6 +289,13 @@ Expected<FitSpec> make_fit_spec(const ModelOptions& o) {
                           (o.anisotropic ? "--anisotropic" : "--lobes " + std::to_string(o.lobes)) +
                           " given); its D is extracted from the backscattering of the data");
     }
+    if (o.rgb_roughness && (o.anisotropic || o.distribution == Distribution::kBlinnPhong ||
+                            o.distribution == Distribution::kTabulated)) {
+        return make_error(std::string("--roughness rgb: isotropic ggx, beckmann or student-t "
+                                      "lobes only (") +
+                          (o.anisotropic ? "--anisotropic" : to_string(o.distribution)) +
+                          " given)");
+    }
     FitSpec spec;
     spec.model.has_diffuse = o.diffuse;
     spec.model.diffuse = brdf::Rgbd::Constant(o.diffuse ? 0.2 : 0.0);
@@ -278,6 +304,8 @@ Expected<FitSpec> make_fit_spec(const ModelOptions& o) {
         l.distribution = o.distribution;
         l.anisotropic = o.anisotropic && o.distribution != Distribution::kBlinnPhong;
         l.alpha_x = l.alpha_y = 0.1 * (i + 1);
+        l.rgb_roughness = o.rgb_roughness;
+        l.alpha_rgb = brdf::Rgbd::Constant(l.alpha_x);
         l.exponent = 2.0 / (l.alpha_x * l.alpha_x) - 2.0;
         l.shadowing = o.shadowing;
         l.fresnel.type = o.fresnel;

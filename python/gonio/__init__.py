@@ -53,8 +53,8 @@ def fit(
     samples: a path (dataset CSV, or a table *.binary/*.merl/*.gtab), a samples dict or a
         table dict from ``gonio.load()``.
     model: "ggx", "beckmann", "blinn-phong" or "student-t" (structure further set by the options
-        fresnel, shadowing, diffuse, anisotropic, lobes), "auto" (candidates ranked by BIC,
-        the winner polished, as ``gonio fit --model auto``; the ranking is in
+        fresnel, shadowing, diffuse, anisotropic, lobes, roughness), "auto" (candidates ranked
+        by BIC, the winner polished, as ``gonio fit --model auto``; the ranking is in
         ``report["auto"]``), a fit-template path (*.json) or a fit-template dict
         ``{"model": {...}, "free": [...], "fixed": [...], "shared": [...], "bounds": {...}}``
         (docs/fitting-guide.md). With "auto" or a template the structure options are refused
@@ -66,8 +66,9 @@ def fit(
     truth: optional ground-truth model (dict or path), copied into the report.
     options: fresnel ("schlick", "schlick-rgb", "dielectric", "conductor", "none"),
         shadowing ("smith-correlated", "smith-separable", "v-groove", "none"), diffuse (bool),
-        anisotropic (bool), lobes (0-4), loss ("none", "huber", "cauchy"), loss_scale,
-        starts, seed, max_iterations, threads (0 = all cores).
+        anisotropic (bool), lobes (0-4), roughness ("shared" or "rgb": one alpha per channel),
+        loss ("none", "huber", "cauchy"), loss_scale, starts, seed, max_iterations, threads
+        (0 = all cores).
 
     Returns ``(model, report)``: the fitted model as a dict in the model schema and the full
     fit report as ``gonio fit --out`` writes it (parameters with one-sigma uncertainties,

@@ -101,7 +101,8 @@ Expected<void> validate(const ModelD& m) {
 /// The model as the renderers' distributions hold it: a Student-t lobe at gamma = 2 is GGX exactly
 /// and is written as one; any other Student-t lobe has no counterpart in the renderer (Mitsuba 3
 /// and pbrt-v4 take GGX and Beckmann only) and the export is refused, naming the lobe; so is a
-/// tabulated lobe, which an RGL material file holds instead.
+/// tabulated lobe, which an RGL material file holds instead, and so is a lobe whose roughness
+/// differs between the channels (one with equal channels is written as the grey lobe).
 Expected<ModelD> representable(const ModelD& m, const char* renderer) {
     ModelD out = m;
     for (std::size_t i = 0; i < out.lobes.size(); ++i) {
@@ -114,6 +115,23 @@ Expected<ModelD> representable(const ModelD& m, const char* renderer) {
                               ", which takes ggx and beckmann only; write it as an RGL material "
                               "file, which Mitsuba 3's measured plugin renders (`gonio convert "
                               "fit.json out.bsdf`), or refit with `--model ggx`");
+        }
+        if (l.rgb_roughness) {
+            // One roughness per channel: the renderers' roughness is a scalar texture. Equal
+            // channels are the grey lobe itself.
+            const double mx = l.alpha_rgb.maxCoeff();
+            if (!((mx - l.alpha_rgb.minCoeff()) <= 1e-9 * mx)) {
+                return make_error("lobes[" + std::to_string(i) + "]: an RGB-varying roughness " +
+                                  "(alpha " + num(l.alpha_rgb[0]) + ", " + num(l.alpha_rgb[1]) +
+                                  ", " + num(l.alpha_rgb[2]) + ") cannot be represented by " +
+                                  renderer +
+                                  ", whose roughness is one number for every wavelength; write "
+                                  "it as an RGL material file, which Mitsuba 3's measured plugin "
+                                  "renders (`gonio convert fit.json out.bsdf`), or refit without "
+                                  "`--roughness rgb`");
+            }
+            l.rgb_roughness = false;
+            l.alpha_x = l.alpha_y = l.alpha_rgb[1];
         }
         if (l.distribution != Distribution::kStudentT) {
             continue;

@@ -1,7 +1,12 @@
 #include "gonio/sim/sim_rig.h"
 
+#include <cstdint>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <string>
 
+#include "gonio/base/limits.h"
+#include "gonio/base/strict_json.h"
 #include "gonio/base/strings.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/brdf.h"
@@ -11,6 +16,74 @@
 namespace gonio::sim {
 
 using nlohmann::json;
+
+namespace {
+
+/// The rig file's "sim" section, read only by the virtual rig; each value its default when absent.
+struct SimSection {
+    double time_scale = 20.0;
+    std::uint64_t seed = 1;
+    std::string brdf;
+    std::string material = "red-plastic";
+    bool start_homed = true;
+    std::map<std::string, double> initial_deg;  ///< By axis role; detector 45, others 0 if absent.
+    double irradiance_w_m2 = 1.0;
+    int sensor_width = 640;
+    int sensor_height = 512;
+};
+
+/// Reads "sim" with the strict reader (base/strict_json.h): unknown keys refused with the keys
+/// allowed there, types and ranges checked, messages naming the key path ("sim.sensor.width").
+Expected<SimSection> read_sim_section(const json& rig) {
+    return read_strict_json("sim rig", [&] {
+        SimSection s;
+        require_json_object(rig, "");
+        const auto found = rig.find("sim");
+        if (found == rig.end()) {
+            return s;
+        }
+        JsonObject sim(*found, "sim");
+        sim.allow({"material",
+                   "brdf",
+                   "time_scale",
+                   "seed",
+                   "start_homed",
+                   "initial_deg",
+                   "irradiance_w_m2",
+                   "sensor"});
+        sim.finish();
+        s.material = sim.string("material", s.material, kMaxJsonString);
+        s.brdf = sim.string("brdf", s.brdf, kMaxJsonString);
+        s.time_scale = sim.number("time_scale", s.time_scale, 0.0, 1e6);
+        if (!(s.time_scale > 0)) {
+            json_fail("sim.time_scale = 0: must be > 0 (simulated seconds per second)");
+        }
+        // Whole and at least 1 (0 would be "unset" beside the command line's seed).
+        s.seed = static_cast<std::uint64_t>(sim.integer("seed", 1, 1, 2147483647));
+        s.start_homed = sim.boolean("start_homed", s.start_homed);
+        if (const json* initial = sim.find("initial_deg")) {
+            JsonObject roles(*initial, "sim.initial_deg");
+            roles.allow({"light", "detector", "tilt", "spin"});
+            roles.finish();
+            for (const char* role : {"light", "detector", "tilt", "spin"}) {
+                if (roles.has(role)) {
+                    s.initial_deg[role] = roles.number(role, 0.0, -360.0, 360.0, "deg");
+                }
+            }
+        }
+        s.irradiance_w_m2 = sim.number("irradiance_w_m2", s.irradiance_w_m2, 0.0, 1e9, "W/m^2");
+        if (const json* sensor = sim.find("sensor")) {
+            JsonObject sz(*sensor, "sim.sensor");
+            sz.allow({"width", "height"});
+            sz.finish();
+            s.sensor_width = sz.integer("width", s.sensor_width, 1, 16384);
+            s.sensor_height = sz.integer("height", s.sensor_height, 1, 16384);
+        }
+        return s;
+    });
+}
+
+}  // namespace
 
 SimRig::~SimRig() {
     stop();
@@ -45,18 +118,19 @@ Expected<std::unique_ptr<SimRig>> SimRig::start(const std::string& rig_json,
     } catch (const std::exception& e) {
         return make_error(std::string("sim rig: ") + gonio::json_error_text(e.what()));
     }
-    const json sim = j.value("sim", json::object());
-    double time_scale = opt.time_scale > 0 ? opt.time_scale : sim.value("time_scale", 20.0);
-    const std::uint64_t seed = opt.seed > 0 ? opt.seed : sim.value("seed", std::uint64_t{1});
-    if (!(time_scale > 0)) {
-        return make_error("sim rig: sim.time_scale must be > 0");
+    Expected<SimSection> section = read_sim_section(j);
+    if (!section) {
+        return make_error(section.error().message);
     }
+    const SimSection& sim = *section;
+    const double time_scale = opt.time_scale > 0 ? opt.time_scale : sim.time_scale;
+    const std::uint64_t seed = opt.seed > 0 ? opt.seed : sim.seed;
     // Ground truth.
     std::string brdf_path = opt.brdf_path;
     std::string material = opt.material;
     if (brdf_path.empty() && material.empty()) {
-        brdf_path = sim.value("brdf", std::string());
-        material = sim.value("material", std::string("red-plastic"));
+        brdf_path = sim.brdf;
+        material = sim.material;
     }
     if (!brdf_path.empty()) {
         auto b = brdf::load_brdf(brdf_path);
@@ -77,7 +151,6 @@ Expected<std::unique_ptr<SimRig>> SimRig::start(const std::string& rig_json,
     rig->mounted_ = std::make_shared<MountedBrdf>(rig->sample_, white);
     // Motor controllers.
     rig->motors_ = std::make_unique<MotorControllerServer>();
-    const json initial = sim.value("initial_deg", json::object());
     try {
         for (const json& a : j.at("axes")) {
             const std::string role = a.at("role").get<std::string>();
@@ -89,8 +162,11 @@ Expected<std::unique_ptr<SimRig>> SimRig::start(const std::string& rig_json,
             MotorSimConfig mc;
             mc.time_scale = time_scale;
             mc.seed = seed + static_cast<std::uint64_t>(unit);
-            mc.start_homed = sim.value("start_homed", true);
-            mc.initial_deg = initial.value(role, role == "detector" ? 45.0 : 0.0);
+            mc.start_homed = sim.start_homed;
+            const auto initial = sim.initial_deg.find(role);
+            mc.initial_deg = initial != sim.initial_deg.end() ? initial->second
+                             : role == "detector"             ? 45.0
+                                                              : 0.0;
             const json lim = a.at("limits_deg");
             // Limit switches a little beyond the soft limits.
             mc.limit_min_deg = lim.at(0).get<double>() - 5;
@@ -145,11 +221,10 @@ Expected<std::unique_ptr<SimRig>> SimRig::start(const std::string& rig_json,
     }
     // World and camera.
     rig->world_ = std::make_unique<RigWorld>(
-        rig->motors_.get(), rig->units_, rig->mounted_, sim.value("irradiance_w_m2", 1.0));
+        rig->motors_.get(), rig->units_, rig->mounted_, sim.irradiance_w_m2);
     GigeCameraConfig gc;
-    const json sensor = sim.value("sensor", json::object());
-    gc.sensor.width = sensor.value("width", 640);
-    gc.sensor.height = sensor.value("height", 512);
+    gc.sensor.width = sim.sensor_width;
+    gc.sensor.height = sim.sensor_height;
     gc.sensor.seed = seed;
     if (opt.sphere) {
         gc.sensor.width = opt.sphere->camera.width;

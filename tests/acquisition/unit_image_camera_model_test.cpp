@@ -2,11 +2,13 @@
 // description, and OpenCV calibration on chessboard views rendered from a known camera.
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <Eigen/Geometry>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
@@ -124,6 +126,49 @@ TEST(ImageCameraModel, JsonErrorsNameTheKey) {
     auto e4 = read_camera_model("/nonexistent/rig.json");
     ASSERT_FALSE(e4);
     EXPECT_NE(e4.error().message.find("cannot open"), std::string::npos);
+}
+
+TEST(ImageCameraModel, JsonRefusesUnknownKeysAndWrongTypesNamingTheKeyPath) {
+    const std::string good = camera_model_to_json(
+        camera_on_detector_arm(truth_intrinsics(), Projection::kPerspective, 0.3, 0.45));
+    ASSERT_TRUE(camera_model_from_json(good, "rig.json"));
+    // `good` with one more key, or one key's value replaced.
+    auto with = [&](const std::string& key, const std::string& value) {
+        nlohmann::json j = nlohmann::json::parse(good);
+        j[key] = nlohmann::json::parse(value);
+        auto m = camera_model_from_json(j.dump(), "rig.json");
+        return m ? std::string() : m.error().message;
+    };
+    EXPECT_EQ(
+        with("distorsion", "[0, 0, 0, 0, 0]")
+            .rfind("rig.json: camera_model.distorsion: unknown key (allowed here: projection, "
+                   "width, height, fx, fy, cx, cy, pixel_size_um, distortion, ",
+                   0),
+        0u)
+        << with("distorsion", "[0, 0, 0, 0, 0]");
+    EXPECT_EQ(with("pixel_size_um", "\"5\""),
+              "rig.json: camera_model.pixel_size_um: expected a number, got string");
+    EXPECT_EQ(with("width", "10.5"),
+              "rig.json: camera_model.width = 10.5: must be a positive integer");
+    EXPECT_EQ(with("projection", "3"),
+              "rig.json: camera_model.projection: expected a string, got number");
+    EXPECT_EQ(with("rotation_world_to_camera", "[1, 0, 0, 0, \"1\", 0, 0, 0, 1]"),
+              "rig.json: camera_model.rotation_world_to_camera[4]: expected a number, got string");
+    EXPECT_EQ(with("distortion", "[0, 0]"),
+              "rig.json: camera_model.distortion: must be an array of 5 numbers, got 2 values");
+    EXPECT_EQ(camera_model_from_json("[]", "rig.json").error().message,
+              "rig.json: camera_model: expected an object, got array");
+    // In a rig description: the same rules, the rig file named.
+    const std::string path = (std::filesystem::temp_directory_path() /
+                              ("gonio_camera_model_keys_" + std::to_string(::getpid()) + ".json"))
+                                 .string();
+    nlohmann::json rig = {{"name", "r"}, {"camera_model", nlohmann::json::parse(good)}};
+    rig["camera_model"]["fx"] = "1200";
+    std::ofstream(path) << rig.dump();
+    auto bad = read_camera_model(path);
+    ASSERT_FALSE(bad);
+    EXPECT_EQ(bad.error().message, path + ": camera_model.fx: expected a number, got string");
+    std::filesystem::remove(path);
 }
 
 /// Renders a chessboard view seen by `k` with the board at (r_bc, t_bc) (board -> camera).

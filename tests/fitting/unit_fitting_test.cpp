@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <fstream>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <random>
 
 #include "fit_test_util.h"
@@ -381,6 +382,68 @@ TEST(Report, RoundTripsThroughJsonAndRefusesModelOfUnusableFit) {
     EXPECT_FALSE(stopped_back->solver.usable);
     EXPECT_NE(format_summary(stopped).find("DID NOT CONVERGE"), std::string::npos);
     EXPECT_EQ(format_summary(stopped).find("parameters:"), std::string::npos);
+}
+
+TEST(Report, ReaderIsStrictAndReadsBackWhatTheWriterWrote) {
+    FitSpec spec = *make_fit_spec(ModelOptions{});
+    brdf::ModelD truth = spec.model;
+    truth.diffuse = Rgbd(0.3, 0.2, 0.1);
+    truth.lobes[0].alpha_x = truth.lobes[0].alpha_y = 0.25;
+    FitResult r = *fit(testing::synthesize(truth, testing::measurement_grid()), spec);
+    ASSERT_TRUE(r.usable());
+    r.ground_truth = truth;
+    r.data = "strict.csv";
+    const std::string dir = GONIO_BINARY_DIR;
+    const std::string path = dir + "/unit_fit_report_strict.json";
+    ASSERT_TRUE(write_fit_report(path, r));
+    const std::string report = report_path_for(path);
+    std::ifstream in(report);
+    const nlohmann::json written = nlohmann::json::parse(in);
+
+    // Round trip: what the reader returns, written again, is the file it read, key for key.
+    Expected<FitResult> back = read_fit_report(report);
+    ASSERT_TRUE(back) << back.error().message;
+    EXPECT_EQ(nlohmann::json::parse(fit_report_json(*back)), written);
+
+    auto read_edited = [&](auto edit) {
+        nlohmann::json j = written;
+        edit(j);
+        const std::string p = dir + "/unit_fit_report_strict_edited.report.json";
+        std::ofstream(p) << j.dump(2);
+        Expected<FitResult> res = read_fit_report(p);
+        return res ? std::string() : res.error().message;
+    };
+    // An unknown key, at the top and deep inside, is refused with its key path and the keys
+    // allowed there.
+    const std::string top = read_edited([](nlohmann::json& j) { j["paramters"] = 1; });
+    EXPECT_NE(top.find("unit_fit_report_strict_edited.report.json: paramters: unknown key (allowed "
+                       "here: model, parameters,"),
+              std::string::npos)
+        << top;
+    const std::string stage =
+        read_edited([](nlohmann::json& j) { j["solver"]["stages"][0]["tme_s"] = 0.1; });
+    EXPECT_NE(stage.find("solver.stages[0].tme_s: unknown key (allowed here: name, samples, "
+                         "iterations, termination, time_s, final_cost)"),
+              std::string::npos)
+        << stage;
+    const std::string lobe =
+        read_edited([](nlohmann::json& j) { j["model"]["lobes"][0]["alhpa"] = 0.1; });
+    EXPECT_NE(lobe.find("model.lobes[0].alhpa: unknown key"), std::string::npos) << lobe;
+    // Wrong types and values name the key path.
+    const std::string count =
+        read_edited([](nlohmann::json& j) { j["samples"]["valid"] = "1118"; });
+    EXPECT_NE(count.find("samples.valid: expected a whole number, got string"), std::string::npos)
+        << count;
+    const std::string bound =
+        read_edited([](nlohmann::json& j) { j["parameters"][1]["at_bound"] = "middle"; });
+    EXPECT_NE(bound.find("parameters[1].at_bound = \"middle\": must be"), std::string::npos)
+        << bound;
+    const std::string rgb = read_edited([](nlohmann::json& j) {
+        j["metrics"]["log_rmse"] = {0.1, 0.2};
+    });
+    EXPECT_NE(rgb.find("metrics.log_rmse: expected [r, g, b]"), std::string::npos) << rgb;
+    const std::string missing = read_edited([](nlohmann::json& j) { j.erase("solver"); });
+    EXPECT_NE(missing.find("top level: missing key \"solver\""), std::string::npos) << missing;
 }
 
 TEST(Metrics, MatchTheirDefinitions) {

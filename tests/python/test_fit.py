@@ -4,6 +4,7 @@ import threading
 import time
 
 import numpy as np
+import pytest
 
 import gonio
 from conftest import TRUTH, synthetic_samples
@@ -104,3 +105,22 @@ def test_fit_auto_ranks_candidates_and_refuses_structure_options():
             assert key in str(e) and "auto" in str(e), str(e)
         else:
             raise AssertionError(f"{key} with model='auto' was not refused")
+
+
+def test_fit_with_rgb_roughness_gives_each_channel_its_alpha():
+    truth = {
+        "diffuse": TRUTH["diffuse"],
+        "lobes": [dict(TRUTH["lobes"][0], alpha=[0.12, 0.18, 0.3])],
+    }
+    data = synthetic_samples(truth, n_theta=10, n_phi=13)
+    model, report = gonio.fit(
+        data, model="ggx", fresnel="schlick-rgb", roughness="rgb", residual="log", threads=1
+    )
+    assert report["solver"]["usable"], report["solver"]
+    np.testing.assert_allclose(model["lobes"][0]["alpha"], [0.12, 0.18, 0.3], rtol=1e-4)
+    names = [p["name"] for p in report["parameters"]]
+    assert "lobes[0].alpha_rgb[2]" in names and "lobes[0].alpha_x" not in names
+    with pytest.raises(gonio.Error, match="roughness"):
+        gonio.fit(data, model="blinn-phong", roughness="rgb", threads=1)
+    with pytest.raises(gonio.Error, match="roughness"):
+        gonio.fit(data, model="ggx", roughness="grey", threads=1)

@@ -340,6 +340,37 @@ TEST(RendererExport, RejectsOutOfDomainParametersNamingThem) {
     EXPECT_NE(b.error().message.find("lobes[0].fresnel.f0"), std::string::npos);
 }
 
+TEST(RendererExport, RgbRoughnessIsRefusedUnlessTheChannelsAgree) {
+    // One alpha per channel: the renderers' roughness is one number, so both exports refuse it,
+    // name the lobe and the way out (an RGL material file).
+    brdf::ModelD m;
+    m.has_diffuse = false;
+    auto l = testing::lobe(brdf::Distribution::kGgx, 0.2);
+    l.shadowing = brdf::Shadowing::kSmithSeparable;
+    l.fresnel.type = brdf::FresnelType::kNone;
+    l.rgb_roughness = true;
+    l.alpha_rgb = brdf::Rgbd(0.1, 0.2, 0.3);
+    m.lobes = {l};
+    auto a = export_mitsuba(m, "x");
+    ASSERT_FALSE(a);
+    EXPECT_NE(a.error().message.find("lobes[0]: an RGB-varying roughness"), std::string::npos)
+        << a.error().message;
+    EXPECT_NE(a.error().message.find("out.bsdf"), std::string::npos) << a.error().message;
+    auto b = export_pbrt(m, "x");
+    ASSERT_FALSE(b);
+    EXPECT_NE(b.error().message.find("pbrt-v4"), std::string::npos) << b.error().message;
+    // Equal channels are the grey lobe: written with that alpha.
+    m.lobes[0].alpha_rgb = brdf::Rgbd::Constant(0.25);
+    m.lobes[0].alpha_x = m.lobes[0].alpha_y = 0.25;
+    auto c = export_mitsuba(m, "x");
+    ASSERT_TRUE(c) << c.error().message;
+    std::string err;
+    auto root = XmlReader(c->text).parse(&err);
+    ASSERT_NE(root, nullptr) << err;
+    EXPECT_DOUBLE_EQ(std::stod(param(*root->children[0], "alpha")->attrs.at("value")), 0.25);
+    EXPECT_TRUE(export_pbrt(m, "x"));
+}
+
 // ---- pbrt-v4 scene syntax: a tokenizer and a reader of MakeNamedMaterial statements. ----
 
 struct Token {

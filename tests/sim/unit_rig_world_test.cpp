@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "gonio/devices/filter_wheel.h"
@@ -54,6 +55,49 @@ TEST(RigWorld, SceneFollowsTheStagesAndCoils) {
     EXPECT_NEAR(dev_brdf->eval(wi, wo)[0], 0.99 / brdf::kPi, 1e-15);
     EXPECT_EQ(dev_brdf->eval(brdf::Vec3d(0, 0, -1), wo)[0], 0.0);
     EXPECT_EQ((*rig)->world().exposures(), 3u);
+}
+
+TEST(RigWorld, SimSectionIsReadStrictlyWithItsDefaults) {
+    const nlohmann::json rig = nlohmann::json::parse(sim4_json());
+    auto start_with = [&](const nlohmann::json& sim) {
+        nlohmann::json j = rig;
+        j["sim"] = sim;
+        return SimRig::start(j.dump(), SimRigOptions{});
+    };
+    // Present keys are read, absent ones keep their defaults (light arm 0, red-plastic).
+    {
+        auto started = start_with({{"initial_deg", {{"detector", 30}}}, {"time_scale", 50}});
+        ASSERT_TRUE(started) << started.error().message;
+        const SceneState s = (*started)->world().scene();
+        EXPECT_NEAR(s.detector_arm_rad, 30 * brdf::kPi / 180, 1e-9);
+        EXPECT_NEAR(s.light_arm_rad, 0, 1e-9);
+        EXPECT_EQ((*started)->describe().rfind("sample red-plastic", 0), 0u);
+    }
+    auto refused = [&](const nlohmann::json& sim) {
+        auto started = start_with(sim);
+        return started ? std::string("accepted") : started.error().message;
+    };
+    // Unknown keys are refused with their key path and the keys allowed there.
+    EXPECT_EQ(
+        refused({{"time_scael", 20}}),
+        "sim rig: sim.time_scael: unknown key (allowed here: material, brdf, time_scale, seed, "
+        "start_homed, initial_deg, irradiance_w_m2, sensor)");
+    EXPECT_EQ(refused({{"sensor", {{"widht", 640}}}}),
+              "sim rig: sim.sensor.widht: unknown key (allowed here: width, height)");
+    EXPECT_EQ(
+        refused({{"initial_deg", {{"detecter", 45}}}}),
+        "sim rig: sim.initial_deg.detecter: unknown key (allowed here: light, detector, tilt, "
+        "spin)");
+    // Types and ranges, by key path.
+    EXPECT_EQ(refused({{"time_scale", "fast"}}),
+              "sim rig: sim.time_scale: expected a number, got string");
+    EXPECT_EQ(refused({{"sensor", {{"width", 640.5}}}}),
+              "sim rig: sim.sensor.width = 640.5: must be a whole number in [1, 16384]");
+    EXPECT_EQ(refused({{"start_homed", 1}}),
+              "sim rig: sim.start_homed: expected true or false, got number");
+    EXPECT_EQ(refused({{"time_scale", 0}}),
+              "sim rig: sim.time_scale = 0: must be > 0 (simulated seconds per second)");
+    EXPECT_EQ(refused("red-plastic"), "sim rig: sim: expected an object, got string");
 }
 
 TEST(RigWorld, FilterWheelCoilsSelectTheCameraFilter) {

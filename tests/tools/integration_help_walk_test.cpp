@@ -74,6 +74,8 @@ TEST(HelpWalk, FitEveryOptionHonouredOrRefused) {
               {"--anisotropic", f, f + " --anisotropic"},
               {"--lobes", f + " --model auto --lobes 2", ""},
               {"--lobes", f, f + " --lobes 2"},
+              {"--roughness", f + " --model auto --roughness rgb", ""},
+              {"--roughness", f, f + " --roughness rgb"},
               {"--residual", f, f + " --residual relative"},
               {"--loss", f, f + " --loss huber"},
               {"--loss-scale", f, f + " --loss-scale 0.5"},

@@ -2,8 +2,9 @@
 
 // Motion-time scheduling: the order in which to visit a set of poses so that the total move time
 // (slowest axis's trapezoidal time plus settle, see move_time) is small. Nearest neighbour through
-// a bucket grid (near O(n) for dense plans), then 2-opt restricted to a window of the tour, within
-// a time budget. Also the raster-order duration and a lower bound, for the operator's comparison.
+// a k-d tree over the axis coordinates (exact; about O(n log n) for dense plans), then 2-opt
+// restricted to a window of the tour, within a time budget. Also the raster-order duration and a
+// lower bound, for the operator's comparison.
 
 #include <cstddef>
 #include <vector>

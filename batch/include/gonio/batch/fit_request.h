@@ -40,6 +40,8 @@ struct FitRequest {
     bool diffuse = fitting::ModelOptions{}.diffuse;
     bool anisotropic = fitting::ModelOptions{}.anisotropic;
     int lobes = fitting::ModelOptions{}.lobes;
+    /// shared (one slope parameter for the three channels) or rgb (one per channel).
+    std::string roughness = fitting::ModelOptions{}.rgb_roughness ? "rgb" : "shared";
     std::string residual = fitting::to_string(
         fitting::FitOptions{}.residual);  ///< absolute, relative, log, cosine, cbrt.
     std::string loss = fitting::to_string(fitting::FitOptions{}.loss);  ///< none, huber, cauchy.
@@ -66,7 +68,7 @@ struct OptionConflict {
     std::string rule;    ///< Why, in a few words.
 };
 
-/// The structure options (fresnel, shadowing, diffuse, anisotropic, lobes) given together with
+/// The structure options (fresnel, shadowing, diffuse, anisotropic, lobes, roughness) given with
 /// model = auto (which chooses the structure) or with a fit template (which states it).
 std::optional<OptionConflict> find_conflict(const FitRequest& request);
 

@@ -65,9 +65,17 @@ struct Lobe {
         false;  ///< When false alpha_y == alpha_x is implied and only alpha_x is used.
     T alpha_x =
         T(0.1);  ///< Slope parameter along x (alpha itself, not a perceptual roughness), > 0.
-    T alpha_y = T(0.1);   ///< Slope parameter along y, > 0.
-    T exponent = T(100);  ///< Blinn-Phong exponent, > 0.
-    T gamma = T(2);       ///< Student-t tail parameter, > 3/2 (2 is GGX; larger is Beckmann-like).
+    T alpha_y = T(0.1);  ///< Slope parameter along y, > 0.
+    /// RGB-varying roughness: when true (isotropic GGX, Beckmann and Student-t lobes only),
+    /// channel c of the lobe is evaluated with alpha_x = alpha_y = alpha_rgb[c] in D and in
+    /// Smith's Lambda, so that the lobe's width depends on the wavelength as in measured
+    /// materials whose peak is wider in one channel (dispersion in a coating, a coloured
+    /// substrate seen through a rough interface). alpha_x then holds alpha_rgb[1] (green), the
+    /// one width that sampling and previews use.
+    bool rgb_roughness = false;
+    Rgb<T> alpha_rgb = Rgb<T>::Constant(T(0.1));  ///< Per-channel slope parameters, > 0.
+    T exponent = T(100);                          ///< Blinn-Phong exponent, > 0.
+    T gamma = T(2);  ///< Student-t tail parameter, > 3/2 (2 is GGX; larger is Beckmann-like).
     /// The table of a kTabulated lobe (data, never a fitted parameter; shared by copies). Null for
     /// the analytic distributions, and in a fit specification whose table is still to be extracted
     /// from the data (fitting/power_iteration.h).
@@ -107,6 +115,8 @@ Model<To> cast_model(const Model<From>& m, Convert convert) {
         o.anisotropic = l.anisotropic;
         o.alpha_x = convert(l.alpha_x);
         o.alpha_y = convert(l.alpha_y);
+        o.rgb_roughness = l.rgb_roughness;
+        o.alpha_rgb = rgb(l.alpha_rgb);
         o.exponent = convert(l.exponent);
         o.gamma = convert(l.gamma);
         o.table = l.table;

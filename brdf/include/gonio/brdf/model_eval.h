@@ -19,6 +19,8 @@
 // camera. Blinn-Phong lobes use D = (e + 2)/(2 pi) cos^e(theta_h) (normalised over projected
 // area, blinn_phong.h) in the same microfacet form, so they compare directly with GGX and
 // Beckmann lobes; their Smith Lambda is Beckmann's with alpha = sqrt(2/(e + 2)).
+// A lobe with RGB-varying roughness (Lobe::rgb_roughness) evaluates D and G of channel c with
+// alpha = alpha_rgb[c]: f_c = scale_c F_c D(h; a_c) G(wi, wo; a_c) / (4 cos_i cos_o).
 
 #include <cmath>
 
@@ -73,16 +75,16 @@ inline HalfGeometry<T> half_geometry(const Dir3<T>& wi, const Dir3<T>& wo) {
     return g;
 }
 
-/// The lobe's normal distribution D(h), 1/sr, normalised over projected area; h_z > 0.
+/// The lobe's normal distribution D(h), 1/sr, normalised over projected area; h_z > 0; with
+/// the slope parameters (ax, ay) given by the caller (one channel's alpha of an RGB-roughness
+/// lobe) for the analytic distributions.
 template <class T, class P>
-inline T lobe_D(const Lobe<P>& lobe, const Dir3<T>& h) {
+inline T lobe_D_alpha(const Lobe<P>& lobe, const Dir3<T>& h, const P& ax, const P& ay) {
     switch (lobe.distribution) {
         case Distribution::kGgx:
-            return D_ggx_from_squares(
-                sqr(h.x), sqr(h.y), sqr(h.z), T(lobe.alpha_x), T(lobe_alpha_y(lobe)));
+            return D_ggx_from_squares(sqr(h.x), sqr(h.y), sqr(h.z), T(ax), T(ay));
         case Distribution::kBeckmann:
-            return D_beckmann_from_squares(
-                sqr(h.x), sqr(h.y), sqr(h.z), T(lobe.alpha_x), T(lobe_alpha_y(lobe)));
+            return D_beckmann_from_squares(sqr(h.x), sqr(h.y), sqr(h.z), T(ax), T(ay));
         case Distribution::kBlinnPhong:
             return D_blinn_phong(Vec3<T>(h.x, h.y, h.z), T(lobe.exponent));
         case Distribution::kStudentT:
@@ -92,8 +94,7 @@ inline T lobe_D(const Lobe<P>& lobe, const Dir3<T>& h) {
                 GONIO_CHECK_MSG(false, "Student-t lobe evaluated on packets");
                 return T(0);
             } else {
-                return D_student_t(
-                    Vec3<T>(h.x, h.y, h.z), T(lobe.alpha_x), T(lobe_alpha_y(lobe)), T(lobe.gamma));
+                return D_student_t(Vec3<T>(h.x, h.y, h.z), T(ax), T(ay), T(lobe.gamma));
             }
         case Distribution::kTabulated:
             if constexpr (IsPacket<T>::value) {
@@ -107,6 +108,12 @@ inline T lobe_D(const Lobe<P>& lobe, const Dir3<T>& h) {
             }
     }
     return T(0);
+}
+
+/// The lobe's normal distribution D(h) with its own slope parameters; h_z > 0.
+template <class T, class P>
+inline T lobe_D(const Lobe<P>& lobe, const Dir3<T>& h) {
+    return lobe_D_alpha(lobe, h, lobe.alpha_x, lobe_alpha_y(lobe));
 }
 
 /// The lobe's normal distribution D(h) of a unit h, 1/sr; 0 for h_z <= 0.
@@ -125,17 +132,17 @@ inline T lobe_D(const Lobe<T>& lobe, const Vec3<T>& h) {
 }
 
 /// The Smith Lambda of the lobe's distribution from a2 = alpha(phi)^2 tan^2(theta) with the
-/// lobe's alphas (a Blinn-Phong lobe uses Beckmann's with alpha = sqrt(2/(e + 2))).
+/// slope parameters (ax, ay) (a Blinn-Phong lobe uses Beckmann's with alpha = sqrt(2/(e + 2))).
 template <class T, class P>
-inline T lobe_lambda(const Lobe<P>& lobe, const Dir3<T>& w) {
+inline T lobe_lambda_alpha(const Lobe<P>& lobe, const Dir3<T>& w, const P& ax, const P& ay) {
     const T w_z2 = sqr(w.z);
     switch (lobe.distribution) {
         case Distribution::kGgx: {
-            const T a2 = (sqr(T(lobe.alpha_x) * w.x) + sqr(T(lobe_alpha_y(lobe)) * w.y)) / w_z2;
+            const T a2 = (sqr(T(ax) * w.x) + sqr(T(ay) * w.y)) / w_z2;
             return lambda_ggx_from_a2(a2);
         }
         case Distribution::kBeckmann: {
-            const T a2 = (sqr(T(lobe.alpha_x) * w.x) + sqr(T(lobe_alpha_y(lobe)) * w.y)) / w_z2;
+            const T a2 = (sqr(T(ax) * w.x) + sqr(T(ay) * w.y)) / w_z2;
             return lambda_beckmann_from_a2(a2);
         }
         case Distribution::kBlinnPhong: {
@@ -148,7 +155,7 @@ inline T lobe_lambda(const Lobe<P>& lobe, const Dir3<T>& w) {
                 GONIO_CHECK_MSG(false, "Student-t lobe evaluated on packets");
                 return T(0);
             } else {
-                const T a2 = (sqr(T(lobe.alpha_x) * w.x) + sqr(T(lobe_alpha_y(lobe)) * w.y)) / w_z2;
+                const T a2 = (sqr(T(ax) * w.x) + sqr(T(ay) * w.y)) / w_z2;
                 return lambda_student_t_a2(a2, T(lobe.gamma));
             }
         }
@@ -166,24 +173,43 @@ inline T lobe_lambda(const Lobe<P>& lobe, const Dir3<T>& w) {
     return T(0);
 }
 
-/// The lobe's shadowing-masking G(wi, wo) for the reflection half geometry g; both directions
-/// above the horizon.
+/// The Smith Lambda with the lobe's own slope parameters.
 template <class T, class P>
-inline T lobe_G(const Lobe<P>& lobe,
-                const Dir3<T>& wi,
-                const Dir3<T>& wo,
-                const HalfGeometry<T>& g) {
+inline T lobe_lambda(const Lobe<P>& lobe, const Dir3<T>& w) {
+    return lobe_lambda_alpha(lobe, w, lobe.alpha_x, lobe_alpha_y(lobe));
+}
+
+/// The lobe's shadowing-masking G(wi, wo) for the reflection half geometry g and the slope
+/// parameters (ax, ay); both directions above the horizon.
+template <class T, class P>
+inline T lobe_G_alpha(const Lobe<P>& lobe,
+                      const Dir3<T>& wi,
+                      const Dir3<T>& wo,
+                      const HalfGeometry<T>& g,
+                      const P& ax,
+                      const P& ay) {
     switch (lobe.shadowing) {
         case Shadowing::kSmithCorrelated:
-            return G_smith_correlated(lobe_lambda(lobe, wi), lobe_lambda(lobe, wo));
+            return G_smith_correlated(lobe_lambda_alpha(lobe, wi, ax, ay),
+                                      lobe_lambda_alpha(lobe, wo, ax, ay));
         case Shadowing::kSmithSeparable:
-            return G_smith_separable(lobe_lambda(lobe, wi), lobe_lambda(lobe, wo));
+            return G_smith_separable(lobe_lambda_alpha(lobe, wi, ax, ay),
+                                     lobe_lambda_alpha(lobe, wo, ax, ay));
         case Shadowing::kVGroove:
             return G_vgroove_from_cosines(g.h.z, wi.z, wo.z, g.cos_d);
         case Shadowing::kNone:
             break;
     }
     return T(1);
+}
+
+/// The lobe's shadowing-masking G(wi, wo) with its own slope parameters.
+template <class T, class P>
+inline T lobe_G(const Lobe<P>& lobe,
+                const Dir3<T>& wi,
+                const Dir3<T>& wo,
+                const HalfGeometry<T>& g) {
+    return lobe_G_alpha(lobe, wi, wo, g, lobe.alpha_x, lobe_alpha_y(lobe));
 }
 
 /// D G of a tabulated lobe (the lobe term without F, scale and 1 / (4 cos_i cos_o)) from the
@@ -262,6 +288,23 @@ inline void eval_lanes(const Rgb<P>* diffuse,
         const T inv_4cc = T(1) / (T(4) * wi.z * wo.z);
         for (const Lobe<P>* it = lobes; it != lobes_end; ++it) {
             const Lobe<P>& lobe = *it;
+            if (lobe.rgb_roughness) {
+                // RGB-varying roughness: D and G of each channel with that channel's alpha (the
+                // same microfacet form per wavelength band; an isotropic analytic lobe, checked
+                // by the model readers and the fit specs).
+                for (int c = 0; c < 3; ++c) {
+                    const P& a = lobe.alpha_rgb[c];
+                    const T D = lobe_D_alpha(lobe, g.h, a, a);
+                    if (all_of(D == T(0))) {
+                        // No microfacet with this normal at this channel's width.
+                        continue;
+                    }
+                    const T S = D * lobe_G_alpha(lobe, wi, wo, g, a, a) * inv_4cc;
+                    const T F = lobe_F(lobe.fresnel, c, g.cos_d, g.one_minus_cos_d);
+                    out[c] = out[c] + T(lobe.scale[c]) * F * S;
+                }
+                continue;
+            }
             const T D = lobe_D(lobe, g.h);
             if (all_of(D == T(0))) {
                 // No microfacet with this normal: the lobe contributes exactly zero (F and G are

@@ -74,7 +74,8 @@ class ParameterMap {
     const brdf::ModelD& base() const { return base_; }
     void set_base(const brdf::ModelD& m) { base_ = m; }
 
-    /// Sets one scalar in a model (an isotropic lobe's alpha_x also sets alpha_y).
+    /// Sets one scalar in a model (an isotropic lobe's alpha_x also sets alpha_y; the green
+    /// channel of alpha_rgb also sets alpha_x and alpha_y).
     template <class T>
     static void set(brdf::Model<T>& m, const ScalarParam& s, const T& v) {
         auto rgb = [&](brdf::Rgb<T>& a) {
@@ -100,6 +101,13 @@ class ParameterMap {
                 break;
             case Field::kAlphaY:
                 l.alpha_y = v;
+                break;
+            case Field::kAlphaRgb:
+                rgb(l.alpha_rgb);
+                if (s.channel < 0 || s.channel == 1) {
+                    // alpha_x of an RGB-roughness lobe mirrors the green channel (model.h).
+                    l.alpha_x = l.alpha_y = v;
+                }
                 break;
             case Field::kExponent:
                 l.exponent = v;

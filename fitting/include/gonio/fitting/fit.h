@@ -160,11 +160,17 @@ struct AutoFitResult {
     std::string criterion;             ///< How the ranking was made.
 };
 
-/// Fits each candidate on the stratified reduction (FitOptions::coarse_samples, no polish),
-/// ranks them by the Bayesian information criterion of the log residuals,
-///   BIC = n_r log(RSS / n_r) + p log(n_r),  n_r = 3 x samples of the reduction,
-/// (Schwarz 1978, Gaussian likelihood with the variance profiled out), and fits the winner again
-/// with the polish on all samples. Error when no candidate converges.
+/// Ranks the candidates by the Bayesian information criterion of the log residuals on a
+/// stratified set of at most 2000 of the valid samples (their weights kept),
+///   BIC = n_r log(RSS / n_r) + p log(n_r),  n_r = 3 x samples of the set,
+/// (Schwarz 1978, Gaussian likelihood with the variance profiled out), and returns the winner
+/// fitted on all samples. Shared starts: the first candidate is fitted in full on all samples
+/// first (the result when it wins); when it is one isotropic GGX lobe, every other analytic
+/// candidate starts from it (widths mapped, single start, no screening) on the ranking set, and
+/// a winner other than the first is polished on all samples from its ranking optimum; a
+/// tabulated candidate extracts its table by power iteration on the ranking set (and on all
+/// samples when it wins). The winner's structure with RGB-varying roughness is then tried once
+/// (kept when BIC prefers it and the log RMSE drops by 1e-4). Error when no candidate converges.
 Expected<AutoFitResult> fit_auto(const brdf::Dataset& data,
                                  const std::vector<std::pair<std::string, FitSpec>>& candidates);
 

@@ -84,7 +84,7 @@ class PreparedSamples {
     void set_loss(std::shared_ptr<const ceres::LossFunction> loss) { loss_ = std::move(loss); }
 
     /// True when the Jacobian comes from the closed-form derivatives (isotropic lobes, Schlick or
-    /// no Fresnel, free fields among diffuse, alpha, exponent, scale, f0), else from Jets.
+    /// no Fresnel, free fields among diffuse, alpha, exponent, gamma, scale, f0), else from Jets.
     bool analytic() const { return analytic_; }
     /// Forces the Jet path (tests compare both).
     void set_analytic(bool on) { analytic_ = on && analytic_; }
@@ -109,7 +109,8 @@ class PreparedSamples {
     /// Closed-form residuals r[3] and their derivatives v[c * slots + slot] of sample i:
     ///   f_c = rho_c / pi + sum_l scale_lc F_lc S_l,  F = f0 + (1 - f0) x5,
     ///   df_c/drho_c = 1/pi, df_c/dscale_lc = F_lc S_l, df_c/df0_lc = scale_lc (1 - x5) S_l,
-    ///   df_c/dalpha_l = scale_lc F_lc dS_l/dalpha (dS/dalpha by a one-slot Jet of the shape),
+    ///   df_c/dalpha_l = scale_lc F_lc dS_l/dalpha (dS/dalpha by a one-slot Jet of the shape;
+    ///   a Student-t lobe's dS/dalpha and dS/dgamma by a two-slot Jet),
     /// times dr_c/df_c = s_c g'(f_c).
     bool analytic_sample(const brdf::ModelD& m, std::size_t i, double r[3], double* v) const;
     /// The model values f[3] of sample i and df_c/d(slot) in d[c * slots + slot].

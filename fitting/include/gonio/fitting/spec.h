@@ -34,6 +34,7 @@ enum class Field {
     kDiffuse,   ///< Model::diffuse (RGB).
     kAlphaX,    ///< Lobe::alpha_x (for an isotropic lobe also the implied alpha_y).
     kAlphaY,    ///< Lobe::alpha_y (anisotropic lobes only).
+    kAlphaRgb,  ///< Lobe::alpha_rgb (RGB; lobes with RGB-varying roughness only).
     kExponent,  ///< Lobe::exponent (Blinn-Phong).
     kGamma,     ///< Lobe::gamma (Student-t tail parameter).
     kScale,     ///< Lobe::scale (RGB).
@@ -99,12 +100,18 @@ struct ModelOptions {
     brdf::Shadowing shadowing = brdf::Shadowing::kSmithCorrelated;
     bool anisotropic = false;
     int lobes = 1;
+    /// Roughness per channel ("rgb": Lobe::alpha_rgb free per channel) or one for the three
+    /// ("shared", the default); isotropic ggx, beckmann and student-t lobes only.
+    bool rgb_roughness = false;
 };
 
 /// Parses "ggx", "beckmann", "blinn-phong", "student-t".
 Expected<brdf::Distribution> parse_distribution(const std::string& name);
 /// Parses "schlick", "schlick-rgb", "dielectric", "conductor", "none" into (type, rgb).
 Expected<std::pair<brdf::FresnelType, bool>> parse_fresnel(const std::string& name);
+/// Parses "shared" (false) and "rgb" (true): one slope parameter for the three channels or one
+/// per channel.
+Expected<bool> parse_roughness(const std::string& name);
 /// Parses "smith-correlated", "smith-separable", "v-groove", "none".
 Expected<brdf::Shadowing> parse_shadowing(const std::string& name);
 /// Parses "absolute", "relative", "log", "cosine", "cbrt".
