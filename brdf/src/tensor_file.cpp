@@ -2,6 +2,7 @@
 
 #include "gonio/brdf/tensor_file.h"
 
+#include <algorithm>
 #include <cstring>
 #include <limits>
 #include <set>
@@ -250,12 +251,17 @@ Expected<TensorFile> parse_tensor_file(const std::uint8_t* bytes,
         if (!in.has(std::size_t{8} * ndim)) {
             return make_error(at + ": header truncated in the shape");
         }
-        // The byte count, with every product checked against the file size (no overflow).
-        std::uint64_t nbytes = tensor_dtype_size(f.dtype);
+        // The byte count, with every product checked against the file size (no overflow). A
+        // dimension of size 0 makes the field empty whatever the others are: the check then does
+        // not apply, so that its verdict cannot depend on the order of the dimensions.
         for (std::uint16_t d = 0; d < ndim; ++d) {
-            const std::uint64_t n = in.uint(8);
-            f.shape.push_back(n);
-            if (n != 0 && nbytes > size / n) {
+            f.shape.push_back(in.uint(8));
+        }
+        const bool empty = std::find(f.shape.begin(), f.shape.end(), 0) != f.shape.end();
+        std::uint64_t nbytes = empty ? 0 : tensor_dtype_size(f.dtype);
+        for (std::uint16_t d = 0; d < ndim && !empty; ++d) {
+            const std::uint64_t n = f.shape[d];
+            if (nbytes > size / n) {
                 return make_error(at + ": dimension " + std::to_string(d) + " of size " +
                                   std::to_string(n) + " makes the data larger than the file (" +
                                   std::to_string(size) + " bytes)");
