@@ -471,8 +471,13 @@ std::optional<RankedFit> rank_candidate(const brdf::Dataset& ranking,
     const double rss = total_weight > 0
                            ? 2 * r->solver.final_cost * static_cast<double>(n_red) / total_weight
                            : 0.0;
-    rm.criterion = rss > 0 ? n * std::log(rss / n) + p * std::log(n)
-                           : -std::numeric_limits<double>::infinity();
+    // Residuals at rounding level carry no information: below 1e-12 per residual (log units; the
+    // arithmetic's own rounding is near 1e-16) the RSS is held at that floor, so that among models
+    // that all reproduce the data to rounding the fewest parameters win, not the luckiest rounding.
+    constexpr double kResidualFloor = 1e-12;
+    const double rss_floor = n * kResidualFloor * kResidualFloor;
+    rm.criterion = rss >= 0 ? n * std::log(std::max(rss, rss_floor) / n) + p * std::log(n)
+                            : std::numeric_limits<double>::infinity();
     return out;
 }
 
