@@ -61,6 +61,11 @@ TEST(Strings, JsonErrorTextDropsTheCodeAndCutsTheQuote) {
     EXPECT_EQ(json_error_text("[json.exception.type_error.302] type must be number, but is string"),
               "type must be number, but is string");
     EXPECT_EQ(json_error_text("plain"), "plain");
+    // A number out of the double range is quoted after "number overflow parsing '" (the fuzz
+    // corpus's finding_number_overflow_quoted_whole.json quoted 5,000 digits).
+    EXPECT_EQ(json_error_text("[json.exception.out_of_range.406] number overflow parsing '" +
+                              std::string(400, '5') + "'"),
+              "number overflow parsing '" + std::string(32, '5') + "... (400 bytes)'");
 }
 
 }  // namespace

@@ -65,7 +65,8 @@ inline std::string excerpt(std::string_view s, std::size_t max_bytes = kMaxQuote
 
 /// The text of a nlohmann::json exception as an error message shows it: without its
 /// "[json.exception.<kind>.<id>] " code (a library detail), and with the input it quotes after
-/// "last read: '" cut by excerpt (the token can be the whole rest of a large file).
+/// "last read: '" or "number overflow parsing '" cut by excerpt (the token can be the whole rest of
+/// a large file).
 inline std::string json_error_text(std::string_view what) {
     std::string s(what);
     if (starts_with(s, "[json.exception.")) {
@@ -73,8 +74,14 @@ inline std::string json_error_text(std::string_view what) {
             s = s.substr(pos + 2);
         }
     }
-    const std::string_view key = "last read: '";
-    const auto at = s.find(key);
+    // Syntax errors quote after "last read: '", numbers out of range after "number overflow
+    // parsing '".
+    std::string_view key = "last read: '";
+    auto at = s.find(key);
+    if (at == std::string::npos) {
+        key = "number overflow parsing '";
+        at = s.find(key);
+    }
     if (at == std::string::npos) {
         return s;
     }
