@@ -5,7 +5,6 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdio>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -427,16 +426,17 @@ FitResult read_report_document(const json& j) {
 
 }  // namespace
 
+Expected<FitResult> parse_fit_report(const std::string& text, const std::string& name) {
+    return read_strict_json(name,
+                            [&] { return read_report_document(parse_json_checked(text, name)); });
+}
+
 Expected<FitResult> read_fit_report(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) {
-        return make_error(path + ": cannot open the fit report");
+    Expected<std::string> text = read_input_file(path, kMaxJsonBytes);
+    if (!text) {
+        return tl::unexpected(text.error());
     }
-    std::stringstream ss;
-    ss << in.rdbuf();
-    const std::string text = ss.str();
-    return read_strict_json(path,
-                            [&] { return read_report_document(parse_json_checked(text, path)); });
+    return parse_fit_report(*text, path);
 }
 
 std::string format_summary(const FitResult& r) {
