@@ -407,7 +407,7 @@ FitResult read_report_document(const json& j) {
             StageInfo si;
             si.name = text_at(st.raw("name"), st.key_path("name"));
             si.samples = count_key(st, "samples");
-            st.raw("iterations");
+            st.raw("iterations");  // required
             si.iterations = st.integer("iterations", 0, 0, kMaxIterations);
             si.termination = text_at(st.raw("termination"), st.key_path("termination"));
             si.time_s = json_number_at(st.raw("time_s"), st.key_path("time_s"));
