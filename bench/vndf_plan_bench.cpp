@@ -316,9 +316,10 @@ void BM_VndfAgainstUniformAndAdaptive(benchmark::State& state) {
     const brdf::AnalyticBrdf truth(truth_model(which), truth_name(which));
     const acq::RigConfig rig = sim4();
     Outcome v, u, a;
+    int n = 4;
     for (auto _ : state) {
         v = run_vndf(truth, rig, acq::VndfSpec{});
-        int n = 4;
+        n = 4;
         u = run_uniform(truth, rig, n, n - 1);
         while (n < 60) {
             Outcome next = run_uniform(truth, rig, n + 1, n);
@@ -329,6 +330,7 @@ void BM_VndfAgainstUniformAndAdaptive(benchmark::State& state) {
             ++n;
         }
         a = run_adaptive(truth, rig, v.motion_s);
+        state.counters["uniform_n_theta"] = n;
     }
     state.SetLabel(truth_name(which));
     report(state, "vndf", v);
@@ -336,7 +338,8 @@ void BM_VndfAgainstUniformAndAdaptive(benchmark::State& state) {
     report(state, "adaptive", a);
     std::printf(
         "%s: vndf %zu configurations, %.1f min motion: median %.4f, p90 %.4f, L2 %.4f | uniform "
-        "%zu, %.1f min: median %.4f, p90 %.4f, L2 %.4f | adaptive %zu, %.1f min: median %.4f, "
+        "%d x %d, %zu, %.1f min: median %.4f, p90 %.4f, L2 %.4f | adaptive %zu, %.1f min: median "
+        "%.4f, "
         "p90 %.4f, L2 %.4f\n",
         truth_name(which),
         v.configs,
@@ -344,6 +347,8 @@ void BM_VndfAgainstUniformAndAdaptive(benchmark::State& state) {
         v.err.median,
         v.err.p90,
         v.err.l2,
+        n,
+        n - 1,
         u.configs,
         u.motion_s / 60,
         u.err.median,
