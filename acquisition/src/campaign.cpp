@@ -501,6 +501,9 @@ class Runner {
     std::optional<JournalRecord> baseline_;
     RunResult result_;
     double started_ = 0;
+    /// The vndf plan's second pass once placed (metadata.json lists it).
+    std::optional<VndfLayout> vndf_pass_;
+    VndfNdf vndf_ndf_;
 };
 
 Expected<RigPosed> Runner::read_pose() {
@@ -908,13 +911,27 @@ Expected<void> Runner::write_metadata(const std::string& state, const Plan& plan
     meta["notes"] = spec_.notes;
     meta["software"] = {{"name", "gonio"}, {"version", GONIO_VERSION_STRING}};
     meta["rig"] = {{"name", rig_.name}, {"description", json::parse(rig_.json)}};
-    json unreachable = json::array();
-    for (const UnreachableConfig& u : plan.unreachable) {
-        const auto c = brdf::to_canonical(u.wi, u.wo);
-        unreachable.push_back({{"theta_i_deg", c.theta_i / kDeg},
-                               {"theta_r_deg", c.theta_r / kDeg},
-                               {"delta_phi_deg", c.delta_phi / kDeg},
-                               {"reason", u.reason}});
+    auto unreachable_of = [](const Plan& p) {
+        json list = json::array();
+        for (const UnreachableConfig& u : p.unreachable) {
+            const auto c = brdf::to_canonical(u.wi, u.wo);
+            list.push_back({{"theta_i_deg", c.theta_i / kDeg},
+                            {"theta_r_deg", c.theta_r / kDeg},
+                            {"delta_phi_deg", c.delta_phi / kDeg},
+                            {"reason", u.reason}});
+        }
+        return list;
+    };
+    const json unreachable = unreachable_of(plan);
+    if (vndf_pass_) {
+        // The vndf plan's second pass, placed from the retro-reflection measurements.
+        meta["vndf"] = {{"retro_measurements", vndf_ndf_.measured},
+                        {"power_iterations", vndf_ndf_.ndf.iterations},
+                        {"last_retro_theta_deg", vndf_ndf_.theta_last / kDeg},
+                        {"configurations", vndf_pass_->plan.configs.size()},
+                        {"file_nodes", vndf_pass_->layout.nodes.size()},
+                        {"below_horizon", vndf_pass_->below_horizon},
+                        {"unreachable", unreachable_of(vndf_pass_->plan)}};
     }
     meta["plan"] = {{"kind", plan.kind},
                     {"description", json::parse(spec_.json)},
@@ -1130,6 +1147,8 @@ Expected<RunResult> Runner::run() {
             if (!layout) {
                 return finish(Outcome::kPaused, layout.error().message, plan);
             }
+            vndf_ndf_ = ndf;
+            vndf_pass_ = *layout;
             pp = std::move(layout->plan);
             planned_total += pp.configs.size();
             say("vndf pass 1: NDF from " + std::to_string(ndf.measured) +
