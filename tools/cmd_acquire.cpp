@@ -93,6 +93,11 @@ int print_point_plan(const acq::CampaignRequest& r) {
         plan->unreachable.size(),
         static_cast<unsigned long long>(plan->outside_roi),
         static_cast<unsigned long long>(plan->naive_count));
+    if (plan->kind == "vndf-retro") {
+        std::printf(
+            "# pass 0 of the vndf plan: retro-reflection; pass 1 (the VNDF-warped domain) is "
+            "placed from its measurements\n");
+    }
     std::printf("status,index,theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,weight,reason\n");
     for (const acq::PlannedConfig& c : plan->configs) {
         const auto [ti, pi] = angles_deg(c.wi);
@@ -260,8 +265,11 @@ GONIO_COMMAND(acquire) {
     cmd->add_option("--scene", r.scene, "measure only the region of interest of this scene");
     cmd->add_option("--sample", r.sample, "sample name");
     cmd->add_option("--operator", r.operator_name, "operator name");
-    cmd->add_option("--plan", r.plan_kind, "uniform or half-diff")
-        ->check(CLI::IsMember({"uniform", "half-diff"}));
+    cmd->add_option("--plan",
+                    r.plan_kind,
+                    "uniform, half-diff or vndf (retro-reflection, then the VNDF-warped domain; "
+                    "writes dataset.bsdf)")
+        ->check(CLI::IsMember({"uniform", "half-diff", "vndf"}));
     cmd->add_option("--n-theta", r.n_theta, "uniform plan: polar angles")
         ->check(gonio::tools::integer_in(2, acq::kMaxPlanAxis));
     cmd->add_option("--n-dphi", r.n_dphi, "uniform plan: azimuth differences")

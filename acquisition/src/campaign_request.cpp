@@ -150,6 +150,26 @@ std::optional<RequestConflict> find_conflict(const CampaignRequest& r) {
     if (!r.material.empty() && !r.brdf_path.empty()) {
         return RequestConflict{"material", "brdf_path", "give one ground truth"};
     }
+    if (r.plan_kind == "vndf") {
+        for (const std::string& f : given) {
+            if (among(f, {"n_theta", "n_dphi"})) {
+                return RequestConflict{f,
+                                       "plan_kind",
+                                       "an option of the uniform plan; the vndf plan places its "
+                                       "nodes by the measured microfacet distribution"};
+            }
+            if (f == "adaptive" && r.adaptive > 0) {
+                return RequestConflict{f,
+                                       "plan_kind",
+                                       "the vndf plan places its own second pass from the "
+                                       "retro-reflection measurements"};
+            }
+            if (f == "scene") {
+                return RequestConflict{
+                    f, "plan_kind", "the vndf plan measures every node of its RGL file"};
+            }
+        }
+    }
     return std::nullopt;
 }
 
@@ -217,6 +237,10 @@ Expected<CampaignSpec> new_campaign_spec(const CampaignRequest& r, bool* embedde
     }
     if (!r.plan_kind.empty()) {
         spec.plan_kind = r.plan_kind;
+        if (r.plan_kind == "vndf") {
+            // Its second pass is the VNDF-warped domain: no adaptive pass, no ROI.
+            spec.adaptive = false;
+        }
     }
     if (r.n_theta > 0) {
         spec.uniform.n_theta = r.n_theta;

@@ -43,7 +43,7 @@ struct CampaignRequest {
     std::string scene;           ///< Point mode: region of interest.
     std::string sample;          ///< Sample name.
     std::string operator_name;   ///< Operator name.
-    std::string plan_kind;       ///< Point mode: "uniform" or "half-diff".
+    std::string plan_kind;       ///< Point mode: "uniform", "half-diff" or "vndf".
     int n_theta = 0;             ///< Point mode, uniform plan: polar angles.
     int n_dphi = 0;              ///< Point mode, uniform plan: azimuth differences.
     int adaptive = -1;           ///< Point mode: adaptive passes (-1 = the campaign's).
@@ -96,7 +96,9 @@ std::string option_key(const std::string& field);
 /// - plan_only prints the plan: nothing that only matters to a run (out, campaigns_dir,
 ///   material, brdf, time_scale, sample, operator, accept_drift, serve) goes with it;
 /// - the virtual rig's options (material, brdf, time_scale) need the embedded rig: a campaign
-///   file names its own rig; material and brdf exclude each other.
+///   file names its own rig; material and brdf exclude each other;
+/// - the vndf plan refuses n_theta, n_dphi (uniform-plan options), adaptive > 0 (it places its
+///   own second pass) and scene (its RGL file needs every node).
 std::optional<RequestConflict> find_conflict(const CampaignRequest& request);
 
 /// An image-mode option the rig description cannot honour (read without starting anything):
