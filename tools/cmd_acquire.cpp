@@ -132,6 +132,9 @@ int run(const acq::CampaignRequest& r) {
     if (auto c = acq::find_conflict(r)) {
         return refuse(r, *c);
     }
+    if (auto c = acq::find_rig_conflict(r)) {
+        return gonio::tools::usage_error("acquire", flag_of(c->option) + " " + c->rule);
+    }
     std::optional<std::pair<std::string, int>> serve_at;
     if (!r.serve.empty()) {
         auto a = gonio::report::parse_listen_address(r.serve);
@@ -288,7 +291,20 @@ GONIO_COMMAND(acquire) {
         "--grid", o->grid, "image mode: table bins N_THETA_HxN_THETA_DxN_PHI_D (90x90x180 = MERL)");
     cmd->add_option("--max-frames", r.max_frames, "image mode: most light positions")
         ->check(gonio::tools::integer_in(1, 1000000));
-    cmd->add_flag("--plan-only", r.plan_only, "print the plan (and unreachable targets) and exit");
+    cmd->add_option("--camera-px",
+                    r.camera_px,
+                    "image mode, virtual rig: size of its camera, px (default 256; not with a "
+                    "calibrated camera_model)")
+        ->check(gonio::tools::integer_in(16, 16384));
+    cmd->add_option("--max-theta-deg",
+                    r.max_theta_deg,
+                    "image mode: grazing limit of the pixels' theta_i and theta_o, deg (default "
+                    "80; at most the rig's geometry.max_theta_deg)")
+        ->check(gonio::tools::finite_in(1, 89.9));
+    cmd->add_flag(
+        "--plan-only",
+        r.plan_only,
+        "print the plan (and unreachable targets; image mode: the predicted coverage) and exit");
     cmd->add_option("--serve",
                     r.serve,
                     "serve a live page of the campaign at [ADDR:]PORT (ADDR default 127.0.0.1, "
