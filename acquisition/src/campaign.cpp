@@ -360,7 +360,9 @@ Expected<VndfLayout> vndf_pass_from_records(const std::vector<JournalRecord>& re
     std::vector<std::pair<std::uint32_t, RetroMeasurement>> retro;
     for (const JournalRecord& r : records) {
         if (r.type == RecordType::kMeasurement && r.pass == 0) {
-            retro.push_back({r.index, RetroMeasurement{r.wi, r.wo, luminance(r.value)}});
+            // The luminance of the RGL format (0.2126 R + 0.7152 G + 0.0722 B), as its writer uses.
+            const double lum = 0.2126 * r.value[0] + 0.7152 * r.value[1] + 0.0722 * r.value[2];
+            retro.push_back({r.index, RetroMeasurement{r.wi, r.wo, lum}});
         }
     }
     std::sort(
