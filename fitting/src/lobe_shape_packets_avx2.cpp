@@ -1,4 +1,5 @@
-// lobe_shape_packets on AVX2 + FMA (compiled with -mavx2 -mfma; called only where the CPU has both).
+// lobe_shape_packets on AVX2 + FMA (compiled with -mavx2 -mfma; called only where the CPU has
+// both).
 
 #include "lobe_shape_kernel.h"
 

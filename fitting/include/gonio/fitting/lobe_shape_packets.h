@@ -12,11 +12,11 @@ namespace gonio::fitting {
 
 /// The per-sample quantities the shape takes, each an array of n doubles.
 struct LobeShapeInputs {
-    const double* hxy2 = nullptr;   ///< h_x^2 + h_y^2 of the half vector (in the lobe's frame).
-    const double* hz2 = nullptr;    ///< h_z^2.
-    const double* tan2_i = nullptr; ///< tan^2 theta_i (unused without shadowing).
-    const double* tan2_o = nullptr; ///< tan^2 theta_o (unused without shadowing).
-    const double* inv_4cc = nullptr; ///< 1 / (4 cos_i cos_o).
+    const double* hxy2 = nullptr;     ///< h_x^2 + h_y^2 of the half vector (in the lobe's frame).
+    const double* hz2 = nullptr;      ///< h_z^2.
+    const double* tan2_i = nullptr;   ///< tan^2 theta_i (unused without shadowing).
+    const double* tan2_o = nullptr;   ///< tan^2 theta_o (unused without shadowing).
+    const double* inv_4cc = nullptr;  ///< 1 / (4 cos_i cos_o).
 };
 
 /// Which D and which G.
