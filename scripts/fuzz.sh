@@ -61,8 +61,10 @@ fuzz_one() {
   local log="$run_dir/log.txt"
   echo "fuzz.sh: $t for ${seconds} s (log $log)"
   # -timeout: one input that takes 30 s on this machine is a finding (a hang), not patience.
+  # -report_slow_units at the same bound: below it a slow unit is the machine's load (it is written
+  # as an artifact otherwise, from 10 s on), above it the timeout reports it.
   local rc=0
-  nice -n 10 "$(binary "$t")" -max_total_time="$seconds" -timeout=30 -rss_limit_mb=2048 \
+  nice -n 10 "$(binary "$t")" -max_total_time="$seconds" -timeout=30 -report_slow_units=30 -rss_limit_mb=2048 \
     -print_final_stats=1 -artifact_prefix="$run_dir/artifacts/" ${FUZZ_ARGS:-} \
     "$run_dir/new" "$corpus" >"$log" 2>&1 || rc=$?
   local execs

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <opencv2/imgproc.hpp>
 #include <string>
@@ -319,6 +320,45 @@ int print_image_plan(const acquisition::CampaignRequest& request) {
         c.lights.min_rad * 180 / brdf::kPi,
         c.lights.max_rad * 180 / brdf::kPi,
         c.detector_arm_rad * 180 / brdf::kPi);
+    std::printf(
+        "camera %dx%d (%s), grazing limits theta_i %.1f deg, theta_o %.1f deg, light "
+        "positions %.2f deg apart, blind zone %.1f deg\n",
+        c.camera.intrinsics.width,
+        c.camera.intrinsics.height,
+        acquisition::to_string(c.camera.projection),
+        c.rules.max_theta_i * 180 / brdf::kPi,
+        c.rules.max_theta_o * 180 / brdf::kPi,
+        c.lights.step_rad * 180 / brdf::kPi,
+        c.lights.blind_zone_rad * 180 / brdf::kPi);
+    std::fflush(stdout);
+    auto p = acquisition::predict_image_coverage(c);
+    if (!p) {
+        std::fprintf(stderr, "gonio acquire: %s\n", p.error().message.c_str());
+        return 1;
+    }
+    const double valid = static_cast<double>(std::max<std::size_t>(p->valid_bins, 1));
+    std::printf(
+        "predicted from the nominal sphere (%zu pixels within the limits, %zu candidate "
+        "light positions): %zu light positions (%.1f deg of light-arm travel), coverage "
+        "%.1f%% of %zu valid bins; reachable %.1f%% (%s)\n",
+        p->sphere_pixels,
+        p->candidates,
+        p->light_arm_rad.size(),
+        p->light_travel_rad * 180 / brdf::kPi,
+        100.0 * static_cast<double>(p->covered_bins) / valid,
+        p->valid_bins,
+        100.0 * static_cast<double>(p->reachable_bins) / valid,
+        p->stop_reason.c_str());
+    std::map<std::string, std::size_t> by_reason;
+    for (const acquisition::CoverageHole& h : p->holes) {
+        by_reason[h.reason] += h.bins;
+    }
+    for (const auto& [reason, n] : by_reason) {
+        std::printf("  empty valid bins, %s: %zu (%.1f%%)\n",
+                    reason.c_str(),
+                    n,
+                    100.0 * static_cast<double>(n) / valid);
+    }
     return 0;
 }
 

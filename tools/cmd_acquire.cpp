@@ -93,6 +93,11 @@ int print_point_plan(const acq::CampaignRequest& r) {
         plan->unreachable.size(),
         static_cast<unsigned long long>(plan->outside_roi),
         static_cast<unsigned long long>(plan->naive_count));
+    if (plan->kind == "vndf-retro") {
+        std::printf(
+            "# pass 0 of the vndf plan: retro-reflection; pass 1 (the VNDF-warped domain) is "
+            "placed from its measurements\n");
+    }
     std::printf("status,index,theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,weight,reason\n");
     for (const acq::PlannedConfig& c : plan->configs) {
         const auto [ti, pi] = angles_deg(c.wi);
@@ -126,6 +131,9 @@ bool parse_grid(const std::string& text, acq::TableLayout* out) {
 int run(const acq::CampaignRequest& r) {
     if (auto c = acq::find_conflict(r)) {
         return refuse(r, *c);
+    }
+    if (auto c = acq::find_rig_conflict(r)) {
+        return gonio::tools::usage_error("acquire", flag_of(c->option) + " " + c->rule);
     }
     std::optional<std::pair<std::string, int>> serve_at;
     if (!r.serve.empty()) {
@@ -257,8 +265,11 @@ GONIO_COMMAND(acquire) {
     cmd->add_option("--scene", r.scene, "measure only the region of interest of this scene");
     cmd->add_option("--sample", r.sample, "sample name");
     cmd->add_option("--operator", r.operator_name, "operator name");
-    cmd->add_option("--plan", r.plan_kind, "uniform or half-diff")
-        ->check(CLI::IsMember({"uniform", "half-diff"}));
+    cmd->add_option("--plan",
+                    r.plan_kind,
+                    "uniform, half-diff or vndf (retro-reflection, then the VNDF-warped domain; "
+                    "writes dataset.bsdf)")
+        ->check(CLI::IsMember({"uniform", "half-diff", "vndf"}));
     cmd->add_option("--n-theta", r.n_theta, "uniform plan: polar angles")
         ->check(gonio::tools::integer_in(2, acq::kMaxPlanAxis));
     cmd->add_option("--n-dphi", r.n_dphi, "uniform plan: azimuth differences")
@@ -280,7 +291,20 @@ GONIO_COMMAND(acquire) {
         "--grid", o->grid, "image mode: table bins N_THETA_HxN_THETA_DxN_PHI_D (90x90x180 = MERL)");
     cmd->add_option("--max-frames", r.max_frames, "image mode: most light positions")
         ->check(gonio::tools::integer_in(1, 1000000));
-    cmd->add_flag("--plan-only", r.plan_only, "print the plan (and unreachable targets) and exit");
+    cmd->add_option("--camera-px",
+                    r.camera_px,
+                    "image mode, virtual rig: size of its camera, px (default 256; not with a "
+                    "calibrated camera_model)")
+        ->check(gonio::tools::integer_in(16, 16384));
+    cmd->add_option("--max-theta-deg",
+                    r.max_theta_deg,
+                    "image mode: grazing limit of the pixels' theta_i and theta_o, deg (default "
+                    "80; at most the rig's geometry.max_theta_deg)")
+        ->check(gonio::tools::finite_in(1, 89.9));
+    cmd->add_flag(
+        "--plan-only",
+        r.plan_only,
+        "print the plan (and unreachable targets; image mode: the predicted coverage) and exit");
     cmd->add_option("--serve",
                     r.serve,
                     "serve a live page of the campaign at [ADDR:]PORT (ADDR default 127.0.0.1, "

@@ -124,9 +124,16 @@ Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::s
                 s.half_diff.n_phi_d = p.integer("n_phi_d", s.half_diff.n_phi_d, 1, kMaxPlanAxis);
                 s.half_diff.theta_max =
                     p.number("theta_max_deg", s.half_diff.theta_max / kDeg, 1, 89, "deg") * kDeg;
+            } else if (s.plan_kind == "vndf") {
+                s.vndf.retro_count = p.integer("retro_count", s.vndf.retro_count, 4, 512);
+                s.vndf.theta_i_count = p.integer("theta_i_count", s.vndf.theta_i_count, 2, 64);
+                s.vndf.resolution = p.integer("resolution", s.vndf.resolution, 4, 128);
+                s.vndf.ndf_resolution = p.integer("ndf_resolution", s.vndf.ndf_resolution, 16, 512);
+                s.vndf.theta_max =
+                    p.number("theta_max_deg", s.vndf.theta_max / kDeg, 10.001, 89, "deg") * kDeg;
             } else {
                 json_fail("plan.kind = \"" + s.plan_kind +
-                          "\": must be \"uniform\" or \"half-diff\"");
+                          "\": must be \"uniform\", \"half-diff\" or \"vndf\"");
             }
             p.finish();
         }
@@ -151,6 +158,16 @@ Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::s
         }
         s.schedule_budget_s = top.number("schedule_budget_s", s.schedule_budget_s, 0, 3600, "s");
         top.finish();
+        if (s.plan_kind == "vndf" && s.adaptive) {
+            json_fail(
+                "adaptive: the vndf plan places its own second pass from the retro-reflection "
+                "measurements (remove \"adaptive\" or use another plan)");
+        }
+        if (s.plan_kind == "vndf" && !s.scene.empty()) {
+            json_fail(
+                "scene: the vndf plan measures every node of its RGL file (remove "
+                "\"scene\" or use another plan)");
+        }
     } catch (const JsonFailure& f) {
         const bool named = f.message.compare(0, source.size(), source) == 0;
         return make_error(named ? f.message : source + ": " + f.message);
@@ -195,6 +212,13 @@ std::string campaign_spec_json(const CampaignSpec& s) {
                      {"n_theta", s.uniform.n_theta},
                      {"n_dphi", s.uniform.n_dphi},
                      {"theta_max_deg", s.uniform.theta_max / kDeg}};
+    } else if (s.plan_kind == "vndf") {
+        j["plan"] = {{"kind", "vndf"},
+                     {"retro_count", s.vndf.retro_count},
+                     {"theta_i_count", s.vndf.theta_i_count},
+                     {"resolution", s.vndf.resolution},
+                     {"ndf_resolution", s.vndf.ndf_resolution},
+                     {"theta_max_deg", s.vndf.theta_max / kDeg}};
     } else {
         j["plan"] = {{"kind", "half-diff"},
                      {"n_theta_h", s.half_diff.n_theta_h},
@@ -219,6 +243,18 @@ std::string campaign_spec_json(const CampaignSpec& s) {
 }
 
 Expected<Plan> build_plan(const CampaignSpec& spec, const RigConfig& rig) {
+    if (spec.plan_kind == "vndf") {
+        if (spec.adaptive) {
+            return make_error(
+                "vndf plan: adaptive passes asked for; the vndf plan places its own second pass "
+                "from the retro-reflection measurements");
+        }
+        if (!spec.scene.empty()) {
+            return make_error("vndf plan: a scene (" + spec.scene +
+                              ") asked for; the vndf plan measures every node of its RGL file");
+        }
+        return plan_vndf_retro(spec.vndf, rig_limits(rig));
+    }
     Expected<Plan> plan =
         spec.plan_kind == "half-diff" ? plan_half_diff(spec.half_diff) : plan_uniform(spec.uniform);
     if (!plan) {
@@ -312,6 +348,99 @@ Expected<std::size_t> write_campaign_dataset(const std::string& dir) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// The vndf plan's second pass and its RGL file
+
+namespace {
+
+Expected<VndfLayout> vndf_pass_from_records(const std::vector<JournalRecord>& records,
+                                            const CampaignSpec& spec,
+                                            const RigConfig& rig,
+                                            VndfNdf* ndf_out) {
+    // Pass 0 in plan order, so that the NDF does not depend on the order of measurement.
+    std::vector<std::pair<std::uint32_t, RetroMeasurement>> retro;
+    for (const JournalRecord& r : records) {
+        if (r.type == RecordType::kMeasurement && r.pass == 0) {
+            // The luminance of the RGL format (0.2126 R + 0.7152 G + 0.0722 B), as its writer uses.
+            const double lum = 0.2126 * r.value[0] + 0.7152 * r.value[1] + 0.0722 * r.value[2];
+            retro.push_back({r.index, RetroMeasurement{r.wi, r.wo, lum}});
+        }
+    }
+    std::sort(
+        retro.begin(), retro.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::vector<RetroMeasurement> m;
+    for (const auto& r : retro) {
+        m.push_back(r.second);
+    }
+    auto ndf = vndf_ndf_from_retro(m, spec.vndf);
+    if (!ndf) {
+        return make_error("vndf plan, second pass: " + ndf.error().message);
+    }
+    if (ndf_out != nullptr) {
+        *ndf_out = *ndf;
+    }
+    return plan_vndf_layout(ndf->ndf, spec.vndf, rig_limits(rig));
+}
+
+}  // namespace
+
+Expected<VndfLayout> vndf_second_pass(const std::string& dir,
+                                      const CampaignSpec& spec,
+                                      const RigConfig& rig,
+                                      VndfNdf* ndf) {
+    auto jn = Journal::open((fs::path(dir) / "journal.log").string());
+    if (!jn) {
+        return tl::unexpected(jn.error());
+    }
+    return vndf_pass_from_records(jn->records(), spec, rig, ndf);
+}
+
+Expected<VndfFileReport> write_vndf_bsdf(const std::string& dir) {
+    auto spec = read_campaign_spec((fs::path(dir) / "campaign.json").string());
+    if (!spec) {
+        return tl::unexpected(spec.error());
+    }
+    auto rig = read_rig_config((fs::path(dir) / "rig.json").string());
+    if (!rig) {
+        return tl::unexpected(rig.error());
+    }
+    auto jn = Journal::open((fs::path(dir) / "journal.log").string());
+    if (!jn) {
+        return tl::unexpected(jn.error());
+    }
+    auto layout = vndf_pass_from_records(jn->records(), *spec, *rig, nullptr);
+    if (!layout) {
+        return tl::unexpected(layout.error());
+    }
+    // Pass 1 measurements by configuration; a configuration measured twice (a repeat after a
+    // torn journal record) is averaged.
+    const std::size_t n = layout->plan.configs.size();
+    std::vector<brdf::Rgbd> sum(n, brdf::Rgbd::Zero());
+    std::vector<int> count(n, 0);
+    for (const JournalRecord& r : jn->records()) {
+        if (r.type == RecordType::kMeasurement && r.pass == 1 && r.index < n) {
+            sum[r.index] += r.value;
+            ++count[r.index];
+        }
+    }
+    std::vector<brdf::Rgbd> f_r(n);
+    for (std::size_t k = 0; k < n; ++k) {
+        f_r[k] = count[k] > 0 ? brdf::Rgbd(sum[k] / count[k])
+                              : brdf::Rgbd::Constant(std::numeric_limits<double>::quiet_NaN());
+    }
+    VndfFileReport report;
+    auto file = vndf_tensor(*layout, f_r, &report);
+    if (!file) {
+        return make_error(dir + ": " + file.error().message);
+    }
+    if (auto w = write_file_atomic((fs::path(dir) / kVndfBsdfName).string(),
+                                   brdf::encode_tensor_file(*file));
+        !w) {
+        return tl::unexpected(w.error());
+    }
+    return report;
+}
+
+// ---------------------------------------------------------------------------------------------
 // Runner
 
 namespace {
@@ -374,6 +503,9 @@ class Runner {
     std::optional<JournalRecord> baseline_;
     RunResult result_;
     double started_ = 0;
+    /// The vndf plan's second pass once placed (metadata.json lists it).
+    std::optional<VndfLayout> vndf_pass_;
+    VndfNdf vndf_ndf_;
 };
 
 Expected<RigPosed> Runner::read_pose() {
@@ -781,13 +913,27 @@ Expected<void> Runner::write_metadata(const std::string& state, const Plan& plan
     meta["notes"] = spec_.notes;
     meta["software"] = {{"name", "gonio"}, {"version", GONIO_VERSION_STRING}};
     meta["rig"] = {{"name", rig_.name}, {"description", json::parse(rig_.json)}};
-    json unreachable = json::array();
-    for (const UnreachableConfig& u : plan.unreachable) {
-        const auto c = brdf::to_canonical(u.wi, u.wo);
-        unreachable.push_back({{"theta_i_deg", c.theta_i / kDeg},
-                               {"theta_r_deg", c.theta_r / kDeg},
-                               {"delta_phi_deg", c.delta_phi / kDeg},
-                               {"reason", u.reason}});
+    auto unreachable_of = [](const Plan& p) {
+        json list = json::array();
+        for (const UnreachableConfig& u : p.unreachable) {
+            const auto c = brdf::to_canonical(u.wi, u.wo);
+            list.push_back({{"theta_i_deg", c.theta_i / kDeg},
+                            {"theta_r_deg", c.theta_r / kDeg},
+                            {"delta_phi_deg", c.delta_phi / kDeg},
+                            {"reason", u.reason}});
+        }
+        return list;
+    };
+    const json unreachable = unreachable_of(plan);
+    if (vndf_pass_) {
+        // The vndf plan's second pass, placed from the retro-reflection measurements.
+        meta["vndf"] = {{"retro_measurements", vndf_ndf_.measured},
+                        {"power_iterations", vndf_ndf_.ndf.iterations},
+                        {"last_retro_theta_deg", vndf_ndf_.theta_last / kDeg},
+                        {"configurations", vndf_pass_->plan.configs.size()},
+                        {"file_nodes", vndf_pass_->layout.nodes.size()},
+                        {"below_horizon", vndf_pass_->below_horizon},
+                        {"unreachable", unreachable_of(vndf_pass_->plan)}};
     }
     meta["plan"] = {{"kind", plan.kind},
                     {"description", json::parse(spec_.json)},
@@ -867,6 +1013,17 @@ Expected<RunResult> Runner::finish(Outcome o, const std::string& msg, const Plan
     auto n = write_campaign_dataset(dir_);
     if (!n) {
         return tl::unexpected(n.error());
+    }
+    if (o == Outcome::kCompleted && spec_.plan_kind == "vndf") {
+        auto rep = write_vndf_bsdf(dir_);
+        if (!rep) {
+            return tl::unexpected(rep.error());
+        }
+        result_.message += "; RGL material file " + (fs::path(dir_) / kVndfBsdfName).string() +
+                           ": " + std::to_string(rep->measured) + " of " +
+                           std::to_string(rep->nodes) + " nodes measured, " +
+                           std::to_string(rep->filled) + " from their nearest measured node, " +
+                           std::to_string(rep->below_horizon) + " below the horizon";
     }
     if (auto m = write_metadata(state, plan); !m) {
         return tl::unexpected(m.error());
@@ -980,10 +1137,28 @@ Expected<RunResult> Runner::run() {
     // Passes: 0 is the plan; each adaptive pass refines where the values measured so far change
     // fastest. Everything is derived from the journal, so a resume rebuilds the same passes.
     std::size_t planned_total = plan.configs.size();
-    for (int pass = 0; pass <= (spec_.adaptive ? spec_.adaptive_passes : 0); ++pass) {
+    const bool vndf = spec_.plan_kind == "vndf";
+    const int last_pass = vndf ? 1 : (spec_.adaptive ? spec_.adaptive_passes : 0);
+    for (int pass = 0; pass <= last_pass; ++pass) {
         Plan pp;
         if (pass == 0) {
             pp = plan;
+        } else if (vndf) {
+            VndfNdf ndf;
+            auto layout = vndf_pass_from_records(journal_->records(), spec_, rig_, &ndf);
+            if (!layout) {
+                return finish(Outcome::kPaused, layout.error().message, plan);
+            }
+            vndf_ndf_ = ndf;
+            vndf_pass_ = *layout;
+            pp = std::move(layout->plan);
+            planned_total += pp.configs.size();
+            say("vndf pass 1: NDF from " + std::to_string(ndf.measured) +
+                " retro-reflection measurements (" + std::to_string(ndf.ndf.iterations) +
+                " power iterations); " + std::to_string(pp.configs.size()) +
+                " configurations in the VNDF-warped domain, " +
+                std::to_string(pp.unreachable.size()) + " unreachable, " +
+                std::to_string(layout->below_horizon) + " below the horizon");
         } else {
             std::vector<std::pair<std::pair<int, std::uint32_t>, MeasuredPoint>> pts;
             for (const JournalRecord& r : journal_->records()) {

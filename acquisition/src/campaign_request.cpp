@@ -68,6 +68,8 @@ std::vector<std::string> given_fields(const CampaignRequest& r) {
     add(r.coverage_target > 0, "coverage_target");
     add(r.max_frames > 0, "max_frames");
     add(r.grid.n_theta_h > 0 || r.grid.n_theta_d > 0 || r.grid.n_phi_d > 0, "grid");
+    add(r.camera_px > 0, "camera_px");
+    add(r.max_theta_deg > 0, "max_theta_deg");
     add(!r.serve.empty(), "serve");
     return out;
 }
@@ -87,7 +89,8 @@ std::optional<RequestConflict> find_conflict(const CampaignRequest& r) {
     const std::vector<std::string> given = given_fields(r);
     const bool image = r.mode == CampaignMode::kImage;
     for (const std::string& f : given) {
-        if (!image && among(f, {"coverage_target", "max_frames", "grid"})) {
+        if (!image &&
+            among(f, {"coverage_target", "max_frames", "grid", "camera_px", "max_theta_deg"})) {
             return RequestConflict{f, "mode", "an image-mode option (give --mode image)"};
         }
         if (image && among(f,
@@ -146,6 +149,26 @@ std::optional<RequestConflict> find_conflict(const CampaignRequest& r) {
     }
     if (!r.material.empty() && !r.brdf_path.empty()) {
         return RequestConflict{"material", "brdf_path", "give one ground truth"};
+    }
+    if (r.plan_kind == "vndf") {
+        for (const std::string& f : given) {
+            if (among(f, {"n_theta", "n_dphi"})) {
+                return RequestConflict{f,
+                                       "plan_kind",
+                                       "an option of the uniform plan; the vndf plan places its "
+                                       "nodes by the measured microfacet distribution"};
+            }
+            if (f == "adaptive" && r.adaptive > 0) {
+                return RequestConflict{f,
+                                       "plan_kind",
+                                       "the vndf plan places its own second pass from the "
+                                       "retro-reflection measurements"};
+            }
+            if (f == "scene") {
+                return RequestConflict{
+                    f, "plan_kind", "the vndf plan measures every node of its RGL file"};
+            }
+        }
     }
     return std::nullopt;
 }
@@ -214,6 +237,10 @@ Expected<CampaignSpec> new_campaign_spec(const CampaignRequest& r, bool* embedde
     }
     if (!r.plan_kind.empty()) {
         spec.plan_kind = r.plan_kind;
+        if (r.plan_kind == "vndf") {
+            // Its second pass is the VNDF-warped domain: no adaptive pass, no ROI.
+            spec.adaptive = false;
+        }
     }
     if (r.n_theta > 0) {
         spec.uniform.n_theta = r.n_theta;
@@ -421,6 +448,11 @@ Expected<std::pair<RigConfig, CameraModel>> image_rig_description(const ImageRig
     *embedded = j.is_object() && j.contains("sim");
     CameraModel camera;
     if (j.is_object() && j.contains("camera_model")) {
+        if (o.camera_px_given) {
+            return make_error(rig_path +
+                              ": camera-px sizes the virtual rig's default camera; this rig's "
+                              "calibrated camera_model is the camera");
+        }
         auto c = read_camera_model(rig_path);
         if (!c) {
             return tl::unexpected(c.error());
@@ -530,28 +562,32 @@ ImageRigOptions image_rig_options(const CampaignRequest& r) {
     }
     io.brdf_path = r.brdf_path;
     io.time_scale = r.time_scale;
-    io.image_size = r.image_size;
+    io.image_size = r.camera_px > 0 ? r.camera_px : r.image_size;
+    io.camera_px_given = r.camera_px > 0;
     io.perspective = r.perspective;
     io.supersample = r.supersample;
     io.seed = r.seed;
     return io;
 }
 
-ImageCampaignConfig image_config(const CampaignRequest& r,
-                                 const RigConfig& rig,
-                                 const CameraModel& camera) {
-    if (r.grid.n_theta_h > 0 || r.grid.n_theta_d > 0 || r.grid.n_phi_d > 0) {
-        return image_campaign_config(rig,
-                                     camera,
-                                     r.grid,
-                                     r.coverage_target > 0 ? r.coverage_target : 0.55,
-                                     r.max_frames > 0 ? r.max_frames : 200);
+Expected<ImageCampaignConfig> image_config(const CampaignRequest& r,
+                                           const RigConfig& rig,
+                                           const CameraModel& camera) {
+    const double target = r.coverage_target > 0 ? r.coverage_target : 0.55;
+    const int frames = r.max_frames > 0 ? r.max_frames : 200;
+    ImageCampaignConfig cfg =
+        (r.grid.n_theta_h > 0 || r.grid.n_theta_d > 0 || r.grid.n_phi_d > 0)
+            ? image_campaign_config(rig, camera, r.grid, target, frames)
+            : image_campaign_config(rig, camera, r.table_factor, target, frames);
+    if (r.max_theta_deg > 0) {
+        if (!(r.max_theta_deg <= rig.max_theta_deg) || !(r.max_theta_deg < 90)) {
+            return make_error("max-theta-deg " + show_number(r.max_theta_deg) +
+                              " deg: beyond the rig's geometry.max_theta_deg (" +
+                              show_number(rig.max_theta_deg) + " deg, " + rig.name + ")");
+        }
+        cfg.rules.max_theta_i = cfg.rules.max_theta_o = r.max_theta_deg * brdf::kPi / 180;
     }
-    return image_campaign_config(rig,
-                                 camera,
-                                 r.table_factor,
-                                 r.coverage_target > 0 ? r.coverage_target : 0.55,
-                                 r.max_frames > 0 ? r.max_frames : 200);
+    return cfg;
 }
 
 }  // namespace
@@ -574,6 +610,45 @@ Expected<void> check_table_factor(const CampaignRequest& r) {
     return {};
 }
 
+std::optional<RequestConflict> find_rig_conflict(const CampaignRequest& r) {
+    if (r.mode != CampaignMode::kImage || !r.resume_dir.empty() ||
+        (r.camera_px <= 0 && r.max_theta_deg <= 0)) {
+        return std::nullopt;
+    }
+    ImageRigOptions o = image_rig_options(r);
+    o.camera_px_given = false;  // read the description whatever its camera
+    bool embedded = false;
+    auto described = image_rig_description(o, &embedded);
+    if (!described) {
+        return std::nullopt;
+    }
+    const RigConfig& rig = described->first;
+    const std::string name = rig.name.empty() ? std::string("the rig") : "rig " + rig.name;
+    if (r.camera_px > 0 && !embedded) {
+        return RequestConflict{
+            "camera_px",
+            "rig_path",
+            "sizes the virtual rig's default camera; " + name + " is not a virtual rig"};
+    }
+    if (r.camera_px > 0) {
+        const nlohmann::json j = nlohmann::json::parse(rig.json, nullptr, false);
+        if (j.is_object() && j.contains("camera_model")) {
+            return RequestConflict{"camera_px",
+                                   "rig_path",
+                                   "sizes the virtual rig's default camera; " + name +
+                                       " has a calibrated camera_model, which is the camera"};
+        }
+    }
+    if (r.max_theta_deg > rig.max_theta_deg) {
+        return RequestConflict{"max_theta_deg",
+                               "rig_path",
+                               show_number(r.max_theta_deg) + " deg is beyond " + name +
+                                   "'s geometry.max_theta_deg (" + show_number(rig.max_theta_deg) +
+                                   " deg)"};
+    }
+    return std::nullopt;
+}
+
 Expected<ImagePlan> plan_image_campaign(const CampaignRequest& r) {
     if (auto c = refuse_conflict(r); !c) {
         return tl::unexpected(c.error());
@@ -587,7 +662,11 @@ Expected<ImagePlan> plan_image_campaign(const CampaignRequest& r) {
         return tl::unexpected(described.error());
     }
     plan.rig_name = described->first.name;
-    plan.config = image_config(r, described->first, described->second);
+    auto cfg = image_config(r, described->first, described->second);
+    if (!cfg) {
+        return tl::unexpected(cfg.error());
+    }
+    plan.config = *cfg;
     return plan;
 }
 
@@ -607,7 +686,8 @@ std::string image_settings_json(const CampaignRequest& r, const std::string& brd
     j["grid"] = {r.grid.n_theta_h, r.grid.n_theta_d, r.grid.n_phi_d};
     j["coverage_target"] = r.coverage_target > 0 ? r.coverage_target : 0.55;
     j["max_frames"] = r.max_frames > 0 ? r.max_frames : 200;
-    j["image_size"] = r.image_size;
+    j["image_size"] = r.camera_px > 0 ? r.camera_px : r.image_size;
+    j["max_theta_deg"] = r.max_theta_deg;
     j["perspective"] = r.perspective;
     j["supersample"] = r.supersample;
     j["time_scale"] = r.time_scale;
@@ -654,6 +734,7 @@ Expected<CampaignRequest> read_image_settings(const std::string& dir) {
         r.coverage_target = o.number("coverage_target", 0.55, 0.001, 1);
         r.max_frames = o.integer("max_frames", 200, 1, 1000000);
         r.image_size = o.integer("image_size", 256, 16, 16384);
+        r.max_theta_deg = o.number("max_theta_deg", 0, 0, 89.9);
         r.perspective = o.boolean("perspective", false);
         r.supersample = o.integer("supersample", 2, 1, 64);
         r.time_scale = o.number("time_scale", 0, 0, 1e6);
@@ -716,7 +797,11 @@ Expected<ImageCampaignRun> run_image_request(const CampaignRequest& given,
     run.sample = r.sample.empty() ? truth_name : r.sample;
     run.motor_address = (*rig)->rig.axes[static_cast<int>(AxisRole::kLight)].address;
     run.camera_address = (*rig)->rig.camera_address;
-    run.config = image_config(r, (*rig)->rig, (*rig)->camera);
+    auto cfg = image_config(r, (*rig)->rig, (*rig)->camera);
+    if (!cfg) {
+        return tl::unexpected(cfg.error());
+    }
+    run.config = *cfg;
     run.dir = run.resumed ? r.resume_dir : image_campaign_dir(r, run.sample);
     run.journal = (fs::path(run.dir) / kImageJournalFile).string();
     if (hooks.started) {

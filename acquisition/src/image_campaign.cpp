@@ -209,6 +209,19 @@ brdf::Vec3d light_direction(double a) {
     return {std::cos(a), std::sin(a), 0.0};
 }
 
+/// What bounds the reachable part of the table under this configuration.
+HoleLimits hole_limits(const ImageCampaignConfig& cfg) {
+    HoleLimits limits;
+    limits.blind_zone_rad = cfg.lights.blind_zone_rad;
+    limits.max_separation_rad =
+        std::min(brdf::kPi,
+                 std::max(brdf::arm_separation(cfg.lights.min_rad, cfg.detector_arm_rad),
+                          brdf::arm_separation(cfg.lights.max_rad, cfg.detector_arm_rad)));
+    limits.max_theta_i = cfg.rules.max_theta_i;
+    limits.max_theta_o = cfg.rules.max_theta_o;
+    return limits;
+}
+
 /// The allowed light position closest to the detector (front lighting for the silhouette).
 double front_light(const ImageCampaignConfig& cfg) {
     const LightRange& r = cfg.lights;
@@ -558,16 +571,88 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
     if (result.target_met) {
         result.stop_reason = "coverage target met";
     }
-    HoleLimits limits;
-    limits.blind_zone_rad = cfg.lights.blind_zone_rad;
-    limits.max_separation_rad =
-        std::min(brdf::kPi,
-                 std::max(brdf::arm_separation(cfg.lights.min_rad, cfg.detector_arm_rad),
-                          brdf::arm_separation(cfg.lights.max_rad, cfg.detector_arm_rad)));
-    limits.max_theta_i = cfg.rules.max_theta_i;
-    limits.max_theta_o = cfg.rules.max_theta_o;
-    result.holes = coverage_holes(result.coverage, all_candidates, limits);
+    result.holes = coverage_holes(result.coverage, all_candidates, hole_limits(cfg));
     return result;
+}
+
+Expected<ImageCoveragePrediction> predict_image_coverage(const ImageCampaignConfig& cfg) {
+    if (!(cfg.silhouette.radius_m > 0) || !(cfg.lights.step_rad > 0)) {
+        return make_error(
+            "image coverage prediction: the sphere radius and lights.step_rad must "
+            "be > 0");
+    }
+    // The nominal sample sphere at the rig origin.
+    SphereGeometry sphere;
+    sphere.radius_m = cfg.silhouette.radius_m;
+    const Eigen::Vector2d c_px = cfg.camera.project(sphere.centre);
+    if (!c_px.allFinite()) {
+        return make_error("image coverage prediction: the camera does not see the rig origin");
+    }
+    sphere.silhouette.cx = c_px.x();
+    sphere.silhouette.cy = c_px.y();
+    if (cfg.camera.projection == Projection::kOrthographic) {
+        sphere.silhouette.r = sphere.radius_m * cfg.camera.intrinsics.fx;
+    } else {
+        // The outline of a sphere at distance d subtends asin(R / d) from the camera centre.
+        const double d = (sphere.centre - cfg.camera.centre_world()).norm();
+        if (!(d > sphere.radius_m)) {
+            return make_error("image coverage prediction: the camera is inside the sphere");
+        }
+        sphere.silhouette.r = cfg.camera.intrinsics.fx * std::tan(std::asin(sphere.radius_m / d));
+    }
+    ImageCoveragePrediction p;
+    PixelCounts counts;
+    p.sphere_pixels = sphere_pixels(cfg.camera, sphere, cfg.rules, &counts).size();
+    // Every pixel (the campaign bins every pixel of a frame, whatever the stride it plans with).
+    std::vector<LightCandidate> candidates = light_candidates(
+        cfg.camera, sphere, cfg.rules, cfg.layout, cfg.detector_arm_rad, cfg.lights, 1);
+    const std::vector<LightCandidate> all_candidates = candidates;
+    p.candidates = candidates.size();
+    CoverageMap coverage(cfg.layout);
+    p.valid_bins = coverage.valid_bins();
+    {
+        CoverageMap reach(cfg.layout);
+        for (const LightCandidate& c : candidates) {
+            for (std::uint32_t b : c.bins) {
+                reach.cover(b);
+            }
+        }
+        p.reachable_bins = reach.covered_bins();
+    }
+    // The campaign's choice of light positions (run_image_campaign, step 5).
+    std::vector<std::size_t> gains = candidate_gains(candidates, coverage);
+    const std::size_t min_gain = std::max<std::size_t>(
+        1, static_cast<std::size_t>(cfg.min_gain_fraction * static_cast<double>(p.valid_bins)));
+    double current = front_light(cfg);
+    p.stop_reason = "frame limit";
+    while (static_cast<int>(p.light_arm_rad.size()) < cfg.max_frames) {
+        if (coverage.fraction() >= cfg.coverage_target) {
+            break;
+        }
+        const int next = next_light(candidates, gains, current, cfg.light_gain_fraction);
+        if (next < 0 || gains[next] < min_gain) {
+            p.stop_reason = "no light position adds enough bins";
+            break;
+        }
+        const LightCandidate chosen = candidates[next];
+        candidates.erase(candidates.begin() + next);
+        gains.erase(gains.begin() + next);
+        p.light_travel_rad += std::abs(chosen.light_arm_rad - current);
+        current = chosen.light_arm_rad;
+        for (std::uint32_t b : chosen.bins) {
+            coverage.cover(b);
+        }
+        update_gains(candidates, coverage, chosen.theta_d_lo, chosen.theta_d_hi, &gains);
+        p.light_arm_rad.push_back(current);
+        p.predicted_coverage.push_back(coverage.fraction());
+    }
+    p.target_met = coverage.fraction() >= cfg.coverage_target;
+    if (p.target_met) {
+        p.stop_reason = "coverage target met";
+    }
+    p.covered_bins = coverage.covered_bins();
+    p.holes = coverage_holes(coverage, all_candidates, hole_limits(cfg));
+    return p;
 }
 
 Expected<void> write_image_campaign(const std::string& dir,
@@ -697,6 +782,11 @@ ImageCampaignConfig image_campaign_config(const RigConfig& rig,
     // max_theta_deg: pixels beyond them are too sensitive to the normal's error.
     cfg.rules.max_theta_i = std::min(cfg.rules.max_theta_i, rig.max_theta_deg * kDeg);
     cfg.rules.max_theta_o = std::min(cfg.rules.max_theta_o, rig.max_theta_deg * kDeg);
+    // A frame fills (part of) one theta_d row: the smallest gain worth a frame is a share of a
+    // row, not of the table (0.2 % of a 30-row table, 0.067 % of the MERL table's 90 rows).
+    cfg.min_gain_fraction = 0.002 * std::min(1.0, 30.0 / std::max(1, layout.n_theta_d));
+    // Fine theta_h rows are narrower than two pixels' footprint: predict every pixel.
+    cfg.plan_pixel_stride = layout.n_theta_h >= 60 ? 1 : cfg.plan_pixel_stride;
     cfg.coverage_target = coverage_target;
     cfg.max_frames = max_frames;
     cfg.silhouette.radius_m = rig.sphere_radius_m;

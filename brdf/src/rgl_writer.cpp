@@ -17,10 +17,6 @@ namespace gonio::brdf {
 
 namespace {
 
-// The last theta_i node (pi/2, wi on the horizon) is only ever interpolated towards; its values
-// are those of the limit, taken at this elevation.
-constexpr double kMaxEvalThetaI = (90.0 - 0.5) * kPi / 180.0;
-
 double luminance(const Rgbd& c) {
     return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
 }
@@ -38,6 +34,9 @@ Expected<void> check_options(const RglWriteOptions& o) {
     }
     if (o.power_iterations < 1 || !(o.ndf_floor >= 0.0 && o.ndf_floor < 1.0)) {
         return make_error("RGL file: power iterations >= 1 and an NDF floor in [0, 1) required");
+    }
+    if (!(o.max_theta_i > 0.0 && o.max_theta_i < kPi / 2)) {
+        return make_error("RGL file: the largest evaluated theta_i must lie in (0, 90) deg");
     }
     return {};
 }
@@ -66,6 +65,26 @@ Expected<RglNdf> rgl_ndf_power_iteration(const Brdf& brdf, const RglWriteOptions
                 std::to_string(theta * 180.0 / kPi) + " deg");
         }
         retro[j] = std::max(0.0, f) * w.z();
+    }
+    return rgl_ndf_from_retro(retro, options);
+}
+
+Expected<RglNdf> rgl_ndf_from_retro(const std::vector<double>& retro,
+                                    const RglWriteOptions& options) {
+    if (auto ok = check_options(options); !ok) {
+        return tl::unexpected(ok.error());
+    }
+    const std::size_t n = options.ndf_resolution;
+    if (retro.size() != n) {
+        return make_error("NDF by power iteration: " + std::to_string(retro.size()) +
+                          " retro-reflection values for " + std::to_string(n) + " nodes");
+    }
+    for (std::size_t j = 0; j < n; ++j) {
+        if (!std::isfinite(retro[j]) || retro[j] < 0.0) {
+            return make_error("NDF by power iteration: retro-reflection value " +
+                              std::to_string(j) + " = " + std::to_string(retro[j]) +
+                              " (must be finite and >= 0)");
+        }
     }
     if (*std::max_element(retro.begin(), retro.end()) <= 0.0) {
         return make_error(
@@ -174,7 +193,7 @@ Expected<RglLayout> rgl_layout(const RglNdf& ndf, const RglWriteOptions& options
     const double step = 1.0 / static_cast<double>(N - 1);
     for (std::size_t k = 0; k < T; ++k) {
         const double theta_node = L.theta_i[k];
-        const double theta_i = std::min(theta_node, kMaxEvalThetaI);
+        const double theta_i = std::min(theta_node, options.max_theta_i);
         const Vec3d wi(std::sin(theta_i), 0.0, std::cos(theta_i));
         const double sigma = sigma_grid.eval({rgl_theta_to_u(theta_node), 0.5}, 0);
         for (std::size_t row = 0; row < N; ++row) {

@@ -5,7 +5,6 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdio>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -408,7 +407,7 @@ FitResult read_report_document(const json& j) {
             StageInfo si;
             si.name = text_at(st.raw("name"), st.key_path("name"));
             si.samples = count_key(st, "samples");
-            st.raw("iterations");
+            st.raw("iterations");  // required
             si.iterations = st.integer("iterations", 0, 0, kMaxIterations);
             si.termination = text_at(st.raw("termination"), st.key_path("termination"));
             si.time_s = json_number_at(st.raw("time_s"), st.key_path("time_s"));
@@ -427,16 +426,17 @@ FitResult read_report_document(const json& j) {
 
 }  // namespace
 
+Expected<FitResult> parse_fit_report(const std::string& text, const std::string& name) {
+    return read_strict_json(name,
+                            [&] { return read_report_document(parse_json_checked(text, name)); });
+}
+
 Expected<FitResult> read_fit_report(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) {
-        return make_error(path + ": cannot open the fit report");
+    Expected<std::string> text = read_input_file(path, kMaxJsonBytes);
+    if (!text) {
+        return tl::unexpected(text.error());
     }
-    std::stringstream ss;
-    ss << in.rdbuf();
-    const std::string text = ss.str();
-    return read_strict_json(path,
-                            [&] { return read_report_document(parse_json_checked(text, path)); });
+    return parse_fit_report(*text, path);
 }
 
 std::string format_summary(const FitResult& r) {

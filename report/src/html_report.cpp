@@ -9,12 +9,15 @@
 #include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 
 #include "gonio/base/atomic_file.h"
 #include "gonio/base/limits.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/model_json.h"
+#include "gonio/fitting/report.h"
+#include "gonio/fitting/spec.h"
 #include "gonio/report/image.h"
 #include "gonio/version.h"
 
@@ -213,66 +216,45 @@ std::string rgb_text(const json& j) {
     return scalar_text(j);
 }
 
-/// The verdict of the fit report: usable or not, whether the model represents the data, the
-/// warnings and the suggestion, as the fit report holds them.
-std::string verdict_block(const json& rep) {
+std::string rgb_text(const brdf::Rgbd& v) {
+    return fmt_num(v[0]) + " " + fmt_num(v[1]) + " " + fmt_num(v[2]);
+}
+
+/// The verdict of the fit report (read strictly by fitting::read_fit_report): usable or not,
+/// whether the model represents the data, the figures the verdict rests on, the warnings and the
+/// suggestion.
+std::string verdict_block(const fitting::FitResult& rep) {
     std::ostringstream os;
-    const json* solver = member(rep, "solver");
-    const json* good = member(rep, "goodness");
-    const bool usable = solver != nullptr && solver->is_object() && solver->value("usable", false);
-    bool represents = true;
-    if (good != nullptr && good->contains("represents") && (*good)["represents"].is_boolean()) {
-        represents = (*good)["represents"].get<bool>();
-    }
+    const bool usable = rep.solver.usable;
+    const bool represents = rep.goodness.represents;
     const bool ok = usable && represents;
     os << "<div id=\"verdict\" class=\"verdict " << (ok ? "ok" : "bad")
        << "\"><p><b>Verdict: " << (usable ? "fit usable" : "fit NOT USABLE") << "; "
        << (represents ? "the model represents these data"
                       : "the model does NOT represent these data")
        << "</b>";
-    if (solver != nullptr && solver->is_object()) {
-        os << " (solver " << html_escape(text_of(*solver, "termination", "-"));
-        const std::string it = text_of(*solver, "iterations");
-        if (!it.empty()) {
-            os << ", " << html_escape(it) << " iterations";
-        }
-        const std::string t = text_of(*solver, "wall_time_s");
-        if (!t.empty()) {
-            os << ", " << html_escape(t) << " s";
-        }
-        os << ")";
+    os << " (solver " << html_escape(rep.solver.termination.empty() ? "-" : rep.solver.termination)
+       << ", " << rep.solver.iterations << " iterations, " << fmt_num(rep.solver.wall_time_s)
+       << " s)</p>\n";
+    if (!rep.solver.converged && !rep.solver.message.empty()) {
+        os << "<p>Solver: " << html_escape(rep.solver.message) << "</p>\n";
     }
-    os << "</p>\n";
-    if (good != nullptr && good->is_object()) {
-        // Every other scalar the goodness record holds, in its own words.
-        std::vector<std::string> facts;
-        for (auto it = good->begin(); it != good->end(); ++it) {
-            if (it.key() == "represents" || it.key() == "warnings" || it.key() == "suggestion") {
-                continue;
-            }
-            facts.push_back(it.key() + " " +
-                            (it->is_array() ? rgb_text(*it)
-                                            : (is_scalar(*it) ? scalar_text(*it) : it->dump())));
+    // The figures the verdict rests on (fitting/fit.h, GoodnessOfFit).
+    std::string line = "log RMSE " + rgb_text(rep.metrics.log_rmse) + "; median relative error " +
+                       rgb_text(rep.metrics.median_rel);
+    if (rep.goodness.reduced_chi_square) {
+        line += "; reduced chi-square " + fmt_num(*rep.goodness.reduced_chi_square);
+    }
+    os << "<p>" << html_escape(line) << "</p>\n";
+    if (!rep.goodness.warnings.empty()) {
+        os << "<ul class=\"warnings\">";
+        for (const std::string& w : rep.goodness.warnings) {
+            os << "<li>warning: " << html_escape(w) << "</li>";
         }
-        if (!facts.empty()) {
-            std::string line;
-            for (const std::string& f : facts) {
-                line += (line.empty() ? "" : "; ") + f;
-            }
-            os << "<p>" << html_escape(line) << "</p>\n";
-        }
-        if (const json* w = member(*good, "warnings");
-            w != nullptr && w->is_array() && !w->empty()) {
-            os << "<ul class=\"warnings\">";
-            for (const json& e : *w) {
-                os << "<li>warning: " << html_escape(scalar_text(e)) << "</li>";
-            }
-            os << "</ul>\n";
-        }
-        const std::string sug = text_of(*good, "suggestion");
-        if (!sug.empty()) {
-            os << "<p>Suggestion: " << html_escape(sug) << "</p>\n";
-        }
+        os << "</ul>\n";
+    }
+    if (!rep.goodness.suggestion.empty()) {
+        os << "<p>Suggestion: " << html_escape(rep.goodness.suggestion) << "</p>\n";
     }
     os << "</div>\n";
     return os.str();
@@ -280,62 +262,44 @@ std::string verdict_block(const json& rep) {
 
 /// The fitted model: parameters with uncertainties, the error metrics (each named with what it
 /// measures) and the samples used.
-std::string model_block(const json& rep, const std::string& model_summary) {
+std::string model_block(const fitting::FitResult& rep, const std::string& model_summary) {
     std::ostringstream os;
     os << "<div id=\"model\">";
     if (!model_summary.empty()) {
         os << "<p>Fitted model: <code>" << html_escape(model_summary) << "</code></p>\n";
     }
-    if (const json* params = member(rep, "parameters"); params != nullptr && params->is_array()) {
+    if (!rep.parameters.empty()) {
         os << "<table class=\"grid params\"><tr><th>parameter</th><th>value</th>"
               "<th>uncertainty (1 s.d.)</th><th>status</th></tr>";
-        for (const json& p : *params) {
-            if (!p.is_object()) {
-                continue;
-            }
-            const json sigma = p.contains("sigma") ? p["sigma"] : json();
+        for (const fitting::FittedParameter& p : rep.parameters) {
             std::string status;
-            if (p.contains("free") && p["free"].is_boolean() && !p["free"].get<bool>()) {
+            if (!p.free) {
                 status = "fixed";
-            } else if (p.contains("identifiable") && p["identifiable"].is_boolean() &&
-                       !p["identifiable"].get<bool>()) {
+            } else if (!p.identifiable) {
                 status = "not identifiable from these data";
             }
-            if (p.contains("at_bound") && p["at_bound"].is_string()) {
-                status += (status.empty() ? "" : "; ") + std::string("at its ") +
-                          p["at_bound"].get<std::string>() + " bound";
+            if (!p.at_bound.empty()) {
+                status +=
+                    (status.empty() ? "" : "; ") + std::string("at its ") + p.at_bound + " bound";
             }
-            os << "<tr><td><code>" << html_escape(text_of(p, "name", "-")) << "</code></td><td>"
-               << html_escape(text_of(p, "value", "-")) << "</td><td>"
-               << (sigma.is_number() ? "&plusmn; " + html_escape(scalar_text(sigma))
-                                     : std::string("not available"))
+            os << "<tr><td><code>" << html_escape(p.name) << "</code></td><td>"
+               << html_escape(fmt_num(p.value)) << "</td><td>"
+               << (p.sigma ? "&plusmn; " + html_escape(fmt_num(*p.sigma))
+                           : std::string("not available"))
                << "</td><td>" << html_escape(status.empty() ? "ok" : status) << "</td></tr>";
         }
         os << "</table>\n";
     }
-    if (const json* m = member(rep, "metrics"); m != nullptr && m->is_object()) {
-        os << "<p class=\"metrics\">";
-        if (const json* l = member(*m, "log_rmse")) {
-            os << "<b>log RMSE</b> (r g b) " << html_escape(rgb_text(*l))
-               << " &mdash; per channel, the rms difference of ln(1 + f cos&theta;<sub>i</sub>) "
-                  "between data and fit over the fitted samples. ";
-        }
-        if (const json* r = member(*m, "rel_rmse")) {
-            os << "Relative RMSE (r g b) " << html_escape(rgb_text(*r)) << ". ";
-        }
-        if (const json* r = member(*m, "rmse")) {
-            os << "RMSE (r g b) " << html_escape(rgb_text(*r)) << " 1/sr.";
-        }
-        os << "</p>\n";
-    }
-    if (const json* smp = member(rep, "samples"); smp != nullptr && smp->is_object()) {
-        os << "<p>Samples: " << html_escape(text_of(*smp, "used", "-")) << " used of "
-           << html_escape(text_of(*smp, "input", "-")) << " read ("
-           << html_escape(text_of(*smp, "rejected", "0")) << " rejected); residual "
-           << html_escape(text_of(rep, "residual", "-")) << ", loss "
-           << html_escape(text_of(rep, "loss", "-")) << ", uncertainties by "
-           << html_escape(text_of(rep, "covariance", "-")) << ".</p>\n";
-    }
+    os << "<p class=\"metrics\"><b>log RMSE</b> (r g b) "
+       << html_escape(rgb_text(rep.metrics.log_rmse))
+       << " &mdash; per channel, the rms difference of ln(1 + f cos&theta;<sub>i</sub>) "
+          "between data and fit over the valid samples. Relative RMSE (r g b) "
+       << html_escape(rgb_text(rep.metrics.rel_rmse)) << ". RMSE (r g b) "
+       << html_escape(rgb_text(rep.metrics.rmse)) << " 1/sr.</p>\n";
+    os << "<p>Samples: " << rep.samples.used << " used of " << rep.samples.input << " read ("
+       << rep.samples.rejected << " rejected); residual " << fitting::to_string(rep.residual)
+       << ", loss " << fitting::to_string(rep.loss) << ", uncertainties by "
+       << html_escape(rep.covariance_method.empty() ? "-" : rep.covariance_method) << ".</p>\n";
     os << "</div>\n";
     return os.str();
 }
@@ -495,6 +459,17 @@ Expected<ReportResult> build_report(const std::string& dir, const ReportOptions&
     Expected<json> metadata = read_optional_json(metadata_path, notes);
     Expected<json> dataset_meta = read_optional_json(dataset_json_path, notes);
     Expected<json> fit_report = read_optional_json(fit_report_path, notes);
+    // The verdict and the parameters come from the strict reader of fit reports: a report it
+    // refuses is named in the notes with the key path, and no verdict is drawn from it.
+    std::optional<fitting::FitResult> fit_result;
+    if (fit_report && fit_report->is_object()) {
+        Expected<fitting::FitResult> r = fitting::read_fit_report(fit_report_path.string());
+        if (r) {
+            fit_result = std::move(*r);
+        } else {
+            notes.push_back(r.error().message + "; no verdict drawn from it");
+        }
+    }
     for (const Expected<json>* j : {&campaign, &metadata, &dataset_meta, &fit_report}) {
         if (!*j) {
             return tl::unexpected(j->error());
@@ -686,8 +661,12 @@ Expected<ReportResult> build_report(const std::string& dir, const ReportOptions&
     h << ".</p>\n";
 
     // The result: verdict, model, parameters.
-    if (fit_report->is_object()) {
-        h << verdict_block(*fit_report) << model_block(*fit_report, model_summary);
+    if (fit_result) {
+        h << verdict_block(*fit_result) << model_block(*fit_result, model_summary);
+    } else if (fit_report->is_object()) {
+        h << "<div id=\"verdict\" class=\"verdict bad\"><p><b>Verdict: none</b>. "
+             "fit.report.json is not a fit report this version reads (see the notes).</p>"
+             "</div>\n";
     } else {
         h << "<div id=\"verdict\" class=\"verdict bad\"><p><b>Verdict: no fit</b>. No "
              "fit.report.json in this folder (run <code>gonio fit</code> on dataset.csv).</p>"

@@ -10,6 +10,7 @@
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/dataset.h"
 #include "gonio/brdf/model_json.h"
+#include "gonio/fitting/report.h"
 #include "gonio/report/html_report.h"
 #include "test_models.h"
 
@@ -93,20 +94,33 @@ fs::path make_campaign(const std::string& name) {
               "drift": [{"t_s": 0, "ratio": 1.0}, {"t_s": 600, "ratio": 0.994}],
               "software": "gonio 0.1.0"})");
     write(dir / "fit.json", brdf::model_to_json(model));
-    write(dir / "fit.report.json",
-          R"({"model": {}, "parameters": [
-                {"name": "lobes[0].alpha_x", "value": 0.0801, "sigma": 0.0012, "free": true,
-                 "identifiable": true},
-                {"name": "diffuse[0]", "value": 0.05, "sigma": null, "free": true,
-                 "identifiable": false}],
-              "not_identifiable": ["diffuse[0]"],
-              "metrics": {"rmse": [0.1, 0.2, 0.3], "rel_rmse": [0.01, 0.02, 0.03],
-                          "log_rmse": [0.004, 0.005, 0.006]},
-              "samples": {"input": 255, "valid": 255, "used": 255, "rejected": 0},
-              "residual": "log",
-              "solver": {"iterations": 17, "termination": "CONVERGENCE", "message": "ok",
-                         "usable": true, "wall_time_s": 0.42},
-              "data": "dataset.csv"})");
+    // The report as the fitter writes it.
+    fitting::FitResult fr;
+    fr.model = model;
+    fitting::FittedParameter ax;
+    ax.name = "lobes[0].alpha_x";
+    ax.value = 0.0801;
+    ax.sigma = 0.0012;
+    ax.free = true;
+    fitting::FittedParameter kd;
+    kd.name = "diffuse[0]";
+    kd.value = 0.05;
+    kd.free = true;
+    kd.identifiable = false;
+    fr.parameters = {ax, kd};
+    fr.not_identifiable = {"diffuse[0]"};
+    fr.metrics.rmse = brdf::Rgbd(0.1, 0.2, 0.3);
+    fr.metrics.rel_rmse = brdf::Rgbd(0.01, 0.02, 0.03);
+    fr.metrics.log_rmse = brdf::Rgbd(0.004, 0.005, 0.006);
+    fr.samples.input = fr.samples.valid = fr.samples.used = 255;
+    fr.solver.iterations = 17;
+    fr.solver.termination = "CONVERGENCE";
+    fr.solver.message = "ok";
+    fr.solver.converged = true;
+    fr.solver.usable = true;
+    fr.solver.wall_time_s = 0.42;
+    fr.data = "dataset.csv";
+    write(dir / "fit.report.json", fitting::fit_report_json(fr));
     write(dir / "bench" / "runtime_vs_error.csv",
           "samples,wall_time_s,log_rmse\n100,0.11,0.031\n1000,0.93,0.0123\n");
     return dir;
@@ -171,6 +185,31 @@ TEST(HtmlReport, ToleratesMissingAndBrokenInputs) {
     // Coverage, in-plane and delta_phi plots; no residuals and no preview without a fit.
     EXPECT_EQ(count(html, "src=\"data:image/png;base64,"), 3u);
     EXPECT_FALSE(fs::exists(dir / "previews"));
+}
+
+TEST(HtmlReport, FitReportIsReadStrictlyAndARefusedOneGivesNoVerdict) {
+    const fs::path dir = make_campaign("report_campaign_bad_fit");
+    // A report whose solver record carries a misspelt key: the strict reader names it, the page
+    // shows no verdict from it, and the rest of the page is still drawn.
+    std::ifstream in0(dir / "fit.report.json");
+    std::string text((std::istreambuf_iterator<char>(in0)), std::istreambuf_iterator<char>());
+    const auto at = text.find("\"usable\"");
+    ASSERT_NE(at, std::string::npos);
+    text.replace(at, 8, "\"usabel\"");
+    write(dir / "fit.report.json", text);
+    ReportOptions o;
+    o.preview.size_px = 32;
+    o.preview.env_samples = 8;
+    auto r = build_report(dir.string(), o);
+    ASSERT_TRUE(r) << r.error().message;
+    std::ifstream in(r->html_path);
+    const std::string html((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_NE(html.find("Verdict: none"), std::string::npos);
+    EXPECT_EQ(html.find("Verdict: fit usable"), std::string::npos);
+    EXPECT_NE(html.find("solver.usabel"), std::string::npos) << "the key path is named";
+    EXPECT_EQ(html.find("&plusmn; 0.0012"), std::string::npos);
+    // The dataset's pictures are still there.
+    EXPECT_GE(count(html, "src=\"data:image/png;base64,"), 3u);
 }
 
 TEST(HtmlReport, NotACampaignFolderIsAnError) {

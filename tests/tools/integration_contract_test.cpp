@@ -313,4 +313,43 @@ TEST(CheckContract, PairsZeroIsRefusedWithTheRuleAsWritten) {
     EXPECT_FALSE(has(e.out, "179769313486")) << e.out;
 }
 
+// Image mode's camera size and grazing limit are checked against the rig description before
+// anything starts: beyond the rig's geometry.max_theta_deg, or a camera size for a rig whose
+// calibrated camera is the camera, is a usage error naming the option and the rig's limit; within
+// them the plan honours both.
+TEST(Contract, ImageModeCameraSizeAndGrazingLimitAreCheckedAgainstTheRig) {
+    const CliRun beyond = run_gonio("acquire --mode image --plan-only --max-theta-deg 88");
+    EXPECT_EQ(beyond.status, 2) << beyond.out;
+    EXPECT_TRUE(has(beyond.out, "--max-theta-deg 88 deg is beyond")) << beyond.out;
+    EXPECT_TRUE(has(beyond.out, "geometry.max_theta_deg (85 deg)")) << beyond.out;
+
+    const CliRun within =
+        run_gonio("acquire --mode image --plan-only --max-theta-deg 84 --camera-px 96");
+    EXPECT_EQ(within.status, 0) << within.out;
+    EXPECT_TRUE(has(within.out, "camera 96x96")) << within.out;
+    EXPECT_TRUE(has(within.out, "theta_i 84.0 deg, theta_o 84.0 deg")) << within.out;
+
+    // The same rig with a calibrated camera model: --camera-px is refused.
+    std::ifstream in(std::string(GONIO_SOURCE_DIR) + "/data/rigs/sim-image.json");
+    nlohmann::json rig = nlohmann::json::parse(in);
+    rig["camera_model"] = {{"projection", "orthographic"},
+                           {"width", 128},
+                           {"height", 128},
+                           {"fx", 2000.0},
+                           {"fy", 2000.0},
+                           {"cx", 63.5},
+                           {"cy", 63.5},
+                           {"rotation_world_to_camera", {0, 1, 0, 0, 0, -1, -1, 0, 0}},
+                           {"translation_world_to_camera_m", {0, 0, 0.5}}};
+    const std::string path = dir() + "/rig-with-camera.json";
+    std::ofstream(path) << rig.dump(2);
+    const CliRun sized = run_gonio("acquire --mode image --plan-only --camera-px 96 --rig " + path);
+    EXPECT_EQ(sized.status, 2) << sized.out;
+    EXPECT_TRUE(has(sized.out, "--camera-px sizes the virtual rig's default camera")) << sized.out;
+    EXPECT_TRUE(has(sized.out, "calibrated camera_model")) << sized.out;
+    const CliRun calibrated = run_gonio("acquire --mode image --plan-only --rig " + path);
+    EXPECT_EQ(calibrated.status, 0) << calibrated.out;
+    EXPECT_TRUE(has(calibrated.out, "camera 128x128 (orthographic)")) << calibrated.out;
+}
+
 }  // namespace

@@ -173,6 +173,37 @@ TEST_F(ImageCampaignTest, CoverageTargetMetAndExclusionsCounted) {
     EXPECT_TRUE(blind);
 }
 
+// The coverage predicted without capturing (the nominal sphere, the campaign's own choice of light
+// positions) is what the campaign then reaches through the camera: the same first light position,
+// as many positions within one and the same covered fraction within 2 % (the fitted sphere is a
+// fraction of a pixel off the nominal one).
+TEST_F(ImageCampaignTest, PredictedCoverageIsWhatTheCampaignReached) {
+    auto p = acquisition::predict_image_coverage(*config_);
+    ASSERT_TRUE(p) << p.error().message;
+    EXPECT_EQ(p->valid_bins, result_->coverage.valid_bins());
+    EXPECT_TRUE(p->target_met);
+    EXPECT_EQ(p->stop_reason, "coverage target met");
+    EXPECT_NEAR(static_cast<double>(p->light_arm_rad.size()),
+                static_cast<double>(result_->frames.size()),
+                1.0);
+    ASSERT_FALSE(p->light_arm_rad.empty());
+    EXPECT_NEAR(p->light_arm_rad.front(), result_->frames.front().light_arm_rad, 1e-9);
+    EXPECT_NEAR(static_cast<double>(p->covered_bins) / static_cast<double>(p->valid_bins),
+                result_->coverage.fraction(),
+                0.02);
+    // The campaign plans on every second pixel row and column, the prediction on every pixel: it
+    // reaches a few more bins, never fewer, and at least every bin the campaign filled.
+    EXPECT_GE(p->reachable_bins, result_->reachable_bins);
+    EXPECT_LE(p->reachable_bins, result_->reachable_bins * 11 / 10);
+    EXPECT_GE(p->reachable_bins, result_->coverage.covered_bins());
+    // Its holes tell the blind zone apart, as the campaign's do.
+    std::size_t blind = 0;
+    for (const auto& h : p->holes) {
+        blind += h.reason == "blind zone" ? h.bins : 0;
+    }
+    EXPECT_GT(blind, 0u);
+}
+
 TEST_F(ImageCampaignTest, BinsMatchGroundTruthWithinNoise) {
     const acquisition::BinnedTable& t = result_->table;
     std::size_t bins = 0;

@@ -12,6 +12,7 @@
 
 #include "gonio/acquisition/calibration.h"
 #include "gonio/acquisition/plan.h"
+#include "gonio/acquisition/plan_vndf.h"
 #include "gonio/acquisition/rig_config.h"
 #include "gonio/acquisition/schedule.h"
 #include "gonio/brdf/dataset.h"
@@ -25,9 +26,12 @@ struct CampaignSpec {
     std::string notes;
     std::string rig;                    ///< Rig description path (relative to the campaign file).
     std::string scene;                  ///< Optional scene (ROI) path.
-    std::string plan_kind = "uniform";  ///< "uniform" or "half-diff".
+    std::string plan_kind = "uniform";  ///< "uniform", "half-diff" or "vndf".
     UniformGridSpec uniform;
     HalfDiffSpec half_diff;
+    /// The vndf plan (plan_vndf.h): pass 0 retro-reflection, pass 1 the VNDF-warped nodes built
+    /// from it; the campaign ends by writing dataset.bsdf. No scene, no adaptive pass.
+    VndfSpec vndf;
     bool adaptive = false;
     int adaptive_passes = 1;
     RefineSpec refine;
@@ -48,7 +52,8 @@ Expected<CampaignSpec> parse_campaign_spec(const std::string& json_text, const s
 Expected<CampaignSpec> read_campaign_spec(const std::string& path);
 std::string campaign_spec_json(const CampaignSpec& spec);
 
-/// Builds the plan of pass 0 (grid, then scene ROI, then reachability).
+/// Builds the plan of pass 0 (grid, then scene ROI, then reachability; the vndf plan: its
+/// retro-reflection pass).
 Expected<Plan> build_plan(const CampaignSpec& spec, const RigConfig& rig);
 
 /// "2026-11-22T01-02-03_<sample>" under `parent`, unique (a suffix is added if it exists).
@@ -119,5 +124,20 @@ Expected<RunResult> run_campaign(const std::string& dir, RigDevices& dev, const 
 /// Rebuilds dataset.csv from the journal (atomically replaced). Reference re-measurements are
 /// included with kFlagReference.
 Expected<std::size_t> write_campaign_dataset(const std::string& dir);
+
+/// The file name of a vndf campaign's RGL material file, beside dataset.csv.
+constexpr const char* kVndfBsdfName = "dataset.bsdf";
+
+/// The second pass of a vndf campaign from the retro-reflection measurements in its journal (pass
+/// 0): the NDF, the layout and its configurations. Deterministic for a given journal, so a resume
+/// rebuilds the same pass.
+Expected<VndfLayout> vndf_second_pass(const std::string& dir,
+                                      const CampaignSpec& spec,
+                                      const RigConfig& rig,
+                                      VndfNdf* ndf = nullptr);
+
+/// Writes dataset.bsdf of a vndf campaign from its journal (pass 1 measurements; several of one
+/// configuration are averaged). Returns what was stored.
+Expected<VndfFileReport> write_vndf_bsdf(const std::string& dir);
 
 }  // namespace gonio::acquisition

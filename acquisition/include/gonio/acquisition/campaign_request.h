@@ -43,7 +43,7 @@ struct CampaignRequest {
     std::string scene;           ///< Point mode: region of interest.
     std::string sample;          ///< Sample name.
     std::string operator_name;   ///< Operator name.
-    std::string plan_kind;       ///< Point mode: "uniform" or "half-diff".
+    std::string plan_kind;       ///< Point mode: "uniform", "half-diff" or "vndf".
     int n_theta = 0;             ///< Point mode, uniform plan: polar angles.
     int n_dphi = 0;              ///< Point mode, uniform plan: azimuth differences.
     int adaptive = -1;           ///< Point mode: adaptive passes (-1 = the campaign's).
@@ -54,6 +54,12 @@ struct CampaignRequest {
     int max_frames = 0;          ///< Image mode: most light positions.
     /// Image mode: table bins (theta_h x theta_d x phi_d); all zero: from table_factor.
     TableLayout grid{0, 0, 0};
+    /// Image mode on the virtual rig: size (px, square) of its default camera; 0 = image_size.
+    /// Refused with a rig whose calibrated camera_model is the camera.
+    int camera_px = 0;
+    /// Image mode: grazing limit of the pixels (theta_i and theta_o), degrees; 0 = the exclusion
+    /// rules' default (80). Never beyond the rig's geometry.max_theta_deg (an error names both).
+    double max_theta_deg = 0;
     /// "[ADDR:]PORT" of the live page of the campaign (both modes). The front end serves it
     /// (`gonio acquire` starts a report::LiveServer and feeds it through the campaign's hooks);
     /// start_point_campaign and run_image_request do not.
@@ -90,8 +96,16 @@ std::string option_key(const std::string& field);
 /// - plan_only prints the plan: nothing that only matters to a run (out, campaigns_dir,
 ///   material, brdf, time_scale, sample, operator, accept_drift, serve) goes with it;
 /// - the virtual rig's options (material, brdf, time_scale) need the embedded rig: a campaign
-///   file names its own rig; material and brdf exclude each other.
+///   file names its own rig; material and brdf exclude each other;
+/// - the vndf plan refuses n_theta, n_dphi (uniform-plan options), adaptive > 0 (it places its
+///   own second pass) and scene (its RGL file needs every node).
 std::optional<RequestConflict> find_conflict(const CampaignRequest& request);
+
+/// An image-mode option the rig description cannot honour (read without starting anything):
+/// camera_px with a rig whose calibrated camera_model is the camera, max_theta_deg beyond the
+/// rig's geometry.max_theta_deg. `with` is "rig_path"; the rule names the rig and its limit.
+/// None when the description cannot be read (the run reports that).
+std::optional<RequestConflict> find_rig_conflict(const CampaignRequest& request);
 
 // ---- the embedded virtual rig ------------------------------------------------------------
 
@@ -164,7 +178,8 @@ struct ImageRigOptions {
     std::string material = "red-plastic";  ///< Virtual rig: ground truth by name.
     std::string brdf_path;                 ///< Or a model JSON / table file (takes precedence).
     int image_size = 256;                  ///< Default camera sensor size (square), px.
-    bool perspective = false;  ///< Default camera: perspective at 0.5 m instead of telecentric.
+    bool camera_px_given = false;  ///< image_size was asked for (refused with a camera_model).
+    bool perspective = false;      ///< Default camera: perspective at 0.5 m instead of telecentric.
     int supersample = 2;
     double time_scale = 0;
     std::uint64_t seed = 1;

@@ -136,6 +136,29 @@ ImageCampaignConfig image_campaign_config(const RigConfig& rig,
                                           double coverage_target,
                                           int max_frames);
 
+/// What a campaign of this configuration reaches, predicted without capturing: the nominal sample
+/// sphere (radius `silhouette.radius_m` at the rig origin, as the camera model sees it) replaces
+/// the fitted one, every candidate light position's bins are predicted from the frame's per-pixel
+/// geometry (image_planner.h: light_candidates), and the light positions are chosen by the
+/// campaign's own rules (next_light with `light_gain_fraction`, stopping at the target, at
+/// `max_frames`, or when the best position adds fewer than `min_gain_fraction` of the valid bins).
+/// A campaign on the rig fills at most what is predicted here (pixels lost to saturation or
+/// noise, and a fitted sphere slightly off the nominal one, are not predicted).
+struct ImageCoveragePrediction {
+    std::vector<double> light_arm_rad;       ///< Planned light positions, in order.
+    std::vector<double> predicted_coverage;  ///< Covered fraction of the valid bins after each.
+    std::size_t valid_bins = 0;
+    std::size_t reachable_bins = 0;  ///< Valid bins some candidate position reaches.
+    std::size_t covered_bins = 0;    ///< After the planned positions.
+    std::size_t candidates = 0;      ///< Candidate light positions considered.
+    std::size_t sphere_pixels = 0;   ///< Pixels on the sphere within the exclusion rules.
+    bool target_met = false;
+    std::string stop_reason;
+    std::vector<CoverageHole> holes;  ///< Empty valid bins after the plan, by reason.
+    double light_travel_rad = 0;      ///< Light-arm travel from the front-light position.
+};
+Expected<ImageCoveragePrediction> predict_image_coverage(const ImageCampaignConfig& config);
+
 /// Called after each light position: index, record.
 using ImageProgressFn = std::function<void(std::size_t, const FrameRecord&)>;
 

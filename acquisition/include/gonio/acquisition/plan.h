@@ -30,7 +30,7 @@ struct UnreachableConfig {
 };
 
 struct Plan {
-    std::string kind;  ///< "uniform", "half-diff", "refine"
+    std::string kind;  ///< "uniform", "half-diff", "refine", "vndf-retro", "vndf" (plan_vndf.h)
     std::vector<PlannedConfig> configs;
     std::vector<UnreachableConfig>
         unreachable;                ///< Listed with their reason, never dropped silently.

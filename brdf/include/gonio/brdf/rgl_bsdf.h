@@ -127,7 +127,11 @@ struct RglWriteOptions {
     std::size_t rgb_resolution = 32;   ///< nodes per axis of rgb and luminance
     int power_iterations = 64;         ///< most iterations of the NDF power iteration
     double ndf_floor = 1e-4;           ///< D kept >= floor * max(D) (see rgl_ndf_power_iteration)
-    std::string description;           ///< the file's description field
+    /// Largest elevation of wi at which a theta_i node is evaluated (or measured): a node above it
+    /// (the pi/2 node always) takes the values of this elevation, the limit a reader only
+    /// interpolates towards. Radians, in (0, pi/2).
+    double max_theta_i = (90.0 - 0.5) * kPi / 180.0;
+    std::string description;  ///< the file's description field
 };
 
 /// The NDF of a BRDF by power iteration (J. Dupuy, E. Heitz, J.-C. Iehl, P. Poulin, V.
@@ -148,6 +152,12 @@ struct RglNdf {
     double change = 0;  ///< relative change of the last iteration (max norm)
 };
 Expected<RglNdf> rgl_ndf_power_iteration(const Brdf& brdf, const RglWriteOptions& options);
+
+/// The same power iteration from retro-reflection already known (measured): retro_cos[j] is the
+/// luminance of f(w, w) times cos(theta) at theta = rgl_u_to_theta(j / (n - 1)), n =
+/// options.ndf_resolution values, each finite and >= 0 (0 at the horizon node).
+Expected<RglNdf> rgl_ndf_from_retro(const std::vector<double>& retro_cos,
+                                    const RglWriteOptions& options);
 
 /// The parameterisation of a file before any value is known: theta_i nodes, NDF and sigma grids,
 /// the VNDF warp and every rgb node's direction pair. An acquisition plan measures at

@@ -32,8 +32,12 @@ std::string fit_report_json(const FitResult& result);
 /// that the failure can be inspected.
 Expected<void> write_fit_report(const std::string& model_path, const FitResult& result);
 
-/// Reads a report written by write_fit_report.
+/// Reads a report written by write_fit_report (at most kMaxJsonBytes), strictly: an unknown key, a
+/// wrong type or a missing required field is an error naming the file and the key path.
 Expected<FitResult> read_fit_report(const std::string& report_path);
+
+/// The same for report text already in memory; `name` is the file name used in messages.
+Expected<FitResult> parse_fit_report(const std::string& text, const std::string& name);
 
 /// A human-readable summary (several lines), as `gonio fit` prints it.
 std::string format_summary(const FitResult& result);
