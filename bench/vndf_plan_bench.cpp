@@ -1,7 +1,8 @@
 // The vndf plan (Dupuy and Jakob 2018) against the uniform plan and the adaptive plan (uniform grid
 // then refinement passes) for the same motion time on the sim4 rig's axis dynamics, on three ground
 // truths: glossy (GGX alpha 0.05), rough (GGX alpha 0.4) and anisotropic (axis-aligned GGX alpha_x
-// 0.05, alpha_y 0.2), each with a Lambertian part.
+// 0.05, alpha_y 0.2), each with a Lambertian part; argument 3 is the rough truth again with the
+// vndf plan at 32 x 32 nodes per theta_i.
 //
 // How it is measured. The plans are built as a campaign builds them (the vndf plan's second pass
 // from its own retro-reflection measurements, the adaptive passes from the values measured before
@@ -312,13 +313,17 @@ void report(benchmark::State& state, const char* prefix, const Outcome& o) {
 /// motion time comes closest to it, the adaptive plan with the same motion time; on the glossy
 /// truth also the smallest uniform grid whose cosine-weighted error reaches the vndf plan's.
 void BM_VndfAgainstUniformAndAdaptive(benchmark::State& state) {
-    const int which = static_cast<int>(state.range(0));
+    // 3: the rough truth again with 32 x 32 nodes per theta_i (the vndf plan's resolution).
+    const bool fine = state.range(0) == 3;
+    const int which = fine ? 1 : static_cast<int>(state.range(0));
+    acq::VndfSpec spec;
+    spec.resolution = fine ? 32 : spec.resolution;
     const brdf::AnalyticBrdf truth(truth_model(which), truth_name(which));
     const acq::RigConfig rig = sim4();
     Outcome v, u, a;
     int n = 4;
     for (auto _ : state) {
-        v = run_vndf(truth, rig, acq::VndfSpec{});
+        v = run_vndf(truth, rig, spec);
         n = 4;
         u = run_uniform(truth, rig, n, n - 1);
         while (n < 60) {
@@ -332,7 +337,7 @@ void BM_VndfAgainstUniformAndAdaptive(benchmark::State& state) {
         a = run_adaptive(truth, rig, v.motion_s);
         state.counters["uniform_n_theta"] = n;
     }
-    state.SetLabel(truth_name(which));
+    state.SetLabel(fine ? "rough, resolution 32" : truth_name(which));
     report(state, "vndf", v);
     report(state, "uniform", u);
     report(state, "adaptive", a);
@@ -341,7 +346,7 @@ void BM_VndfAgainstUniformAndAdaptive(benchmark::State& state) {
         "%d x %d, %zu, %.1f min: median %.4f, p90 %.4f, L2 %.4f | adaptive %zu, %.1f min: median "
         "%.4f, "
         "p90 %.4f, L2 %.4f\n",
-        truth_name(which),
+        fine ? "rough, vndf resolution 32" : truth_name(which),
         v.configs,
         v.motion_s / 60,
         v.err.median,
@@ -385,6 +390,7 @@ BENCHMARK(BM_VndfAgainstUniformAndAdaptive)
     ->Arg(0)
     ->Arg(1)
     ->Arg(2)
+    ->Arg(3)
     ->Iterations(1)
     ->Unit(benchmark::kSecond);
 

@@ -397,6 +397,11 @@ Expected<std::unique_ptr<PointCampaign>> start_point_campaign(const CampaignRequ
                          out->embedded->describe().c_str(),
                          out->embedded->motor_address().c_str(),
                          out->embedded->camera_address().c_str());
+            if (new_spec.plan_kind == "vndf" && !out->embedded->isotropic_sample()) {
+                std::fprintf(log,
+                             "note: the virtual sample is anisotropic; the vndf plan measures "
+                             "with the light at phi_i = 0 and writes an isotropic RGL file\n");
+            }
         }
         out->rig = with_addresses(
             out->rig, out->embedded->motor_address(), out->embedded->camera_address());

@@ -767,7 +767,99 @@ struct AravisCamera::Impl {
         return "the camera still answers: the frame was lost or the trigger ignored";
     }
 
-    Expected<Frame> pop_frame(std::chrono::milliseconds timeout) {
+    /// Whether frames are matched to their trigger by time: unknown until the first frame after a
+    /// latch (kOn when its timestamp is on the latch's clock, kOff otherwise, e.g. a camera that
+    /// stamps frames with the host's time or latches nothing useful).
+    enum class StaleCheck { kUnknown, kOn, kOff };
+    StaleCheck stale_check = StaleCheck::kUnknown;
+    double timestamp_ns_per_tick = 0;  ///< 0: not read yet
+    std::uint64_t first_latch_ns = 0;  ///< The latch before this camera's first trigger.
+    bool first_latch_ns_set = false;
+
+    /// The camera's clock now, in ns (GigE Vision's GevTimestampControlLatch / GevTimestampValue,
+    /// or SFNC's TimestampLatch / TimestampLatchValue), when it has a latch.
+    std::optional<std::uint64_t> latch_timestamp_ns() {
+        if (stale_check == StaleCheck::kOff) {
+            return std::nullopt;
+        }
+        const bool gev = has("GevTimestampControlLatch") && has("GevTimestampValue");
+        const bool sfnc = !gev && has("TimestampLatch") && has("TimestampLatchValue");
+        if (!gev && !sfnc) {
+            stale_check = StaleCheck::kOff;
+            return std::nullopt;
+        }
+        if (timestamp_ns_per_tick == 0) {
+            // GigE Vision counts ticks of GevTimestampTickFrequency; SFNC's latch value is in ns.
+            timestamp_ns_per_tick = 1;
+            if (gev && has("GevTimestampTickFrequency")) {
+                auto f = get_int("GevTimestampTickFrequency");
+                if (f && *f > 0) {
+                    timestamp_ns_per_tick = 1e9 / static_cast<double>(*f);
+                }
+            }
+        }
+        if (!execute(gev ? "GevTimestampControlLatch" : "TimestampLatch")) {
+            stale_check = StaleCheck::kOff;
+            return std::nullopt;
+        }
+        auto v = get_int(gev ? "GevTimestampValue" : "TimestampLatchValue");
+        if (!v || *v < 0) {
+            stale_check = StaleCheck::kOff;
+            return std::nullopt;
+        }
+        const auto ns = static_cast<std::uint64_t>(static_cast<double>(*v) * timestamp_ns_per_tick);
+        if (!first_latch_ns_set) {
+            first_latch_ns = ns;
+            first_latch_ns_set = true;
+        }
+        return ns;
+    }
+
+    /// The frame of the trigger sent after the camera's clock read `not_before_ns` (nullopt: the
+    /// first frame). A frame stamped earlier is the late frame of an earlier trigger whose capture
+    /// timed out: counted and set aside. The first frame decides whether the camera's frame stamps
+    /// run on the latch's clock at all: no frame can be stamped before the latch that preceded the
+    /// camera's first trigger.
+    Expected<Frame> pop_triggered_frame(std::chrono::milliseconds timeout,
+                                        std::optional<std::uint64_t> not_before_ns) {
+        using Clock = std::chrono::steady_clock;
+        const auto deadline = Clock::now() + std::max(timeout, std::chrono::milliseconds(1));
+        for (;;) {
+            const auto left =
+                std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
+            Expected<Frame> f = pop_frame(std::max(left, std::chrono::milliseconds(1)), timeout);
+            if (!f || !not_before_ns) {
+                return f;
+            }
+            const auto stamp =
+                static_cast<std::uint64_t>(std::max<std::int64_t>(f->timestamp_ns, 0));
+            if (stale_check == StaleCheck::kUnknown) {
+                // Every frame of this camera, late or not, follows the latch before its first
+                // trigger when the frame stamps run on the latch's clock.
+                stale_check = stamp >= first_latch_ns ? StaleCheck::kOn : StaleCheck::kOff;
+            }
+            if (stale_check == StaleCheck::kOff || stamp >= *not_before_ns) {
+                return f;
+            }
+            ++stats.frames_stale;
+            --stats.frames_completed;  // counted when decoded; not handed out
+            if (Clock::now() >= deadline) {
+                ++stats.frames_missing;
+                return tl::unexpected(err("no frame within " + std::to_string(timeout.count()) +
+                                          " ms: only the late frame " +
+                                          std::to_string(f->frame_id) +
+                                          " of an earlier trigger came"));
+            }
+        }
+    }
+
+    /// The next complete frame within `timeout`; a timeout's message names `said` (the caller's
+    /// whole timeout) when given.
+    Expected<Frame> pop_frame(std::chrono::milliseconds timeout,
+                              std::chrono::milliseconds said = std::chrono::milliseconds(0)) {
+        if (said.count() <= 0) {
+            said = timeout;
+        }
         if (stream == nullptr) {
             return tl::unexpected(err("no stream"));
         }
@@ -781,7 +873,7 @@ struct AravisCamera::Impl {
                                                  : nullptr;
             if (buffer == nullptr) {
                 ++stats.frames_missing;
-                return tl::unexpected(err("no frame within " + std::to_string(timeout.count()) +
+                return tl::unexpected(err("no frame within " + std::to_string(said.count()) +
                                           " ms: " + silence_reason()));
             }
             if (arv_buffer_get_status(buffer) == ARV_BUFFER_STATUS_CLEARED) {
@@ -1248,11 +1340,13 @@ Expected<Frame> AravisCamera::capture(std::chrono::milliseconds timeout) {
             return tl::unexpected(r.error());
         }
         d.drain();
+        // The camera's clock before the trigger: a frame stamped earlier is not this trigger's.
+        const std::optional<std::uint64_t> before = d.latch_timestamp_ns();
         if (auto r = d.execute("TriggerSoftware"); !r) {
             // Say whether the camera is still there (a write that failed is usually a camera gone).
             return tl::unexpected(Error{r.error().message + "; " + d.silence_reason()});
         }
-        auto frame = d.pop_frame(timeout);
+        auto frame = d.pop_triggered_frame(timeout, before);
         if (!frame) {
             d.reset_stream_after_failure();
         }

@@ -278,6 +278,21 @@ TEST(PlanVndf, SpecLimitsNameTheField) {
                                  VndfSpec{});
     ASSERT_FALSE(n);
     EXPECT_NE(n.error().message.find("measurement 0"), std::string::npos);
+    // A sample that sends nothing back (black, or the lamp off) has no NDF to extract: said so.
+    auto plan = plan_vndf_retro(VndfSpec{}, RigLimits{});
+    ASSERT_TRUE(plan);
+    std::vector<RetroMeasurement> black;
+    for (const PlannedConfig& c : plan->configs) {
+        black.push_back({c.wi, c.wo, 0.0});
+    }
+    n = vndf_ndf_from_retro(black, VndfSpec{});
+    ASSERT_FALSE(n);
+    EXPECT_NE(n.error().message.find("every retro-reflection value is 0"), std::string::npos)
+        << n.error().message;
+    // No measurement at all.
+    n = vndf_ndf_from_retro({}, VndfSpec{});
+    ASSERT_FALSE(n);
+    EXPECT_NE(n.error().message.find("no measurement"), std::string::npos);
 }
 
 TEST(PlanVndf, CampaignDescriptionRoundTripsAndRefusesAdaptiveAndScene) {

@@ -6,7 +6,10 @@
 #include <signal.h>
 #include <sys/wait.h>
 
+#include <atomic>
 #include <chrono>
+#include <memory>
+#include <opencv2/core.hpp>
 #include <thread>
 
 #include "gige_test_support.h"
@@ -73,6 +76,45 @@ TEST(GigeCameraFault, CaptureAfterALostFrameRunsOnANewStream) {
     EXPECT_EQ(s.frames_missing, 1u);
     EXPECT_EQ(s.frames_completed, 1u);
     EXPECT_EQ(cam.server->stats().frames_dropped, 1u);
+}
+
+// A frame that comes after its capture timed out (the camera took longer than the timeout) is not
+// taken for the next trigger's: the capture latches the camera's clock before it triggers and sets
+// aside a frame stamped earlier. Each frame here is rendered at its own level (1, 2, 3 times a
+// base radiance), the first one late; without the check the second capture returns the first
+// frame, and every capture after it the one before its own.
+TEST(GigeCameraFault, LateFrameOfATimedOutCaptureIsNotTakenForTheNextTrigger) {
+    ServedCamera cam(camera_config());
+    auto calls = std::make_shared<std::atomic<int>>(0);
+    cam.camera->set_renderer([calls](const gonio::brdf::Brdf&,
+                                     const gonio::sim::SceneState&,
+                                     int,
+                                     int,
+                                     const gonio::devices::Roi& roi) {
+        const int k = ++*calls;
+        if (k == 1) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+        }
+        return cv::Mat(roi.height, roi.width, CV_32F, cv::Scalar(0.05 * k));
+    });
+    auto c = gonio::devices::AravisCamera::open_gige(cam.ip());
+    ASSERT_TRUE(c) << c.error().message;
+    ASSERT_TRUE((*c)->set_exposure_us(2000));
+    const auto late = (*c)->capture(std::chrono::milliseconds(400));
+    ASSERT_FALSE(late);
+    std::vector<double> levels;
+    for (int i = 0; i < 3; ++i) {
+        const auto f = (*c)->capture(std::chrono::milliseconds(8000));
+        ASSERT_TRUE(f) << f.error().message;
+        levels.push_back(cv::mean(f->image)[0] - f->black_level);
+    }
+    // Frames 2, 3 and 4 at levels 2, 3 and 4 times the first: each capture got its own.
+    ASSERT_GT(levels[0], 0);
+    EXPECT_NEAR(levels[1] / levels[0], 1.5, 0.05);
+    EXPECT_NEAR(levels[2] / levels[0], 2.0, 0.05);
+    EXPECT_EQ((*c)->stream_stats().frames_stale, 1u);
+    EXPECT_EQ((*c)->stream_stats().frames_completed, 3u);
+    EXPECT_EQ(calls->load(), 4);
 }
 
 TEST(GigeCameraFault, UnrecoverablePacketsMakeIncompleteFrames) {

@@ -54,6 +54,9 @@ struct AravisStreamStats {
     std::uint64_t underruns = 0;          ///< frames the stream dropped for want of a free buffer
     std::uint64_t buffers_recycled = 0;   ///< buffers returned empty (status cleared), reused
     std::uint64_t streams_opened = 0;     ///< streams created (one more after every failed capture)
+    /// Frames a triggered capture set aside because the camera stamped them before its trigger:
+    /// the late frame of an earlier capture that timed out (only with a timestamp latch).
+    std::uint64_t frames_stale = 0;
 };
 
 /// How exposure is set on this camera.
