@@ -218,7 +218,9 @@ GONIO_COMMAND(fit) {
     cmd->add_option(
            "--shadowing", o->shadowing, "smith-correlated, smith-separable, v-groove, none")
         ->capture_default_str();
-    cmd->add_flag("--anisotropic", o->anisotropic, "fit alpha_x and alpha_y separately");
+    cmd->add_flag("--anisotropic",
+                  o->anisotropic,
+                  "fit alpha_x, alpha_y and the lobe's orientation_deg on the sample");
     cmd->add_option("--lobes", o->lobes, "number of specular lobes (0-4)")->capture_default_str();
     cmd->add_option("--roughness",
                     o->roughness,

@@ -45,6 +45,8 @@ constexpr double kMaxEta = 100;
 // Largest value of a tabulated D (1/sr): above the peak of the sharpest analytic lobe
 // (1 / (pi kMinAlpha^2) = 3.2e7).
 constexpr double kMaxTableD = 1e8;
+// Largest |orientation_deg| of an anisotropic lobe: a turn either way (the lobe has period 180).
+constexpr double kMaxOrientationDeg = 360;
 
 /// `shown` is the value as written in the document; `max` an upper bound (inclusive).
 void check_rule(
@@ -173,6 +175,7 @@ Lobe<double> parse_lobe(const Json& j, const std::string& path) {
                      "alpha",
                      "alpha_x",
                      "alpha_y",
+                     "orientation_deg",
                      "exponent",
                      "gamma",
                      "ndf",
@@ -267,6 +270,17 @@ Lobe<double> parse_lobe(const Json& j, const std::string& path) {
             lobe.anisotropic = true;
             lobe.alpha_x = get_alpha(json_member(j, path, "alpha_x"), path + ".alpha_x");
             lobe.alpha_y = get_alpha(json_member(j, path, "alpha_y"), path + ".alpha_y");
+            if (j.contains("orientation_deg")) {
+                // The angle of the lobe's x axis from the sample's x axis (model.h).
+                const std::string at = path + ".orientation_deg";
+                const double deg = json_number_at(j["orientation_deg"], at);
+                if (!(std::abs(deg) <= kMaxOrientationDeg)) {
+                    json_fail(at + " = " + show_number(deg) + ": must be in [-" +
+                              show_number(kMaxOrientationDeg) + ", " +
+                              show_number(kMaxOrientationDeg) + "] degrees");
+                }
+                lobe.orientation_deg = deg;
+            }
         } else {
             json_fail(path + ": missing key \"alpha\" (or \"alpha_x\" and \"alpha_y\")");
         }
@@ -282,6 +296,11 @@ Lobe<double> parse_lobe(const Json& j, const std::string& path) {
     }
     // Shadowing and Fresnel: required for microfacet lobes; a Blinn-Phong lobe has neither unless
     // it asks for them.
+    if (j.contains("orientation_deg") && !lobe.anisotropic) {
+        json_fail(path +
+                  ".orientation_deg: only for anisotropic lobes (\"alpha_x\" and \"alpha_y\"); "
+                  "an isotropic lobe does not depend on it");
+    }
     if (microfacet || j.contains("shadowing")) {
         const std::string s =
             json_string_at(json_member(j, path, "shadowing"), path + ".shadowing");
@@ -431,6 +450,9 @@ std::string model_to_json(const ModelD& m, const std::string& fit_verdict) {
         } else if (l.anisotropic) {
             o["alpha_x"] = l.alpha_x;
             o["alpha_y"] = l.alpha_y;
+            if (l.orientation_deg != 0) {
+                o["orientation_deg"] = l.orientation_deg;
+            }
         } else if (l.rgb_roughness) {
             o["alpha"] = rgb_json(l.alpha_rgb);
         } else {
@@ -482,6 +504,9 @@ std::string describe_model(const ModelD& m) {
                                       : std::string("table to extract");
         } else if (l.anisotropic) {
             out += "alpha_x " + show(l.alpha_x) + " alpha_y " + show(l.alpha_y);
+            if (l.orientation_deg != 0) {
+                out += " orientation " + show(l.orientation_deg) + " deg";
+            }
         } else if (l.rgb_roughness) {
             out += "alpha " + fmt_rgb(l.alpha_rgb);
         } else {

@@ -39,6 +39,9 @@ bool field_used(const brdf::ModelD& m, Field f, int lobe, std::string* why) {
         case Field::kAlphaY:
             *why = "alpha_y is used by anisotropic ggx/beckmann lobes only";
             return !bp && !tab && l.anisotropic;
+        case Field::kOrientation:
+            *why = "orientation_deg is used by anisotropic ggx/beckmann/student-t lobes only";
+            return !bp && !tab && l.anisotropic;
         case Field::kAlphaRgb:
             *why = "alpha_rgb is used by lobes with RGB-varying roughness only";
             return !bp && !tab && !l.anisotropic && l.rgb_roughness;
@@ -133,6 +136,8 @@ double ParameterMap::value_of(const brdf::ModelD& m, const ScalarParam& s) const
             return l.alpha_x;
         case Field::kAlphaY:
             return l.alpha_y;
+        case Field::kOrientation:
+            return l.orientation_deg;
         case Field::kAlphaRgb:
             return l.alpha_rgb[c];
         case Field::kExponent:

@@ -165,6 +165,50 @@ void collect_parameters(const ParameterMap& map,
     }
 }
 
+/// Brings every anisotropic lobe with a free orientation to its canonical form, which describes
+/// the same lobe (brdf/lobe_orientation.h): alpha_x <= alpha_y (by the quarter-turn symmetry,
+/// when both slopes are free within the same bounds: they are exchanged and the orientation
+/// turned by 90 degrees), then the orientation in [0, 180) (by the period; when that value lies
+/// within the orientation's bounds). The lobe's x axis is then the direction of its smaller
+/// slopes: the brushing direction of a brushed metal, whose grooves run along it.
+void canonical_orientations(const ParameterMap& map, std::vector<double>& x) {
+    auto free_index = [&](Field f, int lobe) {
+        for (int k = 0; k < map.size(); ++k) {
+            const ScalarParam& s = map.scalars()[map.free()[k]];
+            if (s.field == f && s.lobe == lobe) {
+                return k;
+            }
+        }
+        return -1;
+    };
+    for (int l = 0; l < static_cast<int>(map.base().lobes.size()); ++l) {
+        const int ko = free_index(Field::kOrientation, l);
+        if (ko < 0) {
+            continue;
+        }
+        const ScalarParam& so = map.scalars()[map.free()[ko]];
+        const int kx = free_index(Field::kAlphaX, l);
+        const int ky = free_index(Field::kAlphaY, l);
+        double phi = x[ko];
+        if (kx >= 0 && ky >= 0) {
+            const ScalarParam& sx = map.scalars()[map.free()[kx]];
+            const ScalarParam& sy = map.scalars()[map.free()[ky]];
+            if (x[kx] > x[ky] && sx.lower == sy.lower && sx.upper == sy.upper) {
+                std::swap(x[kx], x[ky]);
+                phi += 90;
+            }
+        }
+        phi -= 180 * std::floor(phi / 180);
+        if (phi >= 180) {
+            // Rounding of a value just below a multiple of 180.
+            phi = 0;
+        }
+        if (phi >= so.lower && phi <= so.upper) {
+            x[ko] = phi;
+        }
+    }
+}
+
 }  // namespace
 
 std::vector<std::string> parameter_names(const FitSpec& spec) {
@@ -251,6 +295,7 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
 
     // Parameters (on a bound or not), lobes the fit has dropped, uncertainties, goodness of fit.
     std::vector<bool> on_bound;
+    canonical_orientations(*ctx.map, best.x);
     collect_parameters(*ctx.map, best.x, result, on_bound);
     result.vanished_lobes = detail::vanished_lobes(result.model, work);
     std::optional<double> chi2;

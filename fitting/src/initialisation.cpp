@@ -309,6 +309,38 @@ std::vector<Candidate> initial_candidates(const std::shared_ptr<const ParameterM
         c.cost = objective(scorer, c.x, threads);
         out.push_back(c);
     }
+    // Anisotropic lobes with a free orientation: starts with the slopes 4:1 apart at four
+    // orientations 45 degrees apart, which cover every class of the lobe's symmetries (period
+    // 180, quarter turn with alpha_x and alpha_y exchanged) within 22.5 degrees. From equal slopes
+    // alone the orientation has no derivative and the solve would find it only by way of the
+    // widths.
+    for (double a : alphas) {
+        for (double phi_deg : {0.0, 45.0, 90.0, 135.0}) {
+            ModelD mc = m;
+            bool turned = false;
+            for (int i = 0; i < static_cast<int>(mc.lobes.size()); ++i) {
+                const double ai = a * std::pow(3.0, i);
+                set_shape(mc, map, i, ai);
+                const ScalarParam* ax = find_free(map, Field::kAlphaX, i, -1);
+                const ScalarParam* ay = find_free(map, Field::kAlphaY, i, -1);
+                const ScalarParam* phi = find_free(map, Field::kOrientation, i, -1);
+                if (ax == nullptr || ay == nullptr || phi == nullptr) {
+                    continue;
+                }
+                ParameterMap::set(mc, *ax, std::clamp(0.5 * ai, ax->lower, ax->upper));
+                ParameterMap::set(mc, *ay, std::clamp(2.0 * ai, ay->lower, ay->upper));
+                ParameterMap::set(mc, *phi, std::clamp(phi_deg, phi->lower, phi->upper));
+                turned = true;
+            }
+            if (!turned) {
+                break;
+            }
+            linear_init(mc, map, score_set, scorer, o.relative_floor, threads);
+            Candidate c{clamp_start(map, map.values_of(mc)), 0};
+            c.cost = objective(scorer, c.x, threads);
+            out.push_back(c);
+        }
+    }
     std::stable_sort(out.begin(), out.end(), [](const Candidate& a, const Candidate& b) {
         return a.cost < b.cost;  // NaN/Inf costs sort last
     });

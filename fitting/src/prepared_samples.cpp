@@ -152,6 +152,9 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
     alloc(to_x_, need_smith);
     alloc(ti_y_, need_smith && anisotropic_);
     alloc(to_y_, need_smith && anisotropic_);
+    alloc(hxy_, need_h && anisotropic_);
+    alloc(ti_xy_, need_smith && anisotropic_);
+    alloc(to_xy_, need_smith && anisotropic_);
     alloc(cos_d_, need_exact_f);
     alloc(omc_d_, need_exact_f);
     alloc(x5_, need_schlick);
@@ -182,6 +185,7 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
                     if (anisotropic_) {
                         hx2_[i] = h.x() * h.x();
                         hy2_[i] = h.y() * h.y();
+                        hxy_[i] = h.x() * h.y();
                     } else {
                         hx2_[i] = h.x() * h.x() + h.y() * h.y();
                     }
@@ -201,6 +205,8 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
                         ti_y_[i] = wi.y() * wi.y() / ci2;
                         to_x_[i] = wo.x() * wo.x() / co2;
                         to_y_[i] = wo.y() * wo.y() / co2;
+                        ti_xy_[i] = wi.x() * wi.y() / ci2;
+                        to_xy_[i] = wo.x() * wo.y() / co2;
                     } else {
                         ti_x_[i] = (wi.x() * wi.x() + wi.y() * wi.y()) / ci2;
                         to_x_[i] = (wo.x() * wo.x() + wo.y() * wo.y()) / co2;
@@ -254,24 +260,63 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
 }
 
 template <class T>
+void PreparedSamples::lobe_squares(std::size_t i,
+                                   const brdf::LobeRotation<T>* rot,
+                                   T out[6]) const {
+    const bool h = !hx2_.empty();
+    const bool smith = !ti_x_.empty();
+    for (int k = 0; k < 6; ++k) {
+        out[k] = T(0);
+    }
+    if (rot == nullptr) {
+        if (h) {
+            out[0] = T(hx2_[i]);
+            out[1] = T(hy2_[i]);
+        }
+        if (smith) {
+            out[2] = T(ti_x_[i]);
+            out[3] = T(ti_y_[i]);
+            out[4] = T(to_x_[i]);
+            out[5] = T(to_y_[i]);
+        }
+        return;
+    }
+    // The sample-frame squares and cross products turned into the lobe's frame.
+    if (h) {
+        brdf::lobe_frame_squares(T(hx2_[i]), T(hy2_[i]), T(hxy_[i]), *rot, out[0], out[1]);
+    }
+    if (smith) {
+        brdf::lobe_frame_squares(T(ti_x_[i]), T(ti_y_[i]), T(ti_xy_[i]), *rot, out[2], out[3]);
+        brdf::lobe_frame_squares(T(to_x_[i]), T(to_y_[i]), T(to_xy_[i]), *rot, out[4], out[5]);
+    }
+}
+
+template <class T>
 T PreparedSamples::shape(brdf::Distribution dist,
                          brdf::Shadowing shadowing,
                          const T& ax,
                          const T& ay,
                          const T& exponent,
-                         std::size_t i) const {
-    // Layout: with an anisotropic lobe in the structure the x and y parts are stored apart.
+                         std::size_t i,
+                         const brdf::LobeRotation<T>* rot) const {
+    // Layout: with an anisotropic lobe in the structure the x and y parts are stored apart, and
+    // turned into the lobe's own frame when it has one.
     const bool aniso = anisotropic_;
+    T sq[6];
+    if (aniso) {
+        lobe_squares(i, rot, sq);
+    }
     // D, Lambda, G: the brdf/ formula bodies on the precomputed squares (microfacet.h,
     // blinn_phong.h); both directions are above the horizon, so h_z > 0.
-    const T hy2 = aniso ? T(hy2_[i]) : T(0);
+    const T hx2 = aniso ? sq[0] : T(hx2_.empty() ? 0.0 : hx2_[i]);
+    const T hy2 = aniso ? sq[1] : T(0);
     T D;
     switch (dist) {
         case brdf::Distribution::kGgx:
-            D = brdf::D_ggx_from_squares(T(hx2_[i]), hy2, T(hz2_[i]), ax, ay);
+            D = brdf::D_ggx_from_squares(hx2, hy2, T(hz2_[i]), ax, ay);
             break;
         case brdf::Distribution::kBeckmann:
-            D = brdf::D_beckmann_from_squares(T(hx2_[i]), hy2, T(hz2_[i]), ax, ay);
+            D = brdf::D_beckmann_from_squares(hx2, hy2, T(hz2_[i]), ax, ay);
             break;
         case brdf::Distribution::kBlinnPhong:
         default:
@@ -295,8 +340,8 @@ T PreparedSamples::shape(brdf::Distribution dist,
         if (dist == brdf::Distribution::kBlinnPhong) {
             bx = by = brdf::blinn_phong_equivalent_alpha(exponent);
         }
-        const T a2i = aniso ? bx * bx * T(ti_x_[i]) + by * by * T(ti_y_[i]) : bx * bx * T(ti_x_[i]);
-        const T a2o = aniso ? bx * bx * T(to_x_[i]) + by * by * T(to_y_[i]) : bx * bx * T(to_x_[i]);
+        const T a2i = aniso ? bx * bx * sq[2] + by * by * sq[3] : bx * bx * T(ti_x_[i]);
+        const T a2o = aniso ? bx * bx * sq[4] + by * by * sq[5] : bx * bx * T(to_x_[i]);
         T li, lo;
         if (dist == brdf::Distribution::kGgx) {
             li = brdf::lambda_ggx_from_a2(a2i);
@@ -314,26 +359,34 @@ T PreparedSamples::shape(brdf::Distribution dist,
 }
 
 template <class T>
-T PreparedSamples::shape_student_t(
-    brdf::Shadowing shadowing, const T& ax, const T& ay, const T& gamma, std::size_t i) const {
+T PreparedSamples::shape_student_t(brdf::Shadowing shadowing,
+                                   const T& ax,
+                                   const T& ay,
+                                   const T& gamma,
+                                   std::size_t i,
+                                   const brdf::LobeRotation<T>* rot) const {
     using std::exp;
     using std::log;
     using std::log1p;
     const bool aniso = anisotropic_;
+    T sq[6];
+    if (aniso) {
+        lobe_squares(i, rot, sq);
+    }
     // D (brdf/student_t.h D_student_t); both directions are above the horizon, so h_z > 0.
     if (hz2_[i] < 1e-300) {
         // h at the horizon through rounding: no projected area.
         return T(0);
     }
-    const T e = (aniso ? T(hx2_[i]) / (ax * ax) + T(hy2_[i]) / (ay * ay) : T(hx2_[i]) / (ax * ax)) /
-                T(hz2_[i]);
+    const T e =
+        (aniso ? sq[0] / (ax * ax) + sq[1] / (ay * ay) : T(hx2_[i]) / (ax * ax)) / T(hz2_[i]);
     const T D = exp(-gamma * log1p(e / (gamma - T(1))) - T(2 * std::log(hz2_[i]))) /
                 (T(brdf::kPi) * ax * ay);
     T G(1);
     if (shadowing == brdf::Shadowing::kSmithCorrelated ||
         shadowing == brdf::Shadowing::kSmithSeparable) {
-        const T a2i = aniso ? ax * ax * T(ti_x_[i]) + ay * ay * T(ti_y_[i]) : ax * ax * T(ti_x_[i]);
-        const T a2o = aniso ? ax * ax * T(to_x_[i]) + ay * ay * T(to_y_[i]) : ax * ax * T(to_x_[i]);
+        const T a2i = aniso ? ax * ax * sq[2] + ay * ay * sq[3] : ax * ax * T(ti_x_[i]);
+        const T a2o = aniso ? ax * ax * sq[4] + ay * ay * sq[5] : ax * ax * T(to_x_[i]);
         const T li = brdf::lambda_student_t_a2(a2i, gamma);
         const T lo = brdf::lambda_student_t_a2(a2o, gamma);
         G = shadowing == brdf::Shadowing::kSmithCorrelated ? T(1) / (T(1) + li + lo)
@@ -376,25 +429,37 @@ brdf::Rgb<T> PreparedSamples::eval(const brdf::Model<T>& m, std::size_t i) const
             }
             continue;
         }
-        const T S =
-            l.distribution == brdf::Distribution::kTabulated
-                ? T(brdf::tabulated_lobe_shape(
-                        *l.table,
-                        l.shadowing,
-                        hz2_[i],
-                        ti_x_.empty() ? 0.0 : ti_x_[i] + (ti_y_.empty() ? 0.0 : ti_y_[i]),
-                        to_x_.empty() ? 0.0 : to_x_[i] + (to_y_.empty() ? 0.0 : to_y_[i]),
-                        g_vgroove_.empty() ? 1.0 : g_vgroove_[i]) *
-                    inv_4cc_[i])
-            : l.distribution == brdf::Distribution::kStudentT
-                ? shape_student_t(
-                      l.shadowing, l.alpha_x, l.anisotropic ? l.alpha_y : l.alpha_x, l.gamma, i)
-                : shape(l.distribution,
-                        l.shadowing,
-                        l.alpha_x,
-                        l.anisotropic ? l.alpha_y : l.alpha_x,
-                        l.exponent,
-                        i);
+        // An anisotropic lobe's geometry is turned into its own frame (brdf/lobe_orientation.h).
+        brdf::LobeRotation<T> r{T(1), T(0)};
+        const bool turned = l.anisotropic && l.distribution != brdf::Distribution::kBlinnPhong &&
+                            l.distribution != brdf::Distribution::kTabulated;
+        if (turned) {
+            r = brdf::lobe_rotation_deg(l.orientation_deg);
+        }
+        const brdf::LobeRotation<T>* rot = turned ? &r : nullptr;
+        const T S = l.distribution == brdf::Distribution::kTabulated
+                        ? T(brdf::tabulated_lobe_shape(
+                                *l.table,
+                                l.shadowing,
+                                hz2_[i],
+                                ti_x_.empty() ? 0.0 : ti_x_[i] + (ti_y_.empty() ? 0.0 : ti_y_[i]),
+                                to_x_.empty() ? 0.0 : to_x_[i] + (to_y_.empty() ? 0.0 : to_y_[i]),
+                                g_vgroove_.empty() ? 1.0 : g_vgroove_[i]) *
+                            inv_4cc_[i])
+                    : l.distribution == brdf::Distribution::kStudentT
+                        ? shape_student_t(l.shadowing,
+                                          l.alpha_x,
+                                          l.anisotropic ? l.alpha_y : l.alpha_x,
+                                          l.gamma,
+                                          i,
+                                          rot)
+                        : shape(l.distribution,
+                                l.shadowing,
+                                l.alpha_x,
+                                l.anisotropic ? l.alpha_y : l.alpha_x,
+                                l.exponent,
+                                i,
+                                rot);
         if (S == T(0)) {
             continue;
         }

@@ -32,6 +32,11 @@ std::pair<double, double> default_bounds(Field f) {
         case Field::kAlphaY:
         case Field::kAlphaRgb:
             return {1e-4, 1.5};
+        case Field::kOrientation:
+            // Degrees. The lobe has period 180 and the quarter-turn symmetry with alpha_x and
+            // alpha_y exchanged; the solve may cross 0 or 180 freely, and the result is brought
+            // to its canonical form afterwards (fit.cpp, canonical_orientations).
+            return {-360.0, 360.0};
         case Field::kExponent:
             return {1e-1, 1e7};
         case Field::kGamma:
@@ -80,6 +85,8 @@ std::string field_path(Field f, int lobe) {
             return prefix + "alpha_y";
         case Field::kAlphaRgb:
             return prefix + "alpha_rgb";
+        case Field::kOrientation:
+            return prefix + "orientation_deg";
         case Field::kExponent:
             return prefix + "exponent";
         case Field::kGamma:
@@ -248,6 +255,7 @@ std::vector<ParamSpec> default_params(const brdf::ModelD& model, bool fresnel_rg
             out.push_back(make_param(Field::kAlphaX, i, true, false));
             if (l.anisotropic) {
                 out.push_back(make_param(Field::kAlphaY, i, true, false));
+                out.push_back(make_param(Field::kOrientation, i, true, false));
             }
             if (l.distribution == Distribution::kStudentT) {
                 out.push_back(make_param(Field::kGamma, i, true, false));

@@ -70,6 +70,9 @@ Expected<void> validate(const ModelD& m) {
             if (l.anisotropic && (!(l.alpha_y > 0) || !std::isfinite(l.alpha_y))) {
                 return make_error(p + "alpha_y = " + num(l.alpha_y) + ": must be finite and > 0");
             }
+            if (!std::isfinite(l.orientation_deg)) {
+                return make_error(p + "orientation_deg: must be finite");
+            }
         }
         if (!finite(l.scale) || (l.scale < 0).any()) {
             return make_error(p + "scale: must be finite and >= 0");
@@ -132,6 +135,30 @@ Expected<ModelD> representable(const ModelD& m, const char* renderer) {
             }
             l.rgb_roughness = false;
             l.alpha_x = l.alpha_y = l.alpha_rgb[1];
+        }
+        if (l.anisotropic && l.distribution != Distribution::kBlinnPhong) {
+            // The renderers' anisotropic lobes run along the shape's tangents, with no turn of
+            // their own about the normal. A lobe turned by 0 or 180 degrees is written as it is,
+            // one turned by 90 or 270 with its slopes exchanged (the same lobe,
+            // lobe_orientation.h); equal slopes do not depend on the turn.
+            const double deg = l.orientation_deg;
+            const double mod = deg - 180 * std::floor(deg / 180);
+            constexpr double kTolDeg = 1e-6;
+            if (l.alpha_x == l.alpha_y || mod <= kTolDeg || mod >= 180 - kTolDeg) {
+                l.orientation_deg = 0;
+            } else if (std::abs(mod - 90) <= kTolDeg) {
+                std::swap(l.alpha_x, l.alpha_y);
+                l.orientation_deg = 0;
+            } else {
+                return make_error("lobes[" + std::to_string(i) + "].orientation_deg = " + num(deg) +
+                                  ": " + renderer +
+                                  " runs an anisotropic lobe along the shape's tangents and has "
+                                  "no turn of its own about the normal; turn the shape's tangent "
+                                  "(u, dp/du) by " +
+                                  num(mod) +
+                                  " degrees in the scene and export the model with "
+                                  "orientation_deg 0");
+            }
         }
         if (l.distribution != Distribution::kStudentT) {
             continue;

@@ -97,7 +97,7 @@ TEST(ModelJson, RejectsEachRuleWithKeyPath) {
          "model.json: lobes[0]: give either \"alpha\" or \"alpha_x\" and \"alpha_y\", not both"},
         {lobe(R"("distribution":"ggx","alpha":0.1,"alhpa":0.1,)" + tail),
          "model.json: lobes[0].alhpa: unknown key (allowed here: distribution, alpha, alpha_x, "
-         "alpha_y, exponent, gamma, ndf, shadowing, fresnel, scale)"},
+         "alpha_y, orientation_deg, exponent, gamma, ndf, shadowing, fresnel, scale)"},
         {lobe(R"("distribution":"phong","alpha":0.1,)" + tail),
          "model.json: lobes[0].distribution = \"phong\": must be one of ggx, beckmann, "
          "blinn-phong, student-t, tabulated"},

@@ -371,6 +371,52 @@ TEST(RendererExport, RgbRoughnessIsRefusedUnlessTheChannelsAgree) {
     EXPECT_TRUE(export_pbrt(m, "x"));
 }
 
+TEST(RendererExport, TurnedLobeIsWrittenAlongTheTangentsOrRefusedNamingTheField) {
+    // The renderers' anisotropic lobes run along the shape's tangents: a lobe turned by 0 or 180
+    // degrees is written as it is, by 90 or 270 with its slopes exchanged, by any other angle
+    // refused naming lobes[i].orientation_deg.
+    brdf::ModelD m;
+    m.has_diffuse = false;
+    auto l = testing::lobe(brdf::Distribution::kGgx, 0.08);
+    l.anisotropic = true;
+    l.alpha_y = 0.3;
+    l.fresnel.type = brdf::FresnelType::kNone;
+    m.lobes = {l};
+    auto alphas = [](const brdf::ModelD& model) {
+        auto e = export_mitsuba(model, "x");
+        EXPECT_TRUE(e) << e.error().message;
+        std::string err;
+        auto root = XmlReader(e->text).parse(&err);
+        EXPECT_NE(root, nullptr) << err;
+        const XmlNode& b = *root->children[0];
+        return std::make_pair(std::stod(param(b, "alpha_u")->attrs.at("value")),
+                              std::stod(param(b, "alpha_v")->attrs.at("value")));
+    };
+    for (double deg : {0.0, 180.0, -180.0}) {
+        m.lobes[0].orientation_deg = deg;
+        EXPECT_EQ(alphas(m), std::make_pair(0.08, 0.3)) << deg;
+    }
+    for (double deg : {90.0, 270.0, -90.0}) {
+        m.lobes[0].orientation_deg = deg;
+        EXPECT_EQ(alphas(m), std::make_pair(0.3, 0.08)) << deg;
+        auto p = export_pbrt(m, "x");
+        ASSERT_TRUE(p) << p.error().message;
+        EXPECT_NE(p->text.find("\"float uroughness\" [ 0.3 ]"), std::string::npos) << p->text;
+    }
+    m.lobes[0].orientation_deg = 30;
+    auto a = export_mitsuba(m, "x");
+    ASSERT_FALSE(a);
+    EXPECT_NE(a.error().message.find("lobes[0].orientation_deg = 30: Mitsuba 3"), std::string::npos)
+        << a.error().message;
+    auto b = export_pbrt(m, "x");
+    ASSERT_FALSE(b);
+    EXPECT_NE(b.error().message.find("lobes[0].orientation_deg = 30: pbrt-v4"), std::string::npos)
+        << b.error().message;
+    // Equal slopes do not depend on the turn.
+    m.lobes[0].alpha_y = 0.08;
+    EXPECT_TRUE(export_mitsuba(m, "x"));
+}
+
 // ---- pbrt-v4 scene syntax: a tokenizer and a reader of MakeNamedMaterial statements. ----
 
 struct Token {

@@ -66,6 +66,13 @@ struct Lobe {
     T alpha_x =
         T(0.1);  ///< Slope parameter along x (alpha itself, not a perceptual roughness), > 0.
     T alpha_y = T(0.1);  ///< Slope parameter along y, > 0.
+    /// Anisotropic lobes: the angle of the lobe's x axis (the direction of alpha_x) from the
+    /// sample's x axis, degrees, counter-clockwise about the normal (lobe_orientation.h); the
+    /// lobe has period 180 in it. Degrees as in the model schema and the fit's parameter
+    /// (`orientation_deg`), so that files and reports hold the number the operator wrote; the
+    /// evaluation turns it into radians once per lobe. Always 0 for an isotropic lobe, which does
+    /// not depend on it.
+    T orientation_deg = T(0);
     /// RGB-varying roughness: when true (isotropic GGX, Beckmann and Student-t lobes only),
     /// channel c of the lobe is evaluated with alpha_x = alpha_y = alpha_rgb[c] in D and in
     /// Smith's Lambda, so that the lobe's width depends on the wavelength as in measured
@@ -115,6 +122,7 @@ Model<To> cast_model(const Model<From>& m, Convert convert) {
         o.anisotropic = l.anisotropic;
         o.alpha_x = convert(l.alpha_x);
         o.alpha_y = convert(l.alpha_y);
+        o.orientation_deg = convert(l.orientation_deg);
         o.rgb_roughness = l.rgb_roughness;
         o.alpha_rgb = rgb(l.alpha_rgb);
         o.exponent = convert(l.exponent);

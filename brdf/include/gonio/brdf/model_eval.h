@@ -21,6 +21,9 @@
 // Beckmann lobes; their Smith Lambda is Beckmann's with alpha = sqrt(2/(e + 2)).
 // A lobe with RGB-varying roughness (Lobe::rgb_roughness) evaluates D and G of channel c with
 // alpha = alpha_rgb[c]: f_c = scale_c F_c D(h; a_c) G(wi, wo; a_c) / (4 cos_i cos_o).
+// An anisotropic lobe evaluates D and G at the lobe-frame components of h, wi and wo, the
+// sample's frame turned by Lobe::orientation_deg about the normal (lobe_orientation.h); F, the
+// cosines and the V-groove G do not depend on the turn.
 
 #include <cmath>
 
@@ -28,6 +31,7 @@
 #include "gonio/brdf/blinn_phong.h"
 #include "gonio/brdf/fresnel.h"
 #include "gonio/brdf/lambert.h"
+#include "gonio/brdf/lobe_orientation.h"
 #include "gonio/brdf/microfacet.h"
 #include "gonio/brdf/model.h"
 #include "gonio/brdf/student_t.h"
@@ -57,6 +61,15 @@ struct HalfGeometry {
     T cos_d;
     T one_minus_cos_d;
 };
+
+/// A direction's components in the frame of a lobe turned by the rotation r about the normal
+/// (lobe_orientation.h): z is kept.
+template <class T, class P>
+inline Dir3<T> in_lobe_frame(const Dir3<T>& w, const LobeRotation<P>& r) {
+    Dir3<T> out{w.x, w.y, w.z};
+    to_lobe_frame(w.x, w.y, r, out.x, out.y);
+    return out;
+}
 
 /// Half geometry of directions with wi + wo != 0 (both above the horizon gives (wi + wo).z > 0).
 template <class T>
@@ -116,7 +129,8 @@ inline T lobe_D(const Lobe<P>& lobe, const Dir3<T>& h) {
     return lobe_D_alpha(lobe, h, lobe.alpha_x, lobe_alpha_y(lobe));
 }
 
-/// The lobe's normal distribution D(h) of a unit h, 1/sr; 0 for h_z <= 0.
+/// The lobe's normal distribution D(h) of a unit h given in the sample's frame, 1/sr; 0 for
+/// h_z <= 0. An anisotropic lobe is evaluated in its own frame (Lobe::orientation_deg).
 template <class T>
 inline T lobe_D(const Lobe<T>& lobe, const Vec3<T>& h) {
     const auto below = h.z() <= T(0);
@@ -125,9 +139,12 @@ inline T lobe_D(const Lobe<T>& lobe, const Vec3<T>& h) {
         return T(0);
     }
     // Branch of the mask: below the horizon, no microfacet (evaluated at h = z, replaced by 0).
-    const Dir3<T> hs{select(below, T(0), T(h.x())),
-                     select(below, T(0), T(h.y())),
-                     select(below, T(1), T(h.z()))};
+    Dir3<T> hs{select(below, T(0), T(h.x())),
+               select(below, T(0), T(h.y())),
+               select(below, T(1), T(h.z()))};
+    if (lobe.anisotropic) {
+        hs = in_lobe_frame(hs, lobe_rotation_deg(lobe.orientation_deg));
+    }
     return select(below, T(0), lobe_D(lobe, hs));
 }
 
@@ -305,13 +322,29 @@ inline void eval_lanes(const Rgb<P>* diffuse,
                 }
                 continue;
             }
-            const T D = lobe_D(lobe, g.h);
-            if (all_of(D == T(0))) {
-                // No microfacet with this normal: the lobe contributes exactly zero (F and G are
-                // not needed; this also skips them in the far tail of sharp lobes).
-                continue;
+            T D, G;
+            if (lobe.anisotropic) {
+                // D and G in the lobe's own frame, turned by its orientation about the normal
+                // (lobe_orientation.h); F and the cosines do not depend on the turn.
+                const LobeRotation<P> r = lobe_rotation_deg(lobe.orientation_deg);
+                HalfGeometry<T> g_l = g;
+                g_l.h = in_lobe_frame(g.h, r);
+                D = lobe_D(lobe, g_l.h);
+                if (all_of(D == T(0))) {
+                    // No microfacet with this normal: the lobe contributes exactly zero.
+                    continue;
+                }
+                G = lobe_G(lobe, in_lobe_frame(wi, r), in_lobe_frame(wo, r), g_l);
+            } else {
+                D = lobe_D(lobe, g.h);
+                if (all_of(D == T(0))) {
+                    // No microfacet with this normal: the lobe contributes exactly zero (F and G
+                    // are not needed; this also skips them in the far tail of sharp lobes).
+                    continue;
+                }
+                G = lobe_G(lobe, wi, wo, g);
             }
-            const T S = D * lobe_G(lobe, wi, wo, g) * inv_4cc;
+            const T S = D * G * inv_4cc;
             for (int c = 0; c < 3; ++c) {
                 const T F = lobe_F(lobe.fresnel, c, g.cos_d, g.one_minus_cos_d);
                 out[c] = out[c] + T(lobe.scale[c]) * F * S;

@@ -116,6 +116,25 @@ inline double pdf_ggx_vndf(const Vec3d& v, const Vec3d& h, double alpha_x, doubl
     return g1 * std::max(0.0, v.dot(h)) * D_ggx(h, alpha_x, alpha_y) / v.z();
 }
 
+/// A sample-frame direction in the frame of an anisotropic lobe (turned by Lobe::orientation_deg
+/// about the normal, lobe_orientation.h), and back; the identity for an isotropic lobe.
+inline Vec3d to_lobe(const Lobe<double>& lobe, const Vec3d& w) {
+    if (!lobe.anisotropic) {
+        return w;
+    }
+    Vec3d out = w;
+    to_lobe_frame(w.x(), w.y(), lobe_rotation_deg(lobe.orientation_deg), out.x(), out.y());
+    return out;
+}
+inline Vec3d from_lobe(const Lobe<double>& lobe, const Vec3d& w) {
+    if (!lobe.anisotropic) {
+        return w;
+    }
+    Vec3d out = w;
+    from_lobe_frame(w.x(), w.y(), lobe_rotation_deg(lobe.orientation_deg), out.x(), out.y());
+    return out;
+}
+
 /// Density of wo for sample_lobe() given wi, in 1/sr over the whole sphere of wo (it may be
 /// positive below the horizon, where the BRDF is zero). h = normalize(wi + wo); GGX: D_wi(h) /
 /// (4 wi . h); Beckmann and Blinn-Phong: D(h) cos(theta_h) / (4 wi . h). Zero for wi at or below
@@ -139,7 +158,8 @@ inline double pdf_lobe(const Lobe<double>& lobe, const Vec3d& wi, const Vec3d& w
     }
     const double ay = lobe_alpha_y(lobe);
     if (lobe.distribution == Distribution::kGgx) {
-        return pdf_ggx_vndf(wi, h, lobe.alpha_x, ay) / (4.0 * cos_d);
+        // In the lobe's own frame (Lobe::orientation_deg; the identity for an isotropic lobe).
+        return pdf_ggx_vndf(to_lobe(lobe, wi), to_lobe(lobe, h), lobe.alpha_x, ay) / (4.0 * cos_d);
     }
     if (lobe.distribution == Distribution::kTabulated) {
         // The table's normals are drawn by interval (sample_tabulated_normal).
@@ -165,7 +185,7 @@ inline DirectionSample sample_lobe(const Lobe<double>& lobe,
     Vec3d h(0, 0, 1);
     switch (lobe.distribution) {
         case Distribution::kGgx:
-            h = sample_ggx_vndf(wi, lobe.alpha_x, ay, u1, u2);
+            h = sample_ggx_vndf(to_lobe(lobe, wi), lobe.alpha_x, ay, u1, u2);
             break;
         case Distribution::kBeckmann:
             h = sample_beckmann_normal(lobe.alpha_x, ay, u1, u2);
@@ -180,6 +200,8 @@ inline DirectionSample sample_lobe(const Lobe<double>& lobe,
             h = sample_tabulated_normal(*lobe.table, u1, u2);
             break;
     }
+    // The normal was drawn in the lobe's own frame: back to the sample's.
+    h = from_lobe(lobe, h);
     if (wi.dot(h) <= 0) {
         // Normal seen from behind: no reflection toward wo (mass lost, counted by the caller).
         return out;

@@ -102,6 +102,9 @@ class ParameterMap {
             case Field::kAlphaY:
                 l.alpha_y = v;
                 break;
+            case Field::kOrientation:
+                l.orientation_deg = v;
+                break;
             case Field::kAlphaRgb:
                 rgb(l.alpha_rgb);
                 if (s.channel < 0 || s.channel == 1) {

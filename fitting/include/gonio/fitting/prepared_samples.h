@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "gonio/brdf/dataset.h"
+#include "gonio/brdf/lobe_orientation.h"
 #include "gonio/brdf/model.h"
 #include "gonio/fitting/cost.h"
 
@@ -93,17 +94,29 @@ class PreparedSamples {
     template <class T>
     brdf::Rgb<T> eval(const brdf::Model<T>& m, std::size_t i) const;
     /// D G / (4 cos_i cos_o) of one lobe (0 where D underflows).
+    /// `rot` turns the geometry into the frame of an anisotropic lobe (Lobe::orientation_deg); null
+    /// for a lobe that does not depend on it.
     template <class T>
     T shape(brdf::Distribution dist,
             brdf::Shadowing shadowing,
             const T& ax,
             const T& ay,
             const T& exponent,
-            std::size_t i) const;
+            std::size_t i,
+            const brdf::LobeRotation<T>* rot = nullptr) const;
     /// The same for a Student-t lobe (brdf/student_t.h), whose D and Lambda also take gamma.
     template <class T>
-    T shape_student_t(
-        brdf::Shadowing shadowing, const T& ax, const T& ay, const T& gamma, std::size_t i) const;
+    T shape_student_t(brdf::Shadowing shadowing,
+                      const T& ax,
+                      const T& ay,
+                      const T& gamma,
+                      std::size_t i,
+                      const brdf::LobeRotation<T>* rot = nullptr) const;
+    /// The squared tangent components of h (hx2, hy2) and the squared slopes of wi (ti_x, ti_y)
+    /// and wo (to_x, to_y) of sample i along the axes of the lobe turned by `rot` (the stored
+    /// sample-frame ones when null); an anisotropic structure only.
+    template <class T>
+    void lobe_squares(std::size_t i, const brdf::LobeRotation<T>* rot, T out[6]) const;
     /// dg/dm of the residual form at m.
     double g_prime(double m, std::size_t i) const;
     /// Closed-form residuals r[3] and their derivatives v[c * slots + slot] of sample i:
@@ -144,6 +157,9 @@ class PreparedSamples {
     std::vector<double> log_cos_h_;        // Blinn-Phong: log(cos theta_h)
     std::vector<double> ti_x_, ti_y_, to_x_,
         to_y_;  // squared slopes; _x holds the sum if isotropic
+    // Anisotropic structures: the cross products h_x h_y and the slope products of wi and wo,
+    // which turn the squares into a lobe's frame (brdf/lobe_orientation.h).
+    std::vector<double> hxy_, ti_xy_, to_xy_;
     std::vector<double> cos_d_, omc_d_, x5_, g_vgroove_;
     // Residual: r_c = s_c (g(m_c) - g_d_c).
     std::vector<double> g_d_[3], s_[3];

@@ -31,9 +31,12 @@ enum class LossKind {
 
 /// A numeric field of the model that a fit may adjust.
 enum class Field {
-    kDiffuse,   ///< Model::diffuse (RGB).
-    kAlphaX,    ///< Lobe::alpha_x (for an isotropic lobe also the implied alpha_y).
-    kAlphaY,    ///< Lobe::alpha_y (anisotropic lobes only).
+    kDiffuse,  ///< Model::diffuse (RGB).
+    kAlphaX,   ///< Lobe::alpha_x (for an isotropic lobe also the implied alpha_y).
+    kAlphaY,   ///< Lobe::alpha_y (anisotropic lobes only).
+    /// Lobe::orientation_deg (anisotropic lobes only): the fit's scalar, its bounds and its sigma
+    /// are degrees.
+    kOrientation,
     kAlphaRgb,  ///< Lobe::alpha_rgb (RGB; lobes with RGB-varying roughness only).
     kExponent,  ///< Lobe::exponent (Blinn-Phong).
     kGamma,     ///< Lobe::gamma (Student-t tail parameter).
