@@ -783,8 +783,10 @@ ImageCampaignConfig image_campaign_config(const RigConfig& rig,
     cfg.rules.max_theta_i = std::min(cfg.rules.max_theta_i, rig.max_theta_deg * kDeg);
     cfg.rules.max_theta_o = std::min(cfg.rules.max_theta_o, rig.max_theta_deg * kDeg);
     // A frame fills (part of) one theta_d row: the smallest gain worth a frame is a share of a
-    // row, not of the table (0.2 % of a 30-row table, 0.067 % of the MERL table's 90 rows).
-    cfg.min_gain_fraction = 0.002 * std::min(1.0, 30.0 / std::max(1, layout.n_theta_d));
+    // row, not of the table (0.05 % of a 30-row table's valid bins, 0.017 % of the MERL table's,
+    // 183 bins: a light position costs about half a second of rig time, and even 183 bins in it
+    // beat point mode's one or two bins per second a hundredfold).
+    cfg.min_gain_fraction = 0.0005 * std::min(1.0, 30.0 / std::max(1, layout.n_theta_d));
     // Fine theta_h rows are narrower than two pixels' footprint: predict every pixel.
     cfg.plan_pixel_stride = layout.n_theta_h >= 60 ? 1 : cfg.plan_pixel_stride;
     cfg.coverage_target = coverage_target;
