@@ -138,7 +138,11 @@ class PreparedSamples {
                         const RunShapes* run = nullptr,
                         std::size_t j = 0) const;
     /// analytic_sample for the log residual over samples [begin, end) (at most 64), the
-    /// logarithms on SIMD packets (vector_log.h): r[3 j + c], v[(3 j + c) slots + slot].
+    /// logarithms on SIMD packets (vector_log.h): r[3 j + c], v[(3 j + c) slots + slot]. The
+    /// shapes of isotropic GGX and Beckmann lobes with no or Smith shadowing and their width
+    /// derivatives also run on packets (lobe_shape_packets.h, from closed-form derivatives instead
+    /// of the Jet); when every lobe is such, the combination with Fresnel and scale runs over the
+    /// whole run too.
     bool analytic_log_run(
         const brdf::ModelD& m, std::size_t begin, std::size_t end, double* r, double* v) const;
     template <class T>
