@@ -56,6 +56,9 @@ std::string flag_of(const std::string& field) {
     if (field == "mode") {
         return "--mode";
     }
+    if (field == "isotropic_plan") {
+        return "an isotropic plan";
+    }
     return "--" + acq::option_key(field);
 }
 
@@ -276,6 +279,15 @@ GONIO_COMMAND(acquire) {
         ->check(gonio::tools::integer_in(2, acq::kMaxPlanAxis));
     cmd->add_option("--adaptive", r.adaptive, "adaptive refinement passes (0 = none)")
         ->check(gonio::tools::integer_in(0, 100));
+    cmd->add_flag("--anisotropic",
+                  r.anisotropic,
+                  "point mode: plan over (theta_i, phi_i, theta_o, phi_o) with the spin axis, "
+                  "for samples whose BRDF depends on the azimuth");
+    cmd->add_option("--symmetry",
+                    r.symmetry,
+                    "anisotropic plan: the sample's symmetry about its normal (none, mirror "
+                    "across its x axis, 2-fold as brushed metal)")
+        ->check(CLI::IsMember({"none", "mirror", "2-fold"}));
     cmd->add_option("--time-scale", r.time_scale, "virtual rig: motion time scale")
         ->check(gonio::tools::finite_in(0.001, 1e6));
     cmd->add_flag("--accept-drift",

@@ -131,9 +131,21 @@ Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::s
                 s.vndf.ndf_resolution = p.integer("ndf_resolution", s.vndf.ndf_resolution, 16, 512);
                 s.vndf.theta_max =
                     p.number("theta_max_deg", s.vndf.theta_max / kDeg, 10.001, 89, "deg") * kDeg;
+            } else if (s.plan_kind == "anisotropic") {
+                AnisotropicGridSpec& a = s.anisotropic;
+                a.n_theta = p.integer("n_theta", a.n_theta, 2, kMaxPlanAxis);
+                a.n_dphi = p.integer("n_dphi", a.n_dphi, 2, kMaxPlanAxis);
+                a.theta_max = p.number("theta_max_deg", a.theta_max / kDeg, 1, 89, "deg") * kDeg;
+                const std::string sym = p.string("symmetry", to_string(a.symmetry), 16);
+                auto parsed = parse_symmetry(sym);
+                if (!parsed) {
+                    json_fail("plan.symmetry = \"" + excerpt(sym) +
+                              "\": must be \"none\", \"mirror\" or \"2-fold\"");
+                }
+                a.symmetry = *parsed;
             } else {
                 json_fail("plan.kind = \"" + s.plan_kind +
-                          "\": must be \"uniform\", \"half-diff\" or \"vndf\"");
+                          "\": must be \"uniform\", \"half-diff\", \"vndf\" or \"anisotropic\"");
             }
             p.finish();
         }
@@ -158,6 +170,13 @@ Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::s
         }
         s.schedule_budget_s = top.number("schedule_budget_s", s.schedule_budget_s, 0, 3600, "s");
         top.finish();
+        if (s.plan_kind == "anisotropic" && s.adaptive && s.adaptive_passes > 0) {
+            // The refinement links neighbours in the isotropic canonical space.
+            json_fail(
+                "adaptive: refinement works in the isotropic (theta_i, theta_r, delta_phi) "
+                "space and cannot follow plan.kind \"anisotropic\" (set \"enabled\": "
+                "false)");
+        }
         if (s.plan_kind == "vndf" && s.adaptive) {
             json_fail(
                 "adaptive: the vndf plan places its own second pass from the retro-reflection "
@@ -219,6 +238,12 @@ std::string campaign_spec_json(const CampaignSpec& s) {
                      {"resolution", s.vndf.resolution},
                      {"ndf_resolution", s.vndf.ndf_resolution},
                      {"theta_max_deg", s.vndf.theta_max / kDeg}};
+    } else if (s.plan_kind == "anisotropic") {
+        j["plan"] = {{"kind", "anisotropic"},
+                     {"n_theta", s.anisotropic.n_theta},
+                     {"n_dphi", s.anisotropic.n_dphi},
+                     {"theta_max_deg", s.anisotropic.theta_max / kDeg},
+                     {"symmetry", to_string(s.anisotropic.symmetry)}};
     } else {
         j["plan"] = {{"kind", "half-diff"},
                      {"n_theta_h", s.half_diff.n_theta_h},
@@ -255,8 +280,9 @@ Expected<Plan> build_plan(const CampaignSpec& spec, const RigConfig& rig) {
         }
         return plan_vndf_retro(spec.vndf, rig_limits(rig));
     }
-    Expected<Plan> plan =
-        spec.plan_kind == "half-diff" ? plan_half_diff(spec.half_diff) : plan_uniform(spec.uniform);
+    Expected<Plan> plan = spec.plan_kind == "half-diff"     ? plan_half_diff(spec.half_diff)
+                          : spec.plan_kind == "anisotropic" ? plan_anisotropic(spec.anisotropic)
+                                                            : plan_uniform(spec.uniform);
     if (!plan) {
         return plan;
     }
@@ -844,7 +870,10 @@ Expected<void> Runner::drift_check(bool baseline, std::string* pause) {
     const Vec3d wi = brdf::spherical_to_cartesian(spec_.drift_theta_i_deg * kDeg, 0.0);
     const Vec3d wo = brdf::spherical_to_cartesian(spec_.drift_theta_r_deg * kDeg,
                                                   spec_.drift_delta_phi_deg * kDeg);
-    auto sol = solve(Target{wi, wo, true, true}, lim_, dyn_, current_);
+    // An anisotropic sample reads differently at every spin: its reference is held at one spin,
+    // the directions fixed in the sample's frame, so that only the lamp can change the reading.
+    const bool isotropic = spec_.plan_kind != "anisotropic";
+    auto sol = solve(Target{wi, wo, isotropic, true}, lim_, dyn_, current_);
     if (!sol) {
         return make_error("drift reference configuration unreachable: " + sol.error().message);
     }

@@ -62,6 +62,8 @@ std::vector<std::string> given_fields(const CampaignRequest& r) {
     add(r.n_theta > 0, "n_theta");
     add(r.n_dphi > 0, "n_dphi");
     add(r.adaptive >= 0, "adaptive");
+    add(r.anisotropic, "anisotropic");
+    add(!r.symmetry.empty(), "symmetry");
     add(r.time_scale > 0, "time_scale");
     add(r.accept_drift, "accept_drift");
     add(r.plan_only, "plan_only");
@@ -100,6 +102,8 @@ std::optional<RequestConflict> find_conflict(const CampaignRequest& r) {
                             "n_theta",
                             "n_dphi",
                             "adaptive",
+                            "anisotropic",
+                            "symmetry",
                             "accept_drift"})) {
             return RequestConflict{f,
                                    "mode",
@@ -149,6 +153,23 @@ std::optional<RequestConflict> find_conflict(const CampaignRequest& r) {
     }
     if (!r.material.empty() && !r.brdf_path.empty()) {
         return RequestConflict{"material", "brdf_path", "give one ground truth"};
+    }
+    if (!r.symmetry.empty() && !r.anisotropic) {
+        return RequestConflict{"symmetry",
+                               "isotropic_plan",
+                               "the symmetry folds the anisotropic plan (give --anisotropic)"};
+    }
+    if (r.anisotropic && !r.plan_kind.empty()) {
+        return RequestConflict{"plan_kind",
+                               "anisotropic",
+                               "the anisotropic plan is its own grid over (theta_i, phi_i, "
+                               "theta_o, phi_o)"};
+    }
+    if (r.anisotropic && r.adaptive > 0) {
+        return RequestConflict{"adaptive",
+                               "anisotropic",
+                               "adaptive refinement works in the isotropic (theta_i, theta_r, "
+                               "delta_phi) space"};
     }
     if (r.plan_kind == "vndf") {
         for (const std::string& f : given) {
@@ -242,11 +263,30 @@ Expected<CampaignSpec> new_campaign_spec(const CampaignRequest& r, bool* embedde
             spec.adaptive = false;
         }
     }
+    if (r.anisotropic && spec.plan_kind != "anisotropic") {
+        // The anisotropic plan at the step of the description's uniform grid.
+        spec.plan_kind = "anisotropic";
+        spec.anisotropic.n_theta = spec.uniform.n_theta;
+        spec.anisotropic.n_dphi = spec.uniform.n_dphi;
+        spec.anisotropic.theta_max = spec.uniform.theta_max;
+    }
+    const bool aniso = spec.plan_kind == "anisotropic";
     if (r.n_theta > 0) {
-        spec.uniform.n_theta = r.n_theta;
+        (aniso ? spec.anisotropic.n_theta : spec.uniform.n_theta) = r.n_theta;
     }
     if (r.n_dphi > 0) {
-        spec.uniform.n_dphi = r.n_dphi;
+        (aniso ? spec.anisotropic.n_dphi : spec.uniform.n_dphi) = r.n_dphi;
+    }
+    if (!r.symmetry.empty()) {
+        auto sym = parse_symmetry(r.symmetry);
+        if (!sym) {
+            return tl::unexpected(sym.error());
+        }
+        spec.anisotropic.symmetry = *sym;
+    }
+    if (aniso) {
+        // Adaptive refinement links neighbours in the isotropic canonical space.
+        spec.adaptive = false;
     }
     if (r.adaptive >= 0) {
         spec.adaptive = r.adaptive > 0;

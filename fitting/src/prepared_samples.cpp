@@ -16,6 +16,7 @@
 #include "gonio/brdf/microfacet.h"
 #include "gonio/brdf/model_eval.h"
 #include "gonio/brdf/student_t.h"
+#include "gonio/fitting/lobe_shape_packets.h"
 #include "gonio/fitting/vector_log.h"
 
 namespace gonio::fitting {
@@ -495,10 +496,20 @@ double PreparedSamples::g_prime(double m, std::size_t i) const {
     }
 }
 
+struct PreparedSamples::RunShapes {
+    static constexpr int kMaxLobes = 8;
+    /// Lobe l's shapes are here (else computed sample by sample).
+    bool packed[kMaxLobes] = {};
+    double S[kMaxLobes][kRun];
+    double dS[kMaxLobes][kRun];
+};
+
 void PreparedSamples::analytic_parts(const brdf::ModelD& m,
                                      std::size_t i,
                                      double f[3],
-                                     double* d) const {
+                                     double* d,
+                                     const RunShapes* run,
+                                     std::size_t j) const {
     // Per lobe: the shape S = D G / (4 cos_i cos_o) and dS/d(width) through a one-slot Jet (only
     // the width enters it; a Student-t lobe's shape also takes its tail gamma: a two-slot Jet),
     // and F = f0 + (1 - f0) x5 (Schlick) or 1.
@@ -512,7 +523,10 @@ void PreparedSamples::analytic_parts(const brdf::ModelD& m,
     for (int l = 0; l < nl; ++l) {
         const brdf::Lobe<double>& lobe = m.lobes[l];
         dS_gamma[l] = 0;
-        if (lobe.distribution == brdf::Distribution::kStudentT) {
+        if (run != nullptr && run->packed[l]) {
+            S[l] = run->S[l][j];
+            dS[l] = run->dS[l][j];
+        } else if (lobe.distribution == brdf::Distribution::kStudentT) {
             const J2 a(lobe.alpha_x, 0);
             const J2 g(lobe.gamma, 1);
             const J2 s2 = shape_student_t(lobe.shadowing, a, a, g, i);
@@ -591,10 +605,37 @@ bool PreparedSamples::analytic_log_run(
     double arg[3 * kRun] = {};
     double lg[3 * kRun];
     const std::size_t n = end - begin;
+    // The shapes of the isotropic GGX and Beckmann lobes with no or Smith shadowing for the whole
+    // run on packets (lobe_shape_packets.h); the other lobes sample by sample.
+    RunShapes shapes;
+    const int nl = static_cast<int>(m.lobes.size());
+    for (int l = 0; l < nl && !anisotropic_; ++l) {
+        const brdf::Lobe<double>& lobe = m.lobes[l];
+        const bool smith = lobe.shadowing == brdf::Shadowing::kSmithCorrelated ||
+                           lobe.shadowing == brdf::Shadowing::kSmithSeparable;
+        if ((lobe.distribution != brdf::Distribution::kGgx &&
+             lobe.distribution != brdf::Distribution::kBeckmann) ||
+            (!smith && lobe.shadowing != brdf::Shadowing::kNone)) {
+            continue;
+        }
+        LobeShapeKind kind;
+        kind.beckmann = lobe.distribution == brdf::Distribution::kBeckmann;
+        kind.smith = !smith ? 0 : lobe.shadowing == brdf::Shadowing::kSmithCorrelated ? 1 : 2;
+        LobeShapeInputs in;
+        in.hxy2 = hx2_.data() + begin;
+        in.hz2 = hz2_.data() + begin;
+        in.inv_4cc = inv_4cc_.data() + begin;
+        if (smith) {
+            in.tan2_i = ti_x_.data() + begin;
+            in.tan2_o = to_x_.data() + begin;
+        }
+        lobe_shape_packets(kind, lobe.alpha_x, in, n, shapes.S[l], shapes.dS[l]);
+        shapes.packed[l] = true;
+    }
     for (std::size_t j = 0; j < n; ++j) {
         const std::size_t i = begin + j;
         double f[3];
-        analytic_parts(m, i, f, v + j * 3 * slots_);
+        analytic_parts(m, i, f, v + j * 3 * slots_, &shapes, j);
         for (int c = 0; c < 3; ++c) {
             arg[3 * j + c] = f[c] * cos_i_[i];
         }

@@ -26,12 +26,13 @@ struct CampaignSpec {
     std::string notes;
     std::string rig;                    ///< Rig description path (relative to the campaign file).
     std::string scene;                  ///< Optional scene (ROI) path.
-    std::string plan_kind = "uniform";  ///< "uniform", "half-diff" or "vndf".
+    std::string plan_kind = "uniform";  ///< "uniform", "half-diff", "vndf" or "anisotropic".
     UniformGridSpec uniform;
     HalfDiffSpec half_diff;
     /// The vndf plan (plan_vndf.h): pass 0 retro-reflection, pass 1 the VNDF-warped nodes built
     /// from it; the campaign ends by writing dataset.bsdf. No scene, no adaptive pass.
     VndfSpec vndf;
+    AnisotropicGridSpec anisotropic;  ///< plan_kind "anisotropic" (no adaptive passes).
     bool adaptive = false;
     int adaptive_passes = 1;
     RefineSpec refine;

@@ -33,20 +33,24 @@ enum class CampaignMode {
 /// field is either honoured by the mode or refused by find_conflict().
 struct CampaignRequest {
     CampaignMode mode = CampaignMode::kPoint;
-    std::string campaign_file;   ///< campaign.json (point mode).
-    std::string rig_path;        ///< Rig description (overrides the campaign's).
-    std::string out_dir;         ///< Campaign folder (default: automatic under campaigns_dir).
-    std::string resume_dir;      ///< Continue the campaign in this folder.
-    std::string campaigns_dir;   ///< Parent of automatically named folders ("campaigns").
-    std::string material;        ///< Virtual rig: named material.
-    std::string brdf_path;       ///< Virtual rig: ground-truth model JSON or table.
-    std::string scene;           ///< Point mode: region of interest.
-    std::string sample;          ///< Sample name.
-    std::string operator_name;   ///< Operator name.
-    std::string plan_kind;       ///< Point mode: "uniform", "half-diff" or "vndf".
-    int n_theta = 0;             ///< Point mode, uniform plan: polar angles.
-    int n_dphi = 0;              ///< Point mode, uniform plan: azimuth differences.
-    int adaptive = -1;           ///< Point mode: adaptive passes (-1 = the campaign's).
+    std::string campaign_file;  ///< campaign.json (point mode).
+    std::string rig_path;       ///< Rig description (overrides the campaign's).
+    std::string out_dir;        ///< Campaign folder (default: automatic under campaigns_dir).
+    std::string resume_dir;     ///< Continue the campaign in this folder.
+    std::string campaigns_dir;  ///< Parent of automatically named folders ("campaigns").
+    std::string material;       ///< Virtual rig: named material.
+    std::string brdf_path;      ///< Virtual rig: ground-truth model JSON or table.
+    std::string scene;          ///< Point mode: region of interest.
+    std::string sample;         ///< Sample name.
+    std::string operator_name;  ///< Operator name.
+    std::string plan_kind;      ///< Point mode: "uniform", "half-diff" or "vndf".
+    int n_theta = 0;            ///< Point mode, uniform plan: polar angles.
+    int n_dphi = 0;             ///< Point mode, uniform plan: azimuth differences.
+    int adaptive = -1;          ///< Point mode: adaptive passes (-1 = the campaign's).
+    /// Point mode: the anisotropic plan over (theta_i, phi_i, theta_o, phi_o) (plan.h,
+    /// plan_anisotropic) with the grid of n_theta and n_dphi, no adaptive pass.
+    bool anisotropic = false;
+    std::string symmetry;        ///< Point mode, anisotropic plan: "none", "mirror" or "2-fold".
     double time_scale = 0;       ///< Virtual rig: motion time scale (> 0 overrides the rig's).
     bool accept_drift = false;   ///< Point mode: take the lamp's level as the new baseline.
     bool plan_only = false;      ///< Print the plan and stop; nothing is measured or written.
@@ -75,7 +79,8 @@ struct CampaignRequest {
 };
 
 /// An option the request gives that its mode cannot honour, with what it conflicts with. Both are
-/// field keys ("resume_dir" -> option "resume", see option_key()), or "mode" for the mode itself.
+/// field keys ("resume_dir" -> option "resume", see option_key()), or "mode" for the mode itself,
+/// or "isotropic_plan" for a plan that is not anisotropic.
 struct RequestConflict {
     std::string option;
     std::string with;
@@ -89,8 +94,10 @@ std::string option_key(const std::string& field);
 
 /// The first option the mode refuses (none: every given option is honoured). Rules:
 /// - point mode refuses coverage_target, max_frames and grid (image-mode options);
+/// - anisotropic excludes plan_kind and adaptive passes (adaptive > 0); symmetry needs
+///   anisotropic;
 /// - image mode refuses the campaign file, scene, plan, n_theta, n_dphi, adaptive,
-///   accept_drift (point-mode plans and drift checks);
+///   anisotropic, symmetry, accept_drift (point-mode plans and drift checks);
 /// - a resume reads everything from the folder (an image campaign: its settings and frame
 ///   journal): only accept_drift and serve go with it;
 /// - plan_only prints the plan: nothing that only matters to a run (out, campaigns_dir,

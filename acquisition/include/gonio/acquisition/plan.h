@@ -74,6 +74,34 @@ struct HalfDiffSpec {
 };
 Expected<Plan> plan_half_diff(const HalfDiffSpec& spec);
 
+/// The symmetry of a sample's BRDF about its normal that an operator declares, by which an
+/// anisotropic plan folds its domain (docs/operator-guide.md, "Anisotropic samples").
+enum class SampleSymmetry {
+    kNone,     ///< No symmetry: every (phi_i, phi_o) is measured (up to reciprocity).
+    kMirror,   ///< Mirror across the sample's x axis: f at (phi_i, phi_o) = f at (-phi_i, -phi_o).
+               ///< The sample must be mounted with its symmetry axis along x.
+    kTwoFold,  ///< A half turn about the normal: f at (phi_i, phi_o) = f at (phi_i + pi, phi_o +
+               ///< pi), as every brushed metal or centrally symmetric microfacet lobe, whatever
+               ///< its orientation on the sample.
+};
+const char* to_string(SampleSymmetry s);
+/// Parses "none", "mirror", "2-fold".
+Expected<SampleSymmetry> parse_symmetry(const std::string& name);
+
+/// Anisotropic grid (plan_aniso.cpp): the directions are the normal and n_theta - 1 rings of
+/// polar angle theta_max a / (n_theta - 1), each of 2 (n_dphi - 1) azimuths over [0, 2 pi) (the
+/// step of the uniform plan's azimuth differences); every pair (wi, wo) of them in the sample's
+/// frame, one per orbit of reciprocity (wi <-> wo) and of the declared symmetry. The
+/// configurations are not isotropic: the kinematics use the spin axis to turn the sample so that
+/// both directions land where asked. naive_count is that of the uniform plan of the same step.
+struct AnisotropicGridSpec {
+    int n_theta = 7;
+    double theta_max = 1.309;  ///< rad (75 deg)
+    int n_dphi = 5;
+    SampleSymmetry symmetry = SampleSymmetry::kNone;
+};
+Expected<Plan> plan_anisotropic(const AnisotropicGridSpec& spec);
+
 /// A region of interest read from a scene description (docs/operator-guide.md):
 /// {"name": "...", "margin_deg": 5,
 ///  "pairs": [{"light": {"theta_deg": 30, "phi_deg": 0}, "view": {"theta_deg": 45, "phi_deg":

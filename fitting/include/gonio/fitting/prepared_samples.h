@@ -126,8 +126,17 @@ class PreparedSamples {
     ///   a Student-t lobe's dS/dalpha and dS/dgamma by a two-slot Jet),
     /// times dr_c/df_c = s_c g'(f_c).
     bool analytic_sample(const brdf::ModelD& m, std::size_t i, double r[3], double* v) const;
-    /// The model values f[3] of sample i and df_c/d(slot) in d[c * slots + slot].
-    void analytic_parts(const brdf::ModelD& m, std::size_t i, double f[3], double* d) const;
+    /// The shapes S_l and dS_l/dalpha of a run of samples for the lobes computed on packets
+    /// (isotropic GGX or Beckmann, no or Smith shadowing): prepared_samples.cpp.
+    struct RunShapes;
+    /// The model values f[3] of sample i and df_c/d(slot) in d[c * slots + slot]; the shapes of
+    /// the lobes in `run` (sample i its j-th) are taken from there.
+    void analytic_parts(const brdf::ModelD& m,
+                        std::size_t i,
+                        double f[3],
+                        double* d,
+                        const RunShapes* run = nullptr,
+                        std::size_t j = 0) const;
     /// analytic_sample for the log residual over samples [begin, end) (at most 64), the
     /// logarithms on SIMD packets (vector_log.h): r[3 j + c], v[(3 j + c) slots + slot].
     bool analytic_log_run(
