@@ -632,12 +632,94 @@ bool PreparedSamples::analytic_log_run(
         lobe_shape_packets(kind, lobe.alpha_x, in, n, shapes.S[l], shapes.dS[l]);
         shapes.packed[l] = true;
     }
-    for (std::size_t j = 0; j < n; ++j) {
-        const std::size_t i = begin + j;
-        double f[3];
-        analytic_parts(m, i, f, v + j * 3 * slots_, &shapes, j);
+    bool all_packed = true;
+    for (int l = 0; l < nl; ++l) {
+        all_packed = all_packed && shapes.packed[l];
+    }
+    if (all_packed) {
+        // Every shape is on packets: the combination of analytic_parts a channel and a slot at a
+        // time over the run (the same operations in the same order, so the same values), in loops
+        // the compiler turns into packets.
+        const double* x5 = x5_.empty() ? nullptr : x5_.data() + begin;
+        const double* ci = cos_i_.data() + begin;
         for (int c = 0; c < 3; ++c) {
-            arg[3 * j + c] = f[c] * cos_i_[i];
+            double fc[kRun];
+            const double base = m.has_diffuse ? m.diffuse[c] * brdf::kInvPi : 0.0;
+            for (std::size_t j = 0; j < n; ++j) {
+                fc[j] = base;
+            }
+            for (int l = 0; l < nl; ++l) {
+                const brdf::Lobe<double>& lobe = m.lobes[l];
+                const double sc = lobe.scale[c];
+                const double* S = shapes.S[l];
+                if (lobe.fresnel.type == brdf::FresnelType::kSchlick) {
+                    const double f0 = lobe.fresnel.f0[c];
+                    for (std::size_t j = 0; j < n; ++j) {
+                        fc[j] += sc * brdf::fresnel_schlick_from_pow5(x5[j], f0) * S[j];
+                    }
+                } else {
+                    for (std::size_t j = 0; j < n; ++j) {
+                        fc[j] += sc * 1.0 * S[j];
+                    }
+                }
+            }
+            for (std::size_t j = 0; j < n; ++j) {
+                arg[3 * j + c] = fc[j] * ci[j];
+            }
+            // df_c/d(slot) (analytic_parts' table), before the factor dr_c/df_c below.
+            for (int k = 0; k < slots_; ++k) {
+                const int l = slot_lobe_[k];
+                double* out = v + c * slots_ + k;
+                const std::size_t stride = 3 * slots_;
+                const Field field = slot_field_[k];
+                if (field == Field::kDiffuse) {
+                    for (std::size_t j = 0; j < n; ++j) {
+                        out[j * stride] = brdf::kInvPi;
+                    }
+                    continue;
+                }
+                const bool lobe_field = field == Field::kAlphaX || field == Field::kExponent ||
+                                        field == Field::kScale ||
+                                        (field == Field::kF0 && x5 != nullptr);
+                if (l < 0 || !lobe_field) {
+                    for (std::size_t j = 0; j < n; ++j) {
+                        out[j * stride] = 0;
+                    }
+                    continue;
+                }
+                const brdf::Lobe<double>& lobe = m.lobes[l];
+                const bool schlick = lobe.fresnel.type == brdf::FresnelType::kSchlick;
+                const double sc = lobe.scale[c];
+                const double f0 = schlick ? lobe.fresnel.f0[c] : 1.0;
+                const double* S = shapes.S[l];
+                const double* dS = shapes.dS[l];
+                for (std::size_t j = 0; j < n; ++j) {
+                    const double F = schlick ? brdf::fresnel_schlick_from_pow5(x5[j], f0) : 1.0;
+                    double d = 0;
+                    switch (field) {
+                        case Field::kAlphaX:
+                        case Field::kExponent:
+                            d = sc * F * dS[j];
+                            break;
+                        case Field::kScale:
+                            d = F * S[j];
+                            break;
+                        default:  // Field::kF0
+                            d = sc * (1 - x5[j]) * S[j];
+                            break;
+                    }
+                    out[j * stride] = d;
+                }
+            }
+        }
+    } else {
+        for (std::size_t j = 0; j < n; ++j) {
+            const std::size_t i = begin + j;
+            double f[3];
+            analytic_parts(m, i, f, v + j * 3 * slots_, &shapes, j);
+            for (int c = 0; c < 3; ++c) {
+                arg[3 * j + c] = f[c] * cos_i_[i];
+            }
         }
     }
     log1p_packets(arg, lg, 3 * n);
