@@ -933,9 +933,13 @@ CaptureFn make_device_capture(devices::Camera& camera,
                 note("pose check: before the " + describe(r) + " " + off + "; moved back", false);
                 continue;
             }
+            // Each retry after a camera error waits twice as long: a frame that came late once
+            // (the camera busy, the host loaded) is set aside when it arrives (its stamp precedes
+            // the new trigger), and the new trigger's frame queues behind it.
             const auto timeout =
-                o.capture_timeout +
-                std::chrono::milliseconds(static_cast<std::int64_t>(r.exposure_us / 1000));
+                (o.capture_timeout +
+                 std::chrono::milliseconds(static_cast<std::int64_t>(r.exposure_us / 1000))) *
+                (1 << std::min(failures, 4));
             auto frame = camera.capture(timeout);
             if (!frame) {
                 if (failures >= o.capture_retries) {

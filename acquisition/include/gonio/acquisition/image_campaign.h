@@ -215,7 +215,7 @@ struct DeviceCaptureOptions {
     double pose_tolerance_deg = 0.01;
     /// Consecutive repeats or corrections of one capture before it fails.
     int max_pose_repeats = 5;
-    /// Frame wait beyond the exposure time.
+    /// Frame wait beyond the exposure time (doubled at each retry after a camera error).
     std::chrono::milliseconds capture_timeout{5000};
     /// Captures taken again after a camera error (a lost frame, a timeout) before the error is
     /// returned (the rig description's "retries").
