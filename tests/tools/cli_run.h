@@ -45,6 +45,14 @@ inline CliRun run_gonio(const std::string& args, const std::string& stderr_path 
     return r;
 }
 
+/// The same for tests that keep the status apart: the output (standard error merged), the exit
+/// status in *status.
+inline std::string run_gonio(const std::string& args, int* status) {
+    CliRun r = run_gonio(args);
+    *status = r.status;
+    return std::move(r.out);
+}
+
 /// A fresh folder for the running test: GONIO_BINARY_DIR/tests/<prefix>_<test name>.
 inline std::filesystem::path fresh_test_dir(const std::string& prefix) {
     const std::filesystem::path dir =

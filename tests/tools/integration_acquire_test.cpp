@@ -14,24 +14,14 @@
 #include <sstream>
 #include <string>
 
+#include "cli_run.h"
 #include "gonio/brdf/dataset.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 
-std::string run(const std::string& args, int* status) {
-    const std::string cmd = std::string(GONIO_EXE) + " " + args + " 2>&1";
-    FILE* p = popen(cmd.c_str(), "r");
-    std::string out;
-    char buf[4096];
-    while (std::fgets(buf, sizeof buf, p)) {
-        out += buf;
-    }
-    const int st = pclose(p);
-    *status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-    return out;
-}
+using gonio::testing::run_gonio;
 
 std::string temp_dir(const char* name) {
     const std::string d = std::string(GONIO_BINARY_DIR) + "/test_tools_acquire/" + name + "_" +
@@ -44,8 +34,8 @@ std::string temp_dir(const char* name) {
 TEST(AcquireCli, EmbeddedCampaignThenResumeMeasuresNothingTwice) {
     const std::string dir = temp_dir("embedded");
     int st = 0;
-    const std::string out =
-        run("acquire --out " + dir + " --n-theta 4 --n-dphi 3 --adaptive 0 --time-scale 500", &st);
+    const std::string out = run_gonio(
+        "acquire --out " + dir + " --n-theta 4 --n-dphi 3 --adaptive 0 --time-scale 500", &st);
     ASSERT_EQ(st, 0) << out;
     EXPECT_NE(out.find("completed"), std::string::npos) << out;
     EXPECT_NE(out.find("raster order"), std::string::npos) << out;
@@ -58,7 +48,7 @@ TEST(AcquireCli, EmbeddedCampaignThenResumeMeasuresNothingTwice) {
         brdf_samples += (s.flags & gonio::brdf::kFlagReference) ? 0 : 1;
     }
     EXPECT_EQ(brdf_samples, 18u);
-    const std::string again = run("acquire --resume " + dir, &st);
+    const std::string again = run_gonio("acquire --resume " + dir, &st);
     ASSERT_EQ(st, 0) << again;
     auto ds2 = gonio::brdf::read_dataset_csv(dir + "/dataset.csv");
     ASSERT_TRUE(ds2);
@@ -90,11 +80,11 @@ TEST(AcquireCli, AcquireThenFitRecoversTheGroundTruth) {
         "alpha": 0.25, "shadowing": "smith-correlated",
         "fresnel": {"type": "schlick", "f0": [0.04, 0.04, 0.04]}, "scale": [1, 1, 1]}]})";
     int st = 0;
-    const std::string acq = run("acquire --brdf " + model + " --out " + dir +
-                                    " --n-theta 6 --n-dphi 5 --adaptive 0 --time-scale 500",
-                                &st);
+    const std::string acq = run_gonio("acquire --brdf " + model + " --out " + dir +
+                                          " --n-theta 6 --n-dphi 5 --adaptive 0 --time-scale 500",
+                                      &st);
     ASSERT_EQ(st, 0) << acq;
-    const std::string fit = run("fit " + dir + "/dataset.csv", &st);
+    const std::string fit = run_gonio("fit " + dir + "/dataset.csv", &st);
     ASSERT_EQ(st, 0) << fit;
     // The measurement noise is about 1e-5 relative (the fit reports ~2e-6 standard errors); 1e-3
     // leaves room for the stages' step quantisation.
@@ -106,7 +96,7 @@ TEST(AcquireCli, AcquireThenFitRecoversTheGroundTruth) {
 
 TEST(AcquireCli, PlanOnlyListsUnreachableTargetsWithReasons) {
     int st = 0;
-    const std::string out = run("acquire --plan-only --n-theta 4 --n-dphi 3", &st);
+    const std::string out = run_gonio("acquire --plan-only --n-theta 4 --n-dphi 3", &st);
     ASSERT_EQ(st, 0) << out;
     EXPECT_NE(out.find("18 configurations, 4 unreachable"), std::string::npos) << out;
     EXPECT_NE(out.find("blind zone"), std::string::npos) << out;
@@ -114,10 +104,10 @@ TEST(AcquireCli, PlanOnlyListsUnreachableTargetsWithReasons) {
 
 TEST(AcquireCli, ErrorsNameTheProblem) {
     int st = 0;
-    const std::string out = run("acquire --rig /nonexistent/rig.json --out x", &st);
+    const std::string out = run_gonio("acquire --rig /nonexistent/rig.json --out x", &st);
     EXPECT_EQ(st, 1);
     EXPECT_NE(out.find("/nonexistent/rig.json"), std::string::npos) << out;
-    const std::string out2 = run("acquire --resume /nonexistent/campaign", &st);
+    const std::string out2 = run_gonio("acquire --resume /nonexistent/campaign", &st);
     EXPECT_EQ(st, 1);
 }
 
@@ -166,7 +156,8 @@ TEST(AcquireCli, CampaignAgainstASeparateSimProcess) {
                  "drift": {"every": 0}})";
     }
     int st = 0;
-    const std::string out = run("acquire " + dir + "/campaign.json --out " + dir + "/run", &st);
+    const std::string out =
+        run_gonio("acquire " + dir + "/campaign.json --out " + dir + "/run", &st);
     EXPECT_EQ(st, 0) << out;
     kill(pid, SIGINT);
     int status = 0;

@@ -17,24 +17,14 @@
 #include <sstream>
 #include <string>
 
+#include "cli_run.h"
 #include "gonio/brdf/dataset.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 
-std::string run(const std::string& args, int* status) {
-    const std::string cmd = std::string(GONIO_EXE) + " " + args + " 2>&1";
-    FILE* p = popen(cmd.c_str(), "r");
-    std::string out;
-    char buf[4096];
-    while (std::fgets(buf, sizeof buf, p)) {
-        out += buf;
-    }
-    const int st = pclose(p);
-    *status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-    return out;
-}
+using gonio::testing::run_gonio;
 
 std::string temp_dir(const std::string& name) {
     const std::string d = std::string(GONIO_BINARY_DIR) + "/test_tools_aniso/" + name + "_" +
@@ -83,9 +73,9 @@ std::map<std::string, Param> measure_and_fit(const std::string& name,
     std::ofstream(model) << truth;
     int st = 0;
     const std::string acq =
-        run("acquire --anisotropic --symmetry " + symmetry + " --brdf " + model + " --out " + dir +
-                " --n-theta 7 --n-dphi 5 --time-scale 500",
-            &st);
+        run_gonio("acquire --anisotropic --symmetry " + symmetry + " --brdf " + model + " --out " +
+                      dir + " --n-theta 7 --n-dphi 5 --time-scale 500",
+                  &st);
     EXPECT_EQ(st, 0) << acq;
     EXPECT_NE(acq.find("anisotropic"), std::string::npos) << acq;
     // The dataset keeps both azimuths: the light is not always at phi_i = 0.
@@ -97,7 +87,7 @@ std::map<std::string, Param> measure_and_fit(const std::string& name,
     }
     EXPECT_GT(off_axis, ds->samples.size() / 4);
     const std::string fit =
-        run("fit " + dir + "/dataset.csv --anisotropic --out " + dir + "/fit.json", &st);
+        run_gonio("fit " + dir + "/dataset.csv --anisotropic --out " + dir + "/fit.json", &st);
     EXPECT_EQ(st, 0) << fit;
     return report_params(dir + "/fit.report.json");
 }
@@ -157,8 +147,8 @@ TEST(AnisotropicCampaign, IsotropicTruthFitsEqualSlopes) {
 TEST(AnisotropicCampaign, PlanOnlyFoldsBySymmetry) {
     int st = 0;
     auto count = [&](const std::string& sym) {
-        const std::string out =
-            run("acquire --plan-only --anisotropic --n-theta 4 --n-dphi 4 --symmetry " + sym, &st);
+        const std::string out = run_gonio(
+            "acquire --plan-only --anisotropic --n-theta 4 --n-dphi 4 --symmetry " + sym, &st);
         EXPECT_EQ(st, 0) << out;
         std::size_t planned = 0;
         std::size_t pos = 0;
@@ -185,18 +175,18 @@ TEST(AnisotropicCampaign, PlanOnlyFoldsBySymmetry) {
 
 TEST(AnisotropicCampaign, OptionsThatCannotBeHonouredAreRefused) {
     int st = 0;
-    std::string out = run("acquire --plan-only --symmetry 2-fold", &st);
+    std::string out = run_gonio("acquire --plan-only --symmetry 2-fold", &st);
     EXPECT_EQ(st, 2) << out;
     EXPECT_NE(out.find("--symmetry cannot be combined with an isotropic plan"), std::string::npos)
         << out;
-    out = run("acquire --plan-only --anisotropic --plan half-diff", &st);
+    out = run_gonio("acquire --plan-only --anisotropic --plan half-diff", &st);
     EXPECT_EQ(st, 2) << out;
     EXPECT_NE(out.find("--plan cannot be combined with --anisotropic"), std::string::npos) << out;
-    out = run("acquire --plan-only --anisotropic --adaptive 2", &st);
+    out = run_gonio("acquire --plan-only --anisotropic --adaptive 2", &st);
     EXPECT_EQ(st, 2) << out;
     EXPECT_NE(out.find("--adaptive cannot be combined with --anisotropic"), std::string::npos)
         << out;
-    out = run("acquire --mode image --plan-only --anisotropic", &st);
+    out = run_gonio("acquire --mode image --plan-only --anisotropic", &st);
     EXPECT_EQ(st, 2) << out;
     EXPECT_NE(out.find("anisotropic"), std::string::npos) << out;
 }

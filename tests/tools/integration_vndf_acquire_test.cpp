@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "cli_run.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/coords.h"
 #include "gonio/brdf/dataset.h"
@@ -40,18 +41,7 @@ const char* kGlossy = R"({"diffuse": [0.05, 0.03, 0.02], "lobes": [{"distributio
     "alpha": 0.05, "shadowing": "smith-correlated",
     "fresnel": {"type": "schlick", "f0": [0.04, 0.04, 0.04]}, "scale": [1, 1, 1]}]})";
 
-std::string run(const std::string& args, int* status) {
-    const std::string cmd = std::string(GONIO_EXE) + " " + args + " 2>&1";
-    FILE* p = popen(cmd.c_str(), "r");
-    std::string out;
-    char buf[4096];
-    while (std::fgets(buf, sizeof buf, p)) {
-        out += buf;
-    }
-    const int st = pclose(p);
-    *status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-    return out;
-}
+using gonio::testing::run_gonio;
 
 std::string temp_dir(const char* name) {
     const std::string d = std::string(GONIO_BINARY_DIR) + "/test_tools_vndf/" + name + "_" +
@@ -157,8 +147,8 @@ TEST(AcquireVndfCli, CampaignWritesDatasetAndRglFileThatMatchTheTruth) {
     const std::string model = dir + "_model.json";
     std::ofstream(model) << kGlossy;
     int st = 0;
-    const std::string out =
-        run("acquire --plan vndf --brdf " + model + " --out " + dir + " --time-scale 1000", &st);
+    const std::string out = run_gonio(
+        "acquire --plan vndf --brdf " + model + " --out " + dir + " --time-scale 1000", &st);
     ASSERT_EQ(st, 0) << out;
     EXPECT_NE(out.find("vndf pass 1: NDF from 30 retro-reflection measurements"), std::string::npos)
         << out;
@@ -270,15 +260,15 @@ TEST(AcquireVndfCli, OptionsOfOtherPlansAreRefusedWithExit2) {
                              "--plan vndf --scene scene.json",
                              "--plan vndf --mode image",
                              "--plan vndf --plan-only --brdf x.json"}) {
-        const std::string out = run(std::string("acquire ") + args, &st);
+        const std::string out = run_gonio(std::string("acquire ") + args, &st);
         EXPECT_EQ(st, 2) << args << "\n" << out;
         EXPECT_NE(out.find("--"), std::string::npos) << args << "\n" << out;
     }
-    const std::string out = run("acquire --plan vndf --n-theta 5", &st);
+    const std::string out = run_gonio("acquire --plan vndf --n-theta 5", &st);
     EXPECT_NE(out.find("--n-theta"), std::string::npos) << out;
     EXPECT_NE(out.find("--plan"), std::string::npos) << out;
     // No adaptive pass is what the plan does anyway: honoured.
-    const std::string plan = run("acquire --plan vndf --adaptive 0 --plan-only", &st);
+    const std::string plan = run_gonio("acquire --plan vndf --adaptive 0 --plan-only", &st);
     EXPECT_EQ(st, 0) << plan;
     EXPECT_NE(plan.find("vndf-retro plan: 30 configurations, 1 unreachable"), std::string::npos)
         << plan;
