@@ -307,7 +307,7 @@ GONIO_COMMAND(acquire) {
                     r.camera_px,
                     "image mode, virtual rig: size of its camera, px (default 256; not with a "
                     "calibrated camera_model)")
-        ->check(gonio::tools::integer_in(16, 16384));
+        ->check(gonio::tools::integer_in(16, 2048));
     cmd->add_option("--max-theta-deg",
                     r.max_theta_deg,
                     "image mode: grazing limit of the pixels' theta_i and theta_o, deg (default "

@@ -778,7 +778,7 @@ Expected<CampaignRequest> read_image_settings(const std::string& dir) {
         }
         r.coverage_target = o.number("coverage_target", 0.55, 0.001, 1);
         r.max_frames = o.integer("max_frames", 200, 1, 1000000);
-        r.image_size = o.integer("image_size", 256, 16, 16384);
+        r.image_size = o.integer("image_size", 256, 16, 2048);
         r.max_theta_deg = o.number("max_theta_deg", 0, 0, 89.9);
         r.perspective = o.boolean("perspective", false);
         r.supersample = o.integer("supersample", 2, 1, 64);

@@ -222,6 +222,31 @@ HoleLimits hole_limits(const ImageCampaignConfig& cfg) {
     return limits;
 }
 
+/// The campaign's next light position (step 5 of run_image_campaign, and its prediction): the
+/// index into `candidates`, or -1 with the reason when the campaign stops there (the coverage
+/// target met, or no position adding the stop rule's share of the valid bins).
+int next_campaign_light(const ImageCampaignConfig& cfg,
+                        const std::vector<LightCandidate>& candidates,
+                        const std::vector<std::size_t>& gains,
+                        const CoverageMap& coverage,
+                        double current_light_rad,
+                        std::string* stop_reason) {
+    if (coverage.fraction() >= cfg.coverage_target) {
+        *stop_reason = "coverage target met";
+        return -1;
+    }
+    const std::size_t min_gain =
+        std::max<std::size_t>(1,
+                              static_cast<std::size_t>(cfg.min_gain_fraction *
+                                                       static_cast<double>(coverage.valid_bins())));
+    const int next = next_light(candidates, gains, current_light_rad, cfg.light_gain_fraction);
+    if (next < 0 || gains[next] < min_gain) {
+        *stop_reason = "no light position adds enough bins";
+        return -1;
+    }
+    return next;
+}
+
 /// The allowed light position closest to the detector (front lighting for the silhouette).
 double front_light(const ImageCampaignConfig& cfg) {
     const LightRange& r = cfg.lights;
@@ -458,22 +483,14 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
 
     // 5. Frames until the coverage target.
     std::vector<std::size_t> gains = candidate_gains(candidates, result.coverage);
-    const std::size_t min_gain = std::max<std::size_t>(
-        1,
-        static_cast<std::size_t>(cfg.min_gain_fraction *
-                                 static_cast<double>(result.coverage.valid_bins())));
     result.stop_reason = "frame limit";
     if (state) {
         state(result);
     }
     while (static_cast<int>(result.frames.size()) < cfg.max_frames) {
-        if (result.coverage.fraction() >= cfg.coverage_target) {
-            result.stop_reason = "coverage target met";
-            break;
-        }
-        const int next = next_light(candidates, gains, current, cfg.light_gain_fraction);
-        if (next < 0 || gains[next] < min_gain) {
-            result.stop_reason = "no light position adds enough bins";
+        const int next = next_campaign_light(
+            cfg, candidates, gains, result.coverage, current, &result.stop_reason);
+        if (next < 0) {
             break;
         }
         const double a = candidates[next].light_arm_rad;
@@ -621,17 +638,12 @@ Expected<ImageCoveragePrediction> predict_image_coverage(const ImageCampaignConf
     }
     // The campaign's choice of light positions (run_image_campaign, step 5).
     std::vector<std::size_t> gains = candidate_gains(candidates, coverage);
-    const std::size_t min_gain = std::max<std::size_t>(
-        1, static_cast<std::size_t>(cfg.min_gain_fraction * static_cast<double>(p.valid_bins)));
     double current = front_light(cfg);
     p.stop_reason = "frame limit";
     while (static_cast<int>(p.light_arm_rad.size()) < cfg.max_frames) {
-        if (coverage.fraction() >= cfg.coverage_target) {
-            break;
-        }
-        const int next = next_light(candidates, gains, current, cfg.light_gain_fraction);
-        if (next < 0 || gains[next] < min_gain) {
-            p.stop_reason = "no light position adds enough bins";
+        const int next =
+            next_campaign_light(cfg, candidates, gains, coverage, current, &p.stop_reason);
+        if (next < 0) {
             break;
         }
         const LightCandidate chosen = candidates[next];
