@@ -281,8 +281,9 @@ GONIO_COMMAND(acquire) {
         ->check(gonio::tools::integer_in(0, 100));
     cmd->add_flag("--anisotropic",
                   r.anisotropic,
-                  "point mode: plan over (theta_i, phi_i, theta_o, phi_o) with the spin axis, "
-                  "for samples whose BRDF depends on the azimuth");
+                  "for samples whose BRDF depends on the azimuth: point mode plans over "
+                  "(theta_i, phi_i, theta_o, phi_o) with the spin axis; image mode measures a "
+                  "turned sphere at several spins into a 4-D table");
     cmd->add_option("--symmetry",
                     r.symmetry,
                     "anisotropic plan: the sample's symmetry about its normal (none, mirror "
