@@ -476,6 +476,27 @@ TEST(PlanVndf, CampaignDescriptionRoundTripsAndRefusesAdaptiveAndScene) {
     bad = parse_campaign_spec(R"({"plan": {"kind": "vndf", "resolution": 3}})", "c.json");
     ASSERT_FALSE(bad);
     EXPECT_NE(bad.error().message.find("resolution"), std::string::npos);
+    // The anisotropic plan's fields round-trip; a 2-node or oversized anisotropic NDF is refused
+    // naming the field.
+    auto an = parse_campaign_spec(
+        R"({"plan": {"kind": "vndf", "phi_i_count": 6, "retro_phi_count": 24,
+            "ndf_resolution": 48}})",
+        "c.json");
+    ASSERT_TRUE(an) << an.error().message;
+    auto an2 = parse_campaign_spec(campaign_spec_json(*an), "again.json");
+    ASSERT_TRUE(an2) << an2.error().message;
+    EXPECT_EQ(an2->vndf.phi_i_count, 6);
+    EXPECT_EQ(an2->vndf.retro_phi_count, 24);
+    EXPECT_EQ(an2->vndf.ndf_resolution, 48);
+    bad = parse_campaign_spec(R"({"plan": {"kind": "vndf", "phi_i_count": 1}})", "c.json");
+    ASSERT_FALSE(bad);
+    EXPECT_NE(bad.error().message.find("phi_i_count = 1"), std::string::npos)
+        << bad.error().message;
+    bad = parse_campaign_spec(
+        R"({"plan": {"kind": "vndf", "phi_i_count": 4, "ndf_resolution": 256}})", "c.json");
+    ASSERT_FALSE(bad);
+    EXPECT_NE(bad.error().message.find("ndf_resolution = 256"), std::string::npos)
+        << bad.error().message;
 
     CampaignRequest r;
     r.plan_kind = "vndf";
