@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "gonio/base/check.h"
+#include "gonio/brdf/rig_geometry.h"
 
 namespace gonio::acquisition {
 
@@ -363,10 +364,30 @@ std::vector<SpherePixel> sphere_pixels(const CameraModel& camera,
     return out;
 }
 
+brdf::Vec3d lathe_axis_world(double tilt_rad, double spin_rad) {
+    return brdf::sample_to_world(brdf::Vec3d(0, 1, 0), tilt_rad, spin_rad);
+}
+
+brdf::Vec3d lathe_tangent(const brdf::Vec3d& normal, const brdf::Vec3d& axis, double pole_rad) {
+    const brdf::Vec3d c = axis.cross(normal);
+    const double s = c.norm();
+    if (!(s >= std::sin(pole_rad)) || !(s > 0)) {
+        // Within the pole cap (or exactly at the pole): no usable tangent.
+        return brdf::Vec3d::Zero();
+    }
+    return c / s;
+}
+
 std::pair<brdf::Vec3d, brdf::Vec3d> local_directions(const SpherePixel& p,
                                                      const brdf::Vec3d& light_world) {
+    return local_directions(p, p.tangent, light_world);
+}
+
+std::pair<brdf::Vec3d, brdf::Vec3d> local_directions(const SpherePixel& p,
+                                                     const brdf::Vec3d& tangent,
+                                                     const brdf::Vec3d& light_world) {
     const brdf::Vec3d& z = p.normal;
-    const brdf::Vec3d& x = p.tangent;
+    const brdf::Vec3d& x = tangent;
     const brdf::Vec3d y = z.cross(x);
     const auto to_local = [&](const brdf::Vec3d& v) {
         return brdf::Vec3d(v.dot(x), v.dot(y), v.dot(z));

@@ -28,6 +28,9 @@ SphereScene sphere_scene(const SphereImaging& imaging, const SceneState& state) 
     scene.irradiance_w_m2 = state.irradiance_w_m2;
     scene.filter = state.filter;
     scene.shutter_open = state.shutter_open;
+    // The holder's tilt and spin turn the sphere about its centre: its image stays, its tangent
+    // field (the lathe axis along the holder's local y) turns with them.
+    scene.lathe_axis = brdf::sample_to_world(brdf::Vec3d(0, 1, 0), state.tilt_rad, state.spin_rad);
     return scene;
 }
 

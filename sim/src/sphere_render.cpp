@@ -62,14 +62,24 @@ bool intersect(const WorldRay& ray, const brdf::Vec3d& centre, double radius, br
     return true;
 }
 
-/// Local frame (z = n, x = world +x projected, y = z x x) of a world vector.
-brdf::Vec3d to_local(const brdf::Vec3d& n, const brdf::Vec3d& v) {
+/// The surface's tangent at the normal n: the circle of latitude about the lathe axis when there
+/// is one, else world +x projected (file comment).
+brdf::Vec3d tangent_at(const brdf::Vec3d& n, const brdf::Vec3d& lathe_axis) {
+    const brdf::Vec3d c = lathe_axis.cross(n);
+    if (c.norm() > 1e-9) {
+        return c.normalized();
+    }
+    // No lathe axis, or the pole itself: the reference tangent.
     brdf::Vec3d t = brdf::Vec3d(1, 0, 0) - n.x() * n;
     if (t.norm() < 1e-6) {
         // Normal along world x: use world +y as the reference.
         t = brdf::Vec3d(0, 1, 0) - n.y() * n;
     }
-    t.normalize();
+    return t.normalized();
+}
+
+/// Local frame (z = n, x = t, y = z x x) of a world vector.
+brdf::Vec3d to_local(const brdf::Vec3d& n, const brdf::Vec3d& t, const brdf::Vec3d& v) {
     const brdf::Vec3d b = n.cross(t);
     return {v.dot(t), v.dot(b), v.dot(n)};
 }
@@ -82,8 +92,9 @@ SpherePixelTruth truth_of(const SphereScene& scene, const WorldRay& ray) {
     }
     p.hit = true;
     p.normal_world = ((x - scene.centre) / scene.radius_m).normalized();
-    p.wi = to_local(p.normal_world, scene.light_world.normalized());
-    p.wo = to_local(p.normal_world, -ray.direction);
+    const brdf::Vec3d t = tangent_at(p.normal_world, scene.lathe_axis);
+    p.wi = to_local(p.normal_world, t, scene.light_world.normalized());
+    p.wo = to_local(p.normal_world, t, -ray.direction);
     return p;
 }
 

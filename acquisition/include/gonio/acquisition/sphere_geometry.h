@@ -25,6 +25,15 @@
 // rig's vertical) projected on the tangent plane, y = z cross x; where the reference is parallel
 // to n (within 1e-6) world +y is used instead. For an isotropic material only the angle between
 // the projections of wi and wo matters, so the choice does not change the binned values.
+//
+// Anisotropic samples (docs/image-acquisition.md) are spheres turned on a lathe: the tool marks,
+// the direction the material is brushed in, run along the circles of latitude about the lathe
+// axis a, so the material's tangent at the normal n is t = (a x n) / |a x n|, defined everywhere
+// but at the two poles n = +-a. The sphere is mounted with its lathe axis along the sample
+// holder's local y (brdf/rig_geometry.h), so that at the point facing along the holder's normal
+// the brushing runs along the holder's x axis, as on a flat sample (orientation_deg keeps its
+// meaning); the holder's tilt and spin turn the axis (and with it every pixel's tangent) and leave
+// the sphere, centred on the rig origin, where it is.
 
 #include <cstdint>
 #include <opencv2/core.hpp>
@@ -120,5 +129,20 @@ std::pair<brdf::Vec3d, brdf::Vec3d> local_directions(const SpherePixel& p,
 
 /// The tangent reference direction for a normal (file comment).
 brdf::Vec3d reference_tangent(const brdf::Vec3d& normal);
+
+/// The lathe axis of a turned sphere in the world frame for the holder's tilt and spin (radians):
+/// the holder's local y, brdf::sample_to_world((0, 1, 0), tilt, spin).
+brdf::Vec3d lathe_axis_world(double tilt_rad, double spin_rad);
+
+/// The turned sphere's tangent (the brushing direction) at a unit normal: (a x n) / |a x n| for
+/// the unit lathe axis a. Near a pole, where |a x n| < sin(pole_rad), the tangent turns faster
+/// than the normal's error allows: returns the zero vector (the caller counts the pixel out).
+brdf::Vec3d lathe_tangent(const brdf::Vec3d& normal, const brdf::Vec3d& axis, double pole_rad);
+
+/// wi and wo in the frame (z = the pixel's normal, x = `tangent`, y = z x x) for a light direction
+/// in the world frame (unit, toward the light); `tangent` unit and perpendicular to the normal.
+std::pair<brdf::Vec3d, brdf::Vec3d> local_directions(const SpherePixel& p,
+                                                     const brdf::Vec3d& tangent,
+                                                     const brdf::Vec3d& light_world);
 
 }  // namespace gonio::acquisition

@@ -10,8 +10,11 @@
 //
 // Camera on the detector arm: the arm turns about world z, so the camera at arm angle a is the
 // camera at arm 0 turned by R_z(a): x_c = R_0 R_z(a)^T x_w + t_0 (world -> camera). The sample
-// holder's tilt and spin turn the sphere about its centre, which leaves an isotropic material's
-// image unchanged; they are ignored (image mode bins into an isotropic table).
+// holder's tilt and spin turn the sphere about its centre, which leaves its outline and an
+// isotropic material's image unchanged; they turn the tangent field of a turned sphere (the
+// circles of latitude about its lathe axis, mounted along the holder's local y:
+// brdf::sample_to_world((0, 1, 0), tilt, spin)), which is what an anisotropic material's image
+// depends on (sphere_render.h: SphereScene::lathe_axis).
 
 #include "gonio/brdf/brdf.h"
 #include "gonio/devices/camera.h"

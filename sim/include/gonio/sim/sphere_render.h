@@ -5,9 +5,11 @@
 // model as every simulated frame (sensor_model.h). Each pixel's radiance is
 //   L = f_r(wi, wo) E cos(theta_i)    (camera_render.h: patch_radiance)
 // at the first intersection of the pixel's ray with the sphere, in the surface's local frame
-// (z = outward normal; the tangent reference is world +x projected on the tangent plane, world +y
-// where the normal is along x). Pixels whose ray misses the sphere see a black background. With
-// `supersample` = n the pixel is the mean over an n x n grid of sub-pixel rays (anti-aliased
+// (z = outward normal; the tangent is the circle of latitude about the lathe axis a of a turned
+// sphere, (a x n) / |a x n|, when the scene has one (at the poles themselves, where it is
+// undefined, the reference below); else the reference: world +x projected on the tangent plane,
+// world +y where the normal is along x). Pixels whose ray misses the sphere see a black background.
+// With `supersample` = n the pixel is the mean over an n x n grid of sub-pixel rays (anti-aliased
 // silhouette).
 //
 // Pixel coordinates follow OpenCV: pixel (x, y) covers [x - 1/2, x + 1/2] x [y - 1/2, y + 1/2].
@@ -54,6 +56,10 @@ struct SphereScene {
     brdf::Rgbd filter{1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0};  ///< Mono pixel sees filter . f_rgb.
     bool shutter_open = true;
     int supersample = 2;  ///< Sub-pixel rays per axis, >= 1.
+    /// The lathe axis of a turned sphere (world frame, unit): the material's tangent at the normal
+    /// n is (a x n) / |a x n|, the circles of latitude about it (an anisotropic material's
+    /// brushing). Zero: the reference tangent of the file comment (enough for isotropic material).
+    brdf::Vec3d lathe_axis{0, 0, 0};
 };
 
 /// Ground truth at one pixel centre (no supersampling): whether the ray meets the sphere, the
