@@ -131,6 +131,34 @@ inline double lane_sum(const B& x) {
     return s;
 }
 
+/// Samples ahead of the packet in work whose arrays are asked for (about 1 KB per array: 13
+/// streams are more than the hardware prefetcher follows far enough ahead).
+constexpr std::size_t kPrefetch = 128;
+
+inline void prefetch_one(const double* p, std::size_t i) {
+    if (p != nullptr) {
+        __builtin_prefetch(p + i, 0, 0);
+    }
+}
+
+/// Every array's line at sample i (one line of 8 doubles per array).
+inline void prefetch_packet(const PacketInputs& in, std::size_t i) {
+    if (i % 8 != 0) {
+        return;
+    }
+    prefetch_one(in.hxy2, i);
+    prefetch_one(in.hz2, i);
+    prefetch_one(in.tan2_i, i);
+    prefetch_one(in.tan2_o, i);
+    prefetch_one(in.inv_4cc, i);
+    prefetch_one(in.x5, i);
+    prefetch_one(in.cos_i, i);
+    for (int c = 0; c < 3; ++c) {
+        prefetch_one(in.g_d[c], i);
+        prefetch_one(in.s[c], i);
+    }
+}
+
 /// The packets of [begin, end): whole packets from the arrays, the last partial one from a
 /// padded copy whose extra lanes contribute exact zeros (s = 0, cos_i = 0, 1 / (4 cos cos) = 0,
 /// h along the normal).
@@ -143,6 +171,9 @@ void fused_range(const PacketModel& m,
     constexpr std::size_t kW = B::size;
     std::size_t i = begin;
     for (; i + kW <= end; i += kW) {
+        if (i + kPrefetch < end) {
+            prefetch_packet(in, i + kPrefetch);
+        }
         fused_packet<B, K, Deriv>(m, in, i, sums);
     }
     if (i < end) {
