@@ -17,6 +17,8 @@
 //                               directions (1k, 6k, 100k, 1M): in process (solver.wall_time_s
 //                               and CPU), `gonio fit` (wall) and scipy least_squares, same CSV,
 //                               same run
+//   FitCpu/samples:<n>          the default fit alone of the size table's CSV (1k, 6k), repeated:
+//                               process CPU per fit (both threads), log RMSE
 //   CsvRead                     read_dataset_csv of a 1M-row CSV written by write_dataset_csv
 //   GonioVsScipy                `gonio fit DATA.csv` and bench/scipy_fit.py (Debian python3-scipy,
 //                               scipy.optimize.least_squares) on the same 1M-row CSV, same run
@@ -348,6 +350,28 @@ void Size(benchmark::State& state) {
     }
 }
 
+/// The default fit of the size table's CSV alone, repeated: the process CPU time per fit (the CPU
+/// column, both threads counted) and the log RMSE, for the small sizes' fixed costs.
+void FitCpu(benchmark::State& state) {
+    const std::size_t n = static_cast<std::size_t>(state.range(0));
+    const auto data = brdf::read_dataset_csv(csv_of(n));
+    if (!data) {
+        state.SkipWithError(data.error().message.c_str());
+        return;
+    }
+    fitting::FitResult r;
+    for (auto _ : state) {
+        r = *fitting::fit(*data, default_spec());
+    }
+    state.counters["samples"] = static_cast<double>(n);
+    state.counters["iterations"] = r.solver.iterations;
+    state.counters["log_rmse"] = r.metrics.log_rmse.mean();
+    for (const fitting::StageInfo& st : r.solver.stages) {
+        state.counters["s_" + st.name] = st.time_s;
+        state.counters["it_" + st.name] = st.iterations;
+    }
+}
+
 void Ngan86(benchmark::State& state) {
     const nlohmann::json all = materials_json();
     struct Row {
@@ -457,6 +481,13 @@ int main(int argc, char** argv) {
             ->Arg(samples)
             ->ArgName("samples")
             ->Iterations(1)
+            ->Unit(benchmark::kMillisecond);
+    }
+    for (long samples : {1000L, 6000L}) {
+        benchmark::RegisterBenchmark("FitCpu", FitCpu)
+            ->Arg(samples)
+            ->ArgName("samples")
+            ->MeasureProcessCPUTime()
             ->Unit(benchmark::kMillisecond);
     }
     benchmark::RegisterBenchmark("CsvRead", CsvRead)->Unit(benchmark::kMillisecond);

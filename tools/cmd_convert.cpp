@@ -38,6 +38,7 @@ struct ConvertOptions {
     std::string grid = "90x90x180";
     std::string interpolation = "nearest";
     unsigned threads = 0;
+    unsigned phi_i = 0;  // RGL output: incident azimuths (0: as the input needs)
     double radius_bins = 1.5;
 };
 
@@ -185,15 +186,22 @@ int to_rgl(const ConvertOptions& o) {
         table->set_interpolation(o.interpolation == "trilinear" ? Interpolation::kTrilinear
                                                                 : Interpolation::kNearest);
     }
-    Expected<RglWriteReport> rep = write_rgl_bsdf(o.output, **brdf);
+    RglWriteOptions wo;
+    wo.phi_i_count = o.phi_i;
+    Expected<RglWriteReport> rep = write_rgl_bsdf(o.output, **brdf, wo);
     if (!rep) {
         return fail(rep.error().message);
     }
+    const std::size_t azimuths = rgl_phi_i_count(**brdf, wo);
+    const std::string kind =
+        azimuths <= 1 ? std::string("isotropic")
+                      : "anisotropic, " + std::to_string(azimuths) + " incident azimuths";
     std::printf(
-        "%s -> %s: RGL material file, NDF by power iteration (%d iterations, last change %.1e), "
-        "%zu nodes (%zu below the horizon stored as 0), %zu bytes (%.2f s)\n",
+        "%s -> %s: RGL material file (%s), NDF by power iteration (%d iterations, last change "
+        "%.1e), %zu nodes (%zu below the horizon stored as 0), %zu bytes (%.2f s)\n",
         o.input.c_str(),
         o.output.c_str(),
+        kind.c_str(),
         rep->ndf.iterations,
         rep->ndf.change,
         rep->nodes,
@@ -274,6 +282,13 @@ GONIO_COMMAND(convert) {
            "CSV -> table: kernel radius in bins; bins with no sample this close stay invalid")
         ->check(gonio::tools::finite_in(1e-3, 16, "bins"))
         ->capture_default_str();
+    cmd->add_option("--phi-i",
+                    opts->phi_i,
+                    "RGL output: incident azimuths (0 = as the input needs: an isotropic file for "
+                    "an isotropic input, 16 azimuths for an anisotropic one; 1 = isotropic; 2-360 "
+                    "= an anisotropic file with that many)")
+        ->check(gonio::tools::integer_in(0, 360))
+        ->capture_default_str();
     return [opts, cmd_ptr = cmd]() -> int {
         gonio::brdf::TableGrid grid;
         if (!parse_grid(opts->grid, &grid)) {
@@ -315,6 +330,10 @@ GONIO_COMMAND(convert) {
                 return fail(ok.error().message);
             }
             return to_rgl(*opts);
+        }
+        if (cmd_ptr->count("--phi-i") > 0) {
+            return gonio::tools::usage_error(
+                "convert", "--phi-i applies to an RGL *.bsdf output only, not " + opts->output);
         }
         // The options each conversion honours; the others are refused, naming the conversion.
         const bool csv_in = ends_with(opts->input, ".csv");

@@ -97,11 +97,11 @@ double rgl_u_to_phi(double u) {
 }
 
 Expected<RglBsdf> RglBsdf::from_tensor(const TensorFile& file, const std::string& label) {
-    // What the file is, before its fields are checked: spectral-only and anisotropic files are
-    // refused with what is supported.
+    // What the file is, before its fields are checked: spectral-only files are refused with what
+    // is supported.
     const std::string supported =
-        "gonio reads isotropic RGB files (one phi_i node and an \"rgb\" field), as the RGL "
-        "database publishes for every material";
+        "gonio reads RGB files (an \"rgb\" field): isotropic (one phi_i node), as the RGL "
+        "database publishes for every material, and anisotropic (phi_i nodes over a full turn)";
     if (file.find("rgb") == nullptr && (file.find("spectra") || file.find("wavelengths"))) {
         return make_error(label +
                           ": a spectral RGL file (fields \"spectra\" and \"wavelengths\", "
@@ -112,10 +112,35 @@ Expected<RglBsdf> RglBsdf::from_tensor(const TensorFile& file, const std::string
     if (!phi_i) {
         return tl::unexpected(phi_i.error());
     }
-    if ((*phi_i)->shape[0] != 1) {
-        return make_error(label + ": an anisotropic RGL file (" +
-                          std::to_string((*phi_i)->shape[0]) + " phi_i nodes); " + supported);
+    std::vector<float> phi_nodes = (*phi_i)->as_float32();
+    if (phi_nodes.size() == 2) {
+        return make_error(label +
+                          ": field \"phi_i\" has 2 nodes (an isotropic file has one; an "
+                          "anisotropic one at least 3 over a full turn); " +
+                          supported);
     }
+    for (std::size_t k = 0; k < phi_nodes.size() && phi_nodes.size() > 1; ++k) {
+        const float p = phi_nodes[k];
+        if (!(p >= -3.1416f && p <= 3.1416f) || (k > 0 && !(p > phi_nodes[k - 1]))) {
+            return make_error(label + ": field \"phi_i\" node " + std::to_string(k) + " = " +
+                              std::to_string(p) +
+                              " (nodes must increase strictly within [-pi, pi])");
+        }
+    }
+    if (phi_nodes.size() > 2) {
+        // The span of the nodes is a full turn divided by the symmetry the file was reduced by;
+        // the readers (RGL's, Mitsuba 3's) evaluate only unreduced files.
+        const double span = static_cast<double>(phi_nodes.back()) - phi_nodes.front();
+        const long reduction = std::lround(2.0 * kPi / span);
+        if (reduction != 1) {
+            char deg[32];
+            std::snprintf(deg, sizeof deg, "%.1f", span * 180.0 / kPi);
+            return make_error(label + ": field \"phi_i\" spans " + std::string(deg) +
+                              " deg, a file reduced by a " + std::to_string(reduction) +
+                              "-fold symmetry; " + supported + " (reduction 1)");
+        }
+    }
+    const std::uint64_t n_phi = phi_nodes.size();
     auto theta_i = float_field(file, label, "theta_i", 1);
     auto ndf = float_field(file, label, "ndf", 2);
     auto sigma = float_field(file, label, "sigma", 2);
@@ -152,14 +177,17 @@ Expected<RglBsdf> RglBsdf::from_tensor(const TensorFile& file, const std::string
     if (ns[0] < 2 || ns[1] < 2 || ss[0] < 2 || ss[1] < 2) {
         return disagree("ndf and sigma need at least 2 x 2 nodes");
     }
-    if (vs[0] != 1 || vs[1] != n_theta || vs[2] < 2 || vs[3] < 2) {
-        return disagree("vndf must be [phi_i = 1, theta_i, >= 2, >= 2]");
+    if (n_phi < 1) {
+        return disagree("phi_i has no node");
     }
-    if (rs[0] != 1 || rs[1] != n_theta || rs[2] != 3 || rs[3] < 2 || rs[3] != rs[4]) {
-        return disagree("rgb must be [phi_i = 1, theta_i, 3, N, N] with N >= 2");
+    if (vs[0] != n_phi || vs[1] != n_theta || vs[2] < 2 || vs[3] < 2) {
+        return disagree("vndf must be [phi_i, theta_i, >= 2, >= 2]");
     }
-    if (ls[0] != 1 || ls[1] != n_theta || ls[2] != rs[3] || ls[3] != rs[4]) {
-        return disagree("luminance must be [phi_i = 1, theta_i, N, N] like rgb");
+    if (rs[0] != n_phi || rs[1] != n_theta || rs[2] != 3 || rs[3] < 2 || rs[3] != rs[4]) {
+        return disagree("rgb must be [phi_i, theta_i, 3, N, N] with N >= 2");
+    }
+    if (ls[0] != n_phi || ls[1] != n_theta || ls[2] != rs[3] || ls[3] != rs[4]) {
+        return disagree("luminance must be [phi_i, theta_i, N, N] like rgb");
     }
     // Sizes are bounded by the file size (the codec checked every field against it), so the
     // products below fit.
@@ -167,6 +195,8 @@ Expected<RglBsdf> RglBsdf::from_tensor(const TensorFile& file, const std::string
     b.label_ = label;
     b.n_ = static_cast<std::size_t>(rs[3]);
     b.jacobian_ = jac->data[0] != 0;
+    b.isotropic_ = n_phi == 1;
+    b.phi_i_ = std::move(phi_nodes);
     b.theta_i_ = (*theta_i)->as_float32();
     for (std::size_t k = 0; k < b.theta_i_.size(); ++k) {
         const float t = b.theta_i_[k];
@@ -197,9 +227,9 @@ Expected<RglBsdf> RglBsdf::from_tensor(const TensorFile& file, const std::string
     }
     b.ndf_ = BilinearGrid(ns[1], ns[0], 1, std::move(ndf_v));
     b.sigma_ = BilinearGrid(ss[1], ss[0], 1, std::move(sigma_v));
-    b.rgb_ = BilinearGrid(rs[4], rs[3], n_theta * 3, std::move(rgb_v));
-    Expected<Warp2D> warp =
-        Warp2D::build(vs[3], vs[2], (*vndf)->as_float32(), b.theta_i_, label + ": field \"vndf\"");
+    b.rgb_ = BilinearGrid(rs[4], rs[3], n_phi * n_theta * 3, std::move(rgb_v));
+    Expected<Warp2D> warp = Warp2D::build(
+        vs[3], vs[2], (*vndf)->as_float32(), b.phi_i_, b.theta_i_, label + ": field \"vndf\"");
     if (!warp) {
         return tl::unexpected(warp.error());
     }
@@ -217,7 +247,7 @@ Expected<RglBsdf> RglBsdf::from_tensor(const TensorFile& file, const std::string
         }
     }
     if (const TensorField* v = file.find("valid")) {
-        const std::uint64_t bits = n_theta * rs[3] * rs[4];
+        const std::uint64_t bits = n_phi * n_theta * rs[3] * rs[4];
         if (tensor_dtype_size(v->dtype) != 1 || v->data.size() != (bits + 7) / 8) {
             return make_error(label + ": field \"valid\" is " + v->describe() + ", expected " +
                               std::to_string((bits + 7) / 8) + " bytes (one bit per rgb node)");
@@ -248,22 +278,17 @@ Rgbd RglBsdf::eval_unclipped(const Vec3d& wi, const Vec3d& wo) const {
     const float phi_m_f = std::atan2(m_f.y(), m_f.x());
     const float u_wi_x = std::sqrt(theta_i_f * (2.0f / kPiF));
     const float u_wi_y = (phi_i_f + kPiF) / (2.0f * kPiF);
-    float u_phi = (phi_m_f - phi_i_f + kPiF) / (2.0f * kPiF);
+    // An isotropic file measures the half vector's azimuth from the incident one; an anisotropic
+    // file from the sample's x axis.
+    float u_phi = ((isotropic_ ? phi_m_f - phi_i_f : phi_m_f) + kPiF) / (2.0f * kPiF);
     u_phi -= std::floor(u_phi);
     const float u_m_x = std::sqrt(theta_m_f * (2.0f / kPiF));
-    const std::array<float, 2> s = vndf_.invert_f(u_m_x, u_phi, theta_i_f);
-    // theta_i weight between the rgb slices, as the warp computes it.
-    std::size_t slice = 0;
-    float w1 = 0.0f;
-    if (theta_i_.size() >= 2) {
-        slice = param_weight(theta_i_, theta_i_f).index;
-        const float p0 = theta_i_[slice], p1 = theta_i_[slice + 1];
-        w1 = std::min(std::max((theta_i_f - p0) / (p1 - p0), 0.0f), 1.0f);
-    }
-    const std::size_t stride = theta_i_.size() >= 2 ? 3 : 0;
+    const std::array<float, 2> s = vndf_.invert_f(u_m_x, u_phi, phi_i_f, theta_i_f);
+    // (phi_i, theta_i) weights between the rgb slices, as the warp computes them.
+    const SliceWeightsF sw = slice_weights_f(phi_i_, theta_i_, phi_i_f, theta_i_f);
     Eigen::Array3f fr;
     for (std::size_t c = 0; c < 3; ++c) {
-        fr[static_cast<Eigen::Index>(c)] = rgb_.eval_f(s[0], s[1], slice * 3 + c, stride, w1);
+        fr[static_cast<Eigen::Index>(c)] = rgb_.eval_f(s[0], s[1], sw, 3, c);
     }
     if (jacobian_) {
         fr = fr * ndf_.eval_f(u_m_x, u_phi, 0, 0, 0.0f) /
@@ -283,12 +308,24 @@ Rgbd RglBsdf::eval(const Vec3d& wi, const Vec3d& wo) const {
 
 std::string RglBsdf::describe() const {
     char buf[160];
-    std::snprintf(buf,
-                  sizeof buf,
-                  ": RGL material file (isotropic RGB, %zu theta_i nodes, %zu x %zu nodes each)",
-                  theta_i_.size(),
-                  n_,
-                  n_);
+    if (isotropic_) {
+        std::snprintf(
+            buf,
+            sizeof buf,
+            ": RGL material file (isotropic RGB, %zu theta_i nodes, %zu x %zu nodes each)",
+            theta_i_.size(),
+            n_,
+            n_);
+    } else {
+        std::snprintf(buf,
+                      sizeof buf,
+                      ": RGL material file (anisotropic RGB, %zu phi_i x %zu theta_i nodes, %zu x "
+                      "%zu nodes each)",
+                      phi_i_.size(),
+                      theta_i_.size(),
+                      n_,
+                      n_);
+    }
     return label_ + buf + (description_.empty() ? "" : ", \"" + description_ + "\"");
 }
 
@@ -305,31 +342,43 @@ std::string RglBsdf::statistics() const {
 std::vector<RglNode> RglBsdf::nodes() const {
     std::vector<RglNode> out;
     const double step = 1.0 / static_cast<double>(n_ - 1);
-    for (std::size_t k = 0; k < theta_i_.size(); ++k) {
-        const double theta_i = theta_i_[k];
-        const Vec3d wi(std::sin(theta_i), 0.0, std::cos(theta_i));
-        const Point2 u_wi = {rgl_theta_to_u(theta_i), rgl_phi_to_u(0.0)};
-        const double sigma = sigma_.eval(u_wi, 0);
-        for (std::size_t row = 0; row + 1 < n_; ++row) {
-            for (std::size_t col = 0; col < n_; ++col) {
-                if (col == 0 && row > 0) {
-                    continue;  // every row's first column is the normal half vector
+    // An anisotropic file's last phi_i node is its first one a full turn on (the same wi).
+    const std::size_t n_phi = isotropic_ ? 1 : phi_i_.size() - 1;
+    for (std::size_t p = 0; p < n_phi; ++p) {
+        const double phi_i = isotropic_ ? 0.0 : static_cast<double>(phi_i_[p]);
+        for (std::size_t k = 0; k < theta_i_.size(); ++k) {
+            const double theta_i = theta_i_[k];
+            const Vec3d wi(std::sin(theta_i) * std::cos(phi_i),
+                           std::sin(theta_i) * std::sin(phi_i),
+                           std::cos(theta_i));
+            const Point2 u_wi = {rgl_theta_to_u(theta_i), rgl_phi_to_u(phi_i)};
+            const double sigma = sigma_.eval(u_wi, 0);
+            for (std::size_t row = 0; row + 1 < n_; ++row) {
+                for (std::size_t col = 0; col < n_; ++col) {
+                    if (col == 0 && row > 0) {
+                        continue;  // every row's first column is the normal half vector
+                    }
+                    RglNode node;
+                    node.phi_index = p;
+                    node.theta_index = k;
+                    node.row = row;
+                    node.column = col;
+                    node.wi = wi;
+                    node.u_m = vndf_.sample(
+                        {static_cast<double>(col) * step, static_cast<double>(row) * step},
+                        phi_i,
+                        theta_i);
+                    const double theta_m = rgl_u_to_theta(node.u_m[0]);
+                    // Relative to phi_i (0 here) in an isotropic file, absolute in an anisotropic
+                    // one.
+                    const double phi_m = rgl_u_to_phi(node.u_m[1]);
+                    const Vec3d m(std::sin(theta_m) * std::cos(phi_m),
+                                  std::sin(theta_m) * std::sin(phi_m),
+                                  std::cos(theta_m));
+                    node.wo = 2.0 * wi.dot(m) * m - wi;
+                    node.factor = jacobian_ ? ndf_.eval(node.u_m, 0) / (4.0 * sigma) : 1.0;
+                    out.push_back(node);
                 }
-                RglNode node;
-                node.theta_index = k;
-                node.row = row;
-                node.column = col;
-                node.wi = wi;
-                node.u_m = vndf_.sample(
-                    {static_cast<double>(col) * step, static_cast<double>(row) * step}, theta_i);
-                const double theta_m = rgl_u_to_theta(node.u_m[0]);
-                const double phi_m = rgl_u_to_phi(node.u_m[1]);
-                const Vec3d m(std::sin(theta_m) * std::cos(phi_m),
-                              std::sin(theta_m) * std::sin(phi_m),
-                              std::cos(theta_m));
-                node.wo = 2.0 * wi.dot(m) * m - wi;
-                node.factor = jacobian_ ? ndf_.eval(node.u_m, 0) / (4.0 * sigma) : 1.0;
-                out.push_back(node);
             }
         }
     }
@@ -341,7 +390,8 @@ Rgbd RglBsdf::stored(const RglNode& node) const {
     const std::size_t plane = n_ * n_;
     for (std::size_t c = 0; c < 3; ++c) {
         v[static_cast<Eigen::Index>(c)] =
-            rgb_.values()[(node.theta_index * 3 + c) * plane + node.row * n_ + node.column];
+            rgb_.values()[((node.phi_index * theta_i_.size() + node.theta_index) * 3 + c) * plane +
+                          node.row * n_ + node.column];
     }
     return v;
 }
@@ -350,7 +400,8 @@ bool RglBsdf::node_valid(const RglNode& node) const {
     if (valid_.empty()) {
         return true;
     }
-    const std::size_t bit = (node.theta_index * n_ + node.row) * n_ + node.column;
+    const std::size_t slice = node.phi_index * theta_i_.size() + node.theta_index;
+    const std::size_t bit = (slice * n_ + node.row) * n_ + node.column;
     return (valid_[bit / 8] >> (7 - bit % 8)) & 1u;
 }
 
@@ -373,7 +424,7 @@ Dataset rgl_nodes_to_dataset(const RglBsdf& bsdf) {
         }
         Sample s;
         s.theta_i = static_cast<double>(bsdf.theta_i()[node.theta_index]);
-        s.phi_i = 0.0;
+        s.phi_i = std::atan2(node.wi.y(), node.wi.x());
         s.theta_o = elevation(node.wo);
         s.phi_o = std::atan2(node.wo.y(), node.wo.x());
         s.value = (bsdf.stored(node) * node.factor / cos_o).max(0.0);

@@ -60,6 +60,109 @@ ParamWeight param_weight(const std::vector<float>& nodes, double value) {
     return w;
 }
 
+SliceWeights slice_weights(const std::vector<float>& outer_nodes,
+                           const std::vector<float>& inner_nodes,
+                           double outer,
+                           double inner) {
+    SliceWeights w;
+    const std::size_t n_inner = std::max<std::size_t>(inner_nodes.size(), 1);
+    const ParamWeight o = param_weight(outer_nodes, outer);
+    const ParamWeight i = param_weight(inner_nodes, inner);
+    w.base = o.index * n_inner + i.index;
+    w.inner_step = inner_nodes.size() >= 2 ? 1 : 0;
+    w.outer_step = outer_nodes.size() >= 2 ? n_inner : 0;
+    w.inner_w1 = i.w1;
+    w.outer_w1 = o.w1;
+    return w;
+}
+
+namespace {
+
+// One parameter's node and weights in single precision, as the format's readers compute them.
+void weight_f(
+    const std::vector<float>& nodes, float value, std::size_t* index, float* w0, float* w1) {
+    *index = 0;
+    *w1 = 0.0f;
+    if (nodes.size() >= 2) {
+        *index = param_weight(nodes, value).index;
+        const float p0 = nodes[*index], p1 = nodes[*index + 1];
+        *w1 = std::min(std::max((value - p0) / (p1 - p0), 0.0f), 1.0f);
+        if (std::isnan(*w1)) {
+            *w1 = 0.0f;
+        }
+    }
+    *w0 = 1.0f - *w1;
+}
+
+}  // namespace
+
+SliceWeightsF slice_weights_f(const std::vector<float>& outer_nodes,
+                              const std::vector<float>& inner_nodes,
+                              float outer,
+                              float inner) {
+    SliceWeightsF w;
+    const std::size_t n_inner = std::max<std::size_t>(inner_nodes.size(), 1);
+    std::size_t oi = 0, ii = 0;
+    weight_f(outer_nodes, outer, &oi, &w.outer_w0, &w.outer_w1);
+    weight_f(inner_nodes, inner, &ii, &w.inner_w0, &w.inner_w1);
+    w.base = oi * n_inner + ii;
+    w.inner_step = inner_nodes.size() >= 2 ? 1 : 0;
+    w.outer_step = outer_nodes.size() >= 2 ? n_inner : 0;
+    return w;
+}
+
+namespace {
+
+// A table value between the slices of `w`: linear in each parameter, the outer one first.
+double lerp_slices(const float* table,
+                   std::size_t slice_size,
+                   std::size_t index,
+                   const SliceWeights& w,
+                   std::size_t scale,
+                   std::size_t offset) {
+    auto inner = [&](std::size_t s) {
+        const double v0 = table[(s * scale + offset) * slice_size + index];
+        if (w.inner_w1 == 0.0) {
+            return v0;
+        }
+        return (1 - w.inner_w1) * v0 +
+               w.inner_w1 * table[((s + w.inner_step) * scale + offset) * slice_size + index];
+    };
+    const double v0 = inner(w.base);
+    if (w.outer_w1 == 0.0) {
+        return v0;
+    }
+    return (1 - w.outer_w1) * v0 + w.outer_w1 * inner(w.base + w.outer_step);
+}
+
+// The same in single precision, in the readers' order: along the outer parameter (phi_i) at
+// each of the inner parameter's two nodes, then along the inner one. A parameter with one node
+// takes no fma (x * 1 + y * 0 would be x anyway for a finite y).
+float lerp_slices_f(const float* table,
+                    std::size_t slice_size,
+                    std::size_t index,
+                    const SliceWeightsF& w,
+                    std::size_t scale,
+                    std::size_t offset) {
+    auto outer = [&](std::size_t s) {
+        const float v0 = table[(s * scale + offset) * slice_size + index];
+        if (w.outer_step == 0) {
+            return v0;
+        }
+        return std::fma(
+            v0,
+            w.outer_w0,
+            table[((s + w.outer_step) * scale + offset) * slice_size + index] * w.outer_w1);
+    };
+    const float a = outer(w.base);
+    if (w.inner_step == 0) {
+        return a;
+    }
+    return std::fma(a, w.inner_w0, outer(w.base + w.inner_step) * w.inner_w1);
+}
+
+}  // namespace
+
 BilinearGrid::BilinearGrid(std::size_t nx,
                            std::size_t ny,
                            std::size_t slices,
@@ -91,6 +194,42 @@ double BilinearGrid::eval(const Point2& p, std::size_t slice, std::size_t stride
     return (1 - w1) * v0 + w1 * bilinear(slice + stride);
 }
 
+double BilinearGrid::eval(const Point2& p,
+                          const SliceWeights& w,
+                          std::size_t scale,
+                          std::size_t offset) const {
+    const double x = clamp01(p[0]) * static_cast<double>(nx_ - 1);
+    const double y = clamp01(p[1]) * static_cast<double>(ny_ - 1);
+    const std::size_t i = clamp_index(x, nx_ - 1);
+    const std::size_t j = clamp_index(y, ny_ - 1);
+    const double fx = x - static_cast<double>(i);
+    const double fy = y - static_cast<double>(j);
+    const std::size_t n = nx_ * ny_;
+    auto at = [&](std::size_t ii, std::size_t jj) {
+        return lerp_slices(values_.data(), n, jj * nx_ + ii, w, scale, offset);
+    };
+    return (1 - fy) * ((1 - fx) * at(i, j) + fx * at(i + 1, j)) +
+           fy * ((1 - fx) * at(i, j + 1) + fx * at(i + 1, j + 1));
+}
+
+float BilinearGrid::eval_f(
+    float x, float y, const SliceWeightsF& w, std::size_t scale, std::size_t offset) const {
+    // NaN goes to 0 (clamp01's rule): a lookup never leaves the table.
+    x = (x > 0.0f ? std::min(x, 1.0f) : 0.0f) * static_cast<float>(nx_ - 1);
+    y = (y > 0.0f ? std::min(y, 1.0f) : 0.0f) * static_cast<float>(ny_ - 1);
+    const std::size_t i = std::min(static_cast<std::size_t>(x), nx_ - 2);
+    const std::size_t j = std::min(static_cast<std::size_t>(y), ny_ - 2);
+    const float x1 = x - static_cast<float>(i), y1 = y - static_cast<float>(j);
+    const float x0 = 1.0f - x1, y0 = 1.0f - y1;
+    const std::size_t n = nx_ * ny_;
+    auto at = [&](std::size_t ii, std::size_t jj) {
+        return lerp_slices_f(values_.data(), n, jj * nx_ + ii, w, scale, offset);
+    };
+    return std::fma(y0,
+                    std::fma(x0, at(i, j), x1 * at(i + 1, j)),
+                    y1 * std::fma(x0, at(i, j + 1), x1 * at(i + 1, j + 1)));
+}
+
 float BilinearGrid::eval_f(
     float x, float y, std::size_t slice, std::size_t stride, float w1) const {
     // NaN goes to 0 (clamp01's rule): a lookup never leaves the table.
@@ -118,6 +257,15 @@ Expected<Warp2D> Warp2D::build(std::size_t nx,
                                const std::vector<float>& values,
                                std::vector<float> params,
                                const std::string& label) {
+    return build(nx, ny, values, {0.0f}, std::move(params), label);
+}
+
+Expected<Warp2D> Warp2D::build(std::size_t nx,
+                               std::size_t ny,
+                               const std::vector<float>& values,
+                               std::vector<float> outer_params,
+                               std::vector<float> params,
+                               const std::string& label) {
     if (nx < 2 || ny < 2) {
         return make_error(label + ": a " + std::to_string(ny) + " x " + std::to_string(nx) +
                           " grid (a warp needs at least 2 x 2 nodes)");
@@ -125,24 +273,31 @@ Expected<Warp2D> Warp2D::build(std::size_t nx,
     if (params.empty()) {
         params.push_back(0.0f);
     }
-    const std::size_t slices = params.size();
+    if (outer_params.empty()) {
+        outer_params.push_back(0.0f);
+    }
+    const std::size_t slices = outer_params.size() * params.size();
     const std::size_t n = nx * ny;
     if (values.size() != slices * n) {
         return make_error(label + ": " + std::to_string(values.size()) + " values, expected " +
                           std::to_string(slices) + " x " + std::to_string(ny) + " x " +
                           std::to_string(nx));
     }
-    for (std::size_t k = 0; k < slices; ++k) {
-        if (!std::isfinite(params[k]) || (k > 0 && !(params[k] > params[k - 1]))) {
-            return make_error(label +
-                              ": parameter nodes must be finite and strictly increasing "
-                              "(node " +
-                              std::to_string(k) + " is " + std::to_string(params[k]) + ")");
+    for (const std::vector<float>* nodes : {&outer_params, &params}) {
+        for (std::size_t k = 0; k < nodes->size(); ++k) {
+            const float v = (*nodes)[k];
+            if (!std::isfinite(v) || (k > 0 && !(v > (*nodes)[k - 1]))) {
+                return make_error(label +
+                                  ": parameter nodes must be finite and strictly increasing "
+                                  "(node " +
+                                  std::to_string(k) + " is " + std::to_string(v) + ")");
+            }
         }
     }
     Warp2D w;
     w.nx_ = nx;
     w.ny_ = ny;
+    w.outer_params_ = std::move(outer_params);
     w.params_ = std::move(params);
     w.density_.resize(slices * n);
     w.conditional_.resize(slices * n);
@@ -196,16 +351,12 @@ Expected<Warp2D> Warp2D::build(std::size_t nx,
 double Warp2D::lerp(const std::vector<float>& table,
                     std::size_t slice_size,
                     std::size_t index,
-                    const ParamWeight& w) const {
-    const double v0 = table[w.index * slice_size + index];
-    if (w.w1 == 0.0) {
-        return v0;
-    }
-    return (1 - w.w1) * v0 + w.w1 * table[(w.index + 1) * slice_size + index];
+                    const SliceWeights& w) const {
+    return lerp_slices(table.data(), slice_size, index, w, 1, 0);
 }
 
-Point2 Warp2D::sample(const Point2& xi_in, double param) const {
-    const ParamWeight w = param_weight(params_, param);
+Point2 Warp2D::sample(const Point2& xi_in, double outer, double param) const {
+    const SliceWeights w = slice_weights(outer_params_, params_, outer, param);
     const std::size_t n = nx_ * ny_;
     const double xi_y = clamp01(xi_in[1]);
     double xi_x = clamp01(xi_in[0]);
@@ -249,8 +400,8 @@ Point2 Warp2D::sample(const Point2& xi_in, double param) const {
             (static_cast<double>(r) + fy) / static_cast<double>(ny_ - 1)};
 }
 
-Point2 Warp2D::invert(const Point2& p, double param) const {
-    const ParamWeight w = param_weight(params_, param);
+Point2 Warp2D::invert(const Point2& p, double outer, double param) const {
+    const SliceWeights w = slice_weights(outer_params_, params_, outer, param);
     const std::size_t n = nx_ * ny_;
     const double x = clamp01(p[0]) * static_cast<double>(nx_ - 1);
     const double y = clamp01(p[1]) * static_cast<double>(ny_ - 1);
@@ -275,26 +426,13 @@ Point2 Warp2D::invert(const Point2& p, double param) const {
 float Warp2D::lerp_f(const std::vector<float>& table,
                      std::size_t slice_size,
                      std::size_t index,
-                     std::size_t slice,
-                     float w0,
-                     float w1) const {
-    const float v0 = table[slice * slice_size + index];
-    if (params_.size() < 2) {
-        return v0;
-    }
-    return std::fma(v0, w0, table[(slice + 1) * slice_size + index] * w1);
+                     const SliceWeightsF& w) const {
+    return lerp_slices_f(table.data(), slice_size, index, w, 1, 0);
 }
 
-std::array<float, 2> Warp2D::invert_f(float x, float y, float param) const {
-    // The parameter weight in single precision.
-    std::size_t slice = 0;
-    float w1 = 0.0f;
-    if (params_.size() >= 2) {
-        slice = param_weight(params_, param).index;
-        const float p0 = params_[slice], p1 = params_[slice + 1];
-        w1 = std::min(std::max((param - p0) / (p1 - p0), 0.0f), 1.0f);
-    }
-    const float w0 = 1.0f - w1;
+std::array<float, 2> Warp2D::invert_f(float x, float y, float outer, float param) const {
+    // The parameter weights in single precision.
+    const SliceWeightsF w = slice_weights_f(outer_params_, params_, outer, param);
     const std::size_t n = nx_ * ny_;
     // NaN goes to 0 (clamp01's rule): a lookup never leaves the table.
     x = (x > 0.0f ? std::min(x, 1.0f) : 0.0f) * static_cast<float>(nx_ - 1);
@@ -303,9 +441,7 @@ std::array<float, 2> Warp2D::invert_f(float x, float y, float param) const {
     const std::size_t r = std::min(static_cast<std::size_t>(y), ny_ - 2);
     x -= static_cast<float>(c);
     y -= static_cast<float>(r);
-    auto at = [&](const std::vector<float>& t, std::size_t i) {
-        return lerp_f(t, n, i, slice, w0, w1);
-    };
+    auto at = [&](const std::vector<float>& t, std::size_t i) { return lerp_f(t, n, i, w); };
     const float v00 = at(density_, r * nx_ + c), v10 = at(density_, r * nx_ + c + 1);
     const float v01 = at(density_, (r + 1) * nx_ + c), v11 = at(density_, (r + 1) * nx_ + c + 1);
     // Density along x in the row at y, linear between c0 and c1 inside the patch.
@@ -319,12 +455,12 @@ std::array<float, 2> Warp2D::invert_f(float x, float y, float param) const {
     const float row_mass = (1.0f - y) * r0 + y * r1;
     x = row_mass > 0.0f ? x / row_mass : 0.0f;
     y *= r0 + 0.5f * y * (r1 - r0);
-    y += lerp_f(marginal_, ny_, r, slice, w0, w1);
+    y += lerp_f(marginal_, ny_, r, w);
     return {x, y};
 }
 
-double Warp2D::pdf(const Point2& p, double param) const {
-    const ParamWeight w = param_weight(params_, param);
+double Warp2D::pdf(const Point2& p, double outer, double param) const {
+    const SliceWeights w = slice_weights(outer_params_, params_, outer, param);
     const std::size_t n = nx_ * ny_;
     const double x = clamp01(p[0]) * static_cast<double>(nx_ - 1);
     const double y = clamp01(p[1]) * static_cast<double>(ny_ - 1);

@@ -234,7 +234,7 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
             "fit options: starts >= 1, max_iterations >= 1, relative_floor > 0, loss_scale > 0, "
             "polish_iterations >= 0 and reweight_rounds >= 0 are required");
     }
-    FitContext ctx{o, std::make_shared<const ParameterMap>(*map_or), {}, 0};
+    FitContext ctx{o, std::make_shared<const ParameterMap>(*map_or), {}, 0, {}, nullptr};
     ctx.threads = detail::thread_count(o.num_threads);
     ctx.cost.residual = o.residual;
     ctx.cost.relative_floor = o.relative_floor;

@@ -20,6 +20,7 @@
 #include "gonio/fitting/cost.h"
 #include "gonio/fitting/fit.h"
 #include "gonio/fitting/prepared_samples.h"
+#include "gonio/fitting/reduction.h"
 
 namespace gonio::fitting::detail {
 
@@ -64,6 +65,10 @@ struct FitContext {
     std::shared_ptr<const ParameterMap> map;
     CostOptions cost;
     int threads = 1;
+    /// The stratum coordinates (reduction.h) of the working set `*coords_of`, kept by
+    /// reduce_work for the next reduction of the same set (the scoring set and the screen).
+    mutable std::vector<StratumCoords> work_coords;
+    mutable const std::vector<brdf::Sample>* coords_of = nullptr;
 };
 
 using Clock = std::chrono::steady_clock;
@@ -77,6 +82,13 @@ void record_stage(SolverInfo& solver,
                   int iterations);
 
 // --- initialisation.cpp ----------------------------------------------------------------------
+
+/// stratified_reduce of the working set `work` to `budget` samples (the whole set when it is not
+/// larger); the half/difference transform of its samples is done once per set and kept in `ctx`.
+std::vector<brdf::Sample> reduce_work(const FitContext& ctx,
+                                      const std::vector<brdf::Sample>& work,
+                                      std::size_t budget,
+                                      std::uint64_t seed);
 
 /// The starts of the solve, best first: data-driven candidates scored by their cost
 /// (FitOptions::auto_init) or the template's values (an error when one is outside its bounds).

@@ -242,11 +242,10 @@ std::vector<double> clamp_start(const ParameterMap& map, std::vector<double> x) 
 
 /// Data-driven starts scored by the objective, best first.
 std::vector<Candidate> initial_candidates(const std::shared_ptr<const ParameterMap>& map_ptr,
-                                          const std::vector<Sample>& samples,
+                                          const std::vector<Sample>& score_set,
                                           const FitOptions& o,
                                           const CostOptions& co) {
     const ParameterMap& map = *map_ptr;
-    const std::vector<Sample> score_set = stratified_reduce(samples, kScoreSamples, o.seed);
     const PreparedSamples scorer(map_ptr, score_set, co);
     const int threads = thread_count(o.num_threads);
     ModelD m = map.base();
@@ -349,11 +348,28 @@ std::vector<Candidate> initial_candidates(const std::shared_ptr<const ParameterM
 
 }  // namespace
 
+std::vector<Sample> reduce_work(const FitContext& ctx,
+                                const std::vector<Sample>& work,
+                                std::size_t budget,
+                                std::uint64_t seed) {
+    if (budget == 0 || budget >= work.size()) {
+        return work;
+    }
+    if (ctx.coords_of != &work || ctx.work_coords.size() != work.size()) {
+        ctx.work_coords = stratum_coordinates(work);
+        ctx.coords_of = &work;
+    }
+    return stratified_reduce(work, budget, seed, ctx.work_coords);
+}
+
 Expected<std::vector<Candidate>> starting_points(const FitContext& ctx,
                                                  const FitSpec& spec,
                                                  const std::vector<Sample>& work) {
     if (ctx.options.auto_init) {
-        return initial_candidates(ctx.map, work, ctx.options, ctx.cost);
+        return initial_candidates(ctx.map,
+                                  reduce_work(ctx, work, kScoreSamples, ctx.options.seed),
+                                  ctx.options,
+                                  ctx.cost);
     }
     std::vector<Candidate> candidates;
     candidates.push_back({ctx.map->values_of(spec.model), 0});
@@ -381,7 +397,7 @@ void screen_starts(const FitContext& ctx,
         return;
     }
     const auto since = Clock::now();
-    const std::vector<Sample> screen = stratified_reduce(work, kScreenSamples, o.seed + 2);
+    const std::vector<Sample> screen = reduce_work(ctx, work, kScreenSamples, o.seed + 2);
     const auto ps_screen = prepare(ctx, screen);
     const std::size_t k = std::min(candidates.size(), kScreenStarts);
     ceres::Solver::Summary last;

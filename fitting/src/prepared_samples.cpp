@@ -138,6 +138,23 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
                                   sp.field == Field::kExponent || sp.field == Field::kGamma ||
                                   sp.field == Field::kScale || sp.field == Field::kF0);
     }
+    // The fused packet passes (normal_equation_packets.h) take the log residual of isotropic GGX
+    // and Beckmann lobes with no or Smith shadowing, in the closed form.
+    packets_ = analytic_ && form_ == ResidualForm::kLog && !anisotropic_ && slots_ <= 16 &&
+               base.lobes.size() <= static_cast<std::size_t>(PacketModel::kMaxLobes);
+    for (const brdf::Lobe<double>& l : base.lobes) {
+        packets_ = packets_ &&
+                   (l.distribution == brdf::Distribution::kGgx ||
+                    l.distribution == brdf::Distribution::kBeckmann) &&
+                   (l.shadowing == brdf::Shadowing::kNone ||
+                    l.shadowing == brdf::Shadowing::kSmithCorrelated ||
+                    l.shadowing == brdf::Shadowing::kSmithSeparable);
+    }
+    for (int k = 0; k < slots_; ++k) {
+        packets_ =
+            packets_ && (slot_field_[k] == Field::kDiffuse || slot_field_[k] == Field::kAlphaX ||
+                         slot_field_[k] == Field::kScale || slot_field_[k] == Field::kF0);
+    }
     auto alloc = [&](std::vector<double>& v, bool need) {
         if (need) {
             resize_huge(v, n_);
@@ -740,6 +757,64 @@ bool PreparedSamples::analytic_log_run(
     return finite;
 }
 
+void PreparedSamples::packet_setup(const brdf::ModelD& m, PacketModel& pm, PacketInputs& in) const {
+    pm.lobes = static_cast<int>(m.lobes.size());
+    for (int l = 0; l < pm.lobes; ++l) {
+        const brdf::Lobe<double>& lobe = m.lobes[l];
+        pm.kind[l].beckmann = lobe.distribution == brdf::Distribution::kBeckmann;
+        pm.kind[l].smith = lobe.shadowing == brdf::Shadowing::kSmithCorrelated  ? 1
+                           : lobe.shadowing == brdf::Shadowing::kSmithSeparable ? 2
+                                                                                : 0;
+        pm.alpha[l] = lobe.alpha_x;
+        pm.schlick[l] = lobe.fresnel.type == brdf::FresnelType::kSchlick;
+        for (int c = 0; c < 3; ++c) {
+            pm.scale[l][c] = lobe.scale[c];
+            pm.f0[l][c] = lobe.fresnel.f0[c];
+        }
+    }
+    for (int c = 0; c < 3; ++c) {
+        pm.diffuse[c] = m.has_diffuse ? m.diffuse[c] * brdf::kInvPi : 0.0;
+    }
+    pm.slots = slots_;
+    for (int k = 0; k < PacketModel::kMaxSlots; ++k) {
+        pm.slot[k] = PacketSlot::kZero;
+        pm.slot_lobe[k] = 0;
+    }
+    for (int k = 0; k < slots_; ++k) {
+        // The table of analytic_parts: a lobe field of no lobe, or f0 without (1 - cos_d)^5,
+        // has no derivative.
+        const int l = slot_lobe_[k];
+        switch (slot_field_[k]) {
+            case Field::kDiffuse:
+                pm.slot[k] = PacketSlot::kDiffuse;
+                break;
+            case Field::kAlphaX:
+                pm.slot[k] = l >= 0 ? PacketSlot::kWidth : PacketSlot::kZero;
+                break;
+            case Field::kScale:
+                pm.slot[k] = l >= 0 ? PacketSlot::kScale : PacketSlot::kZero;
+                break;
+            case Field::kF0:
+                pm.slot[k] = l >= 0 && !x5_.empty() ? PacketSlot::kF0 : PacketSlot::kZero;
+                break;
+            default:
+                break;
+        }
+        pm.slot_lobe[k] = std::max(l, 0);
+    }
+    in.hxy2 = hx2_.empty() ? nullptr : hx2_.data();
+    in.hz2 = hz2_.empty() ? nullptr : hz2_.data();
+    in.tan2_i = ti_x_.empty() ? nullptr : ti_x_.data();
+    in.tan2_o = to_x_.empty() ? nullptr : to_x_.data();
+    in.inv_4cc = inv_4cc_.empty() ? nullptr : inv_4cc_.data();
+    in.x5 = x5_.empty() ? nullptr : x5_.data();
+    in.cos_i = cos_i_.data();
+    for (int c = 0; c < 3; ++c) {
+        in.g_d[c] = g_d_[c].data();
+        in.s[c] = s_[c].data();
+    }
+}
+
 template <class T>
 T PreparedSamples::g_of(const T& m, std::size_t i) const {
     using std::cbrt;
@@ -759,7 +834,17 @@ bool PreparedSamples::sum_of_squares(const double* x, double* out, int threads) 
     const brdf::ModelD m = map_->model<double>(x);
     std::vector<double>& partial = block_scratch(1);
     const bool runs = form_ == ResidualForm::kLog;
+    const bool fused = packets();
+    PacketModel pm;
+    PacketInputs pin;
+    if (fused) {
+        packet_setup(m, pm, pin);
+    }
     parallel_blocks(n_, threads, [&](std::size_t k, std::size_t b, std::size_t e) {
+        if (fused) {
+            partial[k] = cost_packets(pm, pin, b, e);
+            return;
+        }
         double acc = 0;
         // Log residual: the logarithms of a run of samples on packets.
         double arg[3 * kRun] = {};
@@ -839,7 +924,24 @@ bool PreparedSamples::normal_equations_k(const double* x, NormalEquations& out, 
     // Per block: a[3] (K x K), b[3] (K), the cost, and whether all is finite.
     constexpr std::size_t kStride = 3 * K * K + 3 * K + 2;
     std::vector<double>& partial = block_scratch(kStride);
+    const bool fused = packets();
+    PacketModel pm;
+    PacketInputs pin;
+    if (fused) {
+        packet_setup(md, pm, pin);
+    }
     parallel_blocks(n_, threads, [&](std::size_t blk, std::size_t b, std::size_t e) {
+        if (fused) {
+            // The whole block on packets (normal_equation_packets.h).
+            double* dst = partial.data() + blk * kStride;
+            normal_equation_packets(pm, pin, b, e, K, dst, dst + 3 * K * K, dst + kStride - 2);
+            bool finite = std::isfinite(dst[kStride - 2]);
+            for (std::size_t q = 0; q + 2 < kStride; ++q) {
+                finite = finite && std::isfinite(dst[q]);
+            }
+            dst[kStride - 1] = finite ? 1.0 : 0.0;
+            return;
+        }
         MatK a[3];
         VecK bv[3];
         for (int c = 0; c < 3; ++c) {

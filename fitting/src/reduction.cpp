@@ -7,9 +7,29 @@
 #include <numeric>
 #include <random>
 
+#include "gonio/base/check.h"
 #include "gonio/base/thread_pool.h"
 
 namespace gonio::fitting {
+
+std::vector<StratumCoords> stratum_coordinates(const std::vector<brdf::Sample>& samples) {
+    std::vector<StratumCoords> out(samples.size());
+    // Independent items: the pool's chunks, up to 8192 on the calling thread (the transform
+    // costs about 150 ns a sample, a hand-off a few microseconds).
+    gonio::parallel_for(samples.size(), 8192, 0, [&](std::size_t, std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) {
+            const brdf::HalfDiff<double> hd = brdf::to_half_diff(samples[i].wi(), samples[i].wo());
+            double phi_d = std::fmod(hd.phi_d, brdf::kPi);
+            if (phi_d < 0) {
+                phi_d += brdf::kPi;
+            }
+            out[i] = {std::sqrt(std::clamp(hd.theta_h / (brdf::kPi / 2), 0.0, 1.0)),
+                      std::clamp(hd.theta_d / (brdf::kPi / 2), 0.0, 1.0),
+                      phi_d / brdf::kPi};
+        }
+    });
+    return out;
+}
 
 std::vector<brdf::Sample> stratified_reduce(const std::vector<brdf::Sample>& samples,
                                             std::size_t budget,
@@ -17,6 +37,17 @@ std::vector<brdf::Sample> stratified_reduce(const std::vector<brdf::Sample>& sam
     if (budget == 0 || budget >= samples.size()) {
         return samples;
     }
+    return stratified_reduce(samples, budget, seed, stratum_coordinates(samples));
+}
+
+std::vector<brdf::Sample> stratified_reduce(const std::vector<brdf::Sample>& samples,
+                                            std::size_t budget,
+                                            std::uint64_t seed,
+                                            const std::vector<StratumCoords>& coords) {
+    if (budget == 0 || budget >= samples.size()) {
+        return samples;
+    }
+    GONIO_CHECK(coords.size() == samples.size());
     // Cells: theta_h on a square-root scale (as the MERL table: fine near the specular peak),
     // theta_d and phi_d (folded to [0, pi) by the reciprocity of the pair) uniform. The cell
     // count grows with the budget so that each cell keeps a few samples.
@@ -24,30 +55,16 @@ std::vector<brdf::Sample> stratified_reduce(const std::vector<brdf::Sample>& sam
     const int n_h = std::max(2, static_cast<int>(std::round(std::cbrt(cells_wanted) * 1.6)));
     const int n_d = std::max(2, static_cast<int>(std::round(std::cbrt(cells_wanted) * 0.9)));
     const int n_p = std::max(1, static_cast<int>(std::round(cells_wanted / (n_h * n_d))));
-    // Stratum of every sample (the half/difference transform dominates: split over threads),
-    // then a counting sort: the members of each stratum in increasing index order.
+    // Stratum of every sample, then a counting sort: the members of each stratum in increasing
+    // index order.
     const std::size_t n = samples.size();
     std::vector<std::uint32_t> cell_of(n);
-    auto classify = [&](std::size_t b, std::size_t e) {
-        for (std::size_t i = b; i < e; ++i) {
-            const brdf::HalfDiff<double> hd = brdf::to_half_diff(samples[i].wi(), samples[i].wo());
-            const double u_h = std::sqrt(std::clamp(hd.theta_h / (brdf::kPi / 2), 0.0, 1.0));
-            const double u_d = std::clamp(hd.theta_d / (brdf::kPi / 2), 0.0, 1.0);
-            double phi_d = std::fmod(hd.phi_d, brdf::kPi);
-            if (phi_d < 0) {
-                phi_d += brdf::kPi;
-            }
-            const double u_p = phi_d / brdf::kPi;
-            const long ih = std::min(n_h - 1, static_cast<int>(u_h * n_h));
-            const long id = std::min(n_d - 1, static_cast<int>(u_d * n_d));
-            const long ip = std::min(n_p - 1, static_cast<int>(u_p * n_p));
-            cell_of[i] = static_cast<std::uint32_t>((ih * n_d + id) * n_p + ip);
-        }
-    };
-    // Independent items: the pool's chunks, up to 8192 on the calling thread (the transform
-    // costs about 60 ns a sample, a hand-off a few microseconds).
-    gonio::parallel_for(
-        n, 8192, 0, [&](std::size_t, std::size_t b, std::size_t e) { classify(b, e); });
+    for (std::size_t i = 0; i < n; ++i) {
+        const long ih = std::min(n_h - 1, static_cast<int>(coords[i][0] * n_h));
+        const long id = std::min(n_d - 1, static_cast<int>(coords[i][1] * n_d));
+        const long ip = std::min(n_p - 1, static_cast<int>(coords[i][2] * n_p));
+        cell_of[i] = static_cast<std::uint32_t>((ih * n_d + id) * n_p + ip);
+    }
     const std::size_t n_cells = static_cast<std::size_t>(n_h) * n_d * n_p;
     std::vector<std::size_t> start(n_cells + 1, 0);
     for (std::uint32_t c : cell_of) {

@@ -1,6 +1,6 @@
-// Broken RGL tensor files are refused with a message naming the file and the field; anisotropic
-// and spectral files are refused naming what is supported. The inputs are the fuzz target's seed
-// corpus (fuzz/corpus/rgl_bsdf), small hand-made files.
+// Broken RGL tensor files are refused with a message naming the file and the field; spectral
+// files and files whose azimuths are neither form are refused naming what is supported. The inputs
+// are the fuzz target's seed corpus (fuzz/corpus/rgl_bsdf), small hand-made files.
 
 #include <gtest/gtest.h>
 
@@ -76,8 +76,10 @@ TEST(RglFiles, BadValuesAndMissingFieldsAreRefused) {
 }
 
 TEST(RglFiles, AnisotropicAndSpectralFilesNameWhatIsSupported) {
-    expect_refused("anisotropic.bsdf", "anisotropic", "isotropic RGB files");
-    expect_refused("spectral.bsdf", "spectral", "isotropic RGB files");
+    // Two phi_i nodes: neither an isotropic file (one) nor an anisotropic one (a full turn).
+    expect_refused(
+        "anisotropic.bsdf", "field \"phi_i\" has 2 nodes", "at least 3 over a full turn");
+    expect_refused("spectral.bsdf", "spectral", "gonio reads RGB files");
 }
 
 TEST(RglFiles, TensorCodecRoundTripsFieldsByteForByte) {

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -224,6 +225,155 @@ TEST_P(RglWriter, ModelFileReadByGonioAndRglAgreesWithModel) {
 INSTANTIATE_TEST_SUITE_P(Analytic,
                          RglWriter,
                          ::testing::Values(Distribution::kGgx, Distribution::kBeckmann));
+
+// An anisotropic GGX lobe turned by 30 degrees (brushed metal mounted at an angle) over a Lambert
+// base: the file has phi_i nodes over the full turn and an NDF over the whole square; gonio's
+// reader and RGL's reference reader agree with each other, and both with the model to the
+// representation's error.
+TEST(RglWriterAnisotropic, TurnedBrushedLobeReadByGonioAndRglAgreesWithModel) {
+    ModelD m = microfacet_model(Distribution::kGgx, 0.12);
+    m.lobes[0].anisotropic = true;
+    m.lobes[0].alpha_x = 0.12;
+    m.lobes[0].alpha_y = 0.3;
+    m.lobes[0].orientation_deg = 30;
+    const AnalyticBrdf model(m, "brushed");
+    ASSERT_FALSE(model.isotropic());
+    const std::string path = temp_path("brushed.bsdf");
+    RglWriteOptions one_azimuth;
+    one_azimuth.phi_i_count = 1;
+    auto refused = write_rgl_bsdf(path, model, one_azimuth);
+    ASSERT_FALSE(refused);
+    EXPECT_NE(refused.error().message.find("anisotropic"), std::string::npos);
+
+    auto rep = write_rgl_bsdf(path, model);  // 16 azimuths, 64 x 64 NDF
+    ASSERT_TRUE(rep) << rep.error().message;
+    EXPECT_EQ(rep->ndf.rows, 64u);
+    EXPECT_LT(rep->ndf.change, 1e-4);
+    auto back = read_rgl_bsdf(path);
+    ASSERT_TRUE(back) << back.error().message;
+    EXPECT_FALSE(back->isotropic());
+    ASSERT_EQ(back->phi_i().size(), 17u);
+    EXPECT_NE(back->describe().find("anisotropic RGB, 17 phi_i"), std::string::npos);
+
+    // The recovered NDF (retro-reflection includes the Lambert base, so only its shape is
+    // checked): wider along the lobe's y axis (120 deg) than along its x axis (30 deg), and
+    // symmetric under a half turn as the lobe is.
+    const double h = 1.0 / 63.0;
+    auto d_at = [&](double theta, double phi) {
+        const double ux = rgl_theta_to_u(theta) / h, uy = rgl_phi_to_u(phi) / h;
+        const auto c = static_cast<std::size_t>(std::lround(ux));
+        const auto r = static_cast<std::size_t>(std::lround(uy));
+        return rep->ndf.d[r * 64 + c];
+    };
+    const double theta_probe = 12 * kDeg;
+    EXPECT_LT(d_at(theta_probe, 30 * kDeg), 0.8 * d_at(theta_probe, 120 * kDeg));
+    EXPECT_NEAR(d_at(theta_probe, 30 * kDeg) / d_at(theta_probe, -150 * kDeg), 1.0, 0.05);
+    EXPECT_NEAR(d_at(theta_probe, 120 * kDeg) / d_at(theta_probe, -60 * kDeg), 1.0, 0.05);
+
+    const std::vector<Pair> pairs = test_pairs(20261202, 2000);
+    std::vector<std::pair<double, Pair>> errors;
+    std::vector<Rgbd> gonio_values;
+    for (const Pair& p : pairs) {
+        const Vec3d wi = spherical_to_cartesian(p.theta_i, p.phi_i);
+        const Vec3d wo = spherical_to_cartesian(p.theta_o, p.phi_o);
+        const Rgbd truth = model.eval(wi, wo);
+        const Rgbd f = back->eval_unclipped(wi, wo);
+        gonio_values.push_back(f);
+        errors.push_back({((f - truth).abs() / truth).maxCoeff(), p});
+    }
+    const ErrorStats s = stats(errors);
+    const auto [th, td] = half_diff_deg(s.worst);
+    std::printf(
+        "anisotropic GGX 0.12 x 0.3 at 30 deg: relative error of the representation over %zu "
+        "pairs: median %.3g, 95th percentile %.3g, largest %.3g at theta_h %.1f deg, theta_d "
+        "%.1f deg\n",
+        pairs.size(),
+        s.median,
+        s.p95,
+        s.max,
+        th,
+        td);
+    // The representation error (16 azimuths, 16 theta_i nodes, 32 x 32 nodes each, 64 x 64 NDF):
+    // measured 0.8 % median, 20 % at the 95th percentile, 3.2 at worst (theta_i near 75 deg, near
+    // the mirror direction). The tables are interpolated linearly between phi_i nodes with the half
+    // vector's azimuth absolute, so a grazing peak is blended between two azimuths: the same
+    // isotropic model written with 16, 32 and 64 azimuths gives 17 %, 13 % and 12.5 % at the 95th
+    // percentile against 10.5 % for its isotropic file (docs/file-formats-tables.md).
+    EXPECT_LT(s.median, 0.015);
+    EXPECT_LT(s.p95, 0.3);
+    EXPECT_LT(s.max, 6.0);
+
+    // The file's nodes are the model at their directions, over every azimuth.
+    const Dataset data = rgl_nodes_to_dataset(*back);
+    std::set<long> azimuths;
+    double worst_node = 0;
+    for (const Sample& smp : data.samples) {
+        azimuths.insert(std::lround((smp.phi_i + kPi) / (2 * kPi / 16)) % 16);
+        const Rgbd truth = model.eval(spherical_to_cartesian(smp.theta_i, smp.phi_i),
+                                      spherical_to_cartesian(smp.theta_o, smp.phi_o));
+        worst_node = std::max(worst_node, ((smp.value - truth).abs() / truth).maxCoeff());
+    }
+    EXPECT_EQ(azimuths.size(), 16u);
+    EXPECT_LT(worst_node, 1e-5) << "a node's value is the model's, to float rounding";
+
+    std::string why;
+    const std::string exe = build_rgl_eval(&why);
+    if (exe.empty()) {
+        if (gonio::test::running_in_ci()) {
+            FAIL() << why;
+        }
+        GTEST_SKIP() << why;
+    }
+    const std::vector<Rgbd> theirs = rgl_eval(exe, path, pairs);
+    ASSERT_EQ(theirs.size(), pairs.size());
+    double worst = 0;
+    for (std::size_t k = 0; k < pairs.size(); ++k) {
+        for (int c = 0; c < 3; ++c) {
+            const double rel = std::abs(theirs[k][c] - gonio_values[k][c]) / std::abs(theirs[k][c]);
+            worst = std::max(worst, rel);
+        }
+    }
+    std::printf("RGL's reader on the anisotropic file: largest relative difference %.3g\n", worst);
+    EXPECT_LT(worst, 1e-5);
+    std::remove(exe.c_str());
+    std::remove(path.c_str());
+}
+
+// A file reduced by a symmetry (phi_i over half a turn) is refused naming the reduction, as the
+// format's readers do; so is a file with two phi_i nodes (neither form).
+TEST(RglWriterAnisotropic, ReducedAndTwoNodeAzimuthsAreRefused) {
+    ModelD m = microfacet_model(Distribution::kGgx, 0.2);
+    m.lobes[0].anisotropic = true;
+    m.lobes[0].alpha_y = 0.4;
+    const AnalyticBrdf model(m, "brushed");
+    RglWriteOptions o;
+    o.phi_i_count = 4;
+    o.ndf_resolution = 16;
+    o.rgb_resolution = 8;
+    o.theta_i_count = 4;
+    auto ndf = rgl_ndf_power_iteration(model, o);
+    ASSERT_TRUE(ndf) << ndf.error().message;
+    auto layout = rgl_layout(*ndf, o);
+    ASSERT_TRUE(layout) << layout.error().message;
+    std::vector<Rgbd> values;
+    for (const RglNode& node : layout->nodes) {
+        values.push_back(node.wo.z() > 0 ? model.eval(node.wi, node.wo) : Rgbd::Zero());
+    }
+    auto file = rgl_tensor(*layout, values);
+    ASSERT_TRUE(file) << file.error().message;
+    EXPECT_TRUE(RglBsdf::from_tensor(*file, "full.bsdf")) << "the full turn is read";
+    for (TensorField& f : file->fields) {
+        if (f.name == "phi_i") {
+            f = TensorField::float32("phi_i", {5}, {0.0f, 0.785f, 1.571f, 2.356f, 3.1415f});
+        }
+    }
+    auto reduced = RglBsdf::from_tensor(*file, "reduced.bsdf");
+    ASSERT_FALSE(reduced);
+    EXPECT_NE(reduced.error().message.find("reduced.bsdf: field \"phi_i\" spans 180"),
+              std::string::npos)
+        << reduced.error().message;
+    EXPECT_NE(reduced.error().message.find("2-fold"), std::string::npos);
+}
 
 TEST(RglNodes, NodesOfAWrittenFileAreTheModelAtTheirDirections) {
     const AnalyticBrdf model(microfacet_model(Distribution::kGgx, 0.3), "test model");

@@ -226,6 +226,39 @@ TEST(Reduction, KeepsTheBudgetAndPreservesEachStratumsWeight) {
     EXPECT_EQ(stratified_reduce(all, 50000, 1).size(), all.size());
 }
 
+TEST(Reduction, CoordinatesComputedOnceGiveTheSameReductions) {
+    // The fit reduces its working set twice (scoring set, screen) from one computation of the
+    // stratum coordinates: each reduction equals the one that computes them itself, sample for
+    // sample and weight for weight; every coordinate lies in [0, 1].
+    std::vector<Sample> all;
+    std::mt19937_64 rng(9);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    for (int i = 0; i < 6000; ++i) {
+        all.push_back(sample(
+            u(rng) * 1.5, u(rng) * 6 - 3, u(rng) * 1.5, u(rng) * 6 - 3, Rgbd::Constant(u(rng))));
+    }
+    const std::vector<StratumCoords> coords = stratum_coordinates(all);
+    ASSERT_EQ(coords.size(), all.size());
+    for (const StratumCoords& c : coords) {
+        for (double v : c) {
+            ASSERT_GE(v, 0.0);
+            ASSERT_LE(v, 1.0);
+        }
+    }
+    for (const auto& [budget, seed] : {std::pair<std::size_t, std::uint64_t>{1500, 1},
+                                       std::pair<std::size_t, std::uint64_t>{1500, 3},
+                                       std::pair<std::size_t, std::uint64_t>{400, 2}}) {
+        const std::vector<Sample> a = stratified_reduce(all, budget, seed);
+        const std::vector<Sample> b = stratified_reduce(all, budget, seed, coords);
+        ASSERT_EQ(a.size(), b.size());
+        for (std::size_t i = 0; i < a.size(); ++i) {
+            ASSERT_EQ(a[i].theta_i, b[i].theta_i);
+            ASSERT_EQ(a[i].phi_o, b[i].phi_o);
+            ASSERT_EQ(a[i].weight, b[i].weight);
+        }
+    }
+}
+
 TEST(Spec, DefaultsAreGgxLambertScalarSchlickWithRgbScale) {
     FitSpec spec = *make_fit_spec(ModelOptions{});
     EXPECT_EQ(spec.options.residual, ResidualForm::kLog);

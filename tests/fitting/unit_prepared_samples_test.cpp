@@ -6,9 +6,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <random>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "fit_test_util.h"
@@ -315,6 +317,107 @@ TEST(PreparedSamples, ClosedFormAndJetDerivativesAgree) {
     }
     // The default structures take the closed form.
     EXPECT_GE(analytic_structures, 15);
+}
+
+TEST(PreparedSamples, FusedPacketPassesEqualThePerSamplePasses) {
+    // The fused packet passes (normal_equation_packets.h) against the per-sample passes of the
+    // same prepared samples: the same operations per sample and channel (log1p on packets in
+    // both), summed in another order (per lane, then lanes), so the sums agree to rounding:
+    // relative 1e-12 for the cost and J^T J (sums of squares), 1e-11 of |J^T r| for J^T r (its
+    // terms have both signs). Two blocks and a partial last packet (8,205 samples), with the edges
+    // grazing (1e-6 above the horizon), theta_h = 0 (both along the normal) and wi = wo; with and
+    // without sigma, at the data's point and away from it.
+    std::vector<Structure> structures;
+    for (const Structure& st : kStructures) {
+        structures.push_back(st);
+    }
+    structures.push_back({"ggx-no-shadowing",
+                          Distribution::kGgx,
+                          Shadowing::kNone,
+                          FresnelType::kNone,
+                          false,
+                          false,
+                          1});
+    structures.push_back({"beckmann-correlated-two-lobes",
+                          Distribution::kBeckmann,
+                          Shadowing::kSmithCorrelated,
+                          FresnelType::kSchlick,
+                          true,
+                          false,
+                          2});
+    int fused = 0;
+    for (const Structure& st : structures) {
+        for (bool sigma : {false, true}) {
+            const FitSpec spec = spec_of(st);
+            auto map = std::make_shared<const ParameterMap>(*ParameterMap::make(spec));
+            std::vector<brdf::Sample> samples = samples_for(spec.model, 8200, 17);
+            for (const auto& [ti, to, dphi] : {std::tuple{0.0, 0.0, 0.0},
+                                               std::tuple{brdf::kPi / 2 - 1e-6, 0.3, 3.0},
+                                               std::tuple{0.7, brdf::kPi / 2 - 1e-6, 2.0},
+                                               std::tuple{0.9, 0.9, 0.0},
+                                               std::tuple{0.4, 0.4, brdf::kPi}}) {
+                brdf::Sample s;
+                s.theta_i = ti;
+                s.theta_o = to;
+                s.phi_i = 0.3;
+                s.phi_o = 0.3 + dphi;
+                const Rgbd f = brdf::eval_model(spec.model, s.wi(), s.wo());
+                for (int c = 0; c < 3; ++c) {
+                    s.value[c] = 1.1 * f[c] + 1e-3;
+                    s.sigma[c] = 0.02 * s.value[c];
+                }
+                samples.insert(samples.begin() + 37 * samples.size() / 100, s);
+            }
+            ASSERT_EQ(samples.size(), 8205u);
+            CostOptions co;
+            co.use_sigma = sigma;
+            PreparedSamples packets(map, samples, co);
+            PreparedSamples per_sample(map, samples, co);
+            per_sample.set_packets(false);
+            EXPECT_FALSE(per_sample.packets());
+            if (!packets.packets()) {
+                continue;
+            }
+            ++fused;
+            std::vector<double> x = map->values_of(spec.model);
+            for (int point = 0; point < 2; ++point) {
+                if (point == 1) {
+                    for (double& v : x) {
+                        v *= 1.07;
+                    }
+                }
+                NormalEquations a, b;
+                ASSERT_TRUE(packets.normal_equations(x.data(), a, 2));
+                ASSERT_TRUE(per_sample.normal_equations(x.data(), b, 1));
+                EXPECT_NEAR(a.cost_sum, b.cost_sum, 1e-12 * b.cost_sum) << st.label;
+                EXPECT_LT((a.jtj - b.jtj).norm(), 1e-12 * b.jtj.norm()) << st.label;
+                EXPECT_LT((a.jtr - b.jtr).norm(), 1e-11 * b.jtr.norm()) << st.label;
+                double ca = 0, cb = 0;
+                ASSERT_TRUE(packets.sum_of_squares(x.data(), &ca, 2));
+                ASSERT_TRUE(per_sample.sum_of_squares(x.data(), &cb, 1));
+                EXPECT_NEAR(ca, cb, 1e-12 * cb) << st.label;
+                EXPECT_NEAR(ca, a.cost_sum, 1e-12 * cb) << st.label;
+            }
+        }
+    }
+    // ggx-smith-schlick, ggx-schlick-rgb, beckmann-separable, ggx-two-lobes and the two above,
+    // each with and without sigma.
+    EXPECT_EQ(fused, 12);
+}
+
+TEST(PreparedSamples, FusedPacketPassesReportANonFiniteResidual) {
+    // A measured value of +inf makes g(d) infinite: both passes refuse the point.
+    const FitSpec spec = spec_of(kStructures[0]);
+    auto map = std::make_shared<const ParameterMap>(*ParameterMap::make(spec));
+    std::vector<brdf::Sample> samples = samples_for(spec.model, 5000, 19);
+    samples[4321].value[1] = std::numeric_limits<double>::infinity();
+    const PreparedSamples ps(map, samples, CostOptions{});
+    ASSERT_TRUE(ps.packets());
+    const std::vector<double> x = map->values_of(spec.model);
+    NormalEquations ne;
+    EXPECT_FALSE(ps.normal_equations(x.data(), ne, 2));
+    double c = 0;
+    EXPECT_FALSE(ps.sum_of_squares(x.data(), &c, 1));
 }
 
 TEST(NormalEquationCost, ReproducesTheGaussNewtonQuantitiesOfTheFullProblem) {

@@ -52,7 +52,12 @@ struct CampaignRequest {
     /// turned sphere measured at several spins into the 4-D table `aniso_layout`
     /// (image_aniso.h).
     bool anisotropic = false;
-    std::string symmetry;        ///< Point mode, anisotropic plan: "none", "mirror" or "2-fold".
+    std::string symmetry;  ///< Point mode, anisotropic plan: "none", "mirror" or "2-fold".
+    /// Point mode, vndf plan (0 = the description's): theta_i nodes of its RGL file, nodes per
+    /// axis of the sample square, and (with anisotropic) incident azimuths.
+    int vndf_theta_i = 0;
+    int vndf_resolution = 0;
+    int vndf_phi_i = 0;
     double time_scale = 0;       ///< Virtual rig: motion time scale (> 0 overrides the rig's).
     bool accept_drift = false;   ///< Point mode: take the lamp's level as the new baseline.
     bool plan_only = false;      ///< Print the plan and stop; nothing is measured or written.
@@ -100,7 +105,8 @@ std::string option_key(const std::string& field);
 /// - point mode refuses coverage_target, max_frames and grid (image-mode options);
 /// - anisotropic excludes plan_kind and adaptive passes (adaptive > 0); symmetry needs
 ///   anisotropic;
-/// - image mode refuses the campaign file, scene, plan, n_theta, n_dphi, adaptive, symmetry,
+/// - image mode refuses the campaign file, scene, plan, n_theta, n_dphi, adaptive, symmetry, the
+///   vndf plan's options,
 ///   accept_drift (point-mode plans, symmetry folds and drift checks), and grid with anisotropic
 ///   (the anisotropic campaign's table is 4-D);
 /// - a resume reads everything from the folder (an image campaign: its settings and frame
@@ -149,8 +155,9 @@ using EmbeddedRigStarter = std::function<Expected<std::unique_ptr<EmbeddedRig>>(
 
 // ---- point mode ----------------------------------------------------------------------------
 
-/// The plan of a new point campaign (plan_only), without starting anything.
-Expected<Plan> plan_point_campaign(const CampaignRequest& request);
+/// The plan of a new point campaign (plan_only), without starting anything; `spec`, when given,
+/// receives the campaign description it was built from.
+Expected<Plan> plan_point_campaign(const CampaignRequest& request, CampaignSpec* spec = nullptr);
 
 /// A point campaign ready to run: its folder exists (campaign.json, rig.json and the ground-truth
 /// copy written) and its devices are open.

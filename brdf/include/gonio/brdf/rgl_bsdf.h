@@ -27,9 +27,16 @@
 // coordinates; the rgb grid, bilinear there and linear between theta_i nodes, times
 // D(u_m) / (4 sigma(u_wi)) is f_r cos(theta_o).
 //
-// Supported: isotropic RGB files (one phi_i node and an "rgb" field), as RGL publishes for every
-// material and Mitsuba 3 renders in its RGB variants. Anisotropic files (several phi_i nodes) and
-// spectral-only files ("spectra" and "wavelengths" without "rgb") are refused with a message
+// An anisotropic file (section 4.3 of the paper) has phi_i nodes over a full turn [-pi, pi] (the
+// last one the first a full turn on), an NDF and sigma over the whole unit square, and vndf,
+// luminance and rgb per (phi_i, theta_i) node; there the half vector's azimuth is measured from
+// the sample's x axis, not from phi_i, and every table is interpolated linearly in phi_i as in
+// theta_i (the slices' order of RGL's reference reader and Mitsuba 3).
+//
+// Supported: RGB files ("rgb" field), isotropic (one phi_i node, as RGL publishes for every
+// material and Mitsuba 3 renders in its RGB variants) and anisotropic (at least 3 phi_i nodes
+// spanning a full turn: files reduced by a symmetry are refused, as the readers of the format do).
+// Spectral-only files ("spectra" and "wavelengths" without "rgb") are refused with a message
 // saying so.
 
 #include <array>
@@ -57,6 +64,7 @@ double rgl_u_to_phi(double u);
 
 /// One stored node of an RGL file: where it sits in the file and the direction pair it stands for.
 struct RglNode {
+    std::size_t phi_index = 0;    ///< index into the phi_i nodes (0 in an isotropic file)
     std::size_t theta_index = 0;  ///< index into the theta_i nodes
     std::size_t row = 0;          ///< row of the sample square (y, the azimuth of m)
     std::size_t column = 0;       ///< column of the sample square (x, the elevation of m)
@@ -67,7 +75,8 @@ struct RglNode {
     double factor = 0;
 };
 
-/// An isotropic RGB RGL material, evaluated at any direction pair through its VNDF warp.
+/// An RGB RGL material (isotropic or anisotropic), evaluated at any direction pair through its VNDF
+/// warp.
 class RglBsdf : public Brdf {
   public:
     /// Checks the fields (presence, type, shapes that agree, finite values, theta_i nodes
@@ -79,12 +88,13 @@ class RglBsdf : public Brdf {
     Rgbd eval(const Vec3d& wi, const Vec3d& wo) const override;
     /// f_r in 1/sr without clipping (what RGL's reader gives with clipping off).
     Rgbd eval_unclipped(const Vec3d& wi, const Vec3d& wo) const;
-    bool isotropic() const override { return true; }
+    bool isotropic() const override { return isotropic_; }
     std::string describe() const override;
     std::string statistics() const override;
 
     /// Every stored node with its direction pair (rows 0 .. N-2: the last row is the first one's
-    /// azimuth again; in column 0 row 0 only: the others are the same normal half vector).
+    /// azimuth again; in column 0 row 0 only: the others are the same normal half vector; in an
+    /// anisotropic file every phi_i node but the last, which is the first a full turn on).
     std::vector<RglNode> nodes() const;
     /// The stored value of a node, per channel (warped domain, see the file comment).
     Rgbd stored(const RglNode& node) const;
@@ -94,6 +104,8 @@ class RglBsdf : public Brdf {
     const std::string& label() const { return label_; }
     const std::string& description() const { return description_; }
     const std::vector<float>& theta_i() const { return theta_i_; }
+    /// One node (0) in an isotropic file; over [-pi, pi] in an anisotropic one.
+    const std::vector<float>& phi_i() const { return phi_i_; }
     std::size_t resolution() const { return n_; }
     bool jacobian() const { return jacobian_; }
 
@@ -101,6 +113,8 @@ class RglBsdf : public Brdf {
     std::string label_;
     std::string description_;
     std::vector<float> theta_i_;
+    std::vector<float> phi_i_;
+    bool isotropic_ = true;
     std::size_t n_ = 0;  // rgb grid: n_ x n_ per theta_i node and channel
     bool jacobian_ = true;
     BilinearGrid ndf_, sigma_, rgb_;
@@ -112,7 +126,8 @@ class RglBsdf : public Brdf {
 Expected<RglBsdf> read_rgl_bsdf(const std::string& path);
 
 /// The measured nodes as samples: one per distinct node with theta_i below 89 degrees and
-/// theta_o above the horizon by at least 1e-3 in cosine, at its (wi, wo) (phi_i = 0)
+/// theta_o above the horizon by at least 1e-3 in cosine, at its (wi, wo) (phi_i = 0 in an
+/// isotropic file, the node's azimuth in an anisotropic one)
 /// with value f_r = stored * factor / cos(theta_o) (clipped at 0). No resampling: a fit of the
 /// file uses exactly these values. Dataset::rejected counts nothing; the source is the label.
 Dataset rgl_nodes_to_dataset(const RglBsdf& bsdf);
@@ -131,8 +146,17 @@ struct RglWriteOptions {
     /// (the pi/2 node always) takes the values of this elevation, the limit a reader only
     /// interpolates towards. Radians, in (0, pi/2).
     double max_theta_i = (90.0 - 0.5) * kPi / 180.0;
+    /// Incident azimuths. 0: as the BRDF needs (write_rgl_bsdf: an isotropic file for an isotropic
+    /// BRDF, 16 azimuths for an anisotropic one); 1: an isotropic file; P >= 2: an anisotropic
+    /// file with P + 1 phi_i nodes over [-pi, pi] and an ndf_resolution^2 NDF grid (at most 128;
+    /// write_rgl_bsdf lowers the default 128 to 64 there: the 2-D power iteration costs
+    /// ndf_resolution^4 per step). The layout functions below take 0 and 1 alike as isotropic.
+    std::size_t phi_i_count = 0;
     std::string description;  ///< the file's description field
 };
+
+/// The azimuth count write_rgl_bsdf uses for this BRDF (options.phi_i_count resolved).
+std::size_t rgl_phi_i_count(const Brdf& brdf, const RglWriteOptions& options);
 
 /// The NDF of a BRDF by power iteration (J. Dupuy, E. Heitz, J.-C. Iehl, P. Poulin, V.
 /// Ostromoukhov, "Extracting Microfacet-based BRDF Parameters from Arbitrary Materials with Power
@@ -145,9 +169,13 @@ struct RglWriteOptions {
 /// quadrature (closed-form azimuthal integral). A floor of ndf_floor * max keeps every half
 /// vector reachable by the warp (a diffuse part under a sharp peak keeps nodes). Returns D at the
 /// nodes; iterations stops at a relative change below 1e-6 or power_iterations.
+/// Anisotropic layouts (phi_i_count >= 2): D on the ndf_resolution^2 nodes of the unit square
+/// (rows: u_y, the azimuth; columns: u_x), sigma by the trapezoidal rule over the same nodes,
+/// retro_cos given row-major on them.
 struct RglNdf {
-    std::vector<double> d;      ///< D at u_x = k / (resolution - 1), 1/sr
-    std::vector<double> sigma;  ///< sigma at theta = the same nodes
+    std::vector<double> d;      ///< D at u_x = k / (resolution - 1) (rows x resolution), 1/sr
+    std::vector<double> sigma;  ///< sigma at the same nodes
+    std::size_t rows = 1;       ///< 1 (isotropic) or resolution (anisotropic)
     int iterations = 0;
     double change = 0;  ///< relative change of the last iteration (max norm)
 };
@@ -165,12 +193,14 @@ Expected<RglNdf> rgl_ndf_from_retro(const std::vector<double>& retro_cos,
 struct RglLayout {
     RglWriteOptions options;
     std::vector<float> theta_i;
-    std::vector<float> ndf;    ///< ndf_resolution values (one row; the file repeats it)
-    std::vector<float> sigma;  ///< ndf_resolution values
-    std::vector<float> vndf;   ///< theta_i * ndf_resolution^2 (phi_m rows, theta_m columns)
+    std::vector<float> phi_i;  ///< {0} (isotropic) or P + 1 nodes over [-pi, pi]
+    std::vector<float> ndf;    ///< rows x ndf_resolution values (an isotropic file repeats its row)
+    std::vector<float> sigma;  ///< the same nodes
+    /// phi_i * theta_i * ndf_resolution^2 (phi_m rows, theta_m columns)
+    std::vector<float> vndf;
     Warp2D vndf_warp;
-    /// theta_i * rgb_resolution^2 nodes in file order (theta_i, row, column): every node, also
-    /// the duplicates and those whose wo is below the horizon.
+    /// phi_i * theta_i * rgb_resolution^2 nodes in file order (phi_i, theta_i, row, column):
+    /// every node, also the duplicates and those whose wo is below the horizon.
     std::vector<RglNode> nodes;
 };
 Expected<RglLayout> rgl_layout(const RglNdf& ndf, const RglWriteOptions& options);
@@ -189,8 +219,9 @@ struct RglWriteReport {
 };
 
 /// Builds the NDF by power iteration on `brdf` (model or table), the layout, f_r at every node
-/// and writes the file through gonio::AtomicFile. Refuses an anisotropic BRDF and non-finite
-/// values at the nodes (naming the first).
+/// and writes the file through gonio::AtomicFile. An anisotropic BRDF gets an anisotropic file
+/// (refused when the options ask for one azimuth); non-finite values at the nodes are refused
+/// (naming the first).
 Expected<RglWriteReport> write_rgl_bsdf(const std::string& path,
                                         const Brdf& brdf,
                                         const RglWriteOptions& options = {});

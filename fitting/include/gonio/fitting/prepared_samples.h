@@ -27,6 +27,7 @@
 #include "gonio/brdf/lobe_orientation.h"
 #include "gonio/brdf/model.h"
 #include "gonio/fitting/cost.h"
+#include "gonio/fitting/normal_equation_packets.h"
 
 namespace gonio::fitting {
 
@@ -89,6 +90,12 @@ class PreparedSamples {
     bool analytic() const { return analytic_; }
     /// Forces the Jet path (tests compare both).
     void set_analytic(bool on) { analytic_ = on && analytic_; }
+    /// True when the cost and normal-equation passes run fused on packets
+    /// (normal_equation_packets.h): log residual, no robust loss, closed-form derivatives, every
+    /// lobe an isotropic GGX or Beckmann lobe with no or Smith shadowing, at most 16 slots.
+    bool packets() const { return packets_ && analytic_ && !loss_; }
+    /// Forces the per-sample passes (tests compare both).
+    void set_packets(bool on) { packets_ = on && packets_; }
 
   private:
     template <class T>
@@ -147,6 +154,8 @@ class PreparedSamples {
         const brdf::ModelD& m, std::size_t begin, std::size_t end, double* r, double* v) const;
     template <class T>
     T g_of(const T& m, std::size_t i) const;
+    /// The model at its point and the arrays, for the fused packet passes.
+    void packet_setup(const brdf::ModelD& m, PacketModel& pm, PacketInputs& in) const;
     /// The model at x with a K-slot Jet per free parameter (its derivative slot seeded).
     template <int K>
     brdf::Model<ceres::Jet<double, K>> jet_model(const double* x) const;
@@ -182,6 +191,7 @@ class PreparedSamples {
     std::vector<Field> slot_field_;
     std::vector<int> slot_lobe_;
     bool analytic_ = false;
+    bool packets_ = false;
     double relative_floor_ = 1e-3;
     std::shared_ptr<const ceres::LossFunction> loss_;
     /// Per-block partial sums of the passes (kept between passes: no allocation per iteration).
