@@ -84,7 +84,8 @@ std::pair<double, double> angles_deg(const gonio::brdf::Vec3d& w) {
 /// index in the pass and the target directions in degrees, sample frame), then one row per
 /// target that no arm position reaches, with why.
 int print_point_plan(const acq::CampaignRequest& r) {
-    auto plan = acq::plan_point_campaign(r);
+    acq::CampaignSpec spec;
+    auto plan = acq::plan_point_campaign(r, &spec);
     if (!plan) {
         return fail(plan.error().message);
     }
@@ -97,9 +98,19 @@ int print_point_plan(const acq::CampaignRequest& r) {
         static_cast<unsigned long long>(plan->outside_roi),
         static_cast<unsigned long long>(plan->naive_count));
     if (plan->kind == "vndf-retro") {
+        const acq::VndfSpec& v = spec.vndf;
         std::printf(
             "# pass 0 of the vndf plan: retro-reflection; pass 1 (the VNDF-warped domain) is "
             "placed from its measurements\n");
+        std::printf("# dataset.bsdf: %s%d theta_i x %d x %d nodes, NDF on %d%s nodes\n",
+                    v.phi_i_count >= 2
+                        ? ("anisotropic, " + std::to_string(v.phi_i_count) + " phi_i x ").c_str()
+                        : "isotropic, ",
+                    v.theta_i_count,
+                    v.resolution,
+                    v.resolution,
+                    v.ndf_resolution,
+                    v.phi_i_count >= 2 ? (" x " + std::to_string(v.ndf_resolution)).c_str() : "");
     }
     std::printf("status,index,theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,weight,reason\n");
     for (const acq::PlannedConfig& c : plan->configs) {
@@ -282,12 +293,25 @@ GONIO_COMMAND(acquire) {
     cmd->add_flag("--anisotropic",
                   r.anisotropic,
                   "point mode: plan over (theta_i, phi_i, theta_o, phi_o) with the spin axis, "
-                  "for samples whose BRDF depends on the azimuth");
+                  "for samples whose BRDF depends on the azimuth (with --plan vndf: the NDF over "
+                  "every azimuth and an anisotropic dataset.bsdf with 8 incident azimuths)");
     cmd->add_option("--symmetry",
                     r.symmetry,
                     "anisotropic plan: the sample's symmetry about its normal (none, mirror "
                     "across its x axis, 2-fold as brushed metal)")
         ->check(CLI::IsMember({"none", "mirror", "2-fold"}));
+    cmd->add_option("--vndf-theta-i",
+                    r.vndf_theta_i,
+                    "vndf plan: incident elevations of its RGL file (default 8)")
+        ->check(gonio::tools::integer_in(2, 64));
+    cmd->add_option("--vndf-resolution",
+                    r.vndf_resolution,
+                    "vndf plan: nodes per axis of the VNDF-warped square (default 16)")
+        ->check(gonio::tools::integer_in(4, 128));
+    cmd->add_option("--vndf-phi-i",
+                    r.vndf_phi_i,
+                    "anisotropic vndf plan: incident azimuths of its RGL file (default 8)")
+        ->check(gonio::tools::integer_in(2, 64));
     cmd->add_option("--time-scale", r.time_scale, "virtual rig: motion time scale")
         ->check(gonio::tools::finite_in(0.001, 1e6));
     cmd->add_flag("--accept-drift",

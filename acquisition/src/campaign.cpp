@@ -131,6 +131,12 @@ Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::s
                 s.vndf.ndf_resolution = p.integer("ndf_resolution", s.vndf.ndf_resolution, 16, 512);
                 s.vndf.theta_max =
                     p.number("theta_max_deg", s.vndf.theta_max / kDeg, 10.001, 89, "deg") * kDeg;
+                s.vndf.phi_i_count = p.integer("phi_i_count", s.vndf.phi_i_count, 0, 64);
+                s.vndf.retro_phi_count =
+                    p.integer("retro_phi_count", s.vndf.retro_phi_count, 4, 128);
+                if (auto ok = check_vndf_spec(s.vndf); !ok) {
+                    json_fail("plan: " + ok.error().message);
+                }
             } else if (s.plan_kind == "anisotropic") {
                 AnisotropicGridSpec& a = s.anisotropic;
                 a.n_theta = p.integer("n_theta", a.n_theta, 2, kMaxPlanAxis);
@@ -237,7 +243,9 @@ std::string campaign_spec_json(const CampaignSpec& s) {
                      {"theta_i_count", s.vndf.theta_i_count},
                      {"resolution", s.vndf.resolution},
                      {"ndf_resolution", s.vndf.ndf_resolution},
-                     {"theta_max_deg", s.vndf.theta_max / kDeg}};
+                     {"theta_max_deg", s.vndf.theta_max / kDeg},
+                     {"phi_i_count", s.vndf.phi_i_count},
+                     {"retro_phi_count", s.vndf.retro_phi_count}};
     } else if (s.plan_kind == "anisotropic") {
         j["plan"] = {{"kind", "anisotropic"},
                      {"n_theta", s.anisotropic.n_theta},
@@ -872,7 +880,8 @@ Expected<void> Runner::drift_check(bool baseline, std::string* pause) {
                                                   spec_.drift_delta_phi_deg * kDeg);
     // An anisotropic sample reads differently at every spin: its reference is held at one spin,
     // the directions fixed in the sample's frame, so that only the lamp can change the reading.
-    const bool isotropic = spec_.plan_kind != "anisotropic";
+    const bool isotropic = spec_.plan_kind != "anisotropic" &&
+                           !(spec_.plan_kind == "vndf" && spec_.vndf.phi_i_count >= 2);
     auto sol = solve(Target{wi, wo, isotropic, true}, lim_, dyn_, current_);
     if (!sol) {
         return make_error("drift reference configuration unreachable: " + sol.error().message);

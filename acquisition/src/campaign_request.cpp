@@ -64,6 +64,9 @@ std::vector<std::string> given_fields(const CampaignRequest& r) {
     add(r.adaptive >= 0, "adaptive");
     add(r.anisotropic, "anisotropic");
     add(!r.symmetry.empty(), "symmetry");
+    add(r.vndf_theta_i > 0, "vndf_theta_i");
+    add(r.vndf_resolution > 0, "vndf_resolution");
+    add(r.vndf_phi_i > 0, "vndf_phi_i");
     add(r.time_scale > 0, "time_scale");
     add(r.accept_drift, "accept_drift");
     add(r.plan_only, "plan_only");
@@ -104,6 +107,9 @@ std::optional<RequestConflict> find_conflict(const CampaignRequest& r) {
                             "adaptive",
                             "anisotropic",
                             "symmetry",
+                            "vndf_theta_i",
+                            "vndf_resolution",
+                            "vndf_phi_i",
                             "accept_drift"})) {
             return RequestConflict{f,
                                    "mode",
@@ -159,11 +165,29 @@ std::optional<RequestConflict> find_conflict(const CampaignRequest& r) {
                                "isotropic_plan",
                                "the symmetry folds the anisotropic plan (give --anisotropic)"};
     }
-    if (r.anisotropic && !r.plan_kind.empty()) {
+    if (r.anisotropic && !r.plan_kind.empty() && r.plan_kind != "vndf") {
         return RequestConflict{"plan_kind",
                                "anisotropic",
                                "the anisotropic plan is its own grid over (theta_i, phi_i, "
-                               "theta_o, phi_o)"};
+                               "theta_o, phi_o); with --plan vndf it is the anisotropic vndf plan"};
+    }
+    for (const std::string& f : given) {
+        if (among(f, {"vndf_theta_i", "vndf_resolution", "vndf_phi_i"}) && r.plan_kind != "vndf") {
+            return RequestConflict{
+                f, "plan_kind", "an option of the vndf plan's RGL file (give --plan vndf)"};
+        }
+    }
+    if (r.vndf_phi_i > 0 && !r.anisotropic) {
+        return RequestConflict{"vndf_phi_i",
+                               "isotropic_plan",
+                               "the incident azimuths of the anisotropic vndf plan (give "
+                               "--anisotropic; an isotropic file has one)"};
+    }
+    if (r.plan_kind == "vndf" && !r.symmetry.empty()) {
+        return RequestConflict{"symmetry",
+                               "plan_kind",
+                               "the vndf plan measures every incident azimuth of its RGL file "
+                               "(the format's readers evaluate only unreduced files)"};
     }
     if (r.anisotropic && r.adaptive > 0) {
         return RequestConflict{"adaptive",
@@ -263,7 +287,30 @@ Expected<CampaignSpec> new_campaign_spec(const CampaignRequest& r, bool* embedde
             spec.adaptive = false;
         }
     }
-    if (r.anisotropic && spec.plan_kind != "anisotropic") {
+    if (r.anisotropic && spec.plan_kind == "vndf") {
+        // The anisotropic vndf plan: azimuths over the full turn, a coarser NDF grid unless the
+        // description gives one (its power iteration costs ndf_resolution^4 per step).
+        if (spec.vndf.phi_i_count < 2) {
+            spec.vndf.phi_i_count = kVndfAnisotropicPhiCount;
+            spec.vndf.ndf_resolution =
+                std::min(spec.vndf.ndf_resolution, kVndfAnisotropicNdfResolution);
+        }
+    }
+    if (r.vndf_theta_i > 0) {
+        spec.vndf.theta_i_count = r.vndf_theta_i;
+    }
+    if (r.vndf_resolution > 0) {
+        spec.vndf.resolution = r.vndf_resolution;
+    }
+    if (r.vndf_phi_i > 0) {
+        spec.vndf.phi_i_count = r.vndf_phi_i;
+    }
+    if (spec.plan_kind == "vndf") {
+        if (auto ok = check_vndf_spec(spec.vndf); !ok) {
+            return tl::unexpected(ok.error());
+        }
+    }
+    if (r.anisotropic && spec.plan_kind != "anisotropic" && spec.plan_kind != "vndf") {
         // The anisotropic plan at the step of the description's uniform grid.
         spec.plan_kind = "anisotropic";
         spec.anisotropic.n_theta = spec.uniform.n_theta;
@@ -305,7 +352,7 @@ Expected<void> refuse_conflict(const CampaignRequest& r) {
 
 }  // namespace
 
-Expected<Plan> plan_point_campaign(const CampaignRequest& r) {
+Expected<Plan> plan_point_campaign(const CampaignRequest& r, CampaignSpec* spec_out) {
     if (auto c = refuse_conflict(r); !c) {
         return tl::unexpected(c.error());
     }
@@ -317,6 +364,9 @@ Expected<Plan> plan_point_campaign(const CampaignRequest& r) {
     auto rig = read_rig_config(spec->rig);
     if (!rig) {
         return tl::unexpected(rig.error());
+    }
+    if (spec_out != nullptr) {
+        *spec_out = *spec;
     }
     return build_plan(*spec, *rig);
 }
@@ -437,10 +487,12 @@ Expected<std::unique_ptr<PointCampaign>> start_point_campaign(const CampaignRequ
                          out->embedded->describe().c_str(),
                          out->embedded->motor_address().c_str(),
                          out->embedded->camera_address().c_str());
-            if (new_spec.plan_kind == "vndf" && !out->embedded->isotropic_sample()) {
+            if (new_spec.plan_kind == "vndf" && new_spec.vndf.phi_i_count < 2 &&
+                !out->embedded->isotropic_sample()) {
                 std::fprintf(log,
                              "note: the virtual sample is anisotropic; the vndf plan measures "
-                             "with the light at phi_i = 0 and writes an isotropic RGL file\n");
+                             "with the light at phi_i = 0 and writes an isotropic RGL file "
+                             "(--anisotropic measures every azimuth)\n");
             }
         }
         out->rig = with_addresses(

@@ -28,6 +28,57 @@ std::string deg_text(double rad) {
     return buf;
 }
 
+// The k-th of `count` retro-reflection azimuths over [-pi, pi).
+double retro_azimuth(int k, int count) {
+    return -kPi + 2.0 * kPi * static_cast<double>(k) / static_cast<double>(count);
+}
+
+// (u, f(w, w) cos(theta)) points of one azimuth on the u grid of n nodes (the horizon node 0):
+// held below the first point, log-linear in tan^2(theta) between points, f held beyond the last.
+std::vector<double> retro_row(std::vector<std::pair<double, double>> pts, std::size_t n) {
+    std::sort(pts.begin(), pts.end());
+    // Between nodes the logarithm of f cos is interpolated linearly in tan^2(theta): exact for a
+    // Beckmann peak (log D linear in tan^2) and close for GGX, where interpolation in u would
+    // round the peak off between its first nodes.
+    double max_value = 0;
+    for (const auto& p : pts) {
+        max_value = std::max(max_value, p.second);
+    }
+    const double tiny = std::max(max_value, 1e-300) * 1e-12;
+    auto tan2 = [](double u) {
+        const double t = std::tan(brdf::rgl_u_to_theta(u));
+        return t * t;
+    };
+    std::vector<double> grid(n, 0.0);
+    const double u_last = pts.back().first;
+    const double theta_last = brdf::rgl_u_to_theta(u_last);
+    for (std::size_t j = 0; j + 1 < n; ++j) {
+        const double u = static_cast<double>(j) / static_cast<double>(n - 1);
+        if (u <= pts.front().first) {
+            grid[j] = pts.front().second;
+        } else if (u >= u_last) {
+            // Beyond the last node: f held, so f cos follows cos(theta) to 0 at the horizon.
+            const double cos_last = std::cos(theta_last);
+            grid[j] = cos_last > 0 ? pts.back().second *
+                                         std::max(0.0, std::cos(brdf::rgl_u_to_theta(u))) / cos_last
+                                   : 0.0;
+        } else {
+            const auto hi =
+                std::lower_bound(pts.begin(),
+                                 pts.end(),
+                                 std::make_pair(u, -std::numeric_limits<double>::infinity()));
+            const auto lo = hi - 1;
+            const double x0 = tan2(lo->first), x1 = tan2(hi->first);
+            const double t = x1 > x0 ? (tan2(u) - x0) / (x1 - x0) : 0.0;
+            const double l0 = std::log(std::max(lo->second, tiny));
+            const double l1 = std::log(std::max(hi->second, tiny));
+            grid[j] = std::exp(l0 + t * (l1 - l0));
+        }
+    }
+    grid[n - 1] = 0.0;  // the horizon
+    return grid;
+}
+
 void renumber(Plan* plan) {
     for (std::size_t k = 0; k < plan->configs.size(); ++k) {
         plan->configs[k].index = static_cast<std::uint32_t>(k);
@@ -48,9 +99,20 @@ Expected<void> check_vndf_spec(const VndfSpec& s) {
     for (auto r : {range("retro_count", s.retro_count, 4, 512),
                    range("theta_i_count", s.theta_i_count, 2, 64),
                    range("resolution", s.resolution, 4, 128),
-                   range("ndf_resolution", s.ndf_resolution, 16, 512)}) {
+                   range("ndf_resolution", s.ndf_resolution, 16, 512),
+                   range("retro_phi_count", s.retro_phi_count, 4, 128)}) {
         if (!r) {
             return r;
+        }
+    }
+    if (s.phi_i_count != 0) {
+        if (auto r = range("phi_i_count", s.phi_i_count, 2, 64); !r) {
+            return make_error(r.error().message + " (0 for an isotropic plan)");
+        }
+        if (s.ndf_resolution > 128) {
+            return make_error("vndf plan: ndf_resolution = " + std::to_string(s.ndf_resolution) +
+                              " with phi_i_count = " + std::to_string(s.phi_i_count) +
+                              " (an anisotropic NDF grid is at most 128 x 128 nodes)");
         }
     }
     if (!(s.theta_max > 10 * kDeg && s.theta_max <= 89 * kDeg)) {
@@ -73,25 +135,32 @@ Expected<Plan> plan_vndf_retro(const VndfSpec& spec, const RigLimits& limits) {
     const double delta = vndf_retro_separation(limits);
     const double theta_max = std::min(spec.theta_max, limits.max_theta);
     const double c = std::cos(delta / 2), s = std::sin(delta / 2);
-    // u = 1 is the horizon: f cos vanishes there and nothing is measured.
+    const bool aniso = spec.phi_i_count >= 2;
+    // u = 1 is the horizon: f cos vanishes there and nothing is measured. An anisotropic plan
+    // takes every elevation at retro_phi_count azimuths over the full turn (the pole once).
     for (int j = 0; j + 1 < spec.retro_count; ++j) {
         const double theta = brdf::rgl_u_to_theta(static_cast<double>(j) / (spec.retro_count - 1));
-        const Vec3d w(std::sin(theta), 0.0, std::cos(theta));
-        const Vec3d e(0.0, 1.0, 0.0);
-        PlannedConfig p;
-        p.wi = c * w + s * e;
-        p.wo = c * w - s * e;
-        p.isotropic = true;
-        // The elevation of wi and wo is a little below theta (their half vector is w).
-        if (polar(p.wi) > theta_max) {
-            plan.unreachable.push_back({p.wi,
-                                        p.wo,
-                                        "retro-reflection at theta " + deg_text(theta) +
-                                            " deg: beyond the largest polar angle " +
-                                            deg_text(theta_max) + " deg"});
-            continue;
+        const int azimuths = aniso && j > 0 ? spec.retro_phi_count : 1;
+        for (int k = 0; k < azimuths; ++k) {
+            const double phi = aniso ? retro_azimuth(k, spec.retro_phi_count) : 0.0;
+            const Vec3d w(
+                std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
+            const Vec3d e(-std::sin(phi), std::cos(phi), 0.0);
+            PlannedConfig p;
+            p.wi = c * w + s * e;
+            p.wo = c * w - s * e;
+            p.isotropic = !aniso;
+            // The elevation of wi and wo is a little below theta (their half vector is w).
+            if (polar(p.wi) > theta_max) {
+                plan.unreachable.push_back(
+                    {p.wi,
+                     p.wo,
+                     "retro-reflection at theta " + deg_text(theta) + " deg, phi " + deg_text(phi) +
+                         " deg: beyond the largest polar angle " + deg_text(theta_max) + " deg"});
+                continue;
+            }
+            plan.configs.push_back(p);
         }
-        plan.configs.push_back(p);
     }
     plan.naive_count = plan.configs.size();
     renumber(&plan);
@@ -129,57 +198,122 @@ Expected<VndfNdf> vndf_ndf_from_retro(const std::vector<RetroMeasurement>& retro
         // f(w, w) cos(theta) from the pair whose half vector is w (plan_vndf.h).
         pts.emplace_back(brdf::rgl_theta_to_u(theta), r.value * wi.z() * wo.z() / w.z());
     }
-    std::sort(pts.begin(), pts.end());
-    // Between nodes the logarithm of f cos is interpolated linearly in tan^2(theta): exact for a
-    // Beckmann peak (log D linear in tan^2) and close for GGX, where interpolation in u would
-    // round the peak off between its first nodes.
-    const double max_value = std::max_element(pts.begin(), pts.end(), [](auto& a, auto& b) {
-                                 return a.second < b.second;
-                             })->second;
+    double max_value = 0;
+    double u_max = 0;
+    for (const auto& p : pts) {
+        max_value = std::max(max_value, p.second);
+        u_max = std::max(u_max, p.first);
+    }
     if (!(max_value > 0)) {
         return make_error(
             "NDF from retro-reflection: every retro-reflection value is 0; no microfacet "
             "distribution to extract");
     }
-    const double tiny = max_value * 1e-12;
-    auto tan2 = [](double u) {
-        const double t = std::tan(brdf::rgl_u_to_theta(u));
-        return t * t;
-    };
     const std::size_t n = static_cast<std::size_t>(spec.ndf_resolution);
-    std::vector<double> grid(n, 0.0);
-    const double u_last = pts.back().first;
-    const double theta_last = brdf::rgl_u_to_theta(u_last);
-    for (std::size_t j = 0; j + 1 < n; ++j) {
-        const double u = static_cast<double>(j) / static_cast<double>(n - 1);
-        if (u <= pts.front().first) {
-            grid[j] = pts.front().second;
-        } else if (u >= u_last) {
-            // Beyond the last node: f held, so f cos follows cos(theta) to 0 at the horizon.
-            const double cos_last = std::cos(theta_last);
-            grid[j] = cos_last > 0 ? pts.back().second *
-                                         std::max(0.0, std::cos(brdf::rgl_u_to_theta(u))) / cos_last
-                                   : 0.0;
-        } else {
-            const auto hi =
-                std::lower_bound(pts.begin(),
-                                 pts.end(),
-                                 std::make_pair(u, -std::numeric_limits<double>::infinity()));
-            const auto lo = hi - 1;
-            const double x0 = tan2(lo->first), x1 = tan2(hi->first);
-            const double t = x1 > x0 ? (tan2(u) - x0) / (x1 - x0) : 0.0;
-            const double l0 = std::log(std::max(lo->second, tiny));
-            const double l1 = std::log(std::max(hi->second, tiny));
-            grid[j] = std::exp(l0 + t * (l1 - l0));
-        }
-    }
-    grid[n - 1] = 0.0;  // the horizon
     brdf::RglWriteOptions o;
     o.ndf_resolution = n;
+    std::vector<double> grid;
+    if (spec.phi_i_count < 2) {
+        grid = retro_row(pts, n);
+    } else {
+        // One row per measured azimuth (the nearest planned one; the pole belongs to all), each
+        // along u as above, then the logarithm linear in the azimuth between them, periodically.
+        o.phi_i_count = static_cast<std::size_t>(spec.phi_i_count);
+        const int K = spec.retro_phi_count;
+        std::vector<std::vector<std::pair<double, double>>> by_azimuth(static_cast<std::size_t>(K));
+        std::vector<std::pair<double, double>> pole;
+        // The pole node, as measured (the axes' read-back positions), within half the first
+        // elevation step of the normal.
+        const double pole_theta = 0.5 * brdf::rgl_u_to_theta(1.0 / (spec.retro_count - 1));
+        for (std::size_t k = 0; k < pts.size(); ++k) {
+            const Vec3d w = (retro[k].wi.normalized() + retro[k].wo.normalized()).normalized();
+            if (polar(w) < pole_theta) {
+                pole.push_back(pts[k]);
+                continue;
+            }
+            const double phi = std::atan2(w.y(), w.x());
+            const long idx = std::lround((phi + kPi) / (2.0 * kPi) * K);
+            by_azimuth[static_cast<std::size_t>(((idx % K) + K) % K)].push_back(pts[k]);
+        }
+        std::vector<int> measured;  // azimuth indices with a row
+        std::vector<std::vector<double>> rows(static_cast<std::size_t>(K));
+        for (int k = 0; k < K; ++k) {
+            auto& row = by_azimuth[static_cast<std::size_t>(k)];
+            if (row.empty()) {
+                continue;
+            }
+            row.insert(row.end(), pole.begin(), pole.end());
+            rows[static_cast<std::size_t>(k)] = retro_row(row, n);
+            measured.push_back(k);
+        }
+        if (measured.empty()) {
+            return make_error(
+                "NDF from retro-reflection: an anisotropic plan needs measurements away from the "
+                "normal; only the pole was measured");
+        }
+        const double tiny = max_value * 1e-12;
+        // The logarithm of each measured row, by azimuth index.
+        std::vector<std::vector<double>> logs(static_cast<std::size_t>(K));
+        for (int k : measured) {
+            auto& l = logs[static_cast<std::size_t>(k)];
+            for (double v : rows[static_cast<std::size_t>(k)]) {
+                l.push_back(std::log(std::max(v, tiny)));
+            }
+        }
+        const bool every_azimuth = static_cast<int>(measured.size()) == K;
+        auto row_of = [&](int k) -> const std::vector<double>& {
+            return logs[static_cast<std::size_t>(((k % K) + K) % K)];
+        };
+        grid.assign(n * n, 0.0);
+        for (std::size_t r = 0; r < n; ++r) {
+            // The grid row's azimuth in units of the retro azimuth step, in [0, K].
+            const double phi =
+                brdf::rgl_u_to_phi(static_cast<double>(r) / static_cast<double>(n - 1));
+            const double x = (phi + kPi) / (2.0 * kPi) * K;
+            double* out_row = grid.data() + r * n;
+            if (every_azimuth) {
+                // Every azimuth measured: the periodic Catmull-Rom cubic through the four
+                // around x (the log of a microfacet NDF is smooth in the azimuth; linear
+                // interpolation cuts the narrow axis of an anisotropic lobe by tens of percent).
+                const int i = std::min(static_cast<int>(std::floor(x)), K - 1);
+                const double t = x - i;
+                const auto &p0 = row_of(i - 1), &p1 = row_of(i), &p2 = row_of(i + 1),
+                           &p3 = row_of(i + 2);
+                const double t2 = t * t, t3 = t2 * t;
+                for (std::size_t j = 0; j + 1 < n; ++j) {
+                    const double v = 0.5 * (2 * p1[j] + (p2[j] - p0[j]) * t +
+                                            (2 * p0[j] - 5 * p1[j] + 4 * p2[j] - p3[j]) * t2 +
+                                            (3 * p1[j] - p0[j] - 3 * p2[j] + p3[j]) * t3);
+                    out_row[j] = std::exp(v);
+                }
+                continue;
+            }
+            // Some azimuths unreachable: linear between the measured azimuths around x,
+            // periodically.
+            int lo = measured.back() - K, hi = measured.front() + K;
+            for (int m : measured) {
+                if (m <= x) {
+                    lo = m;
+                }
+            }
+            for (auto it = measured.rbegin(); it != measured.rend(); ++it) {
+                if (*it >= x) {
+                    hi = *it;
+                }
+            }
+            const auto& a = row_of(lo);
+            const auto& b = row_of(hi);
+            const double t = hi > lo ? (x - lo) / static_cast<double>(hi - lo) : 0.0;
+            for (std::size_t j = 0; j + 1 < n; ++j) {
+                out_row[j] = std::exp(a[j] + t * (b[j] - a[j]));
+            }
+        }
+    }
     Expected<brdf::RglNdf> ndf = brdf::rgl_ndf_from_retro(grid, o);
     if (!ndf) {
         return tl::unexpected(ndf.error());
     }
+    const double theta_last = brdf::rgl_u_to_theta(u_max);
     VndfNdf out;
     out.ndf = std::move(*ndf);
     out.measured = retro.size();
@@ -193,7 +327,9 @@ brdf::RglWriteOptions vndf_file_options(const VndfSpec& spec, const RigLimits& l
     o.ndf_resolution = static_cast<std::size_t>(spec.ndf_resolution);
     o.rgb_resolution = static_cast<std::size_t>(spec.resolution);
     o.max_theta_i = std::min(spec.theta_max, limits.max_theta);
-    o.description = "measured by gonio (vndf plan)";
+    o.phi_i_count = spec.phi_i_count >= 2 ? static_cast<std::size_t>(spec.phi_i_count) : 0;
+    o.description = o.phi_i_count ? "measured by gonio (vndf plan, anisotropic)"
+                                  : "measured by gonio (vndf plan)";
     return o;
 }
 
@@ -213,16 +349,25 @@ Expected<VndfLayout> plan_vndf_layout(const brdf::RglNdf& ndf,
     const std::size_t N = out.layout.options.rgb_resolution;
     const double theta_max = std::min(spec.theta_max, limits.max_theta);
     // The representative of a node: column 0 is the normal half vector in every row; rows r and
-    // N - 1 - r are mirror images (isotropy; row N - 1 repeats row 0's azimuth).
-    using Key = std::tuple<std::size_t, std::size_t, std::size_t>;
+    // N - 1 - r are mirror images (isotropy; row N - 1 repeats row 0's azimuth). Anisotropic: no
+    // mirror; row N - 1 is row 0, the last phi_i node the first, and at theta_i = 0 every phi_i
+    // node has the same nodes.
+    const bool aniso = out.layout.phi_i.size() > 1;
+    const std::size_t P = aniso ? out.layout.phi_i.size() - 1 : 1;
+    using Key = std::tuple<std::size_t, std::size_t, std::size_t, std::size_t>;
     std::map<Key, int> config_of;  // representative -> index into candidates, or -1
     std::vector<PlannedConfig> candidates;
     out.node_config.assign(out.layout.nodes.size(), -1);
     std::vector<int> candidate_of_node(out.layout.nodes.size(), -1);
     for (std::size_t i = 0; i < out.layout.nodes.size(); ++i) {
         const brdf::RglNode& node = out.layout.nodes[i];
-        const std::size_t row = node.column == 0 ? 0 : std::min(node.row, N - 1 - node.row);
-        const Key key{node.theta_index, row, node.column};
+        std::size_t row = node.column == 0 ? 0 : std::min(node.row, N - 1 - node.row);
+        std::size_t phi = 0;
+        if (aniso) {
+            row = node.column == 0 || node.row == N - 1 ? 0 : node.row;
+            phi = node.theta_index == 0 ? 0 : node.phi_index % P;
+        }
+        const Key key{phi, node.theta_index, row, node.column};
         auto it = config_of.find(key);
         if (it == config_of.end()) {
             int idx = -1;
@@ -232,7 +377,8 @@ Expected<VndfLayout> plan_vndf_layout(const brdf::RglNdf& ndf,
                 out.plan.unreachable.push_back(
                     {node.wi,
                      node.wo,
-                     "theta_i node " + std::to_string(node.theta_index) + ", row " +
+                     (aniso ? "phi_i node " + std::to_string(phi) + ", " : std::string()) +
+                         "theta_i node " + std::to_string(node.theta_index) + ", row " +
                          std::to_string(row) + ", column " + std::to_string(node.column) +
                          ": theta_o " + deg_text(polar(node.wo)) +
                          " deg beyond the largest polar angle " + deg_text(theta_max) + " deg"});
@@ -240,7 +386,7 @@ Expected<VndfLayout> plan_vndf_layout(const brdf::RglNdf& ndf,
                 PlannedConfig p;
                 p.wi = node.wi;
                 p.wo = node.wo;
-                p.isotropic = true;
+                p.isotropic = !aniso;
                 idx = static_cast<int>(candidates.size());
                 candidates.push_back(p);
             }
@@ -306,7 +452,8 @@ Expected<brdf::TensorFile> vndf_tensor(const VndfLayout& L,
             ++rep.below_horizon;
             continue;
         }
-        const std::size_t base = node.theta_index * plane;
+        const std::size_t slice = node.phi_index * L.layout.theta_i.size() + node.theta_index;
+        const std::size_t base = slice * plane;
         double best = std::numeric_limits<double>::infinity();
         std::size_t pick = nodes.size();
         for (std::size_t q = base; q < base + plane; ++q) {
@@ -323,7 +470,8 @@ Expected<brdf::TensorFile> vndf_tensor(const VndfLayout& L,
             }
         }
         if (pick == nodes.size()) {
-            return make_error("vndf file: theta_i node " + std::to_string(node.theta_index) + " (" +
+            return make_error("vndf file: phi_i node " + std::to_string(node.phi_index) +
+                              ", theta_i node " + std::to_string(node.theta_index) + " (" +
                               deg_text(L.layout.theta_i[node.theta_index]) +
                               " deg) has no measured node to take a value from");
         }

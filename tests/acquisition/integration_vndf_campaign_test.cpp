@@ -1,12 +1,13 @@
 // A vndf campaign on the virtual rig (real Modbus TCP stack and camera emulator on 127.0.0.1):
 // killed with SIGKILL inside its second pass and resumed, it measures every configuration of both
 // passes exactly once, places the same second pass again from its journal, lists that pass's
-// unreachable nodes in metadata.json, and writes dataset.bsdf.
+// unreachable nodes in metadata.json, and writes dataset.bsdf; the same for an anisotropic sample.
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
@@ -40,15 +41,18 @@ struct Fixture {
     CampaignSpec spec;
 };
 
-/// A small vndf plan: 12 retro-reflection nodes, 4 theta_i nodes of 6 x 6.
-Fixture make_campaign(const std::string& name) {
+/// A small vndf plan: 12 retro-reflection nodes, 4 theta_i nodes of 6 x 6; anisotropic: the
+/// retro-reflection at 8 azimuths and 4 incident azimuths in the file.
+Fixture make_campaign(const std::string& name,
+                      const char* model = kModel,
+                      bool anisotropic = false) {
     Fixture f;
     f.dir = std::string(GONIO_BINARY_DIR) + "/test_campaigns/" + name + "_" +
             std::to_string(::getpid());
     fs::remove_all(f.dir);
     fs::create_directories(f.dir);
     f.model = f.dir + "_model.json";
-    std::ofstream(f.model) << kModel;
+    std::ofstream(f.model) << model;
     auto rig = read_rig_config(std::string(GONIO_SOURCE_DIR) + "/data/rigs/sim4.json");
     EXPECT_TRUE(rig) << rig.error().message;
     f.rig = *rig;
@@ -58,7 +62,16 @@ Fixture make_campaign(const std::string& name) {
     f.spec.vndf.retro_count = 12;
     f.spec.vndf.theta_i_count = 4;
     f.spec.vndf.resolution = 6;
-    f.spec.drift_every = 0;
+    if (anisotropic) {
+        f.spec.vndf.phi_i_count = 4;
+        f.spec.vndf.retro_phi_count = 8;
+        f.spec.vndf.ndf_resolution = 32;
+        // The drift reference is held at one spin (an anisotropic sample reads differently at
+        // every spin); checked every 40 measurements.
+        f.spec.drift_every = 40;
+    } else {
+        f.spec.drift_every = 0;
+    }
     f.spec.rig = "rig.json";
     f.spec.json = campaign_spec_json(f.spec);
     auto c = create_campaign_dir(f.dir, f.spec, f.rig);
@@ -194,6 +207,97 @@ TEST(VndfCampaign, KilledInItsSecondPassResumesToTheSameNodesAndWritesTheFile) {
         ++checked;
     }
     EXPECT_GT(checked, 20u);
+}
+
+// Brushed metal mounted at 30 degrees (anisotropic GGX 0.1 x 0.3): the anisotropic vndf plan
+// turns the sample with its spin axis, so its retro-reflection follows the lobe over every
+// azimuth, and killed inside its second pass and resumed it measures each configuration once and
+// writes an anisotropic file whose measured nodes are the truth at their directions. The drift
+// reference, held at one spin, does not pause the campaign.
+TEST(VndfCampaign, AnisotropicSampleKilledAndResumedWritesAnAnisotropicFile) {
+    const char* brushed = R"({
+    "diffuse": [0.05, 0.05, 0.05],
+    "lobes": [{"distribution": "ggx", "alpha_x": 0.1, "alpha_y": 0.3, "orientation_deg": 30,
+               "shadowing": "smith-correlated",
+               "fresnel": {"type": "schlick", "f0": [0.9, 0.8, 0.6]}}]
+})";
+    Fixture f = make_campaign("vndf_aniso", brushed, true);
+    auto pass0 = build_plan(f.spec, f.rig);
+    ASSERT_TRUE(pass0) << pass0.error().message;
+    const std::size_t n0 = pass0->configs.size();
+    // 11 elevations below the horizon node; the pole once, the others at 8 azimuths.
+    EXPECT_EQ(n0 + pass0->unreachable.size(), 1u + 10 * 8);
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+        LiveRig r = start_rig(f);
+        RunHooks h;
+        h.out = nullptr;
+        h.on_measurement = [n0](const brdf::Sample&, std::size_t measured, std::size_t) {
+            if (measured == n0 + 25) {
+                ::raise(SIGKILL);
+            }
+        };
+        auto res = run_campaign(f.dir, r.dev, h);
+        _exit(res ? 3 : 4);
+    }
+    int status = 0;
+    ASSERT_EQ(waitpid(pid, &status, 0), pid);
+    ASSERT_TRUE(WIFSIGNALED(status)) << "exit " << WEXITSTATUS(status);
+    VndfNdf ndf;
+    auto pass1 = vndf_second_pass(f.dir, f.spec, f.rig, &ndf);
+    ASSERT_TRUE(pass1) << pass1.error().message;
+    EXPECT_EQ(ndf.ndf.rows, 32u);  // the NDF over the whole square
+    // The recovered NDF is wider along the lobe's y axis (120 deg) than along its x axis.
+    auto d_at = [&](double theta, double phi) {
+        const double h = 1.0 / 31.0;
+        const auto c = static_cast<std::size_t>(std::lround(brdf::rgl_theta_to_u(theta) / h));
+        const auto r = static_cast<std::size_t>(std::lround(brdf::rgl_phi_to_u(phi) / h));
+        return ndf.ndf.d[r * 32 + c];
+    };
+    EXPECT_LT(d_at(15 * kPi / 180, 30 * kPi / 180), 0.8 * d_at(15 * kPi / 180, 120 * kPi / 180));
+    {
+        LiveRig r = start_rig(f);
+        RunHooks h;
+        h.out = nullptr;
+        auto res = run_campaign(f.dir, r.dev, h);
+        ASSERT_TRUE(res) << res.error().message;
+        EXPECT_EQ(res->outcome, Outcome::kCompleted) << res->message;
+    }
+    auto j = Journal::open(f.dir + "/journal.log");
+    ASSERT_TRUE(j);
+    std::map<std::pair<int, std::uint32_t>, int> count;
+    for (const JournalRecord& r : j->records()) {
+        if (r.type == RecordType::kMeasurement) {
+            count[{r.pass, r.index}]++;
+        }
+    }
+    EXPECT_EQ(count.size(), n0 + pass1->plan.configs.size());
+    for (const auto& [k, n] : count) {
+        EXPECT_EQ(n, 1) << "configuration " << k.first << ":" << k.second;
+    }
+    auto file = brdf::read_rgl_bsdf(f.dir + "/dataset.bsdf");
+    ASSERT_TRUE(file) << file.error().message;
+    EXPECT_FALSE(file->isotropic());
+    EXPECT_EQ(file->phi_i().size(), 5u);
+    auto truth = brdf::load_brdf(f.model);
+    ASSERT_TRUE(truth);
+    std::size_t checked = 0;
+    std::set<std::size_t> azimuths;
+    for (const brdf::RglNode& node : file->nodes()) {
+        if (!file->node_valid(node) || node.wo.z() < 0.2 || node.wi.z() < 0.2) {
+            continue;
+        }
+        const double t = (*truth)->eval(node.wi, node.wo).mean();
+        const double v = (file->stored(node) * node.factor / node.wo.z()).mean();
+        EXPECT_NEAR(v, t, 5e-3 * t + 1e-4)
+            << "phi_i node " << node.phi_index << ", theta_i node " << node.theta_index << ", row "
+            << node.row << ", column " << node.column;
+        azimuths.insert(node.phi_index);
+        ++checked;
+    }
+    EXPECT_GT(checked, 60u);
+    EXPECT_EQ(azimuths.size(), 4u);
 }
 
 }  // namespace

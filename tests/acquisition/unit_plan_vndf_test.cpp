@@ -262,6 +262,165 @@ TEST(PlanVndf, FileOfTheMeasuredNodesEvaluatesToTheTruth) {
     EXPECT_LT(err[err.size() * 9 / 10], 0.1);
 }
 
+// Brushed metal mounted at 30 degrees: anisotropic GGX alpha 0.1 x 0.3, its x axis turned by
+// 30 degrees from the sample's.
+brdf::ModelD brushed_model(double diffuse) {
+    brdf::ModelD m = ggx_model(0.1, diffuse);
+    m.lobes[0].anisotropic = true;
+    m.lobes[0].alpha_x = 0.1;
+    m.lobes[0].alpha_y = 0.3;
+    m.lobes[0].orientation_deg = 30;
+    return m;
+}
+
+// The closed form of that lobe's distribution (Heitz 2014, eq. 85, in the lobe's frame).
+double brushed_d(double theta, double phi) {
+    const double ax = 0.1, ay = 0.3, c = std::cos(theta), t2 = std::tan(theta) * std::tan(theta);
+    const double p = phi - 30 * kDeg;
+    const double e =
+        t2 * (std::cos(p) * std::cos(p) / (ax * ax) + std::sin(p) * std::sin(p) / (ay * ay));
+    return 1.0 / (kPi * ax * ay * c * c * c * c * (1 + e) * (1 + e));
+}
+
+VndfSpec anisotropic_spec() {
+    VndfSpec spec;
+    spec.phi_i_count = 8;
+    spec.ndf_resolution = kVndfAnisotropicNdfResolution;
+    return spec;
+}
+
+// The anisotropic retro-reflection grid: every elevation at 32 azimuths (the pole once), each
+// pair's half vector its node, the spin axis used (not an isotropic target); the NDF recovered
+// from it follows the turned lobe's closed form over the whole grid below 60 degrees.
+TEST(PlanVndfAnisotropic, RetroGridRecoversTheTurnedDistribution) {
+    const RigLimits lim;
+    const VndfSpec spec = anisotropic_spec();
+    auto plan = plan_vndf_retro(spec, lim);
+    ASSERT_TRUE(plan) << plan.error().message;
+    std::size_t pole = 0;
+    std::vector<int> per_azimuth(32, 0);
+    for (const PlannedConfig& c : plan->configs) {
+        EXPECT_FALSE(c.isotropic);
+        const Vec3d h = (c.wi + c.wo).normalized();
+        EXPECT_NEAR(polar(c.wi), polar(c.wo), 1e-12);
+        if (polar(h) < 1e-9) {
+            ++pole;
+            continue;
+        }
+        const long k = std::lround((std::atan2(h.y(), h.x()) + kPi) / (2 * kPi) * 32) % 32;
+        ++per_azimuth[static_cast<std::size_t>(k)];
+    }
+    EXPECT_EQ(pole, 1u);
+    for (int n : per_azimuth) {
+        EXPECT_EQ(n, per_azimuth[0]);  // the same elevations at every azimuth
+    }
+    EXPECT_GT(per_azimuth[0], 25);
+    EXPECT_EQ(plan->configs.size() + plan->unreachable.size(), 1u + 30 * 32);
+
+    const brdf::AnalyticBrdf truth(brushed_model(0.0), "brushed");
+    auto ndf = vndf_ndf_from_retro(measure_retro(*plan, truth, 1e-3, 5), spec);
+    ASSERT_TRUE(ndf) << ndf.error().message;
+    const std::size_t n = static_cast<std::size_t>(spec.ndf_resolution);
+    ASSERT_EQ(ndf->ndf.rows, n);
+    ASSERT_EQ(ndf->ndf.d.size(), n * n);
+    double worst = 0, sum = 0;
+    int count = 0;
+    for (std::size_t r = 0; r < n; ++r) {
+        const double phi = brdf::rgl_u_to_phi(static_cast<double>(r) / (n - 1));
+        for (std::size_t j = 0; j < n; ++j) {
+            const double theta = brdf::rgl_u_to_theta(static_cast<double>(j) / (n - 1));
+            const double want = brushed_d(theta, phi);
+            if (theta > 60 * kDeg || want < 1e-2 * brushed_d(0, 0)) {
+                continue;
+            }
+            const double rel = std::abs(ndf->ndf.d[r * n + j] - want) / want;
+            worst = std::max(worst, rel);
+            sum += rel;
+            ++count;
+        }
+    }
+    std::printf(
+        "anisotropic NDF from %zu retro-reflection measurements against the closed form (%d "
+        "nodes above 1 %% of the peak below 60 deg): mean error %.4f, worst %.4f\n",
+        plan->configs.size(),
+        count,
+        sum / count,
+        worst);
+    EXPECT_GT(count, 500);
+    // Measured: mean 0.8 %, worst 8.9 % (along the lobe's wide axis near 60 deg); from the
+    // truth's retro-reflection at every node of the grid the power iteration gives 0.6 % and
+    // 5.5 %. With 16 azimuths the interpolation between them costs 3.3 % and 25 %.
+    EXPECT_LT(sum / count, 0.015);
+    EXPECT_LT(worst, 0.15);
+}
+
+// The measured nodes of every (phi_i, theta_i) node stored by vndf_tensor: an anisotropic file
+// (9 phi_i nodes) that evaluates to the turned truth at seeded pairs over every incident
+// azimuth; the nodes at normal incidence and the last azimuth are measured once.
+TEST(PlanVndfAnisotropic, FileOfTheMeasuredNodesEvaluatesToTheTurnedTruth) {
+    const RigLimits lim;
+    const VndfSpec spec = anisotropic_spec();
+    const brdf::AnalyticBrdf truth(brushed_model(0.05), "brushed");
+    auto retro = plan_vndf_retro(spec, lim);
+    ASSERT_TRUE(retro);
+    auto ndf = vndf_ndf_from_retro(measure_retro(*retro, truth, 0.0, 1), spec);
+    ASSERT_TRUE(ndf) << ndf.error().message;
+    auto layout = plan_vndf_layout(ndf->ndf, spec, lim);
+    ASSERT_TRUE(layout) << layout.error().message;
+    EXPECT_EQ(layout->layout.phi_i.size(), 9u);
+    // Distinct nodes: per (phi_i, theta_i > 0) slice 15 rows x 15 columns + the normal half
+    // vector; theta_i = 0 once.
+    const std::size_t distinct = (8 * 7 + 1) * (15 * 15 + 1);
+    EXPECT_EQ(layout->plan.configs.size() + layout->plan.unreachable.size() + layout->below_horizon,
+              distinct);
+    for (const PlannedConfig& c : layout->plan.configs) {
+        EXPECT_FALSE(c.isotropic);
+    }
+    std::vector<Rgbd> values;
+    for (const PlannedConfig& c : layout->plan.configs) {
+        values.push_back(truth.eval(c.wi, c.wo));
+    }
+    VndfFileReport rep;
+    auto file = vndf_tensor(*layout, values, &rep);
+    ASSERT_TRUE(file) << file.error().message;
+    EXPECT_EQ(rep.measured + rep.filled + rep.below_horizon, rep.nodes);
+    const std::string bytes = brdf::encode_tensor_file(*file);
+    auto decoded = brdf::parse_tensor_file(
+        reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size(), "vndf.bsdf");
+    ASSERT_TRUE(decoded) << decoded.error().message;
+    auto back = brdf::RglBsdf::from_tensor(*decoded, "vndf.bsdf");
+    ASSERT_TRUE(back) << back.error().message;
+    EXPECT_FALSE(back->isotropic());
+    std::mt19937 rng(20261202);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    std::vector<double> err;
+    for (int k = 0; k < 2000; ++k) {
+        const double ti = u(rng) * 75 * kDeg;
+        const double pi = (2 * u(rng) - 1) * kPi;
+        double to = u(rng) * 75 * kDeg;
+        double po = (2 * u(rng) - 1) * kPi;
+        if (k % 2 == 1) {
+            to = std::clamp(ti + (2 * u(rng) - 1) * 10 * kDeg, 0.0, 75 * kDeg);
+            po = pi + kPi + (2 * u(rng) - 1) * 10 * kDeg;
+        }
+        const Vec3d wi = brdf::spherical_to_cartesian(ti, pi);
+        const Vec3d wo = brdf::spherical_to_cartesian(to, po);
+        const double t = truth.eval(wi, wo)[1];
+        err.push_back(std::abs(back->eval(wi, wo)[1] - t) / t);
+    }
+    std::sort(err.begin(), err.end());
+    std::printf(
+        "anisotropic file of the truth at the vndf nodes (%zu configurations, %zu measured, %zu "
+        "filled): relative error median %.3g, 90th percentile %.3g\n",
+        layout->plan.configs.size(),
+        rep.measured,
+        rep.filled,
+        err[err.size() / 2],
+        err[err.size() * 9 / 10]);
+    EXPECT_LT(err[err.size() / 2], 0.03);
+    EXPECT_LT(err[err.size() * 9 / 10], 0.25);
+}
+
 TEST(PlanVndf, SpecLimitsNameTheField) {
     VndfSpec s;
     s.resolution = 2;
@@ -317,6 +476,27 @@ TEST(PlanVndf, CampaignDescriptionRoundTripsAndRefusesAdaptiveAndScene) {
     bad = parse_campaign_spec(R"({"plan": {"kind": "vndf", "resolution": 3}})", "c.json");
     ASSERT_FALSE(bad);
     EXPECT_NE(bad.error().message.find("resolution"), std::string::npos);
+    // The anisotropic plan's fields round-trip; a 2-node or oversized anisotropic NDF is refused
+    // naming the field.
+    auto an = parse_campaign_spec(
+        R"({"plan": {"kind": "vndf", "phi_i_count": 6, "retro_phi_count": 24,
+            "ndf_resolution": 48}})",
+        "c.json");
+    ASSERT_TRUE(an) << an.error().message;
+    auto an2 = parse_campaign_spec(campaign_spec_json(*an), "again.json");
+    ASSERT_TRUE(an2) << an2.error().message;
+    EXPECT_EQ(an2->vndf.phi_i_count, 6);
+    EXPECT_EQ(an2->vndf.retro_phi_count, 24);
+    EXPECT_EQ(an2->vndf.ndf_resolution, 48);
+    bad = parse_campaign_spec(R"({"plan": {"kind": "vndf", "phi_i_count": 1}})", "c.json");
+    ASSERT_FALSE(bad);
+    EXPECT_NE(bad.error().message.find("phi_i_count = 1"), std::string::npos)
+        << bad.error().message;
+    bad = parse_campaign_spec(
+        R"({"plan": {"kind": "vndf", "phi_i_count": 4, "ndf_resolution": 256}})", "c.json");
+    ASSERT_FALSE(bad);
+    EXPECT_NE(bad.error().message.find("ndf_resolution = 256"), std::string::npos)
+        << bad.error().message;
 
     CampaignRequest r;
     r.plan_kind = "vndf";

@@ -50,7 +50,12 @@ struct CampaignRequest {
     /// Point mode: the anisotropic plan over (theta_i, phi_i, theta_o, phi_o) (plan.h,
     /// plan_anisotropic) with the grid of n_theta and n_dphi, no adaptive pass.
     bool anisotropic = false;
-    std::string symmetry;        ///< Point mode, anisotropic plan: "none", "mirror" or "2-fold".
+    std::string symmetry;  ///< Point mode, anisotropic plan: "none", "mirror" or "2-fold".
+    /// Point mode, vndf plan (0 = the description's): theta_i nodes of its RGL file, nodes per
+    /// axis of the sample square, and (with anisotropic) incident azimuths.
+    int vndf_theta_i = 0;
+    int vndf_resolution = 0;
+    int vndf_phi_i = 0;
     double time_scale = 0;       ///< Virtual rig: motion time scale (> 0 overrides the rig's).
     bool accept_drift = false;   ///< Point mode: take the lamp's level as the new baseline.
     bool plan_only = false;      ///< Print the plan and stop; nothing is measured or written.
@@ -144,8 +149,9 @@ using EmbeddedRigStarter = std::function<Expected<std::unique_ptr<EmbeddedRig>>(
 
 // ---- point mode ----------------------------------------------------------------------------
 
-/// The plan of a new point campaign (plan_only), without starting anything.
-Expected<Plan> plan_point_campaign(const CampaignRequest& request);
+/// The plan of a new point campaign (plan_only), without starting anything; `spec`, when given,
+/// receives the campaign description it was built from.
+Expected<Plan> plan_point_campaign(const CampaignRequest& request, CampaignSpec* spec = nullptr);
 
 /// A point campaign ready to run: its folder exists (campaign.json, rig.json and the ground-truth
 /// copy written) and its devices are open.

@@ -31,6 +31,15 @@
 // Redundancy removed before measuring: column 0 of the square is the normal half vector in every
 // row, the last row repeats the first one's azimuth, and for an isotropic material row r and row
 // N - 1 - r are mirror images (phi_m -> -phi_m), so one configuration serves them all.
+// Anisotropic materials (phi_i_count >= 2; section 4.3 of the paper). The microfacet distribution
+// depends on the azimuth, so pass 0 measures retro-reflection on a grid of retro_count elevations
+// times retro_phi_count azimuths (the pole once), the rig turning the sample with its spin axis;
+// the NDF grid is the whole unit square (rows over the azimuth) and the power iteration integrates
+// over it (brdf::rgl_ndf_from_retro). Pass 1 measures the warped nodes of every (phi_i, theta_i)
+// node, phi_i_count azimuths over the full turn, with the half vector's azimuth measured from the
+// sample's x axis. No mirror symmetry is assumed between rows; the last phi_i node is the first a
+// full turn on, and at theta_i = 0 every azimuth has the same nodes, so each is measured once.
+//
 // Unreachable nodes (blind zone, beyond the largest polar angle, arm limits) are listed with why;
 // the file stores there the value of the nearest measured node of the same theta_i slice in the
 // sample square (the warped value is smooth, see above), with the node's "valid" bit clear. Nodes
@@ -62,10 +71,22 @@ struct VndfSpec {
     int resolution = 16;        ///< N: nodes per axis of the sample square.
     int ndf_resolution = 128;   ///< Nodes of the file's NDF grid and of its VNDF tables per axis.
     double theta_max = 1.4835;  ///< Largest polar angle measured, rad (also the rig's limit).
+    /// 0: an isotropic material and file. P >= 2: an anisotropic file with P incident azimuths
+    /// (P + 1 phi_i nodes over the full turn) and an NDF over the whole square.
+    int phi_i_count = 0;
+    /// Anisotropic: azimuths of the retro-reflection grid (the NDF of a lobe with axes 1 : 3 has
+    /// a narrow azimuthal peak at 60 deg: 16 azimuths miss it by up to 25 %, 32 by 9 %).
+    int retro_phi_count = 32;
 };
 
-/// Checks the counts (retro 4..512, theta_i 2..64, resolution 4..128, ndf 16..512) and theta_max
-/// in (10, 89] deg; the error names the field.
+/// Incident azimuths of an anisotropic vndf plan when none is given, and its NDF grid (the 2-D
+/// power iteration costs ndf_resolution^4 per step).
+constexpr int kVndfAnisotropicPhiCount = 8;
+constexpr int kVndfAnisotropicNdfResolution = 64;
+
+/// Checks the counts (retro 4..512, theta_i 2..64, resolution 4..128, ndf 16..512, anisotropic:
+/// phi_i 0 or 2..64, retro azimuths 4..128, ndf at most 128) and theta_max in (10, 89] deg; the
+/// error names the field.
 Expected<void> check_vndf_spec(const VndfSpec& spec);
 
 /// The separation of light and detector in retro-reflection: blind angle + kVndfRetroMargin.
@@ -95,8 +116,11 @@ struct VndfNdf {
 /// kVndfRetroElevationTolerance); the values are interpolated linearly in u onto
 /// the NDF grid, held constant below the first node and continued above the last measured node as
 /// f constant (f cos falls to 0 at the horizon), then iterated to the fixed point
-/// (brdf::rgl_ndf_from_retro, floor 1e-4 of the peak). Errors: no measurement, a non-finite or
-/// negative value, a pair whose elevations differ, nothing reflected back.
+/// (brdf::rgl_ndf_from_retro, floor 1e-4 of the peak). Anisotropic: the same along each measured
+/// azimuth (the pole belongs to every one), then the logarithm interpolated linearly in the
+/// azimuth, periodically, between the measured azimuths around each row of the grid. Errors: no
+/// measurement, a non-finite or negative value, a pair whose elevations differ, nothing reflected
+/// back.
 Expected<VndfNdf> vndf_ndf_from_retro(const std::vector<RetroMeasurement>& retro,
                                       const VndfSpec& spec);
 
