@@ -154,13 +154,20 @@ constexpr double kLogRmsePractical = 0.02;
 std::vector<double> lobe_shares(const ModelD& model, const std::vector<Sample>& samples) {
     std::vector<double> lobe_sum(model.lobes.size(), 0.0);
     double total = 0;
+    // The model's value is its diffuse term plus its lobes' values added in lobe order, as
+    // eval_model adds them (the same value), so each lobe is evaluated once.
+    ModelD diffuse_only = model;
+    diffuse_only.lobes.clear();
     for (const Sample& s : samples) {
         const brdf::Vec3d wi = s.wi();
         const brdf::Vec3d wo = s.wo();
-        total += s.weight * brdf::eval_model(model, wi, wo).mean();
+        Rgbd f = brdf::eval_model(diffuse_only, wi, wo);
         for (std::size_t l = 0; l < model.lobes.size(); ++l) {
-            lobe_sum[l] += s.weight * brdf::eval_lobe(model.lobes[l], wi, wo).mean();
+            const Rgbd lobe = brdf::eval_lobe(model.lobes[l], wi, wo);
+            f += lobe;
+            lobe_sum[l] += s.weight * lobe.mean();
         }
+        total += s.weight * f.mean();
     }
     for (double& v : lobe_sum) {
         // A zero model (all-zero data): every lobe has vanished.

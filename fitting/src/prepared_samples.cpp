@@ -919,7 +919,8 @@ bool PreparedSamples::normal_equations_k(const double* x, NormalEquations& out, 
     using MatK = Eigen::Matrix<double, K, K>;
     using VecK = Eigen::Matrix<double, K, 1>;
     const int np = map_->size();
-    const brdf::Model<J> m = jet_model<K>(x);
+    // The Jet model only where the Jet path runs (no allocation per pass otherwise).
+    const brdf::Model<J> m = analytic_ ? brdf::Model<J>{} : jet_model<K>(x);
     const brdf::ModelD md = map_->model<double>(x);
     // Per block: a[3] (K x K), b[3] (K), the cost, and whether all is finite.
     constexpr std::size_t kStride = 3 * K * K + 3 * K + 2;
@@ -1087,7 +1088,8 @@ bool PreparedSamples::jets_k(const double* x,
                              Eigen::MatrixXd* outer) const {
     using J = ceres::Jet<double, K>;
     const int np = map_->size();
-    const brdf::Model<J> m = jet_model<K>(x);
+    // The Jet model only where the Jet path runs (no allocation per pass otherwise).
+    const brdf::Model<J> m = analytic_ ? brdf::Model<J>{} : jet_model<K>(x);
     const brdf::ModelD md = map_->model<double>(x);
     Eigen::VectorXd g(np);
     double ra[3];
