@@ -199,6 +199,34 @@ TEST(ImageAnisotropic, OptionsItCannotHonourAreRefused) {
     fs::remove_all(dir);
 }
 
+TEST(ImageAnisotropic, CommandResumesFromTheFolderSettings) {
+    // A campaign stopped by its frame limit, continued with --resume: the folder's settings
+    // (image_campaign.json) keep it anisotropic, the journal's poses are not taken again.
+    const std::string dir = temp_dir("cli_resume");
+    std::ofstream(dir + "/truth.json") << brushed_model(0.15, 0.35, 20);
+    int st = 0;
+    std::string out = run_gonio("acquire --mode image --anisotropic --camera-px 64 --brdf " + dir +
+                                    "/truth.json --out " + dir +
+                                    "/run --max-frames 3 --coverage-target 0.1 --time-scale 500",
+                                &st);
+    EXPECT_EQ(st, 1) << out;  // the target is not met in 3 frames
+    EXPECT_NE(out.find("stopped: frame limit"), std::string::npos) << out;
+    const nlohmann::json settings =
+        nlohmann::json::parse(read_text(dir + "/run/image_campaign.json"));
+    EXPECT_TRUE(settings.at("anisotropic").get<bool>());
+    out = run_gonio("acquire --resume " + dir + "/run", &st);
+    // The frame limit is the campaign's own: the resume reads 3 frames and stops there too.
+    EXPECT_NE(out.find("resumed: 3 frames"), std::string::npos) << out;
+    EXPECT_NE(out.find("anisotropic: 12x24x8x12"), std::string::npos) << out;
+    const nlohmann::json meta = nlohmann::json::parse(read_text(dir + "/run/dataset.json"));
+    EXPECT_TRUE(meta.at("anisotropic").get<bool>());
+    EXPECT_EQ(meta.at("frames").size(), 3u);
+    out = run_gonio("acquire --resume " + dir + "/run --anisotropic", &st);
+    EXPECT_EQ(st, 2) << out;
+    EXPECT_NE(out.find("--anisotropic cannot be combined with --resume"), std::string::npos) << out;
+    fs::remove_all(dir);
+}
+
 // ---- resume after SIGKILL ------------------------------------------------------------------
 
 struct Campaign {
