@@ -164,7 +164,9 @@ Expected<SphereGeometry> detect_sphere(const cv::Mat& frame,
             }
         }
     }
+    bool glossy = false;
     if (object.size() >= 20 && static_cast<double>(object.size()) > 1.5 * area) {
+        glossy = true;
         const double level = median(std::move(object));
         threshold = std::max(lo + options.threshold_fraction * (level - lo), lo + 5 * noise_sigma);
         std::tie(largest, area) = outline(threshold);
@@ -216,7 +218,26 @@ Expected<SphereGeometry> detect_sphere(const cv::Mat& frame,
             const double v = sample(p.x + s * ux, p.y + s * uy);
             if (v >= threshold && prev_v < threshold) {
                 const double t = (threshold - v) / (prev_v - v);
-                const double edge = s + t * (prev_s - s);
+                double edge = s + t * (prev_s - s);
+                if (glossy) {
+                    // A glossy sphere's limb is a step (its tails do not fade to zero there, as a
+                    // Lambertian limb lit from the camera does), blurred by the pixels: its edge is
+                    // where the profile crosses half way between the background and the level
+                    // 2 px inside, which a threshold near the background would place outside.
+                    const double half =
+                        0.5 * (lo + sample(p.x + (edge - 2) * ux, p.y + (edge - 2) * uy));
+                    double q_prev = edge + 1;
+                    double w_prev = sample(p.x + q_prev * ux, p.y + q_prev * uy);
+                    for (double q = edge + 1 - kStep; q >= edge - 2; q -= kStep) {
+                        const double w = sample(p.x + q * ux, p.y + q * uy);
+                        if (w >= half && w_prev < half) {
+                            edge = q + (half - w) / (w_prev - w) * (q_prev - q);
+                            break;
+                        }
+                        q_prev = q;
+                        w_prev = w;
+                    }
+                }
                 pts.emplace_back(p.x + edge * ux, p.y + edge * uy);
                 break;
             }

@@ -161,6 +161,45 @@ TEST(ImageAnisotropic, TurnedSphereBrushedAt30DegreesIsRecovered) {
     expect_recovered("brushed30", 30);
 }
 
+TEST(ImageAnisotropic, PerspectiveCameraRecoversTheBrushingAt30Degrees) {
+    // The default perspective camera (0.5 m from the sphere; its distance from the outline's
+    // apparent radius): the run of the command in process, the fit through the binary.
+    const std::string dir = temp_dir("perspective");
+    std::ofstream(dir + "/truth.json") << brushed_model(0.1, 0.3, 30);
+    acquisition::CampaignRequest r;
+    r.mode = acquisition::CampaignMode::kImage;
+    r.anisotropic = true;
+    r.perspective = true;
+    r.brdf_path = dir + "/truth.json";
+    r.out_dir = dir + "/run";
+    r.coverage_target = 0.3;
+    r.time_scale = 500;
+    auto run = acquisition::run_image_request(r, embedded_rig_starter());
+    ASSERT_TRUE(run) << run.error().message;
+    ASSERT_TRUE(run->result->target_met) << run->result->stop_reason;
+    EXPECT_EQ(run->config.camera.projection, acquisition::Projection::kPerspective);
+    // The sphere within half a millimetre of the rig origin.
+    EXPECT_LT(run->result->sphere.centre.norm(), 5e-4) << run->result->sphere.centre.transpose();
+    int st = 0;
+    const std::string fit = run_gonio("fit " + dir +
+                                          "/run/dataset.csv --anisotropic --fresnel "
+                                          "none --out " +
+                                          dir + "/fit.json",
+                                      &st);
+    ASSERT_EQ(st, 0) << fit;
+    const nlohmann::json j = nlohmann::json::parse(read_text(dir + "/fit.report.json"));
+    std::map<std::string, Param> p;
+    for (const auto& q : j.at("parameters")) {
+        p[q.at("name").get<std::string>()] = {
+            q.at("value").get<double>(),
+            q.at("sigma").is_number() ? q.at("sigma").get<double>() : -1};
+    }
+    expect_within(p["lobes[0].alpha_x"], 0.1, 4, false, "alpha_x");
+    expect_within(p["lobes[0].alpha_y"], 0.3, 4, false, "alpha_y");
+    expect_within(p["lobes[0].orientation_deg"], 30, 4, true, "orientation_deg");
+    fs::remove_all(dir);
+}
+
 TEST(ImageAnisotropic, IsotropicTruthFitsEqualSlopes) {
     const auto p = measure_and_fit("iso", kIsotropicModel);
     ASSERT_TRUE(p.count("lobes[0].alpha_x") && p.count("lobes[0].alpha_y"));
