@@ -133,9 +133,9 @@ void print_summary(const acquisition::ImageCampaignRun& run) {
         run.dir.c_str(),
         result.frames.size(),
         static_cast<unsigned long long>(c.used),
-        result.table.filled_bins(),
-        100 * result.coverage.fraction(),
-        result.coverage.valid_bins(),
+        result.filled_bins(),
+        100 * result.coverage_fraction(),
+        result.valid_bins(),
         result.reachable_bins);
     std::printf(
         "excluded pixels: edge %llu, grazing view %llu, shadow %llu, grazing light %llu, "
@@ -145,13 +145,19 @@ void print_summary(const acquisition::ImageCampaignRun& run) {
         static_cast<unsigned long long>(c.shadow),
         static_cast<unsigned long long>(c.grazing_light),
         static_cast<unsigned long long>(c.saturated));
+    if (result.aniso_table) {
+        std::printf("anisotropic: %s table in the material frame, %llu pixels in the pole caps\n",
+                    result.aniso_table->layout().describe().c_str(),
+                    static_cast<unsigned long long>(c.pole));
+    }
     std::size_t hole_bins = 0;
     for (const auto& h : result.holes) {
         hole_bins += h.bins;
     }
     std::printf(
-        "holes: %zu empty valid bins in %zu groups (dataset.json lists them); stopped: %s\n",
+        "holes: %zu empty valid %sbins in %zu groups (dataset.json lists them); stopped: %s\n",
         hole_bins,
+        result.aniso_table ? "half/difference " : "",
         result.holes.size(),
         result.stop_reason.c_str());
     // Empty valid bins by reason, in the order coverage_holes() tells them apart.
@@ -230,10 +236,16 @@ int run_acquire_image_mode(const acquisition::CampaignRequest& request,
         std::fflush(stdout);
         return {};
     };
-    hooks.progress = [](std::size_t i, const acquisition::FrameRecord& r) {
-        std::printf("frame %zu: light %.1f deg, %llu samples, coverage %.1f%%\n",
+    const bool aniso = request.anisotropic;
+    hooks.progress = [aniso](std::size_t i, const acquisition::FrameRecord& r) {
+        char spin[40] = "";
+        if (aniso) {
+            std::snprintf(spin, sizeof spin, ", spin %.1f deg", r.spin_rad * 180 / brdf::kPi);
+        }
+        std::printf("frame %zu: light %.1f deg%s, %llu samples, coverage %.1f%%\n",
                     i + 1,
                     r.light_arm_rad * 180 / brdf::kPi,
+                    spin,
                     static_cast<unsigned long long>(r.counts.used),
                     100 * r.coverage_after);
         std::fflush(stdout);
@@ -271,7 +283,7 @@ int run_acquire_image_mode(const acquisition::CampaignRequest& request,
         if (live) {
             live->publish_coverage(coverage_cells(so_far.coverage));
             live->publish_image_progress(
-                so_far.frames.size(), max_frames, so_far.coverage.fraction(), target, "running");
+                so_far.frames.size(), max_frames, so_far.coverage_fraction(), target, "running");
         }
     };
     auto run = acquisition::run_image_request(request, embedded_rig_starter(), hooks);
@@ -280,7 +292,7 @@ int run_acquire_image_mode(const acquisition::CampaignRequest& request,
         live->publish_image_progress(
             r ? r->frames.size() : 0,
             max_frames,
-            r ? r->coverage.fraction() : 0,
+            r ? r->coverage_fraction() : 0,
             target,
             r == nullptr    ? "failed"
             : r->target_met ? "completed"
@@ -295,7 +307,7 @@ int run_acquire_image_mode(const acquisition::CampaignRequest& request,
         std::fprintf(stderr,
                      "gonio acquire: coverage target %.1f%% not met (%.1f%%)\n",
                      100 * run->config.coverage_target,
-                     100 * run->result->coverage.fraction());
+                     100 * run->result->coverage_fraction());
         return 1;
     }
     return 0;
@@ -309,12 +321,14 @@ int print_image_plan(const acquisition::CampaignRequest& request) {
     }
     const acquisition::ImageCampaignConfig& c = plan->config;
     std::printf(
-        "image mode plan on %s: %dx%dx%d table, coverage target %.0f%%, at most %d light "
+        "image mode plan on %s: %s table, coverage target %.0f%%, at most %d light "
         "positions in [%.1f, %.1f] deg, detector arm %.1f deg\n",
         plan->embedded ? "the embedded virtual rig" : plan->rig_name.c_str(),
-        c.layout.n_theta_h,
-        c.layout.n_theta_d,
-        c.layout.n_phi_d,
+        c.anisotropic
+            ? c.aniso_layout.describe().c_str()
+            : (std::to_string(c.layout.n_theta_h) + "x" + std::to_string(c.layout.n_theta_d) + "x" +
+               std::to_string(c.layout.n_phi_d))
+                  .c_str(),
         100 * c.coverage_target,
         c.max_frames,
         c.lights.min_rad * 180 / brdf::kPi,
@@ -330,6 +344,16 @@ int print_image_plan(const acquisition::CampaignRequest& request) {
         c.rules.max_theta_o * 180 / brdf::kPi,
         c.lights.step_rad * 180 / brdf::kPi,
         c.lights.blind_zone_rad * 180 / brdf::kPi);
+    if (c.anisotropic) {
+        std::printf(
+            "anisotropic: turned sphere, %s table in the material frame, spin in [%.1f, %.1f] "
+            "deg every %.2f deg, pole caps %.1f deg\n",
+            c.aniso_layout.describe().c_str(),
+            c.spins.min_rad * 180 / brdf::kPi,
+            c.spins.max_rad * 180 / brdf::kPi,
+            c.spins.step_rad * 180 / brdf::kPi,
+            c.pole_rad * 180 / brdf::kPi);
+    }
     std::fflush(stdout);
     auto p = acquisition::predict_image_coverage(c);
     if (!p) {
@@ -337,14 +361,23 @@ int print_image_plan(const acquisition::CampaignRequest& request) {
         return 1;
     }
     const double valid = static_cast<double>(std::max<std::size_t>(p->valid_bins, 1));
+    char spin_buf[64] = "";
+    if (c.anisotropic) {
+        std::snprintf(
+            spin_buf, sizeof spin_buf, ", %.1f deg of spin", p->spin_travel_rad * 180 / brdf::kPi);
+    }
+    const std::string spin_note = spin_buf;
     std::printf(
         "predicted from the nominal sphere (%zu pixels within the limits, %zu candidate "
-        "light positions): %zu light positions (%.1f deg of light-arm travel), coverage "
-        "%.1f%% of %zu valid bins; reachable %.1f%% (%s)\n",
+        "%s): %zu %s (%.1f deg of light-arm travel%s), coverage %.1f%% of %zu valid bins; "
+        "reachable %.1f%% (%s)\n",
         p->sphere_pixels,
         p->candidates,
+        c.anisotropic ? "poses" : "light positions",
         p->light_arm_rad.size(),
+        c.anisotropic ? "poses" : "light positions",
         p->light_travel_rad * 180 / brdf::kPi,
+        spin_note.c_str(),
         100.0 * static_cast<double>(p->covered_bins) / valid,
         p->valid_bins,
         100.0 * static_cast<double>(p->reachable_bins) / valid,
@@ -353,11 +386,17 @@ int print_image_plan(const acquisition::CampaignRequest& request) {
     for (const acquisition::CoverageHole& h : p->holes) {
         by_reason[h.reason] += h.bins;
     }
+    // An anisotropic plan's holes are half/difference bins none of whose phi_h bins is covered.
+    const double hole_of =
+        c.anisotropic ? static_cast<double>(std::max<std::size_t>(
+                            acquisition::CoverageMap(c.aniso_layout.iso()).valid_bins(), 1))
+                      : valid;
     for (const auto& [reason, n] : by_reason) {
-        std::printf("  empty valid bins, %s: %zu (%.1f%%)\n",
+        std::printf("  empty valid %sbins, %s: %zu (%.1f%%)\n",
+                    c.anisotropic ? "half/difference " : "",
                     reason.c_str(),
                     n,
-                    100.0 * static_cast<double>(n) / valid);
+                    100.0 * static_cast<double>(n) / hole_of);
     }
     return 0;
 }

@@ -292,9 +292,11 @@ GONIO_COMMAND(acquire) {
         ->check(gonio::tools::integer_in(0, 100));
     cmd->add_flag("--anisotropic",
                   r.anisotropic,
-                  "point mode: plan over (theta_i, phi_i, theta_o, phi_o) with the spin axis, "
-                  "for samples whose BRDF depends on the azimuth (with --plan vndf: the NDF over "
-                  "every azimuth and an anisotropic dataset.bsdf with 8 incident azimuths)");
+                  "for samples whose BRDF depends on the azimuth: point mode plans over "
+                  "(theta_i, phi_i, theta_o, phi_o) with the spin axis (with --plan vndf: the "
+                  "NDF over every azimuth and an anisotropic dataset.bsdf with 8 incident "
+                  "azimuths); image mode measures a turned sphere at several spins into a 4-D "
+                  "table");
     cmd->add_option("--symmetry",
                     r.symmetry,
                     "anisotropic plan: the sample's symmetry about its normal (none, mirror "

@@ -98,6 +98,18 @@ std::optional<RequestConflict> find_conflict(const CampaignRequest& r) {
             among(f, {"coverage_target", "max_frames", "grid", "camera_px", "max_theta_deg"})) {
             return RequestConflict{f, "mode", "an image-mode option (give --mode image)"};
         }
+        if (image && f == "symmetry") {
+            return RequestConflict{f,
+                                   "mode",
+                                   "an anisotropic image campaign bins phi_h over the whole turn "
+                                   "and folds no symmetry"};
+        }
+        if (image && r.anisotropic && f == "grid") {
+            return RequestConflict{f,
+                                   "anisotropic",
+                                   "the grid is the isotropic half/difference table; an "
+                                   "anisotropic image campaign bins into its own 4-D table"};
+        }
         if (image && among(f,
                            {"campaign_file",
                             "scene",
@@ -105,8 +117,6 @@ std::optional<RequestConflict> find_conflict(const CampaignRequest& r) {
                             "n_theta",
                             "n_dphi",
                             "adaptive",
-                            "anisotropic",
-                            "symmetry",
                             "vndf_theta_i",
                             "vndf_resolution",
                             "vndf_phi_i",
@@ -618,7 +628,7 @@ Expected<std::unique_ptr<ImageRig>> start_image_rig(const ImageRigOptions& o,
     return out;
 }
 
-CaptureFn image_rig_capture(ImageRig& rig, double detector_arm_rad) {
+CaptureFn image_rig_capture(ImageRig& rig, double detector_arm_rad, bool spin) {
     RigDevices& d = rig.dev;
     std::function<Expected<void>(int)> select_filter;
     if (d.filter_wheel) {
@@ -638,6 +648,9 @@ CaptureFn image_rig_capture(ImageRig& rig, double detector_arm_rad) {
         std::ceil(std::max(light_axis.motion.settle_ms, detector_axis.motion.settle_ms))));
     opt.detector_arm = d.axes[static_cast<int>(AxisRole::kDetector)].get();
     opt.detector_arm_rad = detector_arm_rad;
+    if (spin) {
+        opt.spin = d.axes[static_cast<int>(AxisRole::kSpin)].get();
+    }
     opt.log = &rig.pose_log;
     opt.capture_timeout = std::chrono::milliseconds(rig.rig.capture.timeout_ms);
     opt.capture_retries = rig.rig.retries;
@@ -683,6 +696,13 @@ Expected<ImageCampaignConfig> image_config(const CampaignRequest& r,
                               show_number(rig.max_theta_deg) + " deg, " + rig.name + ")");
         }
         cfg.rules.max_theta_i = cfg.rules.max_theta_o = r.max_theta_deg * brdf::kPi / 180;
+    }
+    if (r.anisotropic) {
+        if (!r.aniso_layout.sane()) {
+            return make_error("4-D table " + r.aniso_layout.describe() +
+                              ": each count must be in [1, 720]");
+        }
+        make_anisotropic(&cfg, rig, r.aniso_layout);
     }
     return cfg;
 }
@@ -785,6 +805,11 @@ std::string image_settings_json(const CampaignRequest& r, const std::string& brd
     j["max_frames"] = r.max_frames > 0 ? r.max_frames : 200;
     j["image_size"] = r.camera_px > 0 ? r.camera_px : r.image_size;
     j["max_theta_deg"] = r.max_theta_deg;
+    j["anisotropic"] = r.anisotropic;
+    j["aniso_table"] = {r.aniso_layout.n_theta_h,
+                        r.aniso_layout.n_phi_h,
+                        r.aniso_layout.n_theta_d,
+                        r.aniso_layout.n_phi_d};
     j["perspective"] = r.perspective;
     j["supersample"] = r.supersample;
     j["time_scale"] = r.time_scale;
@@ -832,6 +857,22 @@ Expected<CampaignRequest> read_image_settings(const std::string& dir) {
         r.max_frames = o.integer("max_frames", 200, 1, 1000000);
         r.image_size = o.integer("image_size", 256, 16, 2048);
         r.max_theta_deg = o.number("max_theta_deg", 0, 0, 89.9);
+        r.anisotropic = o.boolean("anisotropic", false);
+        if (const nlohmann::json* g = o.find("aniso_table")) {
+            if (!g->is_array() || g->size() != 4) {
+                json_fail("aniso_table: expected [n_theta_h, n_phi_h, n_theta_d, n_phi_d]");
+            }
+            int n[4];
+            for (int k = 0; k < 4; ++k) {
+                const std::string at = "aniso_table[" + std::to_string(k) + "]";
+                const double v = json_number_at((*g)[k], at);
+                if (v != std::floor(v) || v < 1 || v > 720) {
+                    json_fail(at + " = " + show_number(v) + ": must be a whole number in [1, 720]");
+                }
+                n[k] = static_cast<int>(v);
+            }
+            r.aniso_layout = {n[0], n[1], n[2], n[3]};
+        }
         r.perspective = o.boolean("perspective", false);
         r.supersample = o.integer("supersample", 2, 1, 64);
         r.time_scale = o.number("time_scale", 0, 0, 1e6);
@@ -886,9 +927,10 @@ Expected<ImageCampaignRun> run_image_request(const CampaignRequest& given,
     if (run.embedded) {
         truth_name = r.brdf_path.empty() ? (r.material.empty() ? "red-plastic" : r.material)
                                          : fs::path(r.brdf_path).stem().string();
-        if (!(*rig)->embedded->isotropic_sample()) {
+        if (!r.anisotropic && !(*rig)->embedded->isotropic_sample()) {
             return make_error("image mode bins into an isotropic half/difference table; " +
-                              (*rig)->embedded->ground_truth() + " is anisotropic");
+                              (*rig)->embedded->ground_truth() +
+                              " is anisotropic (measure it with --anisotropic)");
         }
     }
     run.sample = r.sample.empty() ? truth_name : r.sample;
@@ -937,7 +979,13 @@ Expected<ImageCampaignRun> run_image_request(const CampaignRequest& given,
             return tl::unexpected(w.error());
         }
     }
-    CaptureFn capture = image_rig_capture(**rig, run.config.detector_arm_rad);
+    if (r.anisotropic && !(*rig)->dev.axes[static_cast<int>(AxisRole::kSpin)]) {
+        return make_error(run.rig_name +
+                          ": an anisotropic image campaign turns the sample with the spin axis; "
+                          "the rig has none");
+    }
+    CaptureFn capture =
+        image_rig_capture(**rig, run.config.detector_arm_rad, run.config.anisotropic);
     if (hooks.wrap_capture) {
         capture = hooks.wrap_capture(std::move(capture));
     }

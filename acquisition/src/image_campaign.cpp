@@ -22,11 +22,16 @@ namespace {
 constexpr const char* kChannelName[3] = {"red", "green", "blue"};
 
 std::string describe(const CaptureRequest& r) {
-    char buf[160];
+    char spin[48] = "";
+    if (r.spin_rad != 0) {
+        std::snprintf(spin, sizeof spin, ", spin %.3f deg", r.spin_rad * 180 / brdf::kPi);
+    }
+    char buf[200];
     std::snprintf(buf,
                   sizeof(buf),
-                  "capture (light arm %.3f deg, %s filter, %.1f us, shutter %s%s)",
+                  "capture (light arm %.3f deg%s, %s filter, %.1f us, shutter %s%s)",
                   r.light_arm_rad * 180 / brdf::kPi,
+                  spin,
                   kChannelName[std::clamp(r.channel, 0, 2)],
                   r.exposure_us,
                   r.shutter_open ? "open" : "closed",
@@ -90,6 +95,7 @@ class Rig {
         for (int i = 0; i < n; ++i) {
             CaptureRequest r;
             r.light_arm_rad = last_light_;
+            r.spin_rad = last_spin_;
             r.exposure_us = exposure_us;
             r.shutter_open = false;
             r.reference = reference;
@@ -111,6 +117,11 @@ class Rig {
     }
 
     void set_light(double a) { last_light_ = a; }
+    /// The pose dark frames are taken at (they need no move of their own).
+    void set_pose(double light, double spin) {
+        last_light_ = light;
+        last_spin_ = spin;
+    }
 
   private:
     const CaptureFn& capture_;
@@ -118,6 +129,7 @@ class Rig {
     ImageCampaignResult* result_;
     std::map<double, cv::Mat> dark_;
     double last_light_ = 0;
+    double last_spin_ = 0;
 };
 
 /// Per-pixel HDR signal over a pixel list.
@@ -354,6 +366,245 @@ Expected<std::array<double, 3>> calibrate(Rig& rig,
 
 }  // namespace
 
+namespace {
+
+/// Steps 3 to 5 of an anisotropic campaign (file comment of image_campaign.h): candidate poses
+/// (light arm, spin) and their predicted 4-D bins, the journal's frames merged, then frames until
+/// the coverage target or the stop rules.
+Expected<void> run_aniso_frames(Rig& rig,
+                                const ImageCampaignConfig& cfg,
+                                std::optional<ImageJournal>& journal,
+                                double front,
+                                const ImageProgressFn& progress,
+                                const ImageStateFn& state,
+                                ImageCampaignResult& result) {
+    PixelCounts geometry_counts;
+    const std::vector<SpherePixel> pixels =
+        sphere_pixels(cfg.camera, result.sphere, cfg.rules, &geometry_counts);
+    std::vector<PoseCandidate> candidates = pose_candidates(cfg.camera,
+                                                            result.sphere,
+                                                            cfg.rules,
+                                                            cfg.aniso_layout,
+                                                            cfg.detector_arm_rad,
+                                                            cfg.lights,
+                                                            cfg.spins,
+                                                            cfg.pole_rad,
+                                                            std::max(1, cfg.plan_pixel_stride));
+    result.aniso_table.emplace(cfg.aniso_layout);
+    result.aniso_coverage.emplace(cfg.aniso_layout);
+    AnisoTable& table = *result.aniso_table;
+    AnisoCoverage& coverage = *result.aniso_coverage;
+    {
+        AnisoCoverage reach(cfg.aniso_layout);
+        for (const PoseCandidate& c : candidates) {
+            for (std::uint32_t b : c.bins) {
+                reach.cover(b);
+            }
+        }
+        result.reachable_bins = reach.covered_bins();
+    }
+    // The candidates' isotropic bins, for naming the holes of the isotropic projection.
+    std::vector<LightCandidate> projected;
+    for (const PoseCandidate& c : candidates) {
+        LightCandidate p;
+        p.light_arm_rad = c.light_arm_rad;
+        for (std::uint32_t b : c.bins) {
+            p.bins.push_back(static_cast<std::uint32_t>(cfg.aniso_layout.iso_bin(b)));
+        }
+        std::sort(p.bins.begin(), p.bins.end());
+        p.bins.erase(std::unique(p.bins.begin(), p.bins.end()), p.bins.end());
+        projected.push_back(std::move(p));
+    }
+    double current_light = front;
+    double current_spin = 0;
+    if (journal) {
+        for (const ImageJournalFrame& f : journal->frames()) {
+            for (const AnisoBinAggregate& a : f.aniso_bins) {
+                table.merge(a);
+            }
+            FrameRecord rec;
+            rec.light_arm_rad = f.light_arm_rad;
+            rec.spin_rad = f.spin_rad;
+            rec.counts = f.counts;
+            rec.exposures = f.exposures;
+            rec.coverage_after = f.coverage_after;
+            result.counts += f.counts;
+            result.frames.push_back(rec);
+            result.bracketed = result.bracketed || f.bracketed;
+            result.captures += f.captures;
+            result.exposure_time_s += f.exposure_time_s;
+            candidates.erase(std::remove_if(candidates.begin(),
+                                            candidates.end(),
+                                            [&](const PoseCandidate& c) {
+                                                return std::abs(c.light_arm_rad - f.light_arm_rad) <
+                                                           1e-9 &&
+                                                       std::abs(c.spin_rad - f.spin_rad) < 1e-9;
+                                            }),
+                             candidates.end());
+            current_light = f.light_arm_rad;
+            current_spin = f.spin_rad;
+        }
+        result.resumed_frames = journal->frames().size();
+        coverage.cover_from(table, cfg.min_count);
+    }
+    result.coverage = coverage.isotropic();
+    std::vector<std::size_t> gains(candidates.size());
+    for (std::size_t k = 0; k < candidates.size(); ++k) {
+        gains[k] = coverage.gain(candidates[k].bins);
+    }
+    const std::size_t min_gain =
+        std::max<std::size_t>(1,
+                              static_cast<std::size_t>(cfg.min_gain_fraction *
+                                                       static_cast<double>(coverage.valid_bins())));
+    result.stop_reason = "frame limit";
+    if (state) {
+        state(result);
+    }
+    while (static_cast<int>(result.frames.size()) < cfg.max_frames) {
+        if (coverage.fraction() >= cfg.coverage_target) {
+            result.stop_reason = "coverage target met";
+            break;
+        }
+        const int next =
+            next_pose(candidates, gains, current_light, current_spin, cfg.light_gain_fraction);
+        if (next < 0 || gains[static_cast<std::size_t>(next)] < min_gain) {
+            result.stop_reason = "no pose adds enough bins";
+            break;
+        }
+        const double a = candidates[static_cast<std::size_t>(next)].light_arm_rad;
+        const double spin = candidates[static_cast<std::size_t>(next)].spin_rad;
+        candidates.erase(candidates.begin() + next);
+        gains.erase(gains.begin() + next);
+        current_light = a;
+        current_spin = spin;
+        rig.set_pose(a, spin);
+        const std::uint64_t captures_before = result.captures;
+        const double exposure_before = result.exposure_time_s;
+        FrameRecord rec;
+        rec.light_arm_rad = a;
+        rec.spin_rad = spin;
+        rec.counts = geometry_counts;
+        const brdf::Vec3d l = light_direction(a);
+        std::vector<std::uint8_t> lit = lit_pixels(pixels, l, cfg.rules, &rec.counts);
+        const brdf::Vec3d axis = lathe_axis_world(0, spin);
+        std::vector<brdf::Vec3d> tangents(pixels.size(), brdf::Vec3d::Zero());
+        for (std::size_t i = 0; i < pixels.size(); ++i) {
+            if (!lit[i]) {
+                continue;
+            }
+            tangents[i] = lathe_tangent(pixels[i].normal, axis, cfg.pole_rad);
+            if (tangents[i] == brdf::Vec3d::Zero()) {
+                // Within a pole cap of the turned sphere: the tangent is not known well enough.
+                ++rec.counts.pole;
+                lit[i] = 0;
+            }
+        }
+        std::array<HdrSamples, 3> hdr;
+        bool bracketed = false;
+        for (int ch = 0; ch < 3; ++ch) {
+            CaptureRequest r;
+            r.light_arm_rad = a;
+            r.spin_rad = spin;
+            r.channel = ch;
+            auto h = capture_hdr(rig, cfg, r, pixels, lit);
+            if (!h) {
+                return tl::unexpected(h.error());
+            }
+            hdr[ch] = std::move(*h);
+            rec.exposures[ch] = hdr[ch].exposures;
+            bracketed = bracketed || hdr[ch].exposures > 1;
+        }
+        AnisoFrameBins frame_bins(cfg.aniso_layout);
+        for (std::size_t i = 0; i < pixels.size(); ++i) {
+            if (!lit[i]) {
+                continue;
+            }
+            if (!hdr[0].ok[i] || !hdr[1].ok[i] || !hdr[2].ok[i]) {
+                // Saturated at the shortest exposure in some channel.
+                ++rec.counts.saturated;
+                continue;
+            }
+            const auto [wi, wo] = local_directions(pixels[i], tangents[i], l);
+            const double cos_i = wi.z();
+            brdf::Rgbd value;
+            brdf::Rgbd var;
+            for (int ch = 0; ch < 3; ++ch) {
+                const double k = result.calibration[ch] * cos_i;
+                value[ch] = hdr[ch].signal[i] / k;
+                var[ch] = hdr[ch].variance[i] / (k * k);
+            }
+            if (!value.allFinite() || !var.allFinite()) {
+                // Cannot happen with cos_i >= cos(max_theta_i) > 0 and finite frames; counted.
+                ++rec.counts.nonfinite;
+                continue;
+            }
+            frame_bins.add(wi, wo, value, var);
+            ++rec.counts.used;
+        }
+        ImageJournalFrame jf;
+        jf.anisotropic = true;
+        jf.light_arm_rad = a;
+        jf.spin_rad = spin;
+        jf.exposures = rec.exposures;
+        jf.counts = rec.counts;
+        jf.bracketed = bracketed;
+        jf.captures = result.captures - captures_before;
+        jf.exposure_time_s = result.exposure_time_s - exposure_before;
+        jf.aniso_bins = frame_bins.aggregates();
+        for (const AnisoBinAggregate& b : jf.aniso_bins) {
+            table.merge(b);
+            if (table.count(b.bin) >= std::max<std::uint32_t>(cfg.min_count, 1)) {
+                coverage.cover(b.bin);
+            }
+        }
+        for (std::size_t k = 0; k < candidates.size(); ++k) {
+            gains[k] = coverage.gain(candidates[k].bins);
+        }
+        result.bracketed = result.bracketed || bracketed;
+        rec.coverage_after = coverage.fraction();
+        jf.coverage_after = rec.coverage_after;
+        if (journal) {
+            // Durable before the arms move on.
+            if (auto w = journal->append_frame(jf); !w) {
+                return tl::unexpected(w.error());
+            }
+        }
+        result.counts += rec.counts;
+        result.frames.push_back(rec);
+        result.coverage = coverage.isotropic();
+        if (progress) {
+            progress(result.frames.size() - 1, rec);
+        }
+        if (state) {
+            state(result);
+        }
+    }
+    result.target_met = coverage.fraction() >= cfg.coverage_target;
+    if (result.target_met) {
+        result.stop_reason = "coverage target met";
+    }
+    result.holes = coverage_holes(result.coverage, projected, hole_limits(cfg));
+    return {};
+}
+
+}  // namespace
+
+double ImageCampaignResult::coverage_fraction() const {
+    return aniso_coverage ? aniso_coverage->fraction() : coverage.fraction();
+}
+
+std::size_t ImageCampaignResult::valid_bins() const {
+    return aniso_coverage ? aniso_coverage->valid_bins() : coverage.valid_bins();
+}
+
+std::size_t ImageCampaignResult::covered_bins() const {
+    return aniso_coverage ? aniso_coverage->covered_bins() : coverage.covered_bins();
+}
+
+std::size_t ImageCampaignResult::filled_bins() const {
+    return aniso_table ? aniso_table->filled_bins() : table.filled_bins();
+}
+
 Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
                                                  const ImageCampaignConfig& cfg,
                                                  const ImageProgressFn& progress,
@@ -382,6 +633,17 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
         // Resume: the set-up as recorded (no reference or silhouette captures).
         const ImageJournalSetup& s = *journal->setup();
         const TableLayout& l = cfg.layout;
+        if (s.anisotropic != cfg.anisotropic ||
+            (cfg.anisotropic && s.aniso_layout.describe() != cfg.aniso_layout.describe())) {
+            return make_error(journal_path + ": the journal's campaign is " +
+                              (s.anisotropic ? "anisotropic (" + s.aniso_layout.describe() + ")"
+                                             : std::string("isotropic")) +
+                              "; this configuration asks for " +
+                              (cfg.anisotropic
+                                   ? "an anisotropic campaign (" + cfg.aniso_layout.describe() + ")"
+                                   : std::string("an isotropic campaign")) +
+                              " (resume with the campaign's own settings)");
+        }
         if (s.layout.n_theta_h != l.n_theta_h || s.layout.n_theta_d != l.n_theta_d ||
             s.layout.n_phi_d != l.n_phi_d ||
             std::abs(s.detector_arm_rad - cfg.detector_arm_rad) > 1e-9) {
@@ -423,10 +685,23 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
             s.reference_sphere = result.reference_sphere;
             s.captures = result.captures;
             s.exposure_time_s = result.exposure_time_s;
+            s.anisotropic = cfg.anisotropic;
+            s.aniso_layout = cfg.aniso_layout;
             if (auto a = journal->append_setup(s); !a) {
                 return tl::unexpected(a.error());
             }
         }
+    }
+    if (cfg.anisotropic) {
+        if (!cfg.aniso_layout.sane() || !(cfg.spins.step_rad > 0) ||
+            !(cfg.spins.max_rad >= cfg.spins.min_rad)) {
+            return make_error("image campaign: the 4-D table " + cfg.aniso_layout.describe() +
+                              " needs 1..720 bins per axis and the spin range a step > 0");
+        }
+        if (auto a = run_aniso_frames(rig, cfg, journal, front, progress, state, result); !a) {
+            return tl::unexpected(a.error());
+        }
+        return result;
     }
     PixelCounts geometry_counts;
     const std::vector<SpherePixel> pixels =
@@ -592,6 +867,88 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
     return result;
 }
 
+namespace {
+
+/// predict_image_coverage() of an anisotropic campaign: the poses run_aniso_frames would choose.
+void predict_aniso(const ImageCampaignConfig& cfg,
+                   const SphereGeometry& sphere,
+                   ImageCoveragePrediction* p) {
+    std::vector<PoseCandidate> candidates = pose_candidates(cfg.camera,
+                                                            sphere,
+                                                            cfg.rules,
+                                                            cfg.aniso_layout,
+                                                            cfg.detector_arm_rad,
+                                                            cfg.lights,
+                                                            cfg.spins,
+                                                            cfg.pole_rad,
+                                                            std::max(1, cfg.plan_pixel_stride));
+    p->candidates = candidates.size();
+    AnisoCoverage coverage(cfg.aniso_layout);
+    p->valid_bins = coverage.valid_bins();
+    std::vector<LightCandidate> projected;
+    {
+        AnisoCoverage reach(cfg.aniso_layout);
+        for (const PoseCandidate& c : candidates) {
+            LightCandidate lc;
+            lc.light_arm_rad = c.light_arm_rad;
+            for (std::uint32_t b : c.bins) {
+                reach.cover(b);
+                lc.bins.push_back(static_cast<std::uint32_t>(cfg.aniso_layout.iso_bin(b)));
+            }
+            std::sort(lc.bins.begin(), lc.bins.end());
+            lc.bins.erase(std::unique(lc.bins.begin(), lc.bins.end()), lc.bins.end());
+            projected.push_back(std::move(lc));
+        }
+        p->reachable_bins = reach.covered_bins();
+    }
+    std::vector<std::size_t> gains(candidates.size());
+    for (std::size_t k = 0; k < candidates.size(); ++k) {
+        gains[k] = coverage.gain(candidates[k].bins);
+    }
+    const std::size_t min_gain =
+        std::max<std::size_t>(1,
+                              static_cast<std::size_t>(cfg.min_gain_fraction *
+                                                       static_cast<double>(coverage.valid_bins())));
+    double light = front_light(cfg);
+    double spin = 0;
+    p->stop_reason = "frame limit";
+    while (static_cast<int>(p->light_arm_rad.size()) < cfg.max_frames) {
+        if (coverage.fraction() >= cfg.coverage_target) {
+            p->stop_reason = "coverage target met";
+            break;
+        }
+        const int next = next_pose(candidates, gains, light, spin, cfg.light_gain_fraction);
+        if (next < 0 || gains[static_cast<std::size_t>(next)] < min_gain) {
+            p->stop_reason = "no pose adds enough bins";
+            break;
+        }
+        const PoseCandidate chosen = candidates[static_cast<std::size_t>(next)];
+        candidates.erase(candidates.begin() + next);
+        gains.erase(gains.begin() + next);
+        p->light_travel_rad += std::abs(chosen.light_arm_rad - light);
+        p->spin_travel_rad += std::abs(chosen.spin_rad - spin);
+        light = chosen.light_arm_rad;
+        spin = chosen.spin_rad;
+        for (std::uint32_t b : chosen.bins) {
+            coverage.cover(b);
+        }
+        for (std::size_t k = 0; k < candidates.size(); ++k) {
+            gains[k] = coverage.gain(candidates[k].bins);
+        }
+        p->light_arm_rad.push_back(light);
+        p->spin_rad.push_back(spin);
+        p->predicted_coverage.push_back(coverage.fraction());
+    }
+    p->target_met = coverage.fraction() >= cfg.coverage_target;
+    if (p->target_met) {
+        p->stop_reason = "coverage target met";
+    }
+    p->covered_bins = coverage.covered_bins();
+    p->holes = coverage_holes(coverage.isotropic(), projected, hole_limits(cfg));
+}
+
+}  // namespace
+
 Expected<ImageCoveragePrediction> predict_image_coverage(const ImageCampaignConfig& cfg) {
     if (!(cfg.silhouette.radius_m > 0) || !(cfg.lights.step_rad > 0)) {
         return make_error(
@@ -620,6 +977,10 @@ Expected<ImageCoveragePrediction> predict_image_coverage(const ImageCampaignConf
     ImageCoveragePrediction p;
     PixelCounts counts;
     p.sphere_pixels = sphere_pixels(cfg.camera, sphere, cfg.rules, &counts).size();
+    if (cfg.anisotropic) {
+        predict_aniso(cfg, sphere, &p);
+        return p;
+    }
     // Every pixel (the campaign bins every pixel of a frame, whatever the stride it plans with).
     std::vector<LightCandidate> candidates = light_candidates(
         cfg.camera, sphere, cfg.rules, cfg.layout, cfg.detector_arm_rad, cfg.lights, 1);
@@ -677,21 +1038,31 @@ Expected<void> write_image_campaign(const std::string& dir,
         return make_error(dir + ": cannot create directory: " + ec.message());
     }
     const std::string base = (std::filesystem::path(dir) / "").string();
+    const bool aniso = result.aniso_table.has_value() && result.aniso_coverage.has_value();
     const brdf::Dataset data =
-        result.table.to_dataset("image-mode campaign", config.min_count, result.bracketed);
+        aniso ? result.aniso_table->to_dataset(
+                    "anisotropic image-mode campaign", config.min_count, result.bracketed)
+              : result.table.to_dataset("image-mode campaign", config.min_count, result.bracketed);
     if (auto r = brdf::write_dataset_csv(base + "dataset.csv", data); !r) {
         return r;
     }
-    const TableLayout& l = config.layout;
+    const TableLayout& l = aniso ? result.aniso_table->layout().iso() : config.layout;
     const bool merl = l.n_theta_h == 90 && l.n_theta_d == 90 && l.n_phi_d == 180;
-    const std::string table_name = merl ? "table.binary" : "table.gtab";
-    if (auto r = brdf::write_merl(
-            base + table_name, to_tabulated(result.table, config.min_count, "image-mode campaign"));
-        !r) {
-        return r;
+    // The isotropic half/difference table has no place for phi_h: an anisotropic campaign writes
+    // its 4-D bins as the dataset only.
+    const std::string table_name = aniso ? "" : merl ? "table.binary" : "table.gtab";
+    if (!aniso) {
+        if (auto r = brdf::write_merl(
+                base + table_name,
+                to_tabulated(result.table, config.min_count, "image-mode campaign"));
+            !r) {
+            return r;
+        }
     }
     if (auto r = write_coverage_png(
-            base + "coverage.png", coverage_cells(result.table, config.min_count), l);
+            base + "coverage.png",
+            aniso ? result.aniso_coverage->cells() : coverage_cells(result.table, config.min_count),
+            l);
         !r) {
         return r;
     }
@@ -707,16 +1078,31 @@ Expected<void> write_image_campaign(const std::string& dir,
         {"fit_rms_px", result.sphere.rms_residual_px}};
     j["calibration_counts_per_us_per_inv_sr"] = result.calibration;
     j["reference_albedo"] = config.reference_albedo;
-    j["table"] = {{"n_theta_h", l.n_theta_h},
-                  {"n_theta_d", l.n_theta_d},
-                  {"n_phi_d", l.n_phi_d},
-                  {"file", table_name}};
+    if (aniso) {
+        const AnisoLayout& a = result.aniso_table->layout();
+        j["anisotropic"] = true;
+        j["sample_shape"] =
+            "turned sphere: tangent along the circles of latitude about the lathe axis, mounted "
+            "along the holder's y axis";
+        j["table"] = {{"n_theta_h", a.n_theta_h},
+                      {"n_phi_h", a.n_phi_h},
+                      {"n_theta_d", a.n_theta_d},
+                      {"n_phi_d", a.n_phi_d},
+                      {"frame", "material (normal and tangent)"},
+                      {"file", nullptr}};
+        j["pole_cap_deg"] = config.pole_rad * 180 / brdf::kPi;
+    } else {
+        j["table"] = {{"n_theta_h", l.n_theta_h},
+                      {"n_theta_d", l.n_theta_d},
+                      {"n_phi_d", l.n_phi_d},
+                      {"file", table_name}};
+    }
     j["coverage"] = {{"target", config.coverage_target},
-                     {"achieved", result.coverage.fraction()},
+                     {"achieved", result.coverage_fraction()},
                      {"target_met", result.target_met},
                      {"stop_reason", result.stop_reason},
-                     {"valid_bins", result.coverage.valid_bins()},
-                     {"covered_bins", result.coverage.covered_bins()},
+                     {"valid_bins", result.valid_bins()},
+                     {"covered_bins", result.covered_bins()},
                      {"reachable_bins", result.reachable_bins}};
     const PixelCounts& c = result.counts;
     j["pixels"] = {{"on_sphere", c.on_sphere},
@@ -726,14 +1112,19 @@ Expected<void> write_image_campaign(const std::string& dir,
                    {"grazing_light", c.grazing_light},
                    {"saturated", c.saturated},
                    {"nonfinite", c.nonfinite},
+                   {"pole", c.pole},
                    {"used", c.used}};
     nlohmann::json frames = nlohmann::json::array();
     for (const FrameRecord& f : result.frames) {
-        frames.push_back({{"light_arm_deg", f.light_arm_rad * 180 / brdf::kPi},
-                          {"used_pixels", f.counts.used},
-                          {"saturated_pixels", f.counts.saturated},
-                          {"exposures", f.exposures},
-                          {"coverage_after", f.coverage_after}});
+        nlohmann::json fj = {{"light_arm_deg", f.light_arm_rad * 180 / brdf::kPi},
+                             {"used_pixels", f.counts.used},
+                             {"saturated_pixels", f.counts.saturated},
+                             {"exposures", f.exposures},
+                             {"coverage_after", f.coverage_after}};
+        if (aniso) {
+            fj["spin_deg"] = f.spin_rad * 180 / brdf::kPi;
+        }
+        frames.push_back(fj);
     }
     j["frames"] = frames;
     nlohmann::json holes = nlohmann::json::array();
@@ -804,6 +1195,8 @@ ImageCampaignConfig image_campaign_config(const RigConfig& rig,
     cfg.coverage_target = coverage_target;
     cfg.max_frames = max_frames;
     cfg.silhouette.radius_m = rig.sphere_radius_m;
+    // The rig's sphere is of known size and its camera calibrated: the outline gives the centre.
+    cfg.silhouette.orthographic_known_radius = true;
     cfg.min_exposure_us = std::max(cfg.min_exposure_us, rig.capture.min_exposure_us);
     cfg.exposure_us = std::clamp(10000.0, rig.capture.min_exposure_us, rig.capture.max_exposure_us);
     // Conversion gain and read noise at the capture gain (electrons are what the sensor counts).
@@ -812,6 +1205,24 @@ ImageCampaignConfig image_campaign_config(const RigConfig& rig,
     cfg.reference_albedo = rig.white_reflectance;
     cfg.capture_timeout = std::chrono::milliseconds(rig.capture.timeout_ms);
     return cfg;
+}
+
+void make_anisotropic(ImageCampaignConfig* cfg, const RigConfig& rig, const AnisoLayout& layout) {
+    constexpr double kDeg = brdf::kPi / 180;
+    cfg->anisotropic = true;
+    cfg->aniso_layout = layout;
+    // A quarter of a theta_d row in separation (theta_d is half the separation): each row is
+    // seen from four light positions, each at every spin.
+    cfg->lights.step_rad = (brdf::kPi / std::max(1, layout.n_theta_d)) / 4;
+    const devices::SoftLimits& lim = rig.axes[static_cast<int>(AxisRole::kSpin)].limits;
+    cfg->spins.min_rad = std::max(lim.min_deg, -180.0) * kDeg;
+    cfg->spins.max_rad = std::min(lim.max_deg, cfg->spins.min_rad / kDeg + 360.0) * kDeg;
+    // Half a phi_h bin: a spin turns the tangent of the pixels facing the holder's normal by the
+    // same angle, and those elsewhere by about as much.
+    cfg->spins.step_rad = brdf::kPi / std::max(1, layout.n_phi_h);
+    // A pose fills a few hundred of the 4-D table's bins: stop when the best adds fewer than
+    // 0.05 % of them.
+    cfg->min_gain_fraction = 0.0005;
 }
 
 namespace {
@@ -839,6 +1250,8 @@ CaptureFn make_device_capture(devices::Camera& camera,
         bool have_light = false;
         double light_deg = 0;
         bool have_detector = false;
+        bool have_spin = false;
+        double spin_deg = 0;
         int filter = -1;
         int target = -1;  // 1 reference, 0 sample
         double exposure_us = -1;
@@ -859,6 +1272,13 @@ CaptureFn make_device_capture(devices::Camera& camera,
         std::vector<ArmCheck> arms{{&light_arm, deg}};
         if (o.detector_arm != nullptr) {
             arms.push_back({o.detector_arm, o.detector_arm_rad * 180 / brdf::kPi});
+        }
+        const double spin_deg = r.spin_rad * 180 / brdf::kPi;
+        std::size_t spin_index = arms.size();
+        if (o.spin != nullptr) {
+            arms.push_back({o.spin, spin_deg});
+        } else if (r.spin_rad != 0) {
+            return make_error(describe(r) + ": the rig gives this capture no spin axis");
         }
         if (select_filter && state->filter != r.channel) {
             if (auto f = select_filter(r.channel); !f) {
@@ -903,8 +1323,11 @@ CaptureFn make_device_capture(devices::Camera& camera,
         // then whichever arm a pose check found away from its target.
         std::vector<bool> move(arms.size(), false);
         move[0] = !state->have_light || std::abs(state->light_deg - deg) > 1e-9;
-        if (arms.size() > 1) {
+        if (o.detector_arm != nullptr) {
             move[1] = !state->have_detector;
+        }
+        if (spin_index < arms.size()) {
+            move[spin_index] = !state->have_spin || std::abs(state->spin_deg - spin_deg) > 1e-9;
         }
         for (int attempt = 0;; ++attempt) {
             bool moved_any = false;
@@ -924,6 +1347,8 @@ CaptureFn make_device_capture(devices::Camera& camera,
             state->have_light = true;
             state->light_deg = deg;
             state->have_detector = true;
+            state->have_spin = true;
+            state->spin_deg = spin_deg;
             if (auto b = read_back(&before); !b) {
                 return tl::unexpected(b.error());
             }

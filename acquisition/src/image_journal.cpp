@@ -15,6 +15,8 @@ constexpr char kMagic[4] = {'G', 'I', 'J', '1'};
 constexpr std::size_t kHeaderBytes = 4 + 1 + 4 + 8;
 constexpr std::uint8_t kTypeSetup = 1;
 constexpr std::uint8_t kTypeFrame = 2;
+constexpr std::uint8_t kTypeAnisoSetup = 3;
+constexpr std::uint8_t kTypeAnisoFrame = 4;
 
 /// Little-endian writer.
 class Writer {
@@ -145,7 +147,7 @@ std::array<std::uint64_t*, kCountFields> count_fields(PixelCounts& c) {
             &c.used};
 }
 
-Expected<ImageJournalSetup> decode_setup(const std::string& payload) {
+Expected<ImageJournalSetup> decode_setup(const std::string& payload, bool anisotropic) {
     Reader r(payload);
     ImageJournalSetup s;
     s.layout.n_theta_h = static_cast<int>(r.u32());
@@ -159,6 +161,13 @@ Expected<ImageJournalSetup> decode_setup(const std::string& payload) {
     s.reference_sphere = get_sphere(r);
     s.captures = r.u64();
     s.exposure_time_s = r.f64();
+    s.anisotropic = anisotropic;
+    if (anisotropic) {
+        s.aniso_layout.n_theta_h = static_cast<int>(r.u32());
+        s.aniso_layout.n_phi_h = static_cast<int>(r.u32());
+        s.aniso_layout.n_theta_d = static_cast<int>(r.u32());
+        s.aniso_layout.n_phi_d = static_cast<int>(r.u32());
+    }
     if (r.failed() || !r.at_end()) {
         return make_error("set-up record: payload of " + std::to_string(payload.size()) +
                           " bytes does not have the set-up's fields");
@@ -168,6 +177,10 @@ Expected<ImageJournalSetup> decode_setup(const std::string& payload) {
         return make_error("set-up record: table layout " + std::to_string(s.layout.n_theta_h) +
                           "x" + std::to_string(s.layout.n_theta_d) + "x" +
                           std::to_string(s.layout.n_phi_d) + " outside 1..4096 per axis");
+    }
+    if (anisotropic && !s.aniso_layout.sane()) {
+        return make_error("set-up record: 4-D table layout " + s.aniso_layout.describe() +
+                          " outside 1..720 per axis");
     }
     if (!std::isfinite(s.detector_arm_rad) || !std::isfinite(s.exposure_time_s) ||
         !finite_sphere(s.sphere) || !finite_sphere(s.reference_sphere) ||
@@ -179,6 +192,59 @@ Expected<ImageJournalSetup> decode_setup(const std::string& payload) {
             "constant not positive and finite");
     }
     return s;
+}
+
+Expected<ImageJournalFrame> decode_aniso_frame(const std::string& payload,
+                                               const AnisoLayout& layout) {
+    Reader r(payload);
+    ImageJournalFrame f;
+    f.anisotropic = true;
+    f.light_arm_rad = r.f64();
+    f.spin_rad = r.f64();
+    for (int& e : f.exposures) {
+        e = static_cast<int>(r.u32());
+    }
+    for (std::uint64_t* v : count_fields(f.counts)) {
+        *v = r.u64();
+    }
+    f.counts.pole = r.u64();
+    f.coverage_after = r.f64();
+    f.bracketed = r.u8() != 0;
+    f.captures = r.u64();
+    f.exposure_time_s = r.f64();
+    const std::uint32_t n = r.u32();
+    constexpr std::size_t kBinBytes = 4 + 4 + 24 * 4;
+    if (r.failed() || r.remaining() != static_cast<std::size_t>(n) * kBinBytes) {
+        return make_error("anisotropic frame record: payload of " + std::to_string(payload.size()) +
+                          " bytes does not hold its " + std::to_string(n) + " bins");
+    }
+    if (!std::isfinite(f.light_arm_rad) || !std::isfinite(f.spin_rad) ||
+        !std::isfinite(f.coverage_after) || !std::isfinite(f.exposure_time_s)) {
+        return make_error(
+            "anisotropic frame record: non-finite light position, spin, coverage or exposure "
+            "time");
+    }
+    f.aniso_bins.resize(n);
+    for (AnisoBinAggregate& a : f.aniso_bins) {
+        a.bin = r.u32();
+        a.count = r.u32();
+        for (auto* arr :
+             {&a.mean, &a.m2, &a.model_var, &a.wi, &a.wo, &a.rep_wi, &a.rep_wo, &a.rep_value}) {
+            for (float& v : *arr) {
+                v = r.f32();
+                if (!std::isfinite(v)) {
+                    return make_error("anisotropic frame record: bin " + std::to_string(a.bin) +
+                                      " holds a non-finite value");
+                }
+            }
+        }
+        if (a.bin >= layout.size()) {
+            return make_error("anisotropic frame record: bin " + std::to_string(a.bin) +
+                              " outside the 4-D table of " + std::to_string(layout.size()) +
+                              " bins");
+        }
+    }
+    return f;
 }
 
 Expected<ImageJournalFrame> decode_frame(const std::string& payload, const TableLayout& layout) {
@@ -241,18 +307,47 @@ std::string encode_setup(const ImageJournalSetup& s) {
     put_sphere(w, s.reference_sphere);
     w.u64(s.captures);
     w.f64(s.exposure_time_s);
+    if (s.anisotropic) {
+        const AnisoLayout& a = s.aniso_layout;
+        for (int n : {a.n_theta_h, a.n_phi_h, a.n_theta_d, a.n_phi_d}) {
+            w.u32(static_cast<std::uint32_t>(std::max(0, n)));
+        }
+        return wrap(kTypeAnisoSetup, w.bytes());
+    }
     return wrap(kTypeSetup, w.bytes());
 }
 
 std::string encode_frame(const ImageJournalFrame& f) {
     Writer w;
     w.f64(f.light_arm_rad);
+    if (f.anisotropic) {
+        w.f64(f.spin_rad);
+    }
     for (int e : f.exposures) {
         w.u32(static_cast<std::uint32_t>(std::max(0, e)));
     }
     PixelCounts c = f.counts;
     for (std::uint64_t* v : count_fields(c)) {
         w.u64(*v);
+    }
+    if (f.anisotropic) {
+        w.u64(c.pole);
+        w.f64(f.coverage_after);
+        w.u8(f.bracketed ? 1 : 0);
+        w.u64(f.captures);
+        w.f64(f.exposure_time_s);
+        w.u32(static_cast<std::uint32_t>(f.aniso_bins.size()));
+        for (const AnisoBinAggregate& a : f.aniso_bins) {
+            w.u32(a.bin);
+            w.u32(a.count);
+            for (const auto* arr :
+                 {&a.mean, &a.m2, &a.model_var, &a.wi, &a.wo, &a.rep_wi, &a.rep_wo, &a.rep_value}) {
+                for (float v : *arr) {
+                    w.f32(v);
+                }
+            }
+        }
+        return wrap(kTypeAnisoFrame, w.bytes());
     }
     w.f64(f.coverage_after);
     w.u8(f.bracketed ? 1 : 0);
@@ -309,20 +404,27 @@ Expected<ImageJournal> ImageJournal::open(const std::string& path) {
             return make_error(where + (magic_ok ? "wrong hash" : "no record header") +
                               " with more data after it: the journal is corrupt");
         }
-        if (type == kTypeSetup) {
+        if (type == kTypeSetup || type == kTypeAnisoSetup) {
             if (record != 1) {
                 return make_error(where + "a second set-up record");
             }
-            auto s = decode_setup(payload);
+            auto s = decode_setup(payload, type == kTypeAnisoSetup);
             if (!s) {
                 return make_error(where + s.error().message);
             }
             jn.setup_ = *s;
-        } else if (type == kTypeFrame) {
+        } else if (type == kTypeFrame || type == kTypeAnisoFrame) {
             if (!jn.setup_) {
                 return make_error(where + "a frame before the set-up record");
             }
-            auto f = decode_frame(payload, jn.setup_->layout);
+            const bool aniso = type == kTypeAnisoFrame;
+            if (aniso != jn.setup_->anisotropic) {
+                return make_error(where + (aniso ? "an anisotropic frame" : "an isotropic frame") +
+                                  " in the journal of an " + (aniso ? "isotropic" : "anisotropic") +
+                                  " campaign");
+            }
+            auto f = aniso ? decode_aniso_frame(payload, jn.setup_->aniso_layout)
+                           : decode_frame(payload, jn.setup_->layout);
             if (!f) {
                 return make_error(where + f.error().message);
             }

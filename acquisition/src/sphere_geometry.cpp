@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
+#include <tuple>
 
 #include "gonio/base/check.h"
 #include "gonio/brdf/rig_geometry.h"
@@ -19,6 +20,7 @@ PixelCounts& PixelCounts::operator+=(const PixelCounts& o) {
     saturated += o.saturated;
     nonfinite += o.nonfinite;
     used += o.used;
+    pole += o.pole;
     return *this;
 }
 
@@ -124,30 +126,59 @@ Expected<SphereGeometry> detect_sphere(const cv::Mat& frame,
     if (!(hi > lo + 5 * noise_sigma) || !(hi > lo)) {
         return make_error("sphere detection: the frame is uniform (nothing lit above the noise)");
     }
-    const double threshold =
-        std::max(lo + options.threshold_fraction * (hi - lo), lo + 5 * noise_sigma);
-    cv::Mat mask;
-    cv::threshold(f, mask, threshold, 255, cv::THRESH_BINARY);
-    mask.convertTo(mask, CV_8U);
-    // Close small holes (noise, dark texture) before taking the outline.
-    cv::morphologyEx(
-        mask, mask, cv::MORPH_CLOSE, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(5, 5)));
-    std::vector<std::vector<cv::Point>> contours;
-    cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
-    if (contours.empty()) {
+    // Largest outline above a threshold, and its area.
+    const auto outline = [&](double threshold) {
+        cv::Mat mask;
+        cv::threshold(f, mask, threshold, 255, cv::THRESH_BINARY);
+        mask.convertTo(mask, CV_8U);
+        // Close small holes (noise, dark texture) before taking the outline.
+        cv::morphologyEx(mask,
+                         mask,
+                         cv::MORPH_CLOSE,
+                         cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(5, 5)));
+        std::vector<std::vector<cv::Point>> contours;
+        cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+        std::vector<cv::Point> best;
+        double best_area = -1;
+        for (auto& c : contours) {
+            const double a = cv::contourArea(c);
+            if (a > best_area) {
+                best_area = a;
+                best = std::move(c);
+            }
+        }
+        return std::make_pair(std::move(best), std::max(best_area, 0.0));
+    };
+    double threshold = std::max(lo + options.threshold_fraction * (hi - lo), lo + 5 * noise_sigma);
+    auto [largest, area] = outline(threshold);
+    // A glossy sphere: its highlight is orders of magnitude above the rest of it, and a threshold
+    // at a fraction of the highlight outlines the highlight instead of the limb. When the pixels
+    // clear of the noise cover half as much again as that outline, the threshold is taken at the
+    // same fraction of their median instead (the level of the sphere, not of its highlight).
+    std::vector<float> object;
+    for (int y = 0; y < f.rows; ++y) {
+        const float* row = f.ptr<float>(y);
+        for (int x = 0; x < f.cols; ++x) {
+            if (row[x] > lo + 5 * noise_sigma) {
+                object.push_back(row[x]);
+            }
+        }
+    }
+    if (object.size() >= 20 && static_cast<double>(object.size()) > 1.5 * area) {
+        const double level = median(std::move(object));
+        threshold = std::max(lo + options.threshold_fraction * (level - lo), lo + 5 * noise_sigma);
+        std::tie(largest, area) = outline(threshold);
+    }
+    if (largest.empty()) {
         return make_error("sphere detection: nothing above the threshold " +
                           std::to_string(threshold));
     }
-    const auto largest =
-        std::max_element(contours.begin(), contours.end(), [](const auto& a, const auto& b) {
-            return cv::contourArea(a) < cv::contourArea(b);
-        });
-    if (largest->size() < 20) {
+    if (largest.size() < 20) {
         return make_error("sphere detection: largest contour has " +
-                          std::to_string(largest->size()) + " points, need at least 20");
+                          std::to_string(largest.size()) + " points, need at least 20");
     }
     std::vector<cv::Point2d> pixel_pts;
-    for (const cv::Point& p : *largest) {
+    for (const cv::Point& p : largest) {
         pixel_pts.emplace_back(p.x, p.y);
     }
     auto coarse = fit_circle_algebraic(pixel_pts);
@@ -227,7 +258,8 @@ Expected<SphereGeometry> detect_sphere(const cv::Mat& frame,
         // Depth along the axis is unobservable: put the centre in the plane through the origin.
         const double s = -centre_ray.origin.dot(centre_ray.direction);
         g.centre = centre_ray.origin + s * centre_ray.direction;
-        g.radius_m = circle->r / camera.intrinsics.fx;
+        g.radius_m =
+            options.orthographic_known_radius ? options.radius_m : circle->r / camera.intrinsics.fx;
     } else {
         // Angular radius from the circle, distance from the known physical radius.
         const Ray edge = camera.pixel_ray(circle->cx + circle->r, circle->cy);
@@ -244,6 +276,7 @@ Expected<SphereGeometry> detect_sphere(const cv::Mat& frame,
     // radius known. Orthographic: centre moves in the plane perpendicular to the axis (2) and the
     // radius (1) is unknown.
     const bool ortho = camera.projection == Projection::kOrthographic;
+    const bool fit_radius = ortho && !options.orthographic_known_radius;
     const brdf::Vec3d axis = camera.axis_world();
     brdf::Vec3d e1 = axis.unitOrthogonal();
     brdf::Vec3d e2 = axis.cross(e1);
@@ -257,7 +290,8 @@ Expected<SphereGeometry> detect_sphere(const cv::Mat& frame,
             if (ortho) {
                 jac(k, 0) = grad.dot(e1);
                 jac(k, 1) = grad.dot(e2);
-                jac(k, 2) = -1;
+                // A known radius: no change (a zero column, the step's third component 0).
+                jac(k, 2) = fit_radius ? -1 : 0;
             } else {
                 jac.row(k) = grad.transpose();
             }
@@ -268,7 +302,9 @@ Expected<SphereGeometry> detect_sphere(const cv::Mat& frame,
         }
         if (ortho) {
             g.centre += step[0] * e1 + step[1] * e2;
-            g.radius_m += step[2];
+            if (fit_radius) {
+                g.radius_m += step[2];
+            }
         } else {
             g.centre += step;
         }

@@ -238,3 +238,110 @@ TEST(FrameBins, MergedSummariesEqualTheTableFedSampleBySample) {
 
 }  // namespace
 }  // namespace gonio::acquisition
+
+namespace gonio::acquisition {
+namespace {
+
+ImageJournalSetup make_aniso_setup() {
+    ImageJournalSetup s = make_setup();
+    s.anisotropic = true;
+    s.aniso_layout = {6, 8, 4, 6};
+    return s;
+}
+
+ImageJournalFrame make_aniso_frame(std::uint32_t seed, const AnisoLayout& layout) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(0.01f, 2.0f);
+    ImageJournalFrame f = make_frame(seed, coarse_layout(6));
+    f.bins.clear();
+    f.anisotropic = true;
+    f.spin_rad = -0.75 + 0.25 * seed;
+    f.counts.pole = 11 + seed;
+    for (std::uint32_t b = seed; b < layout.size(); b += 13) {
+        AnisoBinAggregate a;
+        a.bin = b;
+        a.count = 1 + b % 4;
+        for (auto* arr :
+             {&a.mean, &a.m2, &a.model_var, &a.wi, &a.wo, &a.rep_wi, &a.rep_wo, &a.rep_value}) {
+            for (float& v : *arr) {
+                v = u(rng);
+            }
+        }
+        f.aniso_bins.push_back(a);
+    }
+    return f;
+}
+
+TEST(ImageJournal, AnisotropicRecordsKeepTheSpinOfEachFrame) {
+    const std::string path = temp_path("aniso");
+    std::filesystem::remove(path);
+    const ImageJournalSetup setup = make_aniso_setup();
+    std::vector<ImageJournalFrame> frames;
+    {
+        auto j = ImageJournal::open(path);
+        ASSERT_TRUE(j) << j.error().message;
+        ASSERT_TRUE(j->append_setup(setup));
+        for (std::uint32_t k = 1; k <= 4; ++k) {
+            frames.push_back(make_aniso_frame(k, setup.aniso_layout));
+            ASSERT_TRUE(j->append_frame(frames.back()));
+        }
+    }
+    // A cut inside the last record: the first three frames stay, with their spins.
+    const std::string bytes = read_all(path);
+    write_all(path, bytes.substr(0, bytes.size() - 9));
+    auto j = ImageJournal::open(path);
+    ASSERT_TRUE(j) << j.error().message;
+    EXPECT_TRUE(j->torn_tail());
+    ASSERT_TRUE(j->setup());
+    EXPECT_TRUE(j->setup()->anisotropic);
+    EXPECT_EQ(j->setup()->aniso_layout.describe(), setup.aniso_layout.describe());
+    EXPECT_EQ(encode_setup(*j->setup()), encode_setup(setup));
+    ASSERT_EQ(j->frames().size(), 3u);
+    for (std::size_t k = 0; k < 3; ++k) {
+        const ImageJournalFrame& f = j->frames()[k];
+        EXPECT_TRUE(f.anisotropic);
+        EXPECT_EQ(f.spin_rad, frames[k].spin_rad) << "frame " << k;
+        EXPECT_EQ(f.light_arm_rad, frames[k].light_arm_rad);
+        EXPECT_EQ(f.counts.pole, frames[k].counts.pole);
+        ASSERT_EQ(f.aniso_bins.size(), frames[k].aniso_bins.size());
+        EXPECT_EQ(f.aniso_bins.back().rep_value, frames[k].aniso_bins.back().rep_value);
+        EXPECT_EQ(encode_frame(f), encode_frame(frames[k]));
+    }
+    // Appending continues after the good records.
+    ASSERT_TRUE(j->append_frame(frames[3]));
+    EXPECT_EQ(read_all(path), bytes);
+    std::filesystem::remove(path);
+}
+
+TEST(ImageJournal, FramesOfTheOtherKindAndBinsOutsideThe4DTableAreRefused) {
+    const std::string path = temp_path("aniso_kind");
+    const ImageJournalSetup aniso = make_aniso_setup();
+    const ImageJournalSetup iso = make_setup();
+    write_all(path,
+              encode_setup(iso) + encode_frame(make_aniso_frame(1, aniso.aniso_layout)) +
+                  encode_frame(make_aniso_frame(2, aniso.aniso_layout)));
+    auto a = ImageJournal::open(path);
+    ASSERT_FALSE(a);
+    EXPECT_NE(a.error().message.find("an anisotropic frame in the journal of an isotropic"),
+              std::string::npos)
+        << a.error().message;
+    write_all(path,
+              encode_setup(aniso) + encode_frame(make_frame(1, iso.layout)) +
+                  encode_frame(make_frame(2, iso.layout)));
+    auto b = ImageJournal::open(path);
+    ASSERT_FALSE(b);
+    EXPECT_NE(b.error().message.find("an isotropic frame in the journal of an anisotropic"),
+              std::string::npos)
+        << b.error().message;
+    ImageJournalFrame f = make_aniso_frame(1, aniso.aniso_layout);
+    f.aniso_bins.back().bin = static_cast<std::uint32_t>(aniso.aniso_layout.size());
+    write_all(path, encode_setup(aniso) + encode_frame(f) + encode_frame(f));
+    auto c = ImageJournal::open(path);
+    ASSERT_FALSE(c);
+    EXPECT_NE(c.error().message.find("outside the 4-D table"), std::string::npos)
+        << c.error().message;
+    std::filesystem::remove(path);
+}
+
+}  // namespace
+}  // namespace gonio::acquisition

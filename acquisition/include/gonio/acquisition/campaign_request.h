@@ -48,7 +48,9 @@ struct CampaignRequest {
     int n_dphi = 0;             ///< Point mode, uniform plan: azimuth differences.
     int adaptive = -1;          ///< Point mode: adaptive passes (-1 = the campaign's).
     /// Point mode: the anisotropic plan over (theta_i, phi_i, theta_o, phi_o) (plan.h,
-    /// plan_anisotropic) with the grid of n_theta and n_dphi, no adaptive pass.
+    /// plan_anisotropic) with the grid of n_theta and n_dphi, no adaptive pass. Image mode: a
+    /// turned sphere measured at several spins into the 4-D table `aniso_layout`
+    /// (image_aniso.h).
     bool anisotropic = false;
     std::string symmetry;  ///< Point mode, anisotropic plan: "none", "mirror" or "2-fold".
     /// Point mode, vndf plan (0 = the description's): theta_i nodes of its RGL file, nodes per
@@ -81,6 +83,8 @@ struct CampaignRequest {
     bool perspective = false;  ///< Default camera: perspective at 0.5 m instead of telecentric.
     int supersample = 2;
     std::uint64_t seed = 1;
+    /// Anisotropic image mode: the 4-D table (theta_h x phi_h x theta_d x phi_d).
+    AnisoLayout aniso_layout;
 };
 
 /// An option the request gives that its mode cannot honour, with what it conflicts with. Both are
@@ -101,8 +105,10 @@ std::string option_key(const std::string& field);
 /// - point mode refuses coverage_target, max_frames and grid (image-mode options);
 /// - anisotropic excludes plan_kind and adaptive passes (adaptive > 0); symmetry needs
 ///   anisotropic;
-/// - image mode refuses the campaign file, scene, plan, n_theta, n_dphi, adaptive,
-///   anisotropic, symmetry, accept_drift (point-mode plans and drift checks);
+/// - image mode refuses the campaign file, scene, plan, n_theta, n_dphi, adaptive, symmetry, the
+///   vndf plan's options,
+///   accept_drift (point-mode plans, symmetry folds and drift checks), and grid with anisotropic
+///   (the anisotropic campaign's table is 4-D);
 /// - a resume reads everything from the folder (an image campaign: its settings and frame
 ///   journal): only accept_drift and serve go with it;
 /// - plan_only prints the plan: nothing that only matters to a run (out, campaigns_dir,
@@ -210,8 +216,9 @@ Expected<std::unique_ptr<ImageRig>> start_image_rig(const ImageRigOptions& optio
 
 /// Capture function over the rig's devices (make_device_capture): the light arm, the detector arm
 /// at `detector_arm_rad` (both read back around every exposure), the lamp shutter, the filter
-/// wheel coils and the reference changer. `rig` must outlive it.
-CaptureFn image_rig_capture(ImageRig& rig, double detector_arm_rad);
+/// wheel coils and the reference changer; with `spin`, the sample holder's spin axis too (read
+/// back with the arms). `rig` must outlive it.
+CaptureFn image_rig_capture(ImageRig& rig, double detector_arm_rad, bool spin = false);
 
 /// The settings of an image campaign for a request and its rig (defaults: coverage target 0.55,
 /// at most 200 frames), without touching a device: what --plan-only prints.
@@ -253,7 +260,8 @@ struct ImageRunHooks {
 /// - refuses a conflict (find_conflict) and a bad table resolution;
 /// - a resume (request.resume_dir) takes every setting from the folder's image_campaign.json;
 /// - starts the rig (start_image_rig with the ground truth, time scale and seed), refuses an
-///   anisotropic virtual sample (the table is isotropic), calls hooks.started;
+///   anisotropic virtual sample unless the request is anisotropic (the table is isotropic) and an
+///   anisotropic request on a rig without a spin axis, calls hooks.started;
 /// - a new campaign refuses a folder that already holds one, creates it and writes its settings
 ///   (and the ground truth's file, copied in, so that a resume reads only the folder);
 /// - runs the campaign on the folder's frames.journal and writes its outputs into the folder

@@ -21,6 +21,12 @@
 //   (wi, wo) in its local frame (sphere_geometry.h) and f with its model variance, added to the
 //   Welford table (image_binning.h).
 //
+// Anisotropic samples (config.anisotropic; image_aniso.h, docs/image-acquisition.md): the sample is
+// a turned sphere whose tangent field turns with the holder's spin. Each frame is a pose (light
+// arm, spin) chosen by the 4-D coverage, every pixel outside the pole caps gives (wi, wo) in the
+// material's frame (normal and tangent), binned into the 4-D table; the dataset keeps both
+// azimuths. Calibration, silhouette, HDR and journal work as for isotropic samples.
+//
 // The devices are reached through a capture function (a light-arm move, a shutter state, a filter
 // and an exposure in; a frame out), so that the same campaign runs on a real rig
 // (make_device_capture) or on the simulator.
@@ -34,6 +40,7 @@
 #include <vector>
 
 #include "gonio/acquisition/camera_model.h"
+#include "gonio/acquisition/image_aniso.h"
 #include "gonio/acquisition/image_binning.h"
 #include "gonio/acquisition/image_planner.h"
 #include "gonio/acquisition/rig_config.h"
@@ -51,6 +58,7 @@ struct CaptureRequest {
     double exposure_us = 0;
     bool shutter_open = true;  ///< False: dark frame.
     bool reference = false;    ///< True: the white reference sphere is in place of the sample.
+    double spin_rad = 0;       ///< Sample holder spin (anisotropic campaigns; else 0).
 };
 
 using CaptureFn = std::function<Expected<devices::Frame>(const CaptureRequest&)>;
@@ -83,6 +91,12 @@ struct ImageCampaignConfig {
     double electrons_per_count = 1;  ///< Sensor conversion gain at the gain used, e-/count.
     double read_noise_counts = 0;    ///< Read noise, counts.
 
+    /// Anisotropic sample: a turned sphere measured at several spins into the 4-D table.
+    bool anisotropic = false;
+    AnisoLayout aniso_layout;
+    SpinRange spins;                         ///< Spin positions the plan may use.
+    double pole_rad = 10 * brdf::kPi / 180;  ///< Pole caps of the turned sphere left out.
+
     double reference_albedo = 0.99;  ///< Lambertian albedo of the white reference sphere.
     double reference_max_theta = 60 * brdf::kPi / 180;  ///< Reference pixels used up to this angle.
     std::chrono::milliseconds capture_timeout{5000};
@@ -91,6 +105,7 @@ struct ImageCampaignConfig {
 /// One light position of the campaign.
 struct FrameRecord {
     double light_arm_rad = 0;
+    double spin_rad = 0;  ///< Holder spin (anisotropic campaigns).
     PixelCounts counts;
     std::array<int, 3> exposures{};  ///< Exposures used per channel (1 = no bracketing).
     double coverage_after = 0;       ///< Covered fraction of the valid bins after this frame.
@@ -114,6 +129,17 @@ struct ImageCampaignResult {
     std::uint64_t captures = 0;      ///< Frames captured (dark frames included).
     double exposure_time_s = 0;      ///< Sum of exposure times (the shutter-open and dark frames).
     std::size_t resumed_frames = 0;  ///< Frames read back from the journal, not captured now.
+    /// Anisotropic campaigns: the 4-D table and its coverage (then `coverage` is its isotropic
+    /// projection and `table` stays empty).
+    std::optional<AnisoTable> aniso_table;
+    std::optional<AnisoCoverage> aniso_coverage;
+
+    /// The campaign's own coverage: of the 4-D table for an anisotropic campaign, else of the
+    /// half/difference table.
+    double coverage_fraction() const;
+    std::size_t valid_bins() const;
+    std::size_t covered_bins() const;
+    std::size_t filled_bins() const;
 };
 
 /// Campaign settings for a rig description and its calibrated camera: the white reference's
@@ -126,6 +152,12 @@ ImageCampaignConfig image_campaign_config(const RigConfig& rig,
                                           int table_factor,
                                           double coverage_target,
                                           int max_frames);
+
+/// Makes `cfg` an anisotropic campaign (file comment) with the 4-D table `layout`: the light
+/// positions a quarter of a theta_d row apart in separation, the holder's spin over its axis
+/// limits (at most one turn) in steps of half a phi_h bin, the stop rule's smallest gain a share
+/// of the 4-D table's valid bins.
+void make_anisotropic(ImageCampaignConfig* cfg, const RigConfig& rig, const AnisoLayout& layout);
 
 /// The same for any table layout (theta_h x theta_d x phi_d bins); the light positions are a
 /// quarter of a theta_d row apart in separation (at most 1 degree), the grazing limits the
@@ -156,6 +188,11 @@ struct ImageCoveragePrediction {
     std::string stop_reason;
     std::vector<CoverageHole> holes;  ///< Empty valid bins after the plan, by reason.
     double light_travel_rad = 0;      ///< Light-arm travel from the front-light position.
+    /// Anisotropic campaigns: the holder's spin of each planned pose (with light_arm_rad) and
+    /// its travel from 0; the bins and holes are then those of the 4-D table (holes: of its
+    /// isotropic projection).
+    std::vector<double> spin_rad;
+    double spin_travel_rad = 0;
 };
 Expected<ImageCoveragePrediction> predict_image_coverage(const ImageCampaignConfig& config);
 
@@ -222,6 +259,9 @@ struct DeviceCaptureOptions {
     int capture_retries = 3;
     /// Receives the counts and notes when given (must outlive the capture function).
     PoseCheckLog* log = nullptr;
+    /// The sample holder's spin axis (anisotropic campaigns): moved to each request's spin_rad
+    /// and read back with the arms. Without it a request with a spin is an error.
+    devices::Axis* spin = nullptr;
 };
 
 /// A capture function over real devices: moves the light arm (wait at most `move_timeout`), sets

@@ -7,9 +7,14 @@
 // The first record (the set-up) holds what the frames depend on: the table layout and the detector
 // arm (checked on resume), the calibration constants and the fitted sample and reference spheres.
 //
+// Anisotropic campaigns (image_aniso.h) write their own record types: the set-up (3) adds the 4-D
+// table layout to the set-up's fields, and each frame (4) records the holder's spin beside the
+// light arm, the pole-cap pixel count, and per 4-D bin the mean directions instead of the mean
+// half/difference position. A journal holds one kind or the other, never both.
+//
 // Binary layout, little-endian: each record is
-//   "GIJ1" | type (u8: 1 set-up, 2 frame) | payload length (u32) | FNV-1a 64 of the payload (u64) |
-//   payload
+//   "GIJ1" | type (u8: 1 set-up, 2 frame, 3 anisotropic set-up, 4 anisotropic frame) |
+//   payload length (u32) | FNV-1a 64 of the payload (u64) | payload
 // with doubles and floats as their IEEE 754 bit patterns. A record cut short (kill -9, power cut)
 // or with a wrong hash at the end of the file was never acknowledged: it is cut off on opening and
 // its frame measured again. A damaged record followed by good ones is corruption and an error.
@@ -21,6 +26,7 @@
 #include <vector>
 
 #include "gonio/acquisition/append_log.h"
+#include "gonio/acquisition/image_aniso.h"
 #include "gonio/acquisition/image_binning.h"
 #include "gonio/acquisition/sphere_geometry.h"
 #include "gonio/base/error.h"
@@ -36,6 +42,9 @@ struct ImageJournalSetup {
     SphereGeometry reference_sphere;
     std::uint64_t captures = 0;  ///< Captures taken for the set-up (reference, silhouettes).
     double exposure_time_s = 0;
+    /// An anisotropic campaign (record type 3) and its 4-D table.
+    bool anisotropic = false;
+    AnisoLayout aniso_layout;
 };
 
 /// One finished light position.
@@ -48,6 +57,10 @@ struct ImageJournalFrame {
     std::uint64_t captures = 0;  ///< Captures of this frame (dark frames included).
     double exposure_time_s = 0;  ///< Exposure time of this frame's captures.
     std::vector<BinAggregate> bins;
+    /// An anisotropic campaign's frame (record type 4): the holder's spin and the 4-D bins.
+    bool anisotropic = false;
+    double spin_rad = 0;
+    std::vector<AnisoBinAggregate> aniso_bins;
 };
 
 std::string encode_setup(const ImageJournalSetup& s);  ///< One whole record.
@@ -56,8 +69,8 @@ std::string encode_frame(const ImageJournalFrame& f);  ///< One whole record.
 class ImageJournal {
   public:
     /// Opens (creating if needed) the journal, reads its records (checking every bin index against
-    /// the set-up's layout and every value for finiteness), cuts off a damaged last record
-    /// (torn_tail()) and positions for appending.
+    /// the set-up's layout, every frame's kind against the set-up's and every value for
+    /// finiteness), cuts off a damaged last record (torn_tail()) and positions for appending.
     static Expected<ImageJournal> open(const std::string& path);
 
     const std::optional<ImageJournalSetup>& setup() const { return setup_; }

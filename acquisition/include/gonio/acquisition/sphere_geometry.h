@@ -67,10 +67,17 @@ struct SilhouetteOptions {
     /// Threshold between the background (median of the frame's border) and the 99.5th percentile,
     /// at least 5 noise sigmas (MAD of the border) above the background. Low, because a sphere lit
     /// from near the camera darkens toward its limb (the threshold contour lies inside the limb
-    /// by about r t^2 / 2 for a Lambertian sphere and fraction t).
+    /// by about r t^2 / 2 for a Lambertian sphere and fraction t). A glossy sphere, whose pixels
+    /// clear of the noise cover half as much again as that outline (the outline is its
+    /// highlight's), is outlined at the same fraction of the median of those pixels instead.
     double threshold_fraction = 0.05;
     /// Physical radius of the sphere, metres (perspective cameras: fixes the distance).
     double radius_m = 0.02;
+    /// Orthographic cameras: hold the radius at radius_m (a calibrated camera's pixels per metre
+    /// and a sphere of known size) and fit only the centre. The outline's threshold crossing
+    /// lies a fraction of a pixel off the limb (partly covered pixels, a limb darkening toward
+    /// it), which a fitted radius takes up as a scale error of every normal's tangential part.
+    bool orthographic_known_radius = false;
     /// Contour points deeper than this inside the fitted silhouette are trimmed (terminator).
     double trim_inside_px = 0.5;
     int iterations = 20;
@@ -111,6 +118,8 @@ struct PixelCounts {
     std::uint64_t saturated = 0;      ///< Saturated even at the shortest exposure.
     std::uint64_t nonfinite = 0;      ///< A non-finite value (never expected; counted, not used).
     std::uint64_t used = 0;           ///< Turned into a BRDF sample.
+    /// Anisotropic image mode: within a pole cap of the turned sphere (no tangent).
+    std::uint64_t pole = 0;
 
     PixelCounts& operator+=(const PixelCounts& o);
 };
