@@ -76,6 +76,8 @@ TEST(ThreadCount, NormalEquationsOfOneAndTwoThreadsAreBitIdentical) {
     for (bool analytic : {true, false}) {
         PreparedSamples ps(map, data.samples, CostOptions{});
         ps.set_analytic(analytic);
+        // The closed form of the default model runs fused on packets (normal_equation_packets.h).
+        EXPECT_EQ(ps.packets(), analytic);
         const std::vector<double> x = map->values_of(spec.model);
         NormalEquations one, two;
         ASSERT_TRUE(ps.normal_equations(x.data(), one, 1));
