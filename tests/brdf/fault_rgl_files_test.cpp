@@ -30,7 +30,8 @@ void expect_refused(const std::string& name, const std::string& field, const std
 }
 
 TEST(RglFiles, HandMadeValidFilesAreRead) {
-    for (const char* name : {"valid_minimal.bsdf", "valid_three_theta.bsdf"}) {
+    for (const char* name :
+         {"valid_minimal.bsdf", "valid_three_theta.bsdf", "valid_anisotropic.bsdf"}) {
         auto b = gonio::brdf::read_rgl_bsdf(corpus(name));
         ASSERT_TRUE(b) << b.error().message;
         EXPECT_EQ(b->description(), "test");

@@ -145,6 +145,52 @@ ErrorStats stats(std::vector<std::pair<double, Pair>> errors) {
     return s;
 }
 
+// The relative error of a file against its model at the pairs (largest over the channels); the
+// file's values in *values.
+ErrorStats against_model(const RglBsdf& file,
+                         const Brdf& model,
+                         const std::vector<Pair>& pairs,
+                         std::vector<Rgbd>* values) {
+    std::vector<std::pair<double, Pair>> errors;
+    for (const Pair& p : pairs) {
+        const Vec3d wi = spherical_to_cartesian(p.theta_i, p.phi_i);
+        const Vec3d wo = spherical_to_cartesian(p.theta_o, p.phi_o);
+        const Rgbd truth = model.eval(wi, wo);
+        const Rgbd f = file.eval_unclipped(wi, wo);
+        values->push_back(f);
+        errors.push_back({((f - truth).abs() / truth).maxCoeff(), p});
+    }
+    return stats(errors);
+}
+
+// RGL's reference reader on the same file gives gonio's values to single-precision rounding
+// (skipped without the reader, failed in CI).
+void expect_rgl_reader_agrees(const std::string& path,
+                              const std::vector<Pair>& pairs,
+                              const std::vector<Rgbd>& gonio_values) {
+    std::string why;
+    const std::string exe = build_rgl_eval(&why);
+    if (exe.empty()) {
+        if (gonio::test::running_in_ci()) {
+            FAIL() << why;
+        }
+        GTEST_SKIP() << why;
+    }
+    const std::vector<Rgbd> theirs = rgl_eval(exe, path, pairs);
+    ASSERT_EQ(theirs.size(), pairs.size());
+    double worst = 0;
+    for (std::size_t k = 0; k < pairs.size(); ++k) {
+        for (int c = 0; c < 3; ++c) {
+            const double rel = std::abs(theirs[k][c] - gonio_values[k][c]) / std::abs(theirs[k][c]);
+            worst = std::max(worst, rel);
+        }
+    }
+    std::printf(
+        "RGL's reader on %s: largest relative difference to gonio's %.3g\n", path.c_str(), worst);
+    EXPECT_LT(worst, 1e-5);
+    std::remove(exe.c_str());
+}
+
 // theta_h and theta_d of a pair, degrees.
 std::pair<double, double> half_diff_deg(const Pair& p) {
     const Vec3d wi = spherical_to_cartesian(p.theta_i, p.phi_i);
@@ -166,17 +212,8 @@ TEST_P(RglWriter, ModelFileReadByGonioAndRglAgreesWithModel) {
     ASSERT_TRUE(back) << back.error().message;
 
     const std::vector<Pair> pairs = test_pairs(20261201, 2000);
-    std::vector<std::pair<double, Pair>> errors;
     std::vector<Rgbd> gonio_values;
-    for (const Pair& p : pairs) {
-        const Vec3d wi = spherical_to_cartesian(p.theta_i, p.phi_i);
-        const Vec3d wo = spherical_to_cartesian(p.theta_o, p.phi_o);
-        const Rgbd truth = model.eval(wi, wo);
-        const Rgbd f = back->eval_unclipped(wi, wo);
-        gonio_values.push_back(f);
-        errors.push_back({((f - truth).abs() / truth).maxCoeff(), p});
-    }
-    const ErrorStats s = stats(errors);
+    const ErrorStats s = against_model(*back, model, pairs, &gonio_values);
     const auto [th, td] = half_diff_deg(s.worst);
     std::printf(
         "%s alpha 0.2: relative error of the representation over %zu pairs: median %.3g, "
@@ -198,27 +235,7 @@ TEST_P(RglWriter, ModelFileReadByGonioAndRglAgreesWithModel) {
     EXPECT_LT(s.p95, 0.12);
     EXPECT_LT(s.max, 0.8);
 
-    std::string why;
-    const std::string exe = build_rgl_eval(&why);
-    if (exe.empty()) {
-        if (gonio::test::running_in_ci()) {
-            FAIL() << why;
-        }
-        GTEST_SKIP() << why;
-    }
-    const std::vector<Rgbd> theirs = rgl_eval(exe, path, pairs);
-    ASSERT_EQ(theirs.size(), pairs.size());
-    double worst = 0;
-    for (std::size_t k = 0; k < pairs.size(); ++k) {
-        for (int c = 0; c < 3; ++c) {
-            const double rel = std::abs(theirs[k][c] - gonio_values[k][c]) / std::abs(theirs[k][c]);
-            worst = std::max(worst, rel);
-        }
-    }
-    std::printf("RGL's reader on the same file: largest relative difference to gonio's %.3g\n",
-                worst);
-    EXPECT_LT(worst, 1e-5);
-    std::remove(exe.c_str());
+    expect_rgl_reader_agrees(path, pairs, gonio_values);
     std::remove(path.c_str());
 }
 
@@ -271,17 +288,8 @@ TEST(RglWriterAnisotropic, TurnedBrushedLobeReadByGonioAndRglAgreesWithModel) {
     EXPECT_NEAR(d_at(theta_probe, 120 * kDeg) / d_at(theta_probe, -60 * kDeg), 1.0, 0.05);
 
     const std::vector<Pair> pairs = test_pairs(20261202, 2000);
-    std::vector<std::pair<double, Pair>> errors;
     std::vector<Rgbd> gonio_values;
-    for (const Pair& p : pairs) {
-        const Vec3d wi = spherical_to_cartesian(p.theta_i, p.phi_i);
-        const Vec3d wo = spherical_to_cartesian(p.theta_o, p.phi_o);
-        const Rgbd truth = model.eval(wi, wo);
-        const Rgbd f = back->eval_unclipped(wi, wo);
-        gonio_values.push_back(f);
-        errors.push_back({((f - truth).abs() / truth).maxCoeff(), p});
-    }
-    const ErrorStats s = stats(errors);
+    const ErrorStats s = against_model(*back, model, pairs, &gonio_values);
     const auto [th, td] = half_diff_deg(s.worst);
     std::printf(
         "anisotropic GGX 0.12 x 0.3 at 30 deg: relative error of the representation over %zu "
@@ -316,26 +324,7 @@ TEST(RglWriterAnisotropic, TurnedBrushedLobeReadByGonioAndRglAgreesWithModel) {
     EXPECT_EQ(azimuths.size(), 16u);
     EXPECT_LT(worst_node, 1e-5) << "a node's value is the model's, to float rounding";
 
-    std::string why;
-    const std::string exe = build_rgl_eval(&why);
-    if (exe.empty()) {
-        if (gonio::test::running_in_ci()) {
-            FAIL() << why;
-        }
-        GTEST_SKIP() << why;
-    }
-    const std::vector<Rgbd> theirs = rgl_eval(exe, path, pairs);
-    ASSERT_EQ(theirs.size(), pairs.size());
-    double worst = 0;
-    for (std::size_t k = 0; k < pairs.size(); ++k) {
-        for (int c = 0; c < 3; ++c) {
-            const double rel = std::abs(theirs[k][c] - gonio_values[k][c]) / std::abs(theirs[k][c]);
-            worst = std::max(worst, rel);
-        }
-    }
-    std::printf("RGL's reader on the anisotropic file: largest relative difference %.3g\n", worst);
-    EXPECT_LT(worst, 1e-5);
-    std::remove(exe.c_str());
+    expect_rgl_reader_agrees(path, pairs, gonio_values);
     std::remove(path.c_str());
 }
 
