@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "bin_groups.h"
 #include "gonio/base/check.h"
 #include "gonio/brdf/rig_geometry.h"
 
@@ -74,68 +75,50 @@ void AnisoFrameBins::add(const brdf::Vec3d& wi,
 }
 
 std::vector<AnisoBinAggregate> AnisoFrameBins::aggregates() const {
-    std::vector<std::uint32_t> order(samples_.size());
-    for (std::size_t i = 0; i < order.size(); ++i) {
-        order[i] = static_cast<std::uint32_t>(i);
-    }
-    // Stable: within a bin the samples keep their pixel order (a deterministic summary).
-    std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-        return samples_[a].bin < samples_[b].bin;
-    });
     std::vector<AnisoBinAggregate> out;
-    std::size_t i = 0;
-    while (i < order.size()) {
-        const std::uint32_t bin = samples_[order[i]].bin;
-        double mean[3] = {0, 0, 0};
-        double m2[3] = {0, 0, 0};
-        double mv[3] = {0, 0, 0};
-        double wi[3] = {0, 0, 0};
-        double wo[3] = {0, 0, 0};
-        std::uint32_t n = 0;
-        for (; i < order.size() && samples_[order[i]].bin == bin; ++i) {
-            const Entry& e = samples_[order[i]];
-            ++n;
+    detail::for_each_bin_group(
+        samples_, [&](std::uint32_t bin, const std::uint32_t* first, const std::uint32_t* last) {
+            detail::ChannelWelford w;
+            double wi[3] = {0, 0, 0};
+            double wo[3] = {0, 0, 0};
+            for (const std::uint32_t* k = first; k != last; ++k) {
+                const Entry& e = samples_[*k];
+                w.add(e.value, e.model_var);
+                for (int c = 0; c < 3; ++c) {
+                    wi[c] += (e.wi[c] - wi[c]) / w.n;
+                    wo[c] += (e.wo[c] - wo[c]) / w.n;
+                }
+            }
+            // The representative: the sample closest to the mean in units of the noise.
+            const Entry* rep = &samples_[*first];
+            double best_d = 0;
+            for (const std::uint32_t* k = first; k != last; ++k) {
+                const Entry& e = samples_[*k];
+                double d = 0;
+                for (int c = 0; c < 3; ++c) {
+                    const double r = e.value[c] - w.mean[c];
+                    d += r * r / (w.model_var[c] + 1e-300);
+                }
+                if (k == first || d < best_d) {
+                    rep = &e;
+                    best_d = d;
+                }
+            }
+            AnisoBinAggregate a;
+            a.bin = bin;
+            a.count = w.n;
             for (int c = 0; c < 3; ++c) {
-                const double delta = e.value[c] - mean[c];
-                mean[c] += delta / n;
-                m2[c] += delta * (e.value[c] - mean[c]);
-                mv[c] += (e.model_var[c] - mv[c]) / n;
-                wi[c] += (e.wi[c] - wi[c]) / n;
-                wo[c] += (e.wo[c] - wo[c]) / n;
+                a.mean[c] = static_cast<float>(w.mean[c]);
+                a.m2[c] = static_cast<float>(w.m2[c]);
+                a.model_var[c] = static_cast<float>(w.model_var[c]);
+                a.wi[c] = static_cast<float>(wi[c]);
+                a.wo[c] = static_cast<float>(wo[c]);
+                a.rep_wi[c] = rep->wi[c];
+                a.rep_wo[c] = rep->wo[c];
+                a.rep_value[c] = static_cast<float>(rep->value[c]);
             }
-        }
-        // The representative: the sample closest to the mean in units of the noise.
-        const std::size_t first = i - n;
-        std::size_t best = first;
-        double best_d = 0;
-        for (std::size_t k = first; k < i; ++k) {
-            const Entry& e = samples_[order[k]];
-            double d = 0;
-            for (int c = 0; c < 3; ++c) {
-                const double r = e.value[c] - mean[c];
-                d += r * r / (mv[c] + 1e-300);
-            }
-            if (k == first || d < best_d) {
-                best = k;
-                best_d = d;
-            }
-        }
-        const Entry& r = samples_[order[best]];
-        AnisoBinAggregate a;
-        a.bin = bin;
-        a.count = n;
-        for (int c = 0; c < 3; ++c) {
-            a.mean[c] = static_cast<float>(mean[c]);
-            a.m2[c] = static_cast<float>(m2[c]);
-            a.model_var[c] = static_cast<float>(mv[c]);
-            a.wi[c] = static_cast<float>(wi[c]);
-            a.wo[c] = static_cast<float>(wo[c]);
-            a.rep_wi[c] = r.wi[c];
-            a.rep_wo[c] = r.wo[c];
-            a.rep_value[c] = static_cast<float>(r.value[c]);
-        }
-        out.push_back(a);
-    }
+            out.push_back(a);
+        });
     return out;
 }
 

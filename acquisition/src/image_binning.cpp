@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "bin_groups.h"
 #include "gonio/base/check.h"
 #include "gonio/brdf/merl.h"
 
@@ -123,45 +124,29 @@ void FrameBins::add(const brdf::Vec3d& wi,
 }
 
 std::vector<BinAggregate> FrameBins::aggregates() const {
-    std::vector<std::uint32_t> order(samples_.size());
-    for (std::size_t i = 0; i < order.size(); ++i) {
-        order[i] = static_cast<std::uint32_t>(i);
-    }
-    // Stable: within a bin the samples keep their pixel order (a deterministic summary).
-    std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-        return samples_[a].bin < samples_[b].bin;
-    });
     std::vector<BinAggregate> out;
-    std::size_t i = 0;
-    while (i < order.size()) {
-        const std::uint32_t bin = samples_[order[i]].bin;
-        double mean[3] = {0, 0, 0};
-        double m2[3] = {0, 0, 0};
-        double mv[3] = {0, 0, 0};
-        double pos[3] = {0, 0, 0};
-        std::uint32_t n = 0;
-        for (; i < order.size() && samples_[order[i]].bin == bin; ++i) {
-            const Entry& e = samples_[order[i]];
-            ++n;
-            for (int c = 0; c < 3; ++c) {
-                const double delta = e.value[c] - mean[c];
-                mean[c] += delta / n;
-                m2[c] += delta * (e.value[c] - mean[c]);
-                mv[c] += (e.model_var[c] - mv[c]) / n;
-                pos[c] += (e.position[c] - pos[c]) / n;
+    detail::for_each_bin_group(
+        samples_, [&](std::uint32_t bin, const std::uint32_t* first, const std::uint32_t* last) {
+            detail::ChannelWelford w;
+            double pos[3] = {0, 0, 0};
+            for (const std::uint32_t* k = first; k != last; ++k) {
+                const Entry& e = samples_[*k];
+                w.add(e.value, e.model_var);
+                for (int c = 0; c < 3; ++c) {
+                    pos[c] += (e.position[c] - pos[c]) / w.n;
+                }
             }
-        }
-        BinAggregate a;
-        a.bin = bin;
-        a.count = n;
-        for (int c = 0; c < 3; ++c) {
-            a.mean[c] = static_cast<float>(mean[c]);
-            a.m2[c] = static_cast<float>(m2[c]);
-            a.model_var[c] = static_cast<float>(mv[c]);
-            a.position[c] = static_cast<float>(pos[c]);
-        }
-        out.push_back(a);
-    }
+            BinAggregate a;
+            a.bin = bin;
+            a.count = w.n;
+            for (int c = 0; c < 3; ++c) {
+                a.mean[c] = static_cast<float>(w.mean[c]);
+                a.m2[c] = static_cast<float>(w.m2[c]);
+                a.model_var[c] = static_cast<float>(w.model_var[c]);
+                a.position[c] = static_cast<float>(pos[c]);
+            }
+            out.push_back(a);
+        });
     return out;
 }
 
