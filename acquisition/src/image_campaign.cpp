@@ -279,6 +279,68 @@ double front_light(const ImageCampaignConfig& cfg) {
 /// The silhouette frame: lit from the allowed position closest to the camera and, when the arm
 /// can reach it, from its mirror image on the other side of the detector; the pixel-wise maximum
 /// of the two has no shadow crescent at the limb.
+/// One pose in the three colour channels (capture_hdr each); the exposures each took go to
+/// rec->exposures, *bracketed is set when any needed a shorter one.
+Expected<std::array<HdrSamples, 3>> capture_channels(Rig& rig,
+                                                     const ImageCampaignConfig& cfg,
+                                                     const CaptureRequest& pose,
+                                                     const std::vector<SpherePixel>& pixels,
+                                                     const std::vector<std::uint8_t>& lit,
+                                                     FrameRecord* rec,
+                                                     bool* bracketed) {
+    std::array<HdrSamples, 3> hdr;
+    *bracketed = false;
+    for (int ch = 0; ch < 3; ++ch) {
+        CaptureRequest r = pose;
+        r.channel = ch;
+        auto h = capture_hdr(rig, cfg, r, pixels, lit);
+        if (!h) {
+            return tl::unexpected(h.error());
+        }
+        hdr[ch] = std::move(*h);
+        rec->exposures[ch] = hdr[ch].exposures;
+        *bracketed = *bracketed || hdr[ch].exposures > 1;
+    }
+    return hdr;
+}
+
+/// Every lit pixel unsaturated in all channels, as f_r = signal / (C_c cos(theta_i)) with its
+/// variance, added to `bins` at the directions `dirs(i)` gives; the pixels left out are counted.
+template <class Bins, class Directions>
+void bin_pixels(const std::array<HdrSamples, 3>& hdr,
+                const std::vector<std::uint8_t>& lit,
+                const std::array<double, 3>& calibration,
+                Directions dirs,
+                Bins* bins,
+                PixelCounts* counts) {
+    for (std::size_t i = 0; i < lit.size(); ++i) {
+        if (!lit[i]) {
+            continue;
+        }
+        if (!hdr[0].ok[i] || !hdr[1].ok[i] || !hdr[2].ok[i]) {
+            // Saturated at the shortest exposure in some channel.
+            ++counts->saturated;
+            continue;
+        }
+        const auto [wi, wo] = dirs(i);
+        const double cos_i = wi.z();
+        brdf::Rgbd value;
+        brdf::Rgbd var;
+        for (int ch = 0; ch < 3; ++ch) {
+            const double k = calibration[ch] * cos_i;
+            value[ch] = hdr[ch].signal[i] / k;
+            var[ch] = hdr[ch].variance[i] / (k * k);
+        }
+        if (!value.allFinite() || !var.allFinite()) {
+            // Cannot happen with cos_i >= cos(max_theta_i) > 0 and finite frames; counted.
+            ++counts->nonfinite;
+            continue;
+        }
+        bins->add(wi, wo, value, var);
+        ++counts->used;
+    }
+}
+
 Expected<SphereGeometry> find_sphere(Rig& rig,
                                      const ImageCampaignConfig& cfg,
                                      double light,
@@ -499,48 +561,22 @@ Expected<void> run_aniso_frames(Rig& rig,
                 lit[i] = 0;
             }
         }
-        std::array<HdrSamples, 3> hdr;
+        CaptureRequest pose;
+        pose.light_arm_rad = a;
+        pose.spin_rad = spin;
         bool bracketed = false;
-        for (int ch = 0; ch < 3; ++ch) {
-            CaptureRequest r;
-            r.light_arm_rad = a;
-            r.spin_rad = spin;
-            r.channel = ch;
-            auto h = capture_hdr(rig, cfg, r, pixels, lit);
-            if (!h) {
-                return tl::unexpected(h.error());
-            }
-            hdr[ch] = std::move(*h);
-            rec.exposures[ch] = hdr[ch].exposures;
-            bracketed = bracketed || hdr[ch].exposures > 1;
+        auto hdr = capture_channels(rig, cfg, pose, pixels, lit, &rec, &bracketed);
+        if (!hdr) {
+            return tl::unexpected(hdr.error());
         }
         AnisoFrameBins frame_bins(cfg.aniso_layout);
-        for (std::size_t i = 0; i < pixels.size(); ++i) {
-            if (!lit[i]) {
-                continue;
-            }
-            if (!hdr[0].ok[i] || !hdr[1].ok[i] || !hdr[2].ok[i]) {
-                // Saturated at the shortest exposure in some channel.
-                ++rec.counts.saturated;
-                continue;
-            }
-            const auto [wi, wo] = local_directions(pixels[i], tangents[i], l);
-            const double cos_i = wi.z();
-            brdf::Rgbd value;
-            brdf::Rgbd var;
-            for (int ch = 0; ch < 3; ++ch) {
-                const double k = result.calibration[ch] * cos_i;
-                value[ch] = hdr[ch].signal[i] / k;
-                var[ch] = hdr[ch].variance[i] / (k * k);
-            }
-            if (!value.allFinite() || !var.allFinite()) {
-                // Cannot happen with cos_i >= cos(max_theta_i) > 0 and finite frames; counted.
-                ++rec.counts.nonfinite;
-                continue;
-            }
-            frame_bins.add(wi, wo, value, var);
-            ++rec.counts.used;
-        }
+        bin_pixels(
+            *hdr,
+            lit,
+            result.calibration,
+            [&](std::size_t i) { return local_directions(pixels[i], tangents[i], l); },
+            &frame_bins,
+            &rec.counts);
         ImageJournalFrame jf;
         jf.anisotropic = true;
         jf.light_arm_rad = a;
@@ -780,47 +816,21 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
         rec.counts = geometry_counts;
         const brdf::Vec3d l = light_direction(a);
         const std::vector<std::uint8_t> lit = lit_pixels(pixels, l, cfg.rules, &rec.counts);
-        std::array<HdrSamples, 3> hdr;
+        CaptureRequest pose;
+        pose.light_arm_rad = a;
         bool bracketed = false;
-        for (int ch = 0; ch < 3; ++ch) {
-            CaptureRequest r;
-            r.light_arm_rad = a;
-            r.channel = ch;
-            auto h = capture_hdr(rig, cfg, r, pixels, lit);
-            if (!h) {
-                return tl::unexpected(h.error());
-            }
-            hdr[ch] = std::move(*h);
-            rec.exposures[ch] = hdr[ch].exposures;
-            bracketed = bracketed || hdr[ch].exposures > 1;
+        auto hdr = capture_channels(rig, cfg, pose, pixels, lit, &rec, &bracketed);
+        if (!hdr) {
+            return tl::unexpected(hdr.error());
         }
         FrameBins frame_bins(cfg.layout);
-        for (std::size_t i = 0; i < pixels.size(); ++i) {
-            if (!lit[i]) {
-                continue;
-            }
-            if (!hdr[0].ok[i] || !hdr[1].ok[i] || !hdr[2].ok[i]) {
-                // Saturated at the shortest exposure in some channel.
-                ++rec.counts.saturated;
-                continue;
-            }
-            const auto [wi, wo] = local_directions(pixels[i], l);
-            const double cos_i = wi.z();
-            brdf::Rgbd value;
-            brdf::Rgbd var;
-            for (int ch = 0; ch < 3; ++ch) {
-                const double k = result.calibration[ch] * cos_i;
-                value[ch] = hdr[ch].signal[i] / k;
-                var[ch] = hdr[ch].variance[i] / (k * k);
-            }
-            if (!value.allFinite() || !var.allFinite()) {
-                // Cannot happen with cos_i >= cos(max_theta_i) > 0 and finite frames; counted.
-                ++rec.counts.nonfinite;
-                continue;
-            }
-            frame_bins.add(wi, wo, value, var);
-            ++rec.counts.used;
-        }
+        bin_pixels(
+            *hdr,
+            lit,
+            result.calibration,
+            [&](std::size_t i) { return local_directions(pixels[i], l); },
+            &frame_bins,
+            &rec.counts);
         ImageJournalFrame jf;
         jf.light_arm_rad = a;
         jf.exposures = rec.exposures;
