@@ -341,6 +341,22 @@ void bin_pixels(const std::array<HdrSamples, 3>& hdr,
     }
 }
 
+/// A frame read back from the journal, in the result as when it was captured (its spin is 0 in an
+/// isotropic campaign).
+void account_journaled_frame(const ImageJournalFrame& f, ImageCampaignResult* result) {
+    FrameRecord rec;
+    rec.light_arm_rad = f.light_arm_rad;
+    rec.spin_rad = f.spin_rad;
+    rec.counts = f.counts;
+    rec.exposures = f.exposures;
+    rec.coverage_after = f.coverage_after;
+    result->counts += f.counts;
+    result->frames.push_back(rec);
+    result->bracketed = result->bracketed || f.bracketed;
+    result->captures += f.captures;
+    result->exposure_time_s += f.exposure_time_s;
+}
+
 Expected<SphereGeometry> find_sphere(Rig& rig,
                                      const ImageCampaignConfig& cfg,
                                      double light,
@@ -484,17 +500,7 @@ Expected<void> run_aniso_frames(Rig& rig,
             for (const AnisoBinAggregate& a : f.aniso_bins) {
                 table.merge(a);
             }
-            FrameRecord rec;
-            rec.light_arm_rad = f.light_arm_rad;
-            rec.spin_rad = f.spin_rad;
-            rec.counts = f.counts;
-            rec.exposures = f.exposures;
-            rec.coverage_after = f.coverage_after;
-            result.counts += f.counts;
-            result.frames.push_back(rec);
-            result.bracketed = result.bracketed || f.bracketed;
-            result.captures += f.captures;
-            result.exposure_time_s += f.exposure_time_s;
+            account_journaled_frame(f, &result);
             candidates.erase(std::remove_if(candidates.begin(),
                                             candidates.end(),
                                             [&](const PoseCandidate& c) {
@@ -769,16 +775,7 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
             for (const BinAggregate& a : f.bins) {
                 result.table.merge(a);
             }
-            FrameRecord rec;
-            rec.light_arm_rad = f.light_arm_rad;
-            rec.counts = f.counts;
-            rec.exposures = f.exposures;
-            rec.coverage_after = f.coverage_after;
-            result.counts += f.counts;
-            result.frames.push_back(rec);
-            result.bracketed = result.bracketed || f.bracketed;
-            result.captures += f.captures;
-            result.exposure_time_s += f.exposure_time_s;
+            account_journaled_frame(f, &result);
             candidates.erase(std::remove_if(candidates.begin(),
                                             candidates.end(),
                                             [&](const LightCandidate& c) {

@@ -291,8 +291,8 @@ Rgbd RglBsdf::eval_unclipped(const Vec3d& wi, const Vec3d& wo) const {
         fr[static_cast<Eigen::Index>(c)] = rgb_.eval_f(s[0], s[1], sw, 3, c);
     }
     if (jacobian_) {
-        fr = fr * ndf_.eval_f(u_m_x, u_phi, 0, 0, 0.0f) /
-             (4.0f * sigma_.eval_f(u_wi_x, u_wi_y, 0, 0, 0.0f));
+        fr = fr * ndf_.eval_f(u_m_x, u_phi, SliceWeightsF{}, 1, 0) /
+             (4.0f * sigma_.eval_f(u_wi_x, u_wi_y, SliceWeightsF{}, 1, 0));
     }
     Rgbd f = fr.cast<double>() / static_cast<double>(wo_f.z());
     // A non-finite value cannot come from finite tables with sigma > 0; kept as a guard.

@@ -113,7 +113,8 @@ SliceWeightsF slice_weights_f(const std::vector<float>& outer_nodes,
 
 namespace {
 
-// A table value between the slices of `w`: linear in each parameter, the outer one first.
+// A table value between the slices of `w`: linear along the inner parameter at each of the outer
+// one's two nodes, then along the outer one (in double the order changes only the rounding).
 double lerp_slices(const float* table,
                    std::size_t slice_size,
                    std::size_t index,
@@ -224,28 +225,6 @@ float BilinearGrid::eval_f(
     const std::size_t n = nx_ * ny_;
     auto at = [&](std::size_t ii, std::size_t jj) {
         return lerp_slices_f(values_.data(), n, jj * nx_ + ii, w, scale, offset);
-    };
-    return std::fma(y0,
-                    std::fma(x0, at(i, j), x1 * at(i + 1, j)),
-                    y1 * std::fma(x0, at(i, j + 1), x1 * at(i + 1, j + 1)));
-}
-
-float BilinearGrid::eval_f(
-    float x, float y, std::size_t slice, std::size_t stride, float w1) const {
-    // NaN goes to 0 (clamp01's rule): a lookup never leaves the table.
-    x = (x > 0.0f ? std::min(x, 1.0f) : 0.0f) * static_cast<float>(nx_ - 1);
-    y = (y > 0.0f ? std::min(y, 1.0f) : 0.0f) * static_cast<float>(ny_ - 1);
-    const std::size_t i = std::min(static_cast<std::size_t>(x), nx_ - 2);
-    const std::size_t j = std::min(static_cast<std::size_t>(y), ny_ - 2);
-    const float x1 = x - static_cast<float>(i), y1 = y - static_cast<float>(j);
-    const float x0 = 1.0f - x1, y0 = 1.0f - y1;
-    const float w0 = 1.0f - w1;
-    auto at = [&](std::size_t ii, std::size_t jj) {
-        const float v0 = values_[(slice * ny_ + jj) * nx_ + ii];
-        if (stride == 0) {
-            return v0;
-        }
-        return std::fma(v0, w0, values_[((slice + stride) * ny_ + jj) * nx_ + ii] * w1);
     };
     return std::fma(y0,
                     std::fma(x0, at(i, j), x1 * at(i + 1, j)),

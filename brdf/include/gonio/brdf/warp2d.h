@@ -81,8 +81,8 @@ class BilinearGrid {
                 const SliceWeights& w,
                 std::size_t scale,
                 std::size_t offset) const;
-    /// The same in single precision with the readers' order of operations (see RglBsdf::eval).
-    float eval_f(float x, float y, std::size_t slice, std::size_t stride, float w1) const;
+    /// The same in single precision with the readers' order of operations (see RglBsdf::eval);
+    /// SliceWeightsF{} with scale 1 and offset 0 is the first slice alone.
     float eval_f(
         float x, float y, const SliceWeightsF& w, std::size_t scale, std::size_t offset) const;
 
