@@ -26,7 +26,7 @@ function(gonio_add_module name)
   set_target_properties(gonio_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
 endfunction()
 
-# gonio_add_tests(<module> DEPS ... [CAMERA_STREAMS <label>...])
+# gonio_add_tests(<module> DEPS ... [CAMERA_STREAMS <label>...] [OFF_STREAM <gtest pattern>...])
 # Every tests/<module>/<label>_*_test.cpp joins the executable gonio_<module>_<label>_tests; each GoogleTest
 # case becomes its own ctest entry labelled <label> (the module is the name's prefix). The executables of
 # the CAMERA_STREAMS labels stream frames through Aravis (a campaign on the virtual rig, a camera
@@ -34,8 +34,11 @@ endfunction()
 # receives GVSP through a packet socket that sees every loopback datagram until its filter is attached,
 # so a stream started beside other loopback traffic can take foreign packets
 # (docs/benchmarks/camera.md). scripts/test.sh runs the "stream" tests after the others, one at a time.
+# The cases of those executables that match an OFF_STREAM pattern (gtest filter syntax, Suite.* or
+# Suite.Case) start no camera (they fit, convert, drive axes over Modbus, or are refused before a
+# rig starts): they keep their own label and run beside the other tests.
 function(gonio_add_tests module)
-  cmake_parse_arguments(ARG "" "" "DEPS;CAMERA_STREAMS" ${ARGN})
+  cmake_parse_arguments(ARG "" "" "DEPS;CAMERA_STREAMS;OFF_STREAM" ${ARGN})
   foreach(label unit property stress integration fault)
     file(GLOB sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/${label}_*_test.cpp)
     if(sources)
@@ -58,10 +61,24 @@ function(gonio_add_tests module)
       if(GONIO_SANITIZE)
         set(timeout 900)
       endif()
-      gtest_discover_tests(${exe}
-        TEST_PREFIX "${module}."
-        PROPERTIES LABELS "${labels}" TIMEOUT ${timeout} ${lock}
-        DISCOVERY_TIMEOUT 60)
+      if(lock AND ARG_OFF_STREAM)
+        list(JOIN ARG_OFF_STREAM ":" off_stream)
+        gtest_discover_tests(${exe}
+          TEST_PREFIX "${module}."
+          TEST_FILTER "${off_stream}"
+          PROPERTIES LABELS "${label}" TIMEOUT ${timeout}
+          DISCOVERY_TIMEOUT 60)
+        gtest_discover_tests(${exe}
+          TEST_PREFIX "${module}."
+          TEST_FILTER "-${off_stream}"
+          PROPERTIES LABELS "${labels}" TIMEOUT ${timeout} ${lock}
+          DISCOVERY_TIMEOUT 60)
+      else()
+        gtest_discover_tests(${exe}
+          TEST_PREFIX "${module}."
+          PROPERTIES LABELS "${labels}" TIMEOUT ${timeout} ${lock}
+          DISCOVERY_TIMEOUT 60)
+      endif()
     endif()
   endforeach()
 endfunction()

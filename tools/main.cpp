@@ -9,16 +9,19 @@
 // commands of full_commands.h to gonio-full (see there).
 
 #include <malloc.h>
+#include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <map>
 #include <string>
 
 #include "command.h"
 #include "gonio/base/edit_distance.h"
+#include "gonio/base/huge_pages.h"
 #include "gonio/base/limits.h"
 #include "gonio/version.h"
 #include "parse_errors.h"
@@ -87,6 +90,18 @@ int main(int argc, char** argv) {
     mallopt(M_MMAP_THRESHOLD, 256 << 20);
     mallopt(M_TRIM_THRESHOLD, 512 << 20);
     mallopt(M_TOP_PAD, 64 << 20);
+    // The heap's first 64 MiB (the pad above) backed by huge pages: a fresh 4 KiB page costs a
+    // fault of 10-20 us on a virtual machine, and a 6,000-point fit touches about 400 of them
+    // (samples, prepared arrays, partial sums) against one 2 MiB page per 2 MiB touched.
+    // Grow the heap by the pad once, advise it, and keep it (the trim threshold above).
+    if (void* first = std::malloc(std::size_t{8} << 20)) {
+        char* const top = static_cast<char*>(sbrk(0));
+        if (top > static_cast<char*>(first)) {
+            gonio::advise_huge_pages(first,
+                                     static_cast<std::size_t>(top - static_cast<char*>(first)));
+        }
+        std::free(first);
+    }
     CLI::App app{"gonio: gonioreflectometer control, BRDF acquisition and model fitting", "gonio"};
     app.set_version_flag("--version", std::string("gonio ") + GONIO_VERSION_STRING);
     app.require_subcommand(1);
@@ -189,6 +204,7 @@ int main(int argc, char** argv) {
         auto it = runs.find(sub->get_name());
         if (it != runs.end() && it->second) {
             const int status = it->second();
+
             // Commands return 0, 1 or 2; anything else is a failure of the work.
             return status == 0 || status == kExitUsage ? status : kExitFailure;
         }

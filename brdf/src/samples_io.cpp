@@ -15,6 +15,7 @@
 #include <utility>
 
 #include "gonio/base/huge_pages.h"
+#include "gonio/base/limits.h"
 #include "gonio/base/strings.h"
 #include "gonio/base/thread_pool.h"
 #include "gonio/brdf/merl.h"
@@ -114,7 +115,8 @@ struct Layout {
 /// The first error of a chunk (the lowest line), or with keep_going the rows it refused (at most
 /// max_rejected + 1: one more than allowed is enough to know that the file has too many).
 struct ChunkResult {
-    std::vector<Sample> samples;
+    Sample* samples = nullptr;  ///< where the chunk's rows go: room for one per line of the chunk
+    std::size_t count = 0;      ///< rows stored
     std::size_t error_line = 0;  ///< 0 = none
     std::string error;
     std::vector<RejectedRow> rejected;
@@ -139,7 +141,6 @@ void parse_chunk(const char* p,
         out.rejected.push_back(RejectedRow{line_no, reason});
         return true;
     };
-    reserve_huge(out.samples, static_cast<std::size_t>(end - p) / 40 + 1);
     double v[kNumCols];
     while (p < end) {
         const char* nl = static_cast<const char*>(std::memchr(p, '\n', end - p));
@@ -233,7 +234,7 @@ void parse_chunk(const char* p,
             ++line_no;
             continue;
         }
-        Sample s;
+        Sample& s = out.samples[out.count++];
         s.theta_i = v[kTi];
         s.phi_i = v[kPhiI];
         s.theta_o = v[kTo];
@@ -243,7 +244,6 @@ void parse_chunk(const char* p,
         s.weight = v[kW];
         s.flags = static_cast<std::uint32_t>(v[kF]);
         s.line = line_no;
-        out.samples.push_back(s);
         p = next;
         ++line_no;
     }
@@ -427,12 +427,36 @@ Expected<Dataset> read_dataset_csv(const std::string& path, const DatasetReadOpt
         cut.push_back(nl == nullptr ? end : nl + 1);
     }
     cut.push_back(end);
+    // Lines per chunk (in parallel), hence each chunk's first line number and an upper bound of
+    // its rows (its newlines, plus a last line without one): the rows are parsed straight into
+    // their place in data.samples, one buffer for the whole file, no copy of the rows afterwards.
+    std::vector<std::size_t> lines(chunks);
+    parallel_for(chunks, 1, 0, [&](std::size_t, std::size_t b, std::size_t e) {
+        for (std::size_t k = b; k < e; ++k) {
+            lines[k] = static_cast<std::size_t>(std::count(cut[k], cut[k + 1], '\n'));
+        }
+    });
     std::vector<std::size_t> first_line(chunks);
-    std::vector<ChunkResult> results(chunks);
+    std::vector<std::size_t> first_row(chunks + 1);
     first_line[0] = line_no;
-    for (unsigned k = 1; k < chunks; ++k) {
-        first_line[k] =
-            first_line[k - 1] + static_cast<std::size_t>(std::count(cut[k - 1], cut[k], '\n'));
+    first_row[0] = 0;
+    for (unsigned k = 0; k < chunks; ++k) {
+        if (k > 0) {
+            first_line[k] = first_line[k - 1] + lines[k - 1];
+        }
+        first_row[k + 1] = first_row[k] + lines[k] + 1;
+    }
+    // (At most one row per line: a file of blank lines would ask for far more than it holds, so
+    // the buffer is checked against the memory budget before it is made.)
+    if (auto room = check_memory(static_cast<double>(first_row[chunks]) * sizeof(Sample),
+                                 path + ": " + std::to_string(first_row[chunks]) + " lines");
+        !room) {
+        return make_error(room.error().message);
+    }
+    resize_huge(data.samples, first_row[chunks]);
+    std::vector<ChunkResult> results(chunks);
+    for (unsigned k = 0; k < chunks; ++k) {
+        results[k].samples = data.samples.data() + first_row[k];
     }
     // One chunk of the pool per cut (grain 1).
     parallel_for(chunks, 1, 0, [&](std::size_t, std::size_t b, std::size_t e) {
@@ -455,17 +479,14 @@ Expected<Dataset> read_dataset_csv(const std::string& path, const DatasetReadOpt
         if (r.error_line != 0) {
             return make_error(r.error);
         }
-        total += r.samples.size();
-    }
-    if (chunks == 1) {
-        data.samples = std::move(results[0].samples);
-    } else {
-        reserve_huge(data.samples, total);
-        for (ChunkResult& r : results) {
-            data.samples.insert(data.samples.end(), r.samples.begin(), r.samples.end());
-            std::vector<Sample>().swap(r.samples);
+        // The chunks' rows joined in file order (they move only where an earlier chunk had
+        // blank, comment or refused lines).
+        if (r.samples != data.samples.data() + total) {
+            std::move(r.samples, r.samples + r.count, data.samples.data() + total);
         }
+        total += r.count;
     }
+    data.samples.resize(total);
     return data;
 }
 

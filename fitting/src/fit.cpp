@@ -4,6 +4,7 @@
 #include "gonio/fitting/fit.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -72,13 +73,14 @@ bool valid_options(const FitOptions& o) {
 /// Validity: rows rejected while reading plus samples that break the rules now (a dataset built
 /// in memory has not been through the reader). Reference re-measurements are counted apart (they
 /// are not BRDF samples); saturated samples are left out (their value is only a lower bound).
-/// Returns the valid samples (without sigmas unless the fit uses them) and fills the counts.
-std::vector<Sample> select_samples(const brdf::Dataset& data,
-                                   const FitOptions& o,
-                                   int threads,
-                                   SampleCounts& counts) {
-    std::vector<Sample> valid;
-    reserve_huge(valid, data.samples.size());
+/// Returns the valid samples (without sigmas unless the fit uses them) and fills the counts: the
+/// dataset's own samples when every one is valid and none needs its sigma cleared (no copy of a
+/// million samples), else the selection, held in `copy`.
+const std::vector<Sample>& select_samples(const brdf::Dataset& data,
+                                          const FitOptions& o,
+                                          int threads,
+                                          SampleCounts& counts,
+                                          std::vector<Sample>& copy) {
     std::vector<std::size_t> rejected_lines;
     for (const brdf::RejectedRow& r : data.rejected) {
         rejected_lines.push_back(r.line);
@@ -86,7 +88,11 @@ std::vector<Sample> select_samples(const brdf::Dataset& data,
     std::size_t rejected_here = 0;
     // (wi.z = cos theta_i.)
     std::vector<SampleKind> kind(data.samples.size(), SampleKind::kValid);
+    const bool keep_sigma = o.use_sigma && data.has_sigma;
+    // Set when a sample is left out or loses its sigma: the selection then differs from the input.
+    std::atomic<bool> differs{false};
     parallel_ranges(data.samples.size(), threads, [&](std::size_t, std::size_t b, std::size_t e) {
+        bool changed = false;
         for (std::size_t i = b; i < e; ++i) {
             const Sample& s = data.samples[i];
             if (!brdf::validate_sample(s).empty() || !(std::cos(s.theta_i) > 0) ||
@@ -98,9 +104,19 @@ std::vector<Sample> select_samples(const brdf::Dataset& data,
             } else if ((s.flags & brdf::kFlagSaturated) != 0) {
                 kind[i] = SampleKind::kSaturated;
             }
+            changed = changed || kind[i] != SampleKind::kValid ||
+                      (!keep_sigma && !(s.sigma == Rgbd::Zero()).all());
+        }
+        if (changed) {
+            differs.store(true, std::memory_order_relaxed);
         }
     });
-    const bool keep_sigma = o.use_sigma && data.has_sigma;
+    const bool alias = !differs.load(std::memory_order_relaxed);
+    if (!alias) {
+        reserve_huge(copy, data.samples.size());
+    }
+    std::vector<Sample>& valid = copy;
+    std::size_t n_valid = 0;
     for (std::size_t i = 0; i < data.samples.size(); ++i) {
         const Sample& s = data.samples[i];
         switch (kind[i]) {
@@ -115,20 +131,23 @@ std::vector<Sample> select_samples(const brdf::Dataset& data,
                 ++counts.saturated;
                 break;
             case SampleKind::kValid:
-                valid.push_back(s);
-                if (!keep_sigma) {
-                    valid.back().sigma = Rgbd::Zero();
+                ++n_valid;
+                if (!alias) {
+                    valid.push_back(s);
+                    if (!keep_sigma) {
+                        valid.back().sigma = Rgbd::Zero();
+                    }
                 }
                 break;
         }
     }
     std::sort(rejected_lines.begin(), rejected_lines.end());
     counts.input = data.samples.size() + data.rejected.size();
-    counts.valid = valid.size();
+    counts.valid = n_valid;
     counts.rejected = data.rejected.size() + rejected_here;
     rejected_lines.resize(std::min(rejected_lines.size(), kMaxRejectedLines));
     counts.rejected_lines = rejected_lines;
-    return valid;
+    return alias ? data.samples : copy;
 }
 
 /// The fitted parameters of x (free and fixed, in report order), each free one's bound if it
@@ -248,7 +267,9 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
     // without one the solve works on `valid` itself, no copy of a million samples); and the working
     // set of the starts and the main solve: coarse to fine, on a large input a stratified reduction
     // to coarse_samples (weights keep each stratum's sum), the result then polished on all samples.
-    const std::vector<Sample> valid = select_samples(data, o, ctx.threads, result.samples);
+    std::vector<Sample> valid_copy;
+    const std::vector<Sample>& valid =
+        select_samples(data, o, ctx.threads, result.samples, valid_copy);
     if (valid.empty()) {
         return make_error(data.source + ": no valid sample to fit (" +
                           std::to_string(result.samples.rejected) + " rejected, " +
@@ -317,7 +338,11 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
                   "model (IRLS), scaled by max(1, reduced chi-square)"
                 : "sandwich H^-1 M H^-1 (heteroscedasticity-consistent, HC0; no sigma columns)";
     }
-    result.metrics = evaluate_metrics(result.model, valid, o.relative_floor);
+    // On all valid samples: from the prepared ones when they are those (no reduction).
+    result.metrics = ps_used && reduced.empty()
+                         ? detail::evaluate_metrics(
+                               result.model, valid, o.relative_floor, *ps_used, ctx.threads)
+                         : evaluate_metrics(result.model, valid, o.relative_floor);
     result.goodness = detail::judge(result.metrics, chi2, valid.size(), result.model);
     result.solver.usable = result.solver.converged && result.goodness.represents;
     result.solver.wall_time_s = std::chrono::duration<double>(detail::Clock::now() - t0).count();
@@ -551,8 +576,9 @@ Expected<AutoFitResult> fit_auto(const brdf::Dataset& data,
     // The ranking set: a stratified reduction of the valid samples (their weights kept, so the
     // objective estimates the one on all samples).
     SampleCounts counts;
-    const std::vector<Sample> valid =
-        select_samples(data, o0, detail::thread_count(o0.num_threads), counts);
+    std::vector<Sample> valid_copy;
+    const std::vector<Sample>& valid =
+        select_samples(data, o0, detail::thread_count(o0.num_threads), counts, valid_copy);
     brdf::Dataset ranking;
     ranking.source = data.source;
     ranking.has_sigma = data.has_sigma;

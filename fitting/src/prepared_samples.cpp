@@ -1092,6 +1092,44 @@ bool PreparedSamples::jets_k(const double* x,
     const brdf::Model<J> m = analytic_ ? brdf::Model<J>{} : jet_model<K>(x);
     const brdf::ModelD md = map_->model<double>(x);
     Eigen::VectorXd g(np);
+    // The score products alone (no residuals or Jacobian asked for) with closed-form derivatives
+    // of the log residual: a run of samples at a time, its logarithms (and the shapes of GGX and
+    // Beckmann lobes) on packets, as in the normal-equation pass.
+    if (analytic_ && form_ == ResidualForm::kLog && outer != nullptr && residuals == nullptr &&
+        jacobian == nullptr) {
+        // g = sum over channels of r_c dr_c/dx straight from the run's derivatives (a parameter
+        // of one channel takes that channel's term only); a non-finite derivative makes g
+        // non-finite.
+        double rr[3 * kRun];
+        double vr[3 * kRun * 32];
+        double gs[3 * 32];  // np <= 3 slots_ (a slot holds at most the three channels)
+        for (std::size_t i = begin; i < end; ++i) {
+            const std::size_t j = (i - begin) % kRun;
+            if (j == 0 && !analytic_log_run(md, i, std::min(end, i + kRun), rr, vr)) {
+                return false;
+            }
+            bool finite = true;
+            for (int k = 0; k < np; ++k) {
+                double sum = 0;
+                for (int c = 0; c < 3; ++c) {
+                    if (channel_[k] < 0 || channel_[k] == c) {
+                        sum += rr[3 * j + c] * vr[(3 * j + c) * slots_ + slot_[k]];
+                    }
+                }
+                gs[k] = sum;
+                finite = finite && std::isfinite(sum);
+            }
+            if (!finite) {
+                return false;
+            }
+            for (int l = 0; l < np; ++l) {
+                for (int k = 0; k <= l; ++k) {
+                    (*outer)(k, l) += gs[k] * gs[l];
+                }
+            }
+        }
+        return true;
+    }
     double ra[3];
     double va[3 * 32] = {};
     for (std::size_t i = begin; i < end; ++i) {
@@ -1133,7 +1171,13 @@ bool PreparedSamples::jets_k(const double* x,
             }
         }
         if (outer != nullptr) {
-            outer->selfadjointView<Eigen::Upper>().rankUpdate(g);
+            // Upper triangle of g g^T (a loop: Eigen's general rank update costs more per sample
+            // for these 4-32 parameters).
+            for (int l = 0; l < np; ++l) {
+                for (int k = 0; k <= l; ++k) {
+                    (*outer)(k, l) += g[k] * g[l];
+                }
+            }
         }
     }
     return true;
@@ -1208,7 +1252,7 @@ bool PreparedSamples::score_outer_products(const double* x,
 void PreparedSamples::model_values(const brdf::ModelD& m,
                                    std::vector<brdf::Rgbd>& out,
                                    int threads) const {
-    out.resize(n_);
+    resize_huge(out, n_, brdf::Rgbd(brdf::Rgbd::Zero()));
     parallel_ranges(n_, threads, [&](std::size_t, std::size_t b, std::size_t e) {
         for (std::size_t i = b; i < e; ++i) {
             out[i] = eval(m, i);

@@ -74,7 +74,7 @@ std::map<std::string, Param> measure_and_fit(const std::string& name,
     int st = 0;
     const std::string acq =
         run_gonio("acquire --anisotropic --symmetry " + symmetry + " --brdf " + model + " --out " +
-                      dir + " --n-theta 7 --n-dphi 5 --time-scale 500",
+                      dir + " --n-theta 6 --n-dphi 4 --time-scale 500",
                   &st);
     EXPECT_EQ(st, 0) << acq;
     EXPECT_NE(acq.find("anisotropic"), std::string::npos) << acq;
