@@ -338,7 +338,11 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
                   "model (IRLS), scaled by max(1, reduced chi-square)"
                 : "sandwich H^-1 M H^-1 (heteroscedasticity-consistent, HC0; no sigma columns)";
     }
-    result.metrics = evaluate_metrics(result.model, valid, o.relative_floor);
+    // On all valid samples: from the prepared ones when they are those (no reduction).
+    result.metrics = ps_used && reduced.empty()
+                         ? detail::evaluate_metrics(
+                               result.model, valid, o.relative_floor, *ps_used, ctx.threads)
+                         : evaluate_metrics(result.model, valid, o.relative_floor);
     result.goodness = detail::judge(result.metrics, chi2, valid.size(), result.model);
     result.solver.usable = result.solver.converged && result.goodness.represents;
     result.solver.wall_time_s = std::chrono::duration<double>(detail::Clock::now() - t0).count();

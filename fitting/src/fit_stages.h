@@ -167,6 +167,16 @@ std::vector<double> lobe_shares(const brdf::ModelD& model,
 std::vector<std::string> vanished_lobes(const brdf::ModelD& model,
                                         const std::vector<brdf::Sample>& samples);
 
+/// evaluate_metrics (fit.h) from the prepared samples `ps` of the same `samples`: the model values
+/// from the prepared geometry (no sines, cosines or arctangents per sample; equal to
+/// eval_model's to rounding), cos theta_i and cos theta_h from its arrays. The plain
+/// evaluate_metrics when `ps` holds other samples or no half vectors.
+Metrics evaluate_metrics(const brdf::ModelD& model,
+                         const std::vector<brdf::Sample>& samples,
+                         double relative_floor,
+                         const PreparedSamples& ps,
+                         int threads);
+
 /// Goodness of fit from the metrics (and the reduced chi-square when the data carry sigmas);
 /// the rules are those documented at GoodnessOfFit (fit.h).
 GoodnessOfFit judge(const Metrics& m,

@@ -9,7 +9,9 @@
 #include <limits>
 
 #include "fit_stages.h"
+#include "gonio/base/huge_pages.h"
 #include "gonio/brdf/model_eval.h"
+#include "gonio/fitting/vector_log.h"
 
 namespace gonio::fitting {
 
@@ -21,11 +23,11 @@ using brdf::Sample;
 
 constexpr double kBandEdgesDeg[] = {0, 2, 5, 10, 20, 40, 90};
 
-}  // namespace
-
-Metrics evaluate_metrics(const ModelD& model,
-                         const std::vector<Sample>& samples,
-                         double relative_floor) {
+/// The metrics of model values against `samples`: at(i, f, cos_i, cos_h, log_r) gives sample i's
+/// model value (RGB, 1/sr), cos theta_i and cos theta_h, and returns true when it also gave the
+/// log residuals log(1 + f cos_i) - log(1 + d cos_i) of the three channels in log_r.
+template <class At>
+Metrics metrics_of(const std::vector<Sample>& samples, double relative_floor, const At& at) {
     Metrics m;
     if (samples.empty()) {
         return m;
@@ -43,7 +45,7 @@ Metrics evaluate_metrics(const ModelD& model,
     // |m - d| / d per sample and channel (NaN where d <= 0: no relative error), for the medians.
     std::vector<double> rel[3];
     for (int c = 0; c < 3; ++c) {
-        rel[c].assign(samples.size(), std::numeric_limits<double>::quiet_NaN());
+        resize_huge(rel[c], samples.size(), std::numeric_limits<double>::quiet_NaN());
     }
     double band_cos[kBands + 1];
     for (int b = 0; b <= kBands; ++b) {
@@ -52,10 +54,10 @@ Metrics evaluate_metrics(const ModelD& model,
     auto body = [&](std::size_t blk, std::size_t b, std::size_t e) {
         Acc acc;
         for (std::size_t i = b; i < e; ++i) {
-            const brdf::Vec3d wi = samples[i].wi();
-            const brdf::Vec3d wo = samples[i].wo();
-            const Rgbd f = brdf::eval_model(model, wi, wo);
-            const double cos_h = (wi.z() + wo.z()) / (wi + wo).norm();
+            Rgbd f;
+            double cos_i = 0, cos_h = 0;
+            double logs[3];
+            const bool have_logs = at(i, f, cos_i, cos_h, logs);
             int band = kBands - 1;
             for (int k = 0; k < kBands; ++k) {
                 if (cos_h > band_cos[k + 1]) {
@@ -68,8 +70,9 @@ Metrics evaluate_metrics(const ModelD& model,
                 const double d = samples[i].value[c];
                 const double abs_r = f[c] - d;
                 const double rel_r =
-                    channel_residual(ResidualForm::kRelative, f[c], d, wi.z(), relative_floor);
-                const double log_r = channel_residual(ResidualForm::kLog, f[c], d, wi.z(), 0);
+                    channel_residual(ResidualForm::kRelative, f[c], d, cos_i, relative_floor);
+                const double log_r =
+                    have_logs ? logs[c] : channel_residual(ResidualForm::kLog, f[c], d, cos_i, 0);
                 if (d > 0) {
                     rel[c][i] = std::abs(abs_r) / d;
                 }
@@ -124,6 +127,70 @@ Metrics evaluate_metrics(const ModelD& model,
     }
     return m;
 }
+
+}  // namespace
+
+Metrics evaluate_metrics(const ModelD& model,
+                         const std::vector<Sample>& samples,
+                         double relative_floor) {
+    return metrics_of(
+        samples,
+        relative_floor,
+        [&](std::size_t i, Rgbd& f, double& cos_i, double& cos_h, double*) {
+            const brdf::Vec3d wi = samples[i].wi();
+            const brdf::Vec3d wo = samples[i].wo();
+            f = brdf::eval_model(model, wi, wo);
+            cos_i = wi.z();
+            cos_h = (wi.z() + wo.z()) / (wi + wo).norm();
+            return false;
+        });
+}
+
+namespace detail {
+
+Metrics evaluate_metrics(const ModelD& model,
+                         const std::vector<Sample>& samples,
+                         double relative_floor,
+                         const PreparedSamples& ps,
+                         int threads) {
+    if (ps.size() != samples.size() || !ps.has_cos_h()) {
+        return fitting::evaluate_metrics(model, samples, relative_floor);
+    }
+    std::vector<Rgbd> values;
+    ps.model_values(model, values, threads);
+    // With the log residual the prepared samples hold log(1 + d cos_i) (the same expression);
+    // log(1 + f cos_i) of every sample and channel on packets (vector_log.h, within 1 ulp of
+    // std::log1p).
+    const bool log_form = ps.log_of_data();
+    std::vector<double> log_m;
+    if (log_form) {
+        resize_huge(log_m, 3 * samples.size());
+        parallel_ranges(samples.size(), threads, [&](std::size_t, std::size_t b, std::size_t e) {
+            for (std::size_t i = b; i < e; ++i) {
+                for (int c = 0; c < 3; ++c) {
+                    log_m[3 * i + c] = values[i][c] * ps.cos_i(i);
+                }
+            }
+            log1p_packets(log_m.data() + 3 * b, log_m.data() + 3 * b, 3 * (e - b));
+        });
+    }
+    return metrics_of(
+        samples,
+        relative_floor,
+        [&](std::size_t i, Rgbd& f, double& cos_i, double& cos_h, double* log_r) {
+            f = values[i];
+            cos_i = ps.cos_i(i);
+            cos_h = ps.cos_h(i);
+            if (log_form) {
+                for (int c = 0; c < 3; ++c) {
+                    log_r[c] = log_m[3 * i + c] - ps.log_of_data(c, i);
+                }
+            }
+            return log_form;
+        });
+}
+
+}  // namespace detail
 
 namespace detail {
 

@@ -1252,7 +1252,7 @@ bool PreparedSamples::score_outer_products(const double* x,
 void PreparedSamples::model_values(const brdf::ModelD& m,
                                    std::vector<brdf::Rgbd>& out,
                                    int threads) const {
-    out.resize(n_);
+    resize_huge(out, n_, brdf::Rgbd(brdf::Rgbd::Zero()));
     parallel_ranges(n_, threads, [&](std::size_t, std::size_t b, std::size_t e) {
         for (std::size_t i = b; i < e; ++i) {
             out[i] = eval(m, i);

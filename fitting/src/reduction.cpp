@@ -8,12 +8,14 @@
 #include <random>
 
 #include "gonio/base/check.h"
+#include "gonio/base/huge_pages.h"
 #include "gonio/base/thread_pool.h"
 
 namespace gonio::fitting {
 
 std::vector<StratumCoords> stratum_coordinates(const std::vector<brdf::Sample>& samples) {
-    std::vector<StratumCoords> out(samples.size());
+    std::vector<StratumCoords> out;
+    resize_huge(out, samples.size());
     // Independent items: the pool's chunks, up to 8192 on the calling thread (the transform
     // costs about 150 ns a sample, a hand-off a few microseconds).
     gonio::parallel_for(samples.size(), 8192, 0, [&](std::size_t, std::size_t b, std::size_t e) {
@@ -58,7 +60,8 @@ std::vector<brdf::Sample> stratified_reduce(const std::vector<brdf::Sample>& sam
     // Stratum of every sample, then a counting sort: the members of each stratum in increasing
     // index order.
     const std::size_t n = samples.size();
-    std::vector<std::uint32_t> cell_of(n);
+    std::vector<std::uint32_t> cell_of;
+    resize_huge(cell_of, n);
     for (std::size_t i = 0; i < n; ++i) {
         const long ih = std::min(n_h - 1, static_cast<int>(coords[i][0] * n_h));
         const long id = std::min(n_d - 1, static_cast<int>(coords[i][1] * n_d));
@@ -73,7 +76,8 @@ std::vector<brdf::Sample> stratified_reduce(const std::vector<brdf::Sample>& sam
     for (std::size_t c = 0; c < n_cells; ++c) {
         start[c + 1] += start[c];
     }
-    std::vector<std::size_t> members(n);
+    std::vector<std::size_t> members;
+    resize_huge(members, n);
     {
         std::vector<std::size_t> fill(start.begin(), start.end() - 1);
         for (std::size_t i = 0; i < n; ++i) {

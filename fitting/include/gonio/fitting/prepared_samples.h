@@ -19,6 +19,7 @@
 #include <ceres/ceres.h>
 
 #include <Eigen/Dense>
+#include <cmath>
 #include <functional>
 #include <memory>
 #include <vector>
@@ -81,6 +82,18 @@ class PreparedSamples {
     /// channel of the sample. Channels with d = 0 or sigma = 0 keep their factor.
     void reweight_relative(const std::vector<brdf::Sample>& samples,
                            const std::vector<brdf::Rgbd>& model);
+
+    /// cos theta_i of sample i.
+    double cos_i(std::size_t i) const { return cos_i_[i]; }
+    /// Whether cos_h is kept (the structure has a lobe other than Blinn-Phong).
+    bool has_cos_h() const { return hz2_.size() == n_; }
+    /// cos theta_h of sample i (h_z of the half vector, positive above the horizon).
+    double cos_h(std::size_t i) const { return std::sqrt(hz2_[i]); }
+
+    /// Whether the residual is the log form, whose g(d) = log(1 + d cos_i) is kept per channel.
+    bool log_of_data() const { return form_ == ResidualForm::kLog; }
+    /// log(1 + d_c cos_i) of channel c of sample i (the log form only).
+    double log_of_data(int c, std::size_t i) const { return g_d_[c][i]; }
 
     /// A robust loss applied per sample to the sum over its channels of r^2 (nullptr: none).
     void set_loss(std::shared_ptr<const ceres::LossFunction> loss) { loss_ = std::move(loss); }
