@@ -145,6 +145,16 @@ void print_summary(const acquisition::ImageCampaignRun& run) {
         static_cast<unsigned long long>(c.shadow),
         static_cast<unsigned long long>(c.grazing_light),
         static_cast<unsigned long long>(c.saturated));
+    const std::size_t zoomed = static_cast<std::size_t>(
+        std::count_if(result.frames.begin(), result.frames.end(), [](const auto& f) {
+            return f.placement != 0;
+        }));
+    if (!run.config.placements.empty()) {
+        std::printf("zoomed frames: %zu of %zu (through %zu zoomed camera placements)\n",
+                    zoomed,
+                    result.frames.size(),
+                    run.config.placements.size());
+    }
     if (result.aniso_table) {
         std::printf("anisotropic: %s table in the material frame, %llu pixels in the pole caps\n",
                     result.aniso_table->layout().describe().c_str(),
@@ -241,6 +251,8 @@ int run_acquire_image_mode(const acquisition::CampaignRequest& request,
         char spin[40] = "";
         if (aniso) {
             std::snprintf(spin, sizeof spin, ", spin %.1f deg", r.spin_rad * 180 / brdf::kPi);
+        } else if (r.placement > 0) {
+            std::snprintf(spin, sizeof spin, ", zoomed placement %d", r.placement);
         }
         std::printf("frame %zu: light %.1f deg%s, %llu samples, coverage %.1f%%\n",
                     i + 1,
@@ -382,6 +394,29 @@ int print_image_plan(const acquisition::CampaignRequest& request) {
         p->valid_bins,
         100.0 * static_cast<double>(p->reachable_bins) / valid,
         p->stop_reason.c_str());
+    if (!c.placements.empty()) {
+        std::string names;
+        for (const acquisition::Placement& z : c.placements) {
+            char one[120];
+            std::snprintf(one,
+                          sizeof one,
+                          "%s%s x%.3g at (%.2f, %.2f) mm",
+                          names.empty() ? "" : ", ",
+                          z.name.c_str(),
+                          z.magnification,
+                          z.offset_m[0] * 1e3,
+                          z.offset_m[1] * 1e3);
+            names += one;
+        }
+        std::printf(
+            "zoomed camera placements: %s; %zu of the %zu candidates zoomed, %zu of the %zu "
+            "planned light positions zoomed\n",
+            names.c_str(),
+            p->candidates_zoomed,
+            p->candidates,
+            p->zoomed_frames,
+            p->light_arm_rad.size());
+    }
     std::map<std::string, std::size_t> by_reason;
     for (const acquisition::CoverageHole& h : p->holes) {
         by_reason[h.reason] += h.bins;

@@ -339,6 +339,10 @@ GONIO_COMMAND(acquire) {
                     "image mode: grazing limit of the pixels' theta_i and theta_o, deg (default "
                     "80; at most the rig's geometry.max_theta_deg)")
         ->check(gonio::tools::finite_in(1, 89.9));
+    cmd->add_flag("--no-zoom",
+                  r.no_zoom,
+                  "image mode: every frame in the wide view, none through the rig's zoomed "
+                  "camera placements");
     cmd->add_flag(
         "--plan-only",
         r.plan_only,

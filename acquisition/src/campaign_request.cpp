@@ -75,6 +75,7 @@ std::vector<std::string> given_fields(const CampaignRequest& r) {
     add(r.grid.n_theta_h > 0 || r.grid.n_theta_d > 0 || r.grid.n_phi_d > 0, "grid");
     add(r.camera_px > 0, "camera_px");
     add(r.max_theta_deg > 0, "max_theta_deg");
+    add(r.no_zoom, "no_zoom");
     add(!r.serve.empty(), "serve");
     return out;
 }
@@ -94,9 +95,20 @@ std::optional<RequestConflict> find_conflict(const CampaignRequest& r) {
     const std::vector<std::string> given = given_fields(r);
     const bool image = r.mode == CampaignMode::kImage;
     for (const std::string& f : given) {
-        if (!image &&
-            among(f, {"coverage_target", "max_frames", "grid", "camera_px", "max_theta_deg"})) {
+        if (!image && among(f,
+                            {"coverage_target",
+                             "max_frames",
+                             "grid",
+                             "camera_px",
+                             "max_theta_deg",
+                             "no_zoom"})) {
             return RequestConflict{f, "mode", "an image-mode option (give --mode image)"};
+        }
+        if (image && r.anisotropic && f == "no_zoom") {
+            return RequestConflict{f,
+                                   "anisotropic",
+                                   "an anisotropic image campaign takes every frame in the wide "
+                                   "view already"};
         }
         if (image && f == "symmetry") {
             return RequestConflict{f,
@@ -652,6 +664,32 @@ CaptureFn image_rig_capture(ImageRig& rig, double detector_arm_rad, bool spin) {
         opt.spin = d.axes[static_cast<int>(AxisRole::kSpin)].get();
     }
     opt.log = &rig.pose_log;
+    if (!d.placements.empty()) {
+        // One coil per zoomed placement: the chosen one on, every other off (all off: the wide
+        // view). Off first, so that two placements are never switched in together.
+        std::vector<devices::Light*> coils;
+        for (auto& c : d.placements) {
+            coils.push_back(c.get());
+        }
+        opt.select_placement = [coils](int placement) -> Expected<void> {
+            if (placement < 0 || placement > static_cast<int>(coils.size())) {
+                return make_error("camera placement " + std::to_string(placement) +
+                                  ": the rig has " + std::to_string(coils.size()) +
+                                  " zoomed placements");
+            }
+            for (std::size_t k = 0; k < coils.size(); ++k) {
+                if (static_cast<int>(k) + 1 != placement) {
+                    if (auto r = coils[k]->set_shutter_open(false); !r) {
+                        return r;
+                    }
+                }
+            }
+            if (placement > 0) {
+                return coils[static_cast<std::size_t>(placement - 1)]->set_shutter_open(true);
+            }
+            return {};
+        };
+    }
     opt.capture_timeout = std::chrono::milliseconds(rig.rig.capture.timeout_ms);
     opt.capture_retries = rig.rig.retries;
     return make_device_capture(*d.camera,
@@ -697,6 +735,9 @@ Expected<ImageCampaignConfig> image_config(const CampaignRequest& r,
         }
         cfg.rules.max_theta_i = cfg.rules.max_theta_o = r.max_theta_deg * brdf::kPi / 180;
     }
+    if (r.no_zoom) {
+        cfg.placements.clear();
+    }
     if (r.anisotropic) {
         if (!r.aniso_layout.sane()) {
             return make_error("4-D table " + r.aniso_layout.describe() +
@@ -729,7 +770,7 @@ Expected<void> check_table_factor(const CampaignRequest& r) {
 
 std::optional<RequestConflict> find_rig_conflict(const CampaignRequest& r) {
     if (r.mode != CampaignMode::kImage || !r.resume_dir.empty() ||
-        (r.camera_px <= 0 && r.max_theta_deg <= 0)) {
+        (r.camera_px <= 0 && r.max_theta_deg <= 0 && !r.no_zoom)) {
         return std::nullopt;
     }
     ImageRigOptions o = image_rig_options(r);
@@ -755,6 +796,12 @@ std::optional<RequestConflict> find_rig_conflict(const CampaignRequest& r) {
                                    "sizes the virtual rig's default camera; " + name +
                                        " has a calibrated camera_model, which is the camera"};
         }
+    }
+    if (r.no_zoom && rig.placements.empty()) {
+        return RequestConflict{
+            "no_zoom",
+            "rig_path",
+            name + " has no zoomed camera placements (\"placements\"): every frame is wide"};
     }
     if (r.max_theta_deg > rig.max_theta_deg) {
         return RequestConflict{"max_theta_deg",
@@ -805,6 +852,7 @@ std::string image_settings_json(const CampaignRequest& r, const std::string& brd
     j["max_frames"] = r.max_frames > 0 ? r.max_frames : 200;
     j["image_size"] = r.camera_px > 0 ? r.camera_px : r.image_size;
     j["max_theta_deg"] = r.max_theta_deg;
+    j["no_zoom"] = r.no_zoom;
     j["anisotropic"] = r.anisotropic;
     j["aniso_table"] = {r.aniso_layout.n_theta_h,
                         r.aniso_layout.n_phi_h,
@@ -857,6 +905,7 @@ Expected<CampaignRequest> read_image_settings(const std::string& dir) {
         r.max_frames = o.integer("max_frames", 200, 1, 1000000);
         r.image_size = o.integer("image_size", 256, 16, 2048);
         r.max_theta_deg = o.number("max_theta_deg", 0, 0, 89.9);
+        r.no_zoom = o.boolean("no_zoom", false);
         r.anisotropic = o.boolean("anisotropic", false);
         if (const nlohmann::json* g = o.find("aniso_table")) {
             if (!g->is_array() || g->size() != 4) {

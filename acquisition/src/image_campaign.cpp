@@ -26,12 +26,17 @@ std::string describe(const CaptureRequest& r) {
     if (r.spin_rad != 0) {
         std::snprintf(spin, sizeof spin, ", spin %.3f deg", r.spin_rad * 180 / brdf::kPi);
     }
-    char buf[200];
+    char placement[48] = "";
+    if (r.placement != 0) {
+        std::snprintf(placement, sizeof placement, ", zoomed placement %d", r.placement);
+    }
+    char buf[260];
     std::snprintf(buf,
                   sizeof(buf),
-                  "capture (light arm %.3f deg%s, %s filter, %.1f us, shutter %s%s)",
+                  "capture (light arm %.3f deg%s%s, %s filter, %.1f us, shutter %s%s)",
                   r.light_arm_rad * 180 / brdf::kPi,
                   spin,
+                  placement,
                   kChannelName[std::clamp(r.channel, 0, 2)],
                   r.exposure_us,
                   r.shutter_open ? "open" : "closed",
@@ -96,6 +101,7 @@ class Rig {
             CaptureRequest r;
             r.light_arm_rad = last_light_;
             r.spin_rad = last_spin_;
+            r.placement = last_placement_;
             r.exposure_us = exposure_us;
             r.shutter_open = false;
             r.reference = reference;
@@ -116,7 +122,10 @@ class Rig {
         return sum;
     }
 
-    void set_light(double a) { last_light_ = a; }
+    void set_light(double a, int placement = 0) {
+        last_light_ = a;
+        last_placement_ = placement;
+    }
     /// The pose dark frames are taken at (they need no move of their own).
     void set_pose(double light, double spin) {
         last_light_ = light;
@@ -130,6 +139,7 @@ class Rig {
     std::map<double, cv::Mat> dark_;
     double last_light_ = 0;
     double last_spin_ = 0;
+    int last_placement_ = 0;
 };
 
 /// Per-pixel HDR signal over a pixel list.
@@ -236,12 +246,16 @@ HoleLimits hole_limits(const ImageCampaignConfig& cfg) {
 
 /// The campaign's next light position (step 5 of run_image_campaign, and its prediction): the
 /// index into `candidates`, or -1 with the reason when the campaign stops there (the coverage
-/// target met, or no position adding the stop rule's share of the valid bins).
+/// target met, or no position adding the stop rule's share of the valid bins). Wide frames come
+/// first; once the wide view's choice adds less than the stop rule's share, *zoom_phase is set
+/// and only zoomed candidates are chosen from then on (a campaign holding a zoomed frame is in
+/// that phase).
 int next_campaign_light(const ImageCampaignConfig& cfg,
                         const std::vector<LightCandidate>& candidates,
                         const std::vector<std::size_t>& gains,
                         const CoverageMap& coverage,
                         double current_light_rad,
+                        bool* zoom_phase,
                         std::string* stop_reason) {
     if (coverage.fraction() >= cfg.coverage_target) {
         *stop_reason = "coverage target met";
@@ -251,12 +265,109 @@ int next_campaign_light(const ImageCampaignConfig& cfg,
         std::max<std::size_t>(1,
                               static_cast<std::size_t>(cfg.min_gain_fraction *
                                                        static_cast<double>(coverage.valid_bins())));
-    const int next = next_light(candidates, gains, current_light_rad, cfg.light_gain_fraction);
+    // The gains of one view kind (wide or zoomed), the others' zero.
+    auto of_kind = [&](bool zoomed) {
+        std::vector<std::size_t> g(gains.size(), 0);
+        for (std::size_t k = 0; k < candidates.size(); ++k) {
+            if ((candidates[k].placement != 0) == zoomed) {
+                g[k] = gains[k];
+            }
+        }
+        return g;
+    };
+    if (!*zoom_phase) {
+        const int next =
+            next_light(candidates, of_kind(false), current_light_rad, cfg.light_gain_fraction);
+        if (next >= 0 && gains[next] >= min_gain) {
+            return next;
+        }
+        if (cfg.placements.empty()) {
+            *stop_reason = "no light position adds enough bins";
+            return -1;
+        }
+        *zoom_phase = true;
+    }
+    const int next =
+        next_light(candidates, of_kind(true), current_light_rad, cfg.light_gain_fraction);
     if (next < 0 || gains[next] < min_gain) {
         *stop_reason = "no light position adds enough bins";
         return -1;
     }
     return next;
+}
+
+/// A view of the sample sphere: the wide view (placement 0) or a zoomed placement, with the
+/// sphere and the exclusion rules in its pixels.
+struct SphereView {
+    CameraModel camera;
+    SphereGeometry sphere;
+    ExclusionRules rules;
+};
+
+SphereView sphere_view(const ImageCampaignConfig& cfg,
+                       const SphereGeometry& wide_sphere,
+                       int placement) {
+    SphereView v;
+    if (placement == 0) {
+        v.camera = cfg.camera;
+        v.sphere = wide_sphere;
+        v.rules = cfg.rules;
+        return v;
+    }
+    GONIO_CHECK(placement > 0 && placement <= static_cast<int>(cfg.placements.size()));
+    const Placement& p = cfg.placements[static_cast<std::size_t>(placement - 1)];
+    v.camera = placement_camera(cfg.camera, p);
+    v.sphere = placement_sphere(wide_sphere, v.camera, p.magnification);
+    v.rules = placement_rules(cfg.rules, p.magnification);
+    return v;
+}
+
+/// The light positions of the configuration's range outside the blind zone.
+std::vector<double> range_positions(const ImageCampaignConfig& cfg) {
+    const LightRange& r = cfg.lights;
+    std::vector<double> out;
+    const int steps = static_cast<int>(std::floor((r.max_rad - r.min_rad) / r.step_rad + 1e-9));
+    for (int k = 0; k <= steps; ++k) {
+        const double a = r.min_rad + k * r.step_rad;
+        if (brdf::arm_separation(a, cfg.detector_arm_rad) >= r.blind_zone_rad) {
+            out.push_back(a);
+        }
+    }
+    return out;
+}
+
+/// Every view's candidates: the wide view's light positions, then each zoomed placement's at
+/// the positions whose highlight it sees (placement_sees_highlight).
+std::vector<LightCandidate> view_candidates(const ImageCampaignConfig& cfg,
+                                            const SphereGeometry& sphere,
+                                            int pixel_stride) {
+    std::vector<LightCandidate> out = light_candidates(cfg.camera,
+                                                       sphere,
+                                                       cfg.rules,
+                                                       cfg.layout,
+                                                       cfg.detector_arm_rad,
+                                                       cfg.lights,
+                                                       pixel_stride);
+    if (cfg.placements.empty()) {
+        return out;
+    }
+    const std::vector<double> lights = range_positions(cfg);
+    for (int k = 1; k <= static_cast<int>(cfg.placements.size()); ++k) {
+        const SphereView v = sphere_view(cfg, sphere, k);
+        std::vector<double> seen;
+        for (double a : lights) {
+            if (placement_sees_highlight(v.camera, v.sphere, brdf::arm_direction(a))) {
+                seen.push_back(a);
+            }
+        }
+        std::vector<LightCandidate> c =
+            light_candidates_at(v.camera, v.sphere, v.rules, cfg.layout, seen, pixel_stride);
+        for (LightCandidate& x : c) {
+            x.placement = k;
+            out.push_back(std::move(x));
+        }
+    }
+    return out;
 }
 
 /// The allowed light position closest to the detector (front lighting for the silhouette).
@@ -347,6 +458,7 @@ void account_journaled_frame(const ImageJournalFrame& f, ImageCampaignResult* re
     FrameRecord rec;
     rec.light_arm_rad = f.light_arm_rad;
     rec.spin_rad = f.spin_rad;
+    rec.placement = f.placement;
     rec.counts = f.counts;
     rec.exposures = f.exposures;
     rec.coverage_after = f.coverage_after;
@@ -745,18 +857,17 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
         }
         return result;
     }
+    // The pixels of the view in use (the wide view first; a zoomed placement's when a frame
+    // needs it).
+    int view_placement = 0;
     PixelCounts geometry_counts;
-    const std::vector<SpherePixel> pixels =
+    std::vector<SpherePixel> pixels =
         sphere_pixels(cfg.camera, result.sphere, cfg.rules, &geometry_counts);
+    ExclusionRules view_rules = cfg.rules;
 
-    // 3. Candidate light positions and their predicted bins.
-    std::vector<LightCandidate> candidates = light_candidates(cfg.camera,
-                                                              result.sphere,
-                                                              cfg.rules,
-                                                              cfg.layout,
-                                                              cfg.detector_arm_rad,
-                                                              cfg.lights,
-                                                              std::max(1, cfg.plan_pixel_stride));
+    // 3. Candidate light positions (and placements) and their predicted bins.
+    std::vector<LightCandidate> candidates =
+        view_candidates(cfg, result.sphere, std::max(1, cfg.plan_pixel_stride));
     {
         CoverageMap reach(cfg.layout);
         for (const LightCandidate& c : candidates) {
@@ -770,17 +881,34 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
 
     // 4. Frames already journaled: merged, their light positions taken off the candidates.
     double current = front;
+    bool zoom_phase = false;
     if (journal) {
         for (const ImageJournalFrame& f : journal->frames()) {
+            if (f.placement > 0) {
+                // The placement must be the one the configuration has under that number.
+                const std::size_t k = static_cast<std::size_t>(f.placement);
+                if (k > cfg.placements.size() ||
+                    std::abs(cfg.placements[k - 1].magnification - f.magnification) > 1e-9 ||
+                    std::abs(cfg.placements[k - 1].offset_m[0] - f.offset_m[0]) > 1e-12 ||
+                    std::abs(cfg.placements[k - 1].offset_m[1] - f.offset_m[1]) > 1e-12) {
+                    return make_error(journal_path + ": a frame of zoomed placement " +
+                                      std::to_string(f.placement) + " (magnification " +
+                                      std::to_string(f.magnification) +
+                                      ") that the rig description does not have (resume with "
+                                      "the campaign's own rig)");
+                }
+            }
             for (const BinAggregate& a : f.bins) {
                 result.table.merge(a);
             }
             account_journaled_frame(f, &result);
+            zoom_phase = zoom_phase || f.placement > 0;
             candidates.erase(std::remove_if(candidates.begin(),
                                             candidates.end(),
                                             [&](const LightCandidate& c) {
                                                 return std::abs(c.light_arm_rad - f.light_arm_rad) <
-                                                       1e-9;
+                                                           1e-9 &&
+                                                       c.placement == f.placement;
                                             }),
                              candidates.end());
             current = f.light_arm_rad;
@@ -797,24 +925,34 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
     }
     while (static_cast<int>(result.frames.size()) < cfg.max_frames) {
         const int next = next_campaign_light(
-            cfg, candidates, gains, result.coverage, current, &result.stop_reason);
+            cfg, candidates, gains, result.coverage, current, &zoom_phase, &result.stop_reason);
         if (next < 0) {
             break;
         }
         const double a = candidates[next].light_arm_rad;
+        const int placement = candidates[next].placement;
         candidates.erase(candidates.begin() + next);
         gains.erase(gains.begin() + next);
         current = a;
-        rig.set_light(a);
+        rig.set_light(a, placement);
+        if (placement != view_placement) {
+            const SphereView v = sphere_view(cfg, result.sphere, placement);
+            geometry_counts = PixelCounts{};
+            pixels = sphere_pixels(v.camera, v.sphere, v.rules, &geometry_counts);
+            view_rules = v.rules;
+            view_placement = placement;
+        }
         const std::uint64_t captures_before = result.captures;
         const double exposure_before = result.exposure_time_s;
         FrameRecord rec;
         rec.light_arm_rad = a;
+        rec.placement = placement;
         rec.counts = geometry_counts;
         const brdf::Vec3d l = light_direction(a);
-        const std::vector<std::uint8_t> lit = lit_pixels(pixels, l, cfg.rules, &rec.counts);
+        const std::vector<std::uint8_t> lit = lit_pixels(pixels, l, view_rules, &rec.counts);
         CaptureRequest pose;
         pose.light_arm_rad = a;
+        pose.placement = placement;
         bool bracketed = false;
         auto hdr = capture_channels(rig, cfg, pose, pixels, lit, &rec, &bracketed);
         if (!hdr) {
@@ -830,6 +968,12 @@ Expected<ImageCampaignResult> run_image_campaign(const CaptureFn& capture,
             &rec.counts);
         ImageJournalFrame jf;
         jf.light_arm_rad = a;
+        if (placement > 0) {
+            const Placement& p = cfg.placements[static_cast<std::size_t>(placement - 1)];
+            jf.placement = placement;
+            jf.magnification = p.magnification;
+            jf.offset_m = p.offset_m;
+        }
         jf.exposures = rec.exposures;
         jf.counts = rec.counts;
         jf.bracketed = bracketed;
@@ -989,10 +1133,13 @@ Expected<ImageCoveragePrediction> predict_image_coverage(const ImageCampaignConf
         return p;
     }
     // Every pixel (the campaign bins every pixel of a frame, whatever the stride it plans with).
-    std::vector<LightCandidate> candidates = light_candidates(
-        cfg.camera, sphere, cfg.rules, cfg.layout, cfg.detector_arm_rad, cfg.lights, 1);
+    std::vector<LightCandidate> candidates = view_candidates(cfg, sphere, 1);
     const std::vector<LightCandidate> all_candidates = candidates;
     p.candidates = candidates.size();
+    p.candidates_zoomed = static_cast<std::size_t>(
+        std::count_if(candidates.begin(), candidates.end(), [](const LightCandidate& c) {
+            return c.placement != 0;
+        }));
     CoverageMap coverage(cfg.layout);
     p.valid_bins = coverage.valid_bins();
     {
@@ -1007,10 +1154,11 @@ Expected<ImageCoveragePrediction> predict_image_coverage(const ImageCampaignConf
     // The campaign's choice of light positions (run_image_campaign, step 5).
     std::vector<std::size_t> gains = candidate_gains(candidates, coverage);
     double current = front_light(cfg);
+    bool zoom_phase = false;
     p.stop_reason = "frame limit";
     while (static_cast<int>(p.light_arm_rad.size()) < cfg.max_frames) {
-        const int next =
-            next_campaign_light(cfg, candidates, gains, coverage, current, &p.stop_reason);
+        const int next = next_campaign_light(
+            cfg, candidates, gains, coverage, current, &zoom_phase, &p.stop_reason);
         if (next < 0) {
             break;
         }
@@ -1024,6 +1172,8 @@ Expected<ImageCoveragePrediction> predict_image_coverage(const ImageCampaignConf
         }
         update_gains(candidates, coverage, chosen.theta_d_lo, chosen.theta_d_hi, &gains);
         p.light_arm_rad.push_back(current);
+        p.placement.push_back(chosen.placement);
+        p.zoomed_frames += chosen.placement != 0 ? 1 : 0;
         p.predicted_coverage.push_back(coverage.fraction());
     }
     p.target_met = coverage.fraction() >= cfg.coverage_target;
@@ -1131,9 +1281,21 @@ Expected<void> write_image_campaign(const std::string& dir,
         if (aniso) {
             fj["spin_deg"] = f.spin_rad * 180 / brdf::kPi;
         }
+        if (f.placement > 0) {
+            fj["placement"] = config.placements[static_cast<std::size_t>(f.placement - 1)].name;
+        }
         frames.push_back(fj);
     }
     j["frames"] = frames;
+    if (!config.placements.empty()) {
+        nlohmann::json placements = nlohmann::json::array();
+        for (const Placement& p : config.placements) {
+            placements.push_back({{"name", p.name},
+                                  {"magnification", p.magnification},
+                                  {"offset_m", {p.offset_m[0], p.offset_m[1]}}});
+        }
+        j["placements"] = placements;
+    }
     nlohmann::json holes = nlohmann::json::array();
     for (const CoverageHole& h : result.holes) {
         holes.push_back(
@@ -1211,6 +1373,9 @@ ImageCampaignConfig image_campaign_config(const RigConfig& rig,
     cfg.read_noise_counts = rig.noise.read_noise_counts * rig.capture.gain;
     cfg.reference_albedo = rig.white_reflectance;
     cfg.capture_timeout = std::chrono::milliseconds(rig.capture.timeout_ms);
+    for (const PlacementConfig& p : rig.placements) {
+        cfg.placements.push_back(p.placement);
+    }
     return cfg;
 }
 
@@ -1218,6 +1383,8 @@ void make_anisotropic(ImageCampaignConfig* cfg, const RigConfig& rig, const Anis
     constexpr double kDeg = brdf::kPi / 180;
     cfg->anisotropic = true;
     cfg->aniso_layout = layout;
+    // The 4-D campaign takes every frame in the wide view.
+    cfg->placements.clear();
     // A quarter of a theta_d row in separation (theta_d is half the separation): each row is
     // seen from four light positions, each at every spin.
     cfg->lights.step_rad = (brdf::kPi / std::max(1, layout.n_theta_d)) / 4;
@@ -1261,6 +1428,7 @@ CaptureFn make_device_capture(devices::Camera& camera,
         double spin_deg = 0;
         int filter = -1;
         int target = -1;  // 1 reference, 0 sample
+        int placement = -1;
         double exposure_us = -1;
         int shutter = -1;
     };
@@ -1286,6 +1454,16 @@ CaptureFn make_device_capture(devices::Camera& camera,
             arms.push_back({o.spin, spin_deg});
         } else if (r.spin_rad != 0) {
             return make_error(describe(r) + ": the rig gives this capture no spin axis");
+        }
+        if (state->placement != r.placement) {
+            if (o.select_placement) {
+                if (auto p = o.select_placement(r.placement); !p) {
+                    return make_error(describe(r) + ": " + p.error().message);
+                }
+            } else if (r.placement != 0) {
+                return make_error(describe(r) + ": the rig has no zoomed camera placement");
+            }
+            state->placement = r.placement;
         }
         if (select_filter && state->filter != r.channel) {
             if (auto f = select_filter(r.channel); !f) {

@@ -17,6 +17,8 @@ constexpr std::uint8_t kTypeSetup = 1;
 constexpr std::uint8_t kTypeFrame = 2;
 constexpr std::uint8_t kTypeAnisoSetup = 3;
 constexpr std::uint8_t kTypeAnisoFrame = 4;
+constexpr std::uint8_t kTypePlacedFrame = 5;
+constexpr std::size_t kPlacementBytes = 4 + 3 * 8;
 
 /// Little-endian writer.
 class Writer {
@@ -292,6 +294,35 @@ Expected<ImageJournalFrame> decode_frame(const std::string& payload, const Table
     return f;
 }
 
+/// A type-5 record: the placement, then a type-2 payload.
+Expected<ImageJournalFrame> decode_placed_frame(const std::string& payload,
+                                                const TableLayout& layout) {
+    const std::string head = payload.substr(0, std::min(payload.size(), kPlacementBytes));
+    Reader r(head);  // holds a reference: the bytes must outlive it
+    const std::uint32_t placement = r.u32();
+    const double magnification = r.f64();
+    const double ox = r.f64();
+    const double oy = r.f64();
+    if (r.failed() || !r.at_end()) {
+        return make_error("zoomed frame record: payload of " + std::to_string(payload.size()) +
+                          " bytes does not hold its placement");
+    }
+    if (placement < 1 || placement > 1024 || !std::isfinite(magnification) ||
+        !(magnification > 0) || !std::isfinite(ox) || !std::isfinite(oy)) {
+        return make_error("zoomed frame record: placement " + std::to_string(placement) +
+                          " outside 1..1024, or a magnification not positive and finite, or a "
+                          "non-finite offset");
+    }
+    auto f = decode_frame(payload.substr(kPlacementBytes), layout);
+    if (!f) {
+        return make_error("zoomed " + f.error().message);
+    }
+    f->placement = static_cast<int>(placement);
+    f->magnification = magnification;
+    f->offset_m = {ox, oy};
+    return f;
+}
+
 }  // namespace
 
 std::string encode_setup(const ImageJournalSetup& s) {
@@ -319,6 +350,13 @@ std::string encode_setup(const ImageJournalSetup& s) {
 
 std::string encode_frame(const ImageJournalFrame& f) {
     Writer w;
+    const bool placed = !f.anisotropic && f.placement > 0;
+    if (placed) {
+        w.u32(static_cast<std::uint32_t>(f.placement));
+        w.f64(f.magnification);
+        w.f64(f.offset_m[0]);
+        w.f64(f.offset_m[1]);
+    }
     w.f64(f.light_arm_rad);
     if (f.anisotropic) {
         w.f64(f.spin_rad);
@@ -363,7 +401,7 @@ std::string encode_frame(const ImageJournalFrame& f) {
             }
         }
     }
-    return wrap(kTypeFrame, w.bytes());
+    return wrap(placed ? kTypePlacedFrame : kTypeFrame, w.bytes());
 }
 
 Expected<ImageJournal> ImageJournal::open(const std::string& path) {
@@ -413,7 +451,7 @@ Expected<ImageJournal> ImageJournal::open(const std::string& path) {
                 return make_error(where + s.error().message);
             }
             jn.setup_ = *s;
-        } else if (type == kTypeFrame || type == kTypeAnisoFrame) {
+        } else if (type == kTypeFrame || type == kTypeAnisoFrame || type == kTypePlacedFrame) {
             if (!jn.setup_) {
                 return make_error(where + "a frame before the set-up record");
             }
@@ -424,7 +462,8 @@ Expected<ImageJournal> ImageJournal::open(const std::string& path) {
                                   " campaign");
             }
             auto f = aniso ? decode_aniso_frame(payload, jn.setup_->aniso_layout)
-                           : decode_frame(payload, jn.setup_->layout);
+                     : type == kTypePlacedFrame ? decode_placed_frame(payload, jn.setup_->layout)
+                                                : decode_frame(payload, jn.setup_->layout);
             if (!f) {
                 return make_error(where + f.error().message);
             }

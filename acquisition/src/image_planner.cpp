@@ -21,6 +21,27 @@ std::vector<LightCandidate> light_candidates(const CameraModel& camera,
                                              const LightRange& range,
                                              int pixel_stride) {
     GONIO_CHECK(range.step_rad > 0 && pixel_stride >= 1);
+    std::vector<double> lights;
+    const int steps =
+        static_cast<int>(std::floor((range.max_rad - range.min_rad) / range.step_rad + 1e-9));
+    for (int k = 0; k <= steps; ++k) {
+        const double a = range.min_rad + k * range.step_rad;
+        if (brdf::arm_separation(a, detector_arm_rad) < range.blind_zone_rad) {
+            // Inside the blind zone around the detector.
+            continue;
+        }
+        lights.push_back(a);
+    }
+    return light_candidates_at(camera, sphere, rules, layout, lights, pixel_stride);
+}
+
+std::vector<LightCandidate> light_candidates_at(const CameraModel& camera,
+                                                const SphereGeometry& sphere,
+                                                const ExclusionRules& rules,
+                                                const TableLayout& layout,
+                                                const std::vector<double>& light_arm_rad,
+                                                int pixel_stride) {
+    GONIO_CHECK(pixel_stride >= 1);
     std::vector<SpherePixel> pixels = sphere_pixels(camera, sphere, rules, nullptr);
     if (pixel_stride > 1) {
         pixels.erase(std::remove_if(pixels.begin(),
@@ -32,14 +53,7 @@ std::vector<LightCandidate> light_candidates(const CameraModel& camera,
     }
     const double cos_max_i = std::cos(rules.max_theta_i);
     std::vector<LightCandidate> out;
-    const int steps =
-        static_cast<int>(std::floor((range.max_rad - range.min_rad) / range.step_rad + 1e-9));
-    for (int k = 0; k <= steps; ++k) {
-        const double a = range.min_rad + k * range.step_rad;
-        if (brdf::arm_separation(a, detector_arm_rad) < range.blind_zone_rad) {
-            // Inside the blind zone around the detector.
-            continue;
-        }
+    for (const double a : light_arm_rad) {
         const brdf::Vec3d l(std::cos(a), std::sin(a), 0);
         LightCandidate c;
         c.light_arm_rad = a;

@@ -64,6 +64,7 @@ void check_rig_keys(const json& j) {
                                                "sim",
                                                "camera_model",
                                                "image_sample",
+                                               "placements",
                                                "embedded_virtual_rig"};
     static const std::map<std::string, std::set<std::string>> kSections = {
         {"camera", {"address"}},
@@ -314,6 +315,44 @@ Expected<RigConfig> parse_rig_config(const std::string& text, const std::string&
                                   show_number(rig.sphere_radius_m) + ": must be in (0, 10) metres");
             }
         }
+        if (j.contains("placements")) {
+            at = "placements";
+            const json& ps = j.at("placements");
+            if (!ps.is_array() || ps.size() > 16) {
+                return make_error(source + ": placements: an array of at most 16 placements");
+            }
+            for (std::size_t k = 0; k < ps.size(); ++k) {
+                at = "placements[" + std::to_string(k) + "]";
+                const json& pj = ps.at(k);
+                check_json_keys(pj,
+                                at,
+                                {"name", "magnification", "offset_m", "address", "unit", "coil"});
+                PlacementConfig pc;
+                pc.placement.name = pj.value("name", "zoom-" + std::to_string(k + 1));
+                pc.placement.magnification = pj.at("magnification").get<double>();
+                if (!(pc.placement.magnification >= 1 && pc.placement.magnification <= 100)) {
+                    return make_error(source + ": " + at + ".magnification = " +
+                                      show_number(pc.placement.magnification) +
+                                      ": must be in [1, 100] (relative to the wide view)");
+                }
+                const json& off = pj.at("offset_m");
+                if (!off.is_array() || off.size() != 2) {
+                    return make_error(source + ": " + at + ".offset_m: expected [x, y] in metres");
+                }
+                for (int c = 0; c < 2; ++c) {
+                    const double v = off.at(static_cast<std::size_t>(c)).get<double>();
+                    if (!(std::abs(v) < 10)) {
+                        return make_error(source + ": " + at + ".offset_m[" + std::to_string(c) +
+                                          "] = " + show_number(v) + ": must be within 10 metres");
+                    }
+                    pc.placement.offset_m[static_cast<std::size_t>(c)] = v;
+                }
+                pc.coil.address = pj.value("address", rig.shutter.address);
+                pc.coil.unit = modbus_int(pj, "unit", 0, 247);
+                pc.coil.coil = modbus_int(pj, "coil", 0, 65535);
+                rig.placements.push_back(pc);
+            }
+        }
         rig.move_timeout_ms = j.value("move_timeout_ms", rig.move_timeout_ms);
         rig.retries = j.value("retries", rig.retries);
     } catch (const JsonFailure& f) {
@@ -358,6 +397,10 @@ RigConfig with_addresses(const RigConfig& rig,
             c.address = motor_address;
         }
         j["filter_wheel"]["address"] = motor_address;
+    }
+    for (std::size_t k = 0; k < out.placements.size(); ++k) {
+        out.placements[k].coil.address = motor_address;
+        j["placements"][k]["address"] = motor_address;
     }
     if (!camera_address.empty()) {
         out.camera_address = camera_address;
@@ -428,6 +471,14 @@ Expected<RigDevices> open_rig(const RigConfig& rig) {
             return make_error(fw.error().message);
         }
         d.filter_wheel = std::move(*fw);
+    }
+    for (const PlacementConfig& p : rig.placements) {
+        auto coil = devices::open_modbus_light(p.coil.address, p.coil.unit, p.coil.coil);
+        if (!coil) {
+            return make_error("camera placement \"" + p.placement.name +
+                              "\": " + coil.error().message);
+        }
+        d.placements.push_back(std::move(*coil));
     }
     return d;
 }

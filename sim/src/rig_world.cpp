@@ -64,6 +64,12 @@ SceneState RigWorld::scene() const {
             break;
         }
     }
+    for (std::size_t k = 0; k < units_.placements.size(); ++k) {
+        if (server_->shutter_open(units_.placements[k])) {
+            s.placement = static_cast<int>(k) + 1;
+            break;
+        }
+    }
     if (units_.reference_changer > 0) {
         mounted_->set_white(server_->shutter_open(units_.reference_changer));
     }

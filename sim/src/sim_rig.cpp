@@ -1,9 +1,11 @@
 #include "gonio/sim/sim_rig.h"
 
+#include <cmath>
 #include <cstdint>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "gonio/base/limits.h"
 #include "gonio/base/strict_json.h"
@@ -216,6 +218,37 @@ Expected<std::unique_ptr<SimRig>> SimRig::start(const std::string& rig_json,
     } catch (const std::exception& e) {
         return make_error(std::string("sim rig: ") + gonio::json_error_text(e.what()));
     }
+    // Zoomed camera placements: a coil each, and what the camera sees through them.
+    std::vector<ZoomPlacement> zooms;
+    try {
+        if (j.contains("placements")) {
+            const json& ps = j.at("placements");
+            if (!ps.is_array()) {
+                return make_error("sim rig: placements: an array of placements");
+            }
+            for (std::size_t k = 0; k < ps.size(); ++k) {
+                const json& p = ps.at(k);
+                ZoomPlacement z;
+                z.magnification = p.at("magnification").get<double>();
+                z.offset_m = {p.at("offset_m").at(0).get<double>(),
+                              p.at("offset_m").at(1).get<double>()};
+                if (!(z.magnification >= 1 && z.magnification <= 100) ||
+                    !std::isfinite(z.offset_m[0]) || !std::isfinite(z.offset_m[1])) {
+                    return make_error("sim rig: placements[" + std::to_string(k) +
+                                      "]: magnification in [1, 100] and a finite offset needed");
+                }
+                const int unit = p.at("unit").get<int>();
+                if (auto r = rig->motors_->add_shutter(unit, p.at("coil").get<int>()); !r) {
+                    return make_error("sim rig: placements[" + std::to_string(k) +
+                                      "]: " + r.error().message);
+                }
+                rig->units_.placements.push_back(unit);
+                zooms.push_back(z);
+            }
+        }
+    } catch (const std::exception& e) {
+        return make_error(std::string("sim rig: ") + gonio::json_error_text(e.what()));
+    }
     if (auto r = rig->motors_->start(); !r) {
         return make_error("sim rig: motor controllers: " + r.error().message);
     }
@@ -233,7 +266,9 @@ Expected<std::unique_ptr<SimRig>> SimRig::start(const std::string& rig_json,
     gc.exposure_naming = opt.exposure_abs ? ExposureNaming::kAbs : ExposureNaming::kSfnc;
     rig->camera_ = std::make_shared<GigeCamera>(gc, rig->mounted_, rig->world_->scene_fn());
     if (opt.sphere) {
-        rig->camera_->set_renderer(sphere_renderer(*opt.sphere));
+        SphereImaging imaging = *opt.sphere;
+        imaging.placements = zooms;
+        rig->camera_->set_renderer(sphere_renderer(imaging));
     }
     rig->camera_server_ = std::make_unique<GigeServer>(rig->camera_);
     auto served = opt.camera_ip.empty() ? rig->camera_server_->start_on_free_loopback()

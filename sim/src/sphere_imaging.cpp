@@ -18,9 +18,22 @@ SphereCamera sphere_camera_at_arm(const SphereCamera& at_zero, double arm_rad) {
     return cam;
 }
 
+SphereCamera zoomed_camera(const SphereCamera& camera, const ZoomPlacement& placement) {
+    SphereCamera c = camera;
+    c.fx *= placement.magnification;
+    c.fy *= placement.magnification;
+    c.translation -= Eigen::Vector3d(placement.offset_m[0], placement.offset_m[1], 0);
+    return c;
+}
+
 SphereScene sphere_scene(const SphereImaging& imaging, const SceneState& state) {
     SphereScene scene;
     scene.camera = sphere_camera_at_arm(imaging.camera, state.detector_arm_rad);
+    if (state.placement > 0 && state.placement <= static_cast<int>(imaging.placements.size())) {
+        // The camera's own translation is unchanged by the arm's turn: move it after.
+        scene.camera = zoomed_camera(scene.camera,
+                                     imaging.placements[static_cast<std::size_t>(state.placement - 1)]);
+    }
     scene.centre = imaging.centre;
     scene.radius_m = imaging.radius_m;
     scene.supersample = imaging.supersample;

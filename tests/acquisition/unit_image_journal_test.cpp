@@ -152,6 +152,51 @@ TEST(ImageJournal, RecordCutAtAnyByteIsDroppedAndAppendingContinues) {
     std::filesystem::remove(path);
 }
 
+TEST(ImageJournal, ZoomedFramesKeepTheirPlacementThroughATornTail) {
+    const std::string path = temp_path("zoomed");
+    std::filesystem::remove(path);
+    const ImageJournalSetup setup = make_setup();
+    const ImageJournalFrame wide = make_frame(1, setup.layout);
+    ImageJournalFrame zoomed = make_frame(2, setup.layout);
+    zoomed.placement = 3;
+    zoomed.magnification = 8;
+    zoomed.offset_m = {0.0148, -0.00025};
+    ImageJournalFrame later = make_frame(3, setup.layout);
+    later.placement = 1;
+    later.magnification = 12.5;
+    // A zoomed frame is a record of its own type, longer by its placement.
+    EXPECT_EQ(encode_frame(zoomed).size(), encode_frame(make_frame(2, setup.layout)).size() + 28);
+    const std::string good = encode_setup(setup) + encode_frame(wide) + encode_frame(zoomed);
+    const std::string last = encode_frame(later);
+    for (std::size_t cut = 1; cut < last.size(); cut += (cut < 60 ? 1 : 53)) {
+        write_all(path, good + last.substr(0, cut));
+        auto j = ImageJournal::open(path);
+        ASSERT_TRUE(j) << j.error().message << " cut at " << cut;
+        EXPECT_TRUE(j->torn_tail());
+        ASSERT_EQ(j->frames().size(), 2u);
+        EXPECT_EQ(j->frames()[0].placement, 0);
+        EXPECT_EQ(j->frames()[1].placement, 3);
+        EXPECT_EQ(j->frames()[1].magnification, 8);
+        EXPECT_EQ(j->frames()[1].offset_m, zoomed.offset_m);
+        expect_same(j->frames()[1], zoomed);
+        ASSERT_TRUE(j->append_frame(later));
+        EXPECT_EQ(read_all(path), good + last);
+    }
+    auto j = ImageJournal::open(path);
+    ASSERT_TRUE(j) << j.error().message;
+    ASSERT_EQ(j->frames().size(), 3u);
+    EXPECT_EQ(j->frames()[2].placement, 1);
+    EXPECT_EQ(j->frames()[2].magnification, 12.5);
+    // A placement that is no magnification is refused, naming it.
+    ImageJournalFrame bad = zoomed;
+    bad.magnification = -2;
+    write_all(path, encode_setup(setup) + encode_frame(bad) + encode_frame(wide));
+    auto b = ImageJournal::open(path);
+    ASSERT_FALSE(b);
+    EXPECT_NE(b.error().message.find("magnification"), std::string::npos) << b.error().message;
+    std::filesystem::remove(path);
+}
+
 TEST(ImageJournal, DamagedRecordWithGoodOnesAfterItIsCorruption) {
     const std::string path = temp_path("corrupt");
     const ImageJournalSetup setup = make_setup();

@@ -8,10 +8,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <vector>
 
 #include "embedded_rig.h"
 #include "gonio/acquisition/camera_model.h"
+#include "gonio/acquisition/placement.h"
+#include "gonio/acquisition/sphere_geometry.h"
 #include "gonio/brdf/analytic_brdf.h"
+#include "gonio/brdf/rig_geometry.h"
 #include "gonio/sim/sphere_imaging.h"
 
 namespace gonio {
@@ -148,6 +152,116 @@ TEST(ImageSimCamera, RegionOfInterestIsACropOfTheFullImage) {
     EXPECT_EQ(cv::norm(edge(cv::Rect(0, 0, 10, 10)), full(cv::Rect(30, 30, 10, 10)), cv::NORM_INF),
               0.0);
     EXPECT_EQ(cv::countNonZero(edge(cv::Rect(10, 0, 6, 16))), 0);
+}
+
+/// A zoomed placement as both sides see it: the virtual camera renders the scene through
+/// sim::zoomed_camera, acquisition maps pixels to normals through placement_camera and
+/// placement_sphere. Every pixel acquisition keeps must hit the rendered sphere at the same normal
+/// and with the same local directions; the principal point sees the point of the sphere at the
+/// offset from the axis (closed form n = (ox, oy, -sqrt(R^2 - ox^2 - oy^2)) / R in the camera
+/// frame, for a telecentric camera); the sphere's outline is magnified.
+void expect_same_zoomed_pixels(bool perspective, double detector_deg) {
+    const int size = 64;
+    const double kDeg = kPi / 180;
+    const acquisition::CameraModel at_zero =
+        acquisition::default_image_camera(size, perspective, 0.02);
+    const acquisition::CameraModel wide = acquisition::camera_on_detector_arm(
+        at_zero.intrinsics, at_zero.projection, detector_deg * kDeg, 0.5);
+    acquisition::Placement p;
+    p.magnification = 6;
+    p.offset_m = {0.009, -0.004};
+    const acquisition::CameraModel cam = acquisition::placement_camera(wide, p);
+
+    sim::SphereImaging im;
+    im.camera = tools::to_sphere_camera(at_zero);
+    im.radius_m = 0.02;
+    im.supersample = 1;
+    im.placements.push_back({p.magnification, p.offset_m});
+    sim::SceneState state;
+    state.detector_arm_rad = detector_deg * kDeg;
+    state.light_arm_rad = (detector_deg + 40) * kDeg;
+    state.placement = 1;
+    const std::vector<sim::SpherePixelTruth> truth =
+        sim::sphere_truth(sim::sphere_scene(im, state));
+
+    acquisition::SphereGeometry wide_sphere;
+    wide_sphere.radius_m = 0.02;
+    const Eigen::Vector2d c = wide.project(wide_sphere.centre);
+    wide_sphere.silhouette.cx = c.x();
+    wide_sphere.silhouette.cy = c.y();
+    wide_sphere.silhouette.r = perspective
+                                   ? wide.intrinsics.fx * std::tan(std::asin(0.02 / 0.5))
+                                   : 0.02 * wide.intrinsics.fx;
+    const acquisition::SphereGeometry g =
+        acquisition::placement_sphere(wide_sphere, cam, p.magnification);
+    EXPECT_NEAR(g.silhouette.r, 6 * wide_sphere.silhouette.r, 1e-9);
+    const acquisition::ExclusionRules rules =
+        acquisition::placement_rules(acquisition::ExclusionRules{}, p.magnification);
+    EXPECT_EQ(rules.edge_margin_px, 12);
+    const std::vector<acquisition::SpherePixel> pixels =
+        acquisition::sphere_pixels(cam, g, rules, nullptr);
+    // The patch fills the frame: every pixel is on the sphere, within 80 degrees of the view.
+    ASSERT_GT(pixels.size(), static_cast<std::size_t>(size * size * 9 / 10));
+    const brdf::Vec3d light = brdf::arm_direction(state.light_arm_rad);
+    for (const acquisition::SpherePixel& px : pixels) {
+        const sim::SpherePixelTruth& t = truth[static_cast<std::size_t>(px.y) * size + px.x];
+        ASSERT_TRUE(t.hit) << px.x << "," << px.y;
+        EXPECT_LT((px.normal - t.normal_world).norm(), 1e-9) << "pixel " << px.x << "," << px.y;
+        const auto [wi, wo] = acquisition::local_directions(px, light);
+        // The renderer's tangent is its own reference: compare what an isotropic BRDF sees.
+        EXPECT_NEAR(wi.z(), t.wi.z(), 1e-9);
+        EXPECT_NEAR(wo.z(), t.wo.z(), 1e-9);
+        EXPECT_NEAR(wi.dot(wo), t.wi.dot(t.wo), 1e-9);
+    }
+    if (!perspective) {
+        const Eigen::Vector3d n_cam(0.009 / 0.02,
+                                    -0.004 / 0.02,
+                                    -std::sqrt(1 - (0.45 * 0.45 + 0.2 * 0.2)));
+        const brdf::Vec3d want = cam.rotation.transpose() * n_cam;
+        // The pixel centres straddle the principal point (63 / 2): the mean of the four.
+        brdf::Vec3d got = brdf::Vec3d::Zero();
+        for (const int x : {31, 32}) {
+            for (const int y : {31, 32}) {
+                got += truth[static_cast<std::size_t>(y) * size + x].normal_world;
+            }
+        }
+        EXPECT_LT((got.normalized() - want).norm(), 1e-3) << "detector " << detector_deg;
+    }
+}
+
+TEST(ImageSimCamera, ZoomedPlacementMapsPixelsToTheRenderersNormals) {
+    for (const bool perspective : {false, true}) {
+        for (const double detector_deg : {0.0, 35.0, -120.0}) {
+            SCOPED_TRACE(std::string(perspective ? "perspective" : "telecentric") + ", detector " +
+                         std::to_string(detector_deg));
+            expect_same_zoomed_pixels(perspective, detector_deg);
+        }
+    }
+}
+
+TEST(ImageSimCamera, PlacementSeesTheHighlightWhereTheHalfVectorMeetsTheSphere) {
+    // Telecentric camera on the detector arm at 0: the highlight of a light at arm angle a lies
+    // sin(a / 2) sphere radii from the centre along the image's x axis.
+    const acquisition::CameraModel wide = acquisition::default_image_camera(100, false, 0.02);
+    acquisition::SphereGeometry g;
+    g.radius_m = 0.02;
+    g.silhouette = {49.5, 49.5, 40};
+    acquisition::Placement p;
+    p.magnification = 8;
+    p.offset_m = {0.02 * std::sin(30 * kPi / 180), 0};  // the highlight of a = 60 deg
+    const acquisition::CameraModel cam = acquisition::placement_camera(wide, p);
+    const acquisition::SphereGeometry z = acquisition::placement_sphere(g, cam, 8);
+    // Field: 100 px / (8 * 40 px per radius) = 0.3125 radii across.
+    for (const double a_deg : {60.0, 55.0, 65.0}) {
+        EXPECT_TRUE(acquisition::placement_sees_highlight(
+            cam, z, brdf::arm_direction(a_deg * kPi / 180)))
+            << a_deg;
+    }
+    for (const double a_deg : {-60.0, 20.0, 100.0, 180.0}) {
+        EXPECT_FALSE(acquisition::placement_sees_highlight(
+            cam, z, brdf::arm_direction(a_deg * kPi / 180)))
+            << a_deg;
+    }
 }
 
 }  // namespace

@@ -98,6 +98,7 @@ TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
     ASSERT_GT(busy.port(), 0);
     const std::string r = "acquire --resume " + dir() + "/camp";
     const std::string camp = dir() + "/c.json";
+    const std::string zoom_rig = std::string(GONIO_SOURCE_DIR) + "/data/rigs/sim-image-zoom.json";
     std::ofstream(camp) << R"({"plan": {"kind": "uniform", "n_theta": 3, "n_dphi": 2}})";
     prove("acquire",
           {
@@ -170,6 +171,17 @@ TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
               {"--grid",
                "acquire --mode image --plan-only",
                "acquire --mode image --plan-only --grid 15x15x30"},
+              // Zoomed placements: only a rig that has them (the default rig has none), only
+              // isotropic image campaigns, never on resume.
+              {"--no-zoom", "acquire --plan-only --no-zoom", ""},
+              {"--no-zoom", "acquire --mode image --plan-only --camera-px 64 --no-zoom", ""},
+              {"--no-zoom",
+               "acquire --mode image --plan-only --camera-px 64 --rig " + zoom_rig,
+               "acquire --mode image --plan-only --camera-px 64 --no-zoom --rig " + zoom_rig},
+              {"--no-zoom",
+               "acquire --mode image --plan-only --anisotropic --no-zoom --rig " + zoom_rig,
+               ""},
+              {"--no-zoom", r + " --no-zoom", ""},
               // Image mode serves its live page: given an address already in use, it says so
               // and stops before it writes anything; without the option the campaign runs.
               {"--serve",

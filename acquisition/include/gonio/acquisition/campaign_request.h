@@ -71,6 +71,10 @@ struct CampaignRequest {
     /// Image mode: grazing limit of the pixels (theta_i and theta_o), degrees; 0 = the exclusion
     /// rules' default (80). Never beyond the rig's geometry.max_theta_deg (an error names both).
     double max_theta_deg = 0;
+    /// Image mode: take every frame in the wide view, leaving out the rig's zoomed camera
+    /// placements (placement.h). Refused with a rig that has none and with anisotropic (which
+    /// uses the wide view only).
+    bool no_zoom = false;
     /// "[ADDR:]PORT" of the live page of the campaign (both modes). The front end serves it
     /// (`gonio acquire` starts a report::LiveServer and feeds it through the campaign's hooks);
     /// start_point_campaign and run_image_request do not.
@@ -102,7 +106,8 @@ struct RequestConflict {
 std::string option_key(const std::string& field);
 
 /// The first option the mode refuses (none: every given option is honoured). Rules:
-/// - point mode refuses coverage_target, max_frames and grid (image-mode options);
+/// - point mode refuses coverage_target, max_frames, grid, camera_px, max_theta_deg and no_zoom
+///   (image-mode options); no_zoom is refused with anisotropic (its frames are all wide);
 /// - anisotropic excludes plan_kind and adaptive passes (adaptive > 0); symmetry needs
 ///   anisotropic;
 /// - image mode refuses the campaign file, scene, plan, n_theta, n_dphi, adaptive, symmetry, the
@@ -121,7 +126,7 @@ std::optional<RequestConflict> find_conflict(const CampaignRequest& request);
 
 /// An image-mode option the rig description cannot honour (read without starting anything):
 /// camera_px with a rig whose calibrated camera_model is the camera, max_theta_deg beyond the
-/// rig's geometry.max_theta_deg. `with` is "rig_path"; the rule names the rig and its limit.
+/// rig's geometry.max_theta_deg, no_zoom with a rig without zoomed camera placements. `with` is "rig_path"; the rule names the rig and its limit.
 /// None when the description cannot be read (the run reports that).
 std::optional<RequestConflict> find_rig_conflict(const CampaignRequest& request);
 

@@ -43,6 +43,7 @@
 #include "gonio/acquisition/image_aniso.h"
 #include "gonio/acquisition/image_binning.h"
 #include "gonio/acquisition/image_planner.h"
+#include "gonio/acquisition/placement.h"
 #include "gonio/acquisition/rig_config.h"
 #include "gonio/acquisition/sphere_geometry.h"
 #include "gonio/base/error.h"
@@ -59,6 +60,8 @@ struct CaptureRequest {
     bool shutter_open = true;  ///< False: dark frame.
     bool reference = false;    ///< True: the white reference sphere is in place of the sample.
     double spin_rad = 0;       ///< Sample holder spin (anisotropic campaigns; else 0).
+    /// Camera placement: 0 the wide view, k the k-th of ImageCampaignConfig::placements.
+    int placement = 0;
 };
 
 using CaptureFn = std::function<Expected<devices::Frame>(const CaptureRequest&)>;
@@ -97,6 +100,14 @@ struct ImageCampaignConfig {
     SpinRange spins;                         ///< Spin positions the plan may use.
     double pole_rad = 10 * brdf::kPi / 180;  ///< Pole caps of the turned sphere left out.
 
+    /// Zoomed camera placements (placement.h), from the rig description. Isotropic campaigns
+    /// take their frames in the wide view until no wide light position adds the stop rule's
+    /// share of the valid bins, then zoomed frames (light position and placement) chosen by the
+    /// same coverage rule: a zoomed view's candidates are the light positions whose highlight
+    /// it sees. Anisotropic campaigns use the wide view only. The white reference and the
+    /// silhouette are always taken in the wide view.
+    std::vector<Placement> placements;
+
     double reference_albedo = 0.99;  ///< Lambertian albedo of the white reference sphere.
     double reference_max_theta = 60 * brdf::kPi / 180;  ///< Reference pixels used up to this angle.
     std::chrono::milliseconds capture_timeout{5000};
@@ -106,6 +117,7 @@ struct ImageCampaignConfig {
 struct FrameRecord {
     double light_arm_rad = 0;
     double spin_rad = 0;  ///< Holder spin (anisotropic campaigns).
+    int placement = 0;    ///< Camera placement (0: the wide view).
     PixelCounts counts;
     std::array<int, 3> exposures{};  ///< Exposures used per channel (1 = no bracketing).
     double coverage_after = 0;       ///< Covered fraction of the valid bins after this frame.
@@ -193,6 +205,11 @@ struct ImageCoveragePrediction {
     /// isotropic projection).
     std::vector<double> spin_rad;
     double spin_travel_rad = 0;
+    /// The camera placement of each planned light position (0: the wide view), and how many
+    /// were zoomed; candidates_zoomed of the candidates are zoomed views.
+    std::vector<int> placement;
+    std::size_t zoomed_frames = 0;
+    std::size_t candidates_zoomed = 0;
 };
 Expected<ImageCoveragePrediction> predict_image_coverage(const ImageCampaignConfig& config);
 
@@ -262,6 +279,10 @@ struct DeviceCaptureOptions {
     /// The sample holder's spin axis (anisotropic campaigns): moved to each request's spin_rad
     /// and read back with the arms. Without it a request with a spin is an error.
     devices::Axis* spin = nullptr;
+    /// Switches the camera placement (0 the wide view, k the k-th zoomed placement) before an
+    /// exposure; called only when the placement changes. Without it a request for a zoomed
+    /// placement is an error.
+    std::function<Expected<void>(int)> select_placement;
 };
 
 /// A capture function over real devices: moves the light arm (wait at most `move_timeout`), sets

@@ -12,8 +12,14 @@
 // light arm, the pole-cap pixel count, and per 4-D bin the mean directions instead of the mean
 // half/difference position. A journal holds one kind or the other, never both.
 //
+// A frame taken through a zoomed camera placement (placement.h) is record type 5: the placement's
+// number (u32, 1 for the rig's first zoomed placement), its magnification and its offset (three
+// f64), then a type-2 payload. A resume checks them against the rig description's placements
+// and takes off the candidates only that light position in that placement.
+//
 // Binary layout, little-endian: each record is
-//   "GIJ1" | type (u8: 1 set-up, 2 frame, 3 anisotropic set-up, 4 anisotropic frame) |
+//   "GIJ1" | type (u8: 1 set-up, 2 frame, 3 anisotropic set-up, 4 anisotropic frame, 5 frame at
+//   a zoomed placement) |
 //   payload length (u32) | FNV-1a 64 of the payload (u64) | payload
 // with doubles and floats as their IEEE 754 bit patterns. A record cut short (kill -9, power cut)
 // or with a wrong hash at the end of the file was never acknowledged: it is cut off on opening and
@@ -61,6 +67,11 @@ struct ImageJournalFrame {
     bool anisotropic = false;
     double spin_rad = 0;
     std::vector<AnisoBinAggregate> aniso_bins;
+    /// The camera placement (record type 5; 0 the wide view) with its magnification and offset
+    /// as they were when the frame was taken.
+    int placement = 0;
+    double magnification = 1;
+    std::array<double, 2> offset_m{0, 0};
 };
 
 std::string encode_setup(const ImageJournalSetup& s);  ///< One whole record.

@@ -43,6 +43,8 @@ struct LightCandidate {
     /// candidates sharing a row with it.
     int theta_d_lo = 0;
     int theta_d_hi = -1;
+    /// Camera placement (placement.h): 0 the wide view, k the rig's k-th zoomed placement.
+    int placement = 0;
 };
 
 /// The candidates allowed by the range and blind zone around `detector_arm_rad`, with their
@@ -55,6 +57,15 @@ std::vector<LightCandidate> light_candidates(const CameraModel& camera,
                                              double detector_arm_rad,
                                              const LightRange& range,
                                              int pixel_stride = 1);
+
+/// The same at the given light positions (radians), in that order (no range or blind zone
+/// applied): a zoomed placement's candidates are the positions whose highlight it sees.
+std::vector<LightCandidate> light_candidates_at(const CameraModel& camera,
+                                                const SphereGeometry& sphere,
+                                                const ExclusionRules& rules,
+                                                const TableLayout& layout,
+                                                const std::vector<double>& light_arm_rad,
+                                                int pixel_stride = 1);
 
 /// Which valid bins hold data.
 class CoverageMap {

@@ -8,9 +8,11 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "gonio/acquisition/capture.h"
 #include "gonio/acquisition/kinematics.h"
+#include "gonio/acquisition/placement.h"
 #include "gonio/base/error.h"
 #include "gonio/devices/axis.h"
 #include "gonio/devices/camera.h"
@@ -32,6 +34,12 @@ struct CoilConfig {
     std::string address;
     int unit = 0;
     int coil = 0;
+};
+
+/// A zoomed camera placement of image mode (placement.h) and the coil that switches it in.
+struct PlacementConfig {
+    Placement placement;
+    CoilConfig coil;
 };
 
 struct CaptureConfig {
@@ -73,6 +81,10 @@ struct RigConfig {
     /// Image mode: radius of the sample (and white reference) sphere, metres
     /// ("image_sample": {"sphere_radius_m"}).
     double sphere_radius_m = 0.02;
+    /// Image mode: zoomed camera placements ("placements": [{"name", "magnification",
+    /// "offset_m": [x, y], "unit", "coil", "address"}], the address defaulting to the
+    /// shutter's); none: the wide view only.
+    std::vector<PlacementConfig> placements;
     int move_timeout_ms = 60000;
     int retries = 3;  ///< Attempts per measurement after a device error before pausing.
 };
@@ -97,6 +109,8 @@ struct RigDevices {
     std::unique_ptr<devices::Light> shutter;
     std::unique_ptr<devices::Light> reference_changer;   ///< Null when the rig has none.
     std::unique_ptr<devices::FilterWheel> filter_wheel;  ///< Null when the rig has none.
+    /// One coil per zoomed camera placement (RigConfig::placements), in their order.
+    std::vector<std::unique_ptr<devices::Light>> placements;
 };
 
 /// Opens every device of the rig (nothing moves yet). The error names the device.

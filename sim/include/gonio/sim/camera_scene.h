@@ -41,6 +41,9 @@ struct SceneState {
     double detector_arm_rad = 0;
     double tilt_rad = 0;
     double spin_rad = 0;
+    /// Image mode: the camera placement switched in (0: the wide view; k: the rig's k-th zoomed
+    /// placement, sphere_imaging.h).
+    int placement = 0;
 };
 
 /// Called at each exposure to learn the rig's state.

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <vector>
 
 #include "gonio/brdf/brdf.h"
 #include "gonio/sim/camera_scene.h"
@@ -29,6 +30,9 @@ struct RigUnits {
     /// Units whose coil puts the red, green, blue filter in front of the camera (0 = no filter
     /// wheel: the camera sees the unfiltered mean of R, G and B).
     std::array<int, 3> filters{0, 0, 0};
+    /// Units whose coil switches in a zoomed camera placement, in the rig's order (the lowest
+    /// one on wins; none on: the wide view).
+    std::vector<int> placements;
 };
 
 /// A BRDF that is the sample's or the white standard's, whichever is in the beam.

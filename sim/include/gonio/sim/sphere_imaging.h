@@ -16,6 +16,9 @@
 // brdf::sample_to_world((0, 1, 0), tilt, spin)), which is what an anisotropic material's image
 // depends on (sphere_render.h: SphereScene::lathe_axis).
 
+#include <array>
+#include <vector>
+
 #include "gonio/brdf/brdf.h"
 #include "gonio/devices/camera.h"
 #include "gonio/sim/camera_scene.h"
@@ -24,13 +27,27 @@
 
 namespace gonio::sim {
 
+/// A zoomed camera placement: the wide camera's focal length (px, or px per metre for a
+/// telecentric camera) times `magnification`, and the camera moved across its optical axis by
+/// `offset_m` along its own x (image right) and y (image down): x_c = R x_w + t - (ox, oy, 0).
+/// The same sensor; a crop of the sphere around the point (ox, oy) from the axis fills it.
+struct ZoomPlacement {
+    double magnification = 1;
+    std::array<double, 2> offset_m{0, 0};
+};
+
 /// The imaging set-up of an image-mode rig.
 struct SphereImaging {
     SphereCamera camera;          ///< The camera with the detector arm at 0 (world -> camera pose).
     brdf::Vec3d centre{0, 0, 0};  ///< Sphere centre, world frame, metres.
     double radius_m = 0.02;
     int supersample = 2;  ///< Sub-pixel rays per axis, >= 1.
+    /// Zoomed placements, switched in by SceneState::placement (k: placements[k - 1]).
+    std::vector<ZoomPlacement> placements;
 };
+
+/// `camera` seen through `placement` (ZoomPlacement).
+SphereCamera zoomed_camera(const SphereCamera& camera, const ZoomPlacement& placement);
 
 /// The camera of `imaging` with the detector arm at `arm_rad` (file comment).
 SphereCamera sphere_camera_at_arm(const SphereCamera& at_zero, double arm_rad);
