@@ -10,6 +10,7 @@
 
 #include "fit_stages.h"
 #include "gonio/base/huge_pages.h"
+#include "gonio/base/thread_pool.h"
 #include "gonio/brdf/model_eval.h"
 #include "gonio/fitting/vector_log.h"
 
@@ -22,6 +23,8 @@ using brdf::Rgbd;
 using brdf::Sample;
 
 constexpr double kBandEdgesDeg[] = {0, 2, 5, 10, 20, 40, 90};
+/// From this many samples on the medians of the three channels run on the pool.
+constexpr std::size_t kParallelMedianSamples = 65536;
 
 /// The metrics of model values against `samples`: at(i, f, cos_i, cos_h, log_r) gives sample i's
 /// model value (RGB, 1/sr), cos theta_i and cos theta_h, and returns true when it also gave the
@@ -100,16 +103,26 @@ Metrics metrics_of(const std::vector<Sample>& samples, double relative_floor, co
         m.rmse[c] = std::sqrt(total.sq(0, c) / n);
         m.rel_rmse[c] = std::sqrt(total.sq(1, c) / n);
         m.log_rmse[c] = std::sqrt(total.sq(2, c) / n);
-        // Median of the relative errors (the lower median for an even count).
-        std::vector<double>& v = rel[c];
-        v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return std::isnan(x); }),
-                v.end());
-        if (!v.empty()) {
-            const std::size_t k = (v.size() - 1) / 2;
-            std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
-            m.median_rel[c] = v[k];
-        }
     }
+    // Median of the relative errors (the lower median for an even count), the three channels on
+    // the pool for a large set (a selection over a million values takes about 15 ms).
+    gonio::parallel_for(
+        3,
+        1,
+        samples.size() > kParallelMedianSamples ? threads : 1,
+        [&](std::size_t, std::size_t b, std::size_t e) {
+            for (std::size_t c = b; c < e; ++c) {
+                std::vector<double>& v = rel[c];
+                v.erase(
+                    std::remove_if(v.begin(), v.end(), [](double x) { return std::isnan(x); }),
+                    v.end());
+                if (!v.empty()) {
+                    const std::size_t k = (v.size() - 1) / 2;
+                    std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
+                    m.median_rel[static_cast<int>(c)] = v[k];
+                }
+            }
+        });
     for (int k = 0; k < kBands; ++k) {
         if (total.band_n[k] == 0) {
             continue;
