@@ -341,13 +341,8 @@ std::vector<double> range_positions(const ImageCampaignConfig& cfg) {
 std::vector<LightCandidate> view_candidates(const ImageCampaignConfig& cfg,
                                             const SphereGeometry& sphere,
                                             int pixel_stride) {
-    std::vector<LightCandidate> out = light_candidates(cfg.camera,
-                                                       sphere,
-                                                       cfg.rules,
-                                                       cfg.layout,
-                                                       cfg.detector_arm_rad,
-                                                       cfg.lights,
-                                                       pixel_stride);
+    std::vector<LightCandidate> out = light_candidates(
+        cfg.camera, sphere, cfg.rules, cfg.layout, cfg.detector_arm_rad, cfg.lights, pixel_stride);
     if (cfg.placements.empty()) {
         return out;
     }

@@ -324,9 +324,8 @@ Expected<RigConfig> parse_rig_config(const std::string& text, const std::string&
             for (std::size_t k = 0; k < ps.size(); ++k) {
                 at = "placements[" + std::to_string(k) + "]";
                 const json& pj = ps.at(k);
-                check_json_keys(pj,
-                                at,
-                                {"name", "magnification", "offset_m", "address", "unit", "coil"});
+                check_json_keys(
+                    pj, at, {"name", "magnification", "offset_m", "address", "unit", "coil"});
                 PlacementConfig pc;
                 pc.placement.name = pj.value("name", "zoom-" + std::to_string(k + 1));
                 pc.placement.magnification = pj.at("magnification").get<double>();

@@ -115,8 +115,8 @@ struct Layout {
 /// The first error of a chunk (the lowest line), or with keep_going the rows it refused (at most
 /// max_rejected + 1: one more than allowed is enough to know that the file has too many).
 struct ChunkResult {
-    Sample* samples = nullptr;  ///< where the chunk's rows go: room for one per line of the chunk
-    std::size_t count = 0;      ///< rows stored
+    Sample* samples = nullptr;   ///< where the chunk's rows go: room for one per line of the chunk
+    std::size_t count = 0;       ///< rows stored
     std::size_t error_line = 0;  ///< 0 = none
     std::string error;
     std::vector<RejectedRow> rejected;

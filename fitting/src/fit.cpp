@@ -339,10 +339,10 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
                 : "sandwich H^-1 M H^-1 (heteroscedasticity-consistent, HC0; no sigma columns)";
     }
     // On all valid samples: from the prepared ones when they are those (no reduction).
-    result.metrics = ps_used && reduced.empty()
-                         ? detail::evaluate_metrics(
-                               result.model, valid, o.relative_floor, *ps_used, ctx.threads)
-                         : evaluate_metrics(result.model, valid, o.relative_floor);
+    result.metrics =
+        ps_used && reduced.empty()
+            ? detail::evaluate_metrics(result.model, valid, o.relative_floor, *ps_used, ctx.threads)
+            : evaluate_metrics(result.model, valid, o.relative_floor);
     result.goodness = detail::judge(result.metrics, chi2, valid.size(), result.model);
     result.solver.usable = result.solver.converged && result.goodness.represents;
     result.solver.wall_time_s = std::chrono::duration<double>(detail::Clock::now() - t0).count();

@@ -113,9 +113,8 @@ Metrics metrics_of(const std::vector<Sample>& samples, double relative_floor, co
         [&](std::size_t, std::size_t b, std::size_t e) {
             for (std::size_t c = b; c < e; ++c) {
                 std::vector<double>& v = rel[c];
-                v.erase(
-                    std::remove_if(v.begin(), v.end(), [](double x) { return std::isnan(x); }),
-                    v.end());
+                v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return std::isnan(x); }),
+                        v.end());
                 if (!v.empty()) {
                     const std::size_t k = (v.size() - 1) / 2;
                     std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
@@ -146,17 +145,16 @@ Metrics metrics_of(const std::vector<Sample>& samples, double relative_floor, co
 Metrics evaluate_metrics(const ModelD& model,
                          const std::vector<Sample>& samples,
                          double relative_floor) {
-    return metrics_of(
-        samples,
-        relative_floor,
-        [&](std::size_t i, Rgbd& f, double& cos_i, double& cos_h, double*) {
-            const brdf::Vec3d wi = samples[i].wi();
-            const brdf::Vec3d wo = samples[i].wo();
-            f = brdf::eval_model(model, wi, wo);
-            cos_i = wi.z();
-            cos_h = (wi.z() + wo.z()) / (wi + wo).norm();
-            return false;
-        });
+    return metrics_of(samples,
+                      relative_floor,
+                      [&](std::size_t i, Rgbd& f, double& cos_i, double& cos_h, double*) {
+                          const brdf::Vec3d wi = samples[i].wi();
+                          const brdf::Vec3d wo = samples[i].wo();
+                          f = brdf::eval_model(model, wi, wo);
+                          cos_i = wi.z();
+                          cos_h = (wi.z() + wo.z()) / (wi + wo).norm();
+                          return false;
+                      });
 }
 
 namespace detail {
@@ -187,20 +185,19 @@ Metrics evaluate_metrics(const ModelD& model,
             log1p_packets(log_m.data() + 3 * b, log_m.data() + 3 * b, 3 * (e - b));
         });
     }
-    return metrics_of(
-        samples,
-        relative_floor,
-        [&](std::size_t i, Rgbd& f, double& cos_i, double& cos_h, double* log_r) {
-            f = values[i];
-            cos_i = ps.cos_i(i);
-            cos_h = ps.cos_h(i);
-            if (log_form) {
-                for (int c = 0; c < 3; ++c) {
-                    log_r[c] = log_m[3 * i + c] - ps.log_of_data(c, i);
-                }
-            }
-            return log_form;
-        });
+    return metrics_of(samples,
+                      relative_floor,
+                      [&](std::size_t i, Rgbd& f, double& cos_i, double& cos_h, double* log_r) {
+                          f = values[i];
+                          cos_i = ps.cos_i(i);
+                          cos_h = ps.cos_h(i);
+                          if (log_form) {
+                              for (int c = 0; c < 3; ++c) {
+                                  log_r[c] = log_m[3 * i + c] - ps.log_of_data(c, i);
+                              }
+                          }
+                          return log_form;
+                      });
 }
 
 }  // namespace detail

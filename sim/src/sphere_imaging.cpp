@@ -31,8 +31,8 @@ SphereScene sphere_scene(const SphereImaging& imaging, const SceneState& state) 
     scene.camera = sphere_camera_at_arm(imaging.camera, state.detector_arm_rad);
     if (state.placement > 0 && state.placement <= static_cast<int>(imaging.placements.size())) {
         // The camera's own translation is unchanged by the arm's turn: move it after.
-        scene.camera = zoomed_camera(scene.camera,
-                                     imaging.placements[static_cast<std::size_t>(state.placement - 1)]);
+        scene.camera = zoomed_camera(
+            scene.camera, imaging.placements[static_cast<std::size_t>(state.placement - 1)]);
     }
     scene.centre = imaging.centre;
     scene.radius_m = imaging.radius_m;

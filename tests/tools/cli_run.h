@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -54,6 +55,24 @@ inline std::string run_gonio(const std::string& args, int* status) {
 }
 
 /// A fresh folder for the running test: GONIO_BINARY_DIR/tests/<prefix>_<test name>.
+/// GONIO_BINARY_DIR/<group>/<name>_<pid>, removed if it was there, with its parent created; the
+/// folder itself is created when `create` (a campaign's --out must not exist before the campaign).
+inline std::string test_folder(const std::string& group, const std::string& name, bool create) {
+    const std::filesystem::path d =
+        std::filesystem::path(GONIO_BINARY_DIR) / group / (name + "_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(d);
+    std::filesystem::create_directories(create ? d : d.parent_path());
+    return d.string();
+}
+
+/// The whole content of a file ("" when it cannot be read).
+inline std::string read_text(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
 inline std::filesystem::path fresh_test_dir(const std::string& prefix) {
     const std::filesystem::path dir =
         std::filesystem::path(GONIO_BINARY_DIR) / "tests" /

@@ -23,12 +23,8 @@ namespace fs = std::filesystem;
 
 using gonio::testing::run_gonio;
 
-std::string temp_dir(const char* name) {
-    const std::string d = std::string(GONIO_BINARY_DIR) + "/test_tools_acquire/" + name + "_" +
-                          std::to_string(::getpid());
-    fs::remove_all(d);
-    fs::create_directories(fs::path(d).parent_path());
-    return d;
+std::string temp_dir(const std::string& name) {
+    return gonio::testing::test_folder("test_tools_acquire", name, false);
 }
 
 TEST(AcquireCli, EmbeddedCampaignThenResumeMeasuresNothingTwice) {

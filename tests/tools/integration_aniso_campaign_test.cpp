@@ -27,11 +27,7 @@ namespace fs = std::filesystem;
 using gonio::testing::run_gonio;
 
 std::string temp_dir(const std::string& name) {
-    const std::string d = std::string(GONIO_BINARY_DIR) + "/test_tools_aniso/" + name + "_" +
-                          std::to_string(::getpid());
-    fs::remove_all(d);
-    fs::create_directories(fs::path(d).parent_path());
-    return d;
+    return gonio::testing::test_folder("test_tools_aniso", name, false);
 }
 
 struct Param {

@@ -36,19 +36,10 @@ namespace fs = std::filesystem;
 using gonio::testing::run_gonio;
 
 std::string temp_dir(const std::string& name) {
-    const std::string d = std::string(GONIO_BINARY_DIR) + "/test_tools_image_aniso/" + name + "_" +
-                          std::to_string(::getpid());
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
+    return gonio::testing::test_folder("test_tools_image_aniso", name, true);
 }
 
-std::string read_text(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
+using gonio::testing::read_text;
 
 std::string brushed_model(double ax, double ay, double phi_deg) {
     std::ostringstream m;

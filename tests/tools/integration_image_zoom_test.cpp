@@ -35,19 +35,10 @@ namespace fs = std::filesystem;
 using gonio::testing::run_gonio;
 
 std::string temp_dir(const std::string& name) {
-    const std::string d = std::string(GONIO_BINARY_DIR) + "/test_tools_image_zoom/" + name + "_" +
-                          std::to_string(::getpid());
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
+    return gonio::testing::test_folder("test_tools_image_zoom", name, true);
 }
 
-std::string read_text(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
+using gonio::testing::read_text;
 
 std::string zoom_rig() {
     return std::string(GONIO_SOURCE_DIR) + "/data/rigs/sim-image-zoom.json";
@@ -64,8 +55,7 @@ std::string write_truth(const std::string& dir) {
 }
 
 std::shared_ptr<const brdf::Brdf> truth() {
-    return brdf::make_analytic_brdf(
-        image_test::lambert_ggx(brdf::Rgbd(0.5, 0.4, 0.3), 0.3));
+    return brdf::make_analytic_brdf(image_test::lambert_ggx(brdf::Rgbd(0.5, 0.4, 0.3), 0.3));
 }
 
 /// The campaign of these tests: a 15 x 15 x 30 table on a 128 px camera (the first theta_h row
@@ -138,10 +128,11 @@ TEST(ImageZoom, ZoomedPlacementsFillBinsTheWideViewCannot) {
                 r->sphere.centre.y() * 1e6,
                 r->sphere.centre.z() * 1e6,
                 r->sphere.rms_residual_px);
-    std::printf("coverage of the %zu valid bins: wide view %.2f %%, with zoomed placements %.2f %%\n",
-                r->valid_bins(),
-                100 * wide_coverage,
-                100 * zoom_coverage);
+    std::printf(
+        "coverage of the %zu valid bins: wide view %.2f %%, with zoomed placements %.2f %%\n",
+        r->valid_bins(),
+        100 * wide_coverage,
+        100 * zoom_coverage);
     EXPECT_GT(zoom_coverage, wide_coverage + 0.03);
 
     // The wide frames come first, then the zoomed ones; every zoomed frame was rendered through

@@ -43,12 +43,8 @@ const char* kGlossy = R"({"diffuse": [0.05, 0.03, 0.02], "lobes": [{"distributio
 
 using gonio::testing::run_gonio;
 
-std::string temp_dir(const char* name) {
-    const std::string d = std::string(GONIO_BINARY_DIR) + "/test_tools_vndf/" + name + "_" +
-                          std::to_string(::getpid());
-    fs::remove_all(d);
-    fs::create_directories(fs::path(d).parent_path());
-    return d;
+std::string temp_dir(const std::string& name) {
+    return gonio::testing::test_folder("test_tools_vndf", name, false);
 }
 
 bool in_ci() {

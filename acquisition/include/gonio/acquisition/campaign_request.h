@@ -126,8 +126,9 @@ std::optional<RequestConflict> find_conflict(const CampaignRequest& request);
 
 /// An image-mode option the rig description cannot honour (read without starting anything):
 /// camera_px with a rig whose calibrated camera_model is the camera, max_theta_deg beyond the
-/// rig's geometry.max_theta_deg, no_zoom with a rig without zoomed camera placements. `with` is "rig_path"; the rule names the rig and its limit.
-/// None when the description cannot be read (the run reports that).
+/// rig's geometry.max_theta_deg, no_zoom with a rig without zoomed camera placements. `with` is
+/// "rig_path"; the rule names the rig and its limit. None when the description cannot be read (the
+/// run reports that).
 std::optional<RequestConflict> find_rig_conflict(const CampaignRequest& request);
 
 // ---- the embedded virtual rig ------------------------------------------------------------

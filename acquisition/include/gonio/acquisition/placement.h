@@ -33,7 +33,7 @@ namespace gonio::acquisition {
 
 struct Placement {
     std::string name;
-    double magnification = 1;                ///< Relative to the wide view, >= 1.
+    double magnification = 1;              ///< Relative to the wide view, >= 1.
     std::array<double, 2> offset_m{0, 0};  ///< Camera x, y offset across the axis, metres.
 };
 
