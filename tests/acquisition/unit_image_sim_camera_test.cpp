@@ -189,9 +189,8 @@ void expect_same_zoomed_pixels(bool perspective, double detector_deg) {
     const Eigen::Vector2d c = wide.project(wide_sphere.centre);
     wide_sphere.silhouette.cx = c.x();
     wide_sphere.silhouette.cy = c.y();
-    wide_sphere.silhouette.r = perspective
-                                   ? wide.intrinsics.fx * std::tan(std::asin(0.02 / 0.5))
-                                   : 0.02 * wide.intrinsics.fx;
+    wide_sphere.silhouette.r = perspective ? wide.intrinsics.fx * std::tan(std::asin(0.02 / 0.5))
+                                           : 0.02 * wide.intrinsics.fx;
     const acquisition::SphereGeometry g =
         acquisition::placement_sphere(wide_sphere, cam, p.magnification);
     EXPECT_NEAR(g.silhouette.r, 6 * wide_sphere.silhouette.r, 1e-9);
@@ -214,9 +213,8 @@ void expect_same_zoomed_pixels(bool perspective, double detector_deg) {
         EXPECT_NEAR(wi.dot(wo), t.wi.dot(t.wo), 1e-9);
     }
     if (!perspective) {
-        const Eigen::Vector3d n_cam(0.009 / 0.02,
-                                    -0.004 / 0.02,
-                                    -std::sqrt(1 - (0.45 * 0.45 + 0.2 * 0.2)));
+        const Eigen::Vector3d n_cam(
+            0.009 / 0.02, -0.004 / 0.02, -std::sqrt(1 - (0.45 * 0.45 + 0.2 * 0.2)));
         const brdf::Vec3d want = cam.rotation.transpose() * n_cam;
         // The pixel centres straddle the principal point (63 / 2): the mean of the four.
         brdf::Vec3d got = brdf::Vec3d::Zero();
@@ -253,13 +251,13 @@ TEST(ImageSimCamera, PlacementSeesTheHighlightWhereTheHalfVectorMeetsTheSphere) 
     const acquisition::SphereGeometry z = acquisition::placement_sphere(g, cam, 8);
     // Field: 100 px / (8 * 40 px per radius) = 0.3125 radii across.
     for (const double a_deg : {60.0, 55.0, 65.0}) {
-        EXPECT_TRUE(acquisition::placement_sees_highlight(
-            cam, z, brdf::arm_direction(a_deg * kPi / 180)))
+        EXPECT_TRUE(
+            acquisition::placement_sees_highlight(cam, z, brdf::arm_direction(a_deg * kPi / 180)))
             << a_deg;
     }
     for (const double a_deg : {-60.0, 20.0, 100.0, 180.0}) {
-        EXPECT_FALSE(acquisition::placement_sees_highlight(
-            cam, z, brdf::arm_direction(a_deg * kPi / 180)))
+        EXPECT_FALSE(
+            acquisition::placement_sees_highlight(cam, z, brdf::arm_direction(a_deg * kPi / 180)))
             << a_deg;
     }
 }
