@@ -1,13 +1,22 @@
 #pragma once
 
-// Shared pieces of the image-mode tests: the ground-truth model and how far a measured table is
-// from it.
+// Shared pieces of the image-mode tests: the ground-truth model, how far a measured table is
+// from it, and a campaign killed with SIGKILL in a child process.
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <string>
 #include <vector>
 
+#include "embedded_rig.h"
+#include "gonio/acquisition/campaign_request.h"
 #include "gonio/acquisition/image_binning.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/coords.h"
@@ -58,6 +67,35 @@ inline double median(std::vector<double> v) {
     }
     std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
     return v[v.size() / 2];
+}
+
+/// Starts the embedded image rig of `rig_options` in a forked child and runs
+/// `campaign(rig)` there (it returns whether the campaign succeeded); the child raises SIGKILL at
+/// the `kill_exposure`-th exposure the virtual camera renders (0: never). Returns the child's wait
+/// status: exit 0 (success), 2 (campaign failed), 3 (rig did not start), or killed by SIGKILL.
+template <class Campaign>
+int campaign_in_child(const acquisition::ImageRigOptions& rig_options,
+                      std::uint64_t kill_exposure,
+                      Campaign campaign) {
+    const pid_t pid = fork();
+    if (pid != 0) {
+        int status = 0;
+        waitpid(pid, &status, 0);
+        return status;
+    }
+    auto rig = acquisition::start_image_rig(rig_options, embedded_rig_starter());
+    if (!rig) {
+        std::fprintf(stderr, "child: %s\n", rig.error().message.c_str());
+        _exit(3);
+    }
+    if (kill_exposure > 0) {
+        simulator(**rig)->world().set_exposure_hook([kill_exposure](std::uint64_t n) {
+            if (n == kill_exposure) {
+                ::raise(SIGKILL);
+            }
+        });
+    }
+    _exit(campaign(**rig) ? 0 : 2);
 }
 
 }  // namespace gonio::tools::image_test

@@ -28,6 +28,7 @@
 #include "gonio/acquisition/campaign_request.h"
 #include "gonio/acquisition/image_journal.h"
 #include "gonio/brdf/dataset.h"
+#include "image_test_support.h"
 
 namespace gonio::tools {
 namespace {
@@ -283,33 +284,20 @@ int killed_child(const Campaign& o,
                  const std::string& journal,
                  std::uint64_t kill_exposure,
                  std::size_t kill_after_frames) {
-    const pid_t pid = fork();
-    if (pid != 0) {
-        int status = 0;
-        waitpid(pid, &status, 0);
-        return status;
-    }
-    auto rig = start_rig(o);
-    if (!rig) {
-        std::fprintf(stderr, "child: %s\n", rig.error().message.c_str());
-        _exit(3);
-    }
-    if (kill_exposure > 0) {
-        simulator(**rig)->world().set_exposure_hook([kill_exposure](std::uint64_t n) {
-            if (n == kill_exposure) {
+    return image_test::campaign_in_child(o.rig, kill_exposure, [&](acquisition::ImageRig& rig) {
+        const acquisition::ImageCampaignConfig cfg = config_of(o, rig);
+        auto progress = [kill_after_frames](std::size_t i, const acquisition::FrameRecord&) {
+            if (kill_after_frames > 0 && i + 1 == kill_after_frames) {
                 ::raise(SIGKILL);
             }
-        });
-    }
-    const acquisition::ImageCampaignConfig cfg = config_of(o, **rig);
-    auto progress = [kill_after_frames](std::size_t i, const acquisition::FrameRecord&) {
-        if (kill_after_frames > 0 && i + 1 == kill_after_frames) {
-            ::raise(SIGKILL);
-        }
-    };
-    auto r = acquisition::run_image_campaign(
-        acquisition::image_rig_capture(**rig, cfg.detector_arm_rad, true), cfg, progress, journal);
-    _exit(r ? 0 : 2);
+        };
+        return acquisition::run_image_campaign(
+                   acquisition::image_rig_capture(rig, cfg.detector_arm_rad, true),
+                   cfg,
+                   progress,
+                   journal)
+            .has_value();
+    });
 }
 
 TEST(ImageAnisotropic, KillNineAtThreeMomentsLosesNoPoseAndRepeatsNone) {

@@ -19,6 +19,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
+#include "cli_run.h"
 #include "embedded_rig.h"
 #include "gonio/acquisition/campaign_request.h"
 #include "gonio/acquisition/image_journal.h"
@@ -528,44 +529,21 @@ int journaled_child(const JournaledCampaign& o,
                     const std::string& journal,
                     std::uint64_t kill_exposure,
                     std::size_t kill_after_frames) {
-    const pid_t pid = fork();
-    if (pid != 0) {
-        int status = 0;
-        waitpid(pid, &status, 0);
-        return status;
-    }
-    auto rig = start_rig(o);
-    if (!rig) {
-        std::fprintf(stderr, "child: %s\n", rig.error().message.c_str());
-        _exit(3);
-    }
-    if (kill_exposure > 0) {
-        simulator(**rig)->world().set_exposure_hook([kill_exposure](std::uint64_t n) {
-            if (n == kill_exposure) {
+    return image_test::campaign_in_child(o.rig, kill_exposure, [&](acquisition::ImageRig& rig) {
+        const acquisition::ImageCampaignConfig cfg = acquisition::image_campaign_config(
+            rig.rig, rig.camera, o.table_factor, o.coverage_target, o.max_frames);
+        auto progress = [kill_after_frames](std::size_t i, const acquisition::FrameRecord&) {
+            if (kill_after_frames > 0 && i + 1 == kill_after_frames) {
                 ::raise(SIGKILL);
             }
-        });
-    }
-    const acquisition::ImageCampaignConfig cfg = acquisition::image_campaign_config(
-        (*rig)->rig, (*rig)->camera, o.table_factor, o.coverage_target, o.max_frames);
-    auto progress = [kill_after_frames](std::size_t i, const acquisition::FrameRecord&) {
-        if (kill_after_frames > 0 && i + 1 == kill_after_frames) {
-            ::raise(SIGKILL);
+        };
+        auto r = acquisition::run_image_campaign(
+            acquisition::image_rig_capture(rig, cfg.detector_arm_rad), cfg, progress, journal);
+        if (!r) {
+            std::fprintf(stderr, "child: %s\n", r.error().message.c_str());
         }
-    };
-    auto r = acquisition::run_image_campaign(
-        acquisition::image_rig_capture(**rig, cfg.detector_arm_rad), cfg, progress, journal);
-    if (!r) {
-        std::fprintf(stderr, "child: %s\n", r.error().message.c_str());
-    }
-    _exit(r ? 0 : 2);
-}
-
-std::string file_bytes(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
+        return r.has_value();
+    });
 }
 
 TEST(ImageResume, KillNineAtThreeMomentsLosesNoFrameAndRepeatsNone) {
@@ -598,7 +576,7 @@ TEST(ImageResume, KillNineAtThreeMomentsLosesNoFrameAndRepeatsNone) {
     // 2. Right after the second frame is journaled, before the arm moves on.
     st = journaled_child(o, journal, 0, 2);
     ASSERT_TRUE(WIFSIGNALED(st) && WTERMSIG(st) == SIGKILL) << "status " << st;
-    const std::string after_two = file_bytes(journal);
+    const std::string after_two = gonio::testing::read_text(journal);
     {
         auto j = acquisition::ImageJournal::open(journal);
         ASSERT_TRUE(j) << j.error().message;
@@ -608,7 +586,7 @@ TEST(ImageResume, KillNineAtThreeMomentsLosesNoFrameAndRepeatsNone) {
     // 3. In the middle of a later frame's captures (the resumed run takes no set-up exposures).
     st = journaled_child(o, journal, 20, 0);
     ASSERT_TRUE(WIFSIGNALED(st) && WTERMSIG(st) == SIGKILL) << "status " << st;
-    const std::string after_three = file_bytes(journal);
+    const std::string after_three = gonio::testing::read_text(journal);
     ASSERT_GE(after_three.size(), after_two.size());
     EXPECT_EQ(after_three.substr(0, after_two.size()), after_two) << "a journaled frame was lost";
     std::size_t frames_at_kill = 0;
@@ -633,7 +611,7 @@ TEST(ImageResume, KillNineAtThreeMomentsLosesNoFrameAndRepeatsNone) {
     // Only new frames were captured: no reference, no silhouette.
     const std::size_t new_frames = r->frames.size() - frames_at_kill;
     EXPECT_GE(simulator(**rig)->camera().frames_rendered() - rendered_before, 3 * new_frames);
-    const std::string final_bytes = file_bytes(journal);
+    const std::string final_bytes = gonio::testing::read_text(journal);
     EXPECT_EQ(final_bytes.substr(0, after_three.size()), after_three);
 
     auto j = acquisition::ImageJournal::open(journal);
@@ -670,7 +648,7 @@ TEST(ImageResume, KillNineAtThreeMomentsLosesNoFrameAndRepeatsNone) {
     EXPECT_EQ(again->resumed_frames, r->frames.size());
     EXPECT_EQ(again->frames.size(), r->frames.size());
     EXPECT_EQ(simulator(**rig)->camera().frames_rendered(), rendered_done);
-    EXPECT_EQ(file_bytes(journal), final_bytes);
+    EXPECT_EQ(gonio::testing::read_text(journal), final_bytes);
     std::filesystem::remove_all(dir);
 }
 

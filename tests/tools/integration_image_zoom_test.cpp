@@ -215,33 +215,20 @@ int killed_child(const Campaign& o,
                  const std::string& journal,
                  bool after_zoomed,
                  std::uint64_t kill_exposure) {
-    const pid_t pid = fork();
-    if (pid != 0) {
-        int status = 0;
-        waitpid(pid, &status, 0);
-        return status;
-    }
-    auto rig = acquisition::start_image_rig(o.rig, embedded_rig_starter());
-    if (!rig) {
-        std::fprintf(stderr, "child: %s\n", rig.error().message.c_str());
-        _exit(3);
-    }
-    if (kill_exposure > 0) {
-        simulator(**rig)->world().set_exposure_hook([kill_exposure](std::uint64_t n) {
-            if (n == kill_exposure) {
+    return image_test::campaign_in_child(o.rig, kill_exposure, [&](acquisition::ImageRig& rig) {
+        const acquisition::ImageCampaignConfig cfg = config_of(o, rig);
+        auto progress = [after_zoomed](std::size_t, const acquisition::FrameRecord& rec) {
+            if (after_zoomed && rec.placement > 0) {
                 ::raise(SIGKILL);
             }
-        });
-    }
-    const acquisition::ImageCampaignConfig cfg = config_of(o, **rig);
-    auto progress = [after_zoomed](std::size_t, const acquisition::FrameRecord& rec) {
-        if (after_zoomed && rec.placement > 0) {
-            ::raise(SIGKILL);
-        }
-    };
-    auto r = acquisition::run_image_campaign(
-        acquisition::image_rig_capture(**rig, cfg.detector_arm_rad), cfg, progress, journal);
-    _exit(r ? 0 : 2);
+        };
+        return acquisition::run_image_campaign(
+                   acquisition::image_rig_capture(rig, cfg.detector_arm_rad),
+                   cfg,
+                   progress,
+                   journal)
+            .has_value();
+    });
 }
 
 TEST(ImageZoom, KillNineAroundZoomedFramesLosesNoFrameAndRepeatsNone) {
