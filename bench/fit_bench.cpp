@@ -28,6 +28,7 @@
 //   gonio_fit_bench [--table=ngan86.md] [google-benchmark flags]
 
 #include <benchmark/benchmark.h>
+#include <malloc.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -454,6 +455,11 @@ void Ngan86(benchmark::State& state) {
 }  // namespace
 
 int main(int argc, char** argv) {
+    // The allocator settings of the `gonio` command (tools/main.cpp): freed memory is kept, so
+    // that a repeated fit does not fault its buffers in again after glibc trimmed the heap.
+    mallopt(M_MMAP_THRESHOLD, 256 << 20);
+    mallopt(M_TRIM_THRESHOLD, 512 << 20);
+    mallopt(M_TOP_PAD, 64 << 20);
     std::vector<char*> args;
     for (int i = 0; i < argc; ++i) {
         if (std::strncmp(argv[i], "--table=", 8) == 0) {

@@ -253,7 +253,8 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
             "fit options: starts >= 1, max_iterations >= 1, relative_floor > 0, loss_scale > 0, "
             "polish_iterations >= 0 and reweight_rounds >= 0 are required");
     }
-    FitContext ctx{o, std::make_shared<const ParameterMap>(*map_or), {}, 0, {}, nullptr};
+    FitContext ctx{
+        o, std::make_shared<const ParameterMap>(*map_or), {}, 0, {}, nullptr, {}, nullptr, false};
     ctx.threads = detail::thread_count(o.num_threads);
     ctx.cost.residual = o.residual;
     ctx.cost.relative_floor = o.relative_floor;
@@ -293,8 +294,8 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
     }
     result.solver.starts = static_cast<int>(candidates->size());
     const auto t_solve = detail::Clock::now();
-    detail::screen_starts(ctx, work, *candidates, result.solver);
-    const auto ps_work = detail::prepare(ctx, work);
+    detail::screen_starts(ctx, *candidates, result.solver);
+    const auto ps_work = detail::prepare_work(ctx, work);
     SolveOutcome best = detail::main_solve(
         ctx, ps_work, work, *candidates, coarse.empty() ? "solve" : "reduced", result.solver);
     const bool converged = best.summary.termination_type == ceres::CONVERGENCE;
@@ -318,7 +319,7 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
     std::vector<bool> on_bound;
     canonical_orientations(*ctx.map, best.x);
     collect_parameters(*ctx.map, best.x, result, on_bound);
-    result.vanished_lobes = detail::vanished_lobes(result.model, work);
+    result.vanished_lobes = detail::vanished_lobes(result.model, work, ps_work.get());
     std::optional<double> chi2;
     if (result.solver.converged && o.covariance) {
         if (!ps_used) {

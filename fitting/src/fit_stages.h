@@ -69,6 +69,14 @@ struct FitContext {
     /// reduce_work for the next reduction of the same set (the scoring set and the screen).
     mutable std::vector<StratumCoords> work_coords;
     mutable const std::vector<brdf::Sample>* coords_of = nullptr;
+    /// The scoring set of the starts (a stratified reduction of the working set, or the working
+    /// set itself when it is not larger) and its prepared samples (no robust loss): filled by
+    /// starting_points, shared by the screen and, when it is the whole working set, by the main
+    /// solve (prepare_work), so that its geometry is computed once.
+    mutable std::vector<brdf::Sample> score_set;
+    mutable std::shared_ptr<PreparedSamples> score_ps;
+    /// Whether score_set is the whole working set (no reduction).
+    mutable bool score_set_is_work = false;
 };
 
 using Clock = std::chrono::steady_clock;
@@ -96,13 +104,16 @@ Expected<std::vector<Candidate>> starting_points(const FitContext& ctx,
                                                  const FitSpec& spec,
                                                  const std::vector<brdf::Sample>& work);
 
-/// Short, loose solves from the best-scored starts on a small stratified subset of `work`; those
-/// starts are then ranked by the cost they reach and continue from where they stopped. Records the
-/// stage "screen". Does nothing with a single candidate.
-void screen_starts(const FitContext& ctx,
-                   const std::vector<brdf::Sample>& work,
-                   std::vector<Candidate>& candidates,
-                   SolverInfo& solver);
+/// Short, loose solves from the best-scored starts on ctx.score_set (starting_points: a small
+/// stratified subset of the working set); those starts are then ranked by the cost they reach and
+/// continue from where they stopped. Records the stage "screen". Does nothing with a single
+/// candidate.
+void screen_starts(const FitContext& ctx, std::vector<Candidate>& candidates, SolverInfo& solver);
+
+/// The working set prepared for the main solve: the scoring set's prepared samples when they are
+/// the same samples under the same loss, else a new preparation.
+std::shared_ptr<PreparedSamples> prepare_work(const FitContext& ctx,
+                                              const std::vector<brdf::Sample>& work);
 
 // --- solve.cpp -------------------------------------------------------------------------------
 
@@ -163,9 +174,12 @@ void uncertainties(const PreparedSamples& ps,
 std::vector<double> lobe_shares(const brdf::ModelD& model,
                                 const std::vector<brdf::Sample>& samples);
 
-/// Lobes whose share of the reflectance over `samples` is below 1e-3 ("lobes[0]").
+/// Lobes whose share of the reflectance over `samples` is below 1e-3 ("lobes[0]"). With `ps`
+/// prepared on the same samples, the lobes' values come from its geometry (no sines, cosines or
+/// arctangents per sample; equal to eval_lobe's to rounding).
 std::vector<std::string> vanished_lobes(const brdf::ModelD& model,
-                                        const std::vector<brdf::Sample>& samples);
+                                        const std::vector<brdf::Sample>& samples,
+                                        const PreparedSamples* ps = nullptr);
 
 /// evaluate_metrics (fit.h) from the prepared samples `ps` of the same `samples`: the model values
 /// from the prepared geometry (no sines, cosines or arctangents per sample; equal to

@@ -393,12 +393,57 @@ GoodnessOfFit judge(const Metrics& m,
     return g;
 }
 
-std::vector<std::string> vanished_lobes(const ModelD& model, const std::vector<Sample>& samples) {
+namespace {
+
+/// lobe_shares from the prepared samples `ps` of the same samples: the diffuse term's and each
+/// lobe's values from its geometry, added in the same order, a run of samples at a time (no
+/// buffer that grows with the samples).
+std::vector<double> lobe_shares(const ModelD& model,
+                                const std::vector<Sample>& samples,
+                                const PreparedSamples& ps) {
+    constexpr std::size_t kRun = 256;
+    ModelD diffuse_only = model;
+    diffuse_only.lobes.clear();
+    std::vector<ModelD> lobe_only(model.lobes.size(), diffuse_only);
+    for (std::size_t l = 0; l < model.lobes.size(); ++l) {
+        lobe_only[l].has_diffuse = false;
+        lobe_only[l].lobes.assign(1, model.lobes[l]);
+    }
+    std::vector<double> lobe_sum(model.lobes.size(), 0.0);
+    double total = 0;
+    std::array<Rgbd, kRun> f, lobe;
+    for (std::size_t b = 0; b < samples.size(); b += kRun) {
+        const std::size_t e = std::min(samples.size(), b + kRun);
+        ps.model_values(diffuse_only, b, e, f.data());
+        for (std::size_t l = 0; l < model.lobes.size(); ++l) {
+            ps.model_values(lobe_only[l], b, e, lobe.data());
+            for (std::size_t i = b; i < e; ++i) {
+                f[i - b] += lobe[i - b];
+                lobe_sum[l] += samples[i].weight * lobe[i - b].mean();
+            }
+        }
+        for (std::size_t i = b; i < e; ++i) {
+            total += samples[i].weight * f[i - b].mean();
+        }
+    }
+    for (double& v : lobe_sum) {
+        v = total > 0 ? v / total : 0.0;
+    }
+    return lobe_sum;
+}
+
+}  // namespace
+
+std::vector<std::string> vanished_lobes(const ModelD& model,
+                                        const std::vector<Sample>& samples,
+                                        const PreparedSamples* ps) {
     std::vector<std::string> out;
     if (model.lobes.empty()) {
         return out;
     }
-    const std::vector<double> share = lobe_shares(model, samples);
+    const std::vector<double> share = ps != nullptr && ps->size() == samples.size()
+                                          ? lobe_shares(model, samples, *ps)
+                                          : lobe_shares(model, samples);
     for (std::size_t l = 0; l < share.size(); ++l) {
         if (!(share[l] >= kVanishedShare)) {
             out.push_back("lobes[" + std::to_string(l) + "]");

@@ -18,13 +18,13 @@ using brdf::ModelD;
 using brdf::Rgbd;
 using brdf::Sample;
 
-// Samples that score the multi-start candidates: each of the 13 candidates costs three passes
-// over them (two for its linear terms, one for its cost), which dominated a fit of a few thousand
-// points at 4000; 1500 stratified samples rank the starts as the screen's solves do.
+// Samples that score the multi-start candidates and on which the screen's short solves rank the
+// best of them (prepared once for both): each of the 13 candidates costs two or three passes
+// over them (one or two for its linear terms, one for its cost), which dominated a fit of a few
+// thousand points at 4000; 1500 stratified samples rank the starts as the screen's solves do.
 constexpr std::size_t kScoreSamples = 1500;
-constexpr std::size_t kScreenSamples = 1500;  // short solves that rank the best starts
-constexpr std::size_t kScreenStarts = 4;      // starts screened by a short solve
-constexpr int kScreenIterations = 15;         // iterations of a screening solve
+constexpr std::size_t kScreenStarts = 4;  // starts screened by a short solve
+constexpr int kScreenIterations = 15;     // iterations of a screening solve
 
 /// Objective value (1/2 sum of squared residuals, as Ceres reports it) of a model on prepared
 /// samples; infinity when a residual is not finite.
@@ -49,27 +49,42 @@ double percentile(std::vector<double> v, double q) {
 /// Alpha estimated from the width of the specular peak above the diffuse floor: the largest
 /// tan(theta_h) whose excess is at least half the peak's, divided by the half-maximum point of
 /// the distribution in units of alpha (GGX: (1 + t^2/a^2)^-2 = 1/2 at t = a sqrt(sqrt 2 - 1);
-/// Beckmann: exp(-t^2/a^2) = 1/2 at t = a sqrt(ln 2)). Returns 0 when there is no peak.
-double estimate_alpha(const std::vector<Sample>& samples, const Rgbd& floor, brdf::Distribution d) {
+/// Beckmann: exp(-t^2/a^2) = 1/2 at t = a sqrt(ln 2)). Returns 0 when there is no peak. cos
+/// theta_h comes from `ps`, prepared on `samples` (has_cos_h), or from the directions.
+double estimate_alpha(const std::vector<Sample>& samples,
+                      const PreparedSamples& ps,
+                      const Rgbd& floor,
+                      brdf::Distribution d) {
     std::vector<double> excess(samples.size());
     std::vector<double> tan_h(samples.size());
+    const bool prepared = ps.has_cos_h() && ps.size() == samples.size();
     double peak = 0;
     for (std::size_t i = 0; i < samples.size(); ++i) {
-        const brdf::Vec3d wi = samples[i].wi();
-        const brdf::Vec3d wo = samples[i].wo();
-        brdf::Vec3d h = wi + wo;
-        const double norm = h.norm();
-        if (norm == 0) {
-            // Opposite directions: no half vector, no information on the lobe.
-            tan_h[i] = 1e9;
-            excess[i] = 0;
-            continue;
+        double cos_i, cos_o, h_z;
+        if (prepared) {
+            // Both directions above the horizon (fit() validates them): h is defined.
+            cos_i = ps.cos_i(i);
+            cos_o = std::cos(samples[i].theta_o);
+            h_z = ps.cos_h(i);
+        } else {
+            const brdf::Vec3d wi = samples[i].wi();
+            const brdf::Vec3d wo = samples[i].wo();
+            const brdf::Vec3d h = wi + wo;
+            const double norm = h.norm();
+            if (norm == 0) {
+                // Opposite directions: no half vector, no information on the lobe.
+                tan_h[i] = 1e9;
+                excess[i] = 0;
+                continue;
+            }
+            cos_i = wi.z();
+            cos_o = wo.z();
+            h_z = h.z() / norm;
         }
-        h /= norm;
-        const double cos_h = std::max(h.z(), 1e-9);
+        const double cos_h = std::max(h_z, 1e-9);
         tan_h[i] = std::sqrt(std::max(0.0, 1 - cos_h * cos_h)) / cos_h;
         // Projected-area form: D times 4 cos_i cos_o removes the 1/(cos cos) foreshortening.
-        excess[i] = ((samples[i].value - floor * brdf::kInvPi).sum() / 3) * wi.z() * wo.z();
+        excess[i] = ((samples[i].value - floor * brdf::kInvPi).sum() / 3) * cos_i * cos_o;
         peak = std::max(peak, excess[i]);
     }
     if (!(peak > 0)) {
@@ -121,6 +136,21 @@ const ScalarParam* find_free(const ParameterMap& map, Field f, int lobe, int cha
     return nullptr;
 }
 
+/// The weights of linear_init's least squares, w_c = weight / (d_c + floor)^2 per sample and
+/// channel: they depend on the data alone, so they are computed once for every start.
+struct LinearWeights {
+    std::vector<double> w[3];
+    LinearWeights(const std::vector<Sample>& samples, double floor) {
+        for (int c = 0; c < 3; ++c) {
+            w[c].resize(samples.size());
+            for (std::size_t i = 0; i < samples.size(); ++i) {
+                const double d = samples[i].value[c];
+                w[c][i] = samples[i].weight / ((d + floor) * (d + floor));
+            }
+        }
+    }
+};
+
 /// Linear least squares of the terms that enter the model linearly, per channel, given the
 /// shapes: the diffuse albedo and lobe 0's amplitude (its scale, or Schlick's f0 when the scale is
 /// fixed: F = x^5 + f0 (1 - x^5) is linear in f0). Relative weights 1 / (d + floor)^2 so that the
@@ -130,7 +160,7 @@ void linear_init(ModelD& m,
                  const ParameterMap& map,
                  const std::vector<Sample>& samples,
                  const PreparedSamples& prepared,
-                 double floor,
+                 const LinearWeights& lw,
                  int threads) {
     const ScalarParam* rho[3];
     const ScalarParam* amp[3];
@@ -159,24 +189,33 @@ void linear_init(ModelD& m,
     }
     Eigen::Matrix2d a[3];
     Eigen::Vector2d b[3];
-    for (int c = 0; c < 3; ++c) {
-        a[c].setZero();
-        b[c].setZero();
-    }
-    // The basis on the prepared samples (the geometry is computed once for every start).
+    // The basis on the prepared samples (the geometry is computed once for every start). With a
+    // single lobe whose scale is the amplitude, m0 is the zero model: its values are not needed.
+    const bool zero_m0 = m0.lobes.size() == 1 && !amp_is_f0;
     std::vector<Rgbd> v0, v1;
-    prepared.model_values(m0, v0, threads);
+    if (!zero_m0) {
+        prepared.model_values(m0, v0, threads);
+    }
     prepared.model_values(m1, v1, threads);
-    for (std::size_t i = 0; i < samples.size(); ++i) {
-        const Sample& s = samples[i];
-        const Rgbd& f0 = v0[i];
-        const Rgbd& f1 = v1[i];
-        for (int c = 0; c < 3; ++c) {
-            const double w = s.weight / ((s.value[c] + floor) * (s.value[c] + floor));
-            const Eigen::Vector2d basis(brdf::kInvPi, f1[c] - f0[c]);
-            a[c] += w * basis * basis.transpose();
-            b[c] += w * basis * (s.value[c] - f0[c]);
+    constexpr double b0 = brdf::kInvPi;
+    for (int c = 0; c < 3; ++c) {
+        // Sums of w basis basis^T and w basis (d - f0), basis = (1/pi, f1 - f0), in sample order.
+        double a00 = 0, a01 = 0, a11 = 0, r0 = 0, r1 = 0;
+        const double* w = lw.w[c].data();
+        for (std::size_t i = 0; i < samples.size(); ++i) {
+            const double f0 = zero_m0 ? 0.0 : v0[i][c];
+            const double b1 = v1[i][c] - f0;
+            const double res = samples[i].value[c] - f0;
+            const double wb0 = w[i] * b0;
+            const double wb1 = w[i] * b1;
+            a00 += wb0 * b0;
+            a01 += wb0 * b1;
+            a11 += wb1 * b1;
+            r0 += wb0 * res;
+            r1 += wb1 * res;
         }
+        a[c] << a00, a01, a01, a11;
+        b[c] << r0, r1;
     }
     double u_rho[3] = {0, 0, 0};
     double u_amp[3] = {0, 0, 0};
@@ -241,17 +280,16 @@ std::vector<double> clamp_start(const ParameterMap& map, std::vector<double> x) 
 }
 
 /// Data-driven starts scored by the objective, best first.
-std::vector<Candidate> initial_candidates(const std::shared_ptr<const ParameterMap>& map_ptr,
+std::vector<Candidate> initial_candidates(const ParameterMap& map,
                                           const std::vector<Sample>& score_set,
-                                          const FitOptions& o,
-                                          const CostOptions& co) {
-    const ParameterMap& map = *map_ptr;
-    const PreparedSamples scorer(map_ptr, score_set, co);
+                                          const PreparedSamples& scorer,
+                                          const FitOptions& o) {
     const int threads = thread_count(o.num_threads);
+    const LinearWeights lw(score_set, o.relative_floor);
     ModelD m = map.base();
     std::vector<Candidate> out;
     if (m.lobes.empty()) {
-        linear_init(m, map, score_set, scorer, o.relative_floor, threads);
+        linear_init(m, map, score_set, scorer, lw, threads);
         Candidate c{clamp_start(map, map.values_of(m)), 0};
         c.cost = objective(scorer, c.x, threads);
         out.push_back(c);
@@ -261,9 +299,12 @@ std::vector<Candidate> initial_candidates(const std::shared_ptr<const ParameterM
     // direction (theta_h > 45 degrees), or of all samples when there are none.
     std::vector<char> is_far(score_set.size());
     std::size_t n_far = 0;
+    const bool prepared_h = scorer.has_cos_h() && scorer.size() == score_set.size();
+    const double cos_far = std::cos(brdf::kPi / 4);
     for (std::size_t i = 0; i < score_set.size(); ++i) {
-        const brdf::HalfDiff<double> hd = brdf::to_half_diff(score_set[i].wi(), score_set[i].wo());
-        is_far[i] = hd.theta_h > brdf::kPi / 4;
+        is_far[i] = prepared_h ? scorer.cos_h(i) < cos_far
+                               : brdf::to_half_diff(score_set[i].wi(), score_set[i].wo()).theta_h >
+                                     brdf::kPi / 4;
         n_far += is_far[i];
     }
     Rgbd floor = Rgbd::Zero();
@@ -277,7 +318,7 @@ std::vector<Candidate> initial_candidates(const std::shared_ptr<const ParameterM
         }
         floor[c] = brdf::kPi * percentile(std::move(v), 0.2);
     }
-    double alpha = estimate_alpha(score_set, floor, m.lobes[0].distribution);
+    double alpha = estimate_alpha(score_set, scorer, floor, m.lobes[0].distribution);
     if (!(alpha > 0) || !std::isfinite(alpha)) {
         alpha = 0.3;
     }
@@ -303,7 +344,7 @@ std::vector<Candidate> initial_candidates(const std::shared_ptr<const ParameterM
             // Further lobes start wider, by a factor of 3 each.
             set_shape(mc, map, i, a * std::pow(3.0, i));
         }
-        linear_init(mc, map, score_set, scorer, o.relative_floor, threads);
+        linear_init(mc, map, score_set, scorer, lw, threads);
         Candidate c{clamp_start(map, map.values_of(mc)), 0};
         c.cost = objective(scorer, c.x, threads);
         out.push_back(c);
@@ -334,7 +375,7 @@ std::vector<Candidate> initial_candidates(const std::shared_ptr<const ParameterM
             if (!turned) {
                 break;
             }
-            linear_init(mc, map, score_set, scorer, o.relative_floor, threads);
+            linear_init(mc, map, score_set, scorer, lw, threads);
             Candidate c{clamp_start(map, map.values_of(mc)), 0};
             c.cost = objective(scorer, c.x, threads);
             out.push_back(c);
@@ -366,10 +407,10 @@ Expected<std::vector<Candidate>> starting_points(const FitContext& ctx,
                                                  const FitSpec& spec,
                                                  const std::vector<Sample>& work) {
     if (ctx.options.auto_init) {
-        return initial_candidates(ctx.map,
-                                  reduce_work(ctx, work, kScoreSamples, ctx.options.seed),
-                                  ctx.options,
-                                  ctx.cost);
+        ctx.score_set = reduce_work(ctx, work, kScoreSamples, ctx.options.seed);
+        ctx.score_set_is_work = ctx.score_set.size() == work.size();
+        ctx.score_ps = std::make_shared<PreparedSamples>(ctx.map, ctx.score_set, ctx.cost);
+        return initial_candidates(*ctx.map, ctx.score_set, *ctx.score_ps, ctx.options);
     }
     std::vector<Candidate> candidates;
     candidates.push_back({ctx.map->values_of(spec.model), 0});
@@ -384,21 +425,30 @@ Expected<std::vector<Candidate>> starting_points(const FitContext& ctx,
     return candidates;
 }
 
+std::shared_ptr<PreparedSamples> prepare_work(const FitContext& ctx,
+                                              const std::vector<Sample>& work) {
+    if (ctx.score_ps && ctx.score_set_is_work && ctx.options.loss == LossKind::kNone &&
+        ctx.score_set.size() == work.size()) {
+        return ctx.score_ps;
+    }
+    return prepare(ctx, work);
+}
+
 // A start's raw cost misleads when its width is right but its amplitudes are not (for example a
 // narrow lobe under a grid that misses most of its peak), and a full solve from a wrong start ends
 // in a local minimum: the tails of a wide lobe standing in for the diffuse term. Hence the short
 // solves before the ranking.
-void screen_starts(const FitContext& ctx,
-                   const std::vector<Sample>& work,
-                   std::vector<Candidate>& candidates,
-                   SolverInfo& solver) {
+void screen_starts(const FitContext& ctx, std::vector<Candidate>& candidates, SolverInfo& solver) {
     const FitOptions& o = ctx.options;
     if (!o.auto_init || candidates.size() <= 1 || o.check_gradients) {
         return;
     }
     const auto since = Clock::now();
-    const std::vector<Sample> screen = reduce_work(ctx, work, kScreenSamples, o.seed + 2);
-    const auto ps_screen = prepare(ctx, screen);
+    // The scoring set, prepared once: the screen ranks the starts on the samples that scored
+    // them (with the fit's robust loss, when it has one, on a preparation of its own).
+    const std::vector<Sample>& screen = ctx.score_set;
+    const std::shared_ptr<const PreparedSamples> ps_screen =
+        o.loss == LossKind::kNone ? ctx.score_ps : prepare(ctx, screen);
     const std::size_t k = std::min(candidates.size(), kScreenStarts);
     ceres::Solver::Summary last;
     int its = 0;

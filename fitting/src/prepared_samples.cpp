@@ -1260,6 +1260,16 @@ void PreparedSamples::model_values(const brdf::ModelD& m,
     });
 }
 
+void PreparedSamples::model_values(const brdf::ModelD& m,
+                                   std::size_t begin,
+                                   std::size_t end,
+                                   brdf::Rgbd* out) const {
+    GONIO_CHECK(begin <= end && end <= n_);
+    for (std::size_t i = begin; i < end; ++i) {
+        out[i - begin] = eval(m, i);
+    }
+}
+
 void PreparedSamples::reweight_relative(const std::vector<brdf::Sample>& samples,
                                         const std::vector<brdf::Rgbd>& model) {
     GONIO_CHECK(samples.size() == n_ && model.size() == n_);

@@ -75,6 +75,11 @@ class PreparedSamples {
 
     /// Model values (RGB, 1/sr) of every sample at the model `m`.
     void model_values(const brdf::ModelD& m, std::vector<brdf::Rgbd>& out, int threads) const;
+    /// Model values of samples [begin, end) into out[0, end - begin), on the calling thread.
+    void model_values(const brdf::ModelD& m,
+                      std::size_t begin,
+                      std::size_t end,
+                      brdf::Rgbd* out) const;
 
     /// Iteratively reweighted relative noise: replaces each residual's factor s by the one of a
     /// one-sigma uncertainty rel * m evaluated at the model value m (not at the measured value,
