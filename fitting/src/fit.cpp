@@ -254,7 +254,7 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
             "polish_iterations >= 0 and reweight_rounds >= 0 are required");
     }
     FitContext ctx{
-        o, std::make_shared<const ParameterMap>(*map_or), {}, 0, {}, nullptr, {}, nullptr, false};
+        o, std::make_shared<const ParameterMap>(*map_or), {}, 0, {}, nullptr, nullptr, nullptr, {}};
     ctx.threads = detail::thread_count(o.num_threads);
     ctx.cost.residual = o.residual;
     ctx.cost.relative_floor = o.relative_floor;

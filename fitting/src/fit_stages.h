@@ -73,10 +73,10 @@ struct FitContext {
     /// set itself when it is not larger) and its prepared samples (no robust loss): filled by
     /// starting_points, shared by the screen and, when it is the whole working set, by the main
     /// solve (prepare_work), so that its geometry is computed once.
-    mutable std::vector<brdf::Sample> score_set;
+    mutable const std::vector<brdf::Sample>* score_set = nullptr;
     mutable std::shared_ptr<PreparedSamples> score_ps;
-    /// Whether score_set is the whole working set (no reduction).
-    mutable bool score_set_is_work = false;
+    /// The reduction that score_set points to, when it is not the working set itself.
+    mutable std::vector<brdf::Sample> score_reduction;
 };
 
 using Clock = std::chrono::steady_clock;
@@ -104,7 +104,7 @@ Expected<std::vector<Candidate>> starting_points(const FitContext& ctx,
                                                  const FitSpec& spec,
                                                  const std::vector<brdf::Sample>& work);
 
-/// Short, loose solves from the best-scored starts on ctx.score_set (starting_points: a small
+/// Short, loose solves from the best-scored starts on *ctx.score_set (starting_points: a small
 /// stratified subset of the working set); those starts are then ranked by the cost they reach and
 /// continue from where they stopped. Records the stage "screen". Does nothing with a single
 /// candidate.

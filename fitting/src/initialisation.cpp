@@ -407,10 +407,14 @@ Expected<std::vector<Candidate>> starting_points(const FitContext& ctx,
                                                  const FitSpec& spec,
                                                  const std::vector<Sample>& work) {
     if (ctx.options.auto_init) {
-        ctx.score_set = reduce_work(ctx, work, kScoreSamples, ctx.options.seed);
-        ctx.score_set_is_work = ctx.score_set.size() == work.size();
-        ctx.score_ps = std::make_shared<PreparedSamples>(ctx.map, ctx.score_set, ctx.cost);
-        return initial_candidates(*ctx.map, ctx.score_set, *ctx.score_ps, ctx.options);
+        // The working set itself when it is not larger (no copy).
+        ctx.score_set = &work;
+        if (work.size() > kScoreSamples) {
+            ctx.score_reduction = reduce_work(ctx, work, kScoreSamples, ctx.options.seed);
+            ctx.score_set = &ctx.score_reduction;
+        }
+        ctx.score_ps = std::make_shared<PreparedSamples>(ctx.map, *ctx.score_set, ctx.cost);
+        return initial_candidates(*ctx.map, *ctx.score_set, *ctx.score_ps, ctx.options);
     }
     std::vector<Candidate> candidates;
     candidates.push_back({ctx.map->values_of(spec.model), 0});
@@ -427,8 +431,7 @@ Expected<std::vector<Candidate>> starting_points(const FitContext& ctx,
 
 std::shared_ptr<PreparedSamples> prepare_work(const FitContext& ctx,
                                               const std::vector<Sample>& work) {
-    if (ctx.score_ps && ctx.score_set_is_work && ctx.options.loss == LossKind::kNone &&
-        ctx.score_set.size() == work.size()) {
+    if (ctx.score_ps && ctx.score_set == &work && ctx.options.loss == LossKind::kNone) {
         return ctx.score_ps;
     }
     return prepare(ctx, work);
@@ -446,7 +449,7 @@ void screen_starts(const FitContext& ctx, std::vector<Candidate>& candidates, So
     const auto since = Clock::now();
     // The scoring set, prepared once: the screen ranks the starts on the samples that scored
     // them (with the fit's robust loss, when it has one, on a preparation of its own).
-    const std::vector<Sample>& screen = ctx.score_set;
+    const std::vector<Sample>& screen = *ctx.score_set;
     const std::shared_ptr<const PreparedSamples> ps_screen =
         o.loss == LossKind::kNone ? ctx.score_ps : prepare(ctx, screen);
     const std::size_t k = std::min(candidates.size(), kScreenStarts);
