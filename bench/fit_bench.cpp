@@ -17,7 +17,7 @@
 //                               directions (1k, 6k, 100k, 1M): in process (solver.wall_time_s
 //                               and CPU), `gonio fit` (wall) and scipy least_squares, same CSV,
 //                               same run
-//   FitCpu/samples:<n>          the default fit alone of the size table's CSV (1k, 6k), repeated:
+//   FitCpu/samples:<n>          the default fit alone of the size table's CSV (1k, 6k, 100k), repeated:
 //                               process CPU per fit (both threads), log RMSE
 //   CsvRead                     read_dataset_csv of a 1M-row CSV written by write_dataset_csv
 //   GonioVsScipy                `gonio fit DATA.csv` and bench/scipy_fit.py (Debian python3-scipy,
@@ -511,7 +511,7 @@ int main(int argc, char** argv) {
             ->Iterations(1)
             ->Unit(benchmark::kMillisecond);
     }
-    for (long samples : {1000L, 6000L}) {
+    for (long samples : {1000L, 6000L, 100000L}) {
         benchmark::RegisterBenchmark("FitCpu", FitCpu)
             ->Arg(samples)
             ->ArgName("samples")

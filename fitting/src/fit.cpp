@@ -282,9 +282,25 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
                                             : std::vector<Sample>{};
     const std::vector<Sample>& used = reduced.empty() ? valid : reduced;
     result.samples.used = used.size();
-    const std::vector<Sample> coarse = o.coarse_samples > 0 && used.size() > 2 * o.coarse_samples
-                                           ? stratified_reduce(used, o.coarse_samples, o.seed + 1)
-                                           : std::vector<Sample>{};
+    // The coarse set's stratum coordinates are those of its samples in `used`: the scoring set's
+    // reduction of the working set needs no transform of its own.
+    std::vector<std::size_t> coarse_of;
+    const std::vector<Sample> coarse = [&] {
+        if (o.coarse_samples == 0 || used.size() <= 2 * o.coarse_samples) {
+            return std::vector<Sample>{};
+        }
+        const std::vector<StratumCoords> coords = stratum_coordinates(used);
+        std::vector<Sample> out =
+            stratified_reduce(used, o.coarse_samples, o.seed + 1, coords, &coarse_of);
+        ctx.work_coords.resize(coarse_of.size());
+        for (std::size_t i = 0; i < coarse_of.size(); ++i) {
+            ctx.work_coords[i] = coords[coarse_of[i]];
+        }
+        return out;
+    }();
+    if (!coarse.empty()) {
+        ctx.coords_of = &coarse;
+    }
     const std::vector<Sample>& work = coarse.empty() ? used : coarse;
 
     // Starts, screening, main solve, refinement on all samples.

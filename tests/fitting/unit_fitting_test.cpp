@@ -226,6 +226,53 @@ TEST(Reduction, KeepsTheBudgetAndPreservesEachStratumsWeight) {
     EXPECT_EQ(stratified_reduce(all, 50000, 1).size(), all.size());
 }
 
+TEST(Reduction, StratumCoordinatesAreTheHalfDifferenceAngles) {
+    // The coordinates are computed from the half vector's components, not through
+    // brdf::to_half_diff's rotations by the angles: both agree to rounding on random pairs and on
+    // the edges (normal incidence, the mirror direction, theta_h = 0 with wi = wo, grazing, phi
+    // across the wrap, phi_d at 0 and pi).
+    std::vector<Sample> all;
+    std::mt19937_64 rng(17);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    const double kHalfPi = brdf::kPi / 2;
+    for (int i = 0; i < 5000; ++i) {
+        all.push_back(sample(u(rng) * kHalfPi * 0.999,
+                             u(rng) * 12 - 6,
+                             u(rng) * kHalfPi * 0.999,
+                             u(rng) * 12 - 6,
+                             Rgbd::Ones()));
+    }
+    for (double t : {0.0, 1e-9, 0.3, 1.2, kHalfPi - 1e-6}) {
+        for (double p : {0.0, 1e-12, 1.0, brdf::kPi, -brdf::kPi, 2 * brdf::kPi - 1e-12}) {
+            all.push_back(sample(t, p, t, p, Rgbd::Ones()));              // wi = wo
+            all.push_back(sample(t, p, t, p + brdf::kPi, Rgbd::Ones()));  // mirror
+            all.push_back(sample(t, p, 0.4, p + 0.5, Rgbd::Ones()));
+            all.push_back(sample(0.0, 0.0, t, p, Rgbd::Ones()));  // normal incidence
+        }
+    }
+    const std::vector<StratumCoords> coords = stratum_coordinates(all);
+    ASSERT_EQ(coords.size(), all.size());
+    for (std::size_t i = 0; i < all.size(); ++i) {
+        const brdf::HalfDiff<double> hd = brdf::to_half_diff(all[i].wi(), all[i].wo());
+        double phi_d = std::fmod(hd.phi_d, brdf::kPi);
+        if (phi_d < 0) {
+            phi_d += brdf::kPi;
+        }
+        const double want[3] = {std::sqrt(std::clamp(hd.theta_h / kHalfPi, 0.0, 1.0)),
+                                std::clamp(hd.theta_d / kHalfPi, 0.0, 1.0),
+                                phi_d / brdf::kPi};
+        EXPECT_NEAR(coords[i][0], want[0], 1e-7) << "sample " << i;
+        EXPECT_NEAR(coords[i][1], want[1], 1e-12) << "sample " << i;
+        if (hd.theta_d < 1e-6) {
+            // wi = wo: d is the pole, its azimuth is rounding noise in both.
+            continue;
+        }
+        // phi_d folded: 0 and 1 are the same place (rounding may put one on either side).
+        const double dp = std::abs(coords[i][2] - want[2]);
+        EXPECT_LT(std::min(dp, 1 - dp), 1e-9) << "sample " << i << " theta_d " << hd.theta_d;
+    }
+}
+
 TEST(Reduction, CoordinatesComputedOnceGiveTheSameReductions) {
     // The fit reduces its working set twice (scoring set, screen) from one computation of the
     // stratum coordinates: each reduction equals the one that computes them itself, sample for

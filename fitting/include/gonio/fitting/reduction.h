@@ -32,10 +32,12 @@ using StratumCoords = std::array<double, 3>;
 std::vector<StratumCoords> stratum_coordinates(const std::vector<brdf::Sample>& samples);
 
 /// stratified_reduce with the samples' coordinates given (coords[i] of samples[i]): the same
-/// result, without the transform.
+/// result, without the transform. With `kept`, the index in `samples` of each returned sample
+/// (so that the reduction's own coordinates need no transform either).
 std::vector<brdf::Sample> stratified_reduce(const std::vector<brdf::Sample>& samples,
                                             std::size_t budget,
                                             std::uint64_t seed,
-                                            const std::vector<StratumCoords>& coords);
+                                            const std::vector<StratumCoords>& coords,
+                                            std::vector<std::size_t>* kept = nullptr);
 
 }  // namespace gonio::fitting
