@@ -126,8 +126,8 @@ Expected<TabulatedBrdf> parse_merl(const std::uint8_t* data,
     if (size != merl_file_size(grid)) {
         return make_error(size_message(name, size, grid));
     }
-    std::vector<double> raw;
-    resize_huge(raw, 3 * grid.size());
+    TableValues raw;
+    resize_huge_unwritten(raw, 3 * grid.size());
     std::memcpy(raw.data(), data + kHeaderBytes, raw.size() * sizeof(double));
     if (!kHostLittleEndian) {
         swap_doubles(raw.data(), raw.size());
@@ -181,8 +181,9 @@ Expected<TabulatedBrdf> read_merl(const std::string& path, MerlDims dims) {
     if (auto ok = check_memory(static_cast<double>(grid.size()) * (3 * 8 + 1), path); !ok) {
         return tl::unexpected(ok.error());
     }
-    std::vector<double> raw;
-    resize_huge(raw, 3 * grid.size());
+    // Written once, by the read.
+    TableValues raw;
+    resize_huge_unwritten(raw, 3 * grid.size());
     const std::size_t want = raw.size() * sizeof(double);
     const std::size_t got = std::fread(raw.data(), 1, want, f.get());
     if (std::ferror(f.get())) {
@@ -217,10 +218,10 @@ std::vector<std::uint8_t> encode_merl(const TabulatedBrdf& table) {
     write_le_i32(out.data(), grid.n_theta_h);
     write_le_i32(out.data() + 4, grid.n_theta_d);
     write_le_i32(out.data() + 8, grid.n_phi_d);
-    const std::vector<double>& raw = table.raw();
+    const TableValues& raw = table.raw();
     std::memcpy(out.data() + kHeaderBytes, raw.data(), raw.size() * sizeof(double));
     if (!kHostLittleEndian) {
-        std::vector<double> tmp(raw);
+        std::vector<double> tmp(raw.begin(), raw.end());
         swap_doubles(tmp.data(), tmp.size());
         std::memcpy(out.data() + kHeaderBytes, tmp.data(), tmp.size() * sizeof(double));
     }

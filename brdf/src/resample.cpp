@@ -17,49 +17,98 @@ namespace {
 /// Rows of theta_h per chunk of the pool: a MERL row is 16,200 bins.
 constexpr std::size_t kRowGrain = 1;
 
-/// Stores one bin's value, or leaves it invalid and counts why.
-inline void store_bin(TabulatedBrdf& table, std::size_t flat, const Rgbd& f, TabulateReport& r) {
-    if (!f.isFinite().all()) {
-        // Breaks the Brdf contract: keep the bin invalid and count it.
-        ++r.non_finite;
-        return;
-    }
-    if ((f > kMaxTableValue).any()) {
-        // Not storable: left invalid and counted, the caller reports it.
-        ++r.out_of_range;
-        return;
-    }
-    // Rounding can make a tiny negative value in a model; zero is the BRDF's floor.
-    table.set_bin(flat, f.max(0.0));
-    ++r.valid_bins;
+/// Adds what a line store did to a chunk's report.
+void count_line(const LineStoreCounts& c, std::size_t bins, TabulateReport& r) {
+    r.bins += bins;
+    r.valid_bins += c.valid;
+    r.below_horizon += c.no_reflection;
+    r.non_finite += c.non_finite;
+    r.out_of_range += c.out_of_range;
 }
 
-/// Any Brdf, one bin at a time.
+/// Any Brdf, one bin at a time, stored a phi_d line at a time.
 void tabulate_rows(const Brdf& brdf,
                    const TableGrid& grid,
                    TabulatedBrdf& table,
                    std::size_t row_begin,
                    std::size_t row_end,
                    TabulateReport& r) {
+    const std::size_t np = static_cast<std::size_t>(grid.n_phi_d);
+    std::vector<double> buf(3 * np);
+    std::vector<std::uint8_t> reflects(np);
+    const double* const values[3] = {buf.data(), buf.data() + np, buf.data() + 2 * np};
     for (int ih = static_cast<int>(row_begin); ih < static_cast<int>(row_end); ++ih) {
         for (int id = 0; id < grid.n_theta_d; ++id) {
             for (int ip = 0; ip < grid.n_phi_d; ++ip) {
-                const std::size_t flat = grid.index(ih, id, ip);
                 const auto [wi, wo] = grid.centre_directions(ih, id, ip);
-                ++r.bins;
-                if (!(wi.z() > 0) || !(wo.z() > 0)) {
-                    // The pair is not a reflection configuration: no BRDF value.
-                    ++r.below_horizon;
-                    continue;
-                }
-                store_bin(table, flat, brdf.eval(wi, wo), r);
+                const std::size_t k = static_cast<std::size_t>(ip);
+                // A pair below the horizon is not a reflection configuration: no BRDF value.
+                reflects[k] = (wi.z() > 0) && (wo.z() > 0);
+                const Rgbd f = reflects[k] ? brdf.eval(wi, wo) : Rgbd::Zero();
+                buf[k] = f[0];
+                buf[np + k] = f[1];
+                buf[2 * np + k] = f[2];
             }
+            count_line(table.set_line(grid.index(ih, id, 0), np, values, reflects.data()), np, r);
         }
     }
 }
 
+/// The centre directions of the phi_d bins of the line (theta_h, theta_d), given by their sines and
+/// cosines, as structure of arrays wi = (w0, w1, w2), wo = (w3, w4, w5), and whether each pair is a
+/// reflection configuration. The arrays do not overlap (restrict: the loop runs on the vector
+/// unit).
+void line_directions_arrays(std::size_t np,
+                            double cos_h,
+                            double sin_h,
+                            double sin_d,
+                            double cos_d,
+                            const double* __restrict cos_p,
+                            const double* __restrict sin_p,
+                            double* __restrict w0,
+                            double* __restrict w1,
+                            double* __restrict w2,
+                            double* __restrict w3,
+                            double* __restrict w4,
+                            double* __restrict w5,
+                            std::uint8_t* __restrict reflects) {
+    for (std::size_t ip = 0; ip < np; ++ip) {
+        // d = (sin theta_d cos phi_d, sin theta_d sin phi_d, cos theta_d); wi = R_y(theta_h) d;
+        // h = (sin theta_h, 0, cos theta_h); wo = 2 (wi . h) h - wi.
+        const double dx = sin_d * cos_p[ip];
+        const double dy = sin_d * sin_p[ip];
+        const double dz = cos_d;
+        const double ix = cos_h * dx + sin_h * dz;
+        const double iz = -sin_h * dx + cos_h * dz;
+        const double two_dot = 2 * (ix * sin_h + iz * cos_h);
+        w0[ip] = ix;
+        w1[ip] = dy;
+        w2[ip] = iz;
+        w3[ip] = two_dot * sin_h - ix;
+        w4[ip] = -dy;
+        w5[ip] = two_dot * cos_h - iz;
+    }
+    for (std::size_t ip = 0; ip < np; ++ip) {
+        reflects[ip] = static_cast<std::uint8_t>((w2[ip] > 0) & (w5[ip] > 0));
+    }
+}
+
+void line_directions(std::size_t np,
+                     double cos_h,
+                     double sin_h,
+                     double sin_d,
+                     double cos_d,
+                     const double* cos_p,
+                     const double* sin_p,
+                     double* const w[6],
+                     std::uint8_t* reflects) {
+    line_directions_arrays(
+        np, cos_h, sin_h, sin_d, cos_d, cos_p, sin_p, w[0], w[1], w[2], w[3], w[4], w[5], reflects);
+}
+
 /// An analytic model: the directions of a (theta_h, theta_d) line of phi_d bins as structure of
-/// arrays, evaluated a packet at a time (eval_model_packets). The centre directions are those of
+/// arrays, evaluated a packet at a time (eval_model_packets) over the bins of the line that are
+/// reflection configurations, and stored with one set_line(). The centre directions are those of
 /// TableGrid::centre_directions (from_half_diff with phi_h = 0), with the sines and cosines of the
 /// centre angles computed once per axis.
 class ModelRows {
@@ -87,45 +136,44 @@ class ModelRows {
              TabulateReport& r) const {
         const std::size_t np = static_cast<std::size_t>(grid_.n_phi_d);
         std::vector<double> buf(9 * np);
+        std::vector<std::uint8_t> reflects(np);
         double* w[6];
         for (int k = 0; k < 6; ++k) {
             w[k] = buf.data() + k * np;
         }
         double* const out[3] = {buf.data() + 6 * np, buf.data() + 7 * np, buf.data() + 8 * np};
-        const DirectionPairs dirs{w[0], w[1], w[2], w[3], w[4], w[5]};
         for (int ih = static_cast<int>(row_begin); ih < static_cast<int>(row_end); ++ih) {
             const double c = cos_h_[ih];
             const double s = sin_h_[ih];
             for (int id = 0; id < grid_.n_theta_d; ++id) {
-                for (std::size_t ip = 0; ip < np; ++ip) {
-                    // d = (sin theta_d cos phi_d, sin theta_d sin phi_d, cos theta_d); wi =
-                    // R_y(theta_h) d; h = (sin theta_h, 0, cos theta_h); wo = 2 (wi . h) h - wi.
-                    const double dx = sin_d_[id] * cos_p_[ip];
-                    const double dy = sin_d_[id] * sin_p_[ip];
-                    const double dz = cos_d_[id];
-                    const double ix = c * dx + s * dz;
-                    const double iz = -s * dx + c * dz;
-                    const double two_dot = 2 * (ix * s + iz * c);
-                    w[0][ip] = ix;
-                    w[1][ip] = dy;
-                    w[2][ip] = iz;
-                    w[3][ip] = two_dot * s - ix;
-                    w[4][ip] = -dy;
-                    w[5][ip] = two_dot * c - iz;
+                line_directions(np,
+                                c,
+                                s,
+                                sin_d_[id],
+                                cos_d_[id],
+                                cos_p_.data(),
+                                sin_p_.data(),
+                                w,
+                                reflects.data());
+                // The reflection configurations of a line are one run of phi_d: wi_z grows with
+                // phi_d and wo_z = 2 cos theta_d cos theta_h - wi_z falls. Only that run is
+                // evaluated; the flags decide what is stored, so a rounding at the run's ends
+                // cannot store a value of a pair below the horizon.
+                std::size_t lo = 0;
+                std::size_t hi = np;
+                while (lo < hi && reflects[lo] == 0) {
+                    ++lo;
                 }
-                eval_model_packets(model_, np, dirs, out);
-                for (std::size_t ip = 0; ip < np; ++ip) {
-                    ++r.bins;
-                    if (!(w[2][ip] > 0) || !(w[5][ip] > 0)) {
-                        // The pair is not a reflection configuration: no BRDF value.
-                        ++r.below_horizon;
-                        continue;
-                    }
-                    store_bin(table,
-                              grid_.index(ih, id, static_cast<int>(ip)),
-                              Rgbd(out[0][ip], out[1][ip], out[2][ip]),
-                              r);
+                while (hi > lo && reflects[hi - 1] == 0) {
+                    --hi;
                 }
+                if (hi > lo) {
+                    const DirectionPairs dirs{
+                        w[0] + lo, w[1] + lo, w[2] + lo, w[3] + lo, w[4] + lo, w[5] + lo};
+                    double* const part[3] = {out[0] + lo, out[1] + lo, out[2] + lo};
+                    eval_model_packets(model_, hi - lo, dirs, part);
+                }
+                count_line(table.set_line(grid_.index(ih, id, 0), np, out, reflects.data()), np, r);
             }
         }
     }
@@ -140,7 +188,8 @@ class ModelRows {
 
 TabulatedBrdf tabulate(const Brdf& brdf, const TabulateOptions& options, TabulateReport* report) {
     const TableGrid& grid = options.grid;
-    TabulatedBrdf table = TabulatedBrdf::empty(grid, options.scale, brdf.describe());
+    // Every bin is written once by the rows below (a value or "not measured").
+    TabulatedBrdf table = TabulatedBrdf::unwritten(grid, options.scale, brdf.describe());
     const std::size_t rows = static_cast<std::size_t>(grid.n_theta_h);
     const Chunking chunks = chunking(rows, kRowGrain);
     // One report per chunk, added in chunk order: the counts do not depend on the thread count.

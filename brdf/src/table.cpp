@@ -2,8 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <limits>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "gonio/base/check.h"
 #include "gonio/base/huge_pages.h"
@@ -66,6 +71,39 @@ std::string fmt(double v) {
     return buf;
 }
 
+/// out[k] = keep[k] != 0 ? max(v[k], 0) / s : -1 for k in [0, m). The table's values go to a
+/// buffer far larger than the caches that is not read again by this pass: where the processor has
+/// them (SSE2), streaming stores write each line without reading it first, half the memory traffic
+/// of plain stores. max(v, 0) maps -0 to +0, the same number.
+void store_selected(const double* v, const double* keep, std::size_t m, double s, double* out) {
+    std::size_t k = 0;
+#if defined(__SSE2__)
+    if ((reinterpret_cast<std::uintptr_t>(out) & 15) != 0 && m > 0) {
+        // One value to the 16-byte boundary the streaming stores need.
+        out[0] = keep[0] != 0 ? std::max(v[0], 0.0) / s : -1.0;
+        k = 1;
+    }
+    const __m128d zero = _mm_setzero_pd();
+    const __m128d minus_one = _mm_set1_pd(-1.0);
+    const __m128d scale = _mm_set1_pd(s);
+    for (; k + 2 <= m; k += 2) {
+        const __m128d q = _mm_div_pd(_mm_max_pd(_mm_loadu_pd(v + k), zero), scale);
+        const __m128d kept = _mm_cmpneq_pd(_mm_loadu_pd(keep + k), zero);
+        _mm_stream_pd(out + k, _mm_or_pd(_mm_and_pd(kept, q), _mm_andnot_pd(kept, minus_one)));
+    }
+#endif
+    for (; k < m; ++k) {
+        out[k] = keep[k] != 0 ? std::max(v[k], 0.0) / s : -1.0;
+    }
+}
+
+/// Orders the streaming stores of store_selected before the stores that follow.
+void store_fence() {
+#if defined(__SSE2__)
+    _mm_sfence();
+#endif
+}
+
 }  // namespace
 
 double fold_phi_d(double phi_d) {
@@ -123,7 +161,7 @@ std::pair<Vec3d, Vec3d> TableGrid::centre_directions(int i_h, int i_d, int i_p) 
 
 TabulatedBrdf::TabulatedBrdf(TableGrid grid,
                              std::array<double, 3> scale,
-                             std::vector<double> raw,
+                             TableValues raw,
                              std::string source)
     : grid_(grid), scale_(scale), raw_(std::move(raw)), source_(std::move(source)) {
     GONIO_CHECK_MSG(grid_.n_theta_h > 0 && grid_.n_theta_d > 0 && grid_.n_phi_d > 0,
@@ -148,19 +186,35 @@ TabulatedBrdf::TabulatedBrdf(TableGrid grid,
 TabulatedBrdf TabulatedBrdf::empty(TableGrid grid,
                                    std::array<double, 3> scale,
                                    std::string source) {
-    return TabulatedBrdf(grid, scale, std::move(source));
+    return TabulatedBrdf(grid, scale, std::move(source), Storage::kNotMeasured);
 }
 
-TabulatedBrdf::TabulatedBrdf(TableGrid grid, std::array<double, 3> scale, std::string source)
+TabulatedBrdf TabulatedBrdf::unwritten(TableGrid grid,
+                                       std::array<double, 3> scale,
+                                       std::string source) {
+    return TabulatedBrdf(grid, scale, std::move(source), Storage::kUnwritten);
+}
+
+TabulatedBrdf::TabulatedBrdf(TableGrid grid,
+                             std::array<double, 3> scale,
+                             std::string source,
+                             Storage storage)
     : grid_(grid), scale_(scale), source_(std::move(source)) {
     GONIO_CHECK_MSG(grid_.n_theta_h > 0 && grid_.n_theta_d > 0 && grid_.n_phi_d > 0,
                     "grid " << grid_.n_theta_h << "x" << grid_.n_theta_d << "x" << grid_.n_phi_d);
     for (double s : scale_) {
         GONIO_CHECK_MSG(std::isfinite(s) && s > 0, "scale " << s);
     }
-    // Every bin invalid (raw -1) without the check of the public constructor: nothing to check.
-    resize_huge(raw_, 3 * grid_.size(), -1.0);
-    resize_huge(valid_, grid_.size(), std::uint8_t{0});
+    if (storage == Storage::kNotMeasured) {
+        // Every bin invalid (raw -1) without the check of the public constructor: nothing to check.
+        resize_huge(raw_, 3 * grid_.size(), -1.0);
+        resize_huge(valid_, grid_.size(), std::uint8_t{0});
+    } else {
+        // Written by the caller, bin by bin: the pages are first touched there (by the thread that
+        // writes them).
+        resize_huge_unwritten(raw_, 3 * grid_.size());
+        resize_huge_unwritten(valid_, grid_.size());
+    }
 }
 
 Rgbd TabulatedBrdf::bin_value(std::size_t flat) const {
@@ -187,6 +241,63 @@ void TabulatedBrdf::set_bin_invalid(std::size_t flat) {
         raw_[c * n + flat] = -1.0;
     }
     valid_[flat] = 0;
+}
+
+LineStoreCounts TabulatedBrdf::set_line(std::size_t first,
+                                        std::size_t count,
+                                        const double* const value[3],
+                                        const std::uint8_t* reflects) {
+    const std::size_t n = grid_.size();
+    GONIO_CHECK(first <= n && count <= n - first);
+    LineStoreCounts c;
+    // The largest value of each channel that is stored: kMaxTableValue, or less where value /
+    // scale would overflow a tiny scale (set_bin refuses those).
+    double limit[3];
+    for (int ch = 0; ch < 3; ++ch) {
+        limit[ch] = std::min(kMaxTableValue,
+                             scale_[ch] * (std::numeric_limits<double>::max() * (1 - 0x1p-50)));
+    }
+    // Which bins are stored, a chunk at a time (kept in the first cache level), branch-free: each
+    // case is a flag. x - x is 0 exactly when x is finite.
+    constexpr std::size_t kChunk = 256;
+    alignas(16) double keep[kChunk];
+    for (std::size_t begin = 0; begin < count; begin += kChunk) {
+        const std::size_t m = std::min(kChunk, count - begin);
+        const double* const r = value[0] + begin;
+        const double* const g = value[1] + begin;
+        const double* const b = value[2] + begin;
+        const std::uint8_t* const reflect = reflects + begin;
+        std::uint8_t* const valid = valid_.data() + first + begin;
+        std::size_t no_reflection = 0;
+        std::size_t non_finite = 0;
+        std::size_t out_of_range = 0;
+        for (std::size_t k = 0; k < m; ++k) {
+            const bool reflection = reflect[k] != 0;
+            const bool finite = (r[k] - r[k] == 0) & (g[k] - g[k] == 0) & (b[k] - b[k] == 0);
+            const bool small = (r[k] <= limit[0]) & (g[k] <= limit[1]) & (b[k] <= limit[2]);
+            const bool kept = reflection & finite & small;
+            // Not a reflection configuration: no BRDF value. A value that is not finite breaks
+            // the Brdf contract, one above the limit is not storable: both are left not measured
+            // and counted, the caller reports them.
+            no_reflection += static_cast<std::size_t>(!reflection);
+            non_finite += static_cast<std::size_t>(reflection & !finite);
+            out_of_range += static_cast<std::size_t>(reflection & finite & !small);
+            keep[k] = kept ? 1.0 : 0.0;
+            valid[k] = static_cast<std::uint8_t>(kept);
+        }
+        c.no_reflection += no_reflection;
+        c.non_finite += non_finite;
+        c.out_of_range += out_of_range;
+        c.valid += m - no_reflection - non_finite - out_of_range;
+        // The stores, channel by channel, as selects: a kept value over the scale, or -1.
+        for (int ch = 0; ch < 3; ++ch) {
+            store_selected(
+                value[ch] + begin, keep, m, scale_[ch], raw_.data() + ch * n + first + begin);
+        }
+    }
+    // The streaming stores are ordered before whatever follows (another thread's reading).
+    store_fence();
+    return c;
 }
 
 TableLookup TabulatedBrdf::lookup_nearest(double theta_h, double theta_d, double phi_d) const {

@@ -47,6 +47,7 @@ using gonio::brdf::Brdf;
 using gonio::brdf::Dataset;
 using gonio::brdf::Sample;
 using gonio::brdf::TableGrid;
+using gonio::brdf::TableValues;
 using gonio::brdf::TabulatedBrdf;
 
 /// An expected failure of the libraries, raised in Python as gonio.Error (a ValueError).
@@ -135,7 +136,7 @@ TabulatedBrdf table_from_dict(const py::dict& d) {
                          " numbers for grid " + std::to_string(g[0]) + "x" + std::to_string(g[1]) +
                          "x" + std::to_string(g[2]));
     }
-    std::vector<double> values(raw.data(), raw.data() + raw.size());
+    TableValues values(raw.data(), raw.data() + raw.size());
     for (std::size_t k = 0; k < values.size(); ++k) {
         if (!std::isfinite(values[k])) {
             throw GonioError("table dict: raw[" + std::to_string(k) + "] is not finite");

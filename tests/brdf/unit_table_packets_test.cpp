@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -193,6 +194,56 @@ TEST(TablePackets, EmptyTableHasEveryBinInvalidAndFillsLikeAReadTable) {
     for (std::size_t flat = 0; flat < g.size(); ++flat) {
         ASSERT_EQ(copy.bin_valid(flat), t.bin_valid(flat));
     }
+}
+
+TEST(TablePackets, LineStoreKeepsWhatSetBinKeepsAndCountsTheRest) {
+    // set_line against set_bin bin by bin, on an unaligned run of an odd length (the streaming
+    // stores' head and tail), with every case: stored, no reflection, NaN, infinite, above the
+    // limit, a negative rounding, and a value whose quotient overflows a tiny scale.
+    const TableGrid g{3, 5, 7};
+    const std::array<double, 3> scale{2.0, 1.0, 1e-300};
+    const std::size_t first = 3;
+    const std::size_t count = 27;
+    std::vector<double> r(count), gr(count), b(count);
+    std::vector<std::uint8_t> reflects(count, 1);
+    for (std::size_t k = 0; k < count; ++k) {
+        r[k] = 0.1 * static_cast<double>(k + 1);
+        gr[k] = 0.05 * static_cast<double>(k);
+        b[k] = 1e-290 * static_cast<double>(k % 4);
+    }
+    reflects[2] = 0;
+    r[5] = std::numeric_limits<double>::quiet_NaN();
+    gr[6] = std::numeric_limits<double>::infinity();
+    b[7] = 2 * kMaxTableValue;
+    r[8] = -1e-17;
+    b[9] = 1e10;  // below kMaxTableValue, but 1e10 / 1e-300 overflows
+    const double* const values[3] = {r.data(), gr.data(), b.data()};
+    TabulatedBrdf line = TabulatedBrdf::unwritten(g, scale, "line");
+    TabulatedBrdf bins = TabulatedBrdf::empty(g, scale, "bins");
+    // The rest of the unwritten table, written around the run.
+    for (std::size_t flat = 0; flat < g.size(); ++flat) {
+        if (flat < first || flat >= first + count) {
+            line.set_bin_invalid(flat);
+        }
+    }
+    const LineStoreCounts c = line.set_line(first, count, values, reflects.data());
+    EXPECT_EQ(c.no_reflection, 1u);
+    EXPECT_EQ(c.non_finite, 2u);
+    EXPECT_EQ(c.out_of_range, 2u);
+    EXPECT_EQ(c.valid, count - 5);
+    for (std::size_t k = 0; k < count; ++k) {
+        const Rgbd f(r[k], gr[k], b[k]);
+        const bool storable = reflects[k] != 0 && f.isFinite().all() && k != 7 && k != 9;
+        if (storable) {
+            bins.set_bin(first + k, f.max(0.0));
+        }
+        EXPECT_EQ(line.bin_valid(first + k), storable) << k;
+    }
+    for (std::size_t i = 0; i < line.raw().size(); ++i) {
+        EXPECT_EQ(line.raw()[i], bins.raw()[i]) << i;
+    }
+    EXPECT_EQ(line.raw()[first + 8], 0.0);
+    EXPECT_EQ(line.raw()[2 * g.size() + first + 9], -1.0);
 }
 
 }  // namespace

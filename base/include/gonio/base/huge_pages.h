@@ -9,6 +9,10 @@
 // or "madvise"). Elsewhere, and for small buffers, these are plain reserve/resize.
 
 #include <cstddef>
+#include <memory>
+#include <new>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace gonio {
@@ -21,10 +25,39 @@ constexpr std::size_t kHugePageMinBytes = std::size_t{4} << 20;
 /// system has no such advice.
 void advise_huge_pages(void* p, std::size_t bytes);
 
+/// std::allocator, except that a value constructed without arguments is default-initialised: a
+/// resize of numbers leaves them unwritten. For large buffers that a single pass fills (a table
+/// written bin by bin, a file read into memory), so that each byte is written once, by the pass
+/// that owns it, and not first by the resize.
+template <class T>
+class DefaultInitAllocator : public std::allocator<T> {
+  public:
+    template <class U>
+    struct rebind {
+        using other = DefaultInitAllocator<U>;
+    };
+    DefaultInitAllocator() noexcept = default;
+    template <class U>
+    DefaultInitAllocator(const DefaultInitAllocator<U>&) noexcept {}
+
+    template <class U>
+    void construct(U* p) noexcept(std::is_nothrow_default_constructible<U>::value) {
+        ::new (static_cast<void*>(p)) U;
+    }
+    template <class U, class... Args>
+    void construct(U* p, Args&&... args) {
+        ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+    }
+};
+
+/// A vector whose resize() leaves numbers unwritten (see DefaultInitAllocator).
+template <class T>
+using UninitVector = std::vector<T, DefaultInitAllocator<T>>;
+
 /// v.reserve(n) where v holds no storage yet: the storage is advised for huge pages. A plain
 /// reserve when v already holds storage.
-template <class T>
-void reserve_huge(std::vector<T>& v, std::size_t n) {
+template <class T, class A>
+void reserve_huge(std::vector<T, A>& v, std::size_t n) {
     const bool fresh = v.capacity() == 0;
     v.reserve(n);
     if (fresh) {
@@ -34,12 +67,22 @@ void reserve_huge(std::vector<T>& v, std::size_t n) {
 
 /// v.resize(n, value) where v is empty and unallocated: the storage is advised for huge pages
 /// before it is filled. Falls back to the plain resize when v already holds storage.
-template <class T>
-void resize_huge(std::vector<T>& v, std::size_t n, const T& value = T()) {
+template <class T, class A>
+void resize_huge(std::vector<T, A>& v, std::size_t n, const T& value = T()) {
     if (v.capacity() == 0) {
         reserve_huge(v, n);
     }
     v.resize(n, value);
+}
+
+/// v.resize(n) without writing the values of an UninitVector: the storage is advised for huge
+/// pages and its pages are first touched by whoever writes the values.
+template <class T>
+void resize_huge_unwritten(UninitVector<T>& v, std::size_t n) {
+    if (v.capacity() == 0) {
+        reserve_huge(v, n);
+    }
+    v.resize(n);
 }
 
 }  // namespace gonio

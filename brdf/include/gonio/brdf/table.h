@@ -34,6 +34,7 @@
 #include <utility>
 #include <vector>
 
+#include "gonio/base/huge_pages.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/coords.h"
 
@@ -115,19 +116,32 @@ struct TableStatistics {
     Rgbd mean = Rgbd::Zero();
 };
 
+/// A table's stored values (see TabulatedBrdf's constructor). Resizing leaves them unwritten, so
+/// that a reader or a tabulation writes each of the 35 MB of a MERL table once.
+using TableValues = UninitVector<double>;
+
+/// What TabulatedBrdf::set_line() did with its bins.
+struct LineStoreCounts {
+    std::size_t valid = 0;          ///< stored
+    std::size_t no_reflection = 0;  ///< not a reflection configuration: left not measured
+    std::size_t non_finite = 0;     ///< a value was NaN or infinite: left not measured
+    std::size_t out_of_range = 0;   ///< a value above kMaxTableValue: left not measured
+};
+
 /// An isotropic BRDF tabulated over a half/difference grid (see the file comment).
 class TabulatedBrdf : public Brdf {
   public:
     /// raw holds 3 * grid.size() values, all red then all green then all blue, each block in flat
     /// index order; every entry finite (checked: readers reject non-finite data before this).
     /// scale converts raw to 1/sr per channel (MERL: 1/1500, 1.15/1500, 1.66/1500; else 1).
-    TabulatedBrdf(TableGrid grid,
-                  std::array<double, 3> scale,
-                  std::vector<double> raw,
-                  std::string source);
+    TabulatedBrdf(TableGrid grid, std::array<double, 3> scale, TableValues raw, std::string source);
 
     /// A table with every bin invalid (raw -1), to be filled with set_bin().
     static TabulatedBrdf empty(TableGrid grid, std::array<double, 3> scale, std::string source);
+    /// A table whose bins are not written yet: every bin must be written once (set_line(),
+    /// set_bin() or set_bin_invalid()) before the table is read. For a tabulation that writes
+    /// every bin: the values are written once, not first as "not measured".
+    static TabulatedBrdf unwritten(TableGrid grid, std::array<double, 3> scale, std::string source);
 
     Rgbd eval(const Vec3d& wi, const Vec3d& wo) const override;
     bool isotropic() const override { return true; }
@@ -148,7 +162,7 @@ class TabulatedBrdf : public Brdf {
     const TableGrid& grid() const { return grid_; }
     const std::array<double, 3>& scale() const { return scale_; }
     /// Stored values (see the constructor); unchanged by reading and writing.
-    const std::vector<double>& raw() const { return raw_; }
+    const TableValues& raw() const { return raw_; }
     const std::string& source() const { return source_; }
 
     bool bin_valid(std::size_t flat) const { return valid_[flat] != 0; }
@@ -159,17 +173,27 @@ class TabulatedBrdf : public Brdf {
     void set_bin(std::size_t flat, const Rgbd& value);
     /// Marks a bin as not measured (raw -1 in every channel).
     void set_bin_invalid(std::size_t flat);
+    /// Writes bins [first, first + count) from three channel arrays in 1/sr, value[c][k] for bin
+    /// first + k: a bin whose reflects[k] is 0 (not a reflection configuration), or whose value
+    /// is not finite or above kMaxTableValue, is marked not measured; the others are stored as
+    /// set_bin() stores them (a negative value, a model's rounding, is stored as 0). Every bin of
+    /// the range is written.
+    LineStoreCounts set_line(std::size_t first,
+                             std::size_t count,
+                             const double* const value[3],
+                             const std::uint8_t* reflects);
 
     TableStatistics compute_statistics() const;
 
   private:
-    /// The table of empty(): every bin invalid.
-    TabulatedBrdf(TableGrid grid, std::array<double, 3> scale, std::string source);
+    enum class Storage { kNotMeasured, kUnwritten };
+    /// The table of empty() (kNotMeasured: every bin invalid) or of unwritten().
+    TabulatedBrdf(TableGrid grid, std::array<double, 3> scale, std::string source, Storage storage);
 
     TableGrid grid_;
     std::array<double, 3> scale_;
-    std::vector<double> raw_;
-    std::vector<std::uint8_t> valid_;
+    TableValues raw_;
+    UninitVector<std::uint8_t> valid_;
     std::string source_;
     Interpolation interpolation_ = Interpolation::kNearest;
 };
