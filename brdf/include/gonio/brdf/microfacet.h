@@ -38,11 +38,18 @@ namespace gonio::brdf {
 /// tan^2 theta_h (...))^2 but without trigonometry. An isotropic caller may pass h_x^2 + h_y^2 as
 /// hx2 and 0 as hy2. At h = z the value is 1/(pi alpha_x alpha_y) (3.2e7 at alpha = 1e-4, no
 /// overflow). No degenerate case: the bracket is >= h_z^2 > 0.
+/// Evaluated with one division: with the bracket times alpha_x^2 alpha_y^2,
+///   u = h_x^2 alpha_y^2 + h_y^2 alpha_x^2 + h_z^2 alpha_x^2 alpha_y^2,
+///   D = (alpha_x alpha_y)^3 / (pi u^2)
+/// (a division is the slowest arithmetic of a packet; no under- or overflow for alpha >= 1e-6).
 template <class T>
 inline T D_ggx_from_squares(
     const T& hx2, const T& hy2, const T& hz2, const T& alpha_x, const T& alpha_y) {
-    const T s = hx2 / (alpha_x * alpha_x) + hy2 / (alpha_y * alpha_y) + hz2;
-    return T(1) / (T(kPi) * alpha_x * alpha_y * s * s);
+    const T ax2 = alpha_x * alpha_x;
+    const T ay2 = alpha_y * alpha_y;
+    const T axy = alpha_x * alpha_y;
+    const T u = hx2 * ay2 + hy2 * ax2 + hz2 * (ax2 * ay2);
+    return axy * axy * axy / (T(kPi) * u * u);
 }
 
 /// GGX distribution D(h) of a unit half vector h, 1/sr (see D_ggx_from_squares). Edge
@@ -107,14 +114,32 @@ inline T smith_a2(const Vec3<T>& w, const T& alpha_x, const T& alpha_y) {
     return (sqr(alpha_x * w.x()) + sqr(alpha_y * w.y())) / sqr(w.z());
 }
 
+/// A value as numerator and denominator, so that a caller combining several can divide once.
+template <class T>
+struct Fraction {
+    T num;
+    T den;
+};
+
+/// Smith Lambda of GGX (below, lambda_ggx_from_a2) of a direction with w_z = z > 0, from
+/// t = alpha_x^2 w_x^2 + alpha_y^2 w_y^2 (so a2 = t / z^2), as a fraction:
+///   Lambda = t / (2 z (z + sqrt(z^2 + t))),
+/// the same value as a2 / (2 (1 + sqrt(1 + a2))) multiplied through by z^2; lambda_ggx_from_a2
+/// is this with z = 1. No cancellation; den > 0 for z > 0.
+template <class T>
+inline Fraction<T> lambda_ggx_fraction(const T& t, const T& z) {
+    using std::sqrt;
+    return {t, T(2) * z * (z + sqrt(z * z + t))};
+}
+
 /// Smith Lambda of GGX from a2 = alpha(phi)^2 tan^2(theta) >= 0:
 ///   Lambda = (sqrt(1 + a2) - 1) / 2   [W07 eq. 34], [H14 sec. 5.2],
 /// evaluated as a2 / (2 (1 + sqrt(1 + a2))), which has no cancellation for small a2. Output in
 /// [0, inf); 0 at a2 = 0 (w = z). No degenerate case for finite a2 >= 0.
 template <class T>
 inline T lambda_ggx_from_a2(const T& a2) {
-    using std::sqrt;
-    return a2 / (T(2) * (T(1) + sqrt(T(1) + a2)));
+    const Fraction<T> l = lambda_ggx_fraction(a2, T(1));
+    return l.num / l.den;
 }
 
 /// Smith Lambda of GGX of a unit direction w (see lambda_ggx_from_a2). Edge behaviour: 0 at
@@ -187,20 +212,36 @@ inline T G1(const Vec3<T>& w, const Vec3<T>& h, const T& lambda) {
     return select(hidden, T(0), T(1) / (T(1) + lambda));
 }
 
+/// G_smith_correlated of two Lambdas given as fractions, with one division:
+///   1 / (1 + n_i/d_i + n_o/d_o) = d_i d_o / (d_i d_o + n_i d_o + n_o d_i);
+/// with d_i = d_o = 1 exactly 1 / (1 + Lambda_i + Lambda_o).
+template <class T>
+inline T G_smith_correlated(const Fraction<T>& lambda_i, const Fraction<T>& lambda_o) {
+    const T dd = lambda_i.den * lambda_o.den;
+    return dd / (dd + lambda_i.num * lambda_o.den + lambda_o.num * lambda_i.den);
+}
+
 /// Height-correlated Smith shadowing-masking  G2 = 1 / (1 + Lambda(wi) + Lambda(wo))  [H14 sec.
 /// 6.3]. The chi+ factors are 1 for a reflection half vector with both directions above the
 /// horizon (wi.h = wo.h > 0); callers check the horizon. Output in [0, 1].
 template <class T>
 inline T G_smith_correlated(const T& lambda_i, const T& lambda_o) {
-    return T(1) / (T(1) + lambda_i + lambda_o);
+    return G_smith_correlated(Fraction<T>{lambda_i, T(1)}, Fraction<T>{lambda_o, T(1)});
 }
 
 /// Separable (uncorrelated) Smith shadowing-masking  G2 = G1(wi) G1(wo) = 1 / ((1 + Lambda(wi))
 /// (1 + Lambda(wo)))  [H14 sec. 6.1]; same horizon convention as G_smith_correlated. Output in
 /// [0, 1], never above the correlated form.
 template <class T>
+inline T G_smith_separable(const Fraction<T>& lambda_i, const Fraction<T>& lambda_o) {
+    // 1 / ((1 + n_i/d_i) (1 + n_o/d_o)) with one division; with d = 1 exactly the form below.
+    return lambda_i.den * lambda_o.den /
+           ((lambda_i.den + lambda_i.num) * (lambda_o.den + lambda_o.num));
+}
+
+template <class T>
 inline T G_smith_separable(const T& lambda_i, const T& lambda_o) {
-    return T(1) / ((T(1) + lambda_i) * (T(1) + lambda_o));
+    return G_smith_separable(Fraction<T>{lambda_i, T(1)}, Fraction<T>{lambda_o, T(1)});
 }
 
 /// Cook-Torrance V-groove shadowing-masking from the cosines of the reflection configuration:

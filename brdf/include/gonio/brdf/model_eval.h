@@ -82,7 +82,7 @@ inline HalfGeometry<T> half_geometry(const Dir3<T>& wi, const Dir3<T>& wo) {
     const T inv_len = T(1) / len;
     HalfGeometry<T> g;
     g.h = {sx * inv_len, sy * inv_len, sz * inv_len};
-    g.cos_d = min_of(len / T(2), T(1));
+    g.cos_d = min_of(len * T(0.5), T(1));
     g.one_minus_cos_d =
         (sqr(wi.x - wo.x) + sqr(wi.y - wo.y) + sqr(wi.z - wo.z)) / (T(4) * (T(1) + g.cos_d));
     return g;
@@ -155,8 +155,8 @@ inline T lobe_lambda_alpha(const Lobe<P>& lobe, const Dir3<T>& w, const P& ax, c
     const T w_z2 = sqr(w.z);
     switch (lobe.distribution) {
         case Distribution::kGgx: {
-            const T a2 = (sqr(T(ax) * w.x) + sqr(T(ay) * w.y)) / w_z2;
-            return lambda_ggx_from_a2(a2);
+            const Fraction<T> l = lambda_ggx_fraction(sqr(T(ax) * w.x) + sqr(T(ay) * w.y), w.z);
+            return l.num / l.den;
         }
         case Distribution::kBeckmann: {
             const T a2 = (sqr(T(ax) * w.x) + sqr(T(ay) * w.y)) / w_z2;
@@ -190,6 +190,21 @@ inline T lobe_lambda_alpha(const Lobe<P>& lobe, const Dir3<T>& w, const P& ax, c
     return T(0);
 }
 
+/// The Smith Lambda of the lobe's distribution from a2 = alpha(phi)^2 tan^2(theta) with the
+/// slope parameters (ax, ay) (a Blinn-Phong lobe uses Beckmann's with alpha = sqrt(2/(e + 2))),
+/// as a fraction: GGX's is t / (2 w_z (w_z + sqrt(w_z^2 + t))) (lambda_ggx_fraction), the
+/// others' the value over 1, so that G divides once for both Lambdas.
+template <class T, class P>
+inline Fraction<T> lobe_lambda_fraction_alpha(const Lobe<P>& lobe,
+                                              const Dir3<T>& w,
+                                              const P& ax,
+                                              const P& ay) {
+    if (lobe.distribution == Distribution::kGgx) {
+        return lambda_ggx_fraction(sqr(T(ax) * w.x) + sqr(T(ay) * w.y), w.z);
+    }
+    return {lobe_lambda_alpha(lobe, w, ax, ay), T(1)};
+}
+
 /// The Smith Lambda with the lobe's own slope parameters.
 template <class T, class P>
 inline T lobe_lambda(const Lobe<P>& lobe, const Dir3<T>& w) {
@@ -207,11 +222,11 @@ inline T lobe_G_alpha(const Lobe<P>& lobe,
                       const P& ay) {
     switch (lobe.shadowing) {
         case Shadowing::kSmithCorrelated:
-            return G_smith_correlated(lobe_lambda_alpha(lobe, wi, ax, ay),
-                                      lobe_lambda_alpha(lobe, wo, ax, ay));
+            return G_smith_correlated(lobe_lambda_fraction_alpha(lobe, wi, ax, ay),
+                                      lobe_lambda_fraction_alpha(lobe, wo, ax, ay));
         case Shadowing::kSmithSeparable:
-            return G_smith_separable(lobe_lambda_alpha(lobe, wi, ax, ay),
-                                     lobe_lambda_alpha(lobe, wo, ax, ay));
+            return G_smith_separable(lobe_lambda_fraction_alpha(lobe, wi, ax, ay),
+                                     lobe_lambda_fraction_alpha(lobe, wo, ax, ay));
         case Shadowing::kVGroove:
             return G_vgroove_from_cosines(g.h.z, wi.z, wo.z, g.cos_d);
         case Shadowing::kNone:
