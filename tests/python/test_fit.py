@@ -76,8 +76,9 @@ def tenths_with_progress(work):
 
 
 def test_fit_releases_the_gil():
-    # 4,800 samples: the fit takes a few tenths of a second, so that a tenth of its span is long
-    # against the GIL's switch interval and the scheduler's slices on a loaded machine.
+    # 288,000 samples (60 x 60 x 80 angles): the fit takes a few tenths of a second, so that a
+    # tenth of its span is long against the GIL's switch interval and the scheduler's slices on a
+    # loaded machine.
     data = synthetic_samples(TRUTH, n_theta=60, n_phi=80)
     result, tenths = tenths_with_progress(lambda: gonio.fit(data, model="beckmann", starts=8, threads=1))
     # Held by the solve, the GIL would let the counter run only at the Python edges of the call
