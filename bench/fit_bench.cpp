@@ -17,7 +17,8 @@
 //                               directions (1k, 6k, 100k, 1M): in process (solver.wall_time_s
 //                               and CPU), `gonio fit` (wall) and scipy least_squares, same CSV,
 //                               same run
-//   FitCpu/samples:<n>          the default fit alone of the size table's CSV (1k, 6k, 100k), repeated:
+//   FitCpu/samples:<n>          the default fit alone of the size table's CSV (1k, 6k, 100k),
+//   repeated:
 //                               process CPU per fit (both threads), log RMSE
 //   CsvRead                     read_dataset_csv of a 1M-row CSV written by write_dataset_csv
 //   GonioVsScipy                `gonio fit DATA.csv` and bench/scipy_fit.py (Debian python3-scipy,
@@ -28,7 +29,6 @@
 //   gonio_fit_bench [--table=ngan86.md] [google-benchmark flags]
 
 #include <benchmark/benchmark.h>
-#include <malloc.h>
 #include <sys/resource.h>
 #include <time.h>
 #include <unistd.h>
@@ -467,21 +467,9 @@ void Ngan86(benchmark::State& state) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    // The allocator settings of the `gonio` command (tools/main.cpp), so that the fit in this
-    // process runs as in the command: freed memory is kept (a repeated fit does not fault its
-    // buffers in again after glibc trimmed the heap), and the heap's first 64 MiB are backed by
-    // huge pages (a fresh 4 KiB page costs a fault of 10-20 us on a virtual machine).
-    mallopt(M_MMAP_THRESHOLD, 256 << 20);
-    mallopt(M_TRIM_THRESHOLD, 512 << 20);
-    mallopt(M_TOP_PAD, 64 << 20);
-    if (void* first = std::malloc(std::size_t{8} << 20)) {
-        char* const top = static_cast<char*>(sbrk(0));
-        if (top > static_cast<char*>(first)) {
-            gonio::advise_huge_pages(first,
-                                     static_cast<std::size_t>(top - static_cast<char*>(first)));
-        }
-        std::free(first);
-    }
+    // The heap settings of the `gonio` command (tools/main.cpp), so that the fit in this process
+    // runs as in the command: a repeated fit does not fault its buffers in again.
+    gonio::keep_heap_for_batch_work();
     std::vector<char*> args;
     for (int i = 0; i < argc; ++i) {
         if (std::strncmp(argv[i], "--table=", 8) == 0) {

@@ -8,9 +8,6 @@
 // need no device, camera or image library, and gonio-full with every command. gonio hands the
 // commands of full_commands.h to gonio-full (see there).
 
-#include <malloc.h>
-#include <unistd.h>
-
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cstdio>
@@ -83,25 +80,9 @@ bool is_full_command(const char* name) {
 
 int main(int argc, char** argv) {
     using gonio::tools::CommandEntry;
-    // A command allocates and frees the same large buffers (sample vectors, per-block partials)
-    // many times over. glibc maps buffers of 128 kB and more afresh each time and hands freed heap
-    // back to the system, so every pass paid its page faults again (a fifth of the CPU of a
-    // 6,000-point fit). Freed memory stays with the process instead, which ends soon anyway.
-    mallopt(M_MMAP_THRESHOLD, 256 << 20);
-    mallopt(M_TRIM_THRESHOLD, 512 << 20);
-    mallopt(M_TOP_PAD, 64 << 20);
-    // The heap's first 64 MiB (the pad above) backed by huge pages: a fresh 4 KiB page costs a
-    // fault of 10-20 us on a virtual machine, and a 6,000-point fit touches about 400 of them
-    // (samples, prepared arrays, partial sums) against one 2 MiB page per 2 MiB touched.
-    // Grow the heap by the pad once, advise it, and keep it (the trim threshold above).
-    if (void* first = std::malloc(std::size_t{8} << 20)) {
-        char* const top = static_cast<char*>(sbrk(0));
-        if (top > static_cast<char*>(first)) {
-            gonio::advise_huge_pages(first,
-                                     static_cast<std::size_t>(top - static_cast<char*>(first)));
-        }
-        std::free(first);
-    }
+    // Freed buffers stay with the process and its first heap pages are huge (huge_pages.h): a
+    // command allocates and frees the same large buffers many times over, and ends soon anyway.
+    gonio::keep_heap_for_batch_work();
     CLI::App app{"gonio: gonioreflectometer control, BRDF acquisition and model fitting", "gonio"};
     app.set_version_flag("--version", std::string("gonio ") + GONIO_VERSION_STRING);
     app.require_subcommand(1);

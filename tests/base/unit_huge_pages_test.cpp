@@ -4,7 +4,12 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <cstdlib>
 #include <vector>
+
+#if defined(__GLIBC__)
+#include <unistd.h>
+#endif
 
 #include "gonio/base/huge_pages.h"
 
@@ -49,6 +54,35 @@ TEST(HugePages, AdviceOnAnyRangeIsHarmless) {
     EXPECT_EQ(buf[0], 'a');
     EXPECT_EQ(buf[buf.size() / 2], 'a');
     EXPECT_EQ(buf.back(), 'a');
+}
+
+#if defined(__SANITIZE_ADDRESS__)
+#define GONIO_TEST_OWN_MALLOC 0  // the sanitizer's allocator ignores glibc's settings
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define GONIO_TEST_OWN_MALLOC 0
+#endif
+#endif
+#ifndef GONIO_TEST_OWN_MALLOC
+#define GONIO_TEST_OWN_MALLOC 1
+#endif
+
+TEST(HugePages, KeptHeapServesLargeBuffersFromTheHeapAndKeepsThemAfterFree) {
+#if defined(__GLIBC__) && GONIO_TEST_OWN_MALLOC
+    keep_heap_for_batch_work();
+    // 100 MiB is above glibc's largest automatic mmap threshold (32 MiB), so without the setting
+    // it would be a mapping of its own, far above the heap's top.
+    const std::size_t bytes = std::size_t{100} << 20;
+    char* const p = static_cast<char*>(std::malloc(bytes));
+    ASSERT_NE(p, nullptr);
+    char* const top = static_cast<char*>(sbrk(0));
+    EXPECT_LE(p + bytes, top) << "a 100 MiB buffer was mapped apart from the heap";
+    std::free(p);
+    // Freed, it stays with the process: the heap's top does not come down (trim threshold).
+    EXPECT_EQ(static_cast<char*>(sbrk(0)), top);
+#else
+    GTEST_SKIP() << "glibc's own allocator only";
+#endif
 }
 
 }  // namespace
