@@ -58,20 +58,20 @@ void tabulate_rows(const Brdf& brdf,
 /// cosines, as structure of arrays wi = (w0, w1, w2), wo = (w3, w4, w5), and whether each pair is a
 /// reflection configuration. The arrays do not overlap (restrict: the loop runs on the vector
 /// unit).
-void line_directions_arrays(std::size_t np,
-                            double cos_h,
-                            double sin_h,
-                            double sin_d,
-                            double cos_d,
-                            const double* __restrict cos_p,
-                            const double* __restrict sin_p,
-                            double* __restrict w0,
-                            double* __restrict w1,
-                            double* __restrict w2,
-                            double* __restrict w3,
-                            double* __restrict w4,
-                            double* __restrict w5,
-                            std::uint8_t* __restrict reflects) {
+void line_directions(std::size_t np,
+                     double cos_h,
+                     double sin_h,
+                     double sin_d,
+                     double cos_d,
+                     const double* __restrict cos_p,
+                     const double* __restrict sin_p,
+                     double* __restrict w0,
+                     double* __restrict w1,
+                     double* __restrict w2,
+                     double* __restrict w3,
+                     double* __restrict w4,
+                     double* __restrict w5,
+                     std::uint8_t* __restrict reflects) {
     for (std::size_t ip = 0; ip < np; ++ip) {
         // d = (sin theta_d cos phi_d, sin theta_d sin phi_d, cos theta_d); wi = R_y(theta_h) d;
         // h = (sin theta_h, 0, cos theta_h); wo = 2 (wi . h) h - wi.
@@ -91,19 +91,6 @@ void line_directions_arrays(std::size_t np,
     for (std::size_t ip = 0; ip < np; ++ip) {
         reflects[ip] = static_cast<std::uint8_t>((w2[ip] > 0) & (w5[ip] > 0));
     }
-}
-
-void line_directions(std::size_t np,
-                     double cos_h,
-                     double sin_h,
-                     double sin_d,
-                     double cos_d,
-                     const double* cos_p,
-                     const double* sin_p,
-                     double* const w[6],
-                     std::uint8_t* reflects) {
-    line_directions_arrays(
-        np, cos_h, sin_h, sin_d, cos_d, cos_p, sin_p, w[0], w[1], w[2], w[3], w[4], w[5], reflects);
 }
 
 /// An analytic model: the directions of a (theta_h, theta_d) line of phi_d bins as structure of
@@ -153,7 +140,12 @@ class ModelRows {
                                 cos_d_[id],
                                 cos_p_.data(),
                                 sin_p_.data(),
-                                w,
+                                w[0],
+                                w[1],
+                                w[2],
+                                w[3],
+                                w[4],
+                                w[5],
                                 reflects.data());
                 // The reflection configurations of a line are one run of phi_d: wi_z grows with
                 // phi_d and wo_z = 2 cos theta_d cos theta_h - wi_z falls. Only that run is

@@ -74,7 +74,8 @@ std::string fmt(double v) {
 /// out[k] = keep[k] != 0 ? max(v[k], 0) / s : -1 for k in [0, m). The table's values go to a
 /// buffer far larger than the caches that is not read again by this pass: where the processor has
 /// them (SSE2), streaming stores write each line without reading it first, half the memory traffic
-/// of plain stores. max(v, 0) maps -0 to +0, the same number.
+/// of plain stores. (SSE2 intrinsics: xsimd 8.1 has no streaming store.) max(v, 0) maps -0 to +0,
+/// the same number.
 void store_selected(const double* v, const double* keep, std::size_t m, double s, double* out) {
     std::size_t k = 0;
 #if defined(__SSE2__)

@@ -18,43 +18,11 @@ namespace gonio::fitting {
 
 namespace {
 
-/// The stratum coordinates of one sample: Rusinkiewicz's half/difference angles (brdf/coords.h
-/// to_half_diff, the same definitions: theta_h = atan2(|h_xy|, h_z), d = R_y(-theta_h)
-/// R_z(-phi_h) wi, theta_d and phi_d its spherical angles) with the rotations written on the half
-/// vector's components, cos theta_h = h_z, sin theta_h = |h_xy|, (cos, sin) phi_h = h_xy /
-/// |h_xy|, instead of the sines and cosines of the angles: three arctangents and the directions'
-/// four sines and cosines per sample instead of four arctangents and six. Equal to the
-/// to_half_diff route to rounding.
+/// The stratum coordinates of one sample (stratum_kernel.h, the double instantiation).
 StratumCoords stratum_coords_of(const brdf::Sample& s) {
-    const brdf::Vec3d wi = s.wi();
-    const brdf::Vec3d wo = s.wo();
-    brdf::Vec3d h = wi + wo;
-    const double norm2 = h.squaredNorm();
-    // wi = -wo (not above the horizon both): the normal as h, as to_half_diff takes it.
-    h = norm2 > 0 ? brdf::Vec3d(h / std::sqrt(norm2)) : brdf::Vec3d(0, 0, 1);
-    const double rho = std::sqrt(h.x() * h.x() + h.y() * h.y());
-    const double theta_h = rho > 0 ? std::atan2(rho, h.z()) : (h.z() >= 0 ? 0.0 : brdf::kPi);
-    // R_z(-phi_h) wi, then R_y(-theta_h); phi_h = 0 at the pole.
-    const double cos_phi = rho > 0 ? h.x() / rho : 1.0;
-    const double sin_phi = rho > 0 ? h.y() / rho : 0.0;
-    const double u = cos_phi * wi.x() + sin_phi * wi.y();
-    const double d_x = h.z() * u - rho * wi.z();
-    const double d_y = cos_phi * wi.y() - sin_phi * wi.x();
-    const double d_z = rho * u + h.z() * wi.z();
-    const double rho_d2 = d_x * d_x + d_y * d_y;
-    const double theta_d =
-        rho_d2 > 0 ? std::atan2(std::sqrt(rho_d2), d_z) : (d_z >= 0 ? 0.0 : brdf::kPi);
-    // phi_d in (-pi, pi] folded to [0, pi) by the reciprocity of the pair.
-    double phi_d = rho_d2 > 0 ? std::atan2(d_y, d_x) : 0.0;
-    if (phi_d < 0) {
-        phi_d += brdf::kPi;
-    }
-    if (phi_d >= brdf::kPi) {
-        phi_d -= brdf::kPi;
-    }
-    return {std::sqrt(std::clamp(theta_h / (brdf::kPi / 2), 0.0, 1.0)),
-            std::clamp(theta_d / (brdf::kPi / 2), 0.0, 1.0),
-            std::clamp(phi_d / brdf::kPi, 0.0, 1.0)};
+    StratumCoords c;
+    detail::stratum_coords_body(s.theta_i, s.phi_i, s.theta_o, s.phi_o, c[0], c[1], c[2]);
+    return c;
 }
 
 /// The instruction set of the packet kernel: the logarithm's choice (vector_log.h), made once.

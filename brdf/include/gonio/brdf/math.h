@@ -20,6 +20,7 @@
 
 #include <cmath>
 #include <type_traits>
+#include <utility>
 #include <xsimd/xsimd.hpp>
 
 #include "gonio/brdf/coords.h"
@@ -138,6 +139,19 @@ inline T safe_sqrt(const T& x) {
     }
     // The masked lanes take sqrt(1) so that no lane evaluates sqrt at or below 0.
     return select(nonpositive, T(0), sqrt(select(nonpositive, T(1), x)));
+}
+
+/// (sin x, cos x): one call of xsimd's sincos on packets (one range reduction for both), the two
+/// library calls for double and Jets.
+template <class T>
+inline std::pair<T, T> sincos_of(const T& x) {
+    using std::cos;
+    using std::sin;
+    return {sin(x), cos(x)};
+}
+template <class T, class A>
+inline std::pair<xsimd::batch<T, A>, xsimd::batch<T, A>> sincos_of(const xsimd::batch<T, A>& x) {
+    return xsimd::sincos(x);
 }
 
 /// acos(clamp(x, -1, 1)). Rounding noise can push a cosine slightly beyond +-1; it is clamped.
