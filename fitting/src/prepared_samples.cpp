@@ -67,10 +67,7 @@ void parallel_blocks(std::size_t n,
 PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
                                  const std::vector<brdf::Sample>& samples,
                                  const CostOptions& o)
-    : map_(std::move(map)),
-      form_(o.residual),
-      n_(samples.size()),
-      relative_floor_(o.relative_floor) {
+    : map_(std::move(map)), form_(o.residual), n_(samples.size()) {
     const brdf::ModelD& base = map_->base();
     bool need_h = false, need_bp = false, need_smith = false, need_vg = false;
     bool need_schlick = false, need_exact_f = false;

@@ -210,7 +210,6 @@ class PreparedSamples {
     std::vector<int> slot_lobe_;
     bool analytic_ = false;
     bool packets_ = false;
-    double relative_floor_ = 1e-3;
     std::shared_ptr<const ceres::LossFunction> loss_;
     /// Per-block partial sums of the passes (kept between passes: no allocation per iteration).
     /// The passes of one PreparedSamples run one at a time.
