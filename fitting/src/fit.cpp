@@ -364,7 +364,13 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
         ps_used && reduced.empty()
             ? detail::evaluate_metrics(result.model, valid, o.relative_floor, *ps_used, ctx.threads)
             : evaluate_metrics(result.model, valid, o.relative_floor);
-    result.goodness = detail::judge(result.metrics, chi2, valid.size(), result.model);
+    // (An f0 fitted per channel: its parameters are named lobes[i].fresnel.f0[c].)
+    const bool f0_per_channel =
+        std::any_of(result.parameters.begin(), result.parameters.end(), [](const auto& p) {
+            return p.free && p.name.find(".fresnel.f0[") != std::string::npos;
+        });
+    result.goodness =
+        detail::judge(result.metrics, chi2, valid.size(), result.model, f0_per_channel);
     result.solver.usable = result.solver.converged && result.goodness.represents;
     result.solver.wall_time_s = std::chrono::duration<double>(detail::Clock::now() - t0).count();
     return result;

@@ -430,7 +430,8 @@ std::string named_findings(const std::vector<Finding>& findings, Verdict state) 
 GoodnessOfFit judge(const Metrics& m,
                     std::optional<double> chi2,
                     std::size_t valid,
-                    const ModelD& fitted) {
+                    const ModelD& fitted,
+                    bool f0_per_channel) {
     GoodnessOfFit g;
     g.reduced_chi_square = chi2;
     std::vector<Finding> findings;
@@ -446,7 +447,7 @@ GoodnessOfFit judge(const Metrics& m,
     if (g.verdict != Verdict::kRepresents) {
         // (A warning that leaves the fit representing its data, such as a chi-square inflated by
         // sigmas smaller than the systematic errors, asks for no other model.)
-        g.suggestion = suggest_after(fitted, false);
+        g.suggestion = suggest_after(fitted, f0_per_channel, false);
     }
     return g;
 }
@@ -512,7 +513,7 @@ std::vector<std::string> vanished_lobes(const ModelD& model,
 
 }  // namespace detail
 
-std::string suggest_after(const ModelD& fitted, bool auto_tried) {
+std::string suggest_after(const ModelD& fitted, bool f0_per_channel, bool auto_tried) {
     if (auto_tried) {
         // Every family was ranked: none of the options below is left untried.
         return {};
@@ -535,8 +536,6 @@ std::string suggest_after(const ModelD& fitted, bool auto_tried) {
     if (dist != "beckmann") {
         tries.push_back("`--model beckmann`");
     }
-    const bool schlick = lobe.fresnel.type == brdf::FresnelType::kSchlick;
-    const bool f0_per_channel = schlick && !(lobe.fresnel.f0.array() == lobe.fresnel.f0[0]).all();
     if (!f0_per_channel) {
         tries.push_back("`--fresnel schlick-rgb`");
     }

@@ -125,3 +125,53 @@ def test_lambert_only_fit_recovers_the_albedo(model):
         assert report["solver"]["usable"], report["solver"]
         assert fitted["lobes"] == []
         np.testing.assert_allclose(fitted["diffuse"], LAMBERT["diffuse"], rtol=1e-4)
+
+
+def retro_samples():
+    """A retro-reflection peak that no microfacet lobe at the mirror direction follows."""
+    data = synthetic_samples(LAMBERT, n_theta=9, n_phi=12)
+    ti, pi, to, po = (data[k] for k in ("theta_i", "phi_i", "theta_o", "phi_o"))
+    wi = np.stack([np.sin(ti) * np.cos(pi), np.sin(ti) * np.sin(pi), np.cos(ti)], axis=1)
+    wo = np.stack([np.sin(to) * np.cos(po), np.sin(to) * np.sin(po), np.cos(to)], axis=1)
+    c = np.clip(np.sum(wi * wo, axis=1), 0, None)
+    peak = 20 * c**30
+    data["value"] = data["value"] + np.stack([peak, 0.5 * peak, 0.2 * peak], axis=1)
+    return data
+
+
+def test_the_verdict_is_the_same_headline_as_the_command_and_strict_fails_only_a_misfit():
+    # The demo's material with the default GGX: a visible misfit of the blue channel, usable.
+    data = synthetic_samples(gonio.material("red-plastic"), n_theta=9, n_phi=12)
+    with pytest.warns(UserWarning) as caught:
+        _, report = gonio.fit(data, model="ggx", threads=1, strict=True)
+    goodness = report["goodness"]
+    assert goodness["verdict"] == "visible-misfit", goodness
+    assert "channel b" in goodness["headline"]
+    assert goodness["headline"] in str(caught[0].message)
+    # A retro peak: does not represent; strict raises with the same headline.
+    with pytest.warns(UserWarning, match="MISFIT: does not represent these data"):
+        _, report = gonio.fit(retro_samples(), threads=1)
+    assert report["goodness"]["verdict"] == "does-not-represent"
+    assert "--model auto" in report["goodness"]["suggestion"]
+    with pytest.raises(gonio.Error, match="MISFIT: does not represent these data"):
+        gonio.fit(retro_samples(), threads=1, strict=True)
+    # After auto the suggestion is the measurement as a table, never auto again.
+    with pytest.warns(UserWarning):
+        _, report = gonio.fit(retro_samples(), model="auto", threads=1)
+    assert "--model auto" not in report["goodness"]["suggestion"]
+    assert "table.gtab --grid 32x16x8" in report["goodness"]["suggestion"]
+
+
+def test_values_below_zero_within_noise_are_kept_and_a_far_one_is_rejected():
+    data = synthetic_samples(LAMBERT, n_theta=9, n_phi=12)
+    rng = np.random.default_rng(5)
+    data["value"][:, 2] = rng.normal(0.0, 1e-6, len(data["theta_i"]))  # a black channel
+    assert (data["value"][:, 2] < 0).sum() > 100
+    fitted, report = gonio.fit(data, lobes=0, threads=1)
+    assert report["samples"]["valid"] == len(data["theta_i"])
+    assert report["samples"]["rejected"] == 0
+    np.testing.assert_allclose(fitted["diffuse"][:2], LAMBERT["diffuse"][:2], rtol=1e-4)
+    assert abs(fitted["diffuse"][2]) < 1e-4
+    data["value"][7, 2] = -0.05
+    _, report = gonio.fit(data, lobes=0, threads=1)
+    assert report["samples"]["rejected"] == 1

@@ -1,7 +1,8 @@
 // `gonio fit` over its option space: model x fresnel x shadowing x lobes 0-4 x residual x loss x
 // roughness x anisotropic x diffuse, every pair of values in at least one run (a greedy all-pairs
 // cover of the 72,000 combinations), on a small synthetic dataset and a small real one. Each run
-// fits (exit 0, a misfit included) or is refused with exit 2 before any work (the same refusal
+// fits (exit 0, a misfit included; or 1 when the walk's small iteration budget ends before the
+// solver converges, said as such) or is refused with exit 2 before any work (the same refusal
 // when the data file does not exist); never a signal. And the Lambert-only fit (--lobes 0), which
 // once died in the packet cost kernel, recovers a Lambert truth.
 
@@ -164,8 +165,11 @@ std::string real_data() {
 
 /// Walks the cover on `data`; the budget options keep each fit short.
 void walk(const std::string& data) {
-    const std::vector<std::vector<int>> rows = all_pairs(option_space());
+    std::vector<std::vector<int>> rows = all_pairs(option_space());
     ASSERT_GE(rows.size(), 30u);  // at least |model| x |fresnel| pairs
+    // Every row of auto names a structure option (refused with it); auto with solver options only.
+    rows.push_back({5, 0, 0, 0, 4, 1, 0, 0, 0});
+    rows.push_back({5, 0, 0, 0, 2, 2, 0, 0, 0});
     int fitted = 0;
     int refused = 0;
     for (const std::vector<int>& row : rows) {
@@ -184,8 +188,11 @@ void walk(const std::string& data) {
         }
         EXPECT_EQ(missing.status, 1) << missing.out;
         EXPECT_NE(missing.out.find("no-such-data.csv"), std::string::npos) << missing.out;
-        EXPECT_EQ(r.status, 0) << r.out;
-        EXPECT_NE(r.out.find("goodness of fit"), std::string::npos) << r.out;
+        // A fit: exit 0, or 1 when the iteration budget of the walk ends before the solver
+        // converges, said as such (the report is the fit's, with usable false).
+        const bool stopped = r.out.find("the fit did not converge") != std::string::npos;
+        EXPECT_TRUE(r.status == 0 || (r.status == 1 && stopped)) << r.out;
+        EXPECT_TRUE(r.out.find("goodness of fit") != std::string::npos || stopped) << r.out;
         ++fitted;
     }
     // Both kinds occur: the walk is not all refusals (nor all fits: auto with a structure option
@@ -225,7 +232,8 @@ TEST(GonioFit, LambertOnlyFitRecoversTheAlbedo) {
             const nlohmann::json j = nlohmann::json::parse(in);
             ASSERT_TRUE(j.at("lobes").empty()) << j.dump();
             for (int c = 0; c < 3; ++c) {
-                EXPECT_NEAR(j.at("diffuse").at(c).get<double>(), truth.diffuse[c], 1e-4 * truth.diffuse[c])
+                EXPECT_NEAR(
+                    j.at("diffuse").at(c).get<double>(), truth.diffuse[c], 1e-4 * truth.diffuse[c])
                     << model << " starts " << starts << " channel " << c;
             }
         }

@@ -204,7 +204,8 @@ std::vector<std::pair<std::string, FitSpec>> auto_candidates(const FitOptions& o
 /// What to try after a misfit of `fitted`: the families, lobes and options it did not use (never
 /// one it used). Empty after `--model auto` (`auto_tried`), which ranked every family: what is
 /// left then is the measurement itself as a table (batch::table_alternative).
-std::string suggest_after(const brdf::ModelD& fitted, bool auto_tried);
+/// `f0_per_channel`: the fit had a Schlick f0 per channel (`--fresnel schlick-rgb`).
+std::string suggest_after(const brdf::ModelD& fitted, bool f0_per_channel, bool auto_tried);
 
 /// The headline of a verdict with its named findings ("channel b (median relative error 0.091
 /// above 0.05)").
