@@ -54,10 +54,14 @@ Range column_range(int c) {
             return {0.0, kMaxSampleWeight, false, "[0, 1e9]"};
         case kF:
             return {0.0, 4294967295.0, false, "[0, 4294967295] (unsigned 32-bit integer)"};
-        default:
+        case kR:
+        case kG:
+        case kB:
             // Values below zero within their noise are measurements (values_below_zero.h); how
             // far below is judged once the whole file is read.
             return {-kMaxSampleValue, kMaxSampleValue, false, "[-1e9, 1e9] 1/sr"};
+        default:
+            return {0.0, kMaxSampleValue, false, "[0, 1e9] 1/sr"};
     }
 }
 
