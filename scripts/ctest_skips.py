@@ -13,11 +13,18 @@ import sys
 
 
 def tests_in(log):
-    """Yields (name, output) for every test in a ctest LastTest.log."""
-    for block in re.split(r"\n-{10,}\n(?=\d+/\d+ Test: )", log):
-        m = re.match(r"\s*\d+/\d+ Test: (\S+)", block)
+    """Yields (name, output) for every test in a ctest LastTest.log ("N/M Test: name" starts each)."""
+    name, lines = None, []
+    for line in log.splitlines():
+        m = re.match(r"\d+/\d+ Test: (.+)$", line)
         if m:
-            yield m.group(1), block
+            if name:
+                yield name, "\n".join(lines)
+            name, lines = m.group(1), []
+        else:
+            lines.append(line)
+    if name:
+        yield name, "\n".join(lines)
 
 
 def gtest_reason(output):
