@@ -5,10 +5,12 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <sstream>
 
 #include "gonio/base/check.h"
 #include "gonio/brdf/blinn_phong.h"
+#include "gonio/brdf/fresnel.h"
 
 namespace gonio::report {
 
@@ -47,11 +49,6 @@ std::string rgb(const Rgbd& v) {
     return "(" + num(v[0]) + ", " + num(v[1]) + ", " + num(v[2]) + ")";
 }
 
-bool is_grey(const Rgbd& v) {
-    const double mx = v.maxCoeff();
-    return mx <= 0 || (mx - v.minCoeff()) <= 1e-9 * mx;
-}
-
 Unexpected refuse(std::string message) {
     return Unexpected(BlenderExportError{std::move(message), true});
 }
@@ -63,8 +60,7 @@ Unexpected invalid(std::string message) {
 /// A Python string literal holds the name: 1 to 128 letters, digits, '_', '-', '.'.
 tl::expected<void, BlenderExportError> check_name(const std::string& name) {
     if (name.empty() || name.size() > 128) {
-        return refuse("--name: " + std::to_string(name.size()) +
-                      " characters, must be 1 to 128");
+        return refuse("--name: " + std::to_string(name.size()) + " characters, must be 1 to 128");
     }
     for (std::size_t i = 0; i < name.size(); ++i) {
         const unsigned char c = static_cast<unsigned char>(name[i]);
@@ -91,10 +87,10 @@ tl::expected<void, BlenderExportError> validate(const ModelD& m) {
         if (!finite_non_negative(l.scale)) {
             return invalid(p + "scale: must be finite and >= 0");
         }
-        const bool alphas_ok = l.alpha_x > 0 && std::isfinite(l.alpha_x) &&
-                               (!l.anisotropic || (l.alpha_y > 0 && std::isfinite(l.alpha_y))) &&
-                               (!l.rgb_roughness || (l.alpha_rgb.allFinite() &&
-                                                     (l.alpha_rgb.array() > 0).all()));
+        const bool alphas_ok =
+            l.alpha_x > 0 && std::isfinite(l.alpha_x) &&
+            (!l.anisotropic || (l.alpha_y > 0 && std::isfinite(l.alpha_y))) &&
+            (!l.rgb_roughness || (l.alpha_rgb.allFinite() && (l.alpha_rgb.array() > 0).all()));
         if (l.distribution == Distribution::kBlinnPhong) {
             if (!(l.exponent > 0) || !std::isfinite(l.exponent)) {
                 return invalid(p + "exponent = " + num(l.exponent) + ": must be finite and > 0");
@@ -132,14 +128,16 @@ struct LobePlan {
     double alpha_x = 0, alpha_y = 0;
     bool anisotropic = false;
     double orientation_deg = 0;
-    std::vector<std::string> approximations;  ///< measured keys (blender_measured)
+    std::vector<std::string> approximations;     ///< measured keys (blender_measured)
     std::vector<std::string> needs_approximate;  ///< what --approximate must allow, named
 };
 
 std::string measured_text(const std::string& key) {
     const BlenderMeasured& m = blender_measured(key);
-    return "measured " + pct(m.median_pct) + " median, " + pct(m.p90_pct) +
-           " 90th percentile relative difference (" + m.test_case + ")";
+    return "measured " + pct(m.front_median_pct) + " median, " + pct(m.front_p90_pct) +
+           " 90th percentile relative difference lit 38 deg from the view, " +
+           pct(m.back_median_pct) + " and " + pct(m.back_p90_pct) + " back-lit at 120 deg (" +
+           m.test_case + ")";
 }
 
 /// The parts of a lobe that do not depend on its Fresnel: distribution, alphas, shadowing.
@@ -165,16 +163,18 @@ tl::expected<LobePlan, BlenderExportError> plan_shape(const Lobe<double>& l, con
             plan.distribution = "GGX";
             break;
         case Distribution::kTabulated:
-            return refuse(p + ": a tabulated NDF cannot be represented by Blender, which takes "
-                              "GGX and Beckmann only; refit with `--model ggx`");
+            return refuse(p +
+                          ": a tabulated NDF cannot be represented by Blender, which takes "
+                          "GGX and Beckmann only; refit with `--model ggx`");
         case Distribution::kBlinnPhong: {
             const double a = brdf::blinn_phong_equivalent_alpha(l.exponent);
             plan.distribution = "BECKMANN";
             plan.alpha_x = plan.alpha_y = a;
             plan.anisotropic = false;
             plan.needs_approximate.push_back(
-                p + ": a Blinn-Phong lobe (Blender has no Blinn-Phong distribution; "
-                    "--approximate writes Beckmann with alpha = sqrt(2 / (e + 2)) = " +
+                p +
+                ": a Blinn-Phong lobe (Blender has no Blinn-Phong distribution; "
+                "--approximate writes Beckmann with alpha = sqrt(2 / (e + 2)) = " +
                 num(a) + ")");
             plan.approximations.push_back("blinn-phong");
             return plan;
@@ -260,18 +260,140 @@ Rgbd normal_reflectance(const brdf::Fresnel<double>& f) {
     return Rgbd::Ones();
 }
 
+}  // namespace
+
+double principled_specular_for_schlick(double f0) {
+    // F_P(s) = f0 + (1 - f0) (F_d(c, eta(s)) - F_d0) / (1 - F_d0) against Schlick's f0 + (1 - f0)
+    // x5: the largest relative difference over theta_d in [0, 75] deg, on a grid of s.
+    constexpr int kAngles = 300;
+    constexpr double kMaxThetaD = 75 * brdf::kPi / 180;
+    double best_s = 0.5, best = std::numeric_limits<double>::infinity();
+    for (int k = 1; k <= 1000; ++k) {
+        const double s = 0.001 * k;
+        const double eta = principled_eta(s);
+        const double fd0 = brdf::fresnel_dielectric(1.0, eta);
+        double worst = 0;
+        for (int a = 0; a <= kAngles; ++a) {
+            const double c = std::cos(kMaxThetaD * a / kAngles);
+            const double fh = (brdf::fresnel_dielectric(c, eta) - fd0) / (1 - fd0);
+            const double schlick = brdf::fresnel_schlick(c, f0);
+            const double principled = f0 + (1 - f0) * fh;
+            worst = std::max(worst, std::abs(principled - schlick) / std::max(schlick, 1e-12));
+        }
+        if (worst < best) {
+            best = worst;
+            best_s = s;
+        }
+    }
+    return best_s;
+}
+
+double principled_eta(double specular) {
+    return 2 / (1 - std::sqrt(kMaxPrincipledF0 * specular)) - 1;
+}
+
+namespace {
+
 /// A Beckmann lobe with a Fresnel term (approximation): a Beckmann Glossy BSDF coloured by the
 /// lobe's scale times the Fresnel reflectance at normal incidence.
 std::string beckmann_fresnel_python(const Lobe<double>& l, LobePlan& plan, const std::string& p) {
     plan.needs_approximate.push_back(
-        p + ": a Beckmann lobe with a Fresnel term (Blender applies a Fresnel on the half vector "
-            "only in the Principled BSDF, which is GGX; --approximate writes a Beckmann Glossy "
-            "BSDF coloured by the Fresnel reflectance at normal incidence)");
+        p +
+        ": a Beckmann lobe with a Fresnel term (Blender applies a Fresnel on the half vector "
+        "only in the Principled BSDF, which is GGX; --approximate writes a Beckmann Glossy "
+        "BSDF coloured by the Fresnel reflectance at normal incidence)");
     plan.approximations.push_back("fresnel-at-normal-incidence");
     Lobe<double> coloured = l;
     coloured.scale = l.scale.cwiseProduct(normal_reflectance(l.fresnel));
     coloured.fresnel.type = FresnelType::kNone;
     return glossy_python(coloured, plan);
+}
+
+/// The Principled BSDF's Fresnel for a lobe's: normal-incidence reflectance and Specular input.
+struct PrincipledFresnel {
+    Rgbd f0;
+    double specular = 0.5;
+};
+
+tl::expected<PrincipledFresnel, BlenderExportError> principled_fresnel(
+    const brdf::Fresnel<double>& f, LobePlan& plan, const std::string& p) {
+    PrincipledFresnel out;
+    out.f0 = normal_reflectance(f);
+    switch (f.type) {
+        case FresnelType::kDielectric:
+            if (!(f.eta > 1) || out.f0[0] > kMaxPrincipledF0) {
+                return refuse(p + ": a dielectric Fresnel of eta " + num(f.eta) +
+                              " cannot be represented by Blender's Principled BSDF, whose "
+                              "dielectric Fresnel takes 1 < eta <= 1.788 (f0 <= 0.08)");
+            }
+            // The Principled BSDF's Fresnel of this Specular is F_d(eta) itself.
+            out.specular = out.f0[0] / kMaxPrincipledF0;
+            break;
+        case FresnelType::kSchlick:
+            plan.approximations.push_back("schlick");
+            out.specular = principled_specular_for_schlick(f.f0.mean());
+            break;
+        case FresnelType::kConductor:
+            plan.needs_approximate.push_back(
+                p +
+                ": a conductor Fresnel (Blender 3 has no conductor Fresnel; --approximate "
+                "writes the Principled BSDF's metallic Fresnel with the normal-incidence "
+                "reflectance " +
+                rgb(out.f0) + ")");
+            plan.approximations.push_back("conductor");
+            out.specular = 1.0;
+            break;
+        case FresnelType::kNone:
+            GONIO_CHECK(false);
+            break;
+    }
+    return out;
+}
+
+/// scale_c F_c = scale_c f0_c + scale_c (1 - f0_c) F_H with F_H the Principled BSDF's normalised
+/// Fresnel, written as g_c + w (b_c + (1 - b_c) F_H): a Principled BSDF of Base Color b weighted
+/// by w = min_c scale_c, plus a Glossy BSDF of colour g_c = scale_c - w, with b_c = 1 - scale_c (1
+/// - f0_c) / w. Possible (b_c >= 0) when max_c scale_c (1 - f0_c) <= min_c scale_c, which holds for
+/// a grey scale and for one whose channels differ by less than f0; otherwise the colour of the
+/// scale is folded into the Base Color (an approximation, exact at normal incidence).
+tl::expected<std::string, BlenderExportError> principled_python(const Lobe<double>& l,
+                                                                LobePlan& plan,
+                                                                const std::string& p,
+                                                                const PrincipledFresnel& f) {
+    const Rgbd& s = l.scale;
+    if (!(s.maxCoeff() > 0)) {
+        return "glossy(\"GGX\", " + num(std::sqrt(plan.alpha_x)) + ", (0.0, 0.0, 0.0))";
+    }
+    if (s.maxCoeff() > kMaxWeight) {
+        return refuse(p + ": scale " + num(s.maxCoeff()) + " above " + num(kMaxWeight) +
+                      " on a lobe with a Fresnel term cannot be represented by Blender");
+    }
+    const Rgbd grazing_part = s.cwiseProduct(Rgbd::Ones() - f.f0);
+    double w = s.minCoeff();
+    Rgbd base, glossy = Rgbd::Zero();
+    if (w > 0 && grazing_part.maxCoeff() <= w * (1 + 1e-12)) {
+        base = (Rgbd::Ones() - grazing_part / w).cwiseMax(0.0);
+        glossy = s - Rgbd::Constant(w);
+    } else {
+        plan.needs_approximate.push_back(
+            p + ": a coloured scale " + rgb(s) +
+            " on a lobe with a Fresnel term, whose channels differ by more than f0 (the "
+            "Principled BSDF's colour is its normal-incidence reflectance; --approximate folds "
+            "the colour into it, exact at normal incidence)");
+        plan.approximations.push_back("scale-colour-fresnel");
+        w = s.maxCoeff();
+        base = (s / w).cwiseProduct(f.f0);
+    }
+    std::string py = "weighted(principled(" + principled_shape(plan) +
+                     ", metallic=1.0, base=" + rgb(base) + ", specular=" + num(f.specular) + "), " +
+                     num(w) + ")";
+    if (glossy.maxCoeff() > 1e-12 * w) {
+        Lobe<double> g = l;
+        g.scale = glossy;
+        g.fresnel.type = FresnelType::kNone;
+        py = "add(" + glossy_python(g, plan) + ", " + py + ")";
+    }
+    return py;
 }
 
 /// A lobe with a Fresnel term: the Principled BSDF, weighted by the lobe's grey scale.
@@ -282,75 +404,23 @@ tl::expected<std::string, BlenderExportError> fresnel_python(const Lobe<double>&
         return beckmann_fresnel_python(l, plan, p);
     }
     if (l.rgb_roughness) {
-        return refuse(p + ": an RGB roughness with a Fresnel term cannot be represented by "
-                          "Blender (the Principled BSDF's colour cannot be split per channel); "
-                          "refit without `--roughness rgb` or without Fresnel");
+        return refuse(p +
+                      ": an RGB roughness with a Fresnel term cannot be represented by "
+                      "Blender (the Principled BSDF's colour cannot be split per channel); "
+                      "refit without `--roughness rgb` or without Fresnel");
     }
     if (plan.anisotropic &&
         std::min(plan.alpha_x, plan.alpha_y) / std::max(plan.alpha_x, plan.alpha_y) <
             kMinPrincipledAspect2) {
-        return refuse(p + ": an anisotropic lobe with a Fresnel term and alpha ratio above 10 "
-                          "cannot be represented by Blender's Principled BSDF");
+        return refuse(p +
+                      ": an anisotropic lobe with a Fresnel term and alpha ratio above 10 "
+                      "cannot be represented by Blender's Principled BSDF");
     }
-    const brdf::Fresnel<double>& f = l.fresnel;
-    const double weight = l.scale.maxCoeff();
-    Rgbd colour = weight > 0 ? Rgbd(l.scale / weight) : Rgbd::Ones();
-    if (!is_grey(l.scale)) {
-        plan.needs_approximate.push_back(
-            p + ": a coloured scale " + rgb(l.scale) +
-            " on a lobe with a Fresnel term (the Principled BSDF's colour is its normal-incidence "
-            "reflectance; --approximate folds the colour into it, exact at normal incidence)");
-        plan.approximations.push_back("scale-colour-fresnel");
+    auto fresnel = principled_fresnel(l.fresnel, plan, p);
+    if (!fresnel) {
+        return tl::unexpected(fresnel.error());
     }
-    if (weight > kMaxWeight) {
-        return refuse(p + ": scale " + num(weight) + " above " + num(kMaxWeight) +
-                      " on a lobe with a Fresnel term cannot be represented by Blender");
-    }
-    std::string metallic, base, specular;
-    switch (f.type) {
-        case FresnelType::kDielectric: {
-            const double r = (f.eta - 1) / (f.eta + 1);
-            const double f0 = r * r;
-            if (!(f.eta > 1) || f0 > kMaxPrincipledF0) {
-                return refuse(p + ": a dielectric Fresnel of eta " + num(f.eta) +
-                              " cannot be represented by Blender's Principled BSDF, whose "
-                              "dielectric Fresnel takes 1 < eta <= 1.788 (f0 <= 0.08)");
-            }
-            if (is_grey(l.scale)) {
-                metallic = "0.0";
-                base = "(0.0, 0.0, 0.0)";
-            } else {
-                metallic = "1.0";
-                base = rgb(colour * f0);
-            }
-            specular = num(f0 / kMaxPrincipledF0);
-            break;
-        }
-        case FresnelType::kSchlick:
-            plan.approximations.push_back("schlick");
-            metallic = "1.0";
-            base = rgb(colour.cwiseProduct(f.f0));
-            specular = num(std::min(1.0, f.f0.mean() / kMaxPrincipledF0));
-            break;
-        case FresnelType::kConductor: {
-            const Rgbd f0 = normal_reflectance(f);
-            plan.needs_approximate.push_back(
-                p + ": a conductor Fresnel (Blender 3 has no conductor Fresnel; --approximate "
-                    "writes the Principled BSDF's metallic Fresnel with the normal-incidence "
-                    "reflectance " +
-                rgb(f0) + ")");
-            plan.approximations.push_back("conductor");
-            metallic = "1.0";
-            base = rgb(colour.cwiseProduct(f0));
-            specular = "1.0";
-            break;
-        }
-        case FresnelType::kNone:
-            GONIO_CHECK(false);
-            break;
-    }
-    return "weighted(principled(" + principled_shape(plan) + ", metallic=" + metallic +
-           ", base=" + base + ", specular=" + specular + "), " + num(weight) + ")";
+    return principled_python(l, plan, p, *fresnel);
 }
 
 std::string describe_lobe(const Lobe<double>& l, const LobePlan& plan, bool principled) {
@@ -533,10 +603,10 @@ tl::expected<BlenderExport, BlenderExportError> export_blender(const ModelD& mod
     }
     std::vector<Term> terms;
     if (model.has_diffuse && model.diffuse.maxCoeff() > 0) {
-        terms.push_back({"diffuse(" + rgb(model.diffuse) + ")",
-                         "diffuse " + rgb(model.diffuse) +
-                             ": Diffuse BSDF of roughness 0 (Lambert): exact",
-                         false});
+        terms.push_back(
+            {"diffuse(" + rgb(model.diffuse) + ")",
+             "diffuse " + rgb(model.diffuse) + ": Diffuse BSDF of roughness 0 (Lambert): exact",
+             false});
     }
     for (std::size_t i = 0; i < model.lobes.size(); ++i) {
         auto t = lobe_term(model.lobes[i], i, o);
@@ -570,13 +640,32 @@ const std::vector<BlenderMeasured>& blender_measured_differences() {
     // Measured by tests/report/integration_blender_test.cpp (which checks that each render stays
     // within these bounds); docs/blender.md lists the commands.
     static const std::vector<BlenderMeasured> table = {
-        {"smith-correlated", "GGX alpha 0.3, F = 1, no diffuse", 1.0, 2.0},
-        {"schlick", "plastic-ggx: GGX alpha 0.2, correlated, Schlick 0.04, Lambert", 2.0, 5.0},
-        {"blinn-phong", "blinn-phong: exponent 80, Schlick 0.04, Lambert 0.5", 10.0, 30.0},
-        {"fresnel-at-normal-incidence", "copper-beckmann: Beckmann alpha 0.15, conductor", 20.0,
-         50.0},
-        {"conductor", "brushed-aluminium: anisotropic GGX 0.05 x 0.3, conductor", 20.0, 50.0},
-        {"scale-colour-fresnel", "GGX alpha 0.2, Schlick 0.04, scale (1, 0.6, 0.3)", 10.0, 30.0},
+        {"smith-correlated", "GGX alpha 0.3, F = 1, no diffuse", 0.1, 1.5, 1.0, 3.5},
+        {"schlick",
+         "plastic-ggx: GGX alpha 0.2, correlated, Schlick 0.04, Lambert",
+         0.05,
+         0.1,
+         2.5,
+         6.0},
+        {"blinn-phong", "blinn-phong: exponent 80, Schlick 0.04, Lambert 0.5", 0.01, 0.2, 0.1, 25},
+        {"fresnel-at-normal-incidence",
+         "copper-beckmann: Beckmann alpha 0.15, conductor",
+         0.01,
+         0.02,
+         1.0,
+         2.5},
+        {"conductor",
+         "brushed-aluminium: anisotropic GGX 0.05 x 0.3, correlated, conductor",
+         0.05,
+         0.2,
+         2.5,
+         3.0},
+        {"scale-colour-fresnel",
+         "GGX alpha 0.2, Schlick 0.04, scale (1, 0.6, 0.3), Lambert 0.1",
+         0.05,
+         0.1,
+         8.5,
+         40},
     };
     return table;
 }

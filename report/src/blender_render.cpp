@@ -11,7 +11,6 @@
 #include <unistd.h>
 
 #include <Eigen/Geometry>
-
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
@@ -32,9 +31,12 @@ namespace {
 using brdf::Rgbd;
 using brdf::Vec3d;
 
-const char* const kScene = R"PY(# gonio: the comparison scene for an exported material (report/blender_render.h).
+const char* const kScene =
+    R"PY(# gonio: the comparison scene for an exported material (report/blender_render.h).
 # Run after the material's script:
-#   blender -b --factory-startup --python material.py --python scene.py -- NAME OUT.exr SIZE SAMPLES LX LY LZ
+#   blender -b --factory-startup --python material.py --python scene.py -- \
+#       NAME OUT SIZE SAMPLES LX LY LZ [LX LY LZ ...]
+# writes OUT_0.exr, OUT_1.exr, ...: one picture per direction toward the sun.
 import math
 import sys
 
@@ -42,9 +44,9 @@ import bpy
 from mathutils import Vector
 
 argv = sys.argv[sys.argv.index("--") + 1:]
-name, out_path = argv[0], argv[1]
+name, out_prefix = argv[0], argv[1]
 size, samples = int(argv[2]), int(argv[3])
-light = Vector((float(argv[4]), float(argv[5]), float(argv[6]))).normalized()
+lights = [Vector([float(v) for v in argv[k:k + 3]]).normalized() for k in range(4, len(argv), 3)]
 scene = bpy.context.scene
 for obj in list(bpy.data.objects):
     bpy.data.objects.remove(obj, do_unlink=True)
@@ -82,7 +84,6 @@ sun_data = bpy.data.lights.new("gonio_sun", type="SUN")
 sun_data.energy = 1.0
 sun_data.angle = 0.0
 sun = bpy.data.objects.new("gonio_sun", sun_data)
-sun.rotation_euler = light.to_track_quat("Z", "Y").to_euler()
 scene.collection.objects.link(sun)
 
 world = bpy.data.worlds.new("gonio_black")
@@ -114,8 +115,10 @@ settings = scene.render.image_settings
 settings.file_format = "OPEN_EXR_MULTILAYER"
 settings.color_depth = "32"
 settings.exr_codec = "ZIP"
-scene.render.filepath = out_path
-bpy.ops.render.render(write_still=True)
+for index, light in enumerate(lights):
+    sun.rotation_euler = light.to_track_quat("Z", "Y").to_euler()
+    scene.render.filepath = "%s_%d.exr" % (out_prefix, index)
+    bpy.ops.render.render(write_still=True)
 )PY";
 
 std::string num(double v) {
@@ -126,7 +129,8 @@ std::string num(double v) {
 
 bool is_executable(const std::string& path) {
     struct stat st {};
-    return ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode) && ::access(path.c_str(), X_OK) == 0;
+    return ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode) &&
+           ::access(path.c_str(), X_OK) == 0;
 }
 
 std::string tail_of_file(const std::string& path, std::size_t max_chars) {
@@ -190,15 +194,14 @@ Expected<BlenderPasses> read_passes(const std::string& path) {
             if (channels.findChannel(name.c_str()) == nullptr) {
                 return false;
             }
-            char* origin = reinterpret_cast<char*>(
-                base - (static_cast<std::ptrdiff_t>(dw.min.x) +
-                        static_cast<std::ptrdiff_t>(dw.min.y) * p.width) *
-                           static_cast<std::ptrdiff_t>(stride));
-            fb.insert(name.c_str(),
-                      Imf::Slice(Imf::FLOAT,
-                                 origin,
-                                 sizeof(float) * stride,
-                                 sizeof(float) * stride * p.width));
+            char* origin =
+                reinterpret_cast<char*>(base - (static_cast<std::ptrdiff_t>(dw.min.x) +
+                                                static_cast<std::ptrdiff_t>(dw.min.y) * p.width) *
+                                                   static_cast<std::ptrdiff_t>(stride));
+            fb.insert(
+                name.c_str(),
+                Imf::Slice(
+                    Imf::FLOAT, origin, sizeof(float) * stride, sizeof(float) * stride * p.width));
             return true;
         };
         const char* rgb[3] = {"R", "G", "B"};
@@ -245,7 +248,8 @@ bool pixel_frame(const float* n_in, const float* t_in, Vec3d& x, Vec3d& y, Vec3d
 }
 
 double percentile(std::vector<double>& v, double q) {
-    const std::size_t k = static_cast<std::size_t>(std::floor(q * static_cast<double>(v.size() - 1)));
+    const std::size_t k =
+        static_cast<std::size_t>(std::floor(q * static_cast<double>(v.size() - 1)));
     std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
     return v[k];
 }
@@ -273,22 +277,21 @@ const std::string& blender_scene_script() {
     return script;
 }
 
-Expected<BlenderComparison> compare_passes(const BlenderPasses& p,
-                                           const brdf::Brdf& truth,
-                                           const Vec3d& light_dir) {
-    const Vec3d wi_world = light_dir.normalized();
+namespace {
+
+/// gonio's f cos(theta_i) at every compared pixel of a view (see blender_render.h).
+void expected_pixels(const BlenderPasses& p, const brdf::Brdf& truth, BlenderView& v) {
+    const Vec3d wi_world = v.light_dir;
     const Vec3d wo_world(0, 0, 1);
-    BlenderComparison out;
     const std::size_t n = static_cast<std::size_t>(p.width) * p.height;
-    for (RadianceImage* img : {&out.render, &out.expected}) {
+    for (RadianceImage* img : {&v.render, &v.expected}) {
         img->width = p.width;
         img->height = p.height;
         img->pixels.assign(n, Rgbd::Zero());
         img->covered.assign(n, false);
     }
-    Rgbd peak = Rgbd::Zero();
     for (std::size_t i = 0; i < n; ++i) {
-        out.render.pixels[i] = Rgbd(p.rgb[3 * i], p.rgb[3 * i + 1], p.rgb[3 * i + 2]);
+        v.render.pixels[i] = Rgbd(p.rgb[3 * i], p.rgb[3 * i + 1], p.rgb[3 * i + 2]);
         Vec3d x, y, z;
         if (!(p.alpha[i] >= 0.999f) || !pixel_frame(&p.normal[3 * i], &p.tangent[3 * i], x, y, z)) {
             continue;
@@ -298,39 +301,55 @@ Expected<BlenderComparison> compare_passes(const BlenderPasses& p,
         if (!(wo.z() >= 0.1) || !(wi.z() >= 0.05)) {
             continue;
         }
-        out.expected.pixels[i] = truth.eval(wi, wo) * wi.z();
-        if (std::getenv("DUMPCSV")) {
-            const Rgbd e = out.expected.pixels[i], r = out.render.pixels[i];
-            std::fprintf(stderr, "DBG %zu %.4f %.4f %.4f %.4f %.4f %.4f | %.4f %.4f %.4f\n", i, wi.x(), wi.y(), wi.z(), wo.x(), wo.y(), wo.z(), r[0]/e[0], r[1]/e[1], r[2]/e[2]);
-        }
-        out.expected.covered[i] = out.render.covered[i] = true;
-        peak = peak.cwiseMax(out.expected.pixels[i]);
-        ++out.pixels;
+        v.expected.pixels[i] = truth.eval(wi, wo) * wi.z();
+        v.expected.covered[i] = v.render.covered[i] = true;
+        ++v.pixels;
     }
-    std::vector<double> rel;
-    out.pixel_rel.assign(n, -1.0);
+}
+
+/// The relative differences of the channels worth comparing (see blender_render.h).
+void relative_differences(BlenderView& v) {
+    const std::size_t n = v.expected.pixels.size();
+    Rgbd peak = Rgbd::Zero();
     for (std::size_t i = 0; i < n; ++i) {
-        if (!out.expected.covered[i]) {
+        if (v.expected.covered[i]) {
+            peak = peak.cwiseMax(v.expected.pixels[i]);
+        }
+    }
+    v.pixel_rel.assign(n, -1.0);
+    for (std::size_t i = 0; i < n; ++i) {
+        if (!v.expected.covered[i]) {
             continue;
         }
         for (int c = 0; c < 3; ++c) {
-            const double e = out.expected.pixels[i][c];
+            const double e = v.expected.pixels[i][c];
             if (e > 0 && e >= 1e-3 * peak[c]) {
-                rel.push_back(std::abs(out.render.pixels[i][c] - e) / e);
-                out.pixel_rel[i] = std::max(out.pixel_rel[i], rel.back());
+                v.rel.push_back(std::abs(v.render.pixels[i][c] - e) / e);
+                v.pixel_rel[i] = std::max(v.pixel_rel[i], v.rel.back());
             }
         }
     }
-    if (rel.empty()) {
+}
+
+}  // namespace
+
+Expected<BlenderView> compare_passes(const BlenderPasses& p,
+                                     const brdf::Brdf& truth,
+                                     const Vec3d& light_dir) {
+    BlenderView v;
+    v.light_dir = light_dir.normalized();
+    expected_pixels(p, truth, v);
+    relative_differences(v);
+    if (v.rel.empty()) {
         return make_error("no pixel of the render to compare (is the sphere lit and in view?)");
     }
-    out.values = rel.size();
-    out.median_rel = percentile(rel, 0.5);
-    out.p90_rel = percentile(rel, 0.9);
-    if (!std::isfinite(out.median_rel) || !std::isfinite(out.p90_rel)) {
+    std::vector<double> sorted = v.rel;
+    v.median_rel = percentile(sorted, 0.5);
+    v.p90_rel = percentile(sorted, 0.9);
+    if (!std::isfinite(v.median_rel) || !std::isfinite(v.p90_rel)) {
         return make_error("the render holds values that are not finite");
     }
-    return out;
+    return v;
 }
 
 Expected<BlenderComparison> render_and_compare(const std::string& material_script,
@@ -341,15 +360,17 @@ Expected<BlenderComparison> render_and_compare(const std::string& material_scrip
     if (blender.empty()) {
         return make_error("blender: not found on PATH (install it: apt-get install blender)");
     }
-    if (o.size_px < 8 || o.size_px > 4096 || o.samples < 1 || o.samples > 4096) {
-        return make_error("blender render: size " + std::to_string(o.size_px) + " px and " +
-                          std::to_string(o.samples) +
-                          " samples: must be 8 to 4096 and 1 to 4096");
+    if (o.size_px < 8 || o.size_px > 4096 || o.samples < 1 || o.samples > 4096 ||
+        o.light_dirs.empty() || o.light_dirs.size() > 16) {
+        return make_error("blender render: size " + std::to_string(o.size_px) + " px, " +
+                          std::to_string(o.samples) + " samples, " +
+                          std::to_string(o.light_dirs.size()) +
+                          " sun directions: must be 8 to 4096, 1 to 4096 and 1 to 16");
     }
     const std::string dir = o.work_dir.empty() ? std::string(".") : o.work_dir;
     const std::string material_py = dir + "/material.py";
     const std::string scene_py = dir + "/scene.py";
-    const std::string exr = dir + "/render.exr";
+    const std::string prefix = dir + "/render";
     const std::string log = dir + "/blender.log";
     for (const auto& [path, text] :
          {std::pair{material_py, material_script}, std::pair{scene_py, blender_scene_script()}}) {
@@ -357,46 +378,58 @@ Expected<BlenderComparison> render_and_compare(const std::string& material_scrip
             return make_error(w.error().message);
         }
     }
-    const Vec3d l = o.light_dir.normalized();
-    const std::vector<std::string> argv = {blender,
-                                           "-b",
-                                           "--factory-startup",
-                                           "--python-exit-code",
-                                           "3",
-                                           "--python",
-                                           material_py,
-                                           "--python",
-                                           scene_py,
-                                           "--",
-                                           material_name,
-                                           exr,
-                                           std::to_string(o.size_px),
-                                           std::to_string(o.samples),
-                                           num(l.x()),
-                                           num(l.y()),
-                                           num(l.z())};
-    std::remove(exr.c_str());
+    std::vector<std::string> argv = {blender,
+                                     "-b",
+                                     "--factory-startup",
+                                     "--python-exit-code",
+                                     "3",
+                                     "--python",
+                                     material_py,
+                                     "--python",
+                                     scene_py,
+                                     "--",
+                                     material_name,
+                                     prefix,
+                                     std::to_string(o.size_px),
+                                     std::to_string(o.samples)};
+    std::vector<std::string> exrs;
+    for (std::size_t k = 0; k < o.light_dirs.size(); ++k) {
+        const Vec3d l = o.light_dirs[k].normalized();
+        for (int c = 0; c < 3; ++c) {
+            argv.push_back(num(l[c]));
+        }
+        exrs.push_back(prefix + "_" + std::to_string(k) + ".exr");
+        std::remove(exrs.back().c_str());
+    }
     const auto t0 = std::chrono::steady_clock::now();
     const Expected<int> status = run_logged(argv, log);
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    BlenderComparison out;
+    out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (!status) {
         return make_error(status.error().message);
     }
-    if (*status != 0 || ::access(exr.c_str(), R_OK) != 0) {
-        return make_error(blender + " exited with status " + std::to_string(*status) +
-                          " without writing " + exr + "; end of its log " + log + ":\n" +
-                          tail_of_file(log, 1500));
+    std::vector<double> all;
+    for (std::size_t k = 0; k < exrs.size(); ++k) {
+        if (*status != 0 || ::access(exrs[k].c_str(), R_OK) != 0) {
+            return make_error(blender + " exited with status " + std::to_string(*status) +
+                              " without writing " + exrs[k] + "; end of its log " + log + ":\n" +
+                              tail_of_file(log, 1500));
+        }
+        Expected<BlenderPasses> passes = read_passes(exrs[k]);
+        if (!passes) {
+            return make_error(passes.error().message);
+        }
+        Expected<BlenderView> view = compare_passes(*passes, truth, o.light_dirs[k]);
+        if (!view) {
+            return make_error(exrs[k] + ": " + view.error().message);
+        }
+        all.insert(all.end(), view->rel.begin(), view->rel.end());
+        out.pixels += view->pixels;
+        out.views.push_back(std::move(*view));
     }
-    Expected<BlenderPasses> passes = read_passes(exr);
-    if (!passes) {
-        return make_error(passes.error().message);
-    }
-    Expected<BlenderComparison> cmp = compare_passes(*passes, truth, l);
-    if (cmp) {
-        cmp->seconds = seconds;
-    }
-    return cmp;
+    out.median_rel = percentile(all, 0.5);
+    out.p90_rel = percentile(all, 0.9);
+    return out;
 }
 
 }  // namespace gonio::report

@@ -14,10 +14,14 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <sstream>
 
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/model_json.h"
+#include "gonio/fitting/fit.h"
+#include "gonio/fitting/report.h"
+#include "gonio/fitting/spec.h"
 #include "gonio/report/blender_export.h"
 #include "gonio/report/blender_render.h"
 #include "gonio/report/export.h"
@@ -70,21 +74,16 @@ BlenderComparison render(const brdf::ModelD& exported,
     if (!cmp) {
         return {};
     }
-    std::printf("%s: %zu pixels, median %.4f %%, 90th percentile %.4f %% (%.2f s)\n",
+    std::printf("%s: median %.4f %%, 90th percentile %.4f %% (%.2f s);",
                 test_name().c_str(),
-                cmp->pixels,
                 100 * cmp->median_rel,
                 100 * cmp->p90_rel,
                 cmp->seconds);
-    EXPECT_GT(cmp->pixels, 8000u);
-    if (std::getenv("DUMP")) {
-        std::ofstream f(r.work_dir + "/rel.pgm");
-        f << "P2\n" << cmp->render.width << " " << cmp->render.height << "\n255\n";
-        for (std::size_t i = 0; i < cmp->pixel_rel.size(); ++i) {
-            const double v = cmp->pixel_rel[i];
-            f << (v < 0 ? 0 : std::min(255, 40 + static_cast<int>(v * 2000))) << "\n";
-        }
+    for (const BlenderView& v : cmp->views) {
+        std::printf(" [%zu px: %.4f %%, %.4f %%]", v.pixels, 100 * v.median_rel, 100 * v.p90_rel);
+        EXPECT_GT(v.pixels, 2500u);
     }
+    std::printf("\n");
     return *cmp;
 }
 
@@ -95,15 +94,22 @@ class BlenderRender : public ::testing::Test {
             GTEST_SKIP() << "blender is not installed (apt-get install blender)";
         }
     }
+    /// Both views within 0.5 % (median) and 1.5 % (90th percentile).
     static void expect_exact(const BlenderComparison& c) {
-        EXPECT_LE(c.median_rel, 0.005);
-        EXPECT_LE(c.p90_rel, 0.015);
+        ASSERT_EQ(c.views.size(), 2u);
+        for (const BlenderView& v : c.views) {
+            EXPECT_LE(v.median_rel, 0.005);
+            EXPECT_LE(v.p90_rel, 0.015);
+        }
     }
     /// Within the bound the export states for `key`.
     static void expect_stated(const BlenderComparison& c, const std::string& key) {
         const BlenderMeasured& m = blender_measured(key);
-        EXPECT_LE(100 * c.median_rel, m.median_pct) << key;
-        EXPECT_LE(100 * c.p90_rel, m.p90_pct) << key;
+        ASSERT_EQ(c.views.size(), 2u);
+        EXPECT_LE(100 * c.views[0].median_rel, m.front_median_pct) << key;
+        EXPECT_LE(100 * c.views[0].p90_rel, m.front_p90_pct) << key;
+        EXPECT_LE(100 * c.views[1].median_rel, m.back_median_pct) << key;
+        EXPECT_LE(100 * c.views[1].p90_rel, m.back_p90_pct) << key;
     }
 };
 
@@ -161,8 +167,11 @@ TEST_F(BlenderRender, AnisotropicPrincipledTurned60DegreesIsExact) {
 TEST_F(BlenderRender, DefaultFamilyWithinTwoAndFivePercent) {
     const auto m = shipped("plastic-ggx.json");
     const BlenderComparison c = render(m, m);
-    EXPECT_LE(c.median_rel, 0.02);
-    EXPECT_LE(c.p90_rel, 0.05);
+    ASSERT_EQ(c.views.size(), 2u);
+    // The aims hold for the sun 38 degrees from the view (theta_d = 19 deg, where the Principled
+    // BSDF's Fresnel and Schlick's agree); back-lit the stated difference holds.
+    EXPECT_LE(c.views[0].median_rel, 0.02);
+    EXPECT_LE(c.views[0].p90_rel, 0.05);
     expect_stated(c, "schlick");
 }
 
@@ -181,7 +190,6 @@ TEST_F(BlenderRender, ConductorApproximationWithinItsStatedDifference) {
     const auto m = shipped("brushed-aluminium.json");
     const BlenderComparison c = render(m, m, true);
     expect_stated(c, "conductor");
-    expect_stated(c, "smith-correlated");
 }
 
 TEST_F(BlenderRender, BeckmannWithFresnelApproximationWithinItsStatedDifference) {
@@ -204,6 +212,189 @@ TEST_F(BlenderRender, AWrongRoughnessIsSeen) {
     truth.lobes[0].alpha_x = truth.lobes[0].alpha_y = 0.275;
     const BlenderComparison c = render(exported, truth);
     EXPECT_GT(c.p90_rel, 0.05);
+}
+
+// The command line: `gonio export --to blender`.
+
+const std::string kGonio = std::string(GONIO_BINARY_DIR) + "/tools/gonio";
+
+struct CliRun {
+    int status = -1;
+    std::string out;  ///< standard output and standard error
+};
+
+CliRun gonio(const std::string& args) {
+    CliRun r;
+    FILE* p = popen((kGonio + " " + args + " 2>&1").c_str(), "r");
+    if (p == nullptr) {
+        return r;
+    }
+    char buf[4096];
+    std::size_t n;
+    while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) {
+        r.out.append(buf, n);
+    }
+    const int st = pclose(p);
+    r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    return r;
+}
+
+std::string write(const fs::path& dir, const std::string& name, const std::string& text) {
+    const fs::path path = dir / name;
+    std::ofstream(path) << text;
+    return path.string();
+}
+
+std::string read(const fs::path& path) {
+    std::ifstream in(path);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+class ExportBlenderCli : public ::testing::Test {
+  protected:
+    void SetUp() override {
+        if (!fs::exists(kGonio)) {
+            GTEST_SKIP() << "the gonio executable is not built (" << kGonio << ")";
+        }
+        dir_ = fresh("cli_" + test_name());
+    }
+    fs::path dir_;
+};
+
+TEST_F(ExportBlenderCli, TermsBlenderCannotRepresentAreRefusedWithExitTwoNamingThem) {
+    const std::string bp = std::string(GONIO_SOURCE_DIR) + "/data/models/blinn-phong.json";
+    CliRun r = gonio("export " + bp + " --to blender --out " + (dir_ / "m.py").string());
+    EXPECT_EQ(r.status, 2) << r.out;
+    EXPECT_NE(r.out.find("lobes[0]: a Blinn-Phong lobe"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("--approximate"), std::string::npos) << r.out;
+    EXPECT_FALSE(fs::exists(dir_ / "m.py"));
+
+    const std::string copper = std::string(GONIO_SOURCE_DIR) + "/data/models/copper-beckmann.json";
+    r = gonio("export " + copper + " --to blender");
+    EXPECT_EQ(r.status, 2) << r.out;
+    EXPECT_NE(r.out.find("lobes[0]: a Beckmann lobe with a Fresnel term"), std::string::npos)
+        << r.out;
+
+    // No approximation for these: refused with --approximate too.
+    const std::string student = write(dir_, "student.json", R"({"lobes": [{"distribution":
+        "student-t", "alpha": 0.2, "gamma": 3, "shadowing": "smith-separable",
+        "fresnel": {"type": "none"}}]})");
+    r = gonio("export " + student + " --to blender --approximate");
+    EXPECT_EQ(r.status, 2) << r.out;
+    EXPECT_NE(r.out.find("lobes[0]: a student-t lobe (gamma 3)"), std::string::npos) << r.out;
+    const std::string vgroove = write(dir_, "vgroove.json", R"({"diffuse": 0.1, "lobes": [
+        {"distribution": "ggx", "alpha": 0.2, "shadowing": "smith-separable",
+         "fresnel": {"type": "none"}},
+        {"distribution": "ggx", "alpha": 0.3, "shadowing": "v-groove",
+         "fresnel": {"type": "none"}}]})");
+    r = gonio("export " + vgroove + " --to blender --approximate");
+    EXPECT_EQ(r.status, 2) << r.out;
+    EXPECT_NE(r.out.find("lobes[1]: shadowing v-groove"), std::string::npos) << r.out;
+    const std::string rgb_fresnel = write(dir_, "rgb.json", R"({"lobes": [{"distribution":
+        "ggx", "alpha": [0.1, 0.2, 0.3], "shadowing": "smith-separable",
+        "fresnel": {"type": "schlick", "f0": 0.04}}]})");
+    r = gonio("export " + rgb_fresnel + " --to blender --approximate");
+    EXPECT_EQ(r.status, 2) << r.out;
+    EXPECT_NE(r.out.find("lobes[0]: an RGB roughness with a Fresnel term"), std::string::npos)
+        << r.out;
+}
+
+TEST_F(ExportBlenderCli, ApproximatePrintsTheMeasuredDifference) {
+    const std::string bp = std::string(GONIO_SOURCE_DIR) + "/data/models/blinn-phong.json";
+    const fs::path out = dir_ / "m.py";
+    const CliRun r = gonio("export " + bp + " --to blender --approximate --out " + out.string());
+    ASSERT_EQ(r.status, 0) << r.out;
+    const BlenderMeasured& m = blender_measured("blinn-phong");
+    char figure[64];
+    std::snprintf(
+        figure, sizeof figure, "%.2g %% and %.2g %% back-lit", m.back_median_pct, m.back_p90_pct);
+    EXPECT_NE(r.out.find("gonio export: approximated: lobes[0]"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find(figure), std::string::npos) << figure << "\n" << r.out;
+    const std::string text = read(out);
+    EXPECT_NE(
+        text.find("#  - diffuse (0.5, 0.5, 0.5): Diffuse BSDF of roughness 0 (Lambert): exact"),
+        std::string::npos)
+        << text;
+    EXPECT_NE(text.find(figure), std::string::npos) << text;
+    // The material is named after the file.
+    EXPECT_NE(text.find("gonio_material(\"blinn-phong\")"), std::string::npos) << text;
+}
+
+TEST_F(ExportBlenderCli, ApproximateIsRefusedForTheOtherRenderers) {
+    const std::string m = std::string(GONIO_SOURCE_DIR) + "/data/models/plastic-ggx.json";
+    for (const char* to : {"mitsuba", "pbrt"}) {
+        const CliRun r = gonio("export " + m + " --to " + to + " --approximate");
+        EXPECT_EQ(r.status, 2) << r.out;
+        EXPECT_NE(r.out.find("--approximate applies to --to blender only"), std::string::npos)
+            << r.out;
+    }
+    const CliRun r = gonio("export " + m + " --to blender --name 'a\"b'");
+    EXPECT_EQ(r.status, 2) << r.out;
+    EXPECT_NE(r.out.find("--name: character 2"), std::string::npos) << r.out;
+}
+
+/// Point samples of the model (in-plane slices at four theta_i and an azimuthal ring), 2 % noise
+/// with matching sigma, seed 7.
+brdf::Dataset point_samples(const brdf::Brdf& truth) {
+    constexpr double kDeg = brdf::kPi / 180;
+    std::mt19937 rng(7);
+    std::normal_distribution<double> noise(0.0, 0.02);
+    brdf::Dataset d;
+    d.source = "dataset.csv";
+    d.has_sigma = true;
+    auto add = [&](double ti, double pi, double to, double po) {
+        brdf::Sample s;
+        s.theta_i = ti * kDeg;
+        s.phi_i = pi * kDeg;
+        s.theta_o = to * kDeg;
+        s.phi_o = po * kDeg;
+        const brdf::Rgbd f = truth.eval(s.wi(), s.wo());
+        s.value = f * (1.0 + noise(rng));
+        s.sigma = 0.02 * f;
+        d.samples.push_back(s);
+    };
+    for (double ti : {10.0, 30.0, 50.0, 70.0}) {
+        for (int to = -80; to <= 80; to += 5) {
+            add(ti, 0, std::abs(to), to >= 0 ? 180 : 0);
+        }
+    }
+    for (int a = 0; a <= 180; a += 15) {
+        add(45, 0, 45, a);
+    }
+    return d;
+}
+
+TEST_F(ExportBlenderCli, AFitOfTheDefaultFamilyRendersInBlenderWithinTheAims) {
+    if (find_blender().empty()) {
+        GTEST_SKIP() << "blender is not installed (apt-get install blender)";
+    }
+    const auto truth = brdf::make_analytic_brdf(shipped("plastic-ggx.json"));
+    auto spec = fitting::make_fit_spec(fitting::ModelOptions{});
+    ASSERT_TRUE(spec) << spec.error().message;
+    spec->options.num_threads = 1;
+    auto fit = fitting::fit(point_samples(*truth), *spec);
+    ASSERT_TRUE(fit) << fit.error().message;
+    const std::string fit_json = (dir_ / "fit.json").string();
+    ASSERT_TRUE(fitting::write_fit_report(fit_json, *fit));
+    const fs::path script = dir_ / "material.py";
+    const CliRun r = gonio("export " + fit_json + " --to blender --out " + script.string());
+    ASSERT_EQ(r.status, 0) << r.out;
+    auto fitted = brdf::load_model_json(fit_json);
+    ASSERT_TRUE(fitted) << fitted.error().message;
+    BlenderRenderOptions o;
+    o.work_dir = (dir_ / "render").string();
+    fs::create_directories(o.work_dir);
+    auto c = render_and_compare(read(script), "fit", *brdf::make_analytic_brdf(*fitted), o);
+    ASSERT_TRUE(c) << c.error().message;
+    std::printf("fit of plastic-ggx: %.4f %%, %.4f %% (front), %.4f %%, %.4f %% (back-lit)\n",
+                100 * c->views[0].median_rel,
+                100 * c->views[0].p90_rel,
+                100 * c->views[1].median_rel,
+                100 * c->views[1].p90_rel);
+    EXPECT_LE(c->views[0].median_rel, 0.02);
+    EXPECT_LE(c->views[0].p90_rel, 0.05);
 }
 
 }  // namespace
