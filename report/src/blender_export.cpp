@@ -134,7 +134,7 @@ struct LobePlan {
 
 std::string measured_text(const std::string& key) {
     const BlenderMeasured& m = blender_measured(key);
-    return "measured " + pct(m.front_median_pct) + " median, " + pct(m.front_p90_pct) +
+    return "measured at most " + pct(m.front_median_pct) + " median, " + pct(m.front_p90_pct) +
            " 90th percentile relative difference lit 38 deg from the view, " +
            pct(m.back_median_pct) + " and " + pct(m.back_p90_pct) + " back-lit at 120 deg (" +
            m.test_case + ")";

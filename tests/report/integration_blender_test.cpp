@@ -223,9 +223,13 @@ struct CliRun {
     std::string out;  ///< standard output and standard error
 };
 
-CliRun gonio(const std::string& args) {
+/// An environment in which no blender is found.
+const char* const kWithoutBlender = "env -u GONIO_BLENDER PATH=/nonexistent ";
+
+/// `gonio ARGS`, optionally behind an `env` prefix.
+CliRun gonio(const std::string& args, const std::string& env = "") {
     CliRun r;
-    FILE* p = popen((kGonio + " " + args + " 2>&1").c_str(), "r");
+    FILE* p = popen((env + kGonio + " " + args + " 2>&1").c_str(), "r");
     if (p == nullptr) {
         return r;
     }
@@ -395,6 +399,29 @@ TEST_F(ExportBlenderCli, AFitOfTheDefaultFamilyRendersInBlenderWithinTheAims) {
                 100 * c->views[1].p90_rel);
     EXPECT_LE(c->views[0].median_rel, 0.02);
     EXPECT_LE(c->views[0].p90_rel, 0.05);
+}
+
+TEST_F(ExportBlenderCli, ReportShowsBlendersRenderWithTheMeasuredDifference) {
+    if (find_blender().empty()) {
+        GTEST_SKIP() << "blender is not installed (apt-get install blender)";
+    }
+    fs::copy_file(fs::path(GONIO_SOURCE_DIR) / "data/models/plastic-ggx.json", dir_ / "fit.json");
+    const CliRun r = gonio("report " + dir_.string() + " --blender --preview-size 96");
+    ASSERT_EQ(r.status, 0) << r.out;
+    EXPECT_TRUE(fs::exists(dir_ / "previews" / "blender.png")) << r.out;
+    const std::string html = read(dir_ / "report.html");
+    EXPECT_NE(html.find("rendered by Blender&#39;s Cycles"), std::string::npos) << html;
+    EXPECT_NE(html.find("90th percentile"), std::string::npos);
+    EXPECT_NE(html.find("lobes[0]: ggx alpha 0.2, shadowing smith-correlated"), std::string::npos);
+}
+
+TEST_F(ExportBlenderCli, ReportBlenderIsRefusedWhenBlenderIsMissing) {
+    fs::copy_file(fs::path(GONIO_SOURCE_DIR) / "data/models/plastic-ggx.json", dir_ / "fit.json");
+    const CliRun r = gonio("report " + dir_.string() + " --blender", kWithoutBlender);
+    EXPECT_EQ(r.status, 2) << r.out;
+    EXPECT_NE(r.out.find("gonio report: --blender: blender is not installed"), std::string::npos)
+        << r.out;
+    EXPECT_FALSE(fs::exists(dir_ / "report.html"));
 }
 
 }  // namespace
