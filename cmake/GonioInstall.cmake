@@ -35,16 +35,25 @@ configure_file(${PROJECT_SOURCE_DIR}/cmake/install_layout.h.in
 
 # --- The commit behind `gonio --version` (configure time; a new commit reconfigures) -----------
 set(GONIO_GIT_COMMIT "unknown")
+set(GONIO_COMMIT_TEXT "commit unknown: not built from a git checkout")
 find_package(Git QUIET)
 if(GIT_FOUND)
   execute_process(COMMAND ${GIT_EXECUTABLE} rev-parse HEAD WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
                   OUTPUT_VARIABLE commit OUTPUT_STRIP_TRAILING_WHITESPACE ERROR_QUIET RESULT_VARIABLE rc)
   if(rc EQUAL 0 AND commit)
     set(GONIO_GIT_COMMIT "${commit}")
-    execute_process(COMMAND ${GIT_EXECUTABLE} describe --tags --always --dirty
-                    WORKING_DIRECTORY ${PROJECT_SOURCE_DIR} OUTPUT_VARIABLE describe
-                    OUTPUT_STRIP_TRAILING_WHITESPACE ERROR_QUIET)
-    set(GONIO_GIT_DESCRIBE "git describe ${describe}")
+    set(GONIO_COMMIT_TEXT "commit ${commit}")
+    execute_process(COMMAND ${GIT_EXECUTABLE} describe --tags --dirty WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
+                    OUTPUT_VARIABLE describe OUTPUT_STRIP_TRAILING_WHITESPACE ERROR_QUIET RESULT_VARIABLE rc)
+    if(rc EQUAL 0 AND describe)
+      string(APPEND GONIO_COMMIT_TEXT ", ${describe}")
+    else()
+      execute_process(COMMAND ${GIT_EXECUTABLE} diff-index --quiet HEAD --
+                      WORKING_DIRECTORY ${PROJECT_SOURCE_DIR} RESULT_VARIABLE rc ERROR_QUIET)
+      if(NOT rc EQUAL 0)
+        string(APPEND GONIO_COMMIT_TEXT ", with uncommitted changes")
+      endif()
+    endif()
     execute_process(COMMAND ${GIT_EXECUTABLE} rev-parse --absolute-git-dir
                     WORKING_DIRECTORY ${PROJECT_SOURCE_DIR} OUTPUT_VARIABLE git_dir
                     OUTPUT_STRIP_TRAILING_WHITESPACE ERROR_QUIET)
@@ -54,11 +63,6 @@ if(GIT_FOUND)
       endif()
     endforeach()
   endif()
-endif()
-if(GONIO_GIT_COMMIT STREQUAL "unknown")
-  set(GONIO_COMMIT_TEXT "commit unknown: not built from a git checkout")
-else()
-  set(GONIO_COMMIT_TEXT "commit ${GONIO_GIT_COMMIT}, ${GONIO_GIT_DESCRIBE}")
 endif()
 configure_file(${PROJECT_SOURCE_DIR}/cmake/build_info.h.in
                ${PROJECT_BINARY_DIR}/generated-private/build_info.h @ONLY)
@@ -75,8 +79,7 @@ install(FILES ${PROJECT_SOURCE_DIR}/README.md ${PROJECT_SOURCE_DIR}/LICENSE DEST
 # --- Libraries, headers and the CMake package ----------------------------------------------------
 get_property(gonio_modules GLOBAL PROPERTY GONIO_MODULES)
 install(TARGETS ${gonio_modules} EXPORT gonioTargets
-        ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
-        INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+        ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR})
 foreach(module ${gonio_modules})
   get_target_property(dir ${module} SOURCE_DIR)
   install(DIRECTORY ${dir}/include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})

@@ -1,6 +1,7 @@
-// Loads an RGL material file (.bsdf), fits gonio's default model (GGX, Schlick Fresnel, Lambert
-// diffuse) to its measured nodes, and prints the file and the fit side by side in the plane of
-// incidence (light at 30 degrees).
+// Loads an RGL material file (.bsdf), fits a model to its measured nodes (gonio's default, GGX with
+// Schlick Fresnel and a Lambert diffuse lobe, or the options given as "key=value;...", the syntax
+// of a fit manifest: e.g. "model=beckmann;shadowing=v-groove"), and prints the file and the fit
+// side by side in the plane of incidence (light at 30 degrees).
 #include <gonio/batch/fit_request.h>
 #include <gonio/brdf/analytic_brdf.h>
 #include <gonio/brdf/rgl_bsdf.h>
@@ -10,8 +11,13 @@
 
 int main(int argc, char** argv) {
     using namespace gonio;
-    if (argc != 2) {
-        std::fprintf(stderr, "usage: fit-rgl MATERIAL.bsdf\n");
+    batch::FitRequest request;
+    if (argc < 2 || argc > 3) {
+        std::fprintf(stderr, "usage: fit-rgl MATERIAL.bsdf [\"key=value;...\"]\n");
+        return 2;
+    }
+    if (Expected<void> set = batch::set_options(request, argc == 3 ? argv[2] : ""); !set) {
+        std::fprintf(stderr, "fit-rgl: %s\n", set.error().message.c_str());
         return 2;
     }
     Expected<brdf::RglBsdf> file = brdf::read_rgl_bsdf(argv[1]);
@@ -19,10 +25,15 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "fit-rgl: %s\n", file.error().message.c_str());
         return 1;
     }
-    Expected<batch::FitRun> run = batch::run_fit(brdf::rgl_nodes_to_dataset(*file), {});
-    if (!run || !run->result.usable()) {
-        std::fprintf(
-            stderr, "fit-rgl: the fit failed%s\n", run ? "" : (": " + run.error().message).c_str());
+    Expected<batch::FitRun> run = batch::run_fit(brdf::rgl_nodes_to_dataset(*file), request);
+    if (!run) {
+        std::fprintf(stderr, "fit-rgl: %s\n", run.error().message.c_str());
+        return 1;
+    }
+    if (!run->result.usable()) {
+        std::fprintf(stderr,
+                     "fit-rgl: the model does not represent these data (not converged or a "
+                     "misfit): try other options\n");
         return 1;
     }
     const brdf::AnalyticBrdf fit(run->result.model);
