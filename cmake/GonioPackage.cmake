@@ -3,6 +3,9 @@
 # (dpkg-shlibdeps, package dpkg-dev), not from a hand-kept list. Nothing is done to the system at
 # install: device access is the opt-in `gonio-device-access grant USER` (docs/install.md); the
 # removal takes away the udev rule that step linked in (packaging/debian/postrm).
+# cpack packages the build as it is (build first: `cmake --build build`), instead of building every
+# target, tests included, before each package.
+set(CMAKE_SKIP_INSTALL_ALL_DEPENDENCY ON)
 set(CPACK_GENERATOR DEB)
 set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
 set(CPACK_PACKAGE_NAME gonio)

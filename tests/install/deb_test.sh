@@ -37,7 +37,8 @@ EXPECTED_EVAL=$(eval_row "$build/tools")
 (cd "$build" && cpack -G DEB -B "$work/package" >"$work/cpack.log" 2>&1) || { cat "$work/cpack.log"; fail "cpack -G DEB"; }
 deb=$(ls "$work"/package/gonio_*.deb)
 depends=$(dpkg-deb -f "$deb" Depends)
-for lib in libceres libaravis libmodbus libopencv-core libopenexr; do
+# (Ceres is linked statically: its own libraries, glog and SuiteSparse, stand for it.)
+for lib in libgoogle-glog libcholmod libaravis libmodbus libusb libopencv-core libopenexr libcpp-httplib; do
   echo "$depends" | grep -q "$lib" || fail "the package's Depends lacks $lib: $depends"
 done
 contents=$(dpkg-deb -c "$deb")
