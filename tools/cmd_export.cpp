@@ -89,7 +89,7 @@ int export_blender(const Options& o, const std::string& out) {
 GONIO_COMMAND(export) {
     auto* cmd = app.add_subcommand(
         "export",
-        "Write a fitted model as a Mitsuba 3, pbrt-v4 or Blender material, or a MERL table");
+        "write a fitted model as a Mitsuba 3, pbrt-v4 or Blender material, or a MERL table");
     auto opts = std::make_shared<Options>();
     cmd->add_option(
            "input", opts->input, "model JSON (fit.json); for merl also a table or dataset CSV")
