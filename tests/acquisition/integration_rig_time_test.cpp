@@ -113,7 +113,7 @@ TEST(RigTime, EqualsTheSimulatedMovesSettlesAndExposures) {
     // microsecond or so per move.
     EXPECT_NEAR(parts["motion_s"].get<double>(), motion, 1e-3 * motion);
     EXPECT_NEAR(parts["settle_s"].get<double>(), settle, 1e-9);
-    EXPECT_NEAR(parts["exposure_s"].get<double>(), exposure, 1e-9 * exposure);
+    EXPECT_NEAR(parts["exposure_s"].get<double>(), exposure, 1e-6 * exposure);
     EXPECT_NEAR(parts["readout_s"].get<double>(), readout, 1e-9);
     const double total = motion + settle + exposure + readout;
     EXPECT_NEAR(run["rig_time_s"].get<double>(), total, 1e-3 * total);
