@@ -28,11 +28,17 @@ double holdout_rms_z(const brdf::Brdf& model, const std::vector<brdf::Sample>& h
     return n == 0 ? std::numeric_limits<double>::infinity() : std::sqrt(sum / n);
 }
 
+/// The parameters that scale the BRDF as a whole per channel ("diffuse[0]", "lobes[0].scale[1]").
+bool is_amplitude(const std::string& name) {
+    return name.rfind("diffuse", 0) == 0 || name.find(".scale") != std::string::npos;
+}
+
 }  // namespace
 
 acquisition::FitCheckFn default_fit_check() {
     return [](const std::vector<brdf::Sample>& fit,
-              const std::vector<brdf::Sample>& holdout) -> Expected<acquisition::FitCheck> {
+              const std::vector<brdf::Sample>& holdout,
+              double common_rel_sigma) -> Expected<acquisition::FitCheck> {
         brdf::Dataset ds;
         ds.source = "the campaign's values so far";
         ds.has_sigma = ds.has_weight = ds.has_flags = true;
@@ -51,8 +57,10 @@ acquisition::FitCheckFn default_fit_check() {
             if (!p.free) {
                 continue;
             }
-            // A parameter without a sigma (not identifiable) is not known at all.
-            const double rel = p.sigma && p.value != 0 ? std::abs(*p.sigma / p.value)
+            // A parameter without a sigma (not identifiable) is not known at all. An amplitude
+            // carries the uncertainty every value shares on top of the fit's own.
+            const double shared = is_amplitude(p.name) ? common_rel_sigma : 0.0;
+            const double rel = p.sigma && p.value != 0 ? std::hypot(*p.sigma / p.value, shared)
                                                        : std::numeric_limits<double>::infinity();
             if (rel >= c.max_rel_sigma || c.worst.empty()) {
                 c.max_rel_sigma = rel;
@@ -65,7 +73,7 @@ acquisition::FitCheckFn default_fit_check() {
                           c.parameters.empty() ? "" : "; ",
                           p.name.c_str(),
                           p.value,
-                          p.sigma ? *p.sigma : std::nan(""));
+                          std::abs(rel * p.value));
             c.parameters += buf;
         }
         const auto model = brdf::make_analytic_brdf(run->result.model);

@@ -243,17 +243,18 @@ int run(const acq::CampaignRequest& r) {
     if (!res) {
         return fail(res.error().message);
     }
-    std::printf("%s\ndataset: %s\nrig time: %s (motion %.1f s, settle %.1f s, exposure %.1f s, "
-                "readout %.1f s; the campaign so far %s); stopped: %s\n",
-                res->message.c_str(),
-                (fs::path(dir) / "dataset.csv").string().c_str(),
-                acq::format_duration(res->rig_time.total_s()).c_str(),
-                res->rig_time.motion_s,
-                res->rig_time.settle_s,
-                res->rig_time.exposure_s,
-                res->rig_time.readout_s,
-                acq::format_duration(res->campaign_rig_time_s).c_str(),
-                res->stopped.c_str());
+    std::printf(
+        "%s\ndataset: %s\nrig time: %s (motion %.1f s, settle %.1f s, exposure %.1f s, "
+        "readout %.1f s; the campaign so far %s); stopped: %s\n",
+        res->message.c_str(),
+        (fs::path(dir) / "dataset.csv").string().c_str(),
+        acq::format_duration(res->rig_time.total_s()).c_str(),
+        res->rig_time.motion_s,
+        res->rig_time.settle_s,
+        res->rig_time.exposure_s,
+        res->rig_time.readout_s,
+        acq::format_duration(res->campaign_rig_time_s).c_str(),
+        res->stopped.c_str());
     switch (res->outcome) {
         case acq::Outcome::kCompleted:
             return 0;

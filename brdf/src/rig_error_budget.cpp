@@ -109,6 +109,10 @@ double relative_sigma(const RigErrorBudget& b, double hours_since_white) {
                      b.nonlinearity * b.nonlinearity);
 }
 
+double common_relative_sigma(const RigErrorBudget& b) {
+    return std::hypot(b.lamp_fluctuation, b.nonlinearity);
+}
+
 double stray_light_brdf(const RigErrorBudget& b, double cos_theta_i) {
     // A radiance offset s E / pi read as a BRDF: f = L / (E cos theta_i).
     return cos_theta_i > 0 ? b.stray_light * kInvPi / cos_theta_i : 0.0;

@@ -183,8 +183,9 @@ Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::s
                 json_fail(rule.error().message);
             }
             if (s.plan_kind == "vndf") {
-                json_fail("until: the vndf plan writes its RGL file from every node (remove "
-                          "\"until\" or use another plan)");
+                json_fail(
+                    "until: the vndf plan writes its RGL file from every node (remove "
+                    "\"until\" or use another plan)");
             }
         }
         top.finish();
@@ -382,8 +383,8 @@ Expected<std::vector<brdf::Sample>> campaign_samples(const std::string& dir,
     }
     std::vector<brdf::Sample> samples;
     for (const JournalRecord& r : jn->records()) {
-        const bool wanted = r.type == RecordType::kMeasurement ||
-                            (references && r.type == RecordType::kReference);
+        const bool wanted =
+            r.type == RecordType::kMeasurement || (references && r.type == RecordType::kReference);
         if (!wanted) {
             continue;
         }
@@ -1181,7 +1182,7 @@ Expected<bool> Runner::check_stop_rule(const Plan& plan) {
     }
     std::vector<brdf::Sample> fit, holdout;
     split_holdout(*samples, &fit, &holdout);
-    auto check = hooks_.fit_check(fit, holdout);
+    auto check = hooks_.fit_check(fit, holdout, brdf::common_relative_sigma(rig_.error_budget));
     if (!check) {
         // A fit that fails (too few values for the model, say) is no verdict: measure on.
         say("until: no fit at " + std::to_string(samples->size()) +
@@ -1192,25 +1193,22 @@ Expected<bool> Runner::check_stop_rule(const Plan& plan) {
     const bool held = rule_holds(rule_, *check, &why);
     const double rig_s = prior_rig_time_s_ + rig_time().total_s();
     char at[160];
-    std::snprintf(at,
-                  sizeof at,
-                  "%zu measurements, rig time %.1f s",
-                  samples->size(),
-                  rig_s);
+    std::snprintf(at, sizeof at, "%zu measurements, rig time %.1f s", samples->size(), rig_s);
     say(std::string("until ") + spec_.until + ": " + (held ? "held" : "not yet") + " at " + at +
         ": " + why);
-    until_ = {{"rule", format_stop_rule(rule_)},
-              {"held", held},
-              {"measurements", samples->size()},
-              {"planned", plan.configs.size()},
-              {"rig_time_s", rig_s},
-              {"max_rel_sigma", check->max_rel_sigma},
-              {"worst_parameter", check->worst},
-              {"holdout_rms_z", check->holdout_rms_z},
-              {"fitted", check->fitted},
-              {"held_out", check->held_out},
-              {"parameters", check->parameters},
-              {"message", std::string(held ? "target held at " : "last check at ") + at + ": " + why}};
+    until_ = {
+        {"rule", format_stop_rule(rule_)},
+        {"held", held},
+        {"measurements", samples->size()},
+        {"planned", plan.configs.size()},
+        {"rig_time_s", rig_s},
+        {"max_rel_sigma", check->max_rel_sigma},
+        {"worst_parameter", check->worst},
+        {"holdout_rms_z", check->holdout_rms_z},
+        {"fitted", check->fitted},
+        {"held_out", check->held_out},
+        {"parameters", check->parameters},
+        {"message", std::string(held ? "target held at " : "last check at ") + at + ": " + why}};
     if (held) {
         result_.target_reached = true;
         result_.stopped = "target reached";
@@ -1525,8 +1523,8 @@ Expected<RunResult> Runner::run() {
                                      : until_["message"].get<std::string>()) +
                    ")";
         if (!until_.is_null()) {
-            until_["message"] = "target never reached: the plan ended; " +
-                                until_["message"].get<std::string>();
+            until_["message"] =
+                "target never reached: the plan ended; " + until_["message"].get<std::string>();
         }
     }
     return finish(Outcome::kCompleted, summary, plan);

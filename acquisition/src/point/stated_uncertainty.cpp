@@ -49,7 +49,8 @@ std::vector<brdf::Rgbd> brdf_slopes(const std::vector<brdf::Sample>& samples, bo
     for (std::size_t i = 0; i < n; ++i) {
         near.clear();
         for (std::size_t j = 0; j < n; ++j) {
-            const double d = j == i ? 0.0 : configuration_distance(samples[i], samples[j], isotropic);
+            const double d =
+                j == i ? 0.0 : configuration_distance(samples[i], samples[j], isotropic);
             // A repeat of the same configuration (a drift reference) says nothing of the slope.
             if (d > 1e-6) {
                 near.emplace_back(d, j);

@@ -5,7 +5,6 @@
 #include <cstdlib>
 #include <sstream>
 
-
 namespace gonio::acquisition {
 
 namespace {
@@ -84,8 +83,8 @@ std::string format_stop_rule(const StopRule& rule) {
     if (!rule.active()) {
         return "";
     }
-    std::string s = "sigma=" + format_number(rule.sigma) + ",holdout=" +
-                    format_number(rule.holdout);
+    std::string s =
+        "sigma=" + format_number(rule.sigma) + ",holdout=" + format_number(rule.holdout);
     if (rule.every > 0) {
         s += ",every=" + std::to_string(rule.every);
     }
@@ -102,18 +101,19 @@ bool rule_holds(const StopRule& rule, const FitCheck& check, std::string* why) {
     }
     const bool sigma_ok = check.max_rel_sigma <= rule.sigma;
     const bool holdout_ok = check.held_out > 0 && check.holdout_rms_z <= rule.holdout;
-    std::snprintf(buf,
-                  sizeof buf,
-                  "largest relative sigma %.3g (%s) %s %.3g; held-out RMS error %.3g sigma over %zu "
-                  "values %s %.3g",
-                  check.max_rel_sigma,
-                  check.worst.c_str(),
-                  sigma_ok ? "<=" : ">",
-                  rule.sigma,
-                  check.holdout_rms_z,
-                  check.held_out,
-                  holdout_ok ? "<=" : ">",
-                  rule.holdout);
+    std::snprintf(
+        buf,
+        sizeof buf,
+        "largest relative sigma %.3g (%s) %s %.3g; held-out RMS error %.3g sigma over %zu "
+        "values %s %.3g",
+        check.max_rel_sigma,
+        check.worst.c_str(),
+        sigma_ok ? "<=" : ">",
+        rule.sigma,
+        check.holdout_rms_z,
+        check.held_out,
+        holdout_ok ? "<=" : ">",
+        rule.holdout);
     if (why != nullptr) {
         *why = buf;
     }

@@ -67,6 +67,11 @@ double arm_direction_sigma_rad(const ArmErrors& arm);
 /// `hours_since_white` of rig time, the non-linearity), added in quadrature.
 double relative_sigma(const RigErrorBudget& b, double hours_since_white);
 
+/// The relative standard uncertainty common to every value of a campaign: the white reference's
+/// exposure (its lamp fluctuation) and the non-linearity between its level and the sample's. A
+/// fit's amplitudes (diffuse albedo, lobe scale) carry it whole however many values there are.
+double common_relative_sigma(const RigErrorBudget& b);
+
 /// The BRDF offset stray light gives at incidence cos_theta_i (> 0), 1/sr.
 double stray_light_brdf(const RigErrorBudget& b, double cos_theta_i);
 

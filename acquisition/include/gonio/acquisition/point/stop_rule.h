@@ -39,18 +39,21 @@ std::string format_stop_rule(const StopRule& rule);
 
 /// What one fit between batches found.
 struct FitCheck {
-    bool usable = false;         ///< The fit converged.
-    double max_rel_sigma = 0;    ///< Largest relative sigma over the free parameters.
-    std::string worst;           ///< The parameter that has it.
-    double holdout_rms_z = 0;    ///< RMS of (prediction - value) / sigma over held-out values.
-    std::size_t fitted = 0;      ///< Values the fit used.
-    std::size_t held_out = 0;    ///< Values it predicted.
-    std::string parameters;      ///< "name value +- sigma; ..." for the record.
+    bool usable = false;       ///< The fit converged.
+    double max_rel_sigma = 0;  ///< Largest relative sigma over the free parameters.
+    std::string worst;         ///< The parameter that has it.
+    double holdout_rms_z = 0;  ///< RMS of (prediction - value) / sigma over held-out values.
+    std::size_t fitted = 0;    ///< Values the fit used.
+    std::size_t held_out = 0;  ///< Values it predicted.
+    std::string parameters;    ///< "name value +- sigma; ..." for the record.
 };
 
-/// Fits `fit` and predicts `holdout` (the front end's fitting library).
+/// Fits `fit` and predicts `holdout` (the front end's fitting library). `common_rel_sigma` is the
+/// relative uncertainty every value shares (the white reference's, rig_error_budget.h): the fit's
+/// amplitudes (diffuse albedo, lobe scales) carry it in full, added to their sigma in quadrature.
 using FitCheckFn = std::function<Expected<FitCheck>(const std::vector<brdf::Sample>& fit,
-                                                    const std::vector<brdf::Sample>& holdout)>;
+                                                    const std::vector<brdf::Sample>& holdout,
+                                                    double common_rel_sigma)>;
 
 /// Whether the rule holds for a check; `why` receives the targets against the values.
 bool rule_holds(const StopRule& rule, const FitCheck& check, std::string* why);
