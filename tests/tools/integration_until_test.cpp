@@ -3,6 +3,7 @@
 // rule; a target out of reach ends at the plan's end and says so; modes that cannot honour the
 // rule refuse it with exit status 2.
 
+#include <fcntl.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
