@@ -41,6 +41,8 @@ depends=$(dpkg-deb -f "$deb" Depends)
 for lib in libgoogle-glog libcholmod libaravis libmodbus libusb libopencv-core libopenexr libcpp-httplib; do
   echo "$depends" | grep -q "$lib" || fail "the package's Depends lacks $lib: $depends"
 done
+[ "${GONIO_WITH_PYTHON:-ON}" != ON ] || case $depends in *"python3 (>= 3."*"python3-numpy"*) ;;
+  *) fail "the package's Depends lacks python3 or python3-numpy: $depends" ;; esac
 contents=$(dpkg-deb -c "$deb")
 if echo "$contents" | grep ' \./etc/'; then fail "the package installs into /etc (above)"; fi
 echo "$contents" | grep ' \./usr/bin/gonio-full$' >/dev/null || fail "the package lacks /usr/bin/gonio-full"
