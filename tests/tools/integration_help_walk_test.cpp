@@ -200,6 +200,7 @@ TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
 TEST(HelpWalk, ExportEvalCheckEveryOptionHonouredOrRefused) {
     const std::string m = model_json();
     const std::string m2 = other_model_json();
+    const std::string blinn_phong = std::string(GONIO_SOURCE_DIR) + "/data/models/blinn-phong.json";
     prove("export",
           {
               {"input", "export " + m + " --to mitsuba", "export " + m2 + " --to mitsuba"},
@@ -209,6 +210,10 @@ TEST(HelpWalk, ExportEvalCheckEveryOptionHonouredOrRefused) {
               {"--out",
                "export " + m + " --to pbrt",
                "export " + m + " --to pbrt --out " + dir() + "/x.pbrt"},
+              {"--approximate",
+               "export " + blinn_phong + " --to blender",
+               "export " + blinn_phong + " --to blender --approximate"},
+              {"--approximate", "export " + m + " --to mitsuba --approximate", ""},
           });
     const std::string in1 = dirs_csv("d1.csv", "0.3,0,0.4,3.1");
     const std::string in2 = dirs_csv("d2.csv", "0.5,0,0.2,3.1");
@@ -348,6 +353,7 @@ TEST(HelpWalk, PlotPreviewReportEveryOptionHonouredOrRefused) {
                "report " + camp + " --regenerate --preview-size 24 --preview-samples 48",
                "",
                camp + "/previews"},
+              {"--blender", r, r + " --blender"},
           });
 }
 
