@@ -107,6 +107,14 @@ TEST(BlenderExport, RefusalsNameTheTermAndAreUsageErrors) {
     auto n = export_blender(bp, bad_name);
     ASSERT_FALSE(n);
     EXPECT_TRUE(n.error().refused);
+    const auto needle = model(R"({"lobes": [{"distribution": "ggx", "alpha_x": 0.00001,
+        "alpha_y": 0.5, "shadowing": "smith-separable", "fresnel": {"type": "none"}}]})");
+    auto a = export_blender(needle, approximate);
+    ASSERT_FALSE(a);
+    EXPECT_TRUE(a.error().refused);
+    EXPECT_NE(a.error().message.find("lobes[0]: an anisotropic lobe with alpha ratio above 10^4"),
+              std::string::npos)
+        << a.error().message;
     auto invalid = bp;
     invalid.lobes[0].scale[1] = -1;
     auto v = export_blender(invalid, approximate);
