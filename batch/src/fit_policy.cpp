@@ -87,7 +87,9 @@ double table_log_rmse(const brdf::TabulatedBrdf& table, const brdf::Dataset& dat
 
 }  // namespace
 
-std::string table_alternative(const brdf::Dataset& data, const std::string& data_name) {
+std::string table_alternative(const brdf::Dataset& data,
+                              const std::string& data_name,
+                              fitting::Verdict verdict) {
     brdf::ResampleOptions o;
     o.grid = brdf::TableGrid{32, 16, 8};
     o.scale = {1, 1, 1};
@@ -96,10 +98,11 @@ std::string table_alternative(const brdf::Dataset& data, const std::string& data
     for (brdf::Sample& s : kept.samples) {
         s.value = s.value.max(0.0);
     }
-    std::string how =
-        "no analytic family represents these data: render the measurement itself "
-        "as a table, `gonio convert " +
-        data_name + " table.gtab --grid 32x16x8` (or table.binary, MERL)";
+    std::string how = std::string(verdict == fitting::Verdict::kDoesNotRepresent
+                                      ? "no analytic family represents these data"
+                                      : "the closest analytic family leaves a visible misfit") +
+                      ": render the measurement itself as a table, `gonio convert " + data_name +
+                      " table.gtab --grid 32x16x8` (or table.binary, MERL)";
     auto table = brdf::resample_dataset(kept, o);
     if (!table) {
         return how;

@@ -360,7 +360,7 @@ Expected<FitRun> run_fit(const brdf::Dataset& data, const FitRequest& r) {
         run.result.goodness.suggestion =
             run.result.goodness.verdict == fitting::Verdict::kRepresents
                 ? std::string()
-                : table_alternative(data, data.source);
+                : table_alternative(data, data.source, run.result.goodness.verdict);
         run.ranking = std::move(chosen->ranking);
         run.chosen = std::move(chosen->chosen);
         run.criterion = std::move(chosen->criterion);

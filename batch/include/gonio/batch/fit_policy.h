@@ -49,6 +49,9 @@ int exit_status(const Comparison& comparison, bool strict);
 /// (channel mean) against the data, as a suggestion naming the command that writes it ("render the
 /// measurement itself: `gonio convert DATA table.binary` (MERL) ...; a 32 x 16 x 8 table of these
 /// data has a log RMSE of 0.031"). `data_name`: the data as the user named them.
-std::string table_alternative(const brdf::Dataset& data, const std::string& data_name);
+/// `verdict`: that of the best family (what the suggestion says of the families).
+std::string table_alternative(const brdf::Dataset& data,
+                              const std::string& data_name,
+                              fitting::Verdict verdict);
 
 }  // namespace gonio::batch
