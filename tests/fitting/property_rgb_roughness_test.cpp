@@ -7,9 +7,11 @@
 #include <ceres/gradient_checker.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <vector>
 
 #include "fit_test_util.h"
 #include "gonio/brdf/model_eval.h"
@@ -204,17 +206,8 @@ TEST(RgbRoughness, NoisyDataGiveErrorsWithinThreeSigma) {
     int alpha_inside = 0;
     int alpha_total = 0;
     for (std::uint64_t seed = 1; seed <= 10; ++seed) {
-        brdf::Dataset data = testing::synthesize(truth, grid);
-        data.has_sigma = true;
-        std::mt19937_64 rng(seed);
-        std::normal_distribution<double> n01(0.0, 1.0);
-        for (Sample& s : data.samples) {
-            for (int c = 0; c < 3; ++c) {
-                const double v = s.value[c];
-                s.sigma[c] = std::sqrt(0.02 * v * 0.02 * v + 1e-3 * 1e-3);
-                s.value[c] = std::max(0.0, v * (1 + 0.02 * n01(rng)) + 1e-3 * n01(rng));
-            }
-        }
+        const brdf::Dataset data = testing::with_noise(
+            testing::synthesize(truth, grid), seed, {0.02, 1e-3, testing::StatedSigma::kOfTruth});
         Expected<FitResult> r = fit(data, spec);
         ASSERT_TRUE(r) << "seed " << seed << ": " << r.error().message;
         ASSERT_TRUE(r->usable()) << "seed " << seed << ": " << r->solver.message;
@@ -308,15 +301,7 @@ TEST(RgbRoughness, StructuresWithoutOneAlphaPerChannelAreRefused) {
 
 /// Noisy data (2 % multiplicative, seeded) of a grey or a colour-dependent roughness.
 brdf::Dataset noisy(const brdf::ModelD& truth, std::uint64_t seed) {
-    brdf::Dataset data = testing::synthesize(truth, testing::measurement_grid());
-    std::mt19937_64 rng(seed);
-    std::normal_distribution<double> n01(0.0, 1.0);
-    for (Sample& s : data.samples) {
-        for (int c = 0; c < 3; ++c) {
-            s.value[c] = std::max(0.0, s.value[c] * (1 + 0.02 * n01(rng)));
-        }
-    }
-    return data;
+    return testing::noisy_measurement(truth, seed);
 }
 
 TEST(RgbRoughness, AutoKeepsTheGreyRoughnessOnGreyDataAndTakesRgbWhenTheChannelsDiffer) {
@@ -343,12 +328,17 @@ TEST(RgbRoughness, AutoKeepsTheGreyRoughnessOnGreyDataAndTakesRgbWhenTheChannels
     ASSERT_TRUE(a) << a.error().message;
     EXPECT_NE(a->chosen.find("rgb-roughness"), std::string::npos) << a->chosen;
     ASSERT_FALSE(a->best.model.lobes.empty());
-    const brdf::Lobe<double>& l = a->best.model.lobes[0];
+    // The truth has one lobe; a two-lobe winner carries it in its dominant lobe (the largest
+    // scale), whose widths are checked whatever the lobe count.
+    const std::vector<brdf::Lobe<double>>& lobes = a->best.model.lobes;
+    const brdf::Lobe<double>& l = *std::max_element(
+        lobes.begin(), lobes.end(), [](const brdf::Lobe<double>& x, const brdf::Lobe<double>& y) {
+            return x.scale.sum() < y.scale.sum();
+        });
     ASSERT_TRUE(l.rgb_roughness);
-    if (a->best.model.lobes.size() == 1) {
-        for (int c = 0; c < 3; ++c) {
-            EXPECT_NEAR(l.alpha_rgb[c], rgb_truth.lobes[0].alpha_rgb[c], 0.05 * l.alpha_rgb[c]);
-        }
+    for (int c = 0; c < 3; ++c) {
+        EXPECT_NEAR(l.alpha_rgb[c], rgb_truth.lobes[0].alpha_rgb[c], 0.05 * l.alpha_rgb[c])
+            << "channel " << c << ", " << lobes.size() << " lobe(s)";
     }
     EXPECT_EQ(a->ranking.front().name, a->chosen);
 }
