@@ -140,7 +140,6 @@ TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
               {"--out", r + " --out x", ""},
               {"--out", "acquire --plan-only --out x", ""},
               {"--campaigns-dir", r + " --campaigns-dir x", ""},
-              {"--resume", "acquire --mode image --resume x", "acquire --mode image --resume y"},
               {"--material", r + " --material gold", ""},
               {"--brdf", r + " --brdf x.json", ""},
               {"--scene", "acquire --mode image --scene s.json", ""},
@@ -222,6 +221,12 @@ TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
                    "/served --serve 127.0.0.1:" + std::to_string(busy.port()),
                "acquire --mode image --max-frames 1 --out " + dir() + "/served"},
               {"--serve", "acquire --plan-only --serve 0", ""},
+              // The campaign the --serve proof just ran (one light position, its frame limit),
+              // resumed: read from its folder, with nothing left to measure; a folder that holds
+              // no campaign is refused, naming it.
+              {"--resume",
+               "acquire --mode image --resume " + dir() + "/served",
+               "acquire --mode image --resume " + dir() + "/no-campaign"},
               {"--plan-only", r + " --plan-only", ""},
           });
 }
