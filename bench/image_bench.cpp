@@ -17,9 +17,9 @@
 #include <random>
 
 #include "embedded_rig.h"
-#include "gonio/acquisition/campaign_request.h"
-#include "gonio/acquisition/kinematics.h"
-#include "gonio/acquisition/schedule.h"
+#include "gonio/acquisition/plans/schedule.h"
+#include "gonio/acquisition/shared/campaign_request.h"
+#include "gonio/acquisition/shared/kinematics.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/model_json.h"
 #include "gonio/fitting/fit.h"

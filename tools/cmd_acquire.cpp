@@ -19,8 +19,8 @@
 #include "acquire_image_mode.h"
 #include "command.h"
 #include "embedded_rig.h"
-#include "gonio/acquisition/campaign.h"
-#include "gonio/acquisition/campaign_request.h"
+#include "gonio/acquisition/point/campaign.h"
+#include "gonio/acquisition/shared/campaign_request.h"
 #include "gonio/report/live_server.h"
 #include "option_checks.h"
 

@@ -12,7 +12,7 @@
 #include <memory>
 #include <string>
 
-#include "gonio/acquisition/campaign.h"
+#include "gonio/acquisition/point/campaign.h"
 #include "gonio/sim/sim_rig.h"
 
 namespace gonio::acquisition::testing {
