@@ -328,17 +328,52 @@ TEST(RgbRoughness, AutoKeepsTheGreyRoughnessOnGreyDataAndTakesRgbWhenTheChannels
     ASSERT_TRUE(a) << a.error().message;
     EXPECT_NE(a->chosen.find("rgb-roughness"), std::string::npos) << a->chosen;
     ASSERT_FALSE(a->best.model.lobes.empty());
-    // The truth has one lobe; a two-lobe winner carries it in its dominant lobe (the largest
-    // scale), whose widths are checked whatever the lobe count.
+    // Whatever the lobe count, every lobe takes one alpha per channel and the lobes together
+    // have the truth's widths: at every measured direction pair with both elevations up to 60
+    // degrees where the true lobe is above a tenth of its peak, each channel of the fitted model
+    // is within 15 % of the noise-free truth (the data fix the sum of the diffuse part and the
+    // lobes, not how they are split; another family may win, and Student-t x2 differs from GGX
+    // by up to 11 % there, while a width 20 % off moves the flanks by more). One lobe: its
+    // alphas themselves within 5 %.
     const std::vector<brdf::Lobe<double>>& lobes = a->best.model.lobes;
-    const brdf::Lobe<double>& l = *std::max_element(
-        lobes.begin(), lobes.end(), [](const brdf::Lobe<double>& x, const brdf::Lobe<double>& y) {
-            return x.scale.sum() < y.scale.sum();
-        });
-    ASSERT_TRUE(l.rgb_roughness);
+    for (const brdf::Lobe<double>& l : lobes) {
+        EXPECT_TRUE(l.rgb_roughness);
+    }
+    if (lobes.size() == 1) {
+        for (int c = 0; c < 3; ++c) {
+            EXPECT_NEAR(lobes[0].alpha_rgb[c],
+                        rgb_truth.lobes[0].alpha_rgb[c],
+                        0.05 * rgb_truth.lobes[0].alpha_rgb[c])
+                << "channel " << c;
+        }
+    }
+    const auto specular = [](const brdf::ModelD& m, const brdf::Vec3d& wi, const brdf::Vec3d& wo) {
+        Rgbd f = Rgbd::Zero();
+        for (const brdf::Lobe<double>& l : m.lobes) {
+            f += brdf::eval_lobe(l, wi, wo);
+        }
+        return f;
+    };
+    double worst[3] = {0, 0, 0};
+    for (const auto& [wi, wo] : testing::measurement_grid()) {
+        if (wi.z() < std::cos(testing::deg(60.5)) || wo.z() < std::cos(testing::deg(60.5))) {
+            continue;  // grazing tails: where the families differ, not the widths
+        }
+        const brdf::Vec3d mirror(-wi.x(), -wi.y(), wi.z());
+        const Rgbd peak = specular(rgb_truth, wi, mirror);
+        const Rgbd t = brdf::eval_model(rgb_truth, wi, wo);
+        const Rgbd f = brdf::eval_model(a->best.model, wi, wo);
+        const Rgbd t_specular = specular(rgb_truth, wi, wo);
+        for (int c = 0; c < 3; ++c) {
+            if (t_specular[c] > 0.1 * peak[c]) {
+                worst[c] = std::max(worst[c], std::abs(f[c] / t[c] - 1));
+            }
+        }
+    }
     for (int c = 0; c < 3; ++c) {
-        EXPECT_NEAR(l.alpha_rgb[c], rgb_truth.lobes[0].alpha_rgb[c], 0.05 * l.alpha_rgb[c])
-            << "channel " << c << ", " << lobes.size() << " lobe(s)";
+        EXPECT_LT(worst[c], 0.15) << "channel " << c << " (alpha "
+                                  << rgb_truth.lobes[0].alpha_rgb[c] << "), " << lobes.size()
+                                  << " lobe(s): " << a->chosen;
     }
     EXPECT_EQ(a->ranking.front().name, a->chosen);
 }
