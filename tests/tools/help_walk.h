@@ -99,6 +99,10 @@ struct Proof {
     /// For a change with `written`: the exit status `b` must end with (1 for an option that makes
     /// the command fail on purpose: a fit stopped before it converged, --strict on a misfit).
     int b_status = 0;
+    /// For a served command: the outcome is the exit status and the probe's findings only, not
+    /// the printed lines (a ready line that echoes the option's value would differ whatever the
+    /// server did with it).
+    bool probe_only = false;
 };
 
 /// The bytes of a file, or of every file under a folder (names and contents, in name order);
@@ -287,6 +291,13 @@ inline void prove(const std::string& command,
                 << a.out;
         } else {
             CliRun b = outcome(p, p.b);
+            if (p.probe_only) {
+                // What the probe found (after the marker run_served puts before it).
+                for (CliRun* r : {&a, &b}) {
+                    const std::size_t at = r->out.rfind("\n--- probe ---\n");
+                    r->out = at == std::string::npos ? std::string() : r->out.substr(at);
+                }
+            }
             EXPECT_NE(normalised(a.out) + std::to_string(a.status),
                       normalised(b.out) + std::to_string(b.status))
                 << p.a << "\n  and\n"
