@@ -11,7 +11,6 @@
 #include <netinet/in.h>
 #include <signal.h>
 #include <sys/socket.h>
-#include <sys/time.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -73,30 +72,6 @@ int connect_to(int port, int rcvbuf = 0) {
         return -1;
     }
     return fd;
-}
-
-/// The status line of the answer to `GET path` from a new client (at most 10 s), "" if none.
-std::string first_line_of_get(int port, const std::string& path) {
-    const int fd = connect_to(port);
-    if (fd < 0) {
-        return {};
-    }
-    timeval limit{10, 0};
-    ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &limit, sizeof limit);
-    const std::string get = "GET " + path + " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
-    std::string got;
-    if (::send(fd, get.data(), get.size(), MSG_NOSIGNAL) == static_cast<ssize_t>(get.size())) {
-        char buf[256];
-        while (got.find("\r\n") == std::string::npos) {
-            const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
-            if (n <= 0) {
-                break;
-            }
-            got.append(buf, static_cast<std::size_t>(n));
-        }
-    }
-    ::close(fd);
-    return got.substr(0, got.find("\r\n"));
 }
 
 /// `data-done` of the progress line in a dumped DOM, -1 when absent.
@@ -221,10 +196,8 @@ TEST(LivePage, ChromiumWatchesTheCampaignAndFloodingClientsDoNotStopIt) {
     }
     const std::size_t lines_before_flood_window = journal_lines(out);
     const double flooded = journal_rate(out, 4);
-    // While flooded, the server still accepts a new client and answers it, and the campaign
-    // still measures: at least one journal line in the 4 s window (a paced configuration takes
-    // a fraction of a second).
-    const std::string answer = first_line_of_get(port, "/");
+    // While flooded, the campaign still measures: at least one journal line in the 4 s window
+    // (a paced configuration takes a fraction of a second).
     const std::size_t measured_while_flooded = journal_lines(out) - lines_before_flood_window;
     for (int fd : fds) {
         ::close(fd);
@@ -238,7 +211,6 @@ TEST(LivePage, ChromiumWatchesTheCampaignAndFloodingClientsDoNotStopIt) {
         flooded,
         after);
     EXPECT_EQ(fds.size(), 200u);
-    EXPECT_EQ(answer.rfind("HTTP/1.1 200", 0), 0u) << "answer while flooded: " << answer;
     EXPECT_GE(measured_while_flooded, 1u) << "the campaign measured nothing while flooded";
     // The flood did not stop the campaign: it still measures afterwards, and it ends only when
     // asked to, in the orderly way (a resumable stop), not by an error.
