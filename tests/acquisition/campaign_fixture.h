@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "gonio/acquisition/point/campaign.h"
@@ -26,9 +27,12 @@ struct CampaignFixture {
 
 /// A fresh campaign folder `<build>/test_campaigns/NAME_PID` created from `spec` (its rig file
 /// and JSON set here) on data/rigs/sim4.json, the ground truth `model_json` written beside it.
+/// With `quiet_rig` the rig's error budget is the quiet one (the detector's noise only), for
+/// tests that read exact levels.
 inline CampaignFixture make_campaign_fixture(const std::string& name,
                                              const std::string& model_json,
-                                             CampaignSpec spec) {
+                                             CampaignSpec spec,
+                                             bool quiet_rig = false) {
     namespace fs = std::filesystem;
     CampaignFixture f;
     f.dir = std::string(GONIO_BINARY_DIR) + "/test_campaigns/" + name + "_" +
@@ -41,6 +45,15 @@ inline CampaignFixture make_campaign_fixture(const std::string& name,
     EXPECT_TRUE(rig) << rig.error().message;
     if (rig) {
         f.rig = *rig;
+    }
+    if (rig && quiet_rig) {
+        nlohmann::json j = nlohmann::json::parse(f.rig.json);
+        j["error_budget"] = "quiet";
+        auto q = parse_rig_config(j.dump(2), "sim4.json");
+        EXPECT_TRUE(q) << q.error().message;
+        if (q) {
+            f.rig = *q;
+        }
     }
     f.spec = std::move(spec);
     f.spec.rig = "rig.json";

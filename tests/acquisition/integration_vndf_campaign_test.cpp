@@ -59,7 +59,8 @@ Fixture make_campaign(const std::string& name,
     } else {
         spec.drift_every = 0;
     }
-    return testing::make_campaign_fixture(name, model, spec);
+    // The quiet rig: the file's values are compared with the truth at the detector's noise.
+    return testing::make_campaign_fixture(name, model, spec, /*quiet_rig=*/true);
 }
 
 LiveRig start_rig(const Fixture& f) {
