@@ -7,9 +7,9 @@
 #include <filesystem>
 #include <fstream>
 
-#include "gonio/acquisition/campaign.h"
-#include "gonio/acquisition/plan.h"
-#include "gonio/acquisition/schedule.h"
+#include "gonio/acquisition/plans/plan.h"
+#include "gonio/acquisition/plans/schedule.h"
+#include "gonio/acquisition/point/campaign.h"
 #include "gonio/brdf/dataset.h"
 #include "gonio/sim/sim_rig.h"
 

@@ -1,6 +1,6 @@
 // Image mode against point mode on the same simulated material and rig speeds: samples per second,
 // rig time to a coverage of the half/difference table, and the fit error reached for the time
-// spent. Rig time = light-arm moves (trapezoidal profile + settle, acquisition/kinematics.h
+// spent. Rig time = light-arm moves (trapezoidal profile + settle, acquisition/shared/kinematics.h
 // defaults: 20 deg/s, 40 deg/s^2, 50 ms) + every exposure taken (brackets, dark frames, white
 // reference); camera readout and transfer are not counted, in either mode. The image-mode
 // campaigns run through the device path of `gonio acquire --mode image`: the virtual rig's motor
@@ -17,9 +17,9 @@
 #include <random>
 
 #include "embedded_rig.h"
-#include "gonio/acquisition/campaign_request.h"
-#include "gonio/acquisition/kinematics.h"
-#include "gonio/acquisition/schedule.h"
+#include "gonio/acquisition/plans/schedule.h"
+#include "gonio/acquisition/shared/campaign_request.h"
+#include "gonio/acquisition/shared/kinematics.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/model_json.h"
 #include "gonio/fitting/fit.h"

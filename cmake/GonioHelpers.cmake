@@ -1,8 +1,15 @@
-# gonio_add_module(<name> [PUBLIC_DEPS ...] [PRIVATE_DEPS ...] [PUBLIC_INCLUDES ...] [PRIVATE_INCLUDES ...])
-# Builds gonio_<name> from <name>/src/*.cpp with public headers in <name>/include, aliased gonio::<name>.
+# gonio_add_module(<name> [ROOMS ...] [PUBLIC_DEPS ...] [PRIVATE_DEPS ...] [PUBLIC_INCLUDES ...]
+#                  [PRIVATE_INCLUDES ...])
+# Builds gonio_<name> from <name>/src/*.cpp (and <name>/src/<room>/*.cpp for each of ROOMS, the
+# sub-folders of a module that is organised in rooms) with public headers in <name>/include,
+# aliased gonio::<name>.
 function(gonio_add_module name)
-  cmake_parse_arguments(ARG "" "" "PUBLIC_DEPS;PRIVATE_DEPS;PUBLIC_INCLUDES;PRIVATE_INCLUDES" ${ARGN})
-  file(GLOB sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/src/*.cpp)
+  cmake_parse_arguments(ARG "" "" "ROOMS;PUBLIC_DEPS;PRIVATE_DEPS;PUBLIC_INCLUDES;PRIVATE_INCLUDES" ${ARGN})
+  set(patterns ${CMAKE_CURRENT_SOURCE_DIR}/src/*.cpp)
+  foreach(room IN LISTS ARG_ROOMS)
+    list(APPEND patterns ${CMAKE_CURRENT_SOURCE_DIR}/src/${room}/*.cpp)
+  endforeach()
+  file(GLOB sources CONFIGURE_DEPENDS ${patterns})
   if(NOT sources)
     # Header-only so far.
     add_library(gonio_${name} INTERFACE)

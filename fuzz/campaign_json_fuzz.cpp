@@ -8,8 +8,8 @@
 #include <string>
 
 #include "fuzz_support.h"
-#include "gonio/acquisition/campaign.h"
-#include "gonio/acquisition/plan.h"
+#include "gonio/acquisition/plans/plan.h"
+#include "gonio/acquisition/point/campaign.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     namespace acq = gonio::acquisition;

@@ -8,7 +8,7 @@
 #include <string>
 
 #include "fuzz_support.h"
-#include "gonio/acquisition/rig_config.h"
+#include "gonio/acquisition/shared/rig_config.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     namespace acq = gonio::acquisition;

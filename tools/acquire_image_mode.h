@@ -6,7 +6,7 @@
 
 #include <string>
 
-#include "gonio/acquisition/campaign_request.h"
+#include "gonio/acquisition/shared/campaign_request.h"
 #include "gonio/devices/camera.h"
 #include "gonio/report/image.h"
 

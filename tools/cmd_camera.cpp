@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "command.h"
-#include "gonio/acquisition/frame_exr.h"
+#include "gonio/acquisition/shared/frame_exr.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/material_library.h"

@@ -5,8 +5,8 @@
 // simulated devices in gonio::sim. Built as the small library gonio_embedded_rig so that the
 // tests start the same rig the command starts.
 
-#include "gonio/acquisition/camera_model.h"
-#include "gonio/acquisition/campaign_request.h"
+#include "gonio/acquisition/image/camera_model.h"
+#include "gonio/acquisition/shared/campaign_request.h"
 #include "gonio/sim/sim_rig.h"
 #include "gonio/sim/sphere_imaging.h"
 

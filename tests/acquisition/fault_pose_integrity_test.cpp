@@ -17,8 +17,8 @@
 #include <mutex>
 #include <set>
 
-#include "gonio/acquisition/campaign.h"
-#include "gonio/acquisition/journal.h"
+#include "gonio/acquisition/point/campaign.h"
+#include "gonio/acquisition/point/journal.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/dataset.h"
 #include "gonio/devices/modbus_axis.h"

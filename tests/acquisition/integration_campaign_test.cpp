@@ -14,8 +14,8 @@
 #include <set>
 #include <thread>
 
-#include "gonio/acquisition/campaign.h"
-#include "gonio/acquisition/journal.h"
+#include "gonio/acquisition/point/campaign.h"
+#include "gonio/acquisition/point/journal.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/dataset.h"
 #include "gonio/sim/sim_rig.h"

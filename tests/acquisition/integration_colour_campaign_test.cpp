@@ -11,7 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "gonio/acquisition/campaign.h"
+#include "gonio/acquisition/point/campaign.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/dataset.h"
 #include "gonio/brdf/material_library.h"

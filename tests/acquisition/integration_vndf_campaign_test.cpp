@@ -15,8 +15,8 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
-#include "gonio/acquisition/campaign.h"
-#include "gonio/acquisition/journal.h"
+#include "gonio/acquisition/point/campaign.h"
+#include "gonio/acquisition/point/journal.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/coords.h"
 #include "gonio/brdf/rgl_bsdf.h"

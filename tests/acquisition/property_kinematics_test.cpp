@@ -5,7 +5,7 @@
 
 #include <random>
 
-#include "gonio/acquisition/kinematics.h"
+#include "gonio/acquisition/shared/kinematics.h"
 #include "gonio/brdf/rig_geometry.h"
 
 namespace gonio::acquisition {

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "gonio/acquisition/append_log.h"
+#include "gonio/acquisition/shared/append_log.h"
 
 namespace gonio::acquisition {
 namespace {

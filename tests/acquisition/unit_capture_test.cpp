@@ -11,9 +11,9 @@
 #include <fstream>
 #include <random>
 
-#include "gonio/acquisition/calibration.h"
-#include "gonio/acquisition/capture.h"
-#include "gonio/acquisition/journal.h"
+#include "gonio/acquisition/point/calibration.h"
+#include "gonio/acquisition/point/capture.h"
+#include "gonio/acquisition/point/journal.h"
 
 namespace gonio::acquisition {
 namespace {

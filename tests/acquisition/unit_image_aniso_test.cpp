@@ -8,7 +8,7 @@
 #include <cmath>
 #include <random>
 
-#include "gonio/acquisition/image_aniso.h"
+#include "gonio/acquisition/image/image_aniso.h"
 #include "gonio/brdf/rig_geometry.h"
 
 namespace gonio::acquisition {

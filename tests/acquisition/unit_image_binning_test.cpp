@@ -8,7 +8,7 @@
 #include <filesystem>
 #include <random>
 
-#include "gonio/acquisition/image_binning.h"
+#include "gonio/acquisition/image/image_binning.h"
 #include "gonio/brdf/merl.h"
 
 namespace gonio::acquisition {

@@ -13,7 +13,7 @@
 #include <opencv2/imgproc.hpp>
 #include <random>
 
-#include "gonio/acquisition/camera_model.h"
+#include "gonio/acquisition/image/camera_model.h"
 
 namespace gonio::acquisition {
 namespace {

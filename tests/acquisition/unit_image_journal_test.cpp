@@ -12,7 +12,7 @@
 #include <random>
 #include <sstream>
 
-#include "gonio/acquisition/image_journal.h"
+#include "gonio/acquisition/image/image_journal.h"
 
 namespace gonio::acquisition {
 namespace {

@@ -9,7 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <string>
 
-#include "gonio/acquisition/image_planner.h"
+#include "gonio/acquisition/image/image_planner.h"
 #include "gonio/brdf/rig_geometry.h"
 
 namespace gonio::acquisition {

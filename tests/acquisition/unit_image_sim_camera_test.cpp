@@ -11,9 +11,9 @@
 #include <vector>
 
 #include "embedded_rig.h"
-#include "gonio/acquisition/camera_model.h"
-#include "gonio/acquisition/placement.h"
-#include "gonio/acquisition/sphere_geometry.h"
+#include "gonio/acquisition/image/camera_model.h"
+#include "gonio/acquisition/image/placement.h"
+#include "gonio/acquisition/image/sphere_geometry.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/rig_geometry.h"
 #include "gonio/sim/sphere_imaging.h"

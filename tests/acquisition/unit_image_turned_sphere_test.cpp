@@ -9,8 +9,8 @@
 #include <cmath>
 
 #include "embedded_rig.h"
-#include "gonio/acquisition/camera_model.h"
-#include "gonio/acquisition/sphere_geometry.h"
+#include "gonio/acquisition/image/camera_model.h"
+#include "gonio/acquisition/image/sphere_geometry.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/rig_geometry.h"
 #include "gonio/sim/sphere_imaging.h"

@@ -10,7 +10,7 @@
 #include <cstdio>
 #include <string>
 
-#include "gonio/acquisition/kinematics.h"
+#include "gonio/acquisition/shared/kinematics.h"
 #include "gonio/brdf/rig_geometry.h"
 
 namespace gonio::acquisition {

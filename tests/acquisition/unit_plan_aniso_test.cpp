@@ -7,8 +7,8 @@
 #include <cmath>
 #include <vector>
 
-#include "gonio/acquisition/kinematics.h"
-#include "gonio/acquisition/plan.h"
+#include "gonio/acquisition/plans/plan.h"
+#include "gonio/acquisition/shared/kinematics.h"
 
 namespace gonio::acquisition {
 namespace {

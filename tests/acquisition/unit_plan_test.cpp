@@ -11,8 +11,8 @@
 #include <random>
 #include <set>
 
-#include "gonio/acquisition/plan.h"
-#include "gonio/acquisition/schedule.h"
+#include "gonio/acquisition/plans/plan.h"
+#include "gonio/acquisition/plans/schedule.h"
 #include "gonio/brdf/dataset.h"
 
 namespace gonio::acquisition {

@@ -10,10 +10,10 @@
 #include <random>
 #include <vector>
 
-#include "gonio/acquisition/campaign.h"
-#include "gonio/acquisition/campaign_request.h"
-#include "gonio/acquisition/plan.h"
-#include "gonio/acquisition/plan_vndf.h"
+#include "gonio/acquisition/plans/plan.h"
+#include "gonio/acquisition/plans/plan_vndf.h"
+#include "gonio/acquisition/point/campaign.h"
+#include "gonio/acquisition/shared/campaign_request.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/coords.h"
 #include "gonio/brdf/microfacet.h"

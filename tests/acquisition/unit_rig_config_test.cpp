@@ -7,7 +7,7 @@
 #include <sstream>
 #include <string>
 
-#include "gonio/acquisition/rig_config.h"
+#include "gonio/acquisition/shared/rig_config.h"
 
 namespace {
 

@@ -4,7 +4,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "gonio/acquisition/plan.h"
+#include "gonio/acquisition/plans/plan.h"
 #include "gonio/brdf/dataset.h"
 
 namespace gonio::acquisition {

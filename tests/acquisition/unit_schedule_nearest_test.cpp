@@ -8,7 +8,7 @@
 #include <limits>
 #include <random>
 
-#include "gonio/acquisition/schedule.h"
+#include "gonio/acquisition/plans/schedule.h"
 
 namespace gonio::acquisition {
 namespace {

@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include "gonio/acquisition/schedule.h"
+#include "gonio/acquisition/plans/schedule.h"
 
 namespace gonio::acquisition {
 namespace {

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <random>
 
-#include "gonio/acquisition/sphere_geometry.h"
+#include "gonio/acquisition/image/sphere_geometry.h"
 
 namespace gonio::acquisition {
 namespace {

@@ -8,9 +8,9 @@
 #include <sstream>
 #include <string>
 
-#include "gonio/acquisition/campaign.h"
-#include "gonio/acquisition/plan.h"
-#include "gonio/acquisition/rig_config.h"
+#include "gonio/acquisition/plans/plan.h"
+#include "gonio/acquisition/point/campaign.h"
+#include "gonio/acquisition/shared/rig_config.h"
 #include "gonio/brdf/dataset.h"
 #include "gonio/brdf/merl.h"
 #include "gonio/brdf/model_json.h"

@@ -17,8 +17,8 @@
 #include <mutex>
 
 #include "embedded_rig.h"
-#include "gonio/acquisition/campaign_request.h"
-#include "gonio/acquisition/image_journal.h"
+#include "gonio/acquisition/image/image_journal.h"
+#include "gonio/acquisition/shared/campaign_request.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/model_json.h"
 #include "gonio/devices/modbus_axis.h"

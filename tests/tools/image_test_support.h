@@ -16,8 +16,8 @@
 #include <vector>
 
 #include "embedded_rig.h"
-#include "gonio/acquisition/campaign_request.h"
-#include "gonio/acquisition/image_binning.h"
+#include "gonio/acquisition/image/image_binning.h"
+#include "gonio/acquisition/shared/campaign_request.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/coords.h"
 #include "gonio/brdf/model.h"

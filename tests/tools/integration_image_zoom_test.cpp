@@ -23,8 +23,8 @@
 
 #include "cli_run.h"
 #include "embedded_rig.h"
-#include "gonio/acquisition/campaign_request.h"
-#include "gonio/acquisition/image_journal.h"
+#include "gonio/acquisition/image/image_journal.h"
+#include "gonio/acquisition/shared/campaign_request.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "image_test_support.h"
 

@@ -18,8 +18,7 @@ namespace gonio::brdf {
 /// dD/dalpha of the isotropic GGX distribution D = 1 / (pi alpha^2 s^2), s = hxy2 / alpha^2 + hz2
 /// (D_ggx_from_squares with hx2 = h_x^2 + h_y^2, hy2 = 0, alpha_x = alpha_y = alpha), given its
 /// value D:
-///   dD/dalpha = D (-2/alpha - 2 (ds/dalpha) / s),  ds/dalpha = -2 hxy2 / alpha^3 = -2 (s -
-///   hz2)/alpha
+///   dD/dalpha = D (-2/alpha - 2 (ds/dalpha) / s),  ds/dalpha = -2 hxy2 / alpha^3 = -2 (s - hz2)/alpha
 ///             = (2 D / alpha) (1 - 2 hz2 / s).
 /// No degenerate case: s >= hz2 > 0.
 template <class T>

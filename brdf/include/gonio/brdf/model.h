@@ -2,8 +2,7 @@
 
 // The analytic model: the contract of `gonio eval`, of fits and of the simulator's ground truth.
 //
-//   f(wi, wo) = diffuse / pi + sum over lobes of scale * F(wi . h) * D(h) * G(wi, wo) / (4 cos_i
-//   cos_o)
+//   f(wi, wo) = diffuse / pi + sum over lobes of scale * F(wi . h) * D(h) * G(wi, wo) / (4 cos_i cos_o)
 //
 // zero when either direction is at or below the horizon; RGB values in 1/sr. The numeric fields are
 // templated so that a fit can hold Ceres Jets in them; the structure (enums, lobe count) is fixed

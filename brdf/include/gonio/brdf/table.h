@@ -9,13 +9,12 @@
 // pi describe the same pair with wi and wo swapped, equal by reciprocity.
 //
 // Bins (docs/file-formats-tables.md). With n_h, n_d, n_p bins per axis:
-//   i_h = floor(sqrt(theta_h / (pi/2)) * n_h)    clamped to [0, n_h - 1]  (finer near the specular
-//   peak) i_d = floor(theta_d / (pi/2) * n_d)          clamped to [0, n_d - 1] i_p = floor(phi_d' /
-//   pi * n_p)               clamped to [0, n_p - 1], phi_d' = phi_d + pi if < 0 flat index = i_p +
-//   n_p * (i_d + n_d * i_h)
+//   i_h = floor(sqrt(theta_h / (pi/2)) * n_h)    clamped to [0, n_h - 1]  (finer near the specular peak)
+//   i_d = floor(theta_d / (pi/2) * n_d)          clamped to [0, n_d - 1]
+//   i_p = floor(phi_d' / pi * n_p)               clamped to [0, n_p - 1], phi_d' = phi_d + pi if < 0
+//   flat index = i_p + n_p * (i_d + n_d * i_h)
 // The centre of a bin is the midpoint of its interval in the index variable:
-//   theta_h = ((i_h + 1/2) / n_h)^2 pi/2,  theta_d = (i_d + 1/2) / n_d pi/2,  phi_d = (i_p + 1/2) /
-//   n_p pi.
+//   theta_h = ((i_h + 1/2) / n_h)^2 pi/2,  theta_d = (i_d + 1/2) / n_d pi/2,  phi_d = (i_p + 1/2) / n_p pi.
 // Writing a table from a model evaluates at these centres; nearest lookup returns the bin
 // containing the query; trilinear interpolation is linear in the three index variables between
 // centres, with theta_h and theta_d clamped at the first/last centre and phi_d periodic with period

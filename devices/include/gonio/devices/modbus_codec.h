@@ -13,9 +13,10 @@
 //            -> byte count u8, ceil(quantity / 8) bytes of bits (LSB first)
 //   function 3/4 read holding/input registers address u16, quantity u16 (1..125)
 //            -> byte count u8, 2 * quantity bytes
-//   function 5 write single coil              address u16, value u16 (0xFF00 on, 0x0000 off) ->
-//   echo function 6 write single register          address u16, value u16 -> echo function 15 write
-//   multiple coils          address u16, quantity u16 (1..1968), byte count u8,
+//   function 5 write single coil              address u16, value u16 (0xFF00 on, 0x0000 off)
+//            -> echo
+//   function 6 write single register          address u16, value u16 -> echo
+//   function 15 write multiple coils          address u16, quantity u16 (1..1968), byte count u8,
 //                                             bits -> address u16, quantity u16
 //   function 16 write multiple registers      address u16, quantity u16 (1..123), byte count u8,
 //                                             values -> address u16, quantity u16

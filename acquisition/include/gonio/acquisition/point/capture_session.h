@@ -1,0 +1,64 @@
+#pragma once
+
+// The device side of calibrated capture: auto exposure on a ladder of exposures, dark frames taken
+// with the shutter closed and cached per (exposure, gain), exposure bracketing and HDR merge.
+
+#include <functional>
+#include <map>
+#include <utility>
+
+#include "gonio/acquisition/point/capture.h"
+#include "gonio/acquisition/shared/rig_config.h"
+
+namespace gonio::acquisition {
+
+class CaptureSession {
+  public:
+    /// The camera and shutter stay owned by the caller and must outlive the session.
+    CaptureSession(devices::Camera* camera,
+                   devices::Light* shutter,
+                   const CaptureConfig& cfg,
+                   const NoiseModel& noise);
+
+    /// Sets gain and pixel format, reads the sensor size and places the ROI.
+    Expected<void> prepare();
+
+    /// One calibrated signal rate at the current geometry (shutter opened for it).
+    Expected<SignalRate> measure();
+
+    /// Exposures on the ladder t_min * 2^(k/2): dark frames are reused across measurements.
+    double quantise_exposure(double exposure_us) const;
+    const PixelRoi& roi() const { return roi_; }
+    std::size_t dark_frames_taken() const { return dark_taken_; }
+    std::size_t frames_taken() const { return frames_taken_; }
+    /// Forgets the cached dark frames (after a camera reconnect).
+    void clear_dark_cache() { dark_.clear(); }
+    /// Called by measure() with the frame its auto exposure settled on (shutter open, not dark
+    /// subtracted); it must return at once.
+    void set_frame_observer(std::function<void(const devices::Frame&)> observer) {
+        frame_observer_ = std::move(observer);
+    }
+
+  private:
+    Expected<devices::Frame> grab(double exposure_us);
+    Expected<cv::Mat> dark_for(double exposure_us);
+    struct Shot {
+        devices::Frame frame;
+        cv::Mat dark;
+        RoiStats stats;
+    };
+    Expected<Shot> shot(double exposure_us);
+
+    devices::Camera* camera_;
+    devices::Light* shutter_;
+    CaptureConfig cfg_;
+    NoiseModel noise_;
+    PixelRoi roi_;
+    double last_exposure_us_ = 0;
+    std::map<std::pair<long long, long long>, cv::Mat> dark_;
+    std::size_t dark_taken_ = 0;
+    std::size_t frames_taken_ = 0;
+    std::function<void(const devices::Frame&)> frame_observer_;
+};
+
+}  // namespace gonio::acquisition

@@ -1,0 +1,455 @@
+#include "gonio/acquisition/image/sphere_geometry.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <tuple>
+
+#include "gonio/base/check.h"
+#include "gonio/brdf/rig_geometry.h"
+
+namespace gonio::acquisition {
+
+PixelCounts& PixelCounts::operator+=(const PixelCounts& o) {
+    on_sphere += o.on_sphere;
+    edge += o.edge;
+    grazing_view += o.grazing_view;
+    shadow += o.shadow;
+    grazing_light += o.grazing_light;
+    saturated += o.saturated;
+    nonfinite += o.nonfinite;
+    used += o.used;
+    pole += o.pole;
+    return *this;
+}
+
+Expected<ImageCircle> fit_circle_algebraic(const std::vector<cv::Point2d>& points) {
+    if (points.size() < 3) {
+        return make_error("circle fit: " + std::to_string(points.size()) +
+                          " points, need at least 3");
+    }
+    // Centre the data for conditioning, then solve [x y 1] [D E F]^T = -(x^2 + y^2).
+    double mx = 0;
+    double my = 0;
+    for (const auto& p : points) {
+        mx += p.x;
+        my += p.y;
+    }
+    mx /= points.size();
+    my /= points.size();
+    Eigen::MatrixXd a(points.size(), 3);
+    Eigen::VectorXd b(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        const double x = points[i].x - mx;
+        const double y = points[i].y - my;
+        a(i, 0) = x;
+        a(i, 1) = y;
+        a(i, 2) = 1;
+        b[i] = -(x * x + y * y);
+    }
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(a);
+    if (qr.rank() < 3) {
+        // Collinear points: no circle through them.
+        return make_error("circle fit: points are collinear");
+    }
+    const Eigen::Vector3d s = qr.solve(b);
+    ImageCircle c;
+    c.cx = -s[0] / 2 + mx;
+    c.cy = -s[1] / 2 + my;
+    const double r2 = s[0] * s[0] / 4 + s[1] * s[1] / 4 - s[2];
+    if (!(r2 > 0) || !std::isfinite(r2)) {
+        return make_error("circle fit: no real circle (r^2 = " + std::to_string(r2) + ")");
+    }
+    c.r = std::sqrt(r2);
+    return c;
+}
+
+namespace {
+
+/// Distance from point s to a ray and its gradient with respect to s.
+double ray_distance(const brdf::Vec3d& s, const Ray& ray, brdf::Vec3d* grad) {
+    const brdf::Vec3d w = s - ray.origin;
+    const brdf::Vec3d p = w - w.dot(ray.direction) * ray.direction;
+    const double d = p.norm();
+    if (grad != nullptr) {
+        // At d = 0 (the centre on the ray) the gradient is undefined; zero keeps the step finite.
+        *grad = d > 0 ? brdf::Vec3d(p / d) : brdf::Vec3d::Zero();
+    }
+    return d;
+}
+
+/// The 99.5th percentile of a single-channel image's values (as float).
+double high_percentile(const cv::Mat& f) {
+    std::vector<float> v;
+    v.reserve(f.total());
+    for (int y = 0; y < f.rows; ++y) {
+        const float* row = f.ptr<float>(y);
+        v.insert(v.end(), row, row + f.cols);
+    }
+    const std::size_t k = std::min(v.size() - 1, static_cast<std::size_t>(0.995 * v.size()));
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+    return v[k];
+}
+
+}  // namespace
+
+Expected<SphereGeometry> detect_sphere(const cv::Mat& frame,
+                                       const CameraModel& camera,
+                                       const SilhouetteOptions& options) {
+    if (frame.empty() || frame.channels() != 1) {
+        return make_error("sphere detection: the frame must be a non-empty single-channel image");
+    }
+    cv::Mat f;
+    frame.convertTo(f, CV_32F);
+    // Background level and noise from the frame's border (robust: median and MAD), so that the
+    // threshold stays clear of the noise whatever the sphere's brightness.
+    std::vector<float> border;
+    for (int x = 0; x < f.cols; ++x) {
+        border.push_back(f.at<float>(0, x));
+        border.push_back(f.at<float>(f.rows - 1, x));
+    }
+    for (int y = 1; y + 1 < f.rows; ++y) {
+        border.push_back(f.at<float>(y, 0));
+        border.push_back(f.at<float>(y, f.cols - 1));
+    }
+    const auto median = [](std::vector<float> v) {
+        std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+        return static_cast<double>(v[v.size() / 2]);
+    };
+    const double lo = median(border);
+    for (float& b : border) {
+        b = static_cast<float>(std::abs(b - lo));
+    }
+    const double noise_sigma = 1.4826 * median(border);
+    const double hi = high_percentile(f);
+    if (!(hi > lo + 5 * noise_sigma) || !(hi > lo)) {
+        return make_error("sphere detection: the frame is uniform (nothing lit above the noise)");
+    }
+    // Largest outline above a threshold, and its area.
+    const auto outline = [&](double threshold) {
+        cv::Mat mask;
+        cv::threshold(f, mask, threshold, 255, cv::THRESH_BINARY);
+        mask.convertTo(mask, CV_8U);
+        // Close small holes (noise, dark texture) before taking the outline.
+        cv::morphologyEx(mask,
+                         mask,
+                         cv::MORPH_CLOSE,
+                         cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(5, 5)));
+        std::vector<std::vector<cv::Point>> contours;
+        cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+        std::vector<cv::Point> best;
+        double best_area = -1;
+        for (auto& c : contours) {
+            const double a = cv::contourArea(c);
+            if (a > best_area) {
+                best_area = a;
+                best = std::move(c);
+            }
+        }
+        return std::make_pair(std::move(best), std::max(best_area, 0.0));
+    };
+    double threshold = std::max(lo + options.threshold_fraction * (hi - lo), lo + 5 * noise_sigma);
+    auto [largest, area] = outline(threshold);
+    // A glossy sphere: its highlight is orders of magnitude above the rest of it, and a threshold
+    // at a fraction of the highlight outlines the highlight instead of the limb. When the pixels
+    // clear of the noise cover half as much again as that outline, the threshold is taken at the
+    // same fraction of their median instead (the level of the sphere, not of its highlight).
+    std::vector<float> object;
+    for (int y = 0; y < f.rows; ++y) {
+        const float* row = f.ptr<float>(y);
+        for (int x = 0; x < f.cols; ++x) {
+            if (row[x] > lo + 5 * noise_sigma) {
+                object.push_back(row[x]);
+            }
+        }
+    }
+    bool glossy = false;
+    if (object.size() >= 20 && static_cast<double>(object.size()) > 1.5 * area) {
+        glossy = true;
+        const double level = median(std::move(object));
+        threshold = std::max(lo + options.threshold_fraction * (level - lo), lo + 5 * noise_sigma);
+        std::tie(largest, area) = outline(threshold);
+    }
+    if (largest.empty()) {
+        return make_error("sphere detection: nothing above the threshold " +
+                          std::to_string(threshold));
+    }
+    if (largest.size() < 20) {
+        return make_error("sphere detection: largest contour has " +
+                          std::to_string(largest.size()) + " points, need at least 20");
+    }
+    std::vector<cv::Point2d> pixel_pts;
+    for (const cv::Point& p : largest) {
+        pixel_pts.emplace_back(p.x, p.y);
+    }
+    auto coarse = fit_circle_algebraic(pixel_pts);
+    if (!coarse) {
+        return make_error("sphere detection: " + coarse.error().message);
+    }
+    // Sub-pixel boundary: along the radial line through each contour pixel, the outermost place
+    // where the bilinearly interpolated frame crosses the threshold.
+    const auto sample = [&](double x, double y) {
+        const int x0 = static_cast<int>(std::floor(x));
+        const int y0 = static_cast<int>(std::floor(y));
+        if (x0 < 0 || y0 < 0 || x0 + 1 >= f.cols || y0 + 1 >= f.rows) {
+            return lo;
+        }
+        const double ax = x - x0;
+        const double ay = y - y0;
+        return (1 - ay) * ((1 - ax) * f.at<float>(y0, x0) + ax * f.at<float>(y0, x0 + 1)) +
+               ay * ((1 - ax) * f.at<float>(y0 + 1, x0) + ax * f.at<float>(y0 + 1, x0 + 1));
+    };
+    std::vector<cv::Point2d> pts;
+    for (const cv::Point2d& p : pixel_pts) {
+        const double dx = p.x - coarse->cx;
+        const double dy = p.y - coarse->cy;
+        const double n = std::hypot(dx, dy);
+        if (!(n > 0)) {
+            // A contour pixel at the centre: no radial direction (a degenerate blob).
+            continue;
+        }
+        const double ux = dx / n;
+        const double uy = dy / n;
+        constexpr double kStep = 0.05;
+        double prev_s = 2.0;
+        double prev_v = sample(p.x + prev_s * ux, p.y + prev_s * uy);
+        for (double s = 2.0 - kStep; s >= -2.0; s -= kStep) {
+            const double v = sample(p.x + s * ux, p.y + s * uy);
+            if (v >= threshold && prev_v < threshold) {
+                const double t = (threshold - v) / (prev_v - v);
+                double edge = s + t * (prev_s - s);
+                if (glossy) {
+                    // A glossy sphere's limb is a step (its tails do not fade to zero there, as a
+                    // Lambertian limb lit from the camera does), blurred by the pixels: its edge is
+                    // where the profile crosses half way between the background and the level
+                    // 2 px inside, which a threshold near the background would place outside.
+                    const double half =
+                        0.5 * (lo + sample(p.x + (edge - 2) * ux, p.y + (edge - 2) * uy));
+                    double q_prev = edge + 1;
+                    double w_prev = sample(p.x + q_prev * ux, p.y + q_prev * uy);
+                    for (double q = edge + 1 - kStep; q >= edge - 2; q -= kStep) {
+                        const double w = sample(p.x + q * ux, p.y + q * uy);
+                        if (w >= half && w_prev < half) {
+                            edge = q + (half - w) / (w_prev - w) * (q_prev - q);
+                            break;
+                        }
+                        q_prev = q;
+                        w_prev = w;
+                    }
+                }
+                pts.emplace_back(p.x + edge * ux, p.y + edge * uy);
+                break;
+            }
+            prev_s = s;
+            prev_v = v;
+        }
+    }
+    auto circle = fit_circle_algebraic(pts);
+    if (!circle) {
+        return make_error("sphere detection: " + circle.error().message);
+    }
+    // Trim points inside the circle (where the lit region ends at the shadow terminator rather
+    // than at the limb) and refit, a few times.
+    std::vector<cv::Point2d> kept = pts;
+    for (int round = 0; round < 5; ++round) {
+        std::vector<cv::Point2d> next;
+        for (const auto& p : pts) {
+            if (std::hypot(p.x - circle->cx, p.y - circle->cy) >
+                circle->r - options.trim_inside_px) {
+                next.push_back(p);
+            }
+        }
+        if (next.size() < 20) {
+            break;
+        }
+        auto c2 = fit_circle_algebraic(next);
+        if (!c2) {
+            break;
+        }
+        kept = std::move(next);
+        circle = c2;
+    }
+
+    SphereGeometry g;
+    g.silhouette = *circle;
+    std::vector<Ray> rays = camera.pixel_rays(kept);
+    const Ray centre_ray = camera.pixel_ray(circle->cx, circle->cy);
+    if (camera.projection == Projection::kOrthographic) {
+        // Depth along the axis is unobservable: put the centre in the plane through the origin.
+        const double s = -centre_ray.origin.dot(centre_ray.direction);
+        g.centre = centre_ray.origin + s * centre_ray.direction;
+        g.radius_m =
+            options.orthographic_known_radius ? options.radius_m : circle->r / camera.intrinsics.fx;
+    } else {
+        // Angular radius from the circle, distance from the known physical radius.
+        const Ray edge = camera.pixel_ray(circle->cx + circle->r, circle->cy);
+        const double alpha =
+            std::acos(std::clamp(edge.direction.dot(centre_ray.direction), -1.0, 1.0));
+        if (!(alpha > 0)) {
+            return make_error("sphere detection: zero apparent radius");
+        }
+        g.radius_m = options.radius_m;
+        g.centre = centre_ray.origin + centre_ray.direction * (options.radius_m / std::sin(alpha));
+    }
+
+    // Geometric refinement: contour rays tangent to the sphere. Perspective: unknown centre (3),
+    // radius known. Orthographic: centre moves in the plane perpendicular to the axis (2) and the
+    // radius (1) is unknown.
+    const bool ortho = camera.projection == Projection::kOrthographic;
+    const bool fit_radius = ortho && !options.orthographic_known_radius;
+    const brdf::Vec3d axis = camera.axis_world();
+    brdf::Vec3d e1 = axis.unitOrthogonal();
+    brdf::Vec3d e2 = axis.cross(e1);
+    double rms = 0;
+    for (int it = 0; it < options.iterations; ++it) {
+        Eigen::MatrixXd jac(rays.size(), 3);
+        Eigen::VectorXd res(rays.size());
+        for (std::size_t k = 0; k < rays.size(); ++k) {
+            brdf::Vec3d grad;
+            res[k] = ray_distance(g.centre, rays[k], &grad) - g.radius_m;
+            if (ortho) {
+                jac(k, 0) = grad.dot(e1);
+                jac(k, 1) = grad.dot(e2);
+                // A known radius: no change (a zero column, the step's third component 0).
+                jac(k, 2) = fit_radius ? -1 : 0;
+            } else {
+                jac.row(k) = grad.transpose();
+            }
+        }
+        const Eigen::Vector3d step = jac.colPivHouseholderQr().solve(-res);
+        if (!step.allFinite()) {
+            return make_error("sphere detection: the least-squares refinement diverged");
+        }
+        if (ortho) {
+            g.centre += step[0] * e1 + step[1] * e2;
+            if (fit_radius) {
+                g.radius_m += step[2];
+            }
+        } else {
+            g.centre += step;
+        }
+        rms = std::sqrt(res.squaredNorm() / res.size());
+        if (step.norm() < 1e-12 * std::max(1.0, g.radius_m)) {
+            break;
+        }
+    }
+    if (!(g.radius_m > 0) || !g.centre.allFinite()) {
+        return make_error("sphere detection: the refinement gave no valid sphere");
+    }
+    // Residuals in pixels: metres at the sphere's distance times pixels per metre.
+    const double px_per_m =
+        ortho ? camera.intrinsics.fx
+              : camera.intrinsics.fx / std::max((g.centre - camera.centre_world()).norm(), 1e-12);
+    g.rms_residual_px = rms * px_per_m;
+    g.contour_points = static_cast<int>(rays.size());
+    // Silhouette circle consistent with the refined sphere (used for the edge margin).
+    const Eigen::Vector2d c_px = camera.project(g.centre);
+    if (c_px.allFinite()) {
+        g.silhouette.cx = c_px.x();
+        g.silhouette.cy = c_px.y();
+        // Orthographic: radius times pixels per metre; perspective: the fitted image circle's
+        // radius (the outline of an off-axis sphere is slightly elliptical; the margin is small).
+        g.silhouette.r = ortho ? g.radius_m * camera.intrinsics.fx : circle->r;
+    }
+    return g;
+}
+
+brdf::Vec3d reference_tangent(const brdf::Vec3d& normal) {
+    brdf::Vec3d r(0, 0, 1);
+    brdf::Vec3d t = r - r.dot(normal) * normal;
+    if (t.norm() < 1e-6) {
+        // Normal along the vertical: fall back to world +y.
+        r = brdf::Vec3d(0, 1, 0);
+        t = r - r.dot(normal) * normal;
+    }
+    return t.normalized();
+}
+
+std::vector<SpherePixel> sphere_pixels(const CameraModel& camera,
+                                       const SphereGeometry& sphere,
+                                       const ExclusionRules& rules,
+                                       PixelCounts* counts) {
+    const ImageCircle& c = sphere.silhouette;
+    const int w = camera.intrinsics.width;
+    const int h = camera.intrinsics.height;
+    const int x0 = std::max(0, static_cast<int>(std::floor(c.cx - c.r - 2)));
+    const int x1 = std::min(w - 1, static_cast<int>(std::ceil(c.cx + c.r + 2)));
+    const int y0 = std::max(0, static_cast<int>(std::floor(c.cy - c.r - 2)));
+    const int y1 = std::min(h - 1, static_cast<int>(std::ceil(c.cy + c.r + 2)));
+    std::vector<cv::Point2d> px;
+    for (int y = y0; y <= y1; ++y) {
+        for (int x = x0; x <= x1; ++x) {
+            px.emplace_back(x, y);
+        }
+    }
+    const std::vector<Ray> rays = camera.pixel_rays(px);
+    const double cos_max_o = std::cos(rules.max_theta_o);
+    std::vector<SpherePixel> out;
+    PixelCounts local;
+    for (std::size_t k = 0; k < px.size(); ++k) {
+        const Ray& ray = rays[k];
+        const brdf::Vec3d wvec = ray.origin - sphere.centre;
+        const double b = wvec.dot(ray.direction);
+        const double disc = b * b - (wvec.squaredNorm() - sphere.radius_m * sphere.radius_m);
+        if (!(disc > 0)) {
+            // The ray misses the sphere (or grazes it at one point): background.
+            continue;
+        }
+        ++local.on_sphere;
+        if (std::hypot(px[k].x - c.cx, px[k].y - c.cy) > c.r - rules.edge_margin_px) {
+            ++local.edge;
+            continue;
+        }
+        const double s = -b - std::sqrt(disc);
+        const brdf::Vec3d x = ray.origin + s * ray.direction;
+        SpherePixel p;
+        p.x = static_cast<int>(px[k].x);
+        p.y = static_cast<int>(px[k].y);
+        p.normal = ((x - sphere.centre) / sphere.radius_m).normalized();
+        p.wo_world = -ray.direction;
+        if (p.normal.dot(p.wo_world) < cos_max_o) {
+            ++local.grazing_view;
+            continue;
+        }
+        p.tangent = reference_tangent(p.normal);
+        out.push_back(p);
+    }
+    if (counts != nullptr) {
+        *counts += local;
+    }
+    return out;
+}
+
+brdf::Vec3d lathe_axis_world(double tilt_rad, double spin_rad) {
+    return brdf::sample_to_world(brdf::Vec3d(0, 1, 0), tilt_rad, spin_rad);
+}
+
+brdf::Vec3d lathe_tangent(const brdf::Vec3d& normal, const brdf::Vec3d& axis, double pole_rad) {
+    const brdf::Vec3d c = axis.cross(normal);
+    const double s = c.norm();
+    if (!(s >= std::sin(pole_rad)) || !(s > 0)) {
+        // Within the pole cap (or exactly at the pole): no usable tangent.
+        return brdf::Vec3d::Zero();
+    }
+    return c / s;
+}
+
+std::pair<brdf::Vec3d, brdf::Vec3d> local_directions(const SpherePixel& p,
+                                                     const brdf::Vec3d& light_world) {
+    return local_directions(p, p.tangent, light_world);
+}
+
+std::pair<brdf::Vec3d, brdf::Vec3d> local_directions(const SpherePixel& p,
+                                                     const brdf::Vec3d& tangent,
+                                                     const brdf::Vec3d& light_world) {
+    const brdf::Vec3d& z = p.normal;
+    const brdf::Vec3d& x = tangent;
+    const brdf::Vec3d y = z.cross(x);
+    const auto to_local = [&](const brdf::Vec3d& v) {
+        return brdf::Vec3d(v.dot(x), v.dot(y), v.dot(z));
+    };
+    return {to_local(light_world), to_local(p.wo_world)};
+}
+
+}  // namespace gonio::acquisition

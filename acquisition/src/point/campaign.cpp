@@ -1,0 +1,1349 @@
+#include "gonio/acquisition/point/campaign.h"
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "gonio/acquisition/point/capture_session.h"
+#include "gonio/acquisition/point/journal.h"
+#include "gonio/acquisition/point/progress.h"
+#include "gonio/base/atomic_file.h"
+#include "gonio/base/limits.h"
+#include "gonio/base/strict_json.h"
+#include "gonio/base/strings.h"
+#include "gonio/brdf/dataset.h"
+#include "gonio/version.h"
+
+namespace gonio::acquisition {
+
+using brdf::kPi;
+using brdf::RigPosed;
+using brdf::Vec3d;
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kDeg = kPi / 180.0;
+
+double now_s() {
+    return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
+        .count();
+}
+
+std::string iso_time(double t, bool for_path) {
+    const std::time_t tt = static_cast<std::time_t>(t);
+    std::tm tm{};
+    gmtime_r(&tt, &tm);
+    char buf[40];
+    std::strftime(buf, sizeof buf, for_path ? "%Y-%m-%dT%H-%M-%S" : "%Y-%m-%dT%H:%M:%SZ", &tm);
+    return buf;
+}
+
+Expected<std::string> read_text(const std::string& path) {
+    return read_input_file(path, kMaxJsonBytes);
+}
+
+Expected<void> write_text_atomic(const std::string& path, const std::string& text) {
+    return write_file_atomic(path, text);
+}
+
+/// Paths inside a campaign description name files beside it: relative, without "..". Files
+/// elsewhere are given on the command line (--rig, --scene). Empty string: acceptable.
+std::string contained_path_problem(const std::string& p) {
+    if (p.empty()) {
+        return {};
+    }
+    if (p[0] == '/') {
+        return "absolute paths are not followed; give a path relative to the campaign file, or "
+               "use --rig/--scene";
+    }
+    for (const auto& part : fs::path(p)) {
+        if (part == "..") {
+            return "\"..\" is not followed; give a path inside the campaign file's folder, or "
+                   "use --rig/--scene";
+        }
+    }
+    return {};
+}
+
+double luminance(const brdf::Rgbd& v) {
+    return (v[0] + v[1] + v[2]) / 3;
+}
+
+std::array<double, 4> pose_deg(const RigPosed& p) {
+    return {p.light / kDeg, p.detector / kDeg, p.tilt / kDeg, p.spin / kDeg};
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Campaign description
+
+Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::string& source) {
+    CampaignSpec s;
+    s.json = text;
+    try {
+        const json j = parse_json_checked(text, source);
+        JsonObject top(j, "");
+        s.sample = top.string("sample", s.sample, kMaxNameLength);
+        s.operator_name = top.string("operator", s.operator_name, kMaxNameLength);
+        s.notes = top.string("notes", s.notes, kMaxJsonString);
+        s.rig = top.string("rig", s.rig, kMaxPathLength);
+        s.scene = top.string("scene", s.scene, kMaxPathLength);
+        for (const char* key : {"rig", "scene"}) {
+            const std::string& p = key[0] == 'r' ? s.rig : s.scene;
+            if (auto bad = contained_path_problem(p); !bad.empty()) {
+                json_fail(std::string(key) + " = \"" + excerpt(p) + "\": " + bad);
+            }
+        }
+        if (top.has("plan")) {
+            JsonObject p(top.raw("plan"), "plan");
+            s.plan_kind = p.string("kind", s.plan_kind, 16);
+            if (s.plan_kind == "uniform") {
+                s.uniform.n_theta = p.integer("n_theta", s.uniform.n_theta, 2, kMaxPlanAxis);
+                s.uniform.n_dphi = p.integer("n_dphi", s.uniform.n_dphi, 2, kMaxPlanAxis);
+                s.uniform.theta_max =
+                    p.number("theta_max_deg", s.uniform.theta_max / kDeg, 1, 89, "deg") * kDeg;
+            } else if (s.plan_kind == "half-diff") {
+                s.half_diff.n_theta_h =
+                    p.integer("n_theta_h", s.half_diff.n_theta_h, 1, kMaxPlanAxis);
+                s.half_diff.n_theta_d =
+                    p.integer("n_theta_d", s.half_diff.n_theta_d, 1, kMaxPlanAxis);
+                s.half_diff.n_phi_d = p.integer("n_phi_d", s.half_diff.n_phi_d, 1, kMaxPlanAxis);
+                s.half_diff.theta_max =
+                    p.number("theta_max_deg", s.half_diff.theta_max / kDeg, 1, 89, "deg") * kDeg;
+            } else if (s.plan_kind == "vndf") {
+                s.vndf.retro_count = p.integer("retro_count", s.vndf.retro_count, 4, 512);
+                s.vndf.theta_i_count = p.integer("theta_i_count", s.vndf.theta_i_count, 2, 64);
+                s.vndf.resolution = p.integer("resolution", s.vndf.resolution, 4, 128);
+                s.vndf.ndf_resolution = p.integer("ndf_resolution", s.vndf.ndf_resolution, 16, 512);
+                s.vndf.theta_max =
+                    p.number("theta_max_deg", s.vndf.theta_max / kDeg, 10.001, 89, "deg") * kDeg;
+                s.vndf.phi_i_count = p.integer("phi_i_count", s.vndf.phi_i_count, 0, 64);
+                s.vndf.retro_phi_count =
+                    p.integer("retro_phi_count", s.vndf.retro_phi_count, 4, 128);
+                if (auto ok = check_vndf_spec(s.vndf); !ok) {
+                    json_fail("plan: " + ok.error().message);
+                }
+            } else if (s.plan_kind == "anisotropic") {
+                AnisotropicGridSpec& a = s.anisotropic;
+                a.n_theta = p.integer("n_theta", a.n_theta, 2, kMaxPlanAxis);
+                a.n_dphi = p.integer("n_dphi", a.n_dphi, 2, kMaxPlanAxis);
+                a.theta_max = p.number("theta_max_deg", a.theta_max / kDeg, 1, 89, "deg") * kDeg;
+                const std::string sym = p.string("symmetry", to_string(a.symmetry), 16);
+                auto parsed = parse_symmetry(sym);
+                if (!parsed) {
+                    json_fail("plan.symmetry = \"" + excerpt(sym) +
+                              "\": must be \"none\", \"mirror\" or \"2-fold\"");
+                }
+                a.symmetry = *parsed;
+            } else {
+                json_fail("plan.kind = \"" + s.plan_kind +
+                          "\": must be \"uniform\", \"half-diff\", \"vndf\" or \"anisotropic\"");
+            }
+            p.finish();
+        }
+        if (top.has("adaptive")) {
+            JsonObject a(top.raw("adaptive"), "adaptive");
+            s.adaptive = a.boolean("enabled", true);
+            s.adaptive_passes = a.integer("passes", s.adaptive_passes, 0, 100);
+            s.refine.budget = a.integer("budget", s.refine.budget, 0, kMaxPlanConfigs);
+            s.refine.threshold = a.number("threshold", s.refine.threshold, 0, 10);
+            s.refine.min_spacing =
+                a.number("min_spacing_deg", s.refine.min_spacing / kDeg, 0, 90, "deg") * kDeg;
+            a.finish();
+        }
+        if (top.has("drift")) {
+            JsonObject d(top.raw("drift"), "drift");
+            s.drift_every = d.integer("every", s.drift_every, 0, kMaxPlanConfigs);
+            s.drift_threshold = d.number("threshold", s.drift_threshold, 1e-6, 10);
+            s.drift_theta_i_deg = d.number("theta_i_deg", s.drift_theta_i_deg, 0, 89, "deg");
+            s.drift_theta_r_deg = d.number("theta_r_deg", s.drift_theta_r_deg, 0, 89, "deg");
+            s.drift_delta_phi_deg = d.number("delta_phi_deg", s.drift_delta_phi_deg, 0, 180, "deg");
+            d.finish();
+        }
+        s.schedule_budget_s = top.number("schedule_budget_s", s.schedule_budget_s, 0, 3600, "s");
+        top.finish();
+        if (s.plan_kind == "anisotropic" && s.adaptive && s.adaptive_passes > 0) {
+            // The refinement links neighbours in the isotropic canonical space.
+            json_fail(
+                "adaptive: refinement works in the isotropic (theta_i, theta_r, delta_phi) "
+                "space and cannot follow plan.kind \"anisotropic\" (set \"enabled\": "
+                "false)");
+        }
+        if (s.plan_kind == "vndf" && s.adaptive) {
+            json_fail(
+                "adaptive: the vndf plan places its own second pass from the retro-reflection "
+                "measurements (remove \"adaptive\" or use another plan)");
+        }
+        if (s.plan_kind == "vndf" && !s.scene.empty()) {
+            json_fail(
+                "scene: the vndf plan measures every node of its RGL file (remove "
+                "\"scene\" or use another plan)");
+        }
+    } catch (const JsonFailure& f) {
+        const bool named = f.message.compare(0, source.size(), source) == 0;
+        return make_error(named ? f.message : source + ": " + f.message);
+    }
+    return s;
+}
+
+CampaignSpec default_campaign_spec(const std::string& sample) {
+    CampaignSpec s;
+    s.sample = sample;
+    s.plan_kind = "uniform";
+    s.uniform.n_theta = 7;
+    s.uniform.n_dphi = 5;
+    s.uniform.theta_max = 75 * kDeg;
+    s.adaptive = true;
+    s.adaptive_passes = 1;
+    s.refine.budget = 30;
+    s.drift_every = 40;
+    s.json = campaign_spec_json(s);
+    return s;
+}
+
+Expected<CampaignSpec> read_campaign_spec(const std::string& path) {
+    auto text = read_text(path);
+    if (!text) {
+        return tl::unexpected(text.error());
+    }
+    return parse_campaign_spec(*text, path);
+}
+
+std::string campaign_spec_json(const CampaignSpec& s) {
+    json j;
+    j["sample"] = s.sample;
+    j["operator"] = s.operator_name;
+    j["notes"] = s.notes;
+    j["rig"] = s.rig;
+    if (!s.scene.empty()) {
+        j["scene"] = s.scene;
+    }
+    if (s.plan_kind == "uniform") {
+        j["plan"] = {{"kind", "uniform"},
+                     {"n_theta", s.uniform.n_theta},
+                     {"n_dphi", s.uniform.n_dphi},
+                     {"theta_max_deg", s.uniform.theta_max / kDeg}};
+    } else if (s.plan_kind == "vndf") {
+        j["plan"] = {{"kind", "vndf"},
+                     {"retro_count", s.vndf.retro_count},
+                     {"theta_i_count", s.vndf.theta_i_count},
+                     {"resolution", s.vndf.resolution},
+                     {"ndf_resolution", s.vndf.ndf_resolution},
+                     {"theta_max_deg", s.vndf.theta_max / kDeg},
+                     {"phi_i_count", s.vndf.phi_i_count},
+                     {"retro_phi_count", s.vndf.retro_phi_count}};
+    } else if (s.plan_kind == "anisotropic") {
+        j["plan"] = {{"kind", "anisotropic"},
+                     {"n_theta", s.anisotropic.n_theta},
+                     {"n_dphi", s.anisotropic.n_dphi},
+                     {"theta_max_deg", s.anisotropic.theta_max / kDeg},
+                     {"symmetry", to_string(s.anisotropic.symmetry)}};
+    } else {
+        j["plan"] = {{"kind", "half-diff"},
+                     {"n_theta_h", s.half_diff.n_theta_h},
+                     {"n_theta_d", s.half_diff.n_theta_d},
+                     {"n_phi_d", s.half_diff.n_phi_d},
+                     {"theta_max_deg", s.half_diff.theta_max / kDeg}};
+    }
+    if (s.adaptive) {
+        j["adaptive"] = {{"enabled", true},
+                         {"passes", s.adaptive_passes},
+                         {"budget", s.refine.budget},
+                         {"threshold", s.refine.threshold},
+                         {"min_spacing_deg", s.refine.min_spacing / kDeg}};
+    }
+    j["drift"] = {{"every", s.drift_every},
+                  {"threshold", s.drift_threshold},
+                  {"theta_i_deg", s.drift_theta_i_deg},
+                  {"theta_r_deg", s.drift_theta_r_deg},
+                  {"delta_phi_deg", s.drift_delta_phi_deg}};
+    j["schedule_budget_s"] = s.schedule_budget_s;
+    return j.dump(2) + "\n";
+}
+
+Expected<Plan> build_plan(const CampaignSpec& spec, const RigConfig& rig) {
+    if (spec.plan_kind == "vndf") {
+        if (spec.adaptive) {
+            return make_error(
+                "vndf plan: adaptive passes asked for; the vndf plan places its own second pass "
+                "from the retro-reflection measurements");
+        }
+        if (!spec.scene.empty()) {
+            return make_error("vndf plan: a scene (" + spec.scene +
+                              ") asked for; the vndf plan measures every node of its RGL file");
+        }
+        return plan_vndf_retro(spec.vndf, rig_limits(rig));
+    }
+    Expected<Plan> plan = spec.plan_kind == "half-diff"     ? plan_half_diff(spec.half_diff)
+                          : spec.plan_kind == "anisotropic" ? plan_anisotropic(spec.anisotropic)
+                                                            : plan_uniform(spec.uniform);
+    if (!plan) {
+        return plan;
+    }
+    if (!spec.scene.empty()) {
+        auto scene = read_scene(spec.scene);
+        if (!scene) {
+            return tl::unexpected(scene.error());
+        }
+        apply_roi(*scene, &*plan);
+    }
+    remove_unreachable(rig_limits(rig), &*plan);
+    return plan;
+}
+
+std::string auto_campaign_dir(const std::string& parent, const std::string& sample) {
+    std::string clean;
+    for (char c : sample) {
+        clean.push_back(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' ? c
+                                                                                            : '-');
+    }
+    const std::string base = (fs::path(parent) / (iso_time(now_s(), true) + "_" + clean)).string();
+    std::string dir = base;
+    for (int k = 2; fs::exists(dir); ++k) {
+        dir = base + "-" + std::to_string(k);
+    }
+    return dir;
+}
+
+Expected<void> create_campaign_dir(const std::string& dir,
+                                   const CampaignSpec& spec,
+                                   const RigConfig& rig) {
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (ec) {
+        return make_error(dir + ": cannot create: " + ec.message());
+    }
+    if (fs::exists(fs::path(dir) / "journal.log") || fs::exists(fs::path(dir) / "campaign.json")) {
+        return make_error(dir + ": already holds a campaign (use --resume " + dir + ")");
+    }
+    // The scene is copied in as well: a resume must not depend on files outside the folder.
+    CampaignSpec stored = spec;
+    stored.rig = "rig.json";
+    if (!spec.scene.empty()) {
+        auto text = read_text(spec.scene);
+        if (!text) {
+            return tl::unexpected(text.error());
+        }
+        if (auto w = write_text_atomic((fs::path(dir) / "scene.json").string(), *text); !w) {
+            return w;
+        }
+        stored.scene = "scene.json";
+    }
+    if (auto w = write_text_atomic((fs::path(dir) / "rig.json").string(), rig.json); !w) {
+        return w;
+    }
+    return write_text_atomic((fs::path(dir) / "campaign.json").string(),
+                             campaign_spec_json(stored));
+}
+
+Expected<std::size_t> write_campaign_dataset(const std::string& dir) {
+    auto jn = Journal::open((fs::path(dir) / "journal.log").string());
+    if (!jn) {
+        return tl::unexpected(jn.error());
+    }
+    brdf::Dataset ds;
+    ds.source = dir;
+    ds.has_sigma = ds.has_weight = ds.has_flags = true;
+    for (const JournalRecord& r : jn->records()) {
+        if (r.type != RecordType::kMeasurement && r.type != RecordType::kReference) {
+            continue;
+        }
+        brdf::Sample s;
+        const auto si = brdf::cartesian_to_spherical(r.wi);
+        const auto so = brdf::cartesian_to_spherical(r.wo);
+        s.theta_i = si.theta;
+        s.phi_i = si.phi;
+        s.theta_o = so.theta;
+        s.phi_o = so.phi;
+        s.value = r.value;
+        s.sigma = r.sigma;
+        s.weight = r.weight;
+        s.flags = r.flags;
+        ds.samples.push_back(s);
+    }
+    if (auto w = brdf::write_dataset_csv((fs::path(dir) / "dataset.csv").string(), ds); !w) {
+        return tl::unexpected(w.error());
+    }
+    return ds.samples.size();
+}
+
+// ---------------------------------------------------------------------------------------------
+// The vndf plan's second pass and its RGL file
+
+namespace {
+
+Expected<VndfLayout> vndf_pass_from_records(const std::vector<JournalRecord>& records,
+                                            const CampaignSpec& spec,
+                                            const RigConfig& rig,
+                                            VndfNdf* ndf_out) {
+    // Pass 0 in plan order, so that the NDF does not depend on the order of measurement.
+    std::vector<std::pair<std::uint32_t, RetroMeasurement>> retro;
+    for (const JournalRecord& r : records) {
+        if (r.type == RecordType::kMeasurement && r.pass == 0) {
+            // The luminance of the RGL format (0.2126 R + 0.7152 G + 0.0722 B), as its writer uses.
+            const double lum = 0.2126 * r.value[0] + 0.7152 * r.value[1] + 0.0722 * r.value[2];
+            retro.push_back({r.index, RetroMeasurement{r.wi, r.wo, lum}});
+        }
+    }
+    std::sort(
+        retro.begin(), retro.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::vector<RetroMeasurement> m;
+    for (const auto& r : retro) {
+        m.push_back(r.second);
+    }
+    auto ndf = vndf_ndf_from_retro(m, spec.vndf);
+    if (!ndf) {
+        return make_error("vndf plan, second pass: " + ndf.error().message);
+    }
+    if (ndf_out != nullptr) {
+        *ndf_out = *ndf;
+    }
+    return plan_vndf_layout(ndf->ndf, spec.vndf, rig_limits(rig));
+}
+
+}  // namespace
+
+Expected<VndfLayout> vndf_second_pass(const std::string& dir,
+                                      const CampaignSpec& spec,
+                                      const RigConfig& rig,
+                                      VndfNdf* ndf) {
+    auto jn = Journal::open((fs::path(dir) / "journal.log").string());
+    if (!jn) {
+        return tl::unexpected(jn.error());
+    }
+    return vndf_pass_from_records(jn->records(), spec, rig, ndf);
+}
+
+Expected<VndfFileReport> write_vndf_bsdf(const std::string& dir) {
+    auto spec = read_campaign_spec((fs::path(dir) / "campaign.json").string());
+    if (!spec) {
+        return tl::unexpected(spec.error());
+    }
+    auto rig = read_rig_config((fs::path(dir) / "rig.json").string());
+    if (!rig) {
+        return tl::unexpected(rig.error());
+    }
+    auto jn = Journal::open((fs::path(dir) / "journal.log").string());
+    if (!jn) {
+        return tl::unexpected(jn.error());
+    }
+    auto layout = vndf_pass_from_records(jn->records(), *spec, *rig, nullptr);
+    if (!layout) {
+        return tl::unexpected(layout.error());
+    }
+    // Pass 1 measurements by configuration; a configuration measured twice (a repeat after a
+    // torn journal record) is averaged.
+    const std::size_t n = layout->plan.configs.size();
+    std::vector<brdf::Rgbd> sum(n, brdf::Rgbd::Zero());
+    std::vector<int> count(n, 0);
+    for (const JournalRecord& r : jn->records()) {
+        if (r.type == RecordType::kMeasurement && r.pass == 1 && r.index < n) {
+            sum[r.index] += r.value;
+            ++count[r.index];
+        }
+    }
+    std::vector<brdf::Rgbd> f_r(n);
+    for (std::size_t k = 0; k < n; ++k) {
+        f_r[k] = count[k] > 0 ? brdf::Rgbd(sum[k] / count[k])
+                              : brdf::Rgbd::Constant(std::numeric_limits<double>::quiet_NaN());
+    }
+    VndfFileReport report;
+    auto file = vndf_tensor(*layout, f_r, &report);
+    if (!file) {
+        return make_error(dir + ": " + file.error().message);
+    }
+    if (auto w = write_file_atomic((fs::path(dir) / kVndfBsdfName).string(),
+                                   brdf::encode_tensor_file(*file));
+        !w) {
+        return tl::unexpected(w.error());
+    }
+    return report;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Runner
+
+namespace {
+
+class Runner {
+  public:
+    Runner(std::string dir, RigDevices& dev, const RunHooks& hooks)
+        : dir_(std::move(dir)), dev_(dev), hooks_(hooks) {}
+
+    Expected<RunResult> run();
+
+  private:
+    std::string path(const char* name) const { return (fs::path(dir_) / name).string(); }
+    void say(const std::string& s) const {
+        if (hooks_.out) {
+            std::fprintf(hooks_.out, "%s\n", s.c_str());
+            std::fflush(hooks_.out);
+        }
+    }
+    bool stop_requested() const { return hooks_.stop && hooks_.stop->load(); }
+
+    Expected<RigPosed> read_pose();
+    Expected<void> move_to(const RigPosed& p);
+    Expected<void> home_if_needed();
+    /// Moves and measures with bounded retries; a drive alarm pauses at once.
+    struct Shot {
+        RigPosed pose;  ///< As read back from the axes.
+        Vec3d wi, wo;
+        SignalRate rate;
+    };
+    Expected<Shot> attempt(const RigPosed& target, const std::string& what, std::string* pause);
+    Expected<Shot> measure_once(const RigPosed& target, const std::string& what);
+    Expected<SignalRate> expose();
+    /// The axes whose positions differ between `a` and `b` by more than the pose tolerance, in
+    /// words ("sample spin 12.000 -> 15.500 deg"); empty when none.
+    std::string pose_change(const RigPosed& a, const RigPosed& b) const;
+    void note(const std::string& text);
+    /// Waits (probing with back-off) until every axis answers again; an error when stopped on
+    /// request or when the outage lasts longer than hooks_.max_outage_s.
+    Expected<void> wait_for_devices(const std::string& what, const std::string& cause);
+    Expected<void> white_calibration(std::string* pause);
+    /// Measures the drift reference; sets *pause on drift beyond the threshold.
+    Expected<void> drift_check(bool baseline, std::string* pause);
+    JournalRecord record_of(RecordType type, const Shot& s, const BrdfValue& v) const;
+    Expected<void> write_metadata(const std::string& state, const Plan& plan);
+    Expected<RunResult> finish(Outcome o, const std::string& msg, const Plan& plan);
+
+    std::string dir_;
+    RigDevices& dev_;
+    RunHooks hooks_;
+    CampaignSpec spec_;
+    RigConfig rig_;
+    RigLimits lim_;
+    std::array<AxisDynamics, kNumAxes> dyn_;
+    std::optional<Journal> journal_;
+    std::optional<CaptureSession> session_;
+    WhiteCalibration white_;
+    RigPosed current_;
+    std::size_t since_reference_ = 0;
+    std::optional<JournalRecord> baseline_;
+    RunResult result_;
+    double started_ = 0;
+    /// The vndf plan's second pass once placed (metadata.json lists it).
+    std::optional<VndfLayout> vndf_pass_;
+    VndfNdf vndf_ndf_;
+};
+
+Expected<RigPosed> Runner::read_pose() {
+    double v[kNumAxes];
+    for (int k = 0; k < kNumAxes; ++k) {
+        auto p = dev_.axes[k]->position_deg();
+        if (!p) {
+            return tl::unexpected(p.error());
+        }
+        v[k] = *p * kDeg;
+    }
+    return RigPosed{v[0], v[1], v[2], v[3]};
+}
+
+Expected<void> Runner::home_if_needed() {
+    for (int k = 0; k < kNumAxes; ++k) {
+        auto st = dev_.axes[k]->status();
+        if (!st) {
+            return tl::unexpected(st.error());
+        }
+        if (st->state == devices::AxisState::kAlarm) {
+            return make_error("axis \"" + dev_.axes[k]->name() + "\" in alarm (code " +
+                              std::to_string(st->alarm_code) +
+                              "): clear the cause, then reset the drive");
+        }
+        if (!st->homed) {
+            say("homing axis \"" + dev_.axes[k]->name() + "\"");
+            if (auto h = dev_.axes[k]->home(std::chrono::milliseconds(rig_.move_timeout_ms)); !h) {
+                return h;
+            }
+        }
+    }
+    return {};
+}
+
+Expected<void> Runner::move_to(const RigPosed& p) {
+    const double target[kNumAxes] = {p.light, p.detector, p.tilt, p.spin};
+    const double cur[kNumAxes] = {current_.light, current_.detector, current_.tilt, current_.spin};
+    bool moved[kNumAxes] = {false, false, false, false};
+    for (int k = 0; k < kNumAxes; ++k) {
+        if (std::abs(target[k] - cur[k]) < 1e-7) {
+            continue;
+        }
+        if (auto r = dev_.axes[k]->start_move(target[k] / kDeg); !r) {
+            return r;
+        }
+        moved[k] = true;
+    }
+    double settle_ms = 0;
+    for (int k = 0; k < kNumAxes; ++k) {
+        if (!moved[k]) {
+            continue;
+        }
+        if (auto r = dev_.axes[k]->wait_done(std::chrono::milliseconds(rig_.move_timeout_ms)); !r) {
+            return r;
+        }
+        settle_ms = std::max(settle_ms, rig_.axes[k].motion.settle_ms);
+    }
+    // Mechanical settling after the drives report in position (a physical time, not a wait for
+    // a state that could be polled).
+    if (settle_ms > 0) {
+        std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(settle_ms));
+    }
+    current_ = p;
+    return {};
+}
+
+/// Largest difference between two position read-backs of a standing axis that is not a move:
+/// ten steps of the finest shipped profile (1000 steps/deg), well above the rounding of a target
+/// to a step.
+constexpr double kPoseToleranceDeg = 0.01;
+/// A pose that keeps moving during exposures this many times in a row pauses the campaign.
+constexpr int kMaxPoseRepeats = 5;
+
+std::string Runner::pose_change(const RigPosed& a, const RigPosed& b) const {
+    const auto da = pose_deg(a);
+    const auto db = pose_deg(b);
+    std::string out;
+    for (int k = 0; k < kNumAxes; ++k) {
+        if (std::abs(db[k] - da[k]) > kPoseToleranceDeg) {
+            char buf[160];
+            std::snprintf(buf,
+                          sizeof buf,
+                          "%s%s %.4f -> %.4f deg",
+                          out.empty() ? "" : ", ",
+                          dev_.axes[k]->name().c_str(),
+                          da[k],
+                          db[k]);
+            out += buf;
+        }
+    }
+    return out;
+}
+
+void Runner::note(const std::string& text) {
+    say(text);
+    JournalRecord n;
+    n.type = RecordType::kNote;
+    n.text = text;
+    n.time_s = now_s();
+    (void)journal_->append(n);
+}
+
+Expected<SignalRate> Runner::expose() {
+    if (!dev_.filter_wheel) {
+        // Monochrome detector: one unfiltered measurement, the same value in r, g and b.
+        return session_->measure();
+    }
+    // Colour through the filter changer: one full (auto-exposed, HDR, dark-subtracted)
+    // measurement per filter; channel c of the result is the rate behind filter c.
+    SignalRate out;
+    for (int c = 0; c < 3; ++c) {
+        if (auto f = dev_.filter_wheel->set_filter(c); !f) {
+            return tl::unexpected(f.error());
+        }
+        auto rate = session_->measure();
+        if (!rate) {
+            return tl::unexpected(rate.error());
+        }
+        out.rate[c] = rate->rate[c];
+        out.sigma[c] = rate->sigma[c];
+        out.saturated = out.saturated || rate->saturated;
+        out.hdr = out.hdr || rate->hdr;
+        out.exposure_us = std::max(out.exposure_us, rate->exposure_us);
+        out.pixels = c == 0 ? rate->pixels : std::min(out.pixels, rate->pixels);
+    }
+    return out;
+}
+
+Expected<Runner::Shot> Runner::measure_once(const RigPosed& target, const std::string& what) {
+    // Pose integrity: the positions are read back before and after each exposure. An axis found
+    // away from its target is moved back first; one that moved during the exposure (another
+    // client, a stall, a lost step) makes the measurement repeat. Both are journalled and counted;
+    // neither reaches the dataset.
+    for (int repeat = 0;; ++repeat) {
+        if (auto m = move_to(target); !m) {
+            return tl::unexpected(m.error());
+        }
+        auto before = read_pose();
+        if (!before) {
+            return tl::unexpected(before.error());
+        }
+        if (const std::string off = pose_change(target, *before); !off.empty()) {
+            ++result_.pose_corrections;
+            note("pose check: before the exposure of " + what + " the axes were off target (" +
+                 off + "); moved back");
+            current_ = *before;  // So that move_to commands every axis that is off.
+            if (repeat >= kMaxPoseRepeats) {
+                return make_error("pose check: the axes do not stay on target for " + what + " (" +
+                                  off + ")");
+            }
+            continue;
+        }
+        auto rate = expose();
+        if (!rate) {
+            return tl::unexpected(rate.error());
+        }
+        auto after = read_pose();
+        if (!after) {
+            return tl::unexpected(after.error());
+        }
+        if (const std::string moved = pose_change(*before, *after); !moved.empty()) {
+            ++result_.pose_repeats;
+            note("pose check: an axis moved during the exposure of " + what + " (" + moved +
+                 "); the measurement is repeated");
+            current_ = *after;
+            if (repeat >= kMaxPoseRepeats) {
+                return make_error("pose check: axes keep moving during the exposures of " + what +
+                                  " (" + moved + ")");
+            }
+            continue;
+        }
+        Shot s;
+        s.rate = *rate;
+        s.pose = *before;
+        const auto [wi, wo] = brdf::rig_forward(*before);
+        s.wi = wi;
+        s.wo = wo;
+        return s;
+    }
+}
+
+Expected<void> Runner::wait_for_devices(const std::string& what, const std::string& cause) {
+    ++result_.outages;
+    note("devices unreachable during " + what + " (" + cause +
+         "): the campaign is paused and resumes on its own when they answer again (Ctrl-C "
+         "stops it with its state saved)");
+    const double t0 = now_s();
+    double wait_s = hooks_.outage_probe_s;
+    while (!stop_requested()) {
+        std::this_thread::sleep_for(std::chrono::duration<double>(wait_s));  // Probe pacing.
+        bool all = true;
+        for (int k = 0; k < kNumAxes && all; ++k) {
+            all = static_cast<bool>(dev_.axes[k]->status());
+        }
+        const double down_s = now_s() - t0;
+        if (all) {
+            char buf[120];
+            std::snprintf(buf, sizeof buf, "devices answer again after %.1f s: resuming", down_s);
+            note(buf);
+            return {};
+        }
+        if (down_s > hooks_.max_outage_s) {
+            return make_error("devices unreachable for more than " +
+                              std::to_string(static_cast<long>(hooks_.max_outage_s)) +
+                              " s during " + what + " (" + cause +
+                              "); the campaign is paused with its state saved");
+        }
+        wait_s = std::min(2 * wait_s, 8 * hooks_.outage_probe_s);
+    }
+    return make_error("stopped on request while the devices were unreachable during " + what);
+}
+
+Expected<Runner::Shot> Runner::attempt(const RigPosed& target,
+                                       const std::string& what,
+                                       std::string* pause) {
+    std::string last;
+    for (int a = 0; a <= rig_.retries; ++a) {
+        auto s = measure_once(target, what);
+        if (s) {
+            return s;
+        }
+        last = s.error().message;
+        // A drive alarm is a safety stop: never retried automatically. A device that does not
+        // answer (an outage longer than the bus's reconnect window) is waited for.
+        bool unreachable = false;
+        for (int k = 0; k < kNumAxes && !unreachable; ++k) {
+            auto st = dev_.axes[k]->status();
+            unreachable = !st;
+            if (st && st->state == devices::AxisState::kAlarm) {
+                *pause = "axis \"" + dev_.axes[k]->name() + "\" raised alarm code " +
+                         std::to_string(st->alarm_code) + " during " + what + " (" + last +
+                         "); the campaign is paused with its state saved: clear the cause, reset "
+                         "the drive, then resume";
+                return make_error(*pause);
+            }
+        }
+        if (unreachable) {
+            if (auto w = wait_for_devices(what, last); !w) {
+                *pause = w.error().message;
+                return tl::unexpected(w.error());
+            }
+            if (auto p = read_pose(); p) {
+                current_ = *p;
+            }
+            session_->clear_dark_cache();
+            --a;  // The outage is not a failed attempt.
+            continue;
+        }
+        say("device error during " + what + " (attempt " + std::to_string(a + 1) + "/" +
+            std::to_string(rig_.retries + 1) + "): " + last);
+        // The position is unknown after a failed move: read it back before the next attempt.
+        if (auto p = read_pose(); p) {
+            current_ = *p;
+        }
+        session_->clear_dark_cache();
+    }
+    *pause = "device fault during " + what + " after " + std::to_string(rig_.retries + 1) +
+             " attempts: " + last + "; the campaign is paused with its state saved";
+    return make_error(*pause);
+}
+
+JournalRecord Runner::record_of(RecordType type, const Shot& s, const BrdfValue& v) const {
+    JournalRecord r;
+    r.type = type;
+    r.wi = s.wi;
+    r.wo = s.wo;
+    r.pose_deg = pose_deg(s.pose);
+    r.value = v.value;
+    r.sigma = v.sigma;
+    r.rate = s.rate.rate;
+    r.rate_sigma = s.rate.sigma;
+    r.exposure_us = s.rate.exposure_us;
+    r.time_s = now_s();
+    if (s.rate.saturated) {
+        r.flags |= brdf::kFlagSaturated;
+    }
+    if (s.rate.hdr) {
+        r.flags |= brdf::kFlagHdr;
+    }
+    return r;
+}
+
+Expected<void> Runner::white_calibration(std::string* pause) {
+    char reflectance[32];
+    std::snprintf(reflectance, sizeof reflectance, "%.4g", rig_.white_reflectance);
+    say(std::string("white reference: measuring (reflectance ") + reflectance + ")");
+    auto mount = [&](bool white) -> Expected<void> {
+        if (dev_.reference_changer) {
+            return dev_.reference_changer->set_shutter_open(white);
+        }
+        if (hooks_.mount) {
+            return hooks_.mount(white);
+        }
+        return make_error("the rig has no reference changer and no operator prompt is available");
+    };
+    if (auto m = mount(true); !m) {
+        return m;
+    }
+    const Vec3d wi = brdf::spherical_to_cartesian(rig_.white_theta_i_deg * kDeg, 0.0);
+    const Vec3d wo = brdf::spherical_to_cartesian(rig_.white_theta_o_deg * kDeg, kPi);
+    auto sol = solve(Target{wi, wo, true, true}, lim_, dyn_, current_);
+    if (!sol) {
+        (void)mount(false);
+        return make_error("white reference geometry unreachable: " + sol.error().message);
+    }
+    auto s = attempt(sol->pose, "the white reference", pause);
+    if (auto m = mount(false); !m) {
+        return m;
+    }
+    if (!s) {
+        return tl::unexpected(s.error());
+    }
+    WhiteCalibration w;
+    w.reflectance = rig_.white_reflectance;
+    w.cos_theta_w = s->wi.z();
+    w.rate = s->rate.rate;
+    w.rate_sigma = s->rate.sigma;
+    if (s->rate.saturated) {
+        return make_error(
+            "white reference saturated at the shortest exposure: lower the lamp "
+            "power or the gain");
+    }
+    if (auto v = validate(w); !v) {
+        return v;
+    }
+    BrdfValue bv;
+    bv.value = brdf::Rgbd::Constant(w.reflectance / kPi);
+    JournalRecord r = record_of(RecordType::kWhite, *s, bv);
+    if (auto a = journal_->append(r); !a) {
+        return a;
+    }
+    white_ = w;
+    return {};
+}
+
+Expected<void> Runner::drift_check(bool baseline, std::string* pause) {
+    const Vec3d wi = brdf::spherical_to_cartesian(spec_.drift_theta_i_deg * kDeg, 0.0);
+    const Vec3d wo = brdf::spherical_to_cartesian(spec_.drift_theta_r_deg * kDeg,
+                                                  spec_.drift_delta_phi_deg * kDeg);
+    // An anisotropic sample reads differently at every spin: its reference is held at one spin,
+    // the directions fixed in the sample's frame, so that only the lamp can change the reading.
+    const bool isotropic = spec_.plan_kind != "anisotropic" &&
+                           !(spec_.plan_kind == "vndf" && spec_.vndf.phi_i_count >= 2);
+    auto sol = solve(Target{wi, wo, isotropic, true}, lim_, dyn_, current_);
+    if (!sol) {
+        return make_error("drift reference configuration unreachable: " + sol.error().message);
+    }
+    auto s = attempt(sol->pose, "the drift reference", pause);
+    if (!s) {
+        return tl::unexpected(s.error());
+    }
+    auto v = rate_to_brdf(white_, s->rate.rate, s->rate.sigma, s->wi.z());
+    if (!v) {
+        return tl::unexpected(v.error());
+    }
+    JournalRecord r = record_of(RecordType::kReference, *s, *v);
+    r.flags |= brdf::kFlagReference;
+    r.text = baseline ? "baseline" : "check";
+    if (auto a = journal_->append(r); !a) {
+        return a;
+    }
+    since_reference_ = 0;
+    if (baseline || !baseline_) {
+        baseline_ = r;
+        return {};
+    }
+    const double v0 = luminance(baseline_->value);
+    const double v1 = luminance(r.value);
+    const double rel = v0 > 0 ? std::abs(v1 / v0 - 1) : 0;
+    const double noise = (v0 > 0 && v1 > 0)
+                             ? std::hypot(luminance(baseline_->sigma) / v0, luminance(r.sigma) / v1)
+                             : 0;
+    if (rel > spec_.drift_threshold && rel > 3 * noise) {
+        char buf[400];
+        std::snprintf(buf,
+                      sizeof buf,
+                      "lamp drift: the reference configuration (theta_i %.0f, theta_r %.0f, "
+                      "delta_phi %.0f deg) reads %.4g 1/sr against %.4g at the baseline (%+.1f%%, "
+                      "threshold %.1f%%). The campaign is paused with its state saved: check the "
+                      "lamp, then resume (add --accept-drift to take the current level as the new "
+                      "baseline)",
+                      spec_.drift_theta_i_deg,
+                      spec_.drift_theta_r_deg,
+                      spec_.drift_delta_phi_deg,
+                      v1,
+                      v0,
+                      100 * (v1 / v0 - 1),
+                      100 * spec_.drift_threshold);
+        *pause = buf;
+        return make_error(*pause);
+    }
+    return {};
+}
+
+Expected<void> Runner::write_metadata(const std::string& state, const Plan& plan) {
+    json meta = json::object();
+    if (auto old = read_text(path("metadata.json")); old) {
+        try {
+            meta = parse_json_checked(*old, path("metadata.json"));
+        } catch (const JsonFailure& f) {
+            say("metadata.json unreadable (" + f.message + "); written anew from the journal");
+            meta = json::object();
+        }
+        if (!meta.is_object()) {
+            meta = json::object();
+        }
+    }
+    meta["sample"] = spec_.sample;
+    meta["operator"] = spec_.operator_name;
+    meta["notes"] = spec_.notes;
+    meta["software"] = {{"name", "gonio"}, {"version", GONIO_VERSION_STRING}};
+    meta["rig"] = {{"name", rig_.name}, {"description", json::parse(rig_.json)}};
+    auto unreachable_of = [](const Plan& p) {
+        json list = json::array();
+        for (const UnreachableConfig& u : p.unreachable) {
+            const auto c = brdf::to_canonical(u.wi, u.wo);
+            list.push_back({{"theta_i_deg", c.theta_i / kDeg},
+                            {"theta_r_deg", c.theta_r / kDeg},
+                            {"delta_phi_deg", c.delta_phi / kDeg},
+                            {"reason", u.reason}});
+        }
+        return list;
+    };
+    const json unreachable = unreachable_of(plan);
+    if (vndf_pass_) {
+        // The vndf plan's second pass, placed from the retro-reflection measurements.
+        meta["vndf"] = {{"retro_measurements", vndf_ndf_.measured},
+                        {"power_iterations", vndf_ndf_.ndf.iterations},
+                        {"last_retro_theta_deg", vndf_ndf_.theta_last / kDeg},
+                        {"configurations", vndf_pass_->plan.configs.size()},
+                        {"file_nodes", vndf_pass_->layout.nodes.size()},
+                        {"below_horizon", vndf_pass_->below_horizon},
+                        {"unreachable", unreachable_of(vndf_pass_->plan)}};
+    }
+    meta["plan"] = {{"kind", plan.kind},
+                    {"description", json::parse(spec_.json)},
+                    {"configurations", plan.configs.size()},
+                    {"naive_4d_grid", plan.naive_count},
+                    {"outside_roi", plan.outside_roi},
+                    {"unreachable", unreachable}};
+    meta["calibration"] = {
+        {"white_reflectance", white_.reflectance},
+        {"white_cos_theta_i", white_.cos_theta_w},
+        {"white_rate_counts_per_us", {white_.rate[0], white_.rate[1], white_.rate[2]}},
+        {"white_rate_sigma", {white_.rate_sigma[0], white_.rate_sigma[1], white_.rate_sigma[2]}},
+        {"method", "docs/calibration.md"},
+        {"colour", dev_.filter_wheel ? "filter_wheel" : "mono"}};
+    if (!meta.contains("created")) {
+        meta["created"] = iso_time(started_, false);
+    }
+    if (!meta.contains("runs")) {
+        meta["runs"] = json::array();
+    }
+    const bool running = state == "running";
+    // A run is told apart by its start time and its process id (two runs may start within one
+    // second).
+    const long pid = static_cast<long>(::getpid());
+    const std::string started = iso_time(started_, false);
+    auto is_this_run = [&](const json& r) {
+        return r.is_object() && r.value("started", "") == started && r.contains("pid") &&
+               r["pid"].is_number_integer() && r["pid"].get<long>() == pid;
+    };
+    json run = {{"started", started},
+                {"pid", pid},
+                {"ended", running ? json(nullptr) : json(iso_time(now_s(), false))},
+                {"state", state},
+                {"measured", result_.measured_now}};
+    if (!meta["runs"].is_array()) {
+        meta["runs"] = json::array();
+    }
+    for (json& old : meta["runs"]) {
+        // A run still marked "running" that is not this one never wrote its end: the process was
+        // killed (kill -9, power cut, crash). Its measurements are in the journal.
+        if (old.is_object() && old.value("state", "") == "running" && !is_this_run(old)) {
+            old["state"] = "killed";
+            old["ended"] =
+                "unknown: the process stopped without writing its end (killed or power "
+                "cut); its finished measurements are in journal.log";
+        }
+    }
+    // The run in progress is the last element while it lasts.
+    if (!meta["runs"].empty() && is_this_run(meta["runs"].back()) &&
+        meta["runs"].back().value("state", "") == "running") {
+        meta["runs"].back() = run;
+    } else {
+        meta["runs"].push_back(run);
+    }
+    meta["state"] = state;
+    meta["measured"] = result_.measured_total;
+    meta["pose_repeats"] = result_.pose_repeats;
+    meta["pose_corrections"] = result_.pose_corrections;
+    meta["device_outages"] = result_.outages;
+    meta["planned"] = result_.planned_total;
+    return write_text_atomic(path("metadata.json"), meta.dump(2) + "\n");
+}
+
+Expected<RunResult> Runner::finish(Outcome o, const std::string& msg, const Plan& plan) {
+    result_.outcome = o;
+    result_.message = msg;
+    const char* state = o == Outcome::kCompleted     ? "completed"
+                        : o == Outcome::kInterrupted ? "interrupted"
+                                                     : "paused";
+    if (o != Outcome::kCompleted) {
+        JournalRecord note;
+        note.type = RecordType::kNote;
+        note.text = std::string(state) + ": " + msg;
+        note.time_s = now_s();
+        (void)journal_->append(note);
+    }
+    auto n = write_campaign_dataset(dir_);
+    if (!n) {
+        return tl::unexpected(n.error());
+    }
+    if (o == Outcome::kCompleted && spec_.plan_kind == "vndf") {
+        auto rep = write_vndf_bsdf(dir_);
+        if (!rep) {
+            return tl::unexpected(rep.error());
+        }
+        result_.message += "; RGL material file " + (fs::path(dir_) / kVndfBsdfName).string() +
+                           ": " + std::to_string(rep->measured) + " of " +
+                           std::to_string(rep->nodes) + " nodes measured, " +
+                           std::to_string(rep->filled) + " from their nearest measured node, " +
+                           std::to_string(rep->below_horizon) + " below the horizon";
+    }
+    if (auto m = write_metadata(state, plan); !m) {
+        return tl::unexpected(m.error());
+    }
+    return result_;
+}
+
+Expected<RunResult> Runner::run() {
+    started_ = now_s();
+    auto spec = read_campaign_spec(path("campaign.json"));
+    if (!spec) {
+        return tl::unexpected(spec.error());
+    }
+    spec_ = *spec;
+    if (!spec_.scene.empty() && fs::path(spec_.scene).is_relative()) {
+        spec_.scene = path(spec_.scene.c_str());
+    }
+    auto rig = read_rig_config(path("rig.json"));
+    if (!rig) {
+        return tl::unexpected(rig.error());
+    }
+    rig_ = *rig;
+    lim_ = rig_limits(rig_);
+    dyn_ = rig_dynamics(rig_);
+    auto plan0 = build_plan(spec_, rig_);
+    if (!plan0) {
+        return tl::unexpected(plan0.error());
+    }
+    auto jn = Journal::open(path("journal.log"));
+    if (!jn) {
+        return tl::unexpected(jn.error());
+    }
+    journal_.emplace(std::move(*jn));
+    // The run is listed from its start, so a run that is killed still appears in runs[].
+    if (auto m = write_metadata("running", *plan0); !m) {
+        return tl::unexpected(m.error());
+    }
+    if (journal_->torn_tail()) {
+        say("journal: the last record was cut short by the previous stop; its measurement will "
+            "be repeated");
+    }
+    // State from the journal.
+    std::set<std::pair<int, std::uint32_t>> done;
+    bool have_white = false;
+    for (const JournalRecord& r : journal_->records()) {
+        switch (r.type) {
+            case RecordType::kMeasurement:
+                done.insert({r.pass, r.index});
+                ++since_reference_;
+                break;
+            case RecordType::kWhite:
+                have_white = true;
+                white_.reflectance = rig_.white_reflectance;
+                white_.cos_theta_w = r.wi.z();
+                white_.rate = r.rate;
+                white_.rate_sigma = r.rate_sigma;
+                break;
+            case RecordType::kReference:
+                since_reference_ = 0;
+                if (!baseline_ || r.text == "baseline") {
+                    baseline_ = r;
+                }
+                break;
+            case RecordType::kNote:
+                break;
+        }
+    }
+    result_.measured_total = done.size();
+    const Plan& plan = *plan0;
+    say("plan: " + plan.kind + ", " + std::to_string(plan.configs.size()) +
+        " configurations (naive 4D grid of the same resolution: " +
+        std::to_string(plan.naive_count) + ", reduction x" +
+        std::to_string(plan.configs.empty() ? 0 : plan.naive_count / plan.configs.size()) + ")" +
+        (plan.outside_roi ? ", " + std::to_string(plan.outside_roi) + " outside the scene's ROI"
+                          : std::string()) +
+        (plan.unreachable.empty() ? std::string()
+                                  : ", " + std::to_string(plan.unreachable.size()) +
+                                        " unreachable (first: " + plan.unreachable.front().reason +
+                                        "; all listed in metadata.json)"));
+    if (!done.empty()) {
+        say("resuming: " + std::to_string(done.size()) + " measurements already in the journal");
+    }
+    // Devices.
+    if (hooks_.home) {
+        if (auto h = home_if_needed(); !h) {
+            return finish(Outcome::kPaused, h.error().message, plan);
+        }
+    }
+    auto pose = read_pose();
+    if (!pose) {
+        return finish(Outcome::kPaused, pose.error().message, plan);
+    }
+    current_ = *pose;
+    session_.emplace(dev_.camera.get(), dev_.shutter.get(), rig_.capture, rig_.noise);
+    session_->set_frame_observer(hooks_.on_frame);
+    if (auto p = session_->prepare(); !p) {
+        return finish(Outcome::kPaused, "camera: " + p.error().message, plan);
+    }
+    std::string pause;
+    if (!have_white) {
+        if (auto w = white_calibration(&pause); !w) {
+            return finish(Outcome::kPaused, w.error().message, plan);
+        }
+    }
+    if (spec_.drift_every > 0) {
+        const bool rebase = !baseline_ || hooks_.accept_drift;
+        if (auto d = drift_check(rebase, &pause); !d) {
+            return finish(Outcome::kPaused, d.error().message, plan);
+        }
+    }
+    // Passes: 0 is the plan; each adaptive pass refines where the values measured so far change
+    // fastest. Everything is derived from the journal, so a resume rebuilds the same passes.
+    std::size_t planned_total = plan.configs.size();
+    const bool vndf = spec_.plan_kind == "vndf";
+    const int last_pass = vndf ? 1 : (spec_.adaptive ? spec_.adaptive_passes : 0);
+    for (int pass = 0; pass <= last_pass; ++pass) {
+        Plan pp;
+        if (pass == 0) {
+            pp = plan;
+        } else if (vndf) {
+            VndfNdf ndf;
+            auto layout = vndf_pass_from_records(journal_->records(), spec_, rig_, &ndf);
+            if (!layout) {
+                return finish(Outcome::kPaused, layout.error().message, plan);
+            }
+            vndf_ndf_ = ndf;
+            vndf_pass_ = *layout;
+            pp = std::move(layout->plan);
+            planned_total += pp.configs.size();
+            say("vndf pass 1: NDF from " + std::to_string(ndf.measured) +
+                " retro-reflection measurements (" + std::to_string(ndf.ndf.iterations) +
+                " power iterations); " + std::to_string(pp.configs.size()) +
+                " configurations in the VNDF-warped domain, " +
+                std::to_string(pp.unreachable.size()) + " unreachable, " +
+                std::to_string(layout->below_horizon) + " below the horizon");
+        } else {
+            std::vector<std::pair<std::pair<int, std::uint32_t>, MeasuredPoint>> pts;
+            for (const JournalRecord& r : journal_->records()) {
+                if (r.type == RecordType::kMeasurement && r.pass < pass) {
+                    pts.push_back(
+                        {{r.pass, r.index},
+                         MeasuredPoint{brdf::to_canonical(r.wi, r.wo), luminance(r.value)}});
+                }
+            }
+            std::sort(pts.begin(), pts.end(), [](const auto& a, const auto& b) {
+                return a.first < b.first;
+            });
+            std::vector<MeasuredPoint> mp;
+            for (const auto& p : pts) {
+                mp.push_back(p.second);
+            }
+            pp = plan_refine(mp, spec_.refine);
+            if (!spec_.scene.empty()) {
+                auto scene = read_scene(spec_.scene);
+                if (scene) {
+                    apply_roi(*scene, &pp);
+                }
+            }
+            remove_unreachable(lim_, &pp);
+            planned_total += pp.configs.size();
+            say("adaptive pass " + std::to_string(pass) + ": " + std::to_string(pp.configs.size()) +
+                " configurations where the values change fastest");
+        }
+        result_.planned_total = planned_total;
+        // Remaining configurations, solved in plan order for continuity, then scheduled.
+        std::vector<const PlannedConfig*> pending;
+        std::vector<RigPosed> poses;
+        RigPosed prev = current_;
+        for (const PlannedConfig& c : pp.configs) {
+            if (done.count({pass, c.index})) {
+                continue;
+            }
+            auto sol = solve(Target{c.wi, c.wo, c.isotropic, true}, lim_, dyn_, prev);
+            if (!sol) {
+                // remove_unreachable() already kept only reachable ones.
+                continue;
+            }
+            pending.push_back(&c);
+            poses.push_back(sol->pose);
+            prev = sol->pose;
+        }
+        if (pending.empty()) {
+            continue;
+        }
+        ScheduleOptions so;
+        so.budget_s = spec_.schedule_budget_s;
+        const Schedule sch = schedule(poses, current_, dyn_, so);
+        say("pass " + std::to_string(pass) + ": " + std::to_string(pending.size()) +
+            " to measure; motion time planned " + format_duration(sch.planned_s) +
+            ", raster order " + format_duration(sch.raster_s) + ", lower bound " +
+            format_duration(sch.lower_bound_s));
+        const std::size_t done_before = done.size();
+        Progress progress(hooks_.out, done_before + pending.size(), done_before, sch.planned_s);
+        for (std::size_t q = 0; q < sch.order.size(); ++q) {
+            if (stop_requested()) {
+                progress.finish("stopped on request");
+                return finish(Outcome::kInterrupted,
+                              "stopped on request after " + std::to_string(result_.measured_now) +
+                                  " measurements; resume with --resume " + dir_,
+                              plan);
+            }
+            if (spec_.drift_every > 0 &&
+                since_reference_ >= static_cast<std::size_t>(spec_.drift_every)) {
+                if (auto d = drift_check(false, &pause); !d) {
+                    progress.finish("paused");
+                    return finish(Outcome::kPaused, d.error().message, plan);
+                }
+            }
+            const std::size_t k = sch.order[q];
+            const PlannedConfig& c = *pending[k];
+            auto s =
+                attempt(poses[k],
+                        "configuration " + std::to_string(pass) + ":" + std::to_string(c.index),
+                        &pause);
+            if (!s) {
+                progress.finish("paused");
+                return finish(Outcome::kPaused, s.error().message, plan);
+            }
+            auto v = rate_to_brdf(white_, s->rate.rate, s->rate.sigma, s->wi.z());
+            if (!v) {
+                progress.finish("paused");
+                return finish(Outcome::kPaused, v.error().message, plan);
+            }
+            JournalRecord r = record_of(RecordType::kMeasurement, *s, *v);
+            r.pass = pass;
+            r.index = c.index;
+            r.flags |= c.flags;
+            r.weight = c.weight;
+            if (auto a = journal_->append(r); !a) {
+                return tl::unexpected(a.error());
+            }
+            done.insert({pass, c.index});
+            ++since_reference_;
+            ++result_.measured_now;
+            result_.measured_total = done.size();
+            progress.step();
+            if (hooks_.on_measurement) {
+                brdf::Sample smp;
+                const auto si = brdf::cartesian_to_spherical(r.wi);
+                const auto so = brdf::cartesian_to_spherical(r.wo);
+                smp.theta_i = si.theta;
+                smp.phi_i = si.phi;
+                smp.theta_o = so.theta;
+                smp.phi_o = so.phi;
+                smp.value = r.value;
+                smp.sigma = r.sigma;
+                smp.weight = r.weight;
+                smp.flags = r.flags;
+                hooks_.on_measurement(smp, done.size(), planned_total);
+            }
+        }
+        progress.finish("pass " + std::to_string(pass) + " complete");
+    }
+    result_.measured_total = done.size();
+    std::string summary = "completed: " + std::to_string(done.size()) + " configurations measured";
+    if (result_.pose_repeats + result_.pose_corrections > 0) {
+        summary += "; pose checks: " + std::to_string(result_.pose_repeats) +
+                   " exposures repeated after an axis moved, " +
+                   std::to_string(result_.pose_corrections) + " poses corrected before exposing";
+    }
+    if (result_.outages > 0) {
+        summary += "; " + std::to_string(result_.outages) + " device outages waited out";
+    }
+    return finish(Outcome::kCompleted, summary, plan);
+}
+
+}  // namespace
+
+Expected<RunResult> run_campaign(const std::string& dir, RigDevices& dev, const RunHooks& hooks) {
+    Runner r(dir, dev, hooks);
+    Expected<RunResult> res = r.run();
+    if (!res) {
+        // Nothing measured is lost (journal.log); say how to continue once the cause is fixed.
+        return make_error(res.error().message + "\nThe campaign folder " + dir +
+                          " is kept; after fixing the cause (e.g. free disk space), continue with: "
+                          "gonio acquire --resume " +
+                          dir);
+    }
+    return res;
+}
+
+}  // namespace gonio::acquisition
