@@ -115,21 +115,24 @@ inline CLI::Validator readable_input(InputKind kind = InputKind::kFile) {
             if (kind == InputKind::kFile && (path == "-" || path.rfind("material:", 0) == 0)) {
                 return {};
             }
-            const std::string shown = "\"" + path.substr(0, 200) + "\"";
+            // Worded as the readers word it (PATH: cannot open: REASON), so that the command line
+            // and Python say the same.
             struct stat st {};
-            if (path.empty() || ::stat(path.c_str(), &st) != 0) {
-                return shown + ": " + (path.empty() ? "empty path" : std::strerror(errno)) +
-                       " (an input named on the command line must exist)";
+            if (path.empty()) {
+                return "empty path (an input named on the command line must exist)";
+            }
+            if (::stat(path.c_str(), &st) != 0) {
+                return path + ": cannot open: " + std::strerror(errno);
             }
             const bool folder = S_ISDIR(st.st_mode);
             if (kind == InputKind::kFile && folder) {
-                return shown + ": is a folder, not a file";
+                return path + ": is a folder, not a file";
             }
             if (kind == InputKind::kFolder && !folder) {
-                return shown + ": not a folder";
+                return path + ": not a folder";
             }
             if (::access(path.c_str(), folder ? (R_OK | X_OK) : R_OK) != 0) {
-                return shown + ": cannot be read (" + std::strerror(errno) + ")";
+                return path + ": cannot open: " + std::strerror(errno);
             }
             return {};
         },

@@ -57,46 +57,54 @@ std::string dirs_csv(const std::string& name, const std::string& row) {
 }
 
 TEST(HelpWalk, FitEveryOptionHonouredOrRefused) {
-    const std::string d = dir() + "/absent.csv";  // the request line prints before the data load
+    // A file that is no dataset: the request line prints before the data load refuses it. (An
+    // input that does not exist is refused before any work, naming only itself.)
+    const std::string d = dir() + "/not-a-dataset.csv";
+    std::ofstream(d) << "not a dataset\n";
+    const std::string manifest = dir() + "/m.csv";
+    std::ofstream(manifest) << "not a manifest\n";
     const std::string f = "fit " + d;
-    prove("fit",
-          {
-              {"data", "fit --manifest m.csv " + d, "", "data"},
-              {"--model", f + " --compare ggx --model beckmann", ""},
-              {"--template", f + " --compare ggx --template t.json", ""},
-              {"--no-diffuse", f + " --model auto --no-diffuse", ""},
-              {"--no-diffuse", f, f + " --no-diffuse"},
-              {"--fresnel", f + " --model auto --fresnel none", ""},
-              {"--fresnel", f, f + " --fresnel none"},
-              {"--shadowing", f + " --model auto --shadowing v-groove", ""},
-              {"--shadowing", f, f + " --shadowing v-groove"},
-              {"--anisotropic", f + " --model auto --anisotropic", ""},
-              {"--anisotropic", f, f + " --anisotropic"},
-              {"--lobes", f + " --model auto --lobes 2", ""},
-              {"--lobes", f, f + " --lobes 2"},
-              {"--roughness", f + " --model auto --roughness rgb", ""},
-              {"--roughness", f, f + " --roughness rgb"},
-              {"--residual", f, f + " --residual relative"},
-              {"--loss", f, f + " --loss huber"},
-              {"--loss-scale", f, f + " --loss-scale 0.5"},
-              {"--max-samples", f, f + " --max-samples 100"},
-              {"--starts", f, f + " --starts 2"},
-              {"--seed", f, f + " --seed 9"},
-              {"--max-iterations", f, f + " --max-iterations 7"},
-              {"--threads", f, f + " --threads 2"},
-              {"--out", f, f + " --out " + dir() + "/no/such/folder/f.json"},
-              {"--truth", f, f + " --truth " + dir() + "/absent-truth.json"},
-              {"--compare", "fit --manifest m.csv --out o --compare ggx", ""},
-              {"--manifest", "fit --manifest m.csv --out o --model ggx", "", "--manifest"},
-              {"--shard", f + " --shard 0/2", ""},
-              {"--strict", f, f + " --strict"},
-          });
+    prove(
+        "fit",
+        {
+            {"data", "fit --manifest " + manifest + " " + d, "", "data"},
+            {"--model", f + " --compare ggx --model beckmann", ""},
+            {"--template", f + " --compare ggx --template t.json", ""},
+            {"--no-diffuse", f + " --model auto --no-diffuse", ""},
+            {"--no-diffuse", f, f + " --no-diffuse"},
+            {"--fresnel", f + " --model auto --fresnel none", ""},
+            {"--fresnel", f, f + " --fresnel none"},
+            {"--shadowing", f + " --model auto --shadowing v-groove", ""},
+            {"--shadowing", f, f + " --shadowing v-groove"},
+            {"--anisotropic", f + " --model auto --anisotropic", ""},
+            {"--anisotropic", f, f + " --anisotropic"},
+            {"--lobes", f + " --model auto --lobes 2", ""},
+            {"--lobes", f, f + " --lobes 2"},
+            {"--roughness", f + " --model auto --roughness rgb", ""},
+            {"--roughness", f, f + " --roughness rgb"},
+            {"--residual", f, f + " --residual relative"},
+            {"--loss", f, f + " --loss huber"},
+            {"--loss-scale", f, f + " --loss-scale 0.5"},
+            {"--max-samples", f, f + " --max-samples 100"},
+            {"--starts", f, f + " --starts 2"},
+            {"--seed", f, f + " --seed 9"},
+            {"--max-iterations", f, f + " --max-iterations 7"},
+            {"--threads", f, f + " --threads 2"},
+            {"--out", f, f + " --out " + dir() + "/no/such/folder/f.json"},
+            {"--truth", f, f + " --truth " + dir() + "/absent-truth.json"},
+            {"--compare", "fit --manifest " + manifest + " --out o --compare ggx", ""},
+            {"--manifest", "fit --manifest " + manifest + " --out o --model ggx", "", "--manifest"},
+            {"--shard", f + " --shard 0/2", ""},
+            {"--strict", f, f + " --strict"},
+        });
 }
 
 TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
     const BusyPort busy;
     ASSERT_GT(busy.port(), 0);
+    // A folder to resume (refused options are refused before it is read).
     const std::string r = "acquire --resume " + dir() + "/camp";
+    fs::create_directories(dir() + "/camp");
     const std::string camp = dir() + "/c.json";
     const std::string zoom_rig = std::string(GONIO_SOURCE_DIR) + "/data/rigs/sim-image-zoom.json";
     std::ofstream(camp) << R"({"plan": {"kind": "uniform", "n_theta": 3, "n_dphi": 2}})";
