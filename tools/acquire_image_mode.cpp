@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "embedded_rig.h"
+#include "gonio/acquisition/image/image_planner.h"
 #include "gonio/brdf/coords.h"
 #include "gonio/report/live_server.h"
 #include "live_page.h"
@@ -90,29 +91,20 @@ std::string live_frame_description(const devices::Frame& frame,
 
 namespace {
 
-/// The coverage per (theta_h, theta_d) cell as the live page draws it.
-report::CoverageCells coverage_cells(const acquisition::CoverageMap& c) {
+/// The coverage per (theta_h, theta_d) cell (acquisition::coverage_cells) in the live page's
+/// order (theta_h-major).
+report::CoverageCells live_coverage_cells(const acquisition::CoverageMap& c) {
     const acquisition::TableLayout& lay = c.layout();
+    const std::vector<double> rows = acquisition::coverage_cells(c);
     report::CoverageCells cells;
     cells.n_theta_h = lay.n_theta_h;
     cells.n_theta_d = lay.n_theta_d;
     cells.n_phi_d = lay.n_phi_d;
-    cells.fraction.assign(static_cast<std::size_t>(lay.n_theta_h) * lay.n_theta_d, -1.0);
+    cells.fraction.resize(rows.size());
     for (int ih = 0; ih < lay.n_theta_h; ++ih) {
         for (int id = 0; id < lay.n_theta_d; ++id) {
-            int valid = 0;
-            int covered = 0;
-            for (int ip = 0; ip < lay.n_phi_d; ++ip) {
-                const std::size_t b = lay.index(ih, id, ip);
-                if (acquisition::bin_valid(lay, b)) {
-                    ++valid;
-                    covered += c.covered(b) ? 1 : 0;
-                }
-            }
-            if (valid > 0) {
-                cells.fraction[static_cast<std::size_t>(ih) * lay.n_theta_d + id] =
-                    static_cast<double>(covered) / valid;
-            }
+            cells.fraction[static_cast<std::size_t>(ih) * lay.n_theta_d + id] =
+                rows[static_cast<std::size_t>(id) * lay.n_theta_h + ih];
         }
     }
     cells.measured_bins = c.covered_bins();
@@ -296,7 +288,7 @@ int run_acquire_image_mode(const acquisition::CampaignRequest& request,
     };
     hooks.state = [&](const acquisition::ImageCampaignResult& so_far) {
         if (live) {
-            live->publish_coverage(coverage_cells(so_far.coverage));
+            live->publish_coverage(live_coverage_cells(so_far.coverage));
             live->publish_image_progress(
                 so_far.frames.size(), max_frames, so_far.coverage_fraction(), target, "running");
         }

@@ -47,7 +47,7 @@ int write_text(const std::string& path, const std::string& text) {
 
 GONIO_COMMAND(export) {
     auto* cmd = app.add_subcommand(
-        "export", "Write a fitted model as a Mitsuba 3 or pbrt-v4 material, or a MERL table");
+        "export", "write a fitted model as a Mitsuba 3 or pbrt-v4 material, or a MERL table");
     auto opts = std::make_shared<Options>();
     cmd->add_option(
            "input", opts->input, "model JSON (fit.json); for merl also a table or dataset CSV")

@@ -50,9 +50,9 @@ void radians_warning(const std::vector<double>& theta_i_deg) {
 }  // namespace
 
 GONIO_COMMAND(plot) {
-    auto* cmd = app.add_subcommand(
-        "plot",
-        "Polar in-plane slices, delta_phi slices and (with --fit) residual maps, as PNG files");
+    auto* cmd = app.add_subcommand("plot",
+                                   "draw polar in-plane slices, delta_phi slices and (with --fit) "
+                                   "residual maps, as PNG files");
     auto opts = std::make_shared<Options>();
     cmd->add_option("data",
                     opts->data,

@@ -22,7 +22,7 @@ struct Options {
 GONIO_COMMAND(report) {
     auto* cmd = app.add_subcommand(
         "report",
-        "Write DIR/report.html for a point or image-mode campaign folder: the result (verdict, "
+        "write DIR/report.html for a point or image-mode campaign folder: the result (verdict, "
         "model, parameters), pictures, coverage, calibration, run history, raw descriptions");
     auto opts = std::make_shared<Options>();
     cmd->add_option("dir", opts->dir, "campaign folder")

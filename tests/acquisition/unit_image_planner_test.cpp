@@ -222,5 +222,42 @@ TEST(ImagePlanner, CoveragePngHasOneBlockPerCell) {
     std::filesystem::remove(path);
 }
 
+TEST(ImagePlanner, CoverageCellsOfTheMapMatchTheTable) {
+    const TableLayout l = coarse_layout(6);  // 15 x 15 x 30
+    BinnedTable t(l);
+    CoverageMap m(l);
+    // Every valid phi_d bin of one cell, one bin of another, and a bin filled twice.
+    const int i_h = 4, i_d = 2;
+    int valid_cell = 0;
+    for (int i_p = 0; i_p < l.n_phi_d; ++i_p) {
+        const std::size_t b = l.index(i_h, i_d, i_p);
+        valid_cell += bin_valid(l, b) ? 1 : 0;
+        if (bin_valid(l, b) && i_p % 3 == 0) {
+            t.add_to_bin(b, bin_centre(l, b), brdf::Rgbd::Ones(), brdf::Rgbd::Zero());
+        }
+    }
+    const std::size_t other = l.index(7, 6, 1);
+    for (int k = 0; k < 2; ++k) {
+        t.add_to_bin(other, bin_centre(l, other), brdf::Rgbd::Ones(), brdf::Rgbd::Zero());
+    }
+    m.cover_from(t, 1);
+    const std::vector<double> from_map = coverage_cells(m);
+    EXPECT_EQ(from_map, coverage_cells(t, 1));
+    int filled = 0;
+    for (int i_p = 0; i_p < l.n_phi_d; i_p += 3) {
+        filled += bin_valid(l, l.index(i_h, i_d, i_p)) ? 1 : 0;
+    }
+    ASSERT_GT(valid_cell, 0);
+    EXPECT_DOUBLE_EQ(from_map[i_d * l.n_theta_h + i_h], static_cast<double>(filled) / valid_cell);
+    // Two samples count once as a covered bin; with min_count 2 only that bin is covered.
+    CoverageMap twice(l);
+    twice.cover_from(t, 2);
+    EXPECT_EQ(twice.covered_bins(), 1u);
+    const std::vector<double> cells2 = coverage_cells(twice);
+    EXPECT_GT(cells2[6 * l.n_theta_h + 7], 0.0);
+    EXPECT_DOUBLE_EQ(cells2[i_d * l.n_theta_h + i_h], 0.0);
+    EXPECT_DOUBLE_EQ(cells2[(l.n_theta_d - 1) * l.n_theta_h + l.n_theta_h - 1], -1.0);
+}
+
 }  // namespace
 }  // namespace gonio::acquisition

@@ -2,10 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <tuple>
 
 #include "bin_groups.h"
 #include "gonio/base/check.h"
 #include "gonio/brdf/rig_geometry.h"
+#include "next_choice.h"
 
 namespace gonio::acquisition {
 
@@ -68,27 +70,21 @@ void AnisoFrameBins::add(const brdf::Vec3d& wi,
     for (int k = 0; k < 3; ++k) {
         e.value[k] = value[k];
         e.model_var[k] = model_variance[k];
-        e.wi[k] = static_cast<float>(a[k]);
-        e.wo[k] = static_cast<float>(b[k]);
+        e.dirs[k] = static_cast<float>(a[k]);
+        e.dirs[3 + k] = static_cast<float>(b[k]);
     }
     samples_.push_back(e);
 }
 
 std::vector<AnisoBinAggregate> AnisoFrameBins::aggregates() const {
     std::vector<AnisoBinAggregate> out;
-    detail::for_each_bin_group(
-        samples_, [&](std::uint32_t bin, const std::uint32_t* first, const std::uint32_t* last) {
-            detail::ChannelWelford w;
-            double wi[3] = {0, 0, 0};
-            double wo[3] = {0, 0, 0};
-            for (const std::uint32_t* k = first; k != last; ++k) {
-                const Entry& e = samples_[*k];
-                w.add(e.value, e.model_var);
-                for (int c = 0; c < 3; ++c) {
-                    wi[c] += (e.wi[c] - wi[c]) / w.n;
-                    wo[c] += (e.wo[c] - wo[c]) / w.n;
-                }
-            }
+    detail::summarise_bin_groups<6>(
+        samples_,
+        [](const Entry& e) { return e.dirs; },
+        [&](const detail::ChannelWelford& w,
+            const double* dirs,
+            const std::uint32_t* first,
+            const std::uint32_t* last) {
             // The representative: the sample closest to the mean in units of the noise.
             const Entry* rep = &samples_[*first];
             double best_d = 0;
@@ -104,17 +100,12 @@ std::vector<AnisoBinAggregate> AnisoFrameBins::aggregates() const {
                     best_d = d;
                 }
             }
-            AnisoBinAggregate a;
-            a.bin = bin;
-            a.count = w.n;
+            AnisoBinAggregate a = detail::aggregate_of<AnisoBinAggregate>(w);
             for (int c = 0; c < 3; ++c) {
-                a.mean[c] = static_cast<float>(w.mean[c]);
-                a.m2[c] = static_cast<float>(w.m2[c]);
-                a.model_var[c] = static_cast<float>(w.model_var[c]);
-                a.wi[c] = static_cast<float>(wi[c]);
-                a.wo[c] = static_cast<float>(wo[c]);
-                a.rep_wi[c] = rep->wi[c];
-                a.rep_wo[c] = rep->wo[c];
+                a.wi[c] = static_cast<float>(dirs[c]);
+                a.wo[c] = static_cast<float>(dirs[3 + c]);
+                a.rep_wi[c] = rep->dirs[c];
+                a.rep_wo[c] = rep->dirs[3 + c];
                 a.rep_value[c] = static_cast<float>(rep->value[c]);
             }
             out.push_back(a);
@@ -124,51 +115,39 @@ std::vector<AnisoBinAggregate> AnisoFrameBins::aggregates() const {
 
 AnisoTable::AnisoTable(AnisoLayout layout)
     : layout_(layout),
-      count_(layout.size(), 0),
-      mean_(3 * layout.size(), 0.0),
-      m2_(3 * layout.size(), 0.0),
-      model_var_(3 * layout.size(), 0.0f),
+      stats_(layout.size()),
       dirs_(6 * layout.size(), 0.0f),
       rep_(9 * layout.size(), 0.0f) {
     GONIO_CHECK_MSG(layout.sane(), layout.describe());
 }
 
 void AnisoTable::merge(const AnisoBinAggregate& a) {
-    GONIO_CHECK_MSG(a.bin < count_.size(), "bin " << a.bin << " of " << count_.size());
+    GONIO_CHECK_MSG(a.bin < stats_.size(), "bin " << a.bin << " of " << stats_.size());
     if (a.count == 0) {
         // An empty group adds nothing.
         return;
     }
     const std::size_t b = a.bin;
-    const double na = count_[b];
-    const double nb = a.count;
-    const double n = na + nb;
-    for (int c = 0; c < 3; ++c) {
-        GONIO_CHECK_MSG(std::isfinite(a.mean[c]) && std::isfinite(a.m2[c]) &&
-                            std::isfinite(a.model_var[c]) && std::isfinite(a.wi[c]) &&
-                            std::isfinite(a.wo[c]),
-                        "bin " << b << " component " << c);
-        double& mean = mean_[3 * b + c];
-        const double delta = a.mean[c] - mean;
-        mean += delta * nb / n;
-        m2_[3 * b + c] += a.m2[c] + delta * delta * na * nb / n;
-        float& mv = model_var_[3 * b + c];
-        mv = static_cast<float>((na * mv + nb * a.model_var[c]) / n);
-        float& wi = dirs_[6 * b + c];
-        wi = static_cast<float>((na * wi + nb * a.wi[c]) / n);
-        float& wo = dirs_[6 * b + 3 + c];
-        wo = static_cast<float>((na * wo + nb * a.wo[c]) / n);
-        GONIO_CHECK_MSG(std::isfinite(a.rep_wi[c]) && std::isfinite(a.rep_wo[c]) &&
-                            std::isfinite(a.rep_value[c]),
-                        "bin " << b << " representative component " << c);
-    }
+    GONIO_CHECK_MSG(detail::all_finite({a.mean.data(),
+                                        a.m2.data(),
+                                        a.model_var.data(),
+                                        a.wi.data(),
+                                        a.wo.data(),
+                                        a.rep_wi.data(),
+                                        a.rep_wo.data(),
+                                        a.rep_value.data()}),
+                    "bin " << b);
+    const double na = stats_.merge(b, a.count, a.mean, a.m2, a.model_var);
+    detail::merge_means(&dirs_[6 * b], a.wi.data(), 3, na, a.count);
+    detail::merge_means(&dirs_[6 * b + 3], a.wo.data(), 3, na, a.count);
     // The representative closer to the merged mean, in units of the noise (the first group's
     // when the bin was empty).
+    const brdf::Rgbd mean = stats_.mean(b);
     const auto distance = [&](const float* value) {
         double d = 0;
         for (int c = 0; c < 3; ++c) {
-            const double r = value[c] - mean_[3 * b + c];
-            d += r * r / (static_cast<double>(model_var_[3 * b + c]) + 1e-300);
+            const double r = value[c] - mean[c];
+            d += r * r / (static_cast<double>(stats_.model_var_data(b)[c]) + 1e-300);
         }
         return d;
     };
@@ -180,33 +159,6 @@ void AnisoTable::merge(const AnisoBinAggregate& a) {
             rep[6 + c] = a.rep_value[c];
         }
     }
-    count_[b] += a.count;
-    total_ += a.count;
-}
-
-brdf::Rgbd AnisoTable::mean(std::size_t bin) const {
-    return {mean_[3 * bin], mean_[3 * bin + 1], mean_[3 * bin + 2]};
-}
-
-brdf::Rgbd AnisoTable::sample_variance(std::size_t bin) const {
-    const std::uint32_t n = count_[bin];
-    if (n < 2) {
-        // One sample has no spread.
-        return brdf::Rgbd::Zero();
-    }
-    return brdf::Rgbd(m2_[3 * bin], m2_[3 * bin + 1], m2_[3 * bin + 2]) / (n - 1.0);
-}
-
-brdf::Rgbd AnisoTable::standard_error(std::size_t bin) const {
-    const double n = std::max<std::uint32_t>(count_[bin], 1);
-    brdf::Rgbd out;
-    const brdf::Rgbd s2 = sample_variance(bin);
-    for (int c = 0; c < 3; ++c) {
-        const double model = std::sqrt(std::max(0.0f, model_var_[3 * bin + c]) / n);
-        const double empirical = count_[bin] >= 2 ? std::sqrt(std::max(0.0, s2[c]) / n) : 0.0;
-        out[c] = std::max(model, empirical);
-    }
-    return out;
 }
 
 std::pair<brdf::Vec3d, brdf::Vec3d> AnisoTable::mean_directions(std::size_t bin) const {
@@ -214,7 +166,7 @@ std::pair<brdf::Vec3d, brdf::Vec3d> AnisoTable::mean_directions(std::size_t bin)
     brdf::Vec3d wo(dirs_[6 * bin + 3], dirs_[6 * bin + 4], dirs_[6 * bin + 5]);
     const double ni = wi.norm();
     const double no = wo.norm();
-    if (count_[bin] == 0 || !(ni > 0) || !(no > 0)) {
+    if (stats_.count(bin) == 0 || !(ni > 0) || !(no > 0)) {
         // Empty bin (or directions that cancel, impossible within one bin): no direction.
         return {brdf::Vec3d::Zero(), brdf::Vec3d::Zero()};
     }
@@ -225,7 +177,7 @@ std::pair<brdf::Vec3d, brdf::Vec3d> AnisoTable::representative_directions(std::s
     const float* r = &rep_[9 * bin];
     const brdf::Vec3d wi(r[0], r[1], r[2]);
     const brdf::Vec3d wo(r[3], r[4], r[5]);
-    if (count_[bin] == 0 || !(wi.norm() > 0) || !(wo.norm() > 0)) {
+    if (stats_.count(bin) == 0 || !(wi.norm() > 0) || !(wo.norm() > 0)) {
         // Empty bin: no representative.
         return {brdf::Vec3d::Zero(), brdf::Vec3d::Zero()};
     }
@@ -237,11 +189,6 @@ brdf::Rgbd AnisoTable::representative_value(std::size_t bin) const {
     return {r[0], r[1], r[2]};
 }
 
-brdf::Rgbd AnisoTable::model_variance(std::size_t bin) const {
-    const float* v = &model_var_[3 * bin];
-    return brdf::Rgbd(v[0], v[1], v[2]).max(0.0);
-}
-
 brdf::Rgbd AnisoTable::dataset_sigma(std::size_t bin) const {
     const brdf::Rgbd se = standard_error(bin);
     const brdf::Rgbd var = model_variance(bin);
@@ -249,119 +196,69 @@ brdf::Rgbd AnisoTable::dataset_sigma(std::size_t bin) const {
     return (se.square() + var + off.square()).sqrt();
 }
 
-std::size_t AnisoTable::filled_bins(std::uint32_t min_count) const {
-    const std::uint32_t m = std::max<std::uint32_t>(min_count, 1);
-    return static_cast<std::size_t>(
-        std::count_if(count_.begin(), count_.end(), [m](std::uint32_t c) { return c >= m; }));
-}
-
 brdf::Dataset AnisoTable::to_dataset(const std::string& source,
                                      std::uint32_t min_count,
                                      bool hdr) const {
-    brdf::Dataset d;
-    d.source = source;
-    d.has_sigma = true;
-    d.has_flags = true;
-    for (std::size_t b = 0; b < count_.size(); ++b) {
-        if (count_[b] < std::max<std::uint32_t>(min_count, 1)) {
-            continue;
-        }
-        const auto [wi, wo] = representative_directions(b);
-        if (!(wi.z() > 0 && wo.z() > 0)) {
-            // A pixel's directions are above the horizon (the exclusion rules); rounding to single
-            // precision at a grazing limit could not be read back: not written.
-            continue;
-        }
-        const brdf::Spherical<double> si = brdf::cartesian_to_spherical(wi);
-        const brdf::Spherical<double> so = brdf::cartesian_to_spherical(wo);
-        brdf::Sample s;
-        s.theta_i = si.theta;
-        s.phi_i = si.phi;
-        s.theta_o = so.theta;
-        s.phi_o = so.phi;
-        s.value = mean(b).max(0.0);
-        s.sigma = dataset_sigma(b);
-        s.flags = hdr ? brdf::kFlagHdr : 0u;
-        d.samples.push_back(s);
-    }
-    return d;
+    return detail::bins_to_dataset(
+        stats_, source, min_count, hdr, [&](std::size_t b, brdf::Sample* s) {
+            const auto [wi, wo] = representative_directions(b);
+            if (!(wi.z() > 0 && wo.z() > 0)) {
+                // A pixel's directions are above the horizon (the exclusion rules); rounding to
+                // single precision at a grazing limit could not be read back: not written.
+                return false;
+            }
+            const brdf::Spherical<double> si = brdf::cartesian_to_spherical(wi);
+            const brdf::Spherical<double> so = brdf::cartesian_to_spherical(wo);
+            s->theta_i = si.theta;
+            s->phi_i = si.phi;
+            s->theta_o = so.theta;
+            s->phi_o = so.phi;
+            s->sigma = dataset_sigma(b);
+            return true;
+        });
 }
 
-AnisoCoverage::AnisoCoverage(const AnisoLayout& layout)
-    : layout_(layout), valid_(layout.size(), 0), covered_(layout.size(), 0) {
+namespace {
+
+/// A 4-D bin is valid when its isotropic part is: every phi_h bin of a valid half/difference bin.
+std::vector<std::uint8_t> valid_aniso_bins(const AnisoLayout& layout) {
+    std::vector<std::uint8_t> valid(layout.size(), 0);
     const TableLayout iso = layout.iso();
     for (std::size_t i = 0; i < iso.size(); ++i) {
         if (!bin_valid(iso, i)) {
             continue;
         }
         for (int p = 0; p < layout.n_phi_h; ++p) {
-            valid_[layout.index(i, p)] = 1;
+            valid[layout.index(i, p)] = 1;
         }
-        valid_count_ += static_cast<std::size_t>(layout.n_phi_h);
     }
+    return valid;
 }
 
-double AnisoCoverage::fraction() const {
-    if (valid_count_ == 0) {
-        // No valid bin (never with positive counts): nothing to cover.
-        return 1.0;
-    }
-    return static_cast<double>(covered_count_) / static_cast<double>(valid_count_);
-}
+}  // namespace
 
-void AnisoCoverage::cover(std::size_t bin) {
-    GONIO_CHECK(bin < covered_.size());
-    if (valid_[bin] && !covered_[bin]) {
-        covered_[bin] = 1;
-        ++covered_count_;
-    }
-}
+AnisoCoverage::AnisoCoverage(const AnisoLayout& layout)
+    : BinCoverage(valid_aniso_bins(layout)), layout_(layout) {}
 
 void AnisoCoverage::cover_from(const AnisoTable& table, std::uint32_t min_count) {
-    const std::uint32_t m = std::max<std::uint32_t>(min_count, 1);
-    for (std::size_t b = 0; b < table.size(); ++b) {
-        if (table.count(b) >= m) {
-            cover(b);
-        }
-    }
-}
-
-std::size_t AnisoCoverage::gain(const std::vector<std::uint32_t>& bins) const {
-    std::size_t g = 0;
-    for (std::uint32_t b : bins) {
-        g += valid_[b] && !covered_[b] ? 1 : 0;
-    }
-    return g;
+    cover_counts([&](std::size_t b) { return table.count(b); }, min_count);
 }
 
 std::vector<double> AnisoCoverage::cells() const {
-    const TableLayout iso = layout_.iso();
-    std::vector<double> out(static_cast<std::size_t>(iso.n_theta_h) * iso.n_theta_d, -1.0);
-    for (int i_d = 0; i_d < iso.n_theta_d; ++i_d) {
-        for (int i_h = 0; i_h < iso.n_theta_h; ++i_h) {
-            std::size_t valid = 0;
-            std::size_t covered = 0;
-            for (int i_p = 0; i_p < iso.n_phi_d; ++i_p) {
-                const std::size_t ib = iso.index(i_h, i_d, i_p);
-                for (int p = 0; p < layout_.n_phi_h; ++p) {
-                    const std::size_t b = layout_.index(ib, p);
-                    valid += valid_[b];
-                    covered += covered_[b];
-                }
-            }
-            if (valid > 0) {
-                out[static_cast<std::size_t>(i_d) * iso.n_theta_h + i_h] =
-                    static_cast<double>(covered) / static_cast<double>(valid);
-            }
-        }
-    }
-    return out;
+    return cell_fractions(layout_.iso(),
+                          [&](std::size_t iso_bin, std::size_t* n_valid, std::size_t* n_covered) {
+                              for (int p = 0; p < layout_.n_phi_h; ++p) {
+                                  const std::size_t b = layout_.index(iso_bin, p);
+                                  *n_valid += valid(b) ? 1 : 0;
+                                  *n_covered += covered(b) ? 1 : 0;
+                              }
+                          });
 }
 
 CoverageMap AnisoCoverage::isotropic() const {
     CoverageMap m(layout_.iso());
-    for (std::size_t b = 0; b < covered_.size(); ++b) {
-        if (covered_[b]) {
+    for (std::size_t b = 0; b < size(); ++b) {
+        if (covered(b)) {
             m.cover(layout_.iso_bin(b));
         }
     }
@@ -372,9 +269,7 @@ std::vector<double> spin_positions(const SpinRange& r) {
     GONIO_CHECK(r.step_rad > 0 && r.max_rad >= r.min_rad);
     std::vector<double> out;
     const bool full_turn = r.max_rad - r.min_rad >= 2 * brdf::kPi - 1e-9;
-    const int steps = static_cast<int>(std::floor((r.max_rad - r.min_rad) / r.step_rad + 1e-9));
-    for (int k = 0; k <= steps; ++k) {
-        const double s = r.min_rad + k * r.step_rad;
+    for (const double s : detail::range_steps(r.min_rad, r.max_rad, r.step_rad)) {
         if (full_turn && s >= r.min_rad + 2 * brdf::kPi - 1e-9) {
             // The same position as the start of the turn.
             break;
@@ -394,26 +289,11 @@ std::vector<PoseCandidate> pose_candidates(const CameraModel& camera,
                                            double pole_rad,
                                            int pixel_stride) {
     GONIO_CHECK(lights.step_rad > 0 && pixel_stride >= 1);
-    std::vector<SpherePixel> pixels = sphere_pixels(camera, sphere, rules, nullptr);
-    if (pixel_stride > 1) {
-        pixels.erase(std::remove_if(pixels.begin(),
-                                    pixels.end(),
-                                    [&](const SpherePixel& p) {
-                                        return p.x % pixel_stride != 0 || p.y % pixel_stride != 0;
-                                    }),
-                     pixels.end());
-    }
+    const std::vector<SpherePixel> pixels =
+        detail::strided_pixels(camera, sphere, rules, pixel_stride);
     const double cos_max_i = std::cos(rules.max_theta_i);
     const AnisoCoverage valid(layout);
-    std::vector<double> light_positions;
-    const int steps =
-        static_cast<int>(std::floor((lights.max_rad - lights.min_rad) / lights.step_rad + 1e-9));
-    for (int k = 0; k <= steps; ++k) {
-        const double a = lights.min_rad + k * lights.step_rad;
-        if (brdf::arm_separation(a, detector_arm_rad) >= lights.blind_zone_rad) {
-            light_positions.push_back(a);
-        }
-    }
+    const std::vector<double> light_arm_rad = light_positions(lights, detector_arm_rad);
     std::vector<PoseCandidate> out;
     for (const double s : spin_positions(spins)) {
         const brdf::Vec3d axis = lathe_axis_world(0, s);
@@ -421,28 +301,26 @@ std::vector<PoseCandidate> pose_candidates(const CameraModel& camera,
         for (std::size_t i = 0; i < pixels.size(); ++i) {
             tangents[i] = lathe_tangent(pixels[i].normal, axis, pole_rad);
         }
-        for (const double a : light_positions) {
+        for (const double a : light_arm_rad) {
             const brdf::Vec3d l = brdf::arm_direction(a);
             PoseCandidate c;
             c.light_arm_rad = a;
             c.spin_rad = s;
-            for (std::size_t i = 0; i < pixels.size(); ++i) {
-                if (tangents[i] == brdf::Vec3d::Zero()) {
-                    // Inside a pole cap: no tangent.
-                    continue;
-                }
-                const auto [wi, wo] = local_directions(pixels[i], tangents[i], l);
-                if (wi.z() < cos_max_i) {
-                    // Shadowed or grazing light: no sample from this pixel.
-                    continue;
-                }
-                const std::size_t b = aniso_bin(layout, wi, wo);
-                if (valid.valid(b)) {
-                    c.bins.push_back(static_cast<std::uint32_t>(b));
-                }
-            }
-            std::sort(c.bins.begin(), c.bins.end());
-            c.bins.erase(std::unique(c.bins.begin(), c.bins.end()), c.bins.end());
+            c.bins = detail::predicted_bins(
+                pixels.size(),
+                cos_max_i,
+                [&](std::size_t i, brdf::Vec3d* wi, brdf::Vec3d* wo) {
+                    if (tangents[i] == brdf::Vec3d::Zero()) {
+                        // Inside a pole cap: no tangent.
+                        return false;
+                    }
+                    std::tie(*wi, *wo) = local_directions(pixels[i], tangents[i], l);
+                    return true;
+                },
+                [&](const brdf::Vec3d& wi, const brdf::Vec3d& wo) {
+                    return aniso_bin(layout, wi, wo);
+                },
+                [&](std::size_t b) { return valid.valid(b); });
             if (!c.bins.empty()) {
                 out.push_back(std::move(c));
             }
@@ -456,27 +334,11 @@ int next_pose(const std::vector<PoseCandidate>& candidates,
               double current_light_rad,
               double current_spin_rad,
               double gain_fraction) {
-    GONIO_CHECK(gains.size() == candidates.size());
-    const std::size_t best = gains.empty() ? 0 : *std::max_element(gains.begin(), gains.end());
-    if (best == 0) {
-        return -1;
-    }
-    const double f = std::clamp(gain_fraction, 1e-9, 1.0);
-    int chosen = -1;
-    double chosen_move = 0;
-    for (std::size_t k = 0; k < candidates.size(); ++k) {
-        if (static_cast<double>(gains[k]) < f * static_cast<double>(best)) {
-            continue;
-        }
-        const double move = std::abs(candidates[k].light_arm_rad - current_light_rad) +
-                            std::abs(candidates[k].spin_rad - current_spin_rad);
-        if (chosen < 0 || move < chosen_move ||
-            (move == chosen_move && gains[k] > gains[static_cast<std::size_t>(chosen)])) {
-            chosen = static_cast<int>(k);
-            chosen_move = move;
-        }
-    }
-    return chosen;
+    return detail::choose_next(
+        candidates, gains, std::clamp(gain_fraction, 1e-9, 1.0), [&](const PoseCandidate& c) {
+            return std::abs(c.light_arm_rad - current_light_rad) +
+                   std::abs(c.spin_rad - current_spin_rad);
+        });
 }
 
 }  // namespace gonio::acquisition

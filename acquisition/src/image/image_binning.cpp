@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "bin_groups.h"
+#include "gonio/acquisition/image/bin_coverage.h"
 #include "gonio/base/check.h"
 #include "gonio/brdf/merl.h"
 
@@ -32,12 +33,7 @@ bool bin_valid(const TableLayout& layout, std::size_t index) {
 }
 
 BinnedTable::BinnedTable(TableLayout layout)
-    : layout_(layout),
-      count_(layout.size(), 0),
-      mean_(3 * layout.size(), 0.0),
-      m2_(3 * layout.size(), 0.0),
-      model_var_(3 * layout.size(), 0.0f),
-      position_(3 * layout.size(), 0.0f) {
+    : layout_(layout), stats_(layout.size()), position_(3 * layout.size(), 0.0f) {
     GONIO_CHECK(layout.n_theta_h > 0 && layout.n_theta_d > 0 && layout.n_phi_d > 0);
 }
 
@@ -53,55 +49,27 @@ void BinnedTable::add_to_bin(std::size_t bin,
                              const brdf::HalfDiff<double>& hd,
                              const brdf::Rgbd& value,
                              const brdf::Rgbd& model_variance) {
-    GONIO_CHECK_MSG(value.allFinite() && model_variance.allFinite() && bin < count_.size(),
+    GONIO_CHECK_MSG(value.allFinite() && model_variance.allFinite() && bin < stats_.size(),
                     "bin " << bin << " value " << value.transpose() << " variance "
                            << model_variance.transpose());
-    const std::uint32_t n = ++count_[bin];
-    const double inv_n = 1.0 / n;
-    for (int c = 0; c < 3; ++c) {
-        // Welford: delta against the old mean, then against the new one.
-        double& mean = mean_[3 * bin + c];
-        const double delta = value[c] - mean;
-        mean += delta * inv_n;
-        m2_[3 * bin + c] += delta * (value[c] - mean);
-        float& mv = model_var_[3 * bin + c];
-        mv += static_cast<float>((model_variance[c] - mv) * inv_n);
-    }
+    const double inv_n = stats_.add(bin, value, model_variance);
     const double pos[3] = {hd.theta_h, hd.theta_d, brdf::fold_phi_d(hd.phi_d)};
     for (int k = 0; k < 3; ++k) {
         float& p = position_[3 * bin + k];
         p += static_cast<float>((pos[k] - p) * inv_n);
     }
-    ++total_;
 }
 
 void BinnedTable::merge(const BinAggregate& a) {
-    GONIO_CHECK_MSG(a.bin < count_.size(), "bin " << a.bin << " of " << count_.size());
+    GONIO_CHECK_MSG(a.bin < stats_.size(), "bin " << a.bin << " of " << stats_.size());
     if (a.count == 0) {
         // An empty group adds nothing.
         return;
     }
-    const std::size_t b = a.bin;
-    const double na = count_[b];
-    const double nb = a.count;
-    const double n = na + nb;
-    for (int c = 0; c < 3; ++c) {
-        GONIO_CHECK_MSG(
-            std::isfinite(a.mean[c]) && std::isfinite(a.m2[c]) && std::isfinite(a.model_var[c]),
-            "bin " << b << " channel " << c);
-        double& mean = mean_[3 * b + c];
-        const double delta = a.mean[c] - mean;
-        mean += delta * nb / n;
-        m2_[3 * b + c] += a.m2[c] + delta * delta * na * nb / n;
-        float& mv = model_var_[3 * b + c];
-        mv = static_cast<float>((na * mv + nb * a.model_var[c]) / n);
-    }
-    for (int k = 0; k < 3; ++k) {
-        float& p = position_[3 * b + k];
-        p = static_cast<float>((na * p + nb * a.position[k]) / n);
-    }
-    count_[b] += a.count;
-    total_ += a.count;
+    GONIO_CHECK_MSG(detail::all_finite({a.mean.data(), a.m2.data(), a.model_var.data()}),
+                    "bin " << a.bin);
+    const double na = stats_.merge(a.bin, a.count, a.mean, a.m2, a.model_var);
+    detail::merge_means(&position_[3 * a.bin], a.position.data(), 3, na, a.count);
 }
 
 void FrameBins::add(const brdf::Vec3d& wi,
@@ -125,62 +93,20 @@ void FrameBins::add(const brdf::Vec3d& wi,
 
 std::vector<BinAggregate> FrameBins::aggregates() const {
     std::vector<BinAggregate> out;
-    detail::for_each_bin_group(
-        samples_, [&](std::uint32_t bin, const std::uint32_t* first, const std::uint32_t* last) {
-            detail::ChannelWelford w;
-            double pos[3] = {0, 0, 0};
-            for (const std::uint32_t* k = first; k != last; ++k) {
-                const Entry& e = samples_[*k];
-                w.add(e.value, e.model_var);
-                for (int c = 0; c < 3; ++c) {
-                    pos[c] += (e.position[c] - pos[c]) / w.n;
-                }
-            }
-            BinAggregate a;
-            a.bin = bin;
-            a.count = w.n;
+    detail::summarise_bin_groups<3>(
+        samples_,
+        [](const Entry& e) { return e.position; },
+        [&](const detail::ChannelWelford& w,
+            const double* pos,
+            const std::uint32_t*,
+            const std::uint32_t*) {
+            BinAggregate a = detail::aggregate_of<BinAggregate>(w);
             for (int c = 0; c < 3; ++c) {
-                a.mean[c] = static_cast<float>(w.mean[c]);
-                a.m2[c] = static_cast<float>(w.m2[c]);
-                a.model_var[c] = static_cast<float>(w.model_var[c]);
                 a.position[c] = static_cast<float>(pos[c]);
             }
             out.push_back(a);
         });
     return out;
-}
-
-brdf::Rgbd BinnedTable::mean(std::size_t bin) const {
-    return brdf::Rgbd(mean_[3 * bin], mean_[3 * bin + 1], mean_[3 * bin + 2]);
-}
-
-brdf::Rgbd BinnedTable::sample_variance(std::size_t bin) const {
-    const std::uint32_t n = count_[bin];
-    if (n < 2) {
-        // One sample has no spread.
-        return brdf::Rgbd::Zero();
-    }
-    return brdf::Rgbd(m2_[3 * bin], m2_[3 * bin + 1], m2_[3 * bin + 2]) / (n - 1.0);
-}
-
-brdf::Rgbd BinnedTable::model_standard_error(std::size_t bin) const {
-    const std::uint32_t n = count_[bin];
-    if (n == 0) {
-        // Empty bin: no estimate, no error.
-        return brdf::Rgbd::Zero();
-    }
-    brdf::Rgbd v(model_var_[3 * bin], model_var_[3 * bin + 1], model_var_[3 * bin + 2]);
-    return (v.max(0.0) / n).sqrt();
-}
-
-brdf::Rgbd BinnedTable::standard_error(std::size_t bin) const {
-    const std::uint32_t n = count_[bin];
-    const brdf::Rgbd model = model_standard_error(bin);
-    if (n < 2) {
-        return model;
-    }
-    const brdf::Rgbd empirical = (sample_variance(bin) / n).sqrt();
-    return empirical.max(model);
 }
 
 brdf::HalfDiff<double> BinnedTable::mean_position(std::size_t bin) const {
@@ -192,42 +118,27 @@ brdf::HalfDiff<double> BinnedTable::mean_position(std::size_t bin) const {
     return hd;
 }
 
-std::size_t BinnedTable::filled_bins(std::uint32_t min_count) const {
-    return static_cast<std::size_t>(std::count_if(
-        count_.begin(), count_.end(), [&](std::uint32_t n) { return n >= min_count; }));
-}
-
 brdf::Dataset BinnedTable::to_dataset(const std::string& source,
                                       std::uint32_t min_count,
                                       bool hdr) const {
-    brdf::Dataset d;
-    d.source = source;
-    d.has_sigma = true;
-    d.has_flags = true;
-    for (std::size_t b = 0; b < count_.size(); ++b) {
-        if (count_[b] < std::max<std::uint32_t>(min_count, 1)) {
-            continue;
-        }
-        const auto [wi, wo] = brdf::from_half_diff(mean_position(b));
-        if (!(wi.z() > 0 && wo.z() > 0)) {
-            // The mean position of a bin straddling the horizon can fall just below it: such a
-            // row would be rejected by every reader, so it is not written.
-            continue;
-        }
-        const brdf::Spherical<double> si = brdf::cartesian_to_spherical(wi);
-        const brdf::Spherical<double> so = brdf::cartesian_to_spherical(wo);
-        brdf::Sample s;
-        // Isotropy: rotate the pair so that phi_i = 0.
-        s.theta_i = si.theta;
-        s.phi_i = 0;
-        s.theta_o = so.theta;
-        s.phi_o = brdf::wrap_pi(so.phi - si.phi);
-        s.value = mean(b).max(0.0);
-        s.sigma = standard_error(b);
-        s.flags = hdr ? brdf::kFlagHdr : 0u;
-        d.samples.push_back(s);
-    }
-    return d;
+    return detail::bins_to_dataset(
+        stats_, source, min_count, hdr, [&](std::size_t b, brdf::Sample* s) {
+            const auto [wi, wo] = brdf::from_half_diff(mean_position(b));
+            if (!(wi.z() > 0 && wo.z() > 0)) {
+                // The mean position of a bin straddling the horizon can fall just below it: such
+                // a row would be rejected by every reader, so it is not written.
+                return false;
+            }
+            const brdf::Spherical<double> si = brdf::cartesian_to_spherical(wi);
+            const brdf::Spherical<double> so = brdf::cartesian_to_spherical(wo);
+            // Isotropy: rotate the pair so that phi_i = 0.
+            s->theta_i = si.theta;
+            s->phi_i = 0;
+            s->theta_o = so.theta;
+            s->phi_o = brdf::wrap_pi(so.phi - si.phi);
+            s->sigma = standard_error(b);
+            return true;
+        });
 }
 
 brdf::TabulatedBrdf to_tabulated(const BinnedTable& table,
@@ -245,26 +156,12 @@ brdf::TabulatedBrdf to_tabulated(const BinnedTable& table,
 
 std::vector<double> coverage_cells(const BinnedTable& table, std::uint32_t min_count) {
     const TableLayout& l = table.layout();
-    std::vector<double> out(static_cast<std::size_t>(l.n_theta_h) * l.n_theta_d, -1.0);
-    for (int i_d = 0; i_d < l.n_theta_d; ++i_d) {
-        for (int i_h = 0; i_h < l.n_theta_h; ++i_h) {
-            int valid = 0;
-            int filled = 0;
-            for (int i_p = 0; i_p < l.n_phi_d; ++i_p) {
-                const std::size_t b = l.index(i_h, i_d, i_p);
-                if (!bin_valid(l, b)) {
-                    continue;
-                }
-                ++valid;
-                filled += table.count(b) >= min_count ? 1 : 0;
-            }
-            if (valid > 0) {
-                out[static_cast<std::size_t>(i_d) * l.n_theta_h + i_h] =
-                    static_cast<double>(filled) / valid;
-            }
+    return cell_fractions(l, [&](std::size_t b, std::size_t* valid, std::size_t* covered) {
+        if (bin_valid(l, b)) {
+            ++*valid;
+            *covered += table.count(b) >= min_count ? 1 : 0;
         }
-    }
-    return out;
+    });
 }
 
 }  // namespace gonio::acquisition

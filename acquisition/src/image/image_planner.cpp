@@ -5,13 +5,28 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string_view>
+#include <tuple>
 #include <vector>
 
 #include "gonio/base/atomic_file.h"
 #include "gonio/base/check.h"
 #include "gonio/brdf/rig_geometry.h"
+#include "next_choice.h"
 
 namespace gonio::acquisition {
+
+std::vector<double> light_positions(const LightRange& range, double detector_arm_rad) {
+    GONIO_CHECK(range.step_rad > 0);
+    std::vector<double> lights;
+    for (const double a : detail::range_steps(range.min_rad, range.max_rad, range.step_rad)) {
+        if (brdf::arm_separation(a, detector_arm_rad) < range.blind_zone_rad) {
+            // Inside the blind zone around the detector.
+            continue;
+        }
+        lights.push_back(a);
+    }
+    return lights;
+}
 
 std::vector<LightCandidate> light_candidates(const CameraModel& camera,
                                              const SphereGeometry& sphere,
@@ -21,18 +36,8 @@ std::vector<LightCandidate> light_candidates(const CameraModel& camera,
                                              const LightRange& range,
                                              int pixel_stride) {
     GONIO_CHECK(range.step_rad > 0 && pixel_stride >= 1);
-    std::vector<double> lights;
-    const int steps =
-        static_cast<int>(std::floor((range.max_rad - range.min_rad) / range.step_rad + 1e-9));
-    for (int k = 0; k <= steps; ++k) {
-        const double a = range.min_rad + k * range.step_rad;
-        if (brdf::arm_separation(a, detector_arm_rad) < range.blind_zone_rad) {
-            // Inside the blind zone around the detector.
-            continue;
-        }
-        lights.push_back(a);
-    }
-    return light_candidates_at(camera, sphere, rules, layout, lights, pixel_stride);
+    return light_candidates_at(
+        camera, sphere, rules, layout, light_positions(range, detector_arm_rad), pixel_stride);
 }
 
 std::vector<LightCandidate> light_candidates_at(const CameraModel& camera,
@@ -42,35 +47,26 @@ std::vector<LightCandidate> light_candidates_at(const CameraModel& camera,
                                                 const std::vector<double>& light_arm_rad,
                                                 int pixel_stride) {
     GONIO_CHECK(pixel_stride >= 1);
-    std::vector<SpherePixel> pixels = sphere_pixels(camera, sphere, rules, nullptr);
-    if (pixel_stride > 1) {
-        pixels.erase(std::remove_if(pixels.begin(),
-                                    pixels.end(),
-                                    [&](const SpherePixel& p) {
-                                        return p.x % pixel_stride != 0 || p.y % pixel_stride != 0;
-                                    }),
-                     pixels.end());
-    }
+    const std::vector<SpherePixel> pixels =
+        detail::strided_pixels(camera, sphere, rules, pixel_stride);
     const double cos_max_i = std::cos(rules.max_theta_i);
     std::vector<LightCandidate> out;
     for (const double a : light_arm_rad) {
-        const brdf::Vec3d l(std::cos(a), std::sin(a), 0);
+        const brdf::Vec3d l = brdf::arm_direction(a);
         LightCandidate c;
         c.light_arm_rad = a;
-        for (const SpherePixel& p : pixels) {
-            const auto [wi, wo] = local_directions(p, l);
-            if (wi.z() < cos_max_i) {
-                // Shadowed or grazing light: no sample from this pixel.
-                continue;
-            }
-            const brdf::HalfDiff<double> hd = brdf::to_half_diff(wi, wo);
-            const std::size_t b = bin_index(layout, hd.theta_h, hd.theta_d, hd.phi_d);
-            if (bin_valid(layout, b)) {
-                c.bins.push_back(static_cast<std::uint32_t>(b));
-            }
-        }
-        std::sort(c.bins.begin(), c.bins.end());
-        c.bins.erase(std::unique(c.bins.begin(), c.bins.end()), c.bins.end());
+        c.bins = detail::predicted_bins(
+            pixels.size(),
+            cos_max_i,
+            [&](std::size_t i, brdf::Vec3d* wi, brdf::Vec3d* wo) {
+                std::tie(*wi, *wo) = local_directions(pixels[i], l);
+                return true;
+            },
+            [&](const brdf::Vec3d& wi, const brdf::Vec3d& wo) {
+                const brdf::HalfDiff<double> hd = brdf::to_half_diff(wi, wo);
+                return bin_index(layout, hd.theta_h, hd.theta_d, hd.phi_d);
+            },
+            [&](std::size_t b) { return bin_valid(layout, b); });
         c.theta_d_lo = layout.n_theta_d;
         c.theta_d_hi = -1;
         for (std::uint32_t b : c.bins) {
@@ -85,79 +81,40 @@ std::vector<LightCandidate> light_candidates_at(const CameraModel& camera,
     return out;
 }
 
-CoverageMap::CoverageMap(const TableLayout& layout)
-    : layout_(layout), valid_(layout.size(), 0), covered_(layout.size(), 0) {
+namespace {
+
+std::vector<std::uint8_t> valid_flags(const TableLayout& layout) {
+    std::vector<std::uint8_t> valid(layout.size(), 0);
     for (std::size_t b = 0; b < layout.size(); ++b) {
-        valid_[b] = bin_valid(layout, b) ? 1 : 0;
-        valid_count_ += valid_[b];
+        valid[b] = bin_valid(layout, b) ? 1 : 0;
     }
+    return valid;
 }
 
-double CoverageMap::fraction() const {
-    if (valid_count_ == 0) {
-        // A layout without valid bins (never with positive bin counts): nothing to cover.
-        return 1.0;
-    }
-    return static_cast<double>(covered_count_) / static_cast<double>(valid_count_);
-}
+}  // namespace
 
-void CoverageMap::cover(std::size_t bin) {
-    GONIO_CHECK(bin < covered_.size());
-    if (valid_[bin] && !covered_[bin]) {
-        covered_[bin] = 1;
-        ++covered_count_;
-    }
-}
+CoverageMap::CoverageMap(const TableLayout& layout)
+    : BinCoverage(valid_flags(layout)), layout_(layout) {}
 
 void CoverageMap::cover_from(const BinnedTable& table, std::uint32_t min_count) {
-    GONIO_CHECK(table.size() == covered_.size());
-    for (std::size_t b = 0; b < table.size(); ++b) {
-        if (table.count(b) >= std::max<std::uint32_t>(min_count, 1)) {
-            cover(b);
-        }
-    }
+    GONIO_CHECK(table.size() == size());
+    cover_counts([&](std::size_t b) { return table.count(b); }, min_count);
 }
 
-std::size_t CoverageMap::gain(const std::vector<std::uint32_t>& bins) const {
-    std::size_t g = 0;
-    for (std::uint32_t b : bins) {
-        g += (valid_[b] && !covered_[b]) ? 1 : 0;
-    }
-    return g;
+std::vector<double> coverage_cells(const CoverageMap& coverage) {
+    return cell_fractions(coverage.layout(),
+                          [&](std::size_t b, std::size_t* valid, std::size_t* covered) {
+                              *valid += coverage.valid(b) ? 1 : 0;
+                              *covered += coverage.covered(b) ? 1 : 0;
+                          });
 }
 
 int next_light(const std::vector<LightCandidate>& candidates,
                const CoverageMap& coverage,
                double current_light_rad,
                double gain_fraction) {
-    GONIO_CHECK(gain_fraction > 0 && gain_fraction <= 1);
-    std::vector<std::size_t> gains(candidates.size());
-    std::size_t best_gain = 0;
-    for (std::size_t i = 0; i < candidates.size(); ++i) {
-        gains[i] = coverage.gain(candidates[i].bins);
-        best_gain = std::max(best_gain, gains[i]);
-    }
-    if (best_gain == 0) {
-        // Nothing left that any candidate can add.
-        return -1;
-    }
-    const double threshold = gain_fraction * static_cast<double>(best_gain);
-    int best = -1;
-    std::size_t chosen_gain = 0;
-    double best_move = 0;
-    for (std::size_t i = 0; i < candidates.size(); ++i) {
-        if (gains[i] == 0 || static_cast<double>(gains[i]) < threshold) {
-            continue;
-        }
-        // With gain_fraction = 1 only the largest gains pass: "largest gain, then shortest move".
-        const double move = std::abs(candidates[i].light_arm_rad - current_light_rad);
-        if (best < 0 || move < best_move || (move == best_move && gains[i] > chosen_gain)) {
-            best = static_cast<int>(i);
-            chosen_gain = gains[i];
-            best_move = move;
-        }
-    }
-    return best;
+    return next_light(
+        candidates, candidate_gains(candidates, coverage), current_light_rad, gain_fraction);
 }
 
 std::vector<std::size_t> candidate_gains(const std::vector<LightCandidate>& candidates,
@@ -187,28 +144,10 @@ int next_light(const std::vector<LightCandidate>& candidates,
                const std::vector<std::size_t>& gains,
                double current_light_rad,
                double gain_fraction) {
-    GONIO_CHECK(gain_fraction > 0 && gain_fraction <= 1 && gains.size() == candidates.size());
-    const std::size_t best_gain = gains.empty() ? 0 : *std::max_element(gains.begin(), gains.end());
-    if (best_gain == 0) {
-        // Nothing left that any candidate can add.
-        return -1;
-    }
-    const double threshold = gain_fraction * static_cast<double>(best_gain);
-    int best = -1;
-    std::size_t chosen_gain = 0;
-    double best_move = 0;
-    for (std::size_t i = 0; i < candidates.size(); ++i) {
-        if (gains[i] == 0 || static_cast<double>(gains[i]) < threshold) {
-            continue;
-        }
-        const double move = std::abs(candidates[i].light_arm_rad - current_light_rad);
-        if (best < 0 || move < best_move || (move == best_move && gains[i] > chosen_gain)) {
-            best = static_cast<int>(i);
-            chosen_gain = gains[i];
-            best_move = move;
-        }
-    }
-    return best;
+    GONIO_CHECK(gain_fraction > 0 && gain_fraction <= 1);
+    return detail::choose_next(candidates, gains, gain_fraction, [&](const LightCandidate& c) {
+        return std::abs(c.light_arm_rad - current_light_rad);
+    });
 }
 
 CoveragePlan plan_lights(const std::vector<LightCandidate>& candidates,
@@ -222,9 +161,7 @@ CoveragePlan plan_lights(const std::vector<LightCandidate>& candidates,
     {
         CoverageMap all(layout);
         for (const LightCandidate& c : candidates) {
-            for (std::uint32_t b : c.bins) {
-                all.cover(b);
-            }
+            all.cover_all(c.bins);
         }
         plan.reachable_bins = all.covered_bins();
     }
@@ -235,9 +172,7 @@ CoveragePlan plan_lights(const std::vector<LightCandidate>& candidates,
         if (i < 0) {
             break;
         }
-        for (std::uint32_t b : candidates[i].bins) {
-            map.cover(b);
-        }
+        map.cover_all(candidates[i].bins);
         current = candidates[i].light_arm_rad;
         plan.light_arm_rad.push_back(current);
         plan.predicted_coverage.push_back(map.fraction());
@@ -246,9 +181,16 @@ CoveragePlan plan_lights(const std::vector<LightCandidate>& candidates,
     return plan;
 }
 
-std::vector<CoverageHole> coverage_holes(const CoverageMap& coverage,
-                                         const std::vector<LightCandidate>& candidates,
-                                         double blind_zone_rad) {
+namespace {
+
+/// The holes of the coverage: each valid empty bin gets the reason `classify(i_h, i_d, i_p,
+/// reachable)` (an index into `reasons`, `reachable` whether some candidate's bins hold it), then
+/// the bins are grouped by theta_d cell and reason, in the order of `reasons`.
+template <class Classify>
+std::vector<CoverageHole> holes_by_reason(const CoverageMap& coverage,
+                                          const std::vector<LightCandidate>& candidates,
+                                          const std::vector<const char*>& reasons,
+                                          Classify classify) {
     const TableLayout& l = coverage.layout();
     std::vector<std::uint8_t> reachable(l.size(), 0);
     for (const LightCandidate& c : candidates) {
@@ -258,21 +200,14 @@ std::vector<CoverageHole> coverage_holes(const CoverageMap& coverage,
     }
     std::vector<CoverageHole> holes;
     for (int i_d = 0; i_d < l.n_theta_d; ++i_d) {
-        // Up to three holes per theta_d cell, one per reason.
-        CoverageHole by_reason[3];
-        const char* reasons[3] = {"blind zone", "excluded (grazing or limits)", "not measured"};
+        std::vector<CoverageHole> by_reason(reasons.size());
         for (int i_h = 0; i_h < l.n_theta_h; ++i_h) {
             for (int i_p = 0; i_p < l.n_phi_d; ++i_p) {
                 const std::size_t b = l.index(i_h, i_d, i_p);
                 if (!coverage.valid(b) || coverage.covered(b)) {
                     continue;
                 }
-                const double theta_d = l.theta_d_centre(i_d);
-                int r = 2;
-                if (!reachable[b]) {
-                    r = theta_d < blind_zone_rad / 2 ? 0 : 1;
-                }
-                CoverageHole& h = by_reason[r];
+                CoverageHole& h = by_reason[classify(i_h, i_d, i_p, reachable[b] != 0)];
                 const double th = l.theta_h_centre(i_h);
                 if (h.bins == 0) {
                     h.theta_h_min = th;
@@ -283,7 +218,7 @@ std::vector<CoverageHole> coverage_holes(const CoverageMap& coverage,
                 ++h.bins;
             }
         }
-        for (int r = 0; r < 3; ++r) {
+        for (std::size_t r = 0; r < reasons.size(); ++r) {
             if (by_reason[r].bins > 0) {
                 by_reason[r].theta_d_min = static_cast<double>(i_d) / l.n_theta_d * brdf::kPi / 2;
                 by_reason[r].theta_d_max =
@@ -296,72 +231,53 @@ std::vector<CoverageHole> coverage_holes(const CoverageMap& coverage,
     return holes;
 }
 
+}  // namespace
+
+std::vector<CoverageHole> coverage_holes(const CoverageMap& coverage,
+                                         const std::vector<LightCandidate>& candidates,
+                                         double blind_zone_rad) {
+    const TableLayout& l = coverage.layout();
+    return holes_by_reason(coverage,
+                           candidates,
+                           {"blind zone", "excluded (grazing or limits)", "not measured"},
+                           [&](int, int i_d, int, bool reachable) -> std::size_t {
+                               if (reachable) {
+                                   return 2;
+                               }
+                               return l.theta_d_centre(i_d) < blind_zone_rad / 2 ? 0 : 1;
+                           });
+}
+
 std::vector<CoverageHole> coverage_holes(const CoverageMap& coverage,
                                          const std::vector<LightCandidate>& candidates,
                                          const HoleLimits& limits) {
     const TableLayout& l = coverage.layout();
-    std::vector<std::uint8_t> reachable(l.size(), 0);
-    for (const LightCandidate& c : candidates) {
-        for (std::uint32_t b : c.bins) {
-            reachable[b] = 1;
-        }
-    }
-    constexpr int kReasons = 5;
-    const char* reasons[kReasons] = {"blind zone",
-                                     "arm limits",
-                                     "grazing (beyond max_theta)",
-                                     "finer than a pixel",
-                                     "not measured"};
     const double cos_i = std::cos(limits.max_theta_i);
     const double cos_o = std::cos(limits.max_theta_o);
-    std::vector<CoverageHole> holes;
-    for (int i_d = 0; i_d < l.n_theta_d; ++i_d) {
-        CoverageHole by_reason[kReasons];
-        const double theta_d = l.theta_d_centre(i_d);
-        for (int i_h = 0; i_h < l.n_theta_h; ++i_h) {
-            for (int i_p = 0; i_p < l.n_phi_d; ++i_p) {
-                const std::size_t b = l.index(i_h, i_d, i_p);
-                if (!coverage.valid(b) || coverage.covered(b)) {
-                    continue;
-                }
-                int r = 4;
-                if (!reachable[b]) {
-                    const auto [wi, wo] = l.centre_directions(i_h, i_d, i_p);
-                    // Reciprocity: the pair may be measured either way round.
-                    const bool within = (wi.z() >= cos_i && wo.z() >= cos_o) ||
-                                        (wo.z() >= cos_i && wi.z() >= cos_o);
-                    if (theta_d < limits.blind_zone_rad / 2) {
-                        r = 0;
-                    } else if (theta_d > limits.max_separation_rad / 2) {
-                        r = 1;
-                    } else if (!within) {
-                        r = 2;
-                    } else {
-                        r = 3;
-                    }
-                }
-                CoverageHole& h = by_reason[r];
-                const double th = l.theta_h_centre(i_h);
-                if (h.bins == 0) {
-                    h.theta_h_min = th;
-                    h.theta_h_max = th;
-                }
-                h.theta_h_min = std::min(h.theta_h_min, th);
-                h.theta_h_max = std::max(h.theta_h_max, th);
-                ++h.bins;
-            }
-        }
-        for (int r = 0; r < kReasons; ++r) {
-            if (by_reason[r].bins > 0) {
-                by_reason[r].theta_d_min = static_cast<double>(i_d) / l.n_theta_d * brdf::kPi / 2;
-                by_reason[r].theta_d_max =
-                    static_cast<double>(i_d + 1) / l.n_theta_d * brdf::kPi / 2;
-                by_reason[r].reason = reasons[r];
-                holes.push_back(by_reason[r]);
-            }
-        }
-    }
-    return holes;
+    return holes_by_reason(coverage,
+                           candidates,
+                           {"blind zone",
+                            "arm limits",
+                            "grazing (beyond max_theta)",
+                            "finer than a pixel",
+                            "not measured"},
+                           [&](int i_h, int i_d, int i_p, bool reachable) -> std::size_t {
+                               if (reachable) {
+                                   return 4;
+                               }
+                               const double theta_d = l.theta_d_centre(i_d);
+                               const auto [wi, wo] = l.centre_directions(i_h, i_d, i_p);
+                               // Reciprocity: the pair may be measured either way round.
+                               const bool within = (wi.z() >= cos_i && wo.z() >= cos_o) ||
+                                                   (wo.z() >= cos_i && wi.z() >= cos_o);
+                               if (theta_d < limits.blind_zone_rad / 2) {
+                                   return 0;
+                               }
+                               if (theta_d > limits.max_separation_rad / 2) {
+                                   return 1;
+                               }
+                               return within ? 3 : 2;
+                           });
 }
 
 Expected<void> write_coverage_png(const std::string& path,

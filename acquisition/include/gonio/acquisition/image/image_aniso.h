@@ -34,11 +34,13 @@
 // valid bins, the one with the shortest move, until the covered fraction of the valid 4-D bins
 // reaches the target or no candidate adds enough.
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
 
+#include "gonio/acquisition/image/bin_coverage.h"
 #include "gonio/acquisition/image/camera_model.h"
 #include "gonio/acquisition/image/image_binning.h"
 #include "gonio/acquisition/image/image_planner.h"
@@ -111,8 +113,7 @@ class AnisoFrameBins {
         std::uint32_t bin;
         double value[3];
         double model_var[3];
-        float wi[3];
-        float wo[3];
+        float dirs[6];  ///< wi, then wo (after the fold).
     };
     AnisoLayout layout_;
     std::vector<Entry> samples_;
@@ -123,18 +124,18 @@ class AnisoTable {
   public:
     explicit AnisoTable(AnisoLayout layout);
     const AnisoLayout& layout() const { return layout_; }
-    std::size_t size() const { return count_.size(); }
+    std::size_t size() const { return stats_.size(); }
 
     /// Adds a group of samples (Chan, Golub and LeVeque's pairwise update, as
     /// BinnedTable::merge). Aborts on a bin outside the table or a non-finite value.
     void merge(const AnisoBinAggregate& a);
 
-    std::uint32_t count(std::size_t bin) const { return count_[bin]; }
-    brdf::Rgbd mean(std::size_t bin) const;
+    std::uint32_t count(std::size_t bin) const { return stats_.count(bin); }
+    brdf::Rgbd mean(std::size_t bin) const { return stats_.mean(bin); }
     /// Unbiased sample variance (zero with fewer than two samples).
-    brdf::Rgbd sample_variance(std::size_t bin) const;
+    brdf::Rgbd sample_variance(std::size_t bin) const { return stats_.sample_variance(bin); }
     /// The larger of the empirical sqrt(s^2 / n) (n >= 2) and the noise model's sqrt(var / n).
-    brdf::Rgbd standard_error(std::size_t bin) const;
+    brdf::Rgbd standard_error(std::size_t bin) const { return stats_.standard_error(bin); }
     /// Mean directions of the bin's samples, unit (zero for an empty bin).
     std::pair<brdf::Vec3d, brdf::Vec3d> mean_directions(std::size_t bin) const;
     /// The representative pixel's directions (file comment), unit (zero for an empty bin).
@@ -142,12 +143,14 @@ class AnisoTable {
     /// The representative pixel's value.
     brdf::Rgbd representative_value(std::size_t bin) const;
     /// Mean noise-model variance of one sample, 1/sr^2.
-    brdf::Rgbd model_variance(std::size_t bin) const;
+    brdf::Rgbd model_variance(std::size_t bin) const { return stats_.model_variance(bin); }
     /// Sigma of the bin's dataset sample: sqrt(standard_error^2 + model_variance +
     /// (representative_value - mean)^2) per channel (file comment).
     brdf::Rgbd dataset_sigma(std::size_t bin) const;
-    std::size_t filled_bins(std::uint32_t min_count = 1) const;
-    std::uint64_t total_samples() const { return total_; }
+    std::size_t filled_bins(std::uint32_t min_count = 1) const {
+        return stats_.filled(std::max<std::uint32_t>(min_count, 1));
+    }
+    std::uint64_t total_samples() const { return stats_.total(); }
 
     /// One sample per bin with at least `min_count` samples: full directions (theta_i, phi_i,
     /// theta_o, phi_o) of the representative pixel, value = mean, sigma = dataset_sigma(),
@@ -156,28 +159,18 @@ class AnisoTable {
 
   private:
     AnisoLayout layout_;
-    std::vector<std::uint32_t> count_;
-    std::vector<double> mean_;      // 3 per bin
-    std::vector<double> m2_;        // 3 per bin
-    std::vector<float> model_var_;  // 3 per bin, running mean
-    std::vector<float> dirs_;       // 6 per bin: running mean of wi, then wo
-    std::vector<float> rep_;        // 9 per bin: representative wi, wo, value
-    std::uint64_t total_ = 0;
+    detail::BinStatistics stats_;
+    std::vector<float> dirs_;  // 6 per bin: running mean of wi, then wo
+    std::vector<float> rep_;   // 9 per bin: representative wi, wo, value
 };
 
-/// Which valid 4-D bins hold data.
-class AnisoCoverage {
+/// Which valid 4-D bins hold data (BinCoverage: fraction, cover, gain).
+class AnisoCoverage : public BinCoverage {
   public:
     explicit AnisoCoverage(const AnisoLayout& layout);
     const AnisoLayout& layout() const { return layout_; }
-    std::size_t valid_bins() const { return valid_count_; }
-    std::size_t covered_bins() const { return covered_count_; }
-    double fraction() const;
-    bool valid(std::size_t bin) const { return valid_[bin] != 0; }
-    bool covered(std::size_t bin) const { return covered_[bin] != 0; }
-    void cover(std::size_t bin);  ///< Ignored for invalid bins.
+    /// Marks every bin of the table holding at least `min_count` samples.
     void cover_from(const AnisoTable& table, std::uint32_t min_count);
-    std::size_t gain(const std::vector<std::uint32_t>& bins) const;
     /// Covered fraction of the valid bins of each (theta_h, theta_d) cell over phi_h and phi_d,
     /// -1 for a cell without valid bins; row-major with theta_d rows (as coverage_cells()).
     std::vector<double> cells() const;
@@ -187,10 +180,6 @@ class AnisoCoverage {
 
   private:
     AnisoLayout layout_;
-    std::vector<std::uint8_t> valid_;
-    std::vector<std::uint8_t> covered_;
-    std::size_t valid_count_ = 0;
-    std::size_t covered_count_ = 0;
 };
 
 /// The holder's spin positions a campaign may use: min, min + step, ... up to max (a full turn

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "gonio/acquisition/image/bin_statistics.h"
 #include "gonio/base/error.h"
 #include "gonio/brdf/coords.h"
 #include "gonio/brdf/dataset.h"
@@ -87,7 +88,7 @@ class BinnedTable {
     explicit BinnedTable(TableLayout layout);
 
     const TableLayout& layout() const { return layout_; }
-    std::size_t size() const { return count_.size(); }
+    std::size_t size() const { return stats_.size(); }
 
     /// Adds one sample: the configuration (wi, wo unit vectors in the local frame), the BRDF value
     /// (1/sr) and the per-pixel noise-model variance (1/sr^2, >= 0). Non-finite values are a bug
@@ -109,21 +110,23 @@ class BinnedTable {
     /// the table or a non-finite value (a journal is checked before its records reach here).
     void merge(const BinAggregate& a);
 
-    std::uint32_t count(std::size_t bin) const { return count_[bin]; }
-    brdf::Rgbd mean(std::size_t bin) const;
+    std::uint32_t count(std::size_t bin) const { return stats_.count(bin); }
+    brdf::Rgbd mean(std::size_t bin) const { return stats_.mean(bin); }
     /// Unbiased sample variance of the bin's values (zero with fewer than two samples).
-    brdf::Rgbd sample_variance(std::size_t bin) const;
+    brdf::Rgbd sample_variance(std::size_t bin) const { return stats_.sample_variance(bin); }
     /// Standard error of the bin mean from the noise model: sqrt(mean model variance / n).
-    brdf::Rgbd model_standard_error(std::size_t bin) const;
+    brdf::Rgbd model_standard_error(std::size_t bin) const {
+        return stats_.model_standard_error(bin);
+    }
     /// Standard error of the bin mean: the larger of the empirical sqrt(s^2 / n) (n >= 2) and the
     /// noise-model value, so that a bin of few samples is not overconfident.
-    brdf::Rgbd standard_error(std::size_t bin) const;
+    brdf::Rgbd standard_error(std::size_t bin) const { return stats_.standard_error(bin); }
     /// Mean (theta_h, theta_d, phi_d) of the samples in the bin (phi_h = 0).
     brdf::HalfDiff<double> mean_position(std::size_t bin) const;
 
     /// Number of bins holding at least `min_count` samples.
-    std::size_t filled_bins(std::uint32_t min_count = 1) const;
-    std::uint64_t total_samples() const { return total_; }
+    std::size_t filled_bins(std::uint32_t min_count = 1) const { return stats_.filled(min_count); }
+    std::uint64_t total_samples() const { return stats_.total(); }
 
     /// One dataset sample per filled bin: directions from the bin's mean position (phi_i = 0 by
     /// isotropy), value = bin mean, sigma = standard_error(), flags kFlagHdr when `hdr`.
@@ -131,12 +134,8 @@ class BinnedTable {
 
   private:
     TableLayout layout_;
-    std::vector<std::uint32_t> count_;
-    std::vector<double> mean_;      // 3 per bin
-    std::vector<double> m2_;        // 3 per bin
-    std::vector<float> model_var_;  // 3 per bin, running mean
-    std::vector<float> position_;   // 3 per bin, running mean of theta_h, theta_d, phi_d
-    std::uint64_t total_ = 0;
+    detail::BinStatistics stats_;
+    std::vector<float> position_;  // 3 per bin, running mean of theta_h, theta_d, phi_d
 };
 
 /// The table's means as a tabulated BRDF (bins with fewer than `min_count` samples invalid), with

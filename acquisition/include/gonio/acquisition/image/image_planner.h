@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "gonio/acquisition/image/bin_coverage.h"
 #include "gonio/acquisition/image/camera_model.h"
 #include "gonio/acquisition/image/image_binning.h"
 #include "gonio/acquisition/image/sphere_geometry.h"
@@ -33,6 +34,10 @@ struct LightRange {
     /// shadow the sample or hit the camera).
     double blind_zone_rad = 5 * brdf::kPi / 180;
 };
+
+/// The light positions of the range (min, min + step, ... up to max) outside the blind zone
+/// around `detector_arm_rad`, in that order.
+std::vector<double> light_positions(const LightRange& range, double detector_arm_rad);
 
 /// One candidate light position and the valid bins a frame there would fill.
 struct LightCandidate {
@@ -67,31 +72,21 @@ std::vector<LightCandidate> light_candidates_at(const CameraModel& camera,
                                                 const std::vector<double>& light_arm_rad,
                                                 int pixel_stride = 1);
 
-/// Which valid bins hold data.
-class CoverageMap {
+/// Which valid bins of the half/difference table hold data (BinCoverage: fraction, cover, gain).
+class CoverageMap : public BinCoverage {
   public:
     explicit CoverageMap(const TableLayout& layout);
     const TableLayout& layout() const { return layout_; }
-    std::size_t valid_bins() const { return valid_count_; }
-    std::size_t covered_bins() const { return covered_count_; }
-    /// Covered fraction of the valid bins, in [0, 1].
-    double fraction() const;
-    bool valid(std::size_t bin) const { return valid_[bin] != 0; }
-    bool covered(std::size_t bin) const { return covered_[bin] != 0; }
-    /// Marks a bin covered (ignored for invalid bins).
-    void cover(std::size_t bin);
     /// Marks every bin of the table holding at least `min_count` samples.
     void cover_from(const BinnedTable& table, std::uint32_t min_count);
-    /// Number of valid, not yet covered bins in the list.
-    std::size_t gain(const std::vector<std::uint32_t>& bins) const;
 
   private:
     TableLayout layout_;
-    std::vector<std::uint8_t> valid_;
-    std::vector<std::uint8_t> covered_;
-    std::size_t valid_count_ = 0;
-    std::size_t covered_count_ = 0;
 };
+
+/// Covered share of the valid bins of each (theta_h, theta_d) cell, -1 for a cell without one;
+/// row-major with theta_d rows (as coverage_cells() of a table).
+std::vector<double> coverage_cells(const CoverageMap& coverage);
 
 /// Index into `candidates` of the next light position, or -1 when no candidate adds a bin. Among
 /// the candidates whose gain is at least `gain_fraction` (in (0, 1]) of the largest gain, the one
