@@ -22,6 +22,16 @@ set(CPACK_RESOURCE_FILE_LICENSE ${PROJECT_SOURCE_DIR}/LICENSE)
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
 set(CPACK_DEBIAN_PACKAGE_SECTION science)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
+# The Python module links no libpython: dpkg-shlibdeps cannot see the interpreter it is built for
+# (CPython's ABI of that minor version) nor numpy, which it imports.
+if(GONIO_BUILD_PYTHON)
+  string(REPLACE "." ";" py_version "${GONIO_PYTHON_MAJOR_MINOR}")
+  list(GET py_version 0 py_major)
+  list(GET py_version 1 py_minor)
+  math(EXPR py_next "${py_minor} + 1")
+  set(CPACK_DEBIAN_PACKAGE_DEPENDS
+      "python3 (>= ${py_major}.${py_minor}), python3 (<< ${py_major}.${py_next}), python3-numpy")
+endif()
 # Maintainer scripts: prerm takes the Python bytecode away, postrm the opt-in udev rule's link.
 if(GONIO_BUILD_PYTHON)
   configure_file(${PROJECT_SOURCE_DIR}/packaging/debian/prerm.in ${PROJECT_BINARY_DIR}/packaging/prerm

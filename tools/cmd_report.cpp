@@ -5,6 +5,7 @@
 #include <memory>
 
 #include "command.h"
+#include "gonio/report/blender_render.h"
 #include "gonio/report/html_report.h"
 #include "option_checks.h"
 
@@ -15,6 +16,7 @@ struct Options {
     bool regenerate = false;
     int preview_size = 256;
     int preview_samples = 192;
+    bool blender = false;
 };
 
 }  // namespace
@@ -35,8 +37,19 @@ GONIO_COMMAND(report) {
     cmd->add_option("--preview-samples", opts->preview_samples, "environment directions per pixel")
         ->capture_default_str()
         ->check(CLI::Range(6, 65536));
+    cmd->add_flag("--blender",
+                  opts->blender,
+                  "also render the fit in Blender (gonio export --to blender) beside the preview, "
+                  "with the measured difference; needs blender installed");
     return [opts]() -> int {
+        if (opts->blender && gonio::report::find_blender().empty()) {
+            std::fprintf(stderr,
+                         "gonio report: --blender: blender is not installed (apt-get install "
+                         "blender)\n");
+            return 2;
+        }
         gonio::report::ReportOptions ro;
+        ro.blender = opts->blender;
         ro.regenerate = opts->regenerate;
         ro.preview.size_px = opts->preview_size;
         ro.preview.env_samples = opts->preview_samples;

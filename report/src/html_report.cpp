@@ -19,6 +19,7 @@
 #include "gonio/brdf/samples_io.h"
 #include "gonio/fitting/report.h"
 #include "gonio/fitting/spec.h"
+#include "gonio/report/blender_report.h"
 #include "gonio/report/image.h"
 #include "gonio/version.h"
 
@@ -581,32 +582,37 @@ void read_fit(ReportInputs& in, std::vector<std::string>& notes) {
     }
 }
 
-/// Plots (when there is a dataset) and the sphere preview (when there is a fit) that are missing,
-/// or all of them with `regenerate`.
-void draw_missing_pictures(const ReportInputs& in,
-                           const ReportOptions& options,
-                           ReportResult& result) {
-    std::vector<std::string>& notes = result.notes;
-    std::error_code ec;
-    if (in.data && !in.data->samples.empty() &&
-        (options.regenerate || pngs_in(in.plots_dir).empty())) {
-        auto set = write_plots(*in.data, in.fit.get(), options.plot, in.plots_dir.string());
-        if (!set) {
-            notes.push_back("plots: " + set.error().message);
-        } else {
-            for (const WrittenPlot& w : set->written) {
-                result.generated.push_back(w.path);
-            }
-            for (const std::string& s : set->skipped) {
-                notes.push_back("plot skipped: " + s);
-            }
-        }
+/// The plots of the dataset, when missing (or all of them with `regenerate`).
+void draw_missing_plots(const ReportInputs& in,
+                        const ReportOptions& options,
+                        ReportResult& result) {
+    if (!in.data || in.data->samples.empty() ||
+        !(options.regenerate || pngs_in(in.plots_dir).empty())) {
+        return;
     }
+    auto set = write_plots(*in.data, in.fit.get(), options.plot, in.plots_dir.string());
+    if (!set) {
+        result.notes.push_back("plots: " + set.error().message);
+        return;
+    }
+    for (const WrittenPlot& w : set->written) {
+        result.generated.push_back(w.path);
+    }
+    for (const std::string& s : set->skipped) {
+        result.notes.push_back("plot skipped: " + s);
+    }
+}
+
+/// The sphere preview of the fit, when missing (or with `regenerate`): measurement against fit
+/// when the measurement is a table, else the fit alone.
+void draw_missing_preview(const ReportInputs& in,
+                          const ReportOptions& options,
+                          ReportResult& result) {
     if (!in.fit || !(options.regenerate || pngs_in(in.previews_dir).empty())) {
         return;
     }
+    std::error_code ec;
     fs::create_directories(in.previews_dir, ec);
-    // Measurement against fit when the measurement is a table, else the fit alone.
     const brdf::Brdf& fit = *in.fit;
     auto sheet = in.table != nullptr
                      ? preview_sheet(*in.table,
@@ -618,11 +624,27 @@ void draw_missing_pictures(const ReportInputs& in,
     const std::string p =
         (in.previews_dir / (in.table != nullptr ? "table-vs-fit.png" : "fit.png")).string();
     if (!sheet) {
-        notes.push_back("preview: " + sheet.error().message);
+        result.notes.push_back("preview: " + sheet.error().message);
     } else if (auto w = write_png(p, *sheet); !w) {
-        notes.push_back(w.error().message);
+        result.notes.push_back(w.error().message);
     } else {
         result.generated.push_back(p);
+    }
+}
+
+/// The pictures that are missing: plots (when there is a dataset), the sphere preview (when there
+/// is a fit), and with `blender` Blender's render of the exported fit.
+void draw_missing_pictures(const ReportInputs& in,
+                           const ReportOptions& options,
+                           ReportResult& result) {
+    draw_missing_plots(in, options, result);
+    draw_missing_preview(in, options, result);
+    if (options.blender) {
+        if (auto b = write_blender_preview(in.root.string(), options.preview.size_px); b) {
+            result.generated.push_back(*b);
+        } else {
+            result.notes.push_back(b.error().message);
+        }
     }
 }
 
@@ -821,9 +843,11 @@ std::size_t write_picture_files(std::ostream& h,
         if (img) {
             h << figure(*img,
                         "preview-" + p.stem().string(),
-                        "Sphere preview (previews/" + p.filename().string() +
-                            "): the BRDFs named on each row rendered on a sphere under a "
-                            "directional light and a sky/ground environment, one exposure.");
+                        p.stem() == "blender"
+                            ? blender_preview_caption(in.previews_dir.string())
+                            : "Sphere preview (previews/" + p.filename().string() +
+                                  "): the BRDFs named on each row rendered on a sphere under a "
+                                  "directional light and a sky/ground environment, one exposure.");
             ++figures;
         } else {
             notes.push_back(img.error().message);

@@ -41,6 +41,8 @@ depends=$(dpkg-deb -f "$deb" Depends)
 for lib in libgoogle-glog libcholmod libaravis libmodbus libusb libopencv-core libopenexr libcpp-httplib; do
   echo "$depends" | grep -q "$lib" || fail "the package's Depends lacks $lib: $depends"
 done
+[ "${GONIO_WITH_PYTHON:-ON}" != ON ] || case $depends in *"python3 (>= 3."*"python3-numpy"*) ;;
+  *) fail "the package's Depends lacks python3 or python3-numpy: $depends" ;; esac
 contents=$(dpkg-deb -c "$deb")
 if echo "$contents" | grep ' \./etc/'; then fail "the package installs into /etc (above)"; fi
 echo "$contents" | grep ' \./usr/bin/gonio-full$' >/dev/null || fail "the package lacks /usr/bin/gonio-full"
@@ -52,11 +54,14 @@ listing >"$work/before"
 [ ! -e /etc/udev/rules.d/70-gonio-usb3vision.rules ] || fail "the package installed the udev rule itself"
 mkdir -p "$work/run"
 check_installed /usr/bin "$work/run"
-[ "${GONIO_WITH_PYTHON:-ON}" != ON ] || (cd "$work" && env -u PYTHONPATH "${GONIO_PYTHON:-/usr/bin/python3}" -c '
+# As a user would: bytecode written beside the module (the package's prerm takes it away again).
+[ "${GONIO_WITH_PYTHON:-ON}" != ON ] || (cd "$work" && env -u PYTHONPATH -u PYTHONDONTWRITEBYTECODE "${GONIO_PYTHON:-/usr/bin/python3}" -c '
 import gonio
 assert gonio.__file__.startswith("/usr/"), gonio.__file__
 assert "red-plastic" in gonio.materials()
 ') || fail "import gonio from /usr"
+[ "${GONIO_WITH_PYTHON:-ON}" != ON ] || ls -d /usr/lib/python3*/dist-packages/gonio/__pycache__ >/dev/null ||
+  fail "the import wrote no bytecode"
 [ -f /usr/share/man/man1/gonio-fit.1 ] || fail "no man page gonio-fit(1)"
 
 # The opt-in device access, then revoked.
