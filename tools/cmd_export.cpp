@@ -206,6 +206,19 @@ GONIO_COMMAND(export) {
         for (const std::string& n : result->approximations) {
             std::fprintf(stderr, "gonio export: not exact: %s\n", n.c_str());
         }
+        // A misfit's verdict travels with the material (into the file) and is said here.
+        auto verdict = gonio::report::read_model_verdict(opts->input);
+        if (verdict && *verdict && (*verdict)->verdict != "represents") {
+            std::fprintf(stderr,
+                         "gonio export: warning: %s: the fit's verdict is \"%s\": the exported "
+                         "material reproduces that fit, not the measurement (the verdict is "
+                         "written into %s)\n",
+                         opts->input.c_str(),
+                         (*verdict)->headline.c_str(),
+                         out.empty() || out == "-" ? "the output" : out.c_str());
+            result->text =
+                gonio::report::with_verdict(result->text, **verdict, opts->to == "mitsuba");
+        }
         return write_text(out, result->text);
     };
 }

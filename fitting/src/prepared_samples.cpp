@@ -138,8 +138,11 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
                                   sp.field == Field::kScale || sp.field == Field::kF0);
     }
     // The fused packet passes (normal_equation_packets.h) take the log residual of isotropic GGX
-    // and Beckmann lobes with no or Smith shadowing, in the closed form.
-    packets_ = analytic_ && form_ == ResidualForm::kLog && !anisotropic_ && slots_ <= 16 &&
+    // and Beckmann lobes with no or Smith shadowing, in the closed form. They read each sample's
+    // lobe geometry, which a model without lobes (Lambert only) does not prepare: it takes the
+    // per-sample path.
+    packets_ = analytic_ && !base.lobes.empty() && form_ == ResidualForm::kLog && !anisotropic_ &&
+               slots_ <= 16 &&
                base.lobes.size() <= static_cast<std::size_t>(PacketModel::kMaxLobes);
     for (const brdf::Lobe<double>& l : base.lobes) {
         packets_ = packets_ &&
@@ -247,7 +250,8 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
                     case ResidualForm::kAbsolute:
                         break;
                     case ResidualForm::kRelative:
-                        s = 1 / (d + o.relative_floor);
+                        // (A value below zero within its noise: zero in the denominator.)
+                        s = 1 / (std::max(d, 0.0) + o.relative_floor);
                         break;
                     case ResidualForm::kLog:
                         g_d = std::log1p(d * ci);

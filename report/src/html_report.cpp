@@ -243,14 +243,15 @@ std::string rgb_text(const brdf::Rgbd& v) {
 /// suggestion.
 std::string verdict_block(const fitting::FitResult& rep) {
     std::ostringstream os;
-    const bool usable = rep.solver.usable;
-    const bool represents = rep.goodness.represents;
-    const bool ok = usable && represents;
-    os << "<div id=\"verdict\" class=\"verdict " << (ok ? "ok" : "bad")
-       << "\"><p><b>Verdict: " << (usable ? "fit usable" : "fit NOT USABLE") << "; "
-       << (represents ? "the model represents these data"
-                      : "the model does NOT represent these data")
-       << "</b>";
+    // The one headline of the fit (fitting/fit.h, Verdict), as `gonio fit` prints it.
+    const bool converged = rep.solver.converged;
+    const fitting::Verdict v = rep.goodness.verdict;
+    const char* cls = !converged || v == fitting::Verdict::kDoesNotRepresent ? "bad"
+                      : v == fitting::Verdict::kVisibleMisfit                ? "warn"
+                                                                             : "ok";
+    os << "<div id=\"verdict\" class=\"verdict " << cls << "\" data-verdict=\""
+       << (converged ? fitting::to_string(v) : "not-converged") << "\"><p><b>Verdict: "
+       << html_escape(converged ? rep.goodness.headline : "the fit did NOT converge") << "</b>";
     os << " (solver " << html_escape(rep.solver.termination.empty() ? "-" : rep.solver.termination)
        << ", " << rep.solver.iterations << " iterations, " << duration_text(rep.solver.wall_time_s)
        << ")</p>\n";
@@ -354,7 +355,7 @@ table.grid th{background:#eef}table.params{width:100%}
 figure{margin:1em 0;break-inside:avoid}img{max-width:100%;height:auto;border:1px solid #ddd}
 figcaption{font-size:.9em;color:#444}.note{color:#a40}code{font-size:.95em;overflow-wrap:anywhere}
 .facts{margin:.2em 0 .6em}.verdict{border-left:6px solid #2a2;padding:.2em .8em;background:#f3fbf3}
-.verdict.bad{border-color:#c22;background:#fdf2f2}.warnings{margin:.2em 0;color:#a40}
+.verdict.bad{border-color:#c22;background:#fdf2f2}.verdict.warn{border-color:#d80;background:#fdf8ee}.warnings{margin:.2em 0;color:#a40}
 pre{white-space:pre-wrap;overflow-wrap:anywhere;font-size:.8em;background:#f7f7f7;padding:.5em}
 details{margin:.3em 0}summary{cursor:pointer}
 @media print{body{max-width:none;margin:0}details{display:block}details>pre{display:block}
