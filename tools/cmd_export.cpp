@@ -18,6 +18,7 @@
 #include "gonio/brdf/table.h"
 #include "gonio/report/blender_export.h"
 #include "gonio/report/export.h"
+#include "option_checks.h"
 
 namespace {
 
@@ -93,7 +94,8 @@ GONIO_COMMAND(export) {
     auto opts = std::make_shared<Options>();
     cmd->add_option(
            "input", opts->input, "model JSON (fit.json); for merl also a table or dataset CSV")
-        ->required();
+        ->required()
+        ->check(gonio::tools::readable_input());
     cmd->add_option("out_file", opts->out_positional, "output file (same as --out)");
     cmd->add_option("--to", opts->to, "mitsuba | pbrt | blender | merl")
         ->required()

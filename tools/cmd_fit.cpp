@@ -181,7 +181,8 @@ GONIO_COMMAND(fit) {
     auto o = std::make_shared<FitCliOptions>();
     cmd->add_option("data",
                     o->data,
-                    "samples: dataset CSV, table (MERL .binary, .gtab) or RGL material (.bsdf)");
+                    "samples: dataset CSV, table (MERL .binary, .gtab) or RGL material (.bsdf)")
+        ->check(gonio::tools::readable_input());
     cmd->add_option("--model",
                     o->model,
                     "lobe distribution: ggx, beckmann, blinn-phong, student-t, tabulated (D "
@@ -229,12 +230,14 @@ GONIO_COMMAND(fit) {
                   "exit 1 when the model does not represent the data (a misfit is otherwise "
                   "written, reported on stderr, and exits 0)");
     cmd->add_flag("--verbose", o->verbose, "print the request as run (every option, defaults too)");
-    cmd->add_option("--truth", o->truth, "ground-truth model JSON, copied into the report");
+    cmd->add_option("--truth", o->truth, "ground-truth model JSON, copied into the report")
+        ->check(gonio::tools::readable_input());
     cmd->add_option("--compare",
                     o->compare,
                     "comma-separated models to fit and rank, e.g. ggx,beckmann,blinn-phong");
     cmd->add_option("--manifest", o->manifest, "fit every entry of a manifest CSV into --out DIR")
-        ->excludes("data");
+        ->excludes("data")
+        ->check(gonio::tools::readable_input());
     cmd->add_option("--shard",
                     o->shard,
                     "with --manifest: only entries i with i mod N == K (--threads, if given, "

@@ -210,6 +210,10 @@ void parse_chunk(const char* p,
                                         "angles are radians, 90 deg = 1.5708)"
                                       : " (at or below the horizon)";
                     }
+                    if ((c == kPhiI || c == kPo) && std::abs(x) <= 360) {
+                        // An azimuth in (2 pi, 360] is most likely written in degrees.
+                        reason += " (it looks like degrees: angles are radians, 180 deg = 3.1416)";
+                    }
                 }
                 if (!reason.empty()) {
                     // The first problem of a row is its reason; the row's other fields are not

@@ -276,10 +276,17 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
     const std::vector<Sample>& valid =
         select_samples(data, o, ctx.threads, result.samples, valid_copy);
     if (valid.empty()) {
+        // The first sample's own reason, so that a whole input in degrees says so.
+        std::string first;
+        for (std::size_t i = 0; i < data.samples.size() && first.empty(); ++i) {
+            if (const std::string r = brdf::validate_sample(data.samples[i]); !r.empty()) {
+                first = "; sample " + std::to_string(i + 1) + ": " + r;
+            }
+        }
         return make_error(data.source + ": no valid sample to fit (" +
                           std::to_string(result.samples.rejected) + " rejected, " +
                           std::to_string(result.samples.reference) + " reference, " +
-                          std::to_string(result.samples.saturated) + " saturated)");
+                          std::to_string(result.samples.saturated) + " saturated)" + first);
     }
     const std::vector<Sample> reduced = o.max_samples > 0 && o.max_samples < valid.size()
                                             ? stratified_reduce(valid, o.max_samples, o.seed)

@@ -561,7 +561,7 @@ std::string format_summary(const FitResult& r) {
             o << buf;
         }
         if (!p.at_bound.empty()) {
-            o << "  AT " << p.at_bound << " BOUND";
+            o << "  (at its " << p.at_bound << " bound)";
         }
         o << "\n";
     }
