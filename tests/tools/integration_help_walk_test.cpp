@@ -80,59 +80,6 @@ TEST(HelpWalk, FitEveryOptionHonouredOrRefused) {
     const std::string w = dir() + "/fit-walk.json";
     const std::string f = "fit " + data + " --out " + w;
     const std::string report = dir() + "/fit-walk.report.json";
-<<<<<<< HEAD
-    prove("fit",
-          {
-              {"data", "fit --manifest m.csv " + data, "", "data"},
-              {"--model", f + " --compare ggx --model beckmann", ""},
-              {"--model", f, f + " --model beckmann", "", w},
-              {"--template", f + " --compare ggx --template t.json", ""},
-              {"--no-diffuse", f + " --model auto --no-diffuse", ""},
-              {"--no-diffuse", f, f + " --no-diffuse", "", w},
-              {"--fresnel", f + " --model auto --fresnel none", ""},
-              {"--fresnel", f, f + " --fresnel none", "", w},
-              {"--shadowing", f + " --model auto --shadowing v-groove", ""},
-              {"--shadowing", f, f + " --shadowing v-groove", "", w},
-              {"--anisotropic", f + " --model auto --anisotropic", ""},
-              {"--anisotropic", f, f + " --anisotropic", "", w},
-              {"--lobes", f + " --model auto --lobes 2", ""},
-              {"--lobes", f, f + " --lobes 2", "", w},
-              {"--roughness", f + " --model auto --roughness rgb", ""},
-              {"--roughness", f, f + " --roughness rgb", "", w},
-              {"--residual", f, f + " --residual relative", "", w},
-              {"--loss", f, f + " --loss huber", "", w},
-              {"--loss-scale", f + " --loss huber", f + " --loss huber --loss-scale 0.05", "", w},
-              {"--max-samples", f, f + " --max-samples 100", "", w},
-              // Fewer starts may end in the same optimum: the report says how many were scored.
-              {"--starts", f, f + " --starts 2", "", report},
-              // The seed draws the reduction's samples.
-              {"--seed", f + " --max-samples 300", f + " --max-samples 300 --seed 9", "", w},
-              // One iteration does not converge: exit status 1 and no model file.
-              {"--max-iterations", f, f + " --max-iterations 1", "", w, {}, "", nullptr, false, 1},
-              // The solver's passes give the same result on any number of threads (documented in
-              // docs/fitting-guide.md): the proof is that the results are equal.
-              {"--threads", f + " --threads 1", f + " --threads 2", "", w, {}, "", nullptr, true},
-              {"--out", f, "fit " + data + " --out " + dir() + "/elsewhere.json", "", w},
-              {"--truth", f, f + " --truth " + model_json(), "", report},
-              // The request as run, printed only when asked for.
-              {"--verbose", f, f + " --verbose"},
-              {"--compare", "fit --manifest m.csv --out o --compare ggx", ""},
-              {"--manifest", "fit --manifest m.csv --out o --model ggx", "", "--manifest"},
-              {"--shard", f + " --shard 0/2", ""},
-              // A misfit (one lobe without its diffuse part on data that has one) exits 1 only
-              // with --strict.
-              {"--strict",
-               f + " --no-diffuse",
-               f + " --no-diffuse --strict",
-               "",
-               w,
-               {},
-               "",
-               nullptr,
-               false,
-               1},
-          });
-=======
     // A manifest that exists (one that does not is refused before any work, naming only itself).
     const std::string manifest = dir() + "/m.csv";
     std::ofstream(manifest) << "not a manifest\n";
@@ -170,6 +117,8 @@ TEST(HelpWalk, FitEveryOptionHonouredOrRefused) {
             {"--threads", f + " --threads 1", f + " --threads 2", "", w, {}, "", nullptr, true},
             {"--out", f, "fit " + data + " --out " + dir() + "/elsewhere.json", "", w},
             {"--truth", f, f + " --truth " + model_json(), "", report},
+            // The request as run, printed only when asked for.
+            {"--verbose", f, f + " --verbose"},
             {"--compare", "fit --manifest " + manifest + " --out o --compare ggx", ""},
             {"--manifest", "fit --manifest " + manifest + " --out o --model ggx", "", "--manifest"},
             {"--shard", f + " --shard 0/2", ""},
@@ -186,7 +135,6 @@ TEST(HelpWalk, FitEveryOptionHonouredOrRefused) {
              false,
              1},
         });
->>>>>>> main
 }
 
 TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
