@@ -10,13 +10,24 @@ function(gonio_add_module name)
     list(APPEND patterns ${CMAKE_CURRENT_SOURCE_DIR}/src/${room}/*.cpp)
   endforeach()
   file(GLOB sources CONFIGURE_DEPENDS ${patterns})
+  # Installed and exported as gonio::<name> (cmake/GonioInstall.cmake): the include folders of the
+  # build are for the build only; an installed consumer gets the installed include folder, and the
+  # package configuration finds the system include folders (PUBLIC_INCLUDES) again.
+  set(own_includes $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
+                   $<BUILD_INTERFACE:${PROJECT_BINARY_DIR}/generated>
+                   $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
+  set(public_includes)
+  foreach(dir ${ARG_PUBLIC_INCLUDES})
+    list(APPEND public_includes $<BUILD_INTERFACE:${dir}>)
+  endforeach()
+  set_property(GLOBAL APPEND PROPERTY GONIO_MODULES gonio_${name})
   if(NOT sources)
     # Header-only so far.
     add_library(gonio_${name} INTERFACE)
     add_library(gonio::${name} ALIAS gonio_${name})
-    target_include_directories(gonio_${name} SYSTEM INTERFACE ${ARG_PUBLIC_INCLUDES})
-    target_include_directories(gonio_${name} INTERFACE ${CMAKE_CURRENT_SOURCE_DIR}/include
-                                                       ${PROJECT_BINARY_DIR}/generated)
+    set_target_properties(gonio_${name} PROPERTIES EXPORT_NAME ${name})
+    target_include_directories(gonio_${name} SYSTEM INTERFACE ${public_includes})
+    target_include_directories(gonio_${name} INTERFACE ${own_includes})
     target_link_libraries(gonio_${name} INTERFACE ${ARG_PUBLIC_DEPS})
     return()
   endif()
@@ -25,12 +36,12 @@ function(gonio_add_module name)
   if(name IN_LIST gonio_optimised_when_instrumented)
     target_compile_options(gonio_${name} PRIVATE $<$<CONFIG:Instrumented>:-O2>)
   endif()
-  target_include_directories(gonio_${name} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include
-                                                  ${PROJECT_BINARY_DIR}/generated)
-  target_include_directories(gonio_${name} SYSTEM PUBLIC ${ARG_PUBLIC_INCLUDES})
+  target_include_directories(gonio_${name} PUBLIC ${own_includes})
+  target_include_directories(gonio_${name} SYSTEM PUBLIC ${public_includes})
   target_include_directories(gonio_${name} SYSTEM PRIVATE ${ARG_PRIVATE_INCLUDES})
-  target_link_libraries(gonio_${name} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE gonio_warnings ${ARG_PRIVATE_DEPS})
-  set_target_properties(gonio_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+  target_link_libraries(gonio_${name} PUBLIC ${ARG_PUBLIC_DEPS}
+                        PRIVATE $<BUILD_INTERFACE:gonio_warnings> ${ARG_PRIVATE_DEPS})
+  set_target_properties(gonio_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON EXPORT_NAME ${name})
 endfunction()
 
 # gonio_add_tests(<module> DEPS ... [CAMERA_STREAMS <label>...] [OFF_STREAM <gtest pattern>...])

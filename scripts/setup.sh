@@ -14,7 +14,7 @@ packages=(cmake make g++ pkg-config git
   libaravis-dev aravis-tools-cli aravis-tools
   pybind11-dev python3-dev python3-numpy python3-pytest python3-scipy
   python3-distributed python3-dask python3-pymodbus python3-serial python3-serial-asyncio
-  libxsimd-dev libcpp-httplib-dev chromium ccache
+  libxsimd-dev libcpp-httplib-dev chromium ccache blender
   clang-14 libclang-rt-14-dev)
 missing=()
 for p in "${packages[@]}"; do

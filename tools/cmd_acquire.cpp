@@ -16,10 +16,12 @@
 #include <string>
 #include <utility>
 
+#include "acquire_fit_check.h"
 #include "acquire_image_mode.h"
 #include "command.h"
 #include "embedded_rig.h"
 #include "gonio/acquisition/point/campaign.h"
+#include "gonio/acquisition/point/progress.h"
 #include "gonio/acquisition/shared/campaign_request.h"
 #include "gonio/report/live_server.h"
 #include "option_checks.h"
@@ -149,6 +151,11 @@ int run(const acq::CampaignRequest& r) {
     if (auto c = acq::find_rig_conflict(r)) {
         return gonio::tools::usage_error("acquire", flag_of(c->option) + " " + c->rule);
     }
+    if (!r.until.empty()) {
+        if (auto rule = acq::parse_stop_rule(r.until); !rule) {
+            return gonio::tools::usage_error("acquire", "--until: " + rule.error().message);
+        }
+    }
     std::optional<std::pair<std::string, int>> serve_at;
     if (!r.serve.empty()) {
         auto a = gonio::report::parse_listen_address(r.serve);
@@ -176,6 +183,7 @@ int run(const acq::CampaignRequest& r) {
     hooks.stop = &g_stop;
     hooks.out = stdout;
     hooks.accept_drift = r.accept_drift;
+    hooks.fit_check = gonio::tools::default_fit_check();
     hooks.mount = [](bool white) -> gonio::Expected<void> {
         std::printf(
             "%s, then press Enter: ",
@@ -235,9 +243,18 @@ int run(const acq::CampaignRequest& r) {
     if (!res) {
         return fail(res.error().message);
     }
-    std::printf("%s\ndataset: %s\n",
-                res->message.c_str(),
-                (fs::path(dir) / "dataset.csv").string().c_str());
+    std::printf(
+        "%s\ndataset: %s\nrig time: %s (motion %.1f s, settle %.1f s, exposure %.1f s, "
+        "readout %.1f s; the campaign so far %s); stopped: %s\n",
+        res->message.c_str(),
+        (fs::path(dir) / "dataset.csv").string().c_str(),
+        acq::format_duration(res->rig_time.total_s()).c_str(),
+        res->rig_time.motion_s,
+        res->rig_time.settle_s,
+        res->rig_time.exposure_s,
+        res->rig_time.readout_s,
+        acq::format_duration(res->campaign_rig_time_s).c_str(),
+        res->stopped.c_str());
     switch (res->outcome) {
         case acq::Outcome::kCompleted:
             return 0;
@@ -347,6 +364,11 @@ GONIO_COMMAND(acquire) {
         "--plan-only",
         r.plan_only,
         "print the plan (and unreachable targets; image mode: the predicted coverage) and exit");
+    cmd->add_option("--until",
+                    r.until,
+                    "point mode: fit between batches and stop when every fitted parameter's "
+                    "relative sigma <= TARGET and the held-out values are predicted within the "
+                    "noise (sigma=0.01[,holdout=2][,every=N]; kept by --resume)");
     cmd->add_option("--serve",
                     r.serve,
                     "serve a live page of the campaign at [ADDR:]PORT (ADDR default 127.0.0.1, "

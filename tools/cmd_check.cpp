@@ -156,7 +156,7 @@ int run_check(CheckCliOptions opts) {
 GONIO_COMMAND(check) {
     auto* cmd = app.add_subcommand(
         "check",
-        "Check a BRDF (model, table or measured dataset) for non-negativity, reciprocity, "
+        "check a BRDF (model, table or measured dataset) for non-negativity, reciprocity, "
         "isotropy and energy conservation");
     auto opts = std::make_shared<CheckCliOptions>();
     cmd->add_option("brdf", opts->brdf_path, "Model JSON, tabulated BRDF or dataset CSV")

@@ -257,7 +257,7 @@ int to_csv(const ConvertOptions& o, const gonio::brdf::TableGrid& grid) {
 GONIO_COMMAND(convert) {
     auto* cmd = app.add_subcommand(
         "convert",
-        "Convert between models (*.json), tables (MERL *.binary/*.merl, *.gtab), RGL materials "
+        "convert between models (*.json), tables (MERL *.binary/*.merl, *.gtab), RGL materials "
         "(*.bsdf) and sample CSVs");
     auto opts = std::make_shared<ConvertOptions>();
     cmd->add_option("input", opts->input, "model JSON, table or sample CSV")->required();

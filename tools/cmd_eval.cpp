@@ -288,7 +288,7 @@ int run_eval(const EvalOptions& opts) {
 
 GONIO_COMMAND(eval) {
     auto* cmd = app.add_subcommand(
-        "eval", "Evaluate a BRDF (model JSON or table) at directions read as CSV");
+        "eval", "evaluate a BRDF (model JSON or table) at directions read as CSV");
     auto opts = std::make_shared<EvalOptions>();
     cmd->add_option(
            "brdf", opts->brdf_path, "Model JSON (docs/model-schema.md) or tabulated BRDF file")

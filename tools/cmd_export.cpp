@@ -1,6 +1,7 @@
-// gonio export: a fitted model (or data) for renderers: Mitsuba 3, pbrt-v4, MERL binary.
+// gonio export: a fitted model (or data) for renderers: Mitsuba 3, pbrt-v4, Blender, MERL binary.
 
 #include <CLI/CLI.hpp>
+#include <cctype>
 #include <cstdio>
 #include <fstream>
 #include <memory>
@@ -15,6 +16,7 @@
 #include "gonio/brdf/resample.h"
 #include "gonio/brdf/samples_io.h"
 #include "gonio/brdf/table.h"
+#include "gonio/report/blender_export.h"
 #include "gonio/report/export.h"
 
 namespace {
@@ -27,6 +29,8 @@ struct Options {
     std::string out;
     std::string out_positional;
     std::string name = "gonio_fit";
+    bool name_given = false;
+    bool approximate = false;
 };
 
 int write_text(const std::string& path, const std::string& text) {
@@ -42,23 +46,78 @@ int write_text(const std::string& path, const std::string& text) {
     return 0;
 }
 
+/// The material name by default for Blender: the input's file name without its folder and its
+/// last extension, other characters than letters, digits, '_', '-', '.' replaced by '_'.
+std::string name_from_input(const std::string& input) {
+    std::string stem = input.substr(input.find_last_of('/') + 1);
+    if (const std::size_t dot = stem.rfind('.'); dot != std::string::npos && dot > 0) {
+        stem.resize(dot);
+    }
+    for (char& c : stem) {
+        const unsigned char u = static_cast<unsigned char>(c);
+        if (!(std::isalnum(u) || c == '_' || c == '-' || c == '.')) {
+            c = '_';
+        }
+    }
+    return stem.empty() ? std::string("gonio_fit") : stem.substr(0, 128);
+}
+
+/// --to blender: exit 2 for a term Blender cannot represent (or a name not allowed).
+int export_blender(const Options& o, const std::string& out) {
+    auto model = gonio::brdf::load_model_json(o.input);
+    if (!model) {
+        std::fprintf(stderr, "gonio export: %s\n", model.error().message.c_str());
+        return 1;
+    }
+    gonio::report::BlenderExportOptions bo;
+    bo.name = o.name_given ? o.name : name_from_input(o.input);
+    bo.approximate = o.approximate;
+    auto result = gonio::report::export_blender(*model, bo);
+    if (!result) {
+        std::fprintf(
+            stderr, "gonio export: %s: %s\n", o.input.c_str(), result.error().message.c_str());
+        return result.error().refused ? 2 : 1;
+    }
+    for (const std::string& n : result->approximations) {
+        std::fprintf(stderr, "gonio export: approximated: %s\n", n.c_str());
+    }
+    return write_text(out, result->text);
+}
+
 }  // namespace
 
 GONIO_COMMAND(export) {
     auto* cmd = app.add_subcommand(
-        "export", "Write a fitted model as a Mitsuba 3 or pbrt-v4 material, or a MERL table");
+        "export",
+        "write a fitted model as a Mitsuba 3, pbrt-v4 or Blender material, or a MERL table");
     auto opts = std::make_shared<Options>();
     cmd->add_option(
            "input", opts->input, "model JSON (fit.json); for merl also a table or dataset CSV")
         ->required();
     cmd->add_option("out_file", opts->out_positional, "output file (same as --out)");
-    cmd->add_option("--to", opts->to, "mitsuba | pbrt | merl")
+    cmd->add_option("--to", opts->to, "mitsuba | pbrt | blender | merl")
         ->required()
-        ->check(CLI::IsMember({"mitsuba", "pbrt", "merl"}));
-    cmd->add_option("--out", opts->out, "output file (mitsuba, pbrt: standard output when absent)");
-    cmd->add_option("--name", opts->name, "material id / name in the renderer file")
-        ->capture_default_str();
-    return [opts]() -> int {
+        ->check(CLI::IsMember({"mitsuba", "pbrt", "blender", "merl"}));
+    cmd->add_option(
+        "--out", opts->out, "output file (mitsuba, pbrt, blender: standard output when absent)");
+    auto* name = cmd->add_option("--name",
+                                 opts->name,
+                                 "material id / name in the renderer file (blender: the input's "
+                                 "file name without extension)")
+                     ->capture_default_str();
+    cmd->add_flag("--approximate",
+                  opts->approximate,
+                  "blender: write the terms Blender can only approximate (Blinn-Phong, conductor "
+                  "Fresnel, ...), printing the measured difference; without it they are refused");
+    return [opts, name]() -> int {
+        opts->name_given = name->count() > 0;
+        if (opts->approximate && opts->to != "blender") {
+            std::fprintf(stderr,
+                         "gonio export: --approximate applies to --to blender only (--to %s "
+                         "states its approximations in the file)\n",
+                         opts->to.c_str());
+            return 2;
+        }
         if (!opts->out.empty() && !opts->out_positional.empty() &&
             opts->out != opts->out_positional) {
             std::fprintf(stderr,
@@ -124,6 +183,9 @@ GONIO_COMMAND(export) {
             }
             std::printf("%s\n", out.c_str());
             return 0;
+        }
+        if (opts->to == "blender") {
+            return export_blender(*opts, out);
         }
         auto model = gonio::brdf::load_model_json(opts->input);
         if (!model) {

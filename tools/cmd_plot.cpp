@@ -25,9 +25,9 @@ struct Options {
 }  // namespace
 
 GONIO_COMMAND(plot) {
-    auto* cmd = app.add_subcommand(
-        "plot",
-        "Polar in-plane slices, delta_phi slices and (with --fit) residual maps, as PNG files");
+    auto* cmd = app.add_subcommand("plot",
+                                   "draw polar in-plane slices, delta_phi slices and (with --fit) "
+                                   "residual maps, as PNG files");
     auto opts = std::make_shared<Options>();
     cmd->add_option("data",
                     opts->data,

@@ -50,7 +50,7 @@ bool has_data(const gonio::brdf::Brdf& brdf, const std::string& path) {
 
 GONIO_COMMAND(preview) {
     auto* cmd = app.add_subcommand(
-        "preview", "Render a sphere under a directional light and a sky/ground environment (PNG)");
+        "preview", "render a sphere under a directional light and a sky/ground environment (PNG)");
     auto opts = std::make_shared<Options>();
     cmd->add_option(
            "brdf",

@@ -5,6 +5,7 @@
 #include <memory>
 
 #include "command.h"
+#include "gonio/report/blender_render.h"
 #include "gonio/report/html_report.h"
 
 namespace {
@@ -14,6 +15,7 @@ struct Options {
     bool regenerate = false;
     int preview_size = 256;
     int preview_samples = 192;
+    bool blender = false;
 };
 
 }  // namespace
@@ -21,7 +23,7 @@ struct Options {
 GONIO_COMMAND(report) {
     auto* cmd = app.add_subcommand(
         "report",
-        "Write DIR/report.html for a point or image-mode campaign folder: the result (verdict, "
+        "write DIR/report.html for a point or image-mode campaign folder: the result (verdict, "
         "model, parameters), pictures, coverage, calibration, run history, raw descriptions");
     auto opts = std::make_shared<Options>();
     cmd->add_option("dir", opts->dir, "campaign folder")->required();
@@ -32,8 +34,19 @@ GONIO_COMMAND(report) {
     cmd->add_option("--preview-samples", opts->preview_samples, "environment directions per pixel")
         ->capture_default_str()
         ->check(CLI::Range(6, 65536));
+    cmd->add_flag("--blender",
+                  opts->blender,
+                  "also render the fit in Blender (gonio export --to blender) beside the preview, "
+                  "with the measured difference; needs blender installed");
     return [opts]() -> int {
+        if (opts->blender && gonio::report::find_blender().empty()) {
+            std::fprintf(stderr,
+                         "gonio report: --blender: blender is not installed (apt-get install "
+                         "blender)\n");
+            return 2;
+        }
         gonio::report::ReportOptions ro;
+        ro.blender = opts->blender;
         ro.regenerate = opts->regenerate;
         ro.preview.size_px = opts->preview_size;
         ro.preview.env_samples = opts->preview_samples;

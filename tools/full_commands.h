@@ -5,7 +5,8 @@
 // the BRDF, fitting and batch modules, so that fit, eval, convert and check start without loading
 // those libraries, and runs gonio-full (execv, same arguments, same process) when one of these
 // commands is asked for. The descriptions are the ones gonio-full gives its subcommands (a test
-// compares both --help listings).
+// compares both --help listings). Every summary in one style: lower case, a verb first, no full
+// stop.
 
 namespace gonio::tools {
 
@@ -23,12 +24,12 @@ inline constexpr FullCommand kFullCommands[] = {
     {"devices",
      "list GenICam cameras (through Aravis), USB3 Vision cameras and USB-serial adapters, with "
      "permission problems"},
-    {"export", "Write a fitted model as a Mitsuba 3 or pbrt-v4 material, or a MERL table"},
+    {"export", "write a fitted model as a Mitsuba 3 or pbrt-v4 material, or a MERL table"},
     {"plot",
-     "Polar in-plane slices, delta_phi slices and (with --fit) residual maps, as PNG files"},
-    {"preview", "Render a sphere under a directional light and a sky/ground environment (PNG)"},
+     "draw polar in-plane slices, delta_phi slices and (with --fit) residual maps, as PNG files"},
+    {"preview", "render a sphere under a directional light and a sky/ground environment (PNG)"},
     {"report",
-     "Write DIR/report.html for a point or image-mode campaign folder: the result (verdict, model, "
+     "write DIR/report.html for a point or image-mode campaign folder: the result (verdict, model, "
      "parameters), pictures, coverage, calibration, run history, raw descriptions"},
     {"sim", "serve the virtual rig (motor controllers and camera) until Ctrl-C"},
 };

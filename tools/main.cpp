@@ -15,7 +15,9 @@
 #include <cstring>
 #include <map>
 #include <string>
+#include <vector>
 
+#include "build_info.h"
 #include "command.h"
 #include "gonio/base/edit_distance.h"
 #include "gonio/base/huge_pages.h"
@@ -29,6 +31,7 @@
 #include <cerrno>
 
 #include "full_commands.h"
+#include "install_layout.h"
 #endif
 
 namespace gonio::tools {
@@ -46,23 +49,50 @@ constexpr int kExitFailure = 1;
 constexpr int kExitUsage = 2;
 
 #if defined(GONIO_LAUNCHER)
-/// Replaces this process by gonio-full (in the folder of this executable) with the same
-/// arguments; returns only on failure, with the exit status to use.
-int run_full(char** argv) {
+/// The folder of this executable, or empty.
+std::string own_dir() {
     char self[4096];
     const ssize_t len = readlink("/proc/self/exe", self, sizeof self - 1);
-    std::string path = "gonio-full";
-    if (len > 0) {
-        self[len] = '\0';
-        std::string dir(self);
-        dir.erase(dir.find_last_of('/') + 1);
-        path = dir + path;
+    if (len <= 0) {
+        return {};
     }
-    execv(path.c_str(), argv);
+    self[len] = '\0';
+    std::string dir(self);
+    dir.erase(dir.find_last_of('/'));
+    return dir;
+}
+
+/// Replaces this process by gonio-full with the same arguments: the one beside this executable,
+/// else the install's (libexec/gonio, then bin, relative to this executable's folder). Returns
+/// only on failure, with the exit status to use.
+int run_full(char** argv) {
+    const std::string dir = own_dir();
+    std::vector<std::string> tried;
+    if (dir.empty()) {
+        tried.push_back("gonio-full");
+    } else {
+        tried.push_back(dir + "/gonio-full");
+        for (const char* relative : gonio::kInstalledFullDirs) {
+            tried.push_back(dir + "/" + relative + "/gonio-full");
+        }
+    }
+    std::string list;
+    for (const std::string& path : tried) {
+        if (access(path.c_str(), X_OK) == 0) {
+            execv(path.c_str(), argv);
+            std::fprintf(stderr,
+                         "gonio: cannot run %s (it serves the device, camera and image commands): "
+                         "%s\n",
+                         path.c_str(),
+                         std::strerror(errno));
+            return kExitFailure;
+        }
+        list += (list.empty() ? "" : ", ") + path;
+    }
     std::fprintf(stderr,
-                 "gonio: cannot run %s (it serves the device, camera and image commands): %s\n",
-                 path.c_str(),
-                 std::strerror(errno));
+                 "gonio: gonio-full (it serves the device, camera and image commands) not found "
+                 "(tried %s)\n",
+                 list.c_str());
     return kExitFailure;
 }
 
@@ -84,7 +114,8 @@ int main(int argc, char** argv) {
     // command allocates and frees the same large buffers many times over, and ends soon anyway.
     gonio::keep_heap_for_batch_work();
     CLI::App app{"gonio: gonioreflectometer control, BRDF acquisition and model fitting", "gonio"};
-    app.set_version_flag("--version", std::string("gonio ") + GONIO_VERSION_STRING);
+    app.set_version_flag(
+        "--version", std::string("gonio ") + GONIO_VERSION_STRING + " (" + GONIO_COMMIT_TEXT + ")");
     app.require_subcommand(1);
     // Options of gonio itself may also follow the command (gonio convert ... --max-memory 8G).
     app.fallthrough();

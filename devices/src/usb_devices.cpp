@@ -77,10 +77,12 @@ std::string usb_serial_chip(std::uint16_t vendor_id, std::uint16_t product_id) {
 }
 
 std::string udev_rule_hint(std::uint16_t vendor_id) {
-    char buf[256];
+    char buf[512];
     std::snprintf(buf,
                   sizeof buf,
-                  "permission denied: add a udev rule such as "
+                  "permission denied: run `sudo share/gonio/gonio-device-access grant USER` of the "
+                  "install (USB3 Vision cameras and the groups plugdev and dialout; "
+                  "docs/install.md), or for another device add a udev rule such as "
                   "SUBSYSTEM==\"usb\", ATTR{idVendor}==\"%04x\", MODE=\"0660\", GROUP=\"plugdev\" "
                   "to /etc/udev/rules.d/99-gonio.rules, run `udevadm control --reload` and "
                   "replug (and be in the plugdev group)",

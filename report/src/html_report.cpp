@@ -18,6 +18,7 @@
 #include "gonio/brdf/model_json.h"
 #include "gonio/fitting/report.h"
 #include "gonio/fitting/spec.h"
+#include "gonio/report/blender_report.h"
 #include "gonio/report/image.h"
 #include "gonio/version.h"
 
@@ -563,6 +564,13 @@ Expected<ReportResult> build_report(const std::string& dir, const ReportOptions&
             result.generated.push_back(p);
         }
     }
+    if (options.blender) {
+        if (auto b = write_blender_preview(root.string(), options.preview.size_px); b) {
+            result.generated.push_back(*b);
+        } else {
+            notes.push_back(b.error().message);
+        }
+    }
 
     // What was measured and when.
     const json& meta = *metadata;
@@ -712,9 +720,11 @@ Expected<ReportResult> build_report(const std::string& dir, const ReportOptions&
         if (img) {
             h << figure(*img,
                         "preview-" + p.stem().string(),
-                        "Sphere preview (previews/" + p.filename().string() +
-                            "): the BRDFs named on each row rendered on a sphere under a "
-                            "directional light and a sky/ground environment, one exposure.");
+                        p.stem() == "blender"
+                            ? blender_preview_caption(previews_dir.string())
+                            : "Sphere preview (previews/" + p.filename().string() +
+                                  "): the BRDFs named on each row rendered on a sphere under a "
+                                  "directional light and a sky/ground environment, one exposure.");
             ++figures;
         } else {
             notes.push_back(img.error().message);

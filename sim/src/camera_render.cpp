@@ -142,8 +142,10 @@ cv::Mat render_scene(const brdf::Brdf& f,
                                roi);
     }
     // Point mode: one geometry for the whole patch, one BRDF evaluation.
-    const float L = static_cast<float>(patch_radiance(
-        f, scene.wi.normalized(), scene.wo.normalized(), scene.irradiance_w_m2, scene.filter));
+    const float L = static_cast<float>(
+        patch_radiance(
+            f, scene.wi.normalized(), scene.wo.normalized(), scene.irradiance_w_m2, scene.filter) +
+        scene.stray_radiance_w_m2_sr);
     cv::Mat out(roi.height, roi.width, CV_32F);
     const double r = 0.25 * std::min(sensor_width, sensor_height);
     const double cx = 0.5 * sensor_width;

@@ -93,6 +93,7 @@ struct GigeCamera::State {
     std::deque<PendingFrame> triggers;
     std::uint16_t block_id = 0;
     std::uint64_t frames_rendered = 0;
+    double exposure_s_rendered = 0;
 
     bool trigger_on() const { return (trigger_control & 1u) != 0; }
     bool tl_locked() const { return (acquisition_control & 1u) != 0; }
@@ -721,6 +722,7 @@ std::optional<RenderedFrame> GigeCamera::next_frame(Clock::time_point now,
         s.block_id = static_cast<std::uint16_t>(s.block_id == 0xFFFF ? 1 : s.block_id + 1);
         f.block_id = s.block_id;
         ++s.frames_rendered;
+        s.exposure_s_rendered += p.settings.exposure_us * 1e-6;
         brdf = brdf_;
         renderer = renderer_;
     }
@@ -830,6 +832,11 @@ void GigeCamera::set_stream_source_port(std::uint16_t port) {
 std::uint64_t GigeCamera::frames_rendered() const {
     std::lock_guard<std::mutex> lock(mutex_);
     return state_->frames_rendered;
+}
+
+double GigeCamera::exposure_s_rendered() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return state_->exposure_s_rendered;
 }
 
 ExposureSettings GigeCamera::exposure_settings() const {

@@ -57,6 +57,9 @@ SceneState RigWorld::scene() const {
     s.spin_rad = p.spin;
     s.shutter_open = units_.shutter > 0 ? server_->shutter_open(units_.shutter) : true;
     s.irradiance_w_m2 = irradiance_ * lamp_factor_.load();
+    if (instrument_) {
+        apply_instrument(p, n, &s);
+    }
     for (int c = 0; c < 3; ++c) {
         if (units_.filters[c] > 0 && server_->shutter_open(units_.filters[c])) {
             s.filter = brdf::Rgbd::Zero();
@@ -84,6 +87,42 @@ SceneState RigWorld::scene() const {
         s.shutter_open = false;
     }
     return s;
+}
+
+void RigWorld::set_instrument(std::shared_ptr<const InstrumentErrors> instrument,
+                              std::function<double()> clock_s) {
+    instrument_ = std::move(instrument);
+    clock_s_ = std::move(clock_s);
+}
+
+std::array<std::uint64_t, 2> RigWorld::arm_moves(double light_rad, double detector_rad) const {
+    std::lock_guard<std::mutex> lock(moves_mutex_);
+    const double now[2] = {light_rad, detector_rad};
+    for (int k = 0; k < 2; ++k) {
+        // Any change of the encoder reading since the last exposure is a move (the first
+        // exposure counts as one: the arm arrived there somehow).
+        if (!(now[k] == last_arm_rad_[k])) {
+            ++moves_[k];
+            last_arm_rad_[k] = now[k];
+        }
+    }
+    return moves_;
+}
+
+void RigWorld::apply_instrument(const brdf::RigPosed& p,
+                                std::uint64_t exposure,
+                                SceneState* s) const {
+    const InstrumentErrors& e = *instrument_;
+    const auto moves = arm_moves(p.light, p.detector);
+    const brdf::Vec3d l = e.arm_direction(Arm::kLight, p.light, moves[0]);
+    const brdf::Vec3d v = e.arm_direction(Arm::kDetector, p.detector, moves[1]);
+    s->wi = brdf::world_to_sample(l, p.tilt, p.spin);
+    s->wo = brdf::world_to_sample(v, p.tilt, p.spin);
+    s->light_arm_rad = e.arm_angle(Arm::kLight, p.light, moves[0]);
+    s->detector_arm_rad = e.arm_angle(Arm::kDetector, p.detector, moves[1]);
+    const double hours = clock_s_ ? clock_s_() / 3600.0 : 0.0;
+    s->irradiance_w_m2 *= e.lamp_factor(exposure, hours);
+    s->stray_radiance_w_m2_sr = e.stray_radiance(s->irradiance_w_m2);
 }
 
 SceneFn RigWorld::scene_fn() const {

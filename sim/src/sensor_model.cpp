@@ -470,7 +470,28 @@ cv::Mat SensorModel::expose(const cv::Mat& radiance, const ExposureSettings& s) 
             }
         }
     });
+    if (p_.nonlinearity != 0) {
+        apply_nonlinearity(ch.black, ch.sat, &out);
+    }
     return out;
+}
+
+void SensorModel::apply_nonlinearity(double black, double sat, cv::Mat* counts) const {
+    // x (1 + beta (x - 1/2)) on the signal above black in units of the full scale; the result
+    // rounds to a count and clips like the linear chain.
+    const double full = sat - black;
+    for (int y = 0; y < counts->rows; ++y) {
+        auto* row = counts->ptr<std::uint16_t>(y);
+        for (int x = 0; x < counts->cols; ++x) {
+            const double v = row[x] - black;
+            if (v <= 0 || row[x] >= sat) {
+                continue;  // black or clipped: nothing to bend
+            }
+            const double frac = v / full;
+            const double bent = black + v * (1 + p_.nonlinearity * (frac - 0.5));
+            row[x] = static_cast<std::uint16_t>(std::clamp(std::round(bent), 0.0, sat));
+        }
+    }
 }
 
 }  // namespace gonio::sim

@@ -1,7 +1,9 @@
 #include "gonio/sim/sim_rig.h"
 
+#include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -13,6 +15,7 @@
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/material_library.h"
+#include "gonio/brdf/rig_error_budget.h"
 #include "gonio/devices/axis_profile.h"
 
 namespace gonio::sim {
@@ -83,6 +86,15 @@ Expected<SimSection> read_sim_section(const json& rig) {
         }
         return s;
     });
+}
+
+/// The rig's simulated seconds since now: wall time times the time scale (the lamp drifts on it).
+std::function<double()> simulated_clock(double time_scale) {
+    const auto t0 = std::chrono::steady_clock::now();
+    return [t0, time_scale] {
+        return time_scale *
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    };
 }
 
 }  // namespace
@@ -255,7 +267,15 @@ Expected<std::unique_ptr<SimRig>> SimRig::start(const std::string& rig_json,
     // World and camera.
     rig->world_ = std::make_unique<RigWorld>(
         rig->motors_.get(), rig->units_, rig->mounted_, sim.irradiance_w_m2);
+    auto budget = brdf::read_error_budget(rig_json, "sim rig");
+    if (!budget) {
+        return make_error(budget.error().message);
+    }
+    rig->budget_ = *budget;
+    rig->world_->set_instrument(std::make_shared<InstrumentErrors>(*budget, seed),
+                                simulated_clock(time_scale));
     GigeCameraConfig gc;
+    gc.sensor.nonlinearity = budget->nonlinearity;
     gc.sensor.width = sim.sensor_width;
     gc.sensor.height = sim.sensor_height;
     gc.sensor.seed = seed;

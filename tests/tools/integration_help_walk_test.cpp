@@ -150,6 +150,10 @@ TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
               {"--vndf-phi-i", "acquire --mode image --vndf-phi-i 4", ""},
               {"--time-scale", r + " --time-scale 2", ""},
               {"--accept-drift", "acquire --mode image --accept-drift", ""},
+              {"--until", "acquire --mode image --until sigma=0.01", ""},
+              {"--until", "acquire --plan-only --until sigma=0.01", ""},
+              {"--until", r + " --until sigma=0.01", ""},
+              {"--until", "acquire --plan-only --plan vndf --until sigma=0.01", ""},
               {"--mode", "acquire --plan-only", "acquire --plan-only --mode image"},
               {"--coverage-target", "acquire --plan-only --coverage-target 0.3", ""},
               {"--coverage-target",
@@ -196,6 +200,7 @@ TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
 TEST(HelpWalk, ExportEvalCheckEveryOptionHonouredOrRefused) {
     const std::string m = model_json();
     const std::string m2 = other_model_json();
+    const std::string blinn_phong = std::string(GONIO_SOURCE_DIR) + "/data/models/blinn-phong.json";
     prove("export",
           {
               {"input", "export " + m + " --to mitsuba", "export " + m2 + " --to mitsuba"},
@@ -205,6 +210,10 @@ TEST(HelpWalk, ExportEvalCheckEveryOptionHonouredOrRefused) {
               {"--out",
                "export " + m + " --to pbrt",
                "export " + m + " --to pbrt --out " + dir() + "/x.pbrt"},
+              {"--approximate",
+               "export " + blinn_phong + " --to blender",
+               "export " + blinn_phong + " --to blender --approximate"},
+              {"--approximate", "export " + m + " --to mitsuba --approximate", ""},
           });
     const std::string in1 = dirs_csv("d1.csv", "0.3,0,0.4,3.1");
     const std::string in2 = dirs_csv("d2.csv", "0.5,0,0.2,3.1");
@@ -344,6 +353,7 @@ TEST(HelpWalk, PlotPreviewReportEveryOptionHonouredOrRefused) {
                "report " + camp + " --regenerate --preview-size 24 --preview-samples 48",
                "",
                camp + "/previews"},
+              {"--blender", r, r + " --blender"},
           });
 }
 

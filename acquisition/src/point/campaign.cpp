@@ -18,6 +18,7 @@
 #include "gonio/acquisition/point/capture_session.h"
 #include "gonio/acquisition/point/journal.h"
 #include "gonio/acquisition/point/progress.h"
+#include "gonio/acquisition/point/stated_uncertainty.h"
 #include "gonio/base/atomic_file.h"
 #include "gonio/base/limits.h"
 #include "gonio/base/strict_json.h"
@@ -175,6 +176,18 @@ Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::s
             d.finish();
         }
         s.schedule_budget_s = top.number("schedule_budget_s", s.schedule_budget_s, 0, 3600, "s");
+        s.until = top.string("until", s.until, 256);
+        if (!s.until.empty()) {
+            auto rule = parse_stop_rule(s.until);
+            if (!rule) {
+                json_fail(rule.error().message);
+            }
+            if (s.plan_kind == "vndf") {
+                json_fail(
+                    "until: the vndf plan writes its RGL file from every node (remove "
+                    "\"until\" or use another plan)");
+            }
+        }
         top.finish();
         if (s.plan_kind == "anisotropic" && s.adaptive && s.adaptive_passes > 0) {
             // The refinement links neighbours in the isotropic canonical space.
@@ -272,6 +285,9 @@ std::string campaign_spec_json(const CampaignSpec& s) {
                   {"theta_r_deg", s.drift_theta_r_deg},
                   {"delta_phi_deg", s.drift_delta_phi_deg}};
     j["schedule_budget_s"] = s.schedule_budget_s;
+    if (!s.until.empty()) {
+        j["until"] = s.until;
+    }
     return j.dump(2) + "\n";
 }
 
@@ -350,16 +366,26 @@ Expected<void> create_campaign_dir(const std::string& dir,
                              campaign_spec_json(stored));
 }
 
-Expected<std::size_t> write_campaign_dataset(const std::string& dir) {
+Expected<std::vector<brdf::Sample>> campaign_samples(const std::string& dir,
+                                                     bool references,
+                                                     double rig_hours) {
     auto jn = Journal::open((fs::path(dir) / "journal.log").string());
     if (!jn) {
         return tl::unexpected(jn.error());
     }
-    brdf::Dataset ds;
-    ds.source = dir;
-    ds.has_sigma = ds.has_weight = ds.has_flags = true;
+    auto rig = read_rig_config((fs::path(dir) / "rig.json").string());
+    if (!rig) {
+        return tl::unexpected(rig.error());
+    }
+    auto spec = read_campaign_spec((fs::path(dir) / "campaign.json").string());
+    if (!spec) {
+        return tl::unexpected(spec.error());
+    }
+    std::vector<brdf::Sample> samples;
     for (const JournalRecord& r : jn->records()) {
-        if (r.type != RecordType::kMeasurement && r.type != RecordType::kReference) {
+        const bool wanted =
+            r.type == RecordType::kMeasurement || (references && r.type == RecordType::kReference);
+        if (!wanted) {
             continue;
         }
         brdf::Sample s;
@@ -373,8 +399,21 @@ Expected<std::size_t> write_campaign_dataset(const std::string& dir) {
         s.sigma = r.sigma;
         s.weight = r.weight;
         s.flags = r.flags;
-        ds.samples.push_back(s);
+        samples.push_back(s);
     }
+    add_error_budget(rig->error_budget, rig_hours, spec->plan_kind != "anisotropic", &samples);
+    return samples;
+}
+
+Expected<std::size_t> write_campaign_dataset(const std::string& dir, double rig_hours) {
+    auto samples = campaign_samples(dir, true, rig_hours);
+    if (!samples) {
+        return tl::unexpected(samples.error());
+    }
+    brdf::Dataset ds;
+    ds.source = dir;
+    ds.has_sigma = ds.has_weight = ds.has_flags = true;
+    ds.samples = std::move(*samples);
     if (auto w = brdf::write_dataset_csv((fs::path(dir) / "dataset.csv").string(), ds); !w) {
         return tl::unexpected(w.error());
     }
@@ -520,7 +559,15 @@ class Runner {
     Expected<void> drift_check(bool baseline, std::string* pause);
     JournalRecord record_of(RecordType type, const Shot& s, const BrdfValue& v) const;
     Expected<void> write_metadata(const std::string& state, const Plan& plan);
+    /// This run's rig time, its stop reason and the stop rule's state into the metadata.
+    void record_run(json& meta, json& run, bool running);
     Expected<RunResult> finish(Outcome o, const std::string& msg, const Plan& plan);
+    /// This run's rig time so far: the clock's moves, the session's exposures and readouts.
+    RigTime rig_time() const;
+    /// Rig hours of the whole campaign so far (earlier runs and this one).
+    double campaign_rig_hours() const { return (prior_rig_time_s_ + rig_time().total_s()) / 3600; }
+    /// Fits the values so far against the stop rule; true when it holds.
+    Expected<bool> check_stop_rule(const Plan& plan);
 
     // The stages of run(), in order.
     /// The campaign's description, rig and plan from its folder; the journal opened and the run
@@ -548,6 +595,11 @@ class Runner {
                                                     const Plan& pp,
                                                     const Plan& plan,
                                                     std::string* pause);
+    /// After each measurement: the stop rule checked every check_every_ measurements; a value
+    /// when it holds or its check fails.
+    std::optional<Expected<RunResult>> after_measurement(const Plan& plan, Progress* progress);
+    /// Before the passes (a resume) or after them: the stop rule on what the journal holds.
+    std::optional<Expected<RunResult>> rule_on_journal(const Plan& plan);
     /// One configuration measured and journaled.
     Expected<JournalRecord> measure_config(int pass,
                                            const PlannedConfig& c,
@@ -575,6 +627,14 @@ class Runner {
     /// The vndf plan's second pass once placed (metadata.json lists it).
     std::optional<VndfLayout> vndf_pass_;
     VndfNdf vndf_ndf_;
+    std::optional<RigClock> clock_;
+    /// Rig seconds of the campaign's earlier runs (metadata.json).
+    double prior_rig_time_s_ = 0;
+    StopRule rule_;
+    std::size_t since_check_ = 0;
+    std::size_t check_every_ = 0;
+    /// The stop rule's last check, for metadata.json (null before the first).
+    json until_ = nullptr;
     /// (pass, index) of every measurement in the journal.
     std::set<std::pair<int, std::uint32_t>> done_;
     std::size_t planned_total_ = 0;
@@ -605,6 +665,9 @@ Expected<void> Runner::home_if_needed() {
         }
         if (!st->homed) {
             say("homing axis \"" + dev_.axes[k]->name() + "\"");
+            if (auto at = dev_.axes[k]->position_deg(); at) {
+                clock_->home(k, *at * kDeg);
+            }
             if (auto h = dev_.axes[k]->home(std::chrono::milliseconds(rig_.move_timeout_ms)); !h) {
                 return h;
             }
@@ -641,6 +704,7 @@ Expected<void> Runner::move_to(const RigPosed& p) {
     if (settle_ms > 0) {
         std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(settle_ms));
     }
+    clock_->move(current_, p);
     current_ = p;
     return {};
 }
@@ -1057,6 +1121,7 @@ Expected<void> Runner::write_metadata(const std::string& state, const Plan& plan
                 "cut); its finished measurements are in journal.log";
         }
     }
+    record_run(meta, run, running);
     // The run in progress is the last element while it lasts.
     if (!meta["runs"].empty() && is_this_run(meta["runs"].back()) &&
         meta["runs"].back().value("state", "") == "running") {
@@ -1070,12 +1135,54 @@ Expected<void> Runner::write_metadata(const std::string& state, const Plan& plan
     meta["pose_corrections"] = result_.pose_corrections;
     meta["device_outages"] = result_.outages;
     meta["planned"] = result_.planned_total;
+    // The campaign's rig time: every run's (a killed run's as of its last metadata write).
+    double total = 0;
+    for (const json& r : meta["runs"]) {
+        if (r.is_object() && r.contains("rig_time_s") && r["rig_time_s"].is_number()) {
+            total += r["rig_time_s"].get<double>();
+        }
+    }
+    meta["rig_time_s"] = total;
+    result_.campaign_rig_time_s = total;
+    prior_rig_time_s_ = total - result_.rig_time.total_s();
+    if (!until_.is_null()) {
+        meta["until"] = until_;
+    }
     return write_text_atomic(path("metadata.json"), meta.dump(2) + "\n");
+}
+
+void Runner::record_run(json& meta, json& run, bool running) {
+    (void)meta;
+    result_.rig_time = rig_time();
+    const RigTime& t = result_.rig_time;
+    run["rig_time_s"] = t.total_s();
+    run["rig_time"] = {{"motion_s", t.motion_s},
+                       {"settle_s", t.settle_s},
+                       {"exposure_s", t.exposure_s},
+                       {"readout_s", t.readout_s}};
+    if (!running) {
+        run["stopped"] = result_.stopped;
+    }
+}
+
+RigTime Runner::rig_time() const {
+    RigTime t = clock_ ? clock_->spent() : RigTime{};
+    if (session_) {
+        t.exposure_s += session_->exposure_s_taken();
+        t.readout_s +=
+            static_cast<double>(session_->frames_taken()) * rig_.camera_readout_ms / 1000.0;
+    }
+    return t;
 }
 
 Expected<RunResult> Runner::finish(Outcome o, const std::string& msg, const Plan& plan) {
     result_.outcome = o;
     result_.message = msg;
+    if (result_.stopped.empty()) {
+        result_.stopped = o == Outcome::kCompleted     ? "plan end"
+                          : o == Outcome::kInterrupted ? "interrupted"
+                                                       : "fault";
+    }
     const char* state = o == Outcome::kCompleted     ? "completed"
                         : o == Outcome::kInterrupted ? "interrupted"
                                                      : "paused";
@@ -1086,7 +1193,7 @@ Expected<RunResult> Runner::finish(Outcome o, const std::string& msg, const Plan
         note.time_s = now_s();
         (void)journal_->append(note);
     }
-    auto n = write_campaign_dataset(dir_);
+    auto n = write_campaign_dataset(dir_, campaign_rig_hours());
     if (!n) {
         return tl::unexpected(n.error());
     }
@@ -1107,6 +1214,56 @@ Expected<RunResult> Runner::finish(Outcome o, const std::string& msg, const Plan
     return result_;
 }
 
+Expected<bool> Runner::check_stop_rule(const Plan& plan) {
+    since_check_ = 0;
+    auto samples = campaign_samples(dir_, false, campaign_rig_hours());
+    if (!samples) {
+        return tl::unexpected(samples.error());
+    }
+    if (samples->size() < kMinCheckSamples) {
+        return false;
+    }
+    std::vector<brdf::Sample> fit, holdout;
+    split_holdout(*samples, &fit, &holdout);
+    auto check = hooks_.fit_check(fit, holdout, brdf::common_relative_sigma(rig_.error_budget));
+    if (!check) {
+        // A fit that fails (too few values for the model, say) is no verdict: measure on.
+        say("until: no fit at " + std::to_string(samples->size()) +
+            " values: " + check.error().message);
+        return false;
+    }
+    std::string why;
+    const bool held = rule_holds(rule_, *check, &why);
+    const double rig_s = prior_rig_time_s_ + rig_time().total_s();
+    char at[160];
+    std::snprintf(at, sizeof at, "%zu measurements, rig time %.1f s", samples->size(), rig_s);
+    say(std::string("until ") + spec_.until + ": " + (held ? "held" : "not yet") + " at " + at +
+        ": " + why);
+    until_ = {
+        {"rule", format_stop_rule(rule_)},
+        {"held", held},
+        {"measurements", samples->size()},
+        {"planned", plan.configs.size()},
+        {"rig_time_s", rig_s},
+        {"max_rel_sigma", check->max_rel_sigma},
+        {"worst_parameter", check->worst},
+        {"holdout_rms_z", check->holdout_rms_z},
+        {"fitted", check->fitted},
+        {"held_out", check->held_out},
+        {"parameters", check->parameters},
+        {"message", std::string(held ? "target held at " : "last check at ") + at + ": " + why}};
+    if (held) {
+        result_.target_reached = true;
+        result_.stopped = "target reached";
+        result_.until = until_["message"].get<std::string>();
+    }
+    // The metadata keeps the check (and this run's rig time) even if the process is killed next.
+    if (auto m = write_metadata("running", plan); !m) {
+        return tl::unexpected(m.error());
+    }
+    return held;
+}
+
 Expected<Plan> Runner::load_campaign() {
     auto spec = read_campaign_spec(path("campaign.json"));
     if (!spec) {
@@ -1123,6 +1280,18 @@ Expected<Plan> Runner::load_campaign() {
     rig_ = *rig;
     lim_ = rig_limits(rig_);
     dyn_ = rig_dynamics(rig_);
+    clock_.emplace(dyn_, rig_.camera_readout_ms / 1000.0);
+    if (!spec_.until.empty()) {
+        auto rule = parse_stop_rule(spec_.until);
+        if (!rule) {
+            return tl::unexpected(rule.error());
+        }
+        rule_ = *rule;
+        if (!hooks_.fit_check) {
+            return make_error("the campaign stops by its rule (until " + spec_.until +
+                              "), which needs a fit between batches; none was given");
+        }
+    }
     auto plan0 = build_plan(spec_, rig_);
     if (!plan0) {
         return tl::unexpected(plan0.error());
@@ -1384,6 +1553,9 @@ std::optional<Expected<RunResult>> Runner::measure_pass(int pass,
         }
         progress.step();
         publish_measurement(*r);
+        if (auto end = after_measurement(plan, &progress)) {
+            return end;
+        }
     }
     progress.finish("pass " + std::to_string(pass) + " complete");
     return std::nullopt;
@@ -1402,6 +1574,33 @@ std::string Runner::completion_summary() const {
     return summary;
 }
 
+std::optional<Expected<RunResult>> Runner::after_measurement(const Plan& plan, Progress* progress) {
+    if (!rule_.active() || ++since_check_ < check_every_) {
+        return std::nullopt;
+    }
+    auto held = check_stop_rule(plan);
+    if (!held) {
+        progress->finish("paused");
+        return finish(Outcome::kPaused, held.error().message, plan);
+    }
+    if (*held) {
+        progress->finish("target reached");
+        return finish(Outcome::kCompleted, "target reached: " + result_.until, plan);
+    }
+    return std::nullopt;
+}
+
+std::optional<Expected<RunResult>> Runner::rule_on_journal(const Plan& plan) {
+    auto held = check_stop_rule(plan);
+    if (!held) {
+        return finish(Outcome::kPaused, held.error().message, plan);
+    }
+    if (*held) {
+        return finish(Outcome::kCompleted, "target reached: " + result_.until, plan);
+    }
+    return std::nullopt;
+}
+
 Expected<RunResult> Runner::run() {
     started_ = now_s();
     auto plan0 = load_campaign();
@@ -1414,6 +1613,14 @@ Expected<RunResult> Runner::run() {
     std::string pause;
     if (auto d = prepare_devices(have_white, &pause); !d) {
         return finish(Outcome::kPaused, d.error().message, plan);
+    }
+    check_every_ = rule_.every > 0 ? static_cast<std::size_t>(rule_.every)
+                                   : std::max<std::size_t>(8, plan.configs.size() / 10);
+    if (rule_.active() && !done_.empty()) {
+        // A resume checks the rule on what the journal holds before measuring anything more.
+        if (auto end = rule_on_journal(plan)) {
+            return std::move(*end);
+        }
     }
     // Passes: 0 is the plan; each adaptive pass refines where the values measured so far change
     // fastest.
@@ -1431,7 +1638,23 @@ Expected<RunResult> Runner::run() {
         }
     }
     result_.measured_total = done_.size();
-    return finish(Outcome::kCompleted, completion_summary(), plan);
+    std::string summary = completion_summary();
+    if (rule_.active()) {
+        // The plan ended first: the last check says how far the targets were.
+        auto held = check_stop_rule(plan);
+        if (held && *held) {
+            return finish(Outcome::kCompleted, "target reached: " + result_.until, plan);
+        }
+        summary += "; until " + spec_.until + ": target never reached, the plan ended (" +
+                   (until_.is_null() ? std::string("no check could fit")
+                                     : until_["message"].get<std::string>()) +
+                   ")";
+        if (!until_.is_null()) {
+            until_["message"] =
+                "target never reached: the plan ended; " + until_["message"].get<std::string>();
+        }
+    }
+    return finish(Outcome::kCompleted, summary, plan);
 }
 
 }  // namespace

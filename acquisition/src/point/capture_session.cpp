@@ -57,6 +57,8 @@ Expected<devices::Frame> CaptureSession::grab(double exposure_us) {
         return f;
     }
     ++frames_taken_;
+    // Rig time: the exposure the camera reports it used (else the one asked for).
+    exposure_s_taken_ += (f->exposure_us > 0 ? f->exposure_us : exposure_us) * 1e-6;
     // Beyond the linear range (full well) a pixel is as good as clipped.
     f->saturation_level =
         f->black_level + cfg_.linear_max_fraction * (f->saturation_level - f->black_level);

@@ -77,6 +77,7 @@ std::vector<std::string> given_fields(const CampaignRequest& r) {
     add(r.max_theta_deg > 0, "max_theta_deg");
     add(r.no_zoom, "no_zoom");
     add(!r.serve.empty(), "serve");
+    add(!r.until.empty(), "until");
     return out;
 }
 
@@ -131,7 +132,8 @@ std::optional<RequestConflict> mode_conflict(const CampaignRequest& r,
                             "vndf_theta_i",
                             "vndf_resolution",
                             "vndf_phi_i",
-                            "accept_drift"})) {
+                            "accept_drift",
+                            "until"})) {
             return RequestConflict{f,
                                    "mode",
                                    "a point-mode option: image mode plans its light positions "
@@ -156,7 +158,8 @@ std::optional<RequestConflict> job_conflict(const CampaignRequest& r,
                        "sample",
                        "operator_name",
                        "accept_drift",
-                       "serve"})) {
+                       "serve",
+                       "until"})) {
                 return RequestConflict{
                     f, "plan_only", "only the plan is printed; nothing is measured or written"};
             }
@@ -232,7 +235,7 @@ std::optional<RequestConflict> plan_conflict(const CampaignRequest& r,
                                    "the vndf plan places its own second pass from the "
                                    "retro-reflection measurements"};
         }
-        if (f == "scene") {
+        if (f == "scene" || f == "until") {
             return RequestConflict{
                 f, "plan_kind", "the vndf plan measures every node of its RGL file"};
         }
@@ -387,6 +390,13 @@ Expected<CampaignSpec> new_campaign_spec(const CampaignRequest& r, bool* embedde
     if (r.adaptive >= 0) {
         spec.adaptive = r.adaptive > 0;
         spec.adaptive_passes = r.adaptive;
+    }
+    if (!r.until.empty()) {
+        auto rule = parse_stop_rule(r.until);
+        if (!rule) {
+            return tl::unexpected(rule.error());
+        }
+        spec.until = format_stop_rule(*rule);
     }
     return spec;
 }

@@ -51,7 +51,8 @@ CoilConfig parse_coil(const json& j) {
 void check_rig_values(const json& j) {
     std::vector<std::pair<const json*, std::string>> pending;
     for (auto it = j.begin(); it != j.end(); ++it) {
-        if (it.key() != "sim" && it.key() != "camera_model") {
+        // The error budget has its own strict reader (brdf/rig_error_budget.h).
+        if (it.key() != "sim" && it.key() != "camera_model" && it.key() != "error_budget") {
             pending.emplace_back(&*it, it.key());
         }
     }
@@ -99,9 +100,10 @@ void check_rig_keys(const json& j) {
                                                "camera_model",
                                                "image_sample",
                                                "placements",
-                                               "embedded_virtual_rig"};
+                                               "embedded_virtual_rig",
+                                               "error_budget"};
     static const std::map<std::string, std::set<std::string>> kSections = {
-        {"camera", {"address"}},
+        {"camera", {"address", "readout_ms"}},
         {"sim",
          {"material",
           "brdf",
@@ -242,6 +244,11 @@ Expected<void> parse_devices(const json& j,
                              RigConfig* rig) {
     *at = "camera";
     rig->camera_address = j.at("camera").at("address").get<std::string>();
+    rig->camera_readout_ms = j.at("camera").value("readout_ms", rig->camera_readout_ms);
+    if (!(rig->camera_readout_ms >= 0 && rig->camera_readout_ms <= 60000)) {
+        return make_error(source + ": camera.readout_ms = " + show_number(rig->camera_readout_ms) +
+                          ": must be in [0, 60000] ms");
+    }
     *at = "shutter";
     rig->shutter = parse_coil(j.at("shutter"));
     if (j.contains("reference_changer")) {
@@ -433,6 +440,11 @@ Expected<RigConfig> parse_rig_config(const std::string& text, const std::string&
         return make_error(source + ": " + (at.empty() ? "" : at + ": ") +
                           gonio::json_error_text(e.what()));
     }
+    auto budget = brdf::read_error_budget(text, source);
+    if (!budget) {
+        return tl::unexpected(budget.error());
+    }
+    rig.error_budget = *budget;
     return rig;
 }
 

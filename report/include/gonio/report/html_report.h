@@ -24,6 +24,8 @@ struct ReportOptions {
     PlotOptions plot;
     PreviewOptions preview;
     bool regenerate = false;  ///< redraw plots and previews even when PNG files exist
+    /// Add Blender's render of the exported fit beside the previews (blender_report.h).
+    bool blender = false;
 };
 
 struct ReportResult {

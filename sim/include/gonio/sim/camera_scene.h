@@ -41,6 +41,9 @@ struct SceneState {
     double detector_arm_rad = 0;
     double tilt_rad = 0;
     double spin_rad = 0;
+    /// Stray light reaching the detector while the shutter is open, W m^-2 sr^-1: added to the
+    /// flat patch's radiance (point mode).
+    double stray_radiance_w_m2_sr = 0;
     /// Image mode: the camera placement switched in (0: the wide view; k: the rig's k-th zoomed
     /// placement, sphere_imaging.h).
     int placement = 0;

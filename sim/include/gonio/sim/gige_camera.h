@@ -143,6 +143,9 @@ class GigeCamera {
     const GigeCameraConfig& config() const { return config_; }
     const std::string& xml() const { return xml_; }
     std::uint64_t frames_rendered() const;
+    /// Sum of the exposure times of the frames rendered, seconds (the rig time the sensor spent
+    /// integrating).
+    double exposure_s_rendered() const;
     ExposureSettings exposure_settings() const;
     /// The primary application, when one holds control.
     std::optional<HostId> controller() const;

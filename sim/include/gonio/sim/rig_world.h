@@ -7,13 +7,17 @@
 
 #include <array>
 #include <atomic>
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <vector>
 
 #include "gonio/brdf/brdf.h"
+#include "gonio/brdf/rig_geometry.h"
 #include "gonio/sim/camera_scene.h"
+#include "gonio/sim/instrument_errors.h"
 #include "gonio/sim/motor_controller_server.h"
 
 namespace gonio::sim {
@@ -73,8 +77,19 @@ class RigWorld {
     /// the lamp, stop, kill the process). Set it before the camera is used.
     void set_exposure_hook(std::function<void(std::uint64_t)> hook) { hook_ = std::move(hook); }
     std::uint64_t exposures() const { return exposures_.load(); }
+    /// The instrument's errors (instrument_errors.h) from now on: the arms' true directions, the
+    /// lamp's fluctuation and drift (with `clock_s`, the rig's simulated seconds), stray light.
+    /// Null: the ideal instrument. Set it before the camera is used.
+    void set_instrument(std::shared_ptr<const InstrumentErrors> instrument,
+                        std::function<double()> clock_s);
+    const InstrumentErrors* instrument() const { return instrument_.get(); }
 
   private:
+    /// Counts the moves of each arm (a new encoder reading since the last exposure is a move).
+    std::array<std::uint64_t, 2> arm_moves(double light_rad, double detector_rad) const;
+    /// The scene's directions and stage angles as the imperfect instrument has them.
+    void apply_instrument(const brdf::RigPosed& p, std::uint64_t exposure, SceneState* s) const;
+
     const MotorControllerServer* server_;
     RigUnits units_;
     std::shared_ptr<MountedBrdf> mounted_;
@@ -82,6 +97,11 @@ class RigWorld {
     std::atomic<double> lamp_factor_{1.0};
     std::function<void(std::uint64_t)> hook_;
     mutable std::atomic<std::uint64_t> exposures_{0};
+    std::shared_ptr<const InstrumentErrors> instrument_;
+    std::function<double()> clock_s_;
+    mutable std::mutex moves_mutex_;
+    mutable std::array<double, 2> last_arm_rad_{std::nan(""), std::nan("")};
+    mutable std::array<std::uint64_t, 2> moves_{0, 0};
 };
 
 }  // namespace gonio::sim

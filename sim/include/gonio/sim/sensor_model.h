@@ -32,6 +32,10 @@ struct SensorParams {
     double dark_current_e_per_s = 25;
     /// Black level in Mono16 counts (scaled by 2^(b-16) for b bits).
     double black_level16 = 1024;
+    /// Non-linearity of the response: a signal x above black, in units of the full scale
+    /// (saturation - black), reads x (1 + nonlinearity (x - 1/2)) (0: linear). Applied to the
+    /// counts after the noise, before the clip.
+    double nonlinearity = 0;
     std::uint64_t seed = 1;
 };
 
@@ -60,6 +64,8 @@ class SensorModel {
     void reseed(std::uint64_t seed);
 
   private:
+    void apply_nonlinearity(double black, double sat, cv::Mat* counts) const;
+
     SensorParams p_;
     std::mt19937_64 rng_;
 };

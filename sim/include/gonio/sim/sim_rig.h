@@ -9,12 +9,15 @@
 //   "sim": {"material": "red-plastic" | "brdf": "model.json", "time_scale": 20,
 //           "sensor": {"width": 640, "height": 512}, "irradiance_w_m2": 1, "seed": 1,
 //           "initial_deg": {"light": 0, "detector": 45}}
+// and its "error_budget" (brdf/rig_error_budget.h), from which the virtual instrument draws its
+// errors (instrument_errors.h); absent, the reference profile.
 
 #include <memory>
 #include <optional>
 #include <string>
 
 #include "gonio/base/error.h"
+#include "gonio/brdf/rig_error_budget.h"
 #include "gonio/sim/gige_camera.h"
 #include "gonio/sim/gige_server.h"
 #include "gonio/sim/motor_controller_server.h"
@@ -60,6 +63,8 @@ class SimRig {
     const RigUnits& units() const { return units_; }
     /// The sample's ground truth (not the white standard).
     std::shared_ptr<const brdf::Brdf> sample() const { return sample_; }
+    /// The rig description's error budget, which the virtual instrument draws its errors from.
+    const brdf::RigErrorBudget& error_budget() const { return budget_; }
 
     void stop();
 
@@ -73,6 +78,7 @@ class SimRig {
     std::unique_ptr<GigeServer> camera_server_;
     std::string sample_name_;
     RigUnits units_;
+    brdf::RigErrorBudget budget_;
 };
 
 }  // namespace gonio::sim

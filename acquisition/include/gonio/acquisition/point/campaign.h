@@ -14,6 +14,8 @@
 #include "gonio/acquisition/plans/plan_vndf.h"
 #include "gonio/acquisition/plans/schedule.h"
 #include "gonio/acquisition/point/calibration.h"
+#include "gonio/acquisition/point/rig_clock.h"
+#include "gonio/acquisition/point/stop_rule.h"
 #include "gonio/acquisition/shared/rig_config.h"
 #include "gonio/brdf/dataset.h"
 
@@ -42,6 +44,8 @@ struct CampaignSpec {
     double drift_theta_r_deg = 30;
     double drift_delta_phi_deg = 90;
     double schedule_budget_s = 0.5;
+    /// The stop rule (stop_rule.h: "sigma=0.01,holdout=2"); empty: the whole plan is measured.
+    std::string until;
     std::string json;  ///< The JSON text.
 };
 
@@ -85,6 +89,15 @@ struct RunResult {
     std::size_t pose_corrections = 0;
     /// Device outages waited out (the campaign paused and resumed on its own).
     std::size_t outages = 0;
+    /// Why this run stopped: "plan end", "target reached" (the stop rule held), "fault" (a device
+    /// fault or lamp drift paused it) or "interrupted" (on request).
+    std::string stopped;
+    /// Rig time of this run (rig_clock.h), seconds, and of every run of the campaign so far.
+    RigTime rig_time;
+    double campaign_rig_time_s = 0;
+    /// The stop rule held (stopped == "target reached"); `until` says which targets and when.
+    bool target_reached = false;
+    std::string until;
 };
 
 /// What the runner needs from its surroundings.
@@ -114,6 +127,9 @@ struct RunHooks {
     /// on (the white reference's and the drift checks' too), before the HDR merge. The same rule:
     /// hand it over and return.
     std::function<void(const devices::Frame& frame)> on_frame;
+    /// The fit a campaign with a stop rule (CampaignSpec::until) runs between batches; a campaign
+    /// with a rule and without it is refused.
+    FitCheckFn fit_check;
 };
 
 /// Runs (or resumes) the campaign in `dir` on the rig's devices until completed, interrupted or
@@ -123,8 +139,15 @@ struct RunHooks {
 Expected<RunResult> run_campaign(const std::string& dir, RigDevices& dev, const RunHooks& hooks);
 
 /// Rebuilds dataset.csv from the journal (atomically replaced). Reference re-measurements are
-/// included with kFlagReference.
-Expected<std::size_t> write_campaign_dataset(const std::string& dir);
+/// included with kFlagReference. Each value's sigma adds the rig's error budget (rig.json, the
+/// drift over `rig_hours` of rig time) to its detector noise (stated_uncertainty.h).
+Expected<std::size_t> write_campaign_dataset(const std::string& dir, double rig_hours = 0);
+
+/// The values of a campaign's journal (measurements, and the drift references when
+/// `references`) in journal order, with the stated uncertainty of write_campaign_dataset.
+Expected<std::vector<brdf::Sample>> campaign_samples(const std::string& dir,
+                                                     bool references,
+                                                     double rig_hours = 0);
 
 /// The file name of a vndf campaign's RGL material file, beside dataset.csv.
 constexpr const char* kVndfBsdfName = "dataset.bsdf";

@@ -31,6 +31,8 @@ class CaptureSession {
     const PixelRoi& roi() const { return roi_; }
     std::size_t dark_frames_taken() const { return dark_taken_; }
     std::size_t frames_taken() const { return frames_taken_; }
+    /// Summed exposure time of the frames taken, seconds (dark frames included).
+    double exposure_s_taken() const { return exposure_s_taken_; }
     /// Forgets the cached dark frames (after a camera reconnect).
     void clear_dark_cache() { dark_.clear(); }
     /// Called by measure() with the frame its auto exposure settled on (shutter open, not dark
@@ -58,6 +60,7 @@ class CaptureSession {
     std::map<std::pair<long long, long long>, cv::Mat> dark_;
     std::size_t dark_taken_ = 0;
     std::size_t frames_taken_ = 0;
+    double exposure_s_taken_ = 0;
     std::function<void(const devices::Frame&)> frame_observer_;
 };
 

@@ -79,6 +79,9 @@ struct CampaignRequest {
     /// (`gonio acquire` starts a report::LiveServer and feeds it through the campaign's hooks);
     /// start_point_campaign and run_image_request do not.
     std::string serve;
+    /// Point mode: the stop rule (point/stop_rule.h, "sigma=0.01[,holdout=2]"): fit between
+    /// batches and stop when it holds. Kept in campaign.json, so a resume keeps it.
+    std::string until;
     /// Image mode settings no command-line option gives (tests and scripts set them): the table
     /// resolution (90 / factor bins per angle; 1 = MERL), the virtual rig's default camera size
     /// and sub-pixel rays, and its noise seed.

@@ -14,6 +14,7 @@
 #include "gonio/acquisition/point/capture.h"
 #include "gonio/acquisition/shared/kinematics.h"
 #include "gonio/base/error.h"
+#include "gonio/brdf/rig_error_budget.h"
 #include "gonio/devices/axis.h"
 #include "gonio/devices/camera.h"
 #include "gonio/devices/filter_wheel.h"
@@ -64,6 +65,12 @@ struct RigConfig {
     std::string json;    ///< The JSON text (kept in the campaign folder and the sidecar).
     std::array<AxisConfig, kNumAxes> axes;  ///< Indexed by AxisRole.
     std::string camera_address;
+    /// Time to read one frame out of the camera ("camera": {"readout_ms"}), counted in the rig
+    /// time of a campaign (0 when not given).
+    double camera_readout_ms = 0;
+    /// The instrument's error budget ("error_budget", brdf/rig_error_budget.h): the terms a
+    /// point campaign adds to each value's stated uncertainty (the reference profile when absent).
+    brdf::RigErrorBudget error_budget;
     CoilConfig shutter;
     std::optional<CoilConfig> reference_changer;  ///< Puts the white reference into the beam.
     /// Colour filter changer: the coils of the red, green and blue filters ("filter_wheel":

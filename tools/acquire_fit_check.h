@@ -1,0 +1,13 @@
+#pragma once
+
+// The fit a point campaign runs between batches for its stop rule (`gonio acquire --until`):
+// acquisition states what it needs (acquisition/point/stop_rule.h), the fitting library does it.
+
+#include "gonio/acquisition/point/stop_rule.h"
+
+namespace gonio::tools {
+
+/// Fits the default model (`gonio fit DATA`'s) to the values so far and predicts the held-out ones.
+acquisition::FitCheckFn default_fit_check();
+
+}  // namespace gonio::tools
