@@ -44,21 +44,59 @@ function(gonio_add_module name)
   set_target_properties(gonio_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON EXPORT_NAME ${name})
 endfunction()
 
-# gonio_add_tests(<module> DEPS ... [CAMERA_STREAMS <label>...] [OFF_STREAM <gtest pattern>...])
+# Camera-streaming tests (a campaign on the virtual rig, a camera command, Aravis's own camera) run as
+# root, where Aravis 0.8 receives GVSP through a packet socket that sees every loopback datagram until
+# its filter is attached, and GigE Vision control uses the fixed UDP port 3956 on 127.0.0.1. Where this
+# machine lets a test have a network namespace of its own (root: tests/netns-run.sh), each such test
+# runs in one and they run in parallel like every other test; elsewhere they hold RESOURCE_LOCK gige
+# and run one at a time. gonio_stream_test_properties(<var>) gives the properties for either case and
+# gonio_isolate_network(<target>) makes a test executable's cases (and their discovery) run through
+# the launcher.
+if(NOT DEFINED GONIO_TEST_NETNS)
+  execute_process(COMMAND ${PROJECT_SOURCE_DIR}/tests/netns-run.sh true
+                  RESULT_VARIABLE gonio_netns_result OUTPUT_QUIET ERROR_QUIET)
+  if(gonio_netns_result EQUAL 0)
+    set(gonio_netns_default ON)
+  else()
+    set(gonio_netns_default OFF)
+  endif()
+  set(GONIO_TEST_NETNS ${gonio_netns_default} CACHE BOOL
+      "Run camera-streaming tests each in a network namespace of its own (needs root)")
+endif()
+set(GONIO_NETNS_LAUNCHER ${PROJECT_SOURCE_DIR}/tests/netns-run.sh)
+
+# GONIO_BUILD_STREAM_TESTS=OFF leaves the camera-streaming test executables out of the build (the
+# instrumented CI build runs them once, in the gcc build, and does not compile them).
+option(GONIO_BUILD_STREAM_TESTS "Build the camera-streaming tests (campaigns on the virtual rig)" ON)
+
+function(gonio_stream_test_properties out)
+  if(GONIO_TEST_NETNS)
+    set(${out} "" PARENT_SCOPE)
+  else()
+    set(${out} RESOURCE_LOCK gige PARENT_SCOPE)
+  endif()
+endfunction()
+
+function(gonio_isolate_network target)
+  if(GONIO_TEST_NETNS)
+    set_target_properties(${target} PROPERTIES CROSSCOMPILING_EMULATOR ${GONIO_NETNS_LAUNCHER})
+  endif()
+endfunction()
+
+# gonio_add_tests(<module> DEPS ... [CAMERA_STREAMS <label>...])
 # Every tests/<module>/<label>_*_test.cpp joins the executable gonio_<module>_<label>_tests; each GoogleTest
 # case becomes its own ctest entry labelled <label> (the module is the name's prefix). The executables of
-# the CAMERA_STREAMS labels stream frames through Aravis (a campaign on the virtual rig, a camera
-# command): they are labelled "stream" instead and hold RESOURCE_LOCK gige. Run as root, Aravis 0.8
-# receives GVSP through a packet socket that sees every loopback datagram until its filter is attached,
-# so a stream started beside other loopback traffic can take foreign packets
-# (docs/benchmarks/camera.md). scripts/test.sh runs the "stream" tests after the others, one at a time.
-# The cases of those executables that match an OFF_STREAM pattern (gtest filter syntax, Suite.* or
-# Suite.Case) start no camera (they fit, convert, drive axes over Modbus, or are refused before a
-# rig starts): they keep their own label and run beside the other tests.
+# the CAMERA_STREAMS labels stream frames through Aravis: their cases are labelled "stream" instead and
+# run each in a network namespace of its own (or one at a time, see above). Which tests stream is a
+# property of their file (its label), not a list of names.
 function(gonio_add_tests module)
-  cmake_parse_arguments(ARG "" "" "DEPS;CAMERA_STREAMS;OFF_STREAM" ${ARGN})
+  cmake_parse_arguments(ARG "" "" "DEPS;CAMERA_STREAMS" ${ARGN})
+  gonio_stream_test_properties(stream_properties)
   foreach(label unit property stress integration fault)
     file(GLOB sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/${label}_*_test.cpp)
+    if(label IN_LIST ARG_CAMERA_STREAMS AND NOT GONIO_BUILD_STREAM_TESTS)
+      continue()
+    endif()
     if(sources)
       set(exe gonio_${module}_${label}_tests)
       add_executable(${exe} ${sources})
@@ -68,10 +106,11 @@ function(gonio_add_tests module)
       # One label each: gtest_discover_tests hands the properties to its generated script as a flat
       # list, where "a;b" would become two properties, not two labels.
       set(labels "${label}")
-      set(lock "")
+      set(extra "")
       if(label IN_LIST ARG_CAMERA_STREAMS)
         set(labels stream)
-        set(lock RESOURCE_LOCK gige)
+        set(extra ${stream_properties})
+        gonio_isolate_network(${exe})
       endif()
       # Instrumented code runs several times slower (the model-selection tests fit dozens of models):
       # the sanitizer build gives every test three times as long.
@@ -79,24 +118,10 @@ function(gonio_add_tests module)
       if(GONIO_SANITIZE)
         set(timeout 900)
       endif()
-      if(lock AND ARG_OFF_STREAM)
-        list(JOIN ARG_OFF_STREAM ":" off_stream)
-        gtest_discover_tests(${exe}
-          TEST_PREFIX "${module}."
-          TEST_FILTER "${off_stream}"
-          PROPERTIES LABELS "${label}" TIMEOUT ${timeout}
-          DISCOVERY_TIMEOUT 60)
-        gtest_discover_tests(${exe}
-          TEST_PREFIX "${module}."
-          TEST_FILTER "-${off_stream}"
-          PROPERTIES LABELS "${labels}" TIMEOUT ${timeout} ${lock}
-          DISCOVERY_TIMEOUT 60)
-      else()
-        gtest_discover_tests(${exe}
-          TEST_PREFIX "${module}."
-          PROPERTIES LABELS "${labels}" TIMEOUT ${timeout} ${lock}
-          DISCOVERY_TIMEOUT 60)
-      endif()
+      gtest_discover_tests(${exe}
+        TEST_PREFIX "${module}."
+        PROPERTIES LABELS "${labels}" TIMEOUT ${timeout} ${extra}
+        DISCOVERY_TIMEOUT 60)
     endif()
   endforeach()
 endfunction()

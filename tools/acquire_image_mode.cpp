@@ -16,6 +16,7 @@
 #include "gonio/acquisition/shared/frame_picture.h"
 #include "gonio/brdf/coords.h"
 #include "gonio/report/live_server.h"
+#include "live_page.h"
 
 namespace gonio::tools {
 
@@ -152,6 +153,7 @@ int run_acquire_image_mode(const acquisition::CampaignRequest& request,
                            const std::string& serve_host,
                            int serve_port) {
     std::unique_ptr<report::LiveServer> live;
+    std::string dir;
     std::size_t max_frames = 0;
     double target = 0;
     acquisition::ImageRunHooks hooks;
@@ -161,14 +163,16 @@ int run_acquire_image_mode(const acquisition::CampaignRequest& request,
         if (serve_port >= 0) {
             // Before anything is written: an address that cannot be served leaves no folder
             // behind.
-            report::LiveOptions lo;
-            lo.title = "gonio image campaign " + std::filesystem::path(run.dir).filename().string();
-            lo.frame_note = "no camera frame yet (the first comes with the white reference)";
-            auto srv = report::LiveServer::start(serve_host, serve_port, lo);
+            auto srv = start_live_page(
+                serve_host,
+                serve_port,
+                "image campaign " + std::filesystem::path(run.dir).filename().string(),
+                "no camera frame yet (the first comes with the white reference)");
             if (!srv) {
                 return tl::unexpected(srv.error());
             }
             live = std::move(*srv);
+            dir = run.dir;
         }
         std::printf(
             "image mode: %s sphere on %s (motors %s, camera %s), %dx%dx%d table, target %.0f%%\n",
@@ -181,7 +185,6 @@ int run_acquire_image_mode(const acquisition::CampaignRequest& request,
             run.config.layout.n_phi_d,
             100 * run.config.coverage_target);
         if (live) {
-            std::printf("live page: %s\n", live->url().c_str());
             live->publish_image_progress(0, max_frames, 0, target, "running");
         }
         std::fflush(stdout);
@@ -240,30 +243,36 @@ int run_acquire_image_mode(const acquisition::CampaignRequest& request,
         }
     };
     auto run = acquisition::run_image_request(request, embedded_rig_starter(), hooks);
+    const acquisition::ImageCampaignResult* r = run ? &*run->result : nullptr;
+    const std::string state = r == nullptr ? "failed: " + run.error().message
+                              : r->target_met
+                                  ? "completed"
+                                  : "ended without reaching the target (" + r->stop_reason + ")";
     if (live) {
-        const acquisition::ImageCampaignResult* r = run ? &*run->result : nullptr;
         live->publish_image_progress(
-            r ? r->frames.size() : 0,
-            max_frames,
-            r ? r->coverage_fraction() : 0,
-            target,
-            r == nullptr    ? "failed"
-            : r->target_met ? "completed"
-                            : "ended without reaching the target (" + r->stop_reason + ")");
+            r ? r->frames.size() : 0, max_frames, r ? r->coverage_fraction() : 0, target, state);
     }
+    int status = 0;
     if (!run) {
         std::fprintf(stderr, "gonio acquire: %s\n", run.error().message.c_str());
-        return 1;
+        status = 1;
+    } else {
+        print_summary(*run);
+        std::printf("next: gonio fit %s/dataset.csv --out %s/fit.json\n      gonio report %s\n",
+                    run->dir.c_str(),
+                    run->dir.c_str(),
+                    run->dir.c_str());
+        std::fflush(stdout);
+        if (!run->result->target_met) {
+            std::fprintf(stderr,
+                         "gonio acquire: coverage target %.1f%% not met (%.1f%%)\n",
+                         100 * run->config.coverage_target,
+                         100 * run->result->coverage_fraction());
+            status = 1;
+        }
     }
-    print_summary(*run);
-    if (!run->result->target_met) {
-        std::fprintf(stderr,
-                     "gonio acquire: coverage target %.1f%% not met (%.1f%%)\n",
-                     100 * run->config.coverage_target,
-                     100 * run->result->coverage_fraction());
-        return 1;
-    }
-    return 0;
+    keep_live_page(live.get(), dir, state);
+    return status;
 }
 
 int print_image_plan(const acquisition::CampaignRequest& request) {

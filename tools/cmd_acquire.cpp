@@ -24,6 +24,7 @@
 #include "gonio/acquisition/point/progress.h"
 #include "gonio/acquisition/shared/campaign_request.h"
 #include "gonio/report/live_server.h"
+#include "live_page.h"
 #include "option_checks.h"
 
 namespace {
@@ -144,6 +145,80 @@ bool parse_grid(const std::string& text, acq::TableLayout* out) {
     return true;
 }
 
+/// The live page's hooks: the campaign thread only hands each sample and (at most four a second)
+/// a small picture of the frame its exposure settled on over; the server draws on its own thread.
+void attach_live_page(gonio::report::LiveServer* l, acq::RunHooks* hooks) {
+    l->publish_progress(0, 0, "running");
+    hooks->on_measurement = [l](const gonio::brdf::Sample& s, std::size_t done, std::size_t n) {
+        l->publish_sample(s);
+        l->publish_progress(done, n, "running");
+    };
+    using Clock = std::chrono::steady_clock;
+    hooks->on_frame = [l, last = Clock::time_point()](const gonio::devices::Frame& f) mutable {
+        const Clock::time_point now = Clock::now();
+        if (now - last < std::chrono::milliseconds(250)) {
+            return;
+        }
+        last = now;
+        gonio::report::Image picture =
+            gonio::tools::live_frame_picture(f, gonio::tools::kLiveFrameWidth);
+        std::string caption = gonio::tools::live_frame_description(
+            f, picture, "the detector camera (the measurement averages a centred square of it)");
+        l->publish_frame(std::move(picture), std::move(caption));
+    };
+}
+
+acq::RunHooks operator_hooks() {
+    acq::RunHooks hooks;
+    hooks.stop = &g_stop;
+    hooks.out = stdout;
+    hooks.mount = [](bool white) -> gonio::Expected<void> {
+        std::printf(
+            "%s, then press Enter: ",
+            white ? "Mount the white reference in the sample holder" : "Mount the sample again");
+        std::fflush(stdout);
+        std::string line;
+        if (!std::getline(std::cin, line)) {
+            return gonio::make_error("no operator input (stdin closed)");
+        }
+        return {};
+    };
+    return hooks;
+}
+
+/// What to run next on a campaign folder: the fit of its dataset, then its report.
+void print_next_commands(const std::string& dir) {
+    const fs::path d(dir);
+    std::error_code ec;
+    const fs::path data = fs::exists(d / "dataset.csv", ec) || !fs::exists(d / "dataset.bsdf", ec)
+                              ? d / "dataset.csv"
+                              : d / "dataset.bsdf";
+    std::printf("next: gonio fit %s --out %s\n      gonio report %s\n",
+                data.string().c_str(),
+                (d / "fit.json").string().c_str(),
+                dir.c_str());
+}
+
+int campaign_status(const acq::RunResult& res, const std::string& dir) {
+    switch (res.outcome) {
+        case acq::Outcome::kCompleted:
+            return 0;
+        case acq::Outcome::kInterrupted:
+            std::fprintf(stderr,
+                         "gonio acquire: stopped on request; continue with: gonio acquire --resume "
+                         "%s\n",
+                         dir.c_str());
+            return 1;
+        case acq::Outcome::kPaused:
+            std::fprintf(stderr,
+                         "gonio acquire: paused: %s\ncontinue with: gonio acquire --resume %s\n",
+                         res.message.c_str(),
+                         dir.c_str());
+            return 1;
+    }
+    return 1;
+}
+
 int run(const acq::CampaignRequest& r) {
     if (auto c = acq::find_conflict(r)) {
         return refuse(r, *c);
@@ -174,73 +249,33 @@ int run(const acq::CampaignRequest& r) {
     if (r.plan_only) {
         return print_point_plan(r);
     }
+    // The live page's address is bound before the campaign starts: one that cannot be served
+    // stops the command before its folder exists.
+    std::unique_ptr<gonio::report::LiveServer> live;
+    if (serve_at) {
+        auto srv = gonio::tools::start_live_page(serve_at->first, serve_at->second, "campaign");
+        if (!srv) {
+            return fail(srv.error().message);
+        }
+        live = std::move(*srv);
+    }
     auto campaign = acq::start_point_campaign(r, gonio::tools::embedded_rig_starter(), stdout);
     if (!campaign) {
         return fail(campaign.error().message);
     }
     const std::string dir = (*campaign)->dir;
-    acq::RunHooks hooks;
-    hooks.stop = &g_stop;
-    hooks.out = stdout;
+    acq::RunHooks hooks = operator_hooks();
     hooks.accept_drift = r.accept_drift;
     hooks.fit_check = gonio::tools::default_fit_check();
-    hooks.mount = [](bool white) -> gonio::Expected<void> {
-        std::printf(
-            "%s, then press Enter: ",
-            white ? "Mount the white reference in the sample holder" : "Mount the sample again");
-        std::fflush(stdout);
-        std::string line;
-        if (!std::getline(std::cin, line)) {
-            return gonio::make_error("no operator input (stdin closed)");
-        }
-        return {};
-    };
-    std::unique_ptr<gonio::report::LiveServer> live;
-    if (serve_at) {
-        gonio::report::LiveOptions lo;
-        lo.title = "gonio campaign " + fs::path(dir).filename().string();
-        auto srv = gonio::report::LiveServer::start(serve_at->first, serve_at->second, lo);
-        if (!srv) {
-            return fail(srv.error().message);
-        }
-        live = std::move(*srv);
-        std::printf("live page: %s\n", live->url().c_str());
-        std::fflush(stdout);
-        gonio::report::LiveServer* l = live.get();
-        l->publish_progress(0, 0, "running");
-        // The campaign thread only hands each sample over; the server draws on its own thread.
-        hooks.on_measurement = [l](const gonio::brdf::Sample& s, std::size_t done, std::size_t n) {
-            l->publish_sample(s);
-            l->publish_progress(done, n, "running");
-        };
-        // The frame each measurement's exposure settled on, as a small picture (at most four a
-        // second).
-        using Clock = std::chrono::steady_clock;
-        hooks.on_frame = [l, last = Clock::time_point()](const gonio::devices::Frame& f) mutable {
-            const Clock::time_point now = Clock::now();
-            if (now - last < std::chrono::milliseconds(250)) {
-                return;
-            }
-            last = now;
-            gonio::report::Image picture =
-                gonio::tools::live_frame_picture(f, gonio::tools::kLiveFrameWidth);
-            std::string caption = gonio::tools::live_frame_description(
-                f,
-                picture,
-                "the detector camera (the measurement averages a centred square of it)");
-            l->publish_frame(std::move(picture), std::move(caption));
-        };
+    if (live) {
+        live->set_title("gonio campaign " + fs::path(dir).filename().string());
+        attach_live_page(live.get(), &hooks);
     }
     std::signal(SIGINT, on_sigint);
     auto res = acq::run_campaign(dir, (*campaign)->devices, hooks);
-    if (live && res) {
-        const char* state = res->outcome == acq::Outcome::kCompleted     ? "completed"
-                            : res->outcome == acq::Outcome::kInterrupted ? "stopped"
-                                                                         : "paused";
-        live->publish_progress(res->measured_total, res->planned_total, state);
-    }
     std::signal(SIGINT, SIG_DFL);
     if (!res) {
+        gonio::tools::keep_live_page(live.get(), dir, "failed: " + res.error().message);
         return fail(res.error().message);
     }
     std::printf(
@@ -255,23 +290,17 @@ int run(const acq::CampaignRequest& r) {
         res->rig_time.readout_s,
         acq::format_duration(res->campaign_rig_time_s).c_str(),
         res->stopped.c_str());
-    switch (res->outcome) {
-        case acq::Outcome::kCompleted:
-            return 0;
-        case acq::Outcome::kInterrupted:
-            std::fprintf(stderr,
-                         "gonio acquire: stopped on request; continue with: gonio acquire --resume "
-                         "%s\n",
-                         dir.c_str());
-            return 1;
-        case acq::Outcome::kPaused:
-            std::fprintf(stderr,
-                         "gonio acquire: paused: %s\ncontinue with: gonio acquire --resume %s\n",
-                         res->message.c_str(),
-                         dir.c_str());
-            return 1;
+    if (res->outcome == acq::Outcome::kCompleted) {
+        print_next_commands(dir);
     }
-    return 1;
+    std::fflush(stdout);
+    const int status = campaign_status(*res, dir);
+    // A campaign stopped with Ctrl-C ends the command; any other end keeps its page up.
+    if (res->outcome != acq::Outcome::kInterrupted) {
+        const char* state = res->outcome == acq::Outcome::kCompleted ? "completed" : "paused";
+        gonio::tools::keep_live_page(live.get(), dir, state);
+    }
+    return status;
 }
 
 }  // namespace
@@ -282,18 +311,24 @@ GONIO_COMMAND(acquire) {
                                    "on the embedded virtual rig)");
     auto o = std::make_shared<AcquireOptions>();
     acq::CampaignRequest& r = o->request;
-    cmd->add_option("campaign", r.campaign_file, "campaign description (campaign.json)");
-    cmd->add_option(
-        "--rig", r.rig_path, "rig description (default: the campaign's, else data/rigs/sim4.json)");
+    cmd->add_option("campaign", r.campaign_file, "campaign description (campaign.json)")
+        ->check(gonio::tools::readable_input());
+    cmd->add_option("--rig",
+                    r.rig_path,
+                    "rig description (default: the campaign's, else data/rigs/sim4.json)")
+        ->check(gonio::tools::readable_input());
     cmd->add_option("--out", r.out_dir, "campaign folder (default: campaigns/<time>_<sample>)");
     cmd->add_option("--campaigns-dir",
                     r.campaigns_dir,
                     "parent of automatically named folders (default: campaigns; image mode: the "
                     "current folder)");
-    cmd->add_option("--resume", r.resume_dir, "continue the campaign in this folder");
+    cmd->add_option("--resume", r.resume_dir, "continue the campaign in this folder")
+        ->check(gonio::tools::readable_input(gonio::tools::InputKind::kFolder));
     cmd->add_option("--material", r.material, "virtual rig: named material (data/materials)");
-    cmd->add_option("--brdf", r.brdf_path, "virtual rig: ground-truth model JSON or table");
-    cmd->add_option("--scene", r.scene, "measure only the region of interest of this scene");
+    cmd->add_option("--brdf", r.brdf_path, "virtual rig: ground-truth model JSON or table")
+        ->check(gonio::tools::readable_input());
+    cmd->add_option("--scene", r.scene, "measure only the region of interest of this scene")
+        ->check(gonio::tools::readable_input());
     cmd->add_option("--sample", r.sample, "sample name");
     cmd->add_option("--operator", r.operator_name, "operator name");
     cmd->add_option("--plan",

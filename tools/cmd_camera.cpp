@@ -184,14 +184,16 @@ int run_info(const CameraOptions& o) {
         return 1;
     }
     auto e = (*cam)->exposure_us();
-    std::printf("vendor: %s\nmodel: %s\nserial: %s\nversion: %s\nsensor: %d x %d\nbit_depth: %d\n",
-                info->vendor.c_str(),
-                info->model.c_str(),
-                info->serial.c_str(),
-                info->version.c_str(),
-                info->sensor_width,
-                info->sensor_height,
-                info->bit_depth);
+    std::printf(
+        "vendor: %s\nmodel: %s\nserial: %s\nversion: %s\nsensor: %d x %d%s\nbit_depth: %d\n",
+        info->vendor.c_str(),
+        info->model.c_str(),
+        info->serial.c_str(),
+        info->version.c_str(),
+        info->sensor_width,
+        info->sensor_height,
+        info->sensor_size_from.empty() ? "" : (" (from " + info->sensor_size_from + ")").c_str(),
+        info->bit_depth);
     if (e) {
         std::printf("exposure_us: %g\n", *e);
     }
@@ -356,10 +358,12 @@ GONIO_COMMAND(camera) {
     serve->add_option("--material",
                       o->material,
                       "material name from data/materials (default: white-lambert, rho = 1)");
-    serve->add_option("--brdf",
-                      o->brdf_path,
-                      "ground-truth model JSON or table (overrides "
-                      "--material)");
+    serve
+        ->add_option("--brdf",
+                     o->brdf_path,
+                     "ground-truth model JSON or table (overrides "
+                     "--material)")
+        ->check(gonio::tools::readable_input());
     for (CLI::App* sub : {capture, serve}) {
         sub->add_option("--width", o->width, "sensor width (simulated)")
             ->check(CLI::Range(16, 16384));

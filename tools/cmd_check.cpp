@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "command.h"
+#include "exit_rule.h"
 #include "gonio/base/strings.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/checks.h"
@@ -160,7 +161,8 @@ GONIO_COMMAND(check) {
         "isotropy and energy conservation");
     auto opts = std::make_shared<CheckCliOptions>();
     cmd->add_option("brdf", opts->brdf_path, "Model JSON, tabulated BRDF or dataset CSV")
-        ->required();
+        ->required()
+        ->check(gonio::tools::readable_input());
     cmd->add_option("--seed", opts->checks.seed, "Seed of the random direction pairs")
         ->capture_default_str();
     cmd->add_option("--pairs", opts->checks.random_pairs, "Random direction pairs per check")
@@ -210,7 +212,8 @@ GONIO_COMMAND(check) {
         "must agree within their sigma (threshold from the number of pairs, no random choice). "
         "A table is held to its own resolution and stated noise. An option that does not apply "
         "to the input's kind is refused (exit 2). "
-        "Exit status: 0 all checks passed, 1 a violation beyond tolerance, an unreadable BRDF or a "
-        "table without valid bins, 2 usage error.");
+        "Exit status 1 here also means a violation beyond tolerance or a table without valid "
+        "bins.\n" +
+        std::string(gonio::tools::kExitRule));
     return [opts]() -> int { return run_check(*opts); };
 }

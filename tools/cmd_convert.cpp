@@ -260,7 +260,9 @@ GONIO_COMMAND(convert) {
         "convert between models (*.json), tables (MERL *.binary/*.merl, *.gtab), RGL materials "
         "(*.bsdf) and sample CSVs");
     auto opts = std::make_shared<ConvertOptions>();
-    cmd->add_option("input", opts->input, "model JSON, table or sample CSV")->required();
+    cmd->add_option("input", opts->input, "model JSON, table or sample CSV")
+        ->required()
+        ->check(gonio::tools::readable_input());
     cmd->add_option("output",
                     opts->output,
                     "table (*.binary, *.merl, *.gtab), RGL material (*.bsdf) or sample CSV")

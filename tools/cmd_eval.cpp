@@ -15,10 +15,12 @@
 #include <vector>
 
 #include "command.h"
+#include "exit_rule.h"
 #include "gonio/base/atomic_file.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/model_eval_packets.h"
+#include "option_checks.h"
 
 namespace {
 
@@ -292,8 +294,10 @@ GONIO_COMMAND(eval) {
     auto opts = std::make_shared<EvalOptions>();
     cmd->add_option(
            "brdf", opts->brdf_path, "Model JSON (docs/model-schema.md) or tabulated BRDF file")
-        ->required();
-    cmd->add_option("-i,--input", opts->input, "Directions CSV (default '-': standard input)");
+        ->required()
+        ->check(gonio::tools::readable_input());
+    cmd->add_option("-i,--input", opts->input, "Directions CSV (default '-': standard input)")
+        ->check(gonio::tools::readable_input());
     cmd->add_option("-o,--output", opts->output, "Output CSV (default '-': standard output)");
     cmd->footer(
         "Input: a header naming the columns theta_i,phi_i,theta_o,phi_o (radians; any order,\n"
@@ -301,7 +305,7 @@ GONIO_COMMAND(eval) {
         "with '#' are skipped. Output: the header r,g,b, then one line per valid row with the\n"
         "BRDF in 1/sr printed with %.17g. A row that does not parse (or has theta outside\n"
         "[0, pi]) produces no output line; it is reported on standard error with its line number.\n"
-        "Exit status: 0 all rows evaluated, 1 some rows skipped or an unreadable BRDF or input, 2 "
-        "usage error.");
+        "Exit status 1 here also means that some rows were skipped.\n" +
+        std::string(gonio::tools::kExitRule));
     return [opts]() -> int { return run_eval(*opts); };
 }

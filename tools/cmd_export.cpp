@@ -18,6 +18,7 @@
 #include "gonio/brdf/table.h"
 #include "gonio/report/blender_export.h"
 #include "gonio/report/export.h"
+#include "option_checks.h"
 
 namespace {
 
@@ -93,7 +94,8 @@ GONIO_COMMAND(export) {
     auto opts = std::make_shared<Options>();
     cmd->add_option(
            "input", opts->input, "model JSON (fit.json); for merl also a table or dataset CSV")
-        ->required();
+        ->required()
+        ->check(gonio::tools::readable_input());
     cmd->add_option("out_file", opts->out_positional, "output file (same as --out)");
     cmd->add_option("--to", opts->to, "mitsuba | pbrt | blender | merl")
         ->required()
@@ -203,6 +205,19 @@ GONIO_COMMAND(export) {
         }
         for (const std::string& n : result->approximations) {
             std::fprintf(stderr, "gonio export: not exact: %s\n", n.c_str());
+        }
+        // A misfit's verdict travels with the material (into the file) and is said here.
+        auto verdict = gonio::report::read_model_verdict(opts->input);
+        if (verdict && *verdict && (*verdict)->verdict != "represents") {
+            std::fprintf(stderr,
+                         "gonio export: warning: %s: the fit's verdict is \"%s\": the exported "
+                         "material reproduces that fit, not the measurement (the verdict is "
+                         "written into %s)\n",
+                         opts->input.c_str(),
+                         (*verdict)->headline.c_str(),
+                         out.empty() || out == "-" ? "the output" : out.c_str());
+            result->text =
+                gonio::report::with_verdict(result->text, **verdict, opts->to == "mitsuba");
         }
         return write_text(out, result->text);
     };

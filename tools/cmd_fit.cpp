@@ -15,6 +15,7 @@
 #include "fit_manifest.h"
 #include "gonio/base/atomic_file.h"
 #include "gonio/base/strings.h"
+#include "gonio/batch/fit_policy.h"
 #include "gonio/batch/fit_request.h"
 #include "gonio/brdf/model_json.h"
 #include "gonio/brdf/samples_io.h"
@@ -51,6 +52,7 @@ struct FitCliOptions {
     std::string manifest;
     std::string shard;
     bool strict = false;
+    bool verbose = false;
 };
 
 std::vector<std::string> split(const std::string& s) {
@@ -132,35 +134,13 @@ gonio::Expected<void> apply(gonio::batch::FitRequest& request,
 int run_compare(const std::vector<gonio::batch::FitRequest>& requests,
                 const gonio::brdf::Dataset& data,
                 bool strict) {
-    struct Row {
-        std::string model;
-        fitting::FitResult result;
-    };
-    std::vector<Row> rows;
-    std::vector<std::string> failed;
-    std::vector<std::string> misfits;
-    for (const gonio::batch::FitRequest& request : requests) {
-        const std::string& name = request.model;
-        auto run = gonio::batch::run_fit(data, request);
-        if (!run) {
-            std::fprintf(stderr, "gonio fit: %s: %s\n", name.c_str(), run.error().message.c_str());
-            return 1;
-        }
-        const fitting::FitResult* r = &run->result;
-        if (!r->solver.converged) {
-            failed.push_back(name + ": " + r->solver.termination + " (" + r->solver.message + ")");
-            continue;
-        }
-        if (!r->usable()) {
-            // A misfit is ranked with the others (its figures are what that model can do).
-            misfits.push_back(name);
-        }
-        rows.push_back({name, *r});
+    auto compared = gonio::batch::compare_fits(data, requests);
+    if (!compared) {
+        std::fprintf(stderr, "gonio fit: %s\n", compared.error().message.c_str());
+        return 1;
     }
+    const std::vector<gonio::batch::ComparedFit>& rows = compared->ranked;
     auto mean = [](const gonio::brdf::Rgbd& v) { return v.mean(); };
-    std::sort(rows.begin(), rows.end(), [&](const Row& a, const Row& b) {
-        return mean(a.result.metrics.log_rmse) < mean(b.result.metrics.log_rmse);
-    });
     std::printf("%-4s %-12s %12s %12s %12s %6s %9s\n",
                 "rank",
                 "model",
@@ -171,7 +151,7 @@ int run_compare(const std::vector<gonio::batch::FitRequest>& requests,
                 "time_s");
     for (std::size_t i = 0; i < rows.size(); ++i) {
         const fitting::FitResult& r = rows[i].result;
-        std::printf("%-4zu %-12s %12.6g %12.6g %12.6g %6d %9.3f%s\n",
+        std::printf("%-4zu %-12s %12.6g %12.6g %12.6g %6d %9.3f  %s\n",
                     i + 1,
                     rows[i].model.c_str(),
                     mean(r.metrics.log_rmse),
@@ -179,20 +159,19 @@ int run_compare(const std::vector<gonio::batch::FitRequest>& requests,
                     mean(r.metrics.rmse),
                     r.solver.iterations,
                     r.solver.wall_time_s,
-                    r.usable() ? "" : "  (misfit: does not represent the data)");
+                    r.goodness.headline.c_str());
     }
     std::printf("(errors are channel means over all %zu valid samples; ranked by log_rmse)\n",
                 rows.empty() ? std::size_t{0} : rows[0].result.samples.valid);
-    for (const std::string& f : failed) {
+    for (const std::string& f : compared->not_converged) {
         std::printf("did not converge, not ranked: %s\n", f.c_str());
     }
-    for (const std::string& m : misfits) {
+    const int status = gonio::batch::exit_status(*compared, strict);
+    if (status != 0 && strict && compared->not_converged.empty()) {
         std::fprintf(stderr,
-                     "gonio fit: %s: %s does not represent these data\n",
-                     strict ? "error" : "warning",
-                     m.c_str());
+                     "gonio fit: --strict: a compared model does not represent these data\n");
     }
-    return failed.empty() && (misfits.empty() || !strict) ? 0 : 1;
+    return status;
 }
 
 }  // namespace
@@ -202,7 +181,8 @@ GONIO_COMMAND(fit) {
     auto o = std::make_shared<FitCliOptions>();
     cmd->add_option("data",
                     o->data,
-                    "samples: dataset CSV, table (MERL .binary, .gtab) or RGL material (.bsdf)");
+                    "samples: dataset CSV, table (MERL .binary, .gtab) or RGL material (.bsdf)")
+        ->check(gonio::tools::readable_input());
     cmd->add_option("--model",
                     o->model,
                     "lobe distribution: ggx, beckmann, blinn-phong, student-t, tabulated (D "
@@ -249,12 +229,15 @@ GONIO_COMMAND(fit) {
                   o->strict,
                   "exit 1 when the model does not represent the data (a misfit is otherwise "
                   "written, reported on stderr, and exits 0)");
-    cmd->add_option("--truth", o->truth, "ground-truth model JSON, copied into the report");
+    cmd->add_flag("--verbose", o->verbose, "print the request as run (every option, defaults too)");
+    cmd->add_option("--truth", o->truth, "ground-truth model JSON, copied into the report")
+        ->check(gonio::tools::readable_input());
     cmd->add_option("--compare",
                     o->compare,
                     "comma-separated models to fit and rank, e.g. ggx,beckmann,blinn-phong");
     cmd->add_option("--manifest", o->manifest, "fit every entry of a manifest CSV into --out DIR")
-        ->excludes("data");
+        ->excludes("data")
+        ->check(gonio::tools::readable_input());
     cmd->add_option("--shard",
                     o->shard,
                     "with --manifest: only entries i with i mod N == K (--threads, if given, "
@@ -339,15 +322,20 @@ GONIO_COMMAND(fit) {
             }
             requests.push_back(std::move(request));
         }
-        // The request as run (every option, defaults included), so that a log shows what was
-        // asked for.
+        // Every request is built before anything is read: an option the structure cannot take is
+        // a usage error before any work.
         for (const batch::FitRequest& request : requests) {
-            std::printf("request: %s\n", batch::format_options(request).c_str());
+            if (auto spec = batch::make_fit_spec(request); !spec) {
+                return usage_error("fit", spec.error().message);
+            }
         }
-        std::printf("on a misfit: %s\n",
-                    o->strict ? "exit status 1 (--strict), the model still written"
-                              : "the model written with its verdict, exit status 0");
-        std::fflush(stdout);
+        if (o->verbose) {
+            // The request as run (every option, defaults included).
+            for (const batch::FitRequest& request : requests) {
+                std::printf("request: %s\n", batch::format_options(request).c_str());
+            }
+            std::fflush(stdout);
+        }
         // Everything named on the command line is read or checked before the fit runs.
         std::optional<gonio::brdf::ModelD> truth;
         if (!o->truth.empty()) {
@@ -406,26 +394,22 @@ GONIO_COMMAND(fit) {
             }
             std::printf(
                 "wrote %s and %s\n", o->out.c_str(), fitting::report_path_for(o->out).c_str());
+        } else {
+            std::printf(
+                "nothing written: give --out FILE.json to write the model (with its "
+                "verdict) and FILE.report.json\n");
         }
         if (!result->solver.converged) {
             std::fprintf(stderr,
                          "gonio fit: the fit did not converge (%s): %s\n",
                          result->solver.termination.c_str(),
                          result->solver.message.c_str());
-            return 1;
         }
-        if (!result->usable()) {
-            // A converged misfit is a finding: the best fit of that model, written with its
-            // verdict. Scripts that want it to fail ask for --strict.
-            std::fprintf(stderr,
-                         "gonio fit: %s: the model does not represent these data (%s); %s\n",
-                         o->strict ? "error" : "warning",
-                         result->goodness.warnings.empty()
-                             ? "see the report"
-                             : result->goodness.warnings.front().c_str(),
-                         result->goodness.suggestion.c_str());
-            return o->strict ? 1 : 0;
+        const int status = batch::exit_status(*result, o->strict);
+        if (status != 0 && result->solver.converged) {
+            // The verdict itself is in the summary above (printed once); --strict makes it fail.
+            std::fprintf(stderr, "gonio fit: --strict: the model does not represent these data\n");
         }
-        return 0;
+        return status;
     };
 }

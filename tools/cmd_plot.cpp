@@ -1,8 +1,11 @@
 // gonio plot: pictures of a dataset and of a fit.
 
 #include <CLI/CLI.hpp>
+#include <cmath>
 #include <cstdio>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "command.h"
 #include "gonio/brdf/brdf.h"
@@ -22,6 +25,28 @@ struct Options {
     std::vector<double> theta_i_deg;
 };
 
+/// --theta-i is in degrees: values that all lie below pi/2 with a fraction among them (0.52) were
+/// most likely written in radians; the command says so and what they would be in degrees.
+void radians_warning(const std::vector<double>& theta_i_deg) {
+    constexpr double kHalfPi = 1.5707963267948966;
+    bool all_small = !theta_i_deg.empty();
+    bool fraction = false;
+    std::string as_deg;
+    for (double t : theta_i_deg) {
+        all_small = all_small && t <= kHalfPi;
+        fraction = fraction || t != std::floor(t);
+        char buf[32];
+        std::snprintf(buf, sizeof buf, "%s%.4g", as_deg.empty() ? "" : ",", t * 90 / kHalfPi);
+        as_deg += buf;
+    }
+    if (all_small && fraction) {
+        std::fprintf(stderr,
+                     "gonio plot: warning: --theta-i is in degrees; every value given is below "
+                     "pi/2 with a fraction, as radians would be (in degrees: --theta-i %s)\n",
+                     as_deg.c_str());
+    }
+}
+
 }  // namespace
 
 GONIO_COMMAND(plot) {
@@ -32,8 +57,10 @@ GONIO_COMMAND(plot) {
     cmd->add_option("data",
                     opts->data,
                     "dataset CSV, table (*.binary, *.merl, *.gtab) or RGL material (*.bsdf)")
-        ->required();
-    cmd->add_option("--fit", opts->fit, "fitted model (fit.json) or table drawn over the data");
+        ->required()
+        ->check(gonio::tools::readable_input());
+    cmd->add_option("--fit", opts->fit, "fitted model (fit.json) or table drawn over the data")
+        ->check(gonio::tools::readable_input());
     cmd->add_option("--out", opts->out, "output folder (created if missing)")
         ->capture_default_str();
     cmd->add_option("--scale",
@@ -49,6 +76,7 @@ GONIO_COMMAND(plot) {
         ->delimiter(',')
         ->check(gonio::tools::finite_in(0, 89.9, "deg"));
     return [opts]() -> int {
+        radians_warning(opts->theta_i_deg);
         auto data = gonio::brdf::load_samples(opts->data);
         if (!data) {
             std::fprintf(stderr, "gonio plot: %s\n", data.error().message.c_str());

@@ -9,6 +9,7 @@
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/table.h"
 #include "gonio/report/preview.h"
+#include "option_checks.h"
 
 namespace {
 
@@ -56,8 +57,10 @@ GONIO_COMMAND(preview) {
            "brdf",
            opts->brdf,
            "model JSON (fit.json), table (*.binary, *.merl, *.gtab) or RGL material (*.bsdf)")
-        ->required();
-    cmd->add_option("--vs", opts->vs, "a second BRDF rendered below the first for comparison");
+        ->required()
+        ->check(gonio::tools::readable_input());
+    cmd->add_option("--vs", opts->vs, "a second BRDF rendered below the first for comparison")
+        ->check(gonio::tools::readable_input());
     cmd->add_option("--out", opts->out, "output PNG")->capture_default_str();
     cmd->add_option("--size", opts->size, "sphere picture size in pixels")
         ->capture_default_str()

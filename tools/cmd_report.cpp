@@ -7,6 +7,7 @@
 #include "command.h"
 #include "gonio/report/blender_render.h"
 #include "gonio/report/html_report.h"
+#include "option_checks.h"
 
 namespace {
 
@@ -26,7 +27,9 @@ GONIO_COMMAND(report) {
         "write DIR/report.html for a point or image-mode campaign folder: the result (verdict, "
         "model, parameters), pictures, coverage, calibration, run history, raw descriptions");
     auto opts = std::make_shared<Options>();
-    cmd->add_option("dir", opts->dir, "campaign folder")->required();
+    cmd->add_option("dir", opts->dir, "campaign folder")
+        ->required()
+        ->check(gonio::tools::readable_input(gonio::tools::InputKind::kFolder));
     cmd->add_flag("--regenerate", opts->regenerate, "redraw plots and previews that already exist");
     cmd->add_option("--preview-size", opts->preview_size, "sphere picture size in pixels")
         ->capture_default_str()

@@ -106,9 +106,11 @@ GONIO_COMMAND(sim) {
     auto* cmd = app.add_subcommand(
         "sim", "serve the virtual rig (motor controllers and camera) until Ctrl-C");
     auto o = std::make_shared<SimOptions>();
-    cmd->add_option("--config", o->config, "rig description (default data/rigs/sim4.json)");
+    cmd->add_option("--config", o->config, "rig description (default data/rigs/sim4.json)")
+        ->check(gonio::tools::readable_input());
     cmd->add_option("--material", o->material, "ground truth: named material (data/materials)");
-    cmd->add_option("--brdf", o->brdf, "ground truth: model JSON or table");
+    cmd->add_option("--brdf", o->brdf, "ground truth: model JSON or table")
+        ->check(gonio::tools::readable_input());
     cmd->add_option("--time-scale", o->time_scale, "motion time scale (simulated s per real s)")
         ->check(gonio::tools::finite_above(0));
     // 0 is the rig description's seed: an explicit seed starts at 1.

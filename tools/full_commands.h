@@ -24,7 +24,7 @@ inline constexpr FullCommand kFullCommands[] = {
     {"devices",
      "list GenICam cameras (through Aravis), USB3 Vision cameras and USB-serial adapters, with "
      "permission problems"},
-    {"export", "write a fitted model as a Mitsuba 3 or pbrt-v4 material, or a MERL table"},
+    {"export", "write a fitted model as a Mitsuba 3, pbrt-v4 or Blender material, or a MERL table"},
     {"plot",
      "draw polar in-plane slices, delta_phi slices and (with --fit) residual maps, as PNG files"},
     {"preview", "render a sphere under a directional light and a sky/ground environment (PNG)"},

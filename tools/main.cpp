@@ -1,8 +1,8 @@
 // gonio: drive a gonioreflectometer, acquire BRDF datasets, fit analytic models.
 //
-// Exit status of every command: 0 success, 1 failure of the work (bad input file, device fault,
-// paused or interrupted campaign, ...), 2 usage error (unknown command or option, bad option
-// value). CLI11's own codes (105, 106, 109, ...) are mapped onto these.
+// Exit status of every command: exit_rule.h (0 success, 1 the work failed, 2 usage error found
+// before any work, an input named on the command line that cannot be read included). CLI11's own
+// codes (105, 106, 109, ...) are mapped onto these.
 //
 // This file is the main of two executables: gonio (GONIO_LAUNCHER defined) with the commands that
 // need no device, camera or image library, and gonio-full with every command. gonio hands the
@@ -19,6 +19,7 @@
 
 #include "build_info.h"
 #include "command.h"
+#include "exit_rule.h"
 #include "gonio/base/edit_distance.h"
 #include "gonio/base/huge_pages.h"
 #include "gonio/base/limits.h"
@@ -124,9 +125,7 @@ int main(int argc, char** argv) {
                    max_memory,
                    "memory budget of the command, e.g. 512M, 8G (default 2G); work that needs "
                    "more is refused before it starts");
-    app.footer(
-        "Exit status: 0 success, 1 the work failed (bad input, device fault, paused or "
-        "interrupted campaign), 2 usage error (unknown command or option, bad option value).");
+    app.footer(gonio::tools::kExitRule);
     // Every command in name order: the registered ones (set up here) and, in gonio, those run by
     // gonio-full (listed in --help and known to the suggestions).
     struct Listed {

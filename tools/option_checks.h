@@ -3,10 +3,14 @@
 // Checks of command-line values shared by the commands. A value that fails is a usage error
 // (exit status 2, see main.cpp): the message names the option, the value and the allowed range.
 
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <string>
@@ -94,6 +98,45 @@ inline CLI::Validator integer_in(long long lo, long long hi) {
             return {};
         },
         "in " + range);
+}
+
+/// What an input named on the command line must be.
+enum class InputKind {
+    kFile,    ///< a file to read (a BRDF argument's material:NAME and "-", standard input, pass)
+    kFolder,  ///< a folder to read (a campaign folder)
+};
+
+/// An input named on the command line (a dataset, a model, a table, a description, a campaign
+/// folder): one that does not exist or cannot be read is a usage error, exit status 2 before any
+/// work, with the path and why. What its content holds is the work's to judge (exit status 1).
+inline CLI::Validator readable_input(InputKind kind = InputKind::kFile) {
+    return CLI::Validator(
+        [kind](std::string& path) -> std::string {
+            if (kind == InputKind::kFile && (path == "-" || path.rfind("material:", 0) == 0)) {
+                return {};
+            }
+            // Worded as the readers word it (PATH: cannot open: REASON), so that the command line
+            // and Python say the same.
+            struct stat st {};
+            if (path.empty()) {
+                return "empty path (an input named on the command line must exist)";
+            }
+            if (::stat(path.c_str(), &st) != 0) {
+                return path + ": cannot open: " + std::strerror(errno);
+            }
+            const bool folder = S_ISDIR(st.st_mode);
+            if (kind == InputKind::kFile && folder) {
+                return path + ": is a folder, not a file";
+            }
+            if (kind == InputKind::kFolder && !folder) {
+                return path + ": not a folder";
+            }
+            if (::access(path.c_str(), folder ? (R_OK | X_OK) : R_OK) != 0) {
+                return path + ": cannot open: " + std::strerror(errno);
+            }
+            return {};
+        },
+        "");
 }
 
 /// Prints "gonio CMD: MESSAGE" and returns the usage-error status 2.

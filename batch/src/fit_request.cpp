@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "gonio/base/strings.h"
+#include "gonio/batch/fit_policy.h"
 #include "gonio/fitting/power_iteration.h"
 
 namespace gonio::batch {
@@ -355,6 +356,11 @@ Expected<FitRun> run_fit(const brdf::Dataset& data, const FitRequest& r) {
             return tl::unexpected(chosen.error());
         }
         run.result = std::move(chosen->best);
+        // Every family was ranked: what is left to suggest is the measurement itself.
+        run.result.goodness.suggestion =
+            run.result.goodness.verdict == fitting::Verdict::kRepresents
+                ? std::string()
+                : table_alternative(data, data.source);
         run.ranking = std::move(chosen->ranking);
         run.chosen = std::move(chosen->chosen);
         run.criterion = std::move(chosen->criterion);

@@ -12,6 +12,7 @@
 
 #include "gonio/base/atomic_file.h"
 #include "gonio/base/strings.h"
+#include "gonio/batch/fit_policy.h"
 #include "gonio/brdf/samples_io.h"
 #include "gonio/fitting/fit.h"
 #include "gonio/fitting/report.h"
@@ -302,9 +303,7 @@ EntryOutcome run_entry(const ManifestEntry& entry, const std::string& out_dir) {
     fs::remove(error_path(out_dir, entry.id), ec);
     if (!result->usable()) {
         o.status = EntryStatus::kMisfit;
-        o.message = (result->goodness.warnings.empty() ? std::string("does not represent the data")
-                                                       : result->goodness.warnings.front()) +
-                    "; " + result->goodness.suggestion;
+        o.message = misfit_message(*result);
         return o;
     }
     o.status = EntryStatus::kFitted;

@@ -43,19 +43,30 @@ std::string validate_sample(const Sample& s) {
         return "weight = " + fmt_g(s.weight) + " is not a finite value >= 0";
     }
     const double half_pi = kPi / 2;
+    // An angle above its range in radians but within it in degrees is most likely in degrees.
+    const auto polar = [half_pi](const char* name, double v) -> std::string {
+        if (v < 0) {
+            return std::string(name) + " = " + fmt_g(v) + " outside [0, pi/2)";
+        }
+        return std::string(name) + " = " + fmt_g(v) + " at or below the horizon (>= pi/2)" +
+               (v <= 90 ? "; it looks like degrees: angles are radians, 90 deg = 1.5708" : "");
+    };
+    const auto azimuth = [](const char* name, double v) -> std::string {
+        return std::string(name) + " = " + fmt_g(v) + " outside [-2 pi, 2 pi]" +
+               (std::abs(v) <= 360 ? "; it looks like degrees: angles are radians, 180 deg = 3.1416"
+                                   : "");
+    };
     if (s.theta_i < 0 || s.theta_i >= half_pi) {
-        return "theta_i = " + fmt_g(s.theta_i) +
-               (s.theta_i >= half_pi ? " at or below the horizon (>= pi/2)" : " outside [0, pi/2)");
+        return polar("theta_i", s.theta_i);
     }
     if (s.theta_o < 0 || s.theta_o >= half_pi) {
-        return "theta_o = " + fmt_g(s.theta_o) +
-               (s.theta_o >= half_pi ? " at or below the horizon (>= pi/2)" : " outside [0, pi/2)");
+        return polar("theta_o", s.theta_o);
     }
     if (std::abs(s.phi_i) > 2 * kPi) {
-        return "phi_i = " + fmt_g(s.phi_i) + " outside [-2 pi, 2 pi]";
+        return azimuth("phi_i", s.phi_i);
     }
     if (std::abs(s.phi_o) > 2 * kPi) {
-        return "phi_o = " + fmt_g(s.phi_o) + " outside [-2 pi, 2 pi]";
+        return azimuth("phi_o", s.phi_o);
     }
     return {};
 }

@@ -20,6 +20,7 @@
 #include "gonio/base/thread_pool.h"
 #include "gonio/brdf/merl.h"
 #include "gonio/brdf/rgl_bsdf.h"
+#include "gonio/brdf/values_below_zero.h"
 #include "sample_columns.h"
 
 namespace gonio::brdf {
@@ -53,6 +54,12 @@ Range column_range(int c) {
             return {0.0, kMaxSampleWeight, false, "[0, 1e9]"};
         case kF:
             return {0.0, 4294967295.0, false, "[0, 4294967295] (unsigned 32-bit integer)"};
+        case kR:
+        case kG:
+        case kB:
+            // Values below zero within their noise are measurements (values_below_zero.h); how
+            // far below is judged once the whole file is read.
+            return {-kMaxSampleValue, kMaxSampleValue, false, "[-1e9, 1e9] 1/sr"};
         default:
             return {0.0, kMaxSampleValue, false, "[0, 1e9] 1/sr"};
     }
@@ -202,6 +209,10 @@ void parse_chunk(const char* p,
                                       ? " (at or below the horizon; it looks like degrees: "
                                         "angles are radians, 90 deg = 1.5708)"
                                       : " (at or below the horizon)";
+                    }
+                    if ((c == kPhiI || c == kPo) && std::abs(x) <= 360) {
+                        // An azimuth in (2 pi, 360] is most likely written in degrees.
+                        reason += " (it looks like degrees: angles are radians, 180 deg = 3.1416)";
                     }
                 }
                 if (!reason.empty()) {
@@ -377,6 +388,54 @@ class FileBytes {
     std::string copy_;
 };
 
+/// Values below zero beyond their noise (values_below_zero.h), judged with the noise the whole
+/// file implies: the first is an error naming its row and column, or with keep_going each such
+/// row is moved to data.rejected (in file order with the others).
+Expected<void> refuse_values_below_noise(Dataset& data,
+                                         const Layout& layout,
+                                         const std::string& path,
+                                         const DatasetReadOptions& options) {
+    const bool any = std::any_of(data.samples.begin(), data.samples.end(), [](const Sample& s) {
+        return s.value.minCoeff() < 0;
+    });
+    if (!any) {
+        return {};
+    }
+    const double noise = implied_noise(data.samples);
+    const std::size_t rejected_before = data.rejected.size();
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < data.samples.size(); ++i) {
+        const Sample& s = data.samples[i];
+        std::string reason;
+        int column = -1;
+        if (s.value.minCoeff() < 0) {
+            const Rgbd allowance = below_zero_allowance(s, noise);
+            for (int c = 0; c < 3 && reason.empty(); ++c) {
+                reason = below_zero_reason(c, s.value[c], allowance[c], s.sigma[c] > 0);
+                column = layout.index[kR + c];
+            }
+        }
+        if (reason.empty()) {
+            data.samples[kept++] = s;
+            continue;
+        }
+        const std::string where =
+            path + ":" + std::to_string(s.line) + ":" + std::to_string(column + 1) + ": ";
+        if (!options.keep_going || data.rejected.size() >= options.max_rejected) {
+            return make_error(where + reason);
+        }
+        data.rejected.push_back(RejectedRow{s.line, reason});
+    }
+    data.samples.resize(kept);
+    if (data.rejected.size() != rejected_before) {
+        std::stable_sort(
+            data.rejected.begin(),
+            data.rejected.end(),
+            [](const RejectedRow& a, const RejectedRow& b) { return a.line < b.line; });
+    }
+    return {};
+}
+
 }  // namespace
 
 Expected<Dataset> read_dataset_csv(const std::string& path, const DatasetReadOptions& options) {
@@ -487,6 +546,9 @@ Expected<Dataset> read_dataset_csv(const std::string& path, const DatasetReadOpt
         total += r.count;
     }
     data.samples.resize(total);
+    if (auto below = refuse_values_below_noise(data, layout, path, options); !below) {
+        return make_error(below.error().message);
+    }
     return data;
 }
 

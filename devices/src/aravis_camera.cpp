@@ -1108,20 +1108,30 @@ Expected<CameraInfo> AravisCamera::info() {
     i.version = d.string_or_empty("DeviceVersion");
     // The sensor's size: SensorWidth/SensorHeight (SFNC) where the camera has them; else
     // WidthMax/HeightMax (the largest image it sends); else the top of Width's/Height's range.
-    // Several real cameras describe only the latter two.
-    const auto extent =
-        [&d](const char* sensor, const char* max_feature, const char* size) -> Expected<int> {
+    // Several real cameras describe only the latter two. Some describe Width and Height as plain
+    // registers or as Integers without a maximum (the top of the range is then the register's,
+    // 2^32 - 1): their size is the current Width and Height, and the info says so.
+    struct Extent {
+        int pixels = 0;
+        std::string from;
+    };
+    const auto pixel_count = [](std::int64_t v) {
+        return v >= 1 && v <= std::numeric_limits<int>::max();
+    };
+    const auto extent = [&d, &pixel_count](const char* sensor,
+                                           const char* max_feature,
+                                           const char* size) -> Expected<Extent> {
         for (const char* f : {sensor, max_feature}) {
             if (d.has(f)) {
                 auto v = d.get_int(f);
                 if (!v) {
                     return tl::unexpected(v.error());
                 }
-                if (*v < 1 || *v > std::numeric_limits<int>::max()) {
+                if (!pixel_count(*v)) {
                     return tl::unexpected(d.err(std::string(f) + " = " + std::to_string(*v) +
                                                 " is not a size in pixels"));
                 }
-                return static_cast<int>(*v);
+                return Extent{static_cast<int>(*v), f};
             }
         }
         if (auto r = d.require(size,
@@ -1134,12 +1144,20 @@ Expected<CameraInfo> AravisCamera::info() {
         if (!range) {
             return tl::unexpected(range.error());
         }
-        if (range->second < 1 || range->second > std::numeric_limits<int>::max()) {
-            return tl::unexpected(d.err("the top of " + std::string(size) + "'s range, " +
-                                        std::to_string(range->second) +
-                                        ", is not a size in pixels"));
+        if (pixel_count(range->second)) {
+            return Extent{static_cast<int>(range->second),
+                          "the top of " + std::string(size) + "'s range"};
         }
-        return static_cast<int>(range->second);
+        auto now = d.get_int(size);
+        if (!now) {
+            return tl::unexpected(now.error());
+        }
+        if (!pixel_count(*now)) {
+            return tl::unexpected(d.err(
+                "the top of " + std::string(size) + "'s range, " + std::to_string(range->second) +
+                ", is not a size in pixels, nor is its current value, " + std::to_string(*now)));
+        }
+        return Extent{static_cast<int>(*now), "current"};
     };
     auto w = extent("SensorWidth", "WidthMax", "Width");
     if (!w) {
@@ -1149,8 +1167,16 @@ Expected<CameraInfo> AravisCamera::info() {
     if (!h) {
         return tl::unexpected(h.error());
     }
-    i.sensor_width = *w;
-    i.sensor_height = *h;
+    i.sensor_width = w->pixels;
+    i.sensor_height = h->pixels;
+    if (w->from == "current" || h->from == "current") {
+        i.sensor_size_from =
+            "the current Width and Height; the camera's description gives them no maximum";
+    } else if (w->from == "SensorWidth" && h->from == "SensorHeight") {
+        i.sensor_size_from = "SensorWidth and SensorHeight";
+    } else {
+        i.sensor_size_from = w->from + " and " + h->from;
+    }
     GError* e = nullptr;
     const char* pf = arv_camera_get_pixel_format_as_string(d.camera, &e);
     if (e != nullptr) {
@@ -1295,6 +1321,11 @@ Expected<void> AravisCamera::set_roi(const Roi& roi) {
         }
         const std::int64_t lo = range->first;
         const std::int64_t hi = range->second;
+        if (a.want_size == 0 && a.want_offset == 0 && hi > std::numeric_limits<int>::max()) {
+            // The full frame of a camera whose description gives this size no maximum (a plain
+            // register): the current size, as info() reports it.
+            continue;
+        }
         GError* e = nullptr;
         const std::int64_t size = a.want_size == 0 ? hi - a.want_offset : a.want_size;
         if (size < lo || size > hi || size + a.want_offset > hi) {

@@ -2,6 +2,7 @@
 
 #include "gonio/fitting/cost.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "gonio/base/check.h"
@@ -171,7 +172,8 @@ double channel_residual(ResidualForm form, double m, double d, double cos_i, dou
         case ResidualForm::kAbsolute:
             return m - d;
         case ResidualForm::kRelative:
-            return (m - d) / (d + floor);
+            // A value below zero within its noise counts as zero in the denominator.
+            return (m - d) / (std::max(d, 0.0) + floor);
         case ResidualForm::kLog:
             return std::log1p(m * cos_i) - std::log1p(d * cos_i);
         case ResidualForm::kCosine:

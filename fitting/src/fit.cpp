@@ -15,6 +15,7 @@
 #include "fit_stages.h"
 #include "gonio/base/huge_pages.h"
 #include "gonio/base/thread_pool.h"
+#include "gonio/brdf/values_below_zero.h"
 #include "gonio/fitting/cost.h"
 #include "gonio/fitting/power_iteration.h"
 #include "gonio/fitting/prepared_samples.h"
@@ -91,12 +92,15 @@ const std::vector<Sample>& select_samples(const brdf::Dataset& data,
     const bool keep_sigma = o.use_sigma && data.has_sigma;
     // Set when a sample is left out or loses its sigma: the selection then differs from the input.
     std::atomic<bool> differs{false};
+    // Values below zero within their noise are kept (brdf/values_below_zero.h).
+    const double noise = brdf::implied_noise(data.samples);
     parallel_ranges(data.samples.size(), threads, [&](std::size_t, std::size_t b, std::size_t e) {
         bool changed = false;
         for (std::size_t i = b; i < e; ++i) {
             const Sample& s = data.samples[i];
-            if (!brdf::validate_sample(s).empty() || !(std::cos(s.theta_i) > 0) ||
-                !(std::cos(s.theta_o) > 0) || !(s.value.maxCoeff() <= brdf::kMaxSampleValue) ||
+            if (!brdf::validate_sample(s, brdf::below_zero_allowance(s, noise)).empty() ||
+                !(std::cos(s.theta_i) > 0) || !(std::cos(s.theta_o) > 0) ||
+                !(s.value.maxCoeff() <= brdf::kMaxSampleValue) ||
                 !(s.sigma.maxCoeff() <= brdf::kMaxSampleValue)) {
                 kind[i] = SampleKind::kInvalid;
             } else if ((s.flags & brdf::kFlagReference) != 0) {
@@ -272,10 +276,17 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
     const std::vector<Sample>& valid =
         select_samples(data, o, ctx.threads, result.samples, valid_copy);
     if (valid.empty()) {
+        // The first sample's own reason, so that a whole input in degrees says so.
+        std::string first;
+        for (std::size_t i = 0; i < data.samples.size() && first.empty(); ++i) {
+            if (const std::string r = brdf::validate_sample(data.samples[i]); !r.empty()) {
+                first = "; sample " + std::to_string(i + 1) + ": " + r;
+            }
+        }
         return make_error(data.source + ": no valid sample to fit (" +
                           std::to_string(result.samples.rejected) + " rejected, " +
                           std::to_string(result.samples.reference) + " reference, " +
-                          std::to_string(result.samples.saturated) + " saturated)");
+                          std::to_string(result.samples.saturated) + " saturated)" + first);
     }
     const std::vector<Sample> reduced = o.max_samples > 0 && o.max_samples < valid.size()
                                             ? stratified_reduce(valid, o.max_samples, o.seed)
@@ -360,7 +371,13 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
         ps_used && reduced.empty()
             ? detail::evaluate_metrics(result.model, valid, o.relative_floor, *ps_used, ctx.threads)
             : evaluate_metrics(result.model, valid, o.relative_floor);
-    result.goodness = detail::judge(result.metrics, chi2, valid.size(), result.model);
+    // (An f0 fitted per channel: its parameters are named lobes[i].fresnel.f0[c].)
+    const bool f0_per_channel =
+        std::any_of(result.parameters.begin(), result.parameters.end(), [](const auto& p) {
+            return p.free && p.name.find(".fresnel.f0[") != std::string::npos;
+        });
+    result.goodness =
+        detail::judge(result.metrics, chi2, valid.size(), result.model, f0_per_channel);
     result.solver.usable = result.solver.converged && result.goodness.represents;
     result.solver.wall_time_s = std::chrono::duration<double>(detail::Clock::now() - t0).count();
     return result;

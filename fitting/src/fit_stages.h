@@ -196,6 +196,7 @@ Metrics evaluate_metrics(const brdf::ModelD& model,
 GoodnessOfFit judge(const Metrics& m,
                     std::optional<double> chi2,
                     std::size_t valid,
-                    const brdf::ModelD& fitted);
+                    const brdf::ModelD& fitted,
+                    bool f0_per_channel);
 
 }  // namespace gonio::fitting::detail

@@ -12,6 +12,7 @@
 #include "gonio/base/huge_pages.h"
 #include "gonio/base/thread_pool.h"
 #include "gonio/brdf/model_eval.h"
+#include "gonio/brdf/values_below_zero.h"
 #include "gonio/fitting/vector_log.h"
 
 namespace gonio::fitting {
@@ -23,6 +24,8 @@ using brdf::Rgbd;
 using brdf::Sample;
 
 constexpr double kBandEdgesDeg[] = {0, 2, 5, 10, 20, 40, 90};
+/// The median relative error counts the values above this many of their noise sigmas.
+constexpr double kSignalSigmas = 2;
 /// From this many samples on the medians of the three channels run on the pool.
 constexpr std::size_t kParallelMedianSamples = 65536;
 
@@ -50,6 +53,7 @@ Metrics metrics_of(const std::vector<Sample>& samples, double relative_floor, co
     for (int c = 0; c < 3; ++c) {
         resize_huge(rel[c], samples.size(), std::numeric_limits<double>::quiet_NaN());
     }
+    const double implied = brdf::implied_noise(samples);
     double band_cos[kBands + 1];
     for (int b = 0; b <= kBands; ++b) {
         band_cos[b] = std::cos(kBandEdgesDeg[b] * brdf::kPi / 180);
@@ -76,7 +80,9 @@ Metrics metrics_of(const std::vector<Sample>& samples, double relative_floor, co
                     channel_residual(ResidualForm::kRelative, f[c], d, cos_i, relative_floor);
                 const double log_r =
                     have_logs ? logs[c] : channel_residual(ResidualForm::kLog, f[c], d, cos_i, 0);
-                if (d > 0) {
+                // Where the value is above its noise: a relative error of noise means nothing.
+                const double sigma = samples[i].sigma[c] > 0 ? samples[i].sigma[c] : implied;
+                if (d > 0 && d > kSignalSigmas * sigma) {
                     rel[c][i] = std::abs(abs_r) / d;
                 }
                 acc.sq(0, c) += abs_r * abs_r;
@@ -253,82 +259,75 @@ std::vector<double> lobe_shares(const ModelD& model, const std::vector<Sample>& 
     return lobe_sum;
 }
 
-/// What to try when the model `fitted` misfits: the families that could fix it and are not the
-/// one fitted.
-std::string suggest(const ModelD& fitted) {
-    std::string dist = "ggx";
-    if (!fitted.lobes.empty()) {
-        dist = brdf::to_string(fitted.lobes[0].distribution);
-    }
-    std::string s =
-        "try `--model auto` (ranks ggx, beckmann, student-t, blinn-phong and two lobes by BIC)";
-    if (fitted.lobes.size() < 2) {
-        s += ", a second lobe (`--lobes 2`)";
-    }
-    if (dist != "student-t") {
-        s += ", a distribution with a tail parameter (`--model student-t`)";
-    }
-    if (dist != "beckmann") {
-        s += ", `--model beckmann`";
-    }
-    const bool rgb_roughness_possible =
-        !fitted.lobes.empty() && !fitted.lobes[0].rgb_roughness && !fitted.lobes[0].anisotropic &&
-        (dist == "ggx" || dist == "beckmann" || dist == "student-t");
-    s += rgb_roughness_possible ? ", `--fresnel schlick-rgb` or `--roughness rgb`"
-                                : " or `--fresnel schlick-rgb`";
-    return s;
+namespace {
+
+const char* const kChannelNames[3] = {"r", "g", "b"};
+
+/// The state of one finding and the worst of several.
+Verdict worse(Verdict a, Verdict b) {
+    return static_cast<int>(a) > static_cast<int>(b) ? a : b;
 }
 
-/// Goodness of fit from the metrics (and the reduced chi-square when the data carry sigmas).
-GoodnessOfFit judge(const Metrics& m,
-                    std::optional<double> chi2,
-                    std::size_t valid,
-                    const ModelD& fitted) {
-    GoodnessOfFit g;
-    g.reduced_chi_square = chi2;
-    char buf[256];
-    const char* names[3] = {"r", "g", "b"};
+/// A finding of the judgement: its state, the channel it concerns (-1: all) and its words.
+struct Finding {
+    Verdict state = Verdict::kRepresents;
+    int channel = -1;
+    std::string figure;   ///< "median relative error 0.091 above 0.05"
+    std::string warning;  ///< the warning line of the report
+};
+
+/// A figure against its two limits: a visible misfit above `warn`, no representation above `bad`
+/// (or when not finite).
+Verdict grade(double v, double warn, double bad) {
+    if (!std::isfinite(v) || v > bad) {
+        return Verdict::kDoesNotRepresent;
+    }
+    return v > warn ? Verdict::kVisibleMisfit : Verdict::kRepresents;
+}
+
+std::string fmt(const char* format, double a, double b) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, format, a, b);
+    return buf;
+}
+
+void channel_findings(const Metrics& m, std::vector<Finding>& out) {
     for (int c = 0; c < 3; ++c) {
         const double v = m.log_rmse[c];
-        if (!std::isfinite(v) || v > kLogRmseUnusable) {
-            g.represents = false;
-            std::snprintf(buf,
-                          sizeof buf,
-                          "log RMSE of channel %s = %.3g above %.2g: the model does not represent "
-                          "these data",
-                          names[c],
-                          v,
-                          kLogRmseUnusable);
-            g.warnings.push_back(buf);
-        } else if (v > kLogRmseWarn) {
-            std::snprintf(buf,
-                          sizeof buf,
-                          "log RMSE of channel %s = %.3g above %.2g: a visible misfit",
-                          names[c],
-                          v,
-                          kLogRmseWarn);
-            g.warnings.push_back(buf);
+        const Verdict g = grade(v, kLogRmseWarn, kLogRmseUnusable);
+        if (g != Verdict::kRepresents) {
+            const double limit = g == Verdict::kVisibleMisfit ? kLogRmseWarn : kLogRmseUnusable;
+            const std::string figure = fmt("log RMSE %.3g above %.2g", v, limit);
+            out.push_back(
+                {g,
+                 c,
+                 figure,
+                 std::string("log RMSE of channel ") + kChannelNames[c] + " = " +
+                     fmt("%.3g above %.2g", v, limit) +
+                     (g == Verdict::kVisibleMisfit ? ": a visible misfit"
+                                                   : ": the model does not represent these data")});
         }
     }
     for (int c = 0; c < 3; ++c) {
         // The relative error of f itself: sees a dark channel that log(1 + f cos) cannot.
         const double v = m.median_rel[c];
-        const bool bad = !std::isfinite(v) || v > kMedianRelUnusable;
-        if (bad || v > kMedianRelWarn) {
-            if (bad) {
-                g.represents = false;
-            }
-            std::snprintf(buf,
-                          sizeof buf,
-                          "median relative error |m - d| / d of channel %s = %.3g above %.2g: %s",
-                          names[c],
-                          v,
-                          bad ? kMedianRelUnusable : kMedianRelWarn,
-                          bad ? "the model does not represent this channel"
-                              : "a visible misfit in this channel");
-            g.warnings.push_back(buf);
+        const Verdict g = grade(v, kMedianRelWarn, kMedianRelUnusable);
+        if (g != Verdict::kRepresents) {
+            const double limit = g == Verdict::kVisibleMisfit ? kMedianRelWarn : kMedianRelUnusable;
+            out.push_back({g,
+                           c,
+                           fmt("median relative error %.3g above %.2g", v, limit),
+                           std::string("median relative error |m - d| / d of channel ") +
+                               kChannelNames[c] + " = " + fmt("%.3g above %.2g", v, limit) +
+                               (g == Verdict::kVisibleMisfit
+                                    ? ": a visible misfit in this channel"
+                                    : ": the model does not represent this channel")});
         }
     }
+}
+
+void band_findings(const Metrics& m, std::size_t valid, std::vector<Finding>& out) {
+    char buf[256];
     for (const BandResidual& b : m.bands) {
         // Bands with under 1 % of the samples do not decide.
         if (b.count * 100 < valid) {
@@ -336,59 +335,119 @@ GoodnessOfFit judge(const Metrics& m,
         }
         for (int c = 0; c < 3; ++c) {
             const double bias = b.mean_log[c];
-            const bool bad = !std::isfinite(bias) || std::abs(bias) > kBandBiasUnusable;
-            if (bad || std::abs(bias) > kBandBiasWarn) {
-                if (bad) {
-                    g.represents = false;
-                }
-                std::snprintf(buf,
-                              sizeof buf,
-                              "theta_h in [%g, %g) deg: mean log residual of channel %s = %+.3g "
-                              "(the model is %s there; limit +-%.2g)",
-                              b.theta_h_lo_deg,
-                              b.theta_h_hi_deg,
-                              names[c],
-                              bias,
-                              bias > 0 ? "too bright" : "too dark",
-                              bad ? kBandBiasUnusable : kBandBiasWarn);
-                g.warnings.push_back(buf);
+            const Verdict g = grade(std::abs(bias), kBandBiasWarn, kBandBiasUnusable);
+            if (g == Verdict::kRepresents) {
+                continue;
             }
+            const double limit = g == Verdict::kVisibleMisfit ? kBandBiasWarn : kBandBiasUnusable;
+            std::snprintf(buf,
+                          sizeof buf,
+                          "theta_h in [%g, %g) deg: mean log residual of channel %s = %+.3g "
+                          "(the model is %s there; limit +-%.2g)",
+                          b.theta_h_lo_deg,
+                          b.theta_h_hi_deg,
+                          kChannelNames[c],
+                          bias,
+                          bias > 0 ? "too bright" : "too dark",
+                          limit);
+            char figure[128];
+            std::snprintf(figure,
+                          sizeof figure,
+                          "mean log residual %+.3g at theta_h %g-%g deg, limit +-%.2g",
+                          bias,
+                          b.theta_h_lo_deg,
+                          b.theta_h_hi_deg,
+                          limit);
+            out.push_back({g, c, figure, buf});
         }
     }
-    const double worst_log_rmse = m.log_rmse.maxCoeff();
-    if (chi2) {
-        if (std::isfinite(*chi2) && *chi2 > kChi2Unusable && worst_log_rmse <= kLogRmsePractical) {
-            std::snprintf(buf,
-                          sizeof buf,
-                          "reduced chi-square = %.3g above %g, but the worst log RMSE is only "
-                          "%.3g (limit %.2g): the stated sigmas are far smaller than the "
-                          "systematic errors of the data or the model",
-                          *chi2,
-                          kChi2Unusable,
-                          worst_log_rmse,
-                          kLogRmsePractical);
-            g.warnings.push_back(buf);
-        } else if (!std::isfinite(*chi2) || *chi2 > kChi2Unusable) {
-            g.represents = false;
-            std::snprintf(buf,
-                          sizeof buf,
-                          "reduced chi-square = %.3g above %g: the misfit is far beyond the "
-                          "stated sigmas",
-                          *chi2,
-                          kChi2Unusable);
-            g.warnings.push_back(buf);
-        } else if (*chi2 > kChi2Warn) {
-            std::snprintf(buf,
-                          sizeof buf,
-                          "reduced chi-square = %.3g above %g: misfit beyond the stated sigmas "
-                          "(or sigmas too small)",
-                          *chi2,
-                          kChi2Warn);
-            g.warnings.push_back(buf);
-        }
+}
+
+void chi_square_findings(std::optional<double> chi2,
+                         double worst_log_rmse,
+                         std::vector<Finding>& out) {
+    if (!chi2) {
+        return;
     }
-    if (!g.warnings.empty()) {
-        g.suggestion = suggest(fitted);
+    char buf[256];
+    if (std::isfinite(*chi2) && *chi2 > kChi2Unusable && worst_log_rmse <= kLogRmsePractical) {
+        std::snprintf(buf,
+                      sizeof buf,
+                      "reduced chi-square = %.3g above %g, but the worst log RMSE is only "
+                      "%.3g (limit %.2g): the stated sigmas are far smaller than the "
+                      "systematic errors of the data or the model",
+                      *chi2,
+                      kChi2Unusable,
+                      worst_log_rmse,
+                      kLogRmsePractical);
+        out.push_back({Verdict::kRepresents, -1, "", buf});
+    } else if (!std::isfinite(*chi2) || *chi2 > kChi2Unusable) {
+        std::snprintf(buf,
+                      sizeof buf,
+                      "reduced chi-square = %.3g above %g: the misfit is far beyond the "
+                      "stated sigmas",
+                      *chi2,
+                      kChi2Unusable);
+        out.push_back({Verdict::kDoesNotRepresent,
+                       -1,
+                       fmt("reduced chi-square %.3g above %g", *chi2, kChi2Unusable),
+                       buf});
+    } else if (*chi2 > kChi2Warn) {
+        std::snprintf(buf,
+                      sizeof buf,
+                      "reduced chi-square = %.3g above %g: misfit beyond the stated sigmas "
+                      "(or sigmas too small)",
+                      *chi2,
+                      kChi2Warn);
+        out.push_back({Verdict::kVisibleMisfit,
+                       -1,
+                       fmt("reduced chi-square %.3g above %g", *chi2, kChi2Warn),
+                       buf});
+    }
+}
+
+/// "channel b (median relative error 0.091 above 0.05)": the findings of the headline's state,
+/// the first figure of each channel.
+std::string named_findings(const std::vector<Finding>& findings, Verdict state) {
+    std::string s;
+    bool seen[4] = {false, false, false, false};
+    for (const Finding& f : findings) {
+        if (f.state != state || seen[f.channel + 1]) {
+            continue;
+        }
+        seen[f.channel + 1] = true;
+        s += s.empty() ? "" : "; ";
+        s += f.channel >= 0
+                 ? std::string("channel ") + kChannelNames[f.channel] + " (" + f.figure + ")"
+                 : f.figure;
+    }
+    return s;
+}
+
+}  // namespace
+
+/// Goodness of fit from the metrics (and the reduced chi-square when the data carry sigmas).
+GoodnessOfFit judge(const Metrics& m,
+                    std::optional<double> chi2,
+                    std::size_t valid,
+                    const ModelD& fitted,
+                    bool f0_per_channel) {
+    GoodnessOfFit g;
+    g.reduced_chi_square = chi2;
+    std::vector<Finding> findings;
+    channel_findings(m, findings);
+    band_findings(m, valid, findings);
+    chi_square_findings(chi2, m.log_rmse.maxCoeff(), findings);
+    for (const Finding& f : findings) {
+        g.verdict = worse(g.verdict, f.state);
+        g.warnings.push_back(f.warning);
+    }
+    g.represents = g.verdict != Verdict::kDoesNotRepresent;
+    g.headline = headline_of(g.verdict, named_findings(findings, g.verdict));
+    if (g.verdict != Verdict::kRepresents) {
+        // (A warning that leaves the fit representing its data, such as a chi-square inflated by
+        // sigmas smaller than the systematic errors, asks for no other model.)
+        g.suggestion = suggest_after(fitted, f0_per_channel, false);
     }
     return g;
 }
@@ -453,5 +512,76 @@ std::vector<std::string> vanished_lobes(const ModelD& model,
 }
 
 }  // namespace detail
+
+std::string suggest_after(const ModelD& fitted, bool f0_per_channel, bool auto_tried) {
+    if (auto_tried) {
+        // Every family was ranked: none of the options below is left untried.
+        return {};
+    }
+    if (fitted.lobes.empty()) {
+        return "try a specular lobe (`--lobes 1`) or `--model auto` (ranks ggx, beckmann, "
+               "student-t, blinn-phong, two lobes and a tabulated distribution by BIC)";
+    }
+    const brdf::Lobe<double>& lobe = fitted.lobes[0];
+    const std::string dist = brdf::to_string(lobe.distribution);
+    std::vector<std::string> tries = {
+        "`--model auto` (ranks ggx, beckmann, student-t, blinn-phong, two lobes and a tabulated "
+        "distribution by BIC)"};
+    if (fitted.lobes.size() < 2) {
+        tries.push_back("a second lobe (`--lobes 2`)");
+    }
+    if (dist != "student-t") {
+        tries.push_back("a distribution with a tail parameter (`--model student-t`)");
+    }
+    if (dist != "beckmann") {
+        tries.push_back("`--model beckmann`");
+    }
+    if (!f0_per_channel) {
+        tries.push_back("`--fresnel schlick-rgb`");
+    }
+    if (!lobe.rgb_roughness && !lobe.anisotropic &&
+        (dist == "ggx" || dist == "beckmann" || dist == "student-t")) {
+        tries.push_back("`--roughness rgb`");
+    }
+    std::string s = "try " + tries[0];
+    for (std::size_t k = 1; k < tries.size(); ++k) {
+        s += (k + 1 == tries.size() ? " or " : ", ") + tries[k];
+    }
+    return s;
+}
+
+std::string headline_of(Verdict v, const std::string& named) {
+    switch (v) {
+        case Verdict::kRepresents:
+            return "represents these data";
+        case Verdict::kVisibleMisfit:
+            return "usable, with a visible misfit: " + named;
+        case Verdict::kDoesNotRepresent:
+            return "MISFIT: does not represent these data: " + named;
+    }
+    return "";
+}
+
+const char* to_string(Verdict v) {
+    switch (v) {
+        case Verdict::kRepresents:
+            return "represents";
+        case Verdict::kVisibleMisfit:
+            return "visible-misfit";
+        case Verdict::kDoesNotRepresent:
+            return "does-not-represent";
+    }
+    return "does-not-represent";
+}
+
+Expected<Verdict> parse_verdict(const std::string& name) {
+    for (Verdict v : {Verdict::kRepresents, Verdict::kVisibleMisfit, Verdict::kDoesNotRepresent}) {
+        if (name == to_string(v)) {
+            return v;
+        }
+    }
+    return make_error("verdict \"" + name +
+                      "\" (expected represents, visible-misfit or does-not-represent)");
+}
 
 }  // namespace gonio::fitting

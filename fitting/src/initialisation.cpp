@@ -145,7 +145,8 @@ struct LinearWeights {
             w[c].resize(samples.size());
             for (std::size_t i = 0; i < samples.size(); ++i) {
                 const double d = samples[i].value[c];
-                w[c][i] = samples[i].weight / ((d + floor) * (d + floor));
+                const double dp = std::max(d, 0.0);  // a value below zero within noise: 0
+                w[c][i] = samples[i].weight / ((dp + floor) * (dp + floor));
             }
         }
     }

@@ -12,7 +12,6 @@
 #include "gonio/base/thread_pool.h"
 #include "gonio/brdf/blinn_phong.h"
 #include "gonio/brdf/fresnel.h"
-#include "gonio/brdf/lobe_body.h"
 #include "gonio/brdf/math.h"
 #include "gonio/brdf/microfacet.h"
 #include "gonio/brdf/model_eval.h"
@@ -75,7 +74,6 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
     for (const brdf::Lobe<double>& l : base.lobes) {
         anisotropic_ =
             anisotropic_ || (l.anisotropic && l.distribution != brdf::Distribution::kBlinnPhong);
-        tabulated_ = tabulated_ || l.distribution == brdf::Distribution::kTabulated;
         if (l.distribution == brdf::Distribution::kBlinnPhong) {
             need_bp = true;
         } else {
@@ -138,8 +136,11 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
                                   sp.field == Field::kScale || sp.field == Field::kF0);
     }
     // The fused packet passes (normal_equation_packets.h) take the log residual of isotropic GGX
-    // and Beckmann lobes with no or Smith shadowing, in the closed form.
-    packets_ = analytic_ && form_ == ResidualForm::kLog && !anisotropic_ && slots_ <= 16 &&
+    // and Beckmann lobes with no or Smith shadowing, in the closed form. They read each sample's
+    // lobe geometry, which a model without lobes (Lambert only) does not prepare: it takes the
+    // per-sample path.
+    packets_ = analytic_ && !base.lobes.empty() && form_ == ResidualForm::kLog && !anisotropic_ &&
+               slots_ <= 16 &&
                base.lobes.size() <= static_cast<std::size_t>(PacketModel::kMaxLobes);
     for (const brdf::Lobe<double>& l : base.lobes) {
         packets_ = packets_ &&
@@ -209,7 +210,10 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
                     hz2_[i] = h.z() * h.z();
                 }
                 if (need_bp) {
-                    log_cos_h_[i] = brdf::log_cos_theta_h(h.x() * h.x() + h.y() * h.y(), h.z());
+                    const double omc_h = (h.x() * h.x() + h.y() * h.y()) / (1 + h.z());
+                    log_cos_h_[i] = h.z() > 0 && omc_h < 1
+                                        ? std::log1p(-omc_h)
+                                        : -std::numeric_limits<double>::infinity();
                 }
                 if (need_smith) {
                     const double ci2 = ci * ci;
@@ -247,7 +251,8 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
                     case ResidualForm::kAbsolute:
                         break;
                     case ResidualForm::kRelative:
-                        s = 1 / (d + o.relative_floor);
+                        // (A value below zero within its noise: zero in the denominator.)
+                        s = 1 / (std::max(d, 0.0) + o.relative_floor);
                         break;
                     case ResidualForm::kLog:
                         g_d = std::log1p(d * ci);
@@ -273,81 +278,227 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
     });
 }
 
-/// Sample i's geometry in the form of the lobe body (brdf/lobe_body.h): the stored squares and
-/// squared slopes (tangents), turned into a lobe's frame when it has one.
-class PreparedSamples::SampleSquares {
-  public:
-    SampleSquares(const PreparedSamples& p, std::size_t i) : p_(p), i_(i) {}
-
-    /// In the sample's frame (an isotropic structure holds the sums in the x parts).
-    brdf::LobeSquares<double> squares() const {
-        const std::size_t i = i_;
-        brdf::LobeSquares<double> g;
-        g.isotropic = !p_.anisotropic_;
-        g.hx2 = at(p_.hx2_);
-        g.hy2 = at(p_.hy2_);
-        g.hz2 = at(p_.hz2_);
-        g.log_cos_h = at(p_.log_cos_h_);
-        g.wi = {at(p_.ti_x_), at(p_.ti_y_), 1.0, 0.0};
-        g.wo = {at(p_.to_x_), at(p_.to_y_), 1.0, 0.0};
-        if (p_.tabulated_) {
-            // A tabulated lobe looks its D and Lambda up by cosine.
-            g.cos_h = std::sqrt(g.hz2);
-            g.wi.cos_theta = 1.0 / std::sqrt(1.0 + (g.wi.x2 + g.wi.y2));
-            g.wo.cos_theta = 1.0 / std::sqrt(1.0 + (g.wo.x2 + g.wo.y2));
-        }
-        g.g_vgroove = at(p_.g_vgroove_);
-        g.inv_4cc = p_.inv_4cc_[i];
-        return g;
+template <class T>
+void PreparedSamples::lobe_squares(std::size_t i,
+                                   const brdf::LobeRotation<T>* rot,
+                                   T out[6]) const {
+    const bool h = !hx2_.empty();
+    const bool smith = !ti_x_.empty();
+    for (int k = 0; k < 6; ++k) {
+        out[k] = T(0);
     }
-
-    /// In the frame of a lobe turned by r: the sample-frame squares and cross products turned
-    /// (brdf/lobe_orientation.h); an anisotropic structure only.
-    template <class T>
-    brdf::LobeSquares<T> turned(const brdf::LobeRotation<T>& r) const {
-        const std::size_t i = i_;
-        brdf::LobeSquares<T> g;
-        g.isotropic = false;
-        if (!p_.hx2_.empty()) {
-            brdf::lobe_frame_squares(T(p_.hx2_[i]), T(p_.hy2_[i]), T(p_.hxy_[i]), r, g.hx2, g.hy2);
-            g.hz2 = T(p_.hz2_[i]);
+    if (rot == nullptr) {
+        if (h) {
+            out[0] = T(hx2_[i]);
+            out[1] = T(hy2_[i]);
         }
-        if (!p_.ti_x_.empty()) {
-            brdf::lobe_frame_squares(
-                T(p_.ti_x_[i]), T(p_.ti_y_[i]), T(p_.ti_xy_[i]), r, g.wi.x2, g.wi.y2);
-            brdf::lobe_frame_squares(
-                T(p_.to_x_[i]), T(p_.to_y_[i]), T(p_.to_xy_[i]), r, g.wo.x2, g.wo.y2);
+        if (smith) {
+            out[2] = T(ti_x_[i]);
+            out[3] = T(ti_y_[i]);
+            out[4] = T(to_x_[i]);
+            out[5] = T(to_y_[i]);
         }
-        g.g_vgroove = T(at(p_.g_vgroove_));
-        g.inv_4cc = T(p_.inv_4cc_[i]);
-        return g;
+        return;
     }
-
-    brdf::FresnelGeometry<double> fresnel() const {
-        brdf::FresnelGeometry<double> g;
-        g.x5 = at(p_.x5_);
-        g.cos_d = at(p_.cos_d_);
-        return g;
+    // The sample-frame squares and cross products turned into the lobe's frame.
+    if (h) {
+        brdf::lobe_frame_squares(T(hx2_[i]), T(hy2_[i]), T(hxy_[i]), *rot, out[0], out[1]);
     }
+    if (smith) {
+        brdf::lobe_frame_squares(T(ti_x_[i]), T(ti_y_[i]), T(ti_xy_[i]), *rot, out[2], out[3]);
+        brdf::lobe_frame_squares(T(to_x_[i]), T(to_y_[i]), T(to_xy_[i]), *rot, out[4], out[5]);
+    }
+}
 
-  private:
-    /// Sample i of an array the structure needs (0 for one it does not).
-    double at(const std::vector<double>& v) const { return v.empty() ? 0.0 : v[i_]; }
+template <class T>
+T PreparedSamples::shape(brdf::Distribution dist,
+                         brdf::Shadowing shadowing,
+                         const T& ax,
+                         const T& ay,
+                         const T& exponent,
+                         std::size_t i,
+                         const brdf::LobeRotation<T>* rot) const {
+    // Layout: with an anisotropic lobe in the structure the x and y parts are stored apart, and
+    // turned into the lobe's own frame when it has one.
+    const bool aniso = anisotropic_;
+    T sq[6];
+    if (aniso) {
+        lobe_squares(i, rot, sq);
+    }
+    // D, Lambda, G: the brdf/ formula bodies on the precomputed squares (microfacet.h,
+    // blinn_phong.h); both directions are above the horizon, so h_z > 0.
+    const T hx2 = aniso ? sq[0] : T(hx2_.empty() ? 0.0 : hx2_[i]);
+    const T hy2 = aniso ? sq[1] : T(0);
+    T D;
+    switch (dist) {
+        case brdf::Distribution::kGgx:
+            D = brdf::D_ggx_from_squares(hx2, hy2, T(hz2_[i]), ax, ay);
+            break;
+        case brdf::Distribution::kBeckmann:
+            D = brdf::D_beckmann_from_squares(hx2, hy2, T(hz2_[i]), ax, ay);
+            break;
+        case brdf::Distribution::kBlinnPhong:
+        default:
+            if (!std::isfinite(log_cos_h_[i])) {
+                // cos^e(theta_h) underflows to 0 (h at the horizon through rounding).
+                return T(0);
+            }
+            D = brdf::D_blinn_phong_from_log_cos(T(log_cos_h_[i]), exponent);
+            break;
+    }
+    if (D == T(0)) {
+        // Far tail: the lobe contributes exactly zero.
+        return T(0);
+    }
+    // G (brdf/model_eval.h lobe_G); a Blinn-Phong lobe uses Beckmann's Lambda with
+    // alpha = sqrt(2 / (e + 2)).
+    T G(1);
+    if (shadowing == brdf::Shadowing::kSmithCorrelated ||
+        shadowing == brdf::Shadowing::kSmithSeparable) {
+        T bx = ax, by = ay;
+        if (dist == brdf::Distribution::kBlinnPhong) {
+            bx = by = brdf::blinn_phong_equivalent_alpha(exponent);
+        }
+        const T a2i = aniso ? bx * bx * sq[2] + by * by * sq[3] : bx * bx * T(ti_x_[i]);
+        const T a2o = aniso ? bx * bx * sq[4] + by * by * sq[5] : bx * bx * T(to_x_[i]);
+        T li, lo;
+        if (dist == brdf::Distribution::kGgx) {
+            li = brdf::lambda_ggx_from_a2(a2i);
+            lo = brdf::lambda_ggx_from_a2(a2o);
+        } else {
+            li = brdf::lambda_beckmann_from_a2(a2i);
+            lo = brdf::lambda_beckmann_from_a2(a2o);
+        }
+        G = shadowing == brdf::Shadowing::kSmithCorrelated ? brdf::G_smith_correlated(li, lo)
+                                                           : brdf::G_smith_separable(li, lo);
+    } else if (shadowing == brdf::Shadowing::kVGroove) {
+        G = T(g_vgroove_[i]);
+    }
+    return D * G * T(inv_4cc_[i]);
+}
 
-    const PreparedSamples& p_;
-    std::size_t i_;
-};
+template <class T>
+T PreparedSamples::shape_student_t(brdf::Shadowing shadowing,
+                                   const T& ax,
+                                   const T& ay,
+                                   const T& gamma,
+                                   std::size_t i,
+                                   const brdf::LobeRotation<T>* rot) const {
+    using std::exp;
+    using std::log;
+    using std::log1p;
+    const bool aniso = anisotropic_;
+    T sq[6];
+    if (aniso) {
+        lobe_squares(i, rot, sq);
+    }
+    // D (brdf/student_t.h D_student_t); both directions are above the horizon, so h_z > 0.
+    if (hz2_[i] < 1e-300) {
+        // h at the horizon through rounding: no projected area.
+        return T(0);
+    }
+    const T e =
+        (aniso ? sq[0] / (ax * ax) + sq[1] / (ay * ay) : T(hx2_[i]) / (ax * ax)) / T(hz2_[i]);
+    const T D = exp(-gamma * log1p(e / (gamma - T(1))) - T(2 * std::log(hz2_[i]))) /
+                (T(brdf::kPi) * ax * ay);
+    T G(1);
+    if (shadowing == brdf::Shadowing::kSmithCorrelated ||
+        shadowing == brdf::Shadowing::kSmithSeparable) {
+        const T a2i = aniso ? ax * ax * sq[2] + ay * ay * sq[3] : ax * ax * T(ti_x_[i]);
+        const T a2o = aniso ? ax * ax * sq[4] + ay * ay * sq[5] : ax * ax * T(to_x_[i]);
+        const T li = brdf::lambda_student_t_a2(a2i, gamma);
+        const T lo = brdf::lambda_student_t_a2(a2o, gamma);
+        G = shadowing == brdf::Shadowing::kSmithCorrelated ? T(1) / (T(1) + li + lo)
+                                                           : T(1) / ((T(1) + li) * (T(1) + lo));
+    } else if (shadowing == brdf::Shadowing::kVGroove) {
+        G = T(g_vgroove_[i]);
+    }
+    return D * G * T(inv_4cc_[i]);
+}
 
 template <class T>
 brdf::Rgb<T> PreparedSamples::eval(const brdf::Model<T>& m, std::size_t i) const {
-    T f[3];
-    for (int c = 0; c < 3; ++c) {
-        f[c] = m.has_diffuse ? T(m.diffuse[c] * T(brdf::kInvPi)) : T(0);
+    brdf::Rgb<T> f = m.has_diffuse ? brdf::Rgb<T>(m.diffuse * T(brdf::kInvPi))
+                                   : brdf::Rgb<T>(brdf::Rgb<T>::Zero());
+    for (const brdf::Lobe<T>& l : m.lobes) {
+        if (l.rgb_roughness) {
+            // RGB-varying roughness (brdf/model_eval.h eval_lanes): the shape of each channel
+            // with that channel's alpha; an isotropic analytic lobe (ParameterMap::make).
+            for (int c = 0; c < 3; ++c) {
+                const T& a = l.alpha_rgb[c];
+                const T S = l.distribution == brdf::Distribution::kStudentT
+                                ? shape_student_t(l.shadowing, a, a, l.gamma, i)
+                                : shape(l.distribution, l.shadowing, a, a, l.exponent, i);
+                if (S == T(0)) {
+                    continue;
+                }
+                T F;
+                switch (l.fresnel.type) {
+                    case brdf::FresnelType::kSchlick:
+                        F = brdf::fresnel_schlick_from_pow5(T(x5_[i]), l.fresnel.f0[c]);
+                        break;
+                    case brdf::FresnelType::kNone:
+                        F = T(1);
+                        break;
+                    default:
+                        F = brdf::eval_fresnel(l.fresnel, T(cos_d_[i]), T(omc_d_[i]))[c];
+                        break;
+                }
+                f[c] += l.scale[c] * F * S;
+            }
+            continue;
+        }
+        // An anisotropic lobe's geometry is turned into its own frame (brdf/lobe_orientation.h).
+        brdf::LobeRotation<T> r{T(1), T(0)};
+        const bool turned = l.anisotropic && l.distribution != brdf::Distribution::kBlinnPhong &&
+                            l.distribution != brdf::Distribution::kTabulated;
+        if (turned) {
+            r = brdf::lobe_rotation_deg(l.orientation_deg);
+        }
+        const brdf::LobeRotation<T>* rot = turned ? &r : nullptr;
+        const T S = l.distribution == brdf::Distribution::kTabulated
+                        ? T(brdf::tabulated_lobe_shape(
+                                *l.table,
+                                l.shadowing,
+                                hz2_[i],
+                                ti_x_.empty() ? 0.0 : ti_x_[i] + (ti_y_.empty() ? 0.0 : ti_y_[i]),
+                                to_x_.empty() ? 0.0 : to_x_[i] + (to_y_.empty() ? 0.0 : to_y_[i]),
+                                g_vgroove_.empty() ? 1.0 : g_vgroove_[i]) *
+                            inv_4cc_[i])
+                    : l.distribution == brdf::Distribution::kStudentT
+                        ? shape_student_t(l.shadowing,
+                                          l.alpha_x,
+                                          l.anisotropic ? l.alpha_y : l.alpha_x,
+                                          l.gamma,
+                                          i,
+                                          rot)
+                        : shape(l.distribution,
+                                l.shadowing,
+                                l.alpha_x,
+                                l.anisotropic ? l.alpha_y : l.alpha_x,
+                                l.exponent,
+                                i,
+                                rot);
+        if (S == T(0)) {
+            continue;
+        }
+        // F (brdf/fresnel.h).
+        brdf::Rgb<T> F;
+        switch (l.fresnel.type) {
+            case brdf::FresnelType::kSchlick: {
+                F = brdf::fresnel_schlick_from_pow5(T(x5_[i]), l.fresnel.f0);
+                break;
+            }
+            case brdf::FresnelType::kNone:
+                F = brdf::Rgb<T>::Constant(T(1));
+                break;
+            default:
+                F = brdf::eval_fresnel(l.fresnel, T(cos_d_[i]), T(omc_d_[i]));
+                break;
+        }
+        f += l.scale * F * S;
     }
-    const brdf::Lobe<T>* lobes = m.lobes.data();
-    brdf::add_lobes<brdf::SquaresForm::kTangents>(
-        lobes, lobes + m.lobes.size(), SampleSquares(*this, i), f);
-    return brdf::Rgb<T>(f[0], f[1], f[2]);
+    return f;
 }
 
 double PreparedSamples::g_prime(double m, std::size_t i) const {
@@ -396,30 +547,25 @@ void PreparedSamples::analytic_parts(const brdf::ModelD& m,
         } else if (lobe.distribution == brdf::Distribution::kStudentT) {
             const J2 a(lobe.alpha_x, 0);
             const J2 g(lobe.gamma, 1);
-            const J2 e(lobe.exponent);
-            const J2 s2 = brdf::lobe_shape<false, brdf::SquaresForm::kTangents, J2>(
-                brdf::LobeShapeParams<J2>{lobe.distribution, lobe.shadowing, a, a, e, g, nullptr},
-                SampleSquares(*this, i).squares());
+            const J2 s2 = shape_student_t(lobe.shadowing, a, a, g, i);
             S[l] = s2.a;
             dS[l] = s2.v[0];
             dS_gamma[l] = s2.v[1];
         } else {
-            // The width's slot: alpha, or a Blinn-Phong lobe's exponent.
-            const bool bp = lobe.distribution == brdf::Distribution::kBlinnPhong;
-            const J1 a(lobe.alpha_x, 0);
-            const J1 e = bp ? J1(lobe.exponent, 0) : J1(lobe.exponent);
-            const J1 g(lobe.gamma);
-            const J1 s = brdf::lobe_shape<false, brdf::SquaresForm::kTangents, J1>(
-                brdf::LobeShapeParams<J1>{
-                    lobe.distribution, lobe.shadowing, a, a, e, g, lobe.table.get()},
-                SampleSquares(*this, i).squares());
+            J1 s;
+            if (lobe.distribution == brdf::Distribution::kBlinnPhong) {
+                const J1 e(lobe.exponent, 0);
+                s = shape(lobe.distribution, lobe.shadowing, J1(0.1), J1(0.1), e, i);
+            } else {
+                const J1 a(lobe.alpha_x, 0);
+                s = shape(lobe.distribution, lobe.shadowing, a, a, J1(lobe.exponent), i);
+            }
             S[l] = s.a;
             dS[l] = s.v[0];
         }
-        const brdf::FresnelGeometry<double> fg = SampleSquares(*this, i).fresnel();
-        for (int c = 0; c < 3; ++c) {
-            F[l][c] = brdf::lobe_F<double>(lobe.fresnel, c, fg);
-        }
+        F[l] = lobe.fresnel.type == brdf::FresnelType::kSchlick
+                   ? brdf::Rgbd(brdf::fresnel_schlick_from_pow5(x5_[i], lobe.fresnel.f0))
+                   : brdf::Rgbd::Ones();
         fm += lobe.scale * F[l] * S[l];
     }
     for (int c = 0; c < 3; ++c) {
@@ -621,9 +767,10 @@ void PreparedSamples::packet_setup(const brdf::ModelD& m, PacketModel& pm, Packe
                            : lobe.shadowing == brdf::Shadowing::kSmithSeparable ? 2
                                                                                 : 0;
         pm.alpha[l] = lobe.alpha_x;
-        pm.fresnel[l] = lobe.fresnel;
+        pm.schlick[l] = lobe.fresnel.type == brdf::FresnelType::kSchlick;
         for (int c = 0; c < 3; ++c) {
             pm.scale[l][c] = lobe.scale[c];
+            pm.f0[l][c] = lobe.fresnel.f0[c];
         }
     }
     for (int c = 0; c < 3; ++c) {

@@ -71,7 +71,9 @@ std::string fit_report_json(const FitResult& r) {
                     {"log_rmse", rgb_json(r.metrics.log_rmse)},
                     {"median_rel", rgb_json(r.metrics.median_rel)},
                     {"bands", bands}};
-    j["goodness"] = {{"represents", r.goodness.represents},
+    j["goodness"] = {{"verdict", to_string(r.goodness.verdict)},
+                     {"headline", r.goodness.headline},
+                     {"represents", r.goodness.represents},
                      {"reduced_chi_square",
                       r.goodness.reduced_chi_square ? number_or_null(*r.goodness.reduced_chi_square)
                                                     : json(nullptr)},
@@ -120,7 +122,9 @@ namespace {
 /// figures that decide it, the warnings, the suggestion and the report's file name.
 std::string fit_verdict_json(const FitResult& r, const std::string& report_path) {
     const std::size_t slash = report_path.find_last_of('/');
-    json v = {{"represents", r.goodness.represents},
+    json v = {{"verdict", to_string(r.goodness.verdict)},
+              {"headline", r.goodness.headline},
+              {"represents", r.goodness.represents},
               {"log_rmse", rgb_json(r.metrics.log_rmse)},
               {"median_rel", rgb_json(r.metrics.median_rel)},
               {"warnings", r.goodness.warnings},
@@ -328,9 +332,24 @@ FitResult read_report_document(const json& j) {
 
     if (const json* gj = top.find("goodness")) {
         JsonObject g(*gj, "goodness");
-        g.allow({"represents", "reduced_chi_square", "warnings", "suggestion"});
+        g.allow(
+            {"verdict", "headline", "represents", "reduced_chi_square", "warnings", "suggestion"});
         g.finish();
         r.goodness.represents = g.boolean("represents", true);
+        // A report without a verdict (written before it existed): the two states it knew.
+        r.goodness.verdict =
+            r.goodness.represents ? Verdict::kRepresents : Verdict::kDoesNotRepresent;
+        if (const json* v = g.find("verdict")) {
+            auto parsed = parse_verdict(text_at(*v, g.key_path("verdict")));
+            if (!parsed) {
+                json_fail(g.key_path("verdict") + ": " + parsed.error().message);
+            }
+            r.goodness.verdict = *parsed;
+        }
+        r.goodness.headline = headline_of(r.goodness.verdict, "see the warnings");
+        if (const json* h = g.find("headline")) {
+            r.goodness.headline = text_at(*h, g.key_path("headline"));
+        }
         if (const json* chi = g.find("reduced_chi_square"); chi != nullptr && !chi->is_null()) {
             r.goodness.reduced_chi_square = json_number_at(*chi, g.key_path("reduced_chi_square"));
         }
@@ -516,14 +535,13 @@ std::string format_summary(const FitResult& r) {
     for (const std::string& w : r.goodness.warnings) {
         o << "warning: " << w << "\n";
     }
-    if (!r.goodness.represents) {
-        o << "MISFIT: the model does not represent these data (the parameters are its best fit, "
-             "not a description of the material)";
-        if (!r.goodness.suggestion.empty()) {
-            o << "; " << r.goodness.suggestion;
-        }
-        o << "\n";
-    } else if (!r.goodness.suggestion.empty()) {
+    // The one headline (printed once): what the warnings above amount to.
+    o << "verdict: " << r.goodness.headline;
+    if (r.goodness.verdict == Verdict::kDoesNotRepresent) {
+        o << " (the parameters are this model's best fit, not a description of the material)";
+    }
+    o << "\n";
+    if (!r.goodness.suggestion.empty()) {
         o << "suggestion: " << r.goodness.suggestion << "\n";
     }
     o << "parameters";
@@ -543,7 +561,7 @@ std::string format_summary(const FitResult& r) {
             o << buf;
         }
         if (!p.at_bound.empty()) {
-            o << "  AT " << p.at_bound << " BOUND";
+            o << "  (at its " << p.at_bound << " bound)";
         }
         o << "\n";
     }

@@ -74,22 +74,23 @@ def fit(
     fit report as ``gonio fit --out`` writes it (parameters with one-sigma uncertainties,
     not_identifiable, at_bounds, vanished_lobes, metrics, sample counts, solver summary).
     Check ``report["solver"]["usable"]``: a solve that ran but did not converge is returned,
-    not raised. A converged fit whose model does not represent the data (a misfit,
-    ``report["goodness"]["represents"]`` false) is a finding: it is returned and a
-    ``UserWarning`` names the first warning and the suggestion; with ``strict=True`` it raises
-    gonio.Error instead. The GIL is released while Ceres runs, so other Python threads go on.
+    not raised. ``report["goodness"]["verdict"]`` is the headline's state: "represents",
+    "visible-misfit" (usable, the misfit named in ``headline``) or "does-not-represent" (a
+    misfit). Both misfit states are returned with a ``UserWarning`` carrying the headline and the
+    suggestion; with ``strict=True`` a fit that does not represent the data raises gonio.Error
+    instead (as ``gonio fit --strict`` exits 1). The GIL is released while Ceres runs, so other Python threads go on.
 
     Raises gonio.Error for unreadable input, no valid sample or an inconsistent spec.
     """
     fitted, report = _gonio._fit(samples, model, residual, max_samples, truth, options)
     goodness = report.get("goodness", {})
-    if report.get("solver", {}).get("converged") and not goodness.get("represents", True):
-        first = (goodness.get("warnings") or ["see the report"])[0]
-        message = (
-            f"the model does not represent these data ({first}); "
-            f"{goodness.get('suggestion', '')}"
-        )
-        if strict:
+    verdict = goodness.get("verdict", "represents")
+    if report.get("solver", {}).get("converged") and verdict != "represents":
+        # The headline of the report (the same words as `gonio fit` and the HTML report).
+        message = goodness.get("headline", verdict)
+        if goodness.get("suggestion"):
+            message += "; " + goodness["suggestion"]
+        if strict and verdict == "does-not-represent":
             raise Error(message)
         _warnings.warn(message, UserWarning, stacklevel=2)
     return fitted, report

@@ -180,6 +180,13 @@ tl::expected<LobePlan, BlenderExportError> plan_shape(const Lobe<double>& l, con
             return plan;
         }
     }
+    if (plan.anisotropic && l.fresnel.type == FresnelType::kNone &&
+        1 - std::sqrt(std::min(plan.alpha_x, plan.alpha_y) / std::max(plan.alpha_x, plan.alpha_y)) >
+            kMaxAnisotropy) {
+        return refuse(p +
+                      ": an anisotropic lobe with alpha ratio above 10^4 cannot be "
+                      "represented by Blender's Anisotropic BSDF (anisotropy up to 0.99)");
+    }
     switch (l.shadowing) {
         case Shadowing::kSmithSeparable:
             break;

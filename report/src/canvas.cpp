@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <opencv2/imgproc.hpp>
 
+#include "gonio/report/plot.h"
+
 namespace gonio::report::draw {
 
 cv::Scalar series_color(int i) {
@@ -28,6 +30,55 @@ int text_width(const std::string& s, double scale, int thickness) {
     return cv::getTextSize(s, kFont, scale, thickness, &baseline).width;
 }
 
+namespace {
+
+thread_local std::vector<DrawnText>* t_recorded = nullptr;
+
+/// Pixels kept free between a text and the picture's edge.
+constexpr int kEdge = 2;
+/// The smallest scale a text is shrunk to before it is shortened.
+constexpr double kMinScale = 0.38;
+
+struct FittedText {
+    std::string text;
+    double scale = kTextScale;
+    cv::Size size;
+    int baseline = 0;
+};
+
+/// `s` at `scale`, or smaller, or shortened in its middle, so that it is at most `room` pixels
+/// long.
+FittedText fit_text(const std::string& s, double scale, int thickness, int room) {
+    FittedText f{s, scale, {}, 0};
+    f.size = cv::getTextSize(f.text, kFont, f.scale, thickness, &f.baseline);
+    while (f.size.width > room && f.scale > kMinScale) {
+        f.scale = std::max(kMinScale, f.scale * 0.92);
+        f.size = cv::getTextSize(f.text, kFont, f.scale, thickness, &f.baseline);
+    }
+    // Still too long: keep its start and its end (a file name's extension) around "...".
+    for (std::size_t keep = s.size(); f.size.width > room && keep > 2;) {
+        keep = keep * 9 / 10;
+        const std::size_t head = (keep + 1) / 2;
+        const std::size_t tail = keep - head;
+        f.text = s.substr(0, head) + "..." + s.substr(s.size() - tail);
+        f.size = cv::getTextSize(f.text, kFont, f.scale, thickness, &f.baseline);
+    }
+    return f;
+}
+
+void record(const cv::Mat& img,
+            const std::string& drawn,
+            const std::string& asked,
+            cv::Rect box,
+            bool vertical) {
+    if (t_recorded != nullptr) {
+        t_recorded->push_back(
+            {drawn, asked, box.x, box.y, box.width, box.height, img.cols, img.rows, vertical});
+    }
+}
+
+}  // namespace
+
 void text(cv::Mat& img,
           const std::string& s,
           cv::Point org,
@@ -35,32 +86,43 @@ void text(cv::Mat& img,
           cv::Scalar color,
           Align align,
           int thickness) {
-    int baseline = 0;
-    const cv::Size size = cv::getTextSize(s, kFont, scale, thickness, &baseline);
+    const FittedText f = fit_text(s, scale, thickness, img.cols - 2 * kEdge);
     int x = org.x;
     if (align == Align::kCenter) {
-        x -= size.width / 2;
+        x -= f.size.width / 2;
     } else if (align == Align::kRight) {
-        x -= size.width;
+        x -= f.size.width;
     }
-    const int y = org.y + size.height / 2;
-    cv::putText(img, s, {x, y}, kFont, scale, color, thickness, cv::LINE_AA);
+    // Inside the picture: moved in from an edge rather than cut by it.
+    x = std::clamp(x, kEdge, std::max(kEdge, img.cols - kEdge - f.size.width));
+    int y = org.y + f.size.height / 2;
+    y = std::clamp(
+        y, f.size.height + kEdge, std::max(f.size.height + kEdge, img.rows - kEdge - f.baseline));
+    cv::putText(img, f.text, {x, y}, kFont, f.scale, color, thickness, cv::LINE_AA);
+    record(img,
+           f.text,
+           s,
+           cv::Rect(x, y - f.size.height, f.size.width, f.size.height + f.baseline),
+           false);
 }
 
 void text_vertical(cv::Mat& img, const std::string& s, cv::Point org, double scale) {
-    int baseline = 0;
-    const cv::Size size = cv::getTextSize(s, kFont, scale, 1, &baseline);
-    cv::Mat tmp(size.height + baseline + 4, size.width + 4, CV_8UC3, kWhite);
-    cv::putText(tmp, s, {2, size.height + 2}, kFont, scale, kBlack, 1, cv::LINE_AA);
+    const FittedText f = fit_text(s, scale, 1, img.rows - 2 * kEdge - 4);
+    cv::Mat tmp(f.size.height + f.baseline + 4, f.size.width + 4, CV_8UC3, kWhite);
+    cv::putText(tmp, f.text, {2, f.size.height + 2}, kFont, f.scale, kBlack, 1, cv::LINE_AA);
     cv::Mat rot;
     cv::rotate(tmp, rot, cv::ROTATE_90_COUNTERCLOCKWISE);
-    const int x = org.x - rot.cols / 2;
-    const int y = org.y - rot.rows / 2;
+    const int x = std::clamp(
+        org.x - rot.cols / 2, kEdge - 2, std::max(kEdge - 2, img.cols - kEdge + 2 - rot.cols));
+    const int y = std::clamp(
+        org.y - rot.rows / 2, kEdge - 2, std::max(kEdge - 2, img.rows - kEdge + 2 - rot.rows));
     const cv::Rect dst = cv::Rect(x, y, rot.cols, rot.rows) & cv::Rect(0, 0, img.cols, img.rows);
     if (dst.area() <= 0) {
         return;
     }
     rot(cv::Rect(dst.x - x, dst.y - y, dst.width, dst.height)).copyTo(img(dst));
+    // The glyphs' box: the rotated picture without its 2-px white margin.
+    record(img, f.text, s, cv::Rect(x + 2, y + 2, rot.cols - 4, rot.rows - 4), true);
 }
 
 std::vector<double> nice_ticks(double lo, double hi, int target) {
@@ -302,3 +364,15 @@ void colour_bar(cv::Mat& img,
 }
 
 }  // namespace gonio::report::draw
+
+namespace gonio::report {
+
+TextRecorder::TextRecorder() {
+    draw::t_recorded = &texts_;
+}
+
+TextRecorder::~TextRecorder() {
+    draw::t_recorded = nullptr;
+}
+
+}  // namespace gonio::report

@@ -4,6 +4,8 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "gonio/brdf/blinn_phong.h"
@@ -12,6 +14,10 @@
 namespace gonio::report {
 
 namespace {
+
+/// A Schlick f0 from which on no dielectric index reproduces F(0) (eta = (1 + sqrt f0) / (1 -
+/// sqrt f0) passes 4e8): the lobe is exported as a conductor instead.
+constexpr double kMirrorF0 = 1.0 - 1e-8;
 
 using brdf::Distribution;
 using brdf::FresnelType;
@@ -244,6 +250,58 @@ void shadowing_notes(const ModelD& m,
 
 }  // namespace
 
+Expected<std::optional<ModelFileVerdict>> read_model_verdict(const std::string& model_path) {
+    std::ifstream in(model_path, std::ios::binary);
+    if (!in) {
+        return make_error(model_path + ": cannot open for reading");
+    }
+    const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+    if (j.is_discarded() || !j.is_object()) {
+        return make_error(model_path + ": not a model file (JSON object)");
+    }
+    const auto fit = j.find("fit");
+    if (fit == j.end() || !fit->is_object()) {
+        return std::optional<ModelFileVerdict>();
+    }
+    auto text = [&](const char* key) {
+        const auto v = fit->find(key);
+        return v != fit->end() && v->is_string() ? v->get<std::string>() : std::string();
+    };
+    ModelFileVerdict v;
+    v.verdict = text("verdict");
+    v.headline = text("headline");
+    v.report = text("report");
+    if (v.verdict.empty()) {
+        // Written before the three-state verdict: its represents flag.
+        const auto r = fit->find("represents");
+        const bool represents = r == fit->end() || !r->is_boolean() || r->get<bool>();
+        v.verdict = represents ? "represents" : "does-not-represent";
+        if (v.headline.empty() && !represents) {
+            v.headline = "MISFIT: does not represent these data";
+        }
+    }
+    return std::optional<ModelFileVerdict>(v);
+}
+
+std::string with_verdict(const std::string& text, const ModelFileVerdict& v, bool xml) {
+    if (v.verdict == "represents") {
+        return text;
+    }
+    const std::string line = "gonio fit verdict: " + v.headline +
+                             (v.report.empty() ? "" : " (report " + v.report + ")") +
+                             ": this material reproduces that fit, not the measurement";
+    if (!xml) {
+        return "# " + line + "\n" + text;
+    }
+    const std::string decl_end = "?>\n";
+    const std::size_t at = text.rfind("<?xml", 0) == 0 ? text.find(decl_end) : std::string::npos;
+    const std::string comment = "<!-- " + xml_comment_safe(line) + " -->\n";
+    if (at == std::string::npos) {
+        return comment + text;
+    }
+    return text.substr(0, at + decl_end.size()) + comment + text.substr(at + decl_end.size());
+}
+
 double eta_from_f0(double f0) {
     if (!(f0 > 0)) {
         // No reflection at normal incidence: index matched.
@@ -348,6 +406,22 @@ Expected<RendererExport> export_mitsuba(const ModelD& model_in, const std::strin
                 }
                 break;
             case FresnelType::kSchlick: {
+                if ((l.fresnel.f0 >= kMirrorF0).any()) {
+                    // No dielectric reflects everything at normal incidence (eta would run to
+                    // infinity): a conductor of eta = 1 with k from f0 matches F(0) instead.
+                    Rgbd k;
+                    for (int ch = 0; ch < 3; ++ch) {
+                        k[ch] = k_from_f0(l.fresnel.f0[ch]);
+                    }
+                    c.params.push_back("<rgb name=\"eta\" value=\"1, 1, 1\"/>");
+                    c.params.push_back("<rgb name=\"k\" value=\"" + rgb_list(k, ", ") + "\"/>");
+                    notes.push_back(p + ": Schlick f0 " + rgb_list(l.fresnel.f0, " ") +
+                                    " reaches 1, which no dielectric index gives (eta would be "
+                                    "infinite): written as a conductor with eta = 1, k = 2 "
+                                    "sqrt(f0) / sqrt(1 - f0) (k = 1e4 where f0 = 1), equal at "
+                                    "normal incidence");
+                    break;
+                }
                 Rgbd eta;
                 for (int ch = 0; ch < 3; ++ch) {
                     eta[ch] = eta_from_f0(l.fresnel.f0[ch]);

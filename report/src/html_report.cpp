@@ -16,6 +16,7 @@
 #include "gonio/base/limits.h"
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/model_json.h"
+#include "gonio/brdf/samples_io.h"
 #include "gonio/fitting/report.h"
 #include "gonio/fitting/spec.h"
 #include "gonio/report/blender_report.h"
@@ -49,6 +50,22 @@ std::string fmt_num(double v) {
     }
     char buf[40];
     std::snprintf(buf, sizeof buf, "%.6g", v);
+    return buf;
+}
+
+/// A duration for people: "1.0 ms", "0.42 s", "2.1 min".
+std::string duration_text(double s) {
+    if (!std::isfinite(s) || s < 0) {
+        return fmt_num(s) + " s";
+    }
+    char buf[40];
+    if (s < 1) {
+        std::snprintf(buf, sizeof buf, "%.2g ms", 1000 * s);
+    } else if (s < 120) {
+        std::snprintf(buf, sizeof buf, "%.3g s", s);
+    } else {
+        std::snprintf(buf, sizeof buf, "%.3g min", s / 60);
+    }
     return buf;
 }
 
@@ -226,17 +243,18 @@ std::string rgb_text(const brdf::Rgbd& v) {
 /// suggestion.
 std::string verdict_block(const fitting::FitResult& rep) {
     std::ostringstream os;
-    const bool usable = rep.solver.usable;
-    const bool represents = rep.goodness.represents;
-    const bool ok = usable && represents;
-    os << "<div id=\"verdict\" class=\"verdict " << (ok ? "ok" : "bad")
-       << "\"><p><b>Verdict: " << (usable ? "fit usable" : "fit NOT USABLE") << "; "
-       << (represents ? "the model represents these data"
-                      : "the model does NOT represent these data")
-       << "</b>";
+    // The one headline of the fit (fitting/fit.h, Verdict), as `gonio fit` prints it.
+    const bool converged = rep.solver.converged;
+    const fitting::Verdict v = rep.goodness.verdict;
+    const char* cls = !converged || v == fitting::Verdict::kDoesNotRepresent ? "bad"
+                      : v == fitting::Verdict::kVisibleMisfit                ? "warn"
+                                                                             : "ok";
+    os << "<div id=\"verdict\" class=\"verdict " << cls << "\" data-verdict=\""
+       << (converged ? fitting::to_string(v) : "not-converged") << "\"><p><b>Verdict: "
+       << html_escape(converged ? rep.goodness.headline : "the fit did NOT converge") << "</b>";
     os << " (solver " << html_escape(rep.solver.termination.empty() ? "-" : rep.solver.termination)
-       << ", " << rep.solver.iterations << " iterations, " << fmt_num(rep.solver.wall_time_s)
-       << " s)</p>\n";
+       << ", " << rep.solver.iterations << " iterations, " << duration_text(rep.solver.wall_time_s)
+       << ")</p>\n";
     if (!rep.solver.converged && !rep.solver.message.empty()) {
         os << "<p>Solver: " << html_escape(rep.solver.message) << "</p>\n";
     }
@@ -337,7 +355,7 @@ table.grid th{background:#eef}table.params{width:100%}
 figure{margin:1em 0;break-inside:avoid}img{max-width:100%;height:auto;border:1px solid #ddd}
 figcaption{font-size:.9em;color:#444}.note{color:#a40}code{font-size:.95em;overflow-wrap:anywhere}
 .facts{margin:.2em 0 .6em}.verdict{border-left:6px solid #2a2;padding:.2em .8em;background:#f3fbf3}
-.verdict.bad{border-color:#c22;background:#fdf2f2}.warnings{margin:.2em 0;color:#a40}
+.verdict.bad{border-color:#c22;background:#fdf2f2}.verdict.warn{border-color:#d80;background:#fdf8ee}.warnings{margin:.2em 0;color:#a40}
 pre{white-space:pre-wrap;overflow-wrap:anywhere;font-size:.8em;background:#f7f7f7;padding:.5em}
 details{margin:.3em 0}summary{cursor:pointer}
 @media print{body{max-width:none;margin:0}details{display:block}details>pre{display:block}
@@ -432,41 +450,39 @@ std::vector<TableHole> holes_of(const json& ds) {
     }
     return out;
 }
-
-}  // namespace
-
-Expected<ReportResult> build_report(const std::string& dir, const ReportOptions& options) {
-    std::error_code ec;
-    const fs::path root(dir);
-    if (!fs::is_directory(root, ec)) {
-        return make_error(dir + ": not a folder");
-    }
-    ReportResult result;
-    std::vector<std::string>& notes = result.notes;
-    const fs::path data_path = root / "dataset.csv";
-    const fs::path campaign_path = root / "campaign.json";
-    const fs::path metadata_path = root / "metadata.json";
-    const fs::path dataset_json_path = root / "dataset.json";
-    const fs::path fit_path = root / "fit.json";
-    const fs::path fit_report_path = root / "fit.report.json";
-    if (!fs::exists(data_path) && !fs::exists(campaign_path) && !fs::exists(fit_path) &&
-        !fs::exists(dataset_json_path)) {
-        return make_error(dir +
-                          ": neither dataset.csv, dataset.json, campaign.json nor fit.json: not a "
-                          "campaign folder");
-    }
-
-    Expected<json> campaign = read_optional_json(campaign_path, notes);
-    Expected<json> metadata = read_optional_json(metadata_path, notes);
-    Expected<json> dataset_meta = read_optional_json(dataset_json_path, notes);
-    Expected<json> fit_report = read_optional_json(fit_report_path, notes);
-    // The verdict and the parameters come from the strict reader of fit reports: a report it
-    // refuses is named in the notes with the key path, and no verdict is drawn from it.
+/// What a report folder holds, read once: the JSON descriptions, the samples, the table of an
+/// image campaign, the fit, and where the pictures are.
+struct ReportInputs {
+    fs::path root;
+    fs::path data_path, campaign_path, metadata_path, dataset_json_path, fit_path, fit_report_path;
+    fs::path plots_dir, previews_dir;
+    json campaign, metadata, dataset_meta, fit_report;
     std::optional<fitting::FitResult> fit_result;
+    bool image_mode = false;
+    std::unique_ptr<brdf::Dataset> data;
+    std::vector<brdf::Sample> references;  ///< Drift-reference rows, kept apart from the data.
+    std::unique_ptr<brdf::Brdf> table_brdf;
+    const brdf::TabulatedBrdf* table = nullptr;
+    std::unique_ptr<brdf::Brdf> fit;
+    std::string model_summary;
+    /// A fit of a data file (gonio fit FILE --out DIR/fit.json): a folder with a fit and its report
+    /// but no campaign. The page is that fit's, drawn from the file its report names.
+    bool file_fit = false;
+    std::string data_file;  ///< As fit.report.json names it.
+};
+
+/// The folder's JSON descriptions. The verdict and the parameters come from the strict reader of
+/// fit reports: a report it refuses is named in the notes with the key path, and no verdict is
+/// drawn from it.
+Expected<void> read_descriptions(ReportInputs& in, std::vector<std::string>& notes) {
+    Expected<json> campaign = read_optional_json(in.campaign_path, notes);
+    Expected<json> metadata = read_optional_json(in.metadata_path, notes);
+    Expected<json> dataset_meta = read_optional_json(in.dataset_json_path, notes);
+    Expected<json> fit_report = read_optional_json(in.fit_report_path, notes);
     if (fit_report && fit_report->is_object()) {
-        Expected<fitting::FitResult> r = fitting::read_fit_report(fit_report_path.string());
+        Expected<fitting::FitResult> r = fitting::read_fit_report(in.fit_report_path.string());
         if (r) {
-            fit_result = std::move(*r);
+            in.fit_result = std::move(*r);
         } else {
             notes.push_back(r.error().message + "; no verdict drawn from it");
         }
@@ -476,112 +492,173 @@ Expected<ReportResult> build_report(const std::string& dir, const ReportOptions&
             return tl::unexpected(j->error());
         }
     }
-    const bool image_mode = dataset_meta->is_object() && text_of(*dataset_meta, "mode") == "image";
+    in.campaign = std::move(*campaign);
+    in.metadata = std::move(*metadata);
+    in.dataset_meta = std::move(*dataset_meta);
+    in.fit_report = std::move(*fit_report);
+    in.image_mode = in.dataset_meta.is_object() && text_of(in.dataset_meta, "mode") == "image";
+    return {};
+}
 
-    // Dataset; drift-reference rows are kept apart.
-    std::unique_ptr<brdf::Dataset> data;
-    std::vector<brdf::Sample> references;
-    if (fs::exists(data_path)) {
-        auto d = brdf::read_dataset_csv(data_path.string());
-        if (d) {
-            for (const brdf::Sample& s : d->samples) {
-                if (s.flags & brdf::kFlagReference) {
-                    references.push_back(s);
-                }
-            }
-            data = std::make_unique<brdf::Dataset>(without_reference_rows(*d));
-        } else {
-            notes.push_back(d.error().message);
+/// The data file a fit of a file names: as named (relative to the current folder), else beside
+/// the fit; "" when neither exists.
+std::string find_data_file(const ReportInputs& in) {
+    std::error_code ec;
+    const fs::path named(in.data_file);
+    for (const fs::path& p : {named, in.root / named, in.root / named.filename()}) {
+        if (fs::is_regular_file(p, ec)) {
+            return p.string();
         }
+    }
+    return {};
+}
+
+/// The samples of the data file a fit of a file names (a dataset, a table or an RGL material).
+void read_file_samples(ReportInputs& in, std::vector<std::string>& notes) {
+    const std::string path = find_data_file(in);
+    if (path.empty()) {
+        notes.push_back(in.fit_report_path.string() + ": data = \"" + in.data_file +
+                        "\": not found (as named, nor in this folder); no plots");
+        return;
+    }
+    auto d = brdf::load_samples(path);
+    if (!d) {
+        notes.push_back(d.error().message);
+        return;
+    }
+    in.data = std::make_unique<brdf::Dataset>(without_reference_rows(*d));
+}
+
+/// The samples of dataset.csv; drift-reference rows are kept apart.
+void read_samples(ReportInputs& in, std::vector<std::string>& notes) {
+    if (in.file_fit) {
+        read_file_samples(in, notes);
+        return;
+    }
+    if (!fs::exists(in.data_path)) {
+        notes.push_back(in.data_path.string() + ": missing; no coverage, no plots");
+        return;
+    }
+    auto d = brdf::read_dataset_csv(in.data_path.string());
+    if (!d) {
+        notes.push_back(d.error().message);
+        return;
+    }
+    for (const brdf::Sample& s : d->samples) {
+        if (s.flags & brdf::kFlagReference) {
+            in.references.push_back(s);
+        }
+    }
+    in.data = std::make_unique<brdf::Dataset>(without_reference_rows(*d));
+}
+
+/// The table of an image campaign (dataset.json's table.file, a plain name in the folder).
+void read_table(ReportInputs& in, std::vector<std::string>& notes) {
+    if (!in.image_mode) {
+        return;
+    }
+    const json* t = member(in.dataset_meta, "table");
+    const std::string file = t != nullptr ? text_of(*t, "file") : std::string();
+    if (file.empty() || file.find('/') != std::string::npos) {
+        notes.push_back(in.dataset_json_path.string() + ": table.file missing or not a plain name");
+    } else if (auto b = brdf::load_brdf((in.root / file).string()); b) {
+        in.table_brdf = std::move(*b);
+        in.table = dynamic_cast<const brdf::TabulatedBrdf*>(in.table_brdf.get());
     } else {
-        notes.push_back(data_path.string() + ": missing; no coverage, no plots");
+        notes.push_back(b.error().message);
     }
+}
 
-    // The table of an image campaign.
-    std::unique_ptr<brdf::Brdf> table_brdf;
-    const brdf::TabulatedBrdf* table = nullptr;
-    if (image_mode) {
-        const json* t = member(*dataset_meta, "table");
-        const std::string file = t != nullptr ? text_of(*t, "file") : std::string();
-        if (file.empty() || file.find('/') != std::string::npos) {
-            notes.push_back(dataset_json_path.string() +
-                            ": table.file missing or not a plain name");
-        } else if (auto b = brdf::load_brdf((root / file).string()); b) {
-            table_brdf = std::move(*b);
-            table = dynamic_cast<const brdf::TabulatedBrdf*>(table_brdf.get());
-        } else {
-            notes.push_back(b.error().message);
-        }
+/// The fitted model of fit.json.
+void read_fit(ReportInputs& in, std::vector<std::string>& notes) {
+    if (!fs::exists(in.fit_path)) {
+        return;
     }
+    auto b = brdf::load_brdf(in.fit_path.string());
+    if (b) {
+        in.fit = std::move(*b);
+        in.model_summary = in.fit->describe();
+    } else {
+        notes.push_back(b.error().message);
+    }
+}
 
-    // Fit.
-    std::unique_ptr<brdf::Brdf> fit;
-    std::string model_summary;
-    if (fs::exists(fit_path)) {
-        auto b = brdf::load_brdf(fit_path.string());
-        if (b) {
-            fit = std::move(*b);
-            model_summary = fit->describe();
-        } else {
-            notes.push_back(b.error().message);
-        }
+/// The plots of the dataset, when missing (or all of them with `regenerate`).
+void draw_missing_plots(const ReportInputs& in,
+                        const ReportOptions& options,
+                        ReportResult& result) {
+    if (!in.data || in.data->samples.empty() ||
+        !(options.regenerate || pngs_in(in.plots_dir).empty())) {
+        return;
     }
+    auto set = write_plots(*in.data, in.fit.get(), options.plot, in.plots_dir.string());
+    if (!set) {
+        result.notes.push_back("plots: " + set.error().message);
+        return;
+    }
+    for (const WrittenPlot& w : set->written) {
+        result.generated.push_back(w.path);
+    }
+    for (const std::string& s : set->skipped) {
+        result.notes.push_back("plot skipped: " + s);
+    }
+}
 
-    // Plots and previews: generate what is missing.
-    const fs::path plots_dir = root / "plots";
-    const fs::path previews_dir = root / "previews";
-    if (data && !data->samples.empty() && (options.regenerate || pngs_in(plots_dir).empty())) {
-        auto set = write_plots(*data, fit.get(), options.plot, plots_dir.string());
-        if (!set) {
-            notes.push_back("plots: " + set.error().message);
-        } else {
-            for (const WrittenPlot& w : set->written) {
-                result.generated.push_back(w.path);
-            }
-            for (const std::string& s : set->skipped) {
-                notes.push_back("plot skipped: " + s);
-            }
-        }
+/// The sphere preview of the fit, when missing (or with `regenerate`): measurement against fit
+/// when the measurement is a table, else the fit alone.
+void draw_missing_preview(const ReportInputs& in,
+                          const ReportOptions& options,
+                          ReportResult& result) {
+    if (!in.fit || !(options.regenerate || pngs_in(in.previews_dir).empty())) {
+        return;
     }
-    if (fit && (options.regenerate || pngs_in(previews_dir).empty())) {
-        fs::create_directories(previews_dir, ec);
-        // Measurement against fit when the measurement is a table, else the fit alone.
-        auto sheet =
-            table != nullptr
-                ? preview_sheet(*table,
-                                "measured: " + table->describe(),
-                                fit.get(),
-                                "fit: " + fit->describe(),
-                                options.preview)
-                : preview_sheet(*fit, "fit: " + fit->describe(), nullptr, "", options.preview);
-        const std::string p =
-            (previews_dir / (table != nullptr ? "table-vs-fit.png" : "fit.png")).string();
-        if (!sheet) {
-            notes.push_back("preview: " + sheet.error().message);
-        } else if (auto w = write_png(p, *sheet); !w) {
-            notes.push_back(w.error().message);
-        } else {
-            result.generated.push_back(p);
-        }
+    std::error_code ec;
+    fs::create_directories(in.previews_dir, ec);
+    const brdf::Brdf& fit = *in.fit;
+    auto sheet = in.table != nullptr
+                     ? preview_sheet(*in.table,
+                                     "measured: " + in.table->describe(),
+                                     &fit,
+                                     "fit: " + fit.describe(),
+                                     options.preview)
+                     : preview_sheet(fit, "fit: " + fit.describe(), nullptr, "", options.preview);
+    const std::string p =
+        (in.previews_dir / (in.table != nullptr ? "table-vs-fit.png" : "fit.png")).string();
+    if (!sheet) {
+        result.notes.push_back("preview: " + sheet.error().message);
+    } else if (auto w = write_png(p, *sheet); !w) {
+        result.notes.push_back(w.error().message);
+    } else {
+        result.generated.push_back(p);
     }
+}
+
+/// The pictures that are missing: plots (when there is a dataset), the sphere preview (when there
+/// is a fit), and with `blender` Blender's render of the exported fit.
+void draw_missing_pictures(const ReportInputs& in,
+                           const ReportOptions& options,
+                           ReportResult& result) {
+    draw_missing_plots(in, options, result);
+    draw_missing_preview(in, options, result);
     if (options.blender) {
-        if (auto b = write_blender_preview(root.string(), options.preview.size_px); b) {
+        if (auto b = write_blender_preview(in.root.string(), options.preview.size_px); b) {
             result.generated.push_back(*b);
         } else {
-            notes.push_back(b.error().message);
+            result.notes.push_back(b.error().message);
         }
     }
+}
 
-    // What was measured and when.
-    const json& meta = *metadata;
-    const json& dsm = *dataset_meta;
-    std::string sample = text_of(meta, "sample");
+/// The sample's name: metadata.json's, dataset.json's, else campaign.json's sample, material or
+/// name.
+std::string sample_name(const ReportInputs& in) {
+    std::string sample = text_of(in.metadata, "sample");
     if (sample.empty()) {
-        sample = text_of(dsm, "sample");
+        sample = text_of(in.dataset_meta, "sample");
     }
-    if (sample.empty() && campaign->is_object()) {
+    if (sample.empty() && in.campaign.is_object()) {
         for (const char* k : {"sample", "material", "name"}) {
-            if (const json* v = member(*campaign, k)) {
+            if (const json* v = member(in.campaign, k)) {
                 sample =
                     v->is_object() ? text_of(*v, "name") : (is_scalar(*v) ? scalar_text(*v) : "");
                 if (!sample.empty()) {
@@ -590,11 +667,12 @@ Expected<ReportResult> build_report(const std::string& dir, const ReportOptions&
             }
         }
     }
-    std::string title = "gonio campaign report" + (sample.empty() ? "" : ": " + sample);
-    std::vector<std::string> facts;
-    facts.push_back(image_mode ? "image-mode campaign (curved sample imaged by the camera)"
-                               : "point-mode campaign");
-    std::string when;
+    return sample;
+}
+
+/// When it was measured: the runs of metadata.json, else when a file was written.
+std::string when_measured(const ReportInputs& in) {
+    const json& meta = in.metadata;
     if (const json* runs = member(meta, "runs");
         runs != nullptr && runs->is_array() && !runs->empty()) {
         const std::string first = text_of(runs->front(), "started");
@@ -602,50 +680,87 @@ Expected<ReportResult> build_report(const std::string& dir, const ReportOptions&
         if (last.rfind("unknown", 0) == 0) {
             last.clear();
         }
-        when = "measured " + first + (last.empty() ? "" : " to " + last);
+        std::string when = "measured " + first + (last.empty() ? "" : " to " + last);
         if (runs->size() > 1) {
             when += " in " + std::to_string(runs->size()) + " runs";
         }
-    } else if (!text_of(meta, "created").empty()) {
-        when = "created " + text_of(meta, "created");
-    } else if (image_mode) {
-        when = "written " + file_time_text(dataset_json_path);
-    } else if (fs::exists(data_path)) {
-        when = "dataset written " + file_time_text(data_path);
+        return when;
     }
-    if (!when.empty()) {
+    if (!text_of(meta, "created").empty()) {
+        return "created " + text_of(meta, "created");
+    }
+    if (in.image_mode) {
+        return "written " + file_time_text(in.dataset_json_path);
+    }
+    if (fs::exists(in.data_path)) {
+        return "dataset written " + file_time_text(in.data_path);
+    }
+    return {};
+}
+
+/// The achieved coverage of an image campaign against its target ("" when not recorded).
+std::string coverage_fact(const json& dsm) {
+    const json* c = member(dsm, "coverage");
+    if (c == nullptr || !c->is_object()) {
+        return {};
+    }
+    const json* a = member(*c, "achieved");
+    const json* t = member(*c, "target");
+    if (a == nullptr || !a->is_number() || t == nullptr || !t->is_number()) {
+        return {};
+    }
+    char buf[96];
+    std::snprintf(buf,
+                  sizeof buf,
+                  "coverage %.1f %% of the valid bins (target %.0f %%)",
+                  100 * a->get<double>(),
+                  100 * t->get<double>());
+    return buf;
+}
+
+/// A fit of a file: which file, how many samples, when it was fitted.
+std::vector<std::string> file_fit_facts(const ReportInputs& in) {
+    std::vector<std::string> facts = {"fit of the file " + in.data_file};
+    if (in.data) {
+        facts.push_back(std::to_string(in.data->samples.size()) + " samples");
+    }
+    facts.push_back("fitted " + file_time_text(in.fit_report_path));
+    return facts;
+}
+
+/// What was measured and when: the facts under the title.
+std::vector<std::string> campaign_facts(const ReportInputs& in) {
+    if (in.file_fit) {
+        return file_fit_facts(in);
+    }
+    const json& meta = in.metadata;
+    const json& dsm = in.dataset_meta;
+    std::vector<std::string> facts;
+    facts.push_back(in.image_mode ? "image-mode campaign (curved sample imaged by the camera)"
+                                  : "point-mode campaign");
+    if (std::string when = when_measured(in); !when.empty()) {
         facts.push_back(when);
     }
-    std::string rig = image_mode ? text_of(dsm, "rig") : std::string();
+    std::string rig = in.image_mode ? text_of(dsm, "rig") : std::string();
     if (const json* r = member(meta, "rig"); r != nullptr && r->is_object()) {
         rig = text_of(*r, "name");
     }
     if (!rig.empty()) {
         facts.push_back("rig " + rig);
     }
-    if (data) {
-        std::string n = std::to_string(data->samples.size()) + " samples";
+    if (in.data) {
+        std::string n = std::to_string(in.data->samples.size()) + " samples";
         if (!text_of(meta, "planned").empty()) {
             n += " (" + text_of(meta, "planned") + " planned)";
         }
-        if (!references.empty()) {
-            n += " besides " + std::to_string(references.size()) + " drift-reference rows";
+        if (!in.references.empty()) {
+            n += " besides " + std::to_string(in.references.size()) + " drift-reference rows";
         }
         facts.push_back(n);
     }
-    if (image_mode) {
-        if (const json* c = member(dsm, "coverage"); c != nullptr && c->is_object()) {
-            const json* a = member(*c, "achieved");
-            const json* t = member(*c, "target");
-            if (a != nullptr && a->is_number() && t != nullptr && t->is_number()) {
-                char buf[96];
-                std::snprintf(buf,
-                              sizeof buf,
-                              "coverage %.1f %% of the valid bins (target %.0f %%)",
-                              100 * a->get<double>(),
-                              100 * t->get<double>());
-                facts.push_back(buf);
-            }
+    if (in.image_mode) {
+        if (std::string c = coverage_fact(dsm); !c.empty()) {
+            facts.push_back(c);
         }
     }
     if (!text_of(meta, "operator").empty()) {
@@ -654,11 +769,11 @@ Expected<ReportResult> build_report(const std::string& dir, const ReportOptions&
     if (const json* gt = member(dsm, "ground_truth"); gt != nullptr && gt->is_string()) {
         facts.push_back("simulated ground truth " + gt->get<std::string>());
     }
+    return facts;
+}
 
-    std::time_t now = std::time(nullptr);
-    char written[64];
-    std::strftime(written, sizeof written, "%Y-%m-%d %H:%M:%S UTC", std::gmtime(&now));
-    std::ostringstream h;
+/// The page's head, its title and the facts line.
+void write_head(std::ostream& h, const std::string& title, const std::vector<std::string>& facts) {
     h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
          "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\"><title>"
       << html_escape(title) << "</title>" << kStyle << "</head><body>\n";
@@ -667,11 +782,13 @@ Expected<ReportResult> build_report(const std::string& dir, const ReportOptions&
         h << (i ? "; " : "") << html_escape(facts[i]);
     }
     h << ".</p>\n";
+}
 
-    // The result: verdict, model, parameters.
-    if (fit_result) {
-        h << verdict_block(*fit_result) << model_block(*fit_result, model_summary);
-    } else if (fit_report->is_object()) {
+/// The result: verdict, model, parameters.
+void write_result(std::ostream& h, const ReportInputs& in) {
+    if (in.fit_result) {
+        h << verdict_block(*in.fit_result) << model_block(*in.fit_result, in.model_summary);
+    } else if (in.fit_report.is_object()) {
         h << "<div id=\"verdict\" class=\"verdict bad\"><p><b>Verdict: none</b>. "
              "fit.report.json is not a fit report this version reads (see the notes).</p>"
              "</div>\n";
@@ -679,17 +796,17 @@ Expected<ReportResult> build_report(const std::string& dir, const ReportOptions&
         h << "<div id=\"verdict\" class=\"verdict bad\"><p><b>Verdict: no fit</b>. No "
              "fit.report.json in this folder (run <code>gonio fit</code> on dataset.csv).</p>"
              "</div>\n";
-        if (!model_summary.empty()) {
-            h << "<p>Model (<code>fit.json</code>): <code>" << html_escape(model_summary)
+        if (!in.model_summary.empty()) {
+            h << "<p>Model (<code>fit.json</code>): <code>" << html_escape(in.model_summary)
               << "</code></p>\n";
         }
     }
     h << "</header>\n";
+}
 
-    // Pictures.
-    h << "<h2 id=\"pictures\">Pictures</h2>\n";
+/// The PNG files of plots/, the known plots first in the order of the page's story.
+std::vector<fs::path> plots_in_story_order(const fs::path& plots_dir) {
     std::vector<fs::path> plots = pngs_in(plots_dir);
-    // Known plots first, in the order of the page's story.
     const char* order[] = {"in_plane.png", "delta_phi.png", "residuals.png"};
     std::stable_sort(plots.begin(), plots.end(), [&](const fs::path& a, const fs::path& b) {
         auto rank = [&](const fs::path& p) {
@@ -702,8 +819,15 @@ Expected<ReportResult> build_report(const std::string& dir, const ReportOptions&
         };
         return rank(a) < rank(b);
     });
+    return plots;
+}
+
+/// The plots and previews on disk as figures; returns how many.
+std::size_t write_picture_files(std::ostream& h,
+                                const ReportInputs& in,
+                                std::vector<std::string>& notes) {
     std::size_t figures = 0;
-    for (const fs::path& p : plots) {
+    for (const fs::path& p : plots_in_story_order(in.plots_dir)) {
         if (p.filename() == "coverage.png") {
             continue;  // drawn below from the data
         }
@@ -715,13 +839,13 @@ Expected<ReportResult> build_report(const std::string& dir, const ReportOptions&
             notes.push_back(img.error().message);
         }
     }
-    for (const fs::path& p : pngs_in(previews_dir)) {
+    for (const fs::path& p : pngs_in(in.previews_dir)) {
         auto img = read_png(p.string());
         if (img) {
             h << figure(*img,
                         "preview-" + p.stem().string(),
                         p.stem() == "blender"
-                            ? blender_preview_caption(previews_dir.string())
+                            ? blender_preview_caption(in.previews_dir.string())
                             : "Sphere preview (previews/" + p.filename().string() +
                                   "): the BRDFs named on each row rendered on a sphere under a "
                                   "directional light and a sky/ground environment, one exposure.");
@@ -730,82 +854,136 @@ Expected<ReportResult> build_report(const std::string& dir, const ReportOptions&
             notes.push_back(img.error().message);
         }
     }
-    if (table != nullptr) {
+    return figures;
+}
+
+/// The coverage figure, drawn now: of the table (also written to plots/coverage-map.png) or of
+/// the dataset. Returns how many figures it wrote (0 or 1).
+std::size_t write_coverage_figure(std::ostream& h,
+                                  const ReportInputs& in,
+                                  const ReportOptions& options,
+                                  const std::string& sample,
+                                  ReportResult& result) {
+    std::error_code ec;
+    if (in.table != nullptr) {
         auto cov = plot_table_coverage(
-            *table, holes_of(dsm), options.plot, sample.empty() ? "table" : sample);
-        if (cov) {
-            h << figure(*cov,
-                        "coverage",
-                        "Coverage of the half/difference table: fraction of the phi_d bins of "
-                        "each (theta_h, theta_d) cell holding a measured value; holes outlined.");
-            ++figures;
-            if (fs::create_directories(plots_dir, ec); !ec) {
-                const std::string p = (plots_dir / "coverage-map.png").string();
-                if (auto w = write_png(p, *cov); w) {
-                    result.generated.push_back(p);
-                }
+            *in.table, holes_of(in.dataset_meta), options.plot, sample.empty() ? "table" : sample);
+        if (!cov) {
+            result.notes.push_back(cov.error().message);
+            return 0;
+        }
+        h << figure(*cov,
+                    "coverage",
+                    "Coverage of the half/difference table: fraction of the phi_d bins of "
+                    "each (theta_h, theta_d) cell holding a measured value; holes outlined.");
+        if (fs::create_directories(in.plots_dir, ec); !ec) {
+            const std::string p = (in.plots_dir / "coverage-map.png").string();
+            if (auto w = write_png(p, *cov); w) {
+                result.generated.push_back(p);
             }
-        } else {
-            notes.push_back(cov.error().message);
         }
-    } else if (data) {
-        auto cov = plot_coverage(*data, options.plot);
-        if (cov) {
-            h << figure(*cov,
-                        "coverage",
-                        "Coverage of the angular domain: each measured (wi, wo) pair's outgoing "
-                        "direction seen from above (left) and at its (theta_h, theta_d) (right), "
-                        "coloured by theta_i.");
-            ++figures;
-        } else {
-            h << "<p class=\"note\">" << html_escape(cov.error().message) << "</p>\n";
-        }
+        return 1;
     }
+    if (!in.data) {
+        return 0;
+    }
+    auto cov = plot_coverage(*in.data, options.plot);
+    if (!cov) {
+        h << "<p class=\"note\">" << html_escape(cov.error().message) << "</p>\n";
+        return 0;
+    }
+    h << figure(*cov,
+                "coverage",
+                "Coverage of the angular domain: each measured (wi, wo) pair's outgoing "
+                "direction seen from above (left) and at its (theta_h, theta_d) (right), "
+                "coloured by theta_i.");
+    return 1;
+}
+
+/// The pictures section.
+void write_pictures(std::ostream& h,
+                    const ReportInputs& in,
+                    const ReportOptions& options,
+                    const std::string& sample,
+                    ReportResult& result) {
+    h << "<h2 id=\"pictures\">Pictures</h2>\n";
+    std::size_t figures = write_picture_files(h, in, result.notes);
+    figures += write_coverage_figure(h, in, options, sample, result);
     if (figures == 0) {
         h << "<p class=\"note\">No pictures: no dataset and no fit in this folder.</p>\n";
     }
+}
 
-    // Coverage details, calibration and drift.
+/// An image campaign's calibration, coverage and capture figures, and its holes.
+void write_image_calibration(std::ostream& h, const json& dsm) {
+    std::vector<std::pair<std::string, std::string>> rows;
+    for (const char* k : {"coverage",
+                          "calibration_counts_per_us_per_inv_sr",
+                          "reference_albedo",
+                          "sphere",
+                          "pixels",
+                          "table",
+                          "captures",
+                          "exposure_time_s"}) {
+        if (const json* v = member(dsm, k)) {
+            flatten(*v, k, rows);
+        }
+    }
+    h << kv_table(rows);
+    const std::vector<TableHole> holes = holes_of(dsm);
+    if (holes.empty()) {
+        return;
+    }
+    h << "<h3>Holes</h3>\n<table class=\"grid\"><tr><th>theta_h [deg]</th><th>theta_d "
+         "[deg]</th><th>bins</th><th>reason</th></tr>";
+    const json& hj = dsm["holes"];
+    for (const json& e : hj) {
+        if (!e.is_object()) {
+            continue;
+        }
+        h << "<tr><td>" << html_escape(rgb_text(e.value("theta_h_deg", json()))) << "</td><td>"
+          << html_escape(rgb_text(e.value("theta_d_deg", json()))) << "</td><td>"
+          << html_escape(text_of(e, "bins", "-")) << "</td><td>"
+          << html_escape(text_of(e, "reason", "-")) << "</td></tr>";
+    }
+    h << "</table>\n";
+}
+
+/// The same configuration measured again during the campaign, in file order.
+void write_drift_references(std::ostream& h, const std::vector<brdf::Sample>& references) {
+    if (references.empty()) {
+        return;
+    }
+    const double y0 = luminance(references.front().value);
+    h << "<h3>Drift reference re-measurements</h3>\n<p>The same configuration measured "
+         "again during the campaign (rows flagged as reference in dataset.csv), in file "
+         "order.</p>\n<table class=\"grid\"><tr><th>#</th><th>theta_i [deg]</th>"
+         "<th>theta_o [deg]</th><th>luminance Y [1/sr]</th><th>sigma Y</th><th>ratio to "
+         "first</th></tr>";
+    for (std::size_t i = 0; i < references.size(); ++i) {
+        const brdf::Sample& s = references[i];
+        const double y = luminance(s.value);
+        h << "<tr><td>" << i + 1 << "</td><td>" << fmt_num(s.theta_i * 180 / brdf::kPi)
+          << "</td><td>" << fmt_num(s.theta_o * 180 / brdf::kPi) << "</td><td>" << fmt_num(y)
+          << "</td><td>" << fmt_num(luminance_sigma(s.sigma)) << "</td><td>"
+          << (y0 > 0 ? fmt_num(y / y0) : std::string("-")) << "</td></tr>";
+    }
+    h << "</table>\n";
+}
+
+/// Coverage details, calibration and drift.
+void write_calibration(std::ostream& h, const ReportInputs& in) {
     h << "<h2 id=\"calibration\">Coverage, calibration and drift</h2>\n";
-    if (data && !data->rejected.empty()) {
-        h << "<p class=\"note\">" << data->rejected.size()
-          << " rows of dataset.csv rejected (first: line " << data->rejected.front().line << ", "
-          << html_escape(data->rejected.front().reason) << ").</p>\n";
+    if (in.data && !in.data->rejected.empty()) {
+        h << "<p class=\"note\">" << in.data->rejected.size()
+          << " rows of dataset.csv rejected (first: line " << in.data->rejected.front().line << ", "
+          << html_escape(in.data->rejected.front().reason) << ").</p>\n";
     }
-    if (image_mode) {
-        std::vector<std::pair<std::string, std::string>> rows;
-        for (const char* k : {"coverage",
-                              "calibration_counts_per_us_per_inv_sr",
-                              "reference_albedo",
-                              "sphere",
-                              "pixels",
-                              "table",
-                              "captures",
-                              "exposure_time_s"}) {
-            if (const json* v = member(dsm, k)) {
-                flatten(*v, k, rows);
-            }
-        }
-        h << kv_table(rows);
-        const std::vector<TableHole> holes = holes_of(dsm);
-        if (!holes.empty()) {
-            h << "<h3>Holes</h3>\n<table class=\"grid\"><tr><th>theta_h [deg]</th><th>theta_d "
-                 "[deg]</th><th>bins</th><th>reason</th></tr>";
-            const json& hj = dsm["holes"];
-            for (const json& e : hj) {
-                if (!e.is_object()) {
-                    continue;
-                }
-                h << "<tr><td>" << html_escape(rgb_text(e.value("theta_h_deg", json())))
-                  << "</td><td>" << html_escape(rgb_text(e.value("theta_d_deg", json())))
-                  << "</td><td>" << html_escape(text_of(e, "bins", "-")) << "</td><td>"
-                  << html_escape(text_of(e, "reason", "-")) << "</td></tr>";
-            }
-            h << "</table>\n";
-        }
+    if (in.image_mode) {
+        write_image_calibration(h, in.dataset_meta);
     }
-    json cal = calibration_and_drift(*campaign);
-    const json run_cal = calibration_and_drift(meta);
+    json cal = calibration_and_drift(in.campaign);
+    const json run_cal = calibration_and_drift(in.metadata);
     for (auto it = run_cal.begin(); it != run_cal.end(); ++it) {
         cal[it.key() + (cal.contains(it.key()) ? " (run)" : "")] = *it;
     }
@@ -813,96 +991,100 @@ Expected<ReportResult> build_report(const std::string& dir, const ReportOptions&
         std::vector<std::pair<std::string, std::string>> rows;
         flatten(cal, "", rows);
         h << kv_table(rows);
-    } else if (!image_mode) {
+    } else if (!in.image_mode) {
         h << "<p class=\"note\">No calibration or drift settings in campaign.json or "
              "metadata.json.</p>\n";
     }
-    if (!references.empty()) {
-        const double y0 = luminance(references.front().value);
-        h << "<h3>Drift reference re-measurements</h3>\n<p>The same configuration measured "
-             "again during the campaign (rows flagged as reference in dataset.csv), in file "
-             "order.</p>\n<table class=\"grid\"><tr><th>#</th><th>theta_i [deg]</th>"
-             "<th>theta_o [deg]</th><th>luminance Y [1/sr]</th><th>sigma Y</th><th>ratio to "
-             "first</th></tr>";
-        for (std::size_t i = 0; i < references.size(); ++i) {
-            const brdf::Sample& s = references[i];
-            const double y = luminance(s.value);
-            h << "<tr><td>" << i + 1 << "</td><td>" << fmt_num(s.theta_i * 180 / brdf::kPi)
-              << "</td><td>" << fmt_num(s.theta_o * 180 / brdf::kPi) << "</td><td>" << fmt_num(y)
-              << "</td><td>" << fmt_num(luminance_sigma(s.sigma)) << "</td><td>"
-              << (y0 > 0 ? fmt_num(y / y0) : std::string("-")) << "</td></tr>";
-        }
-        h << "</table>\n";
-    }
+    write_drift_references(h, in.references);
+}
 
-    // Run history.
+/// A point campaign's runs (metadata.json) and its counts.
+void write_point_runs(std::ostream& h, const json& meta, const json& runs) {
+    h << "<table class=\"grid\"><tr><th>#</th><th>started</th><th>ended</th><th>state</th>"
+         "<th>measured</th></tr>";
+    int i = 0;
+    for (const json& r : runs) {
+        h << "<tr><td>" << ++i << "</td><td>" << html_escape(text_of(r, "started", "-"))
+          << "</td><td>" << html_escape(text_of(r, "ended", "-")) << "</td><td>"
+          << html_escape(text_of(r, "state", "-")) << "</td><td>"
+          << html_escape(text_of(r, "measured", "-")) << "</td></tr>";
+    }
+    h << "</table>\n<p>State " << html_escape(text_of(meta, "state", "-")) << "; "
+      << html_escape(text_of(meta, "measured", "-")) << " measured of "
+      << html_escape(text_of(meta, "planned", "-")) << " planned; pose repeats "
+      << html_escape(text_of(meta, "pose_repeats", "0")) << ", device outages "
+      << html_escape(text_of(meta, "device_outages", "0")) << ".</p>\n";
+}
+
+/// An image campaign's light positions (dataset.json's frames) and why it stopped.
+void write_image_frames(std::ostream& h, const json& dsm, const json& frames) {
+    h << "<p>Light positions in the order measured.</p>\n<table class=\"grid\"><tr><th>#</th>"
+         "<th>light arm [deg]</th><th>pixels used</th><th>pixels saturated</th>"
+         "<th>exposures (r g b)</th><th>coverage after</th></tr>";
+    int i = 0;
+    for (const json& f : frames) {
+        h << "<tr><td>" << ++i << "</td><td>" << html_escape(text_of(f, "light_arm_deg", "-"))
+          << "</td><td>" << html_escape(text_of(f, "used_pixels", "-")) << "</td><td>"
+          << html_escape(text_of(f, "saturated_pixels", "-")) << "</td><td>"
+          << html_escape(f.is_object() && f.contains("exposures") ? rgb_text(f["exposures"]) : "-")
+          << "</td><td>" << html_escape(text_of(f, "coverage_after", "-")) << "</td></tr>";
+    }
+    h << "</table>\n";
+    if (const json* c = member(dsm, "coverage")) {
+        h << "<p>Stopped: " << html_escape(text_of(*c, "stop_reason", "-")) << ".</p>\n";
+    }
+}
+
+/// Run history: a point campaign's runs, or an image campaign's light positions.
+void write_history(std::ostream& h, const ReportInputs& in) {
     h << "<h2 id=\"history\">Run history</h2>\n";
-    if (const json* runs = member(meta, "runs");
+    if (const json* runs = member(in.metadata, "runs");
         runs != nullptr && runs->is_array() && !runs->empty()) {
-        h << "<table class=\"grid\"><tr><th>#</th><th>started</th><th>ended</th><th>state</th>"
-             "<th>measured</th></tr>";
-        int i = 0;
-        for (const json& r : *runs) {
-            h << "<tr><td>" << ++i << "</td><td>" << html_escape(text_of(r, "started", "-"))
-              << "</td><td>" << html_escape(text_of(r, "ended", "-")) << "</td><td>"
-              << html_escape(text_of(r, "state", "-")) << "</td><td>"
-              << html_escape(text_of(r, "measured", "-")) << "</td></tr>";
-        }
-        h << "</table>\n<p>State " << html_escape(text_of(meta, "state", "-")) << "; "
-          << html_escape(text_of(meta, "measured", "-")) << " measured of "
-          << html_escape(text_of(meta, "planned", "-")) << " planned; pose repeats "
-          << html_escape(text_of(meta, "pose_repeats", "0")) << ", device outages "
-          << html_escape(text_of(meta, "device_outages", "0")) << ".</p>\n";
-    } else if (const json* frames = member(dsm, "frames");
+        write_point_runs(h, in.metadata, *runs);
+    } else if (const json* frames = member(in.dataset_meta, "frames");
                frames != nullptr && frames->is_array() && !frames->empty()) {
-        h << "<p>Light positions in the order measured.</p>\n<table class=\"grid\"><tr><th>#</th>"
-             "<th>light arm [deg]</th><th>pixels used</th><th>pixels saturated</th>"
-             "<th>exposures (r g b)</th><th>coverage after</th></tr>";
-        int i = 0;
-        for (const json& f : *frames) {
-            h << "<tr><td>" << ++i << "</td><td>" << html_escape(text_of(f, "light_arm_deg", "-"))
-              << "</td><td>" << html_escape(text_of(f, "used_pixels", "-")) << "</td><td>"
-              << html_escape(text_of(f, "saturated_pixels", "-")) << "</td><td>"
-              << html_escape(f.is_object() && f.contains("exposures") ? rgb_text(f["exposures"])
-                                                                      : "-")
-              << "</td><td>" << html_escape(text_of(f, "coverage_after", "-")) << "</td></tr>";
-        }
-        h << "</table>\n";
-        if (const json* c = member(dsm, "coverage")) {
-            h << "<p>Stopped: " << html_escape(text_of(*c, "stop_reason", "-")) << ".</p>\n";
-        }
+        write_image_frames(h, in.dataset_meta, *frames);
     } else {
         h << "<p class=\"note\">No run history (no metadata.json runs, no image-mode "
              "frames).</p>\n";
     }
+}
 
+/// bench/runtime_vs_error.csv as a table, when the folder has one.
+void write_runtime(std::ostream& h, const fs::path& root) {
     const fs::path bench_path = root / "bench" / "runtime_vs_error.csv";
-    if (fs::exists(bench_path)) {
-        h << "<h2 id=\"runtime\">Run time against error</h2>\n<table class=\"grid\">";
-        std::ifstream f(bench_path);
-        std::string line;
-        bool header = true;
-        while (std::getline(f, line)) {
-            if (line.empty() || line[0] == '#') {
-                continue;
-            }
-            h << "<tr>";
-            for (const std::string& c : split_csv_line(line)) {
-                h << (header ? "<th>" : "<td>") << html_escape(c) << (header ? "</th>" : "</td>");
-            }
-            h << "</tr>";
-            header = false;
-        }
-        h << "</table>\n";
+    if (!fs::exists(bench_path)) {
+        return;
     }
+    h << "<h2 id=\"runtime\">Run time against error</h2>\n<table class=\"grid\">";
+    std::ifstream f(bench_path);
+    std::string line;
+    bool header = true;
+    while (std::getline(f, line)) {
+        if (line.empty() || line[0] == '#') {
+            continue;
+        }
+        h << "<tr>";
+        for (const std::string& c : split_csv_line(line)) {
+            h << (header ? "<th>" : "<td>") << html_escape(c) << (header ? "</th>" : "</td>");
+        }
+        h << "</tr>";
+        header = false;
+    }
+    h << "</table>\n";
+}
 
-    // Raw descriptions, folded.
+/// Raw descriptions (folded), the notes, and where and when the page was written.
+void write_tail(std::ostream& h,
+                const ReportInputs& in,
+                const std::vector<std::string>& notes,
+                const std::string& dir) {
     h << "<h2 id=\"raw\">Raw descriptions</h2>\n";
-    const std::string raw = raw_details("campaign.json", *campaign) +
-                            raw_details("metadata.json", meta) + raw_details("dataset.json", dsm) +
-                            raw_details("fit.report.json", *fit_report);
+    const std::string raw = raw_details("campaign.json", in.campaign) +
+                            raw_details("metadata.json", in.metadata) +
+                            raw_details("dataset.json", in.dataset_meta) +
+                            raw_details("fit.report.json", in.fit_report);
     h << (raw.empty() ? "<p class=\"note\">No JSON description in this folder.</p>\n" : raw);
-
     if (!notes.empty()) {
         h << "<h2 id=\"notes\">Notes</h2>\n<ul>";
         for (const std::string& n : notes) {
@@ -910,10 +1092,80 @@ Expected<ReportResult> build_report(const std::string& dir, const ReportOptions&
         }
         h << "</ul>\n";
     }
+    std::time_t now = std::time(nullptr);
+    char written[64];
+    std::strftime(written, sizeof written, "%Y-%m-%d %H:%M:%S UTC", std::gmtime(&now));
     h << "<p class=\"facts\">Folder <code>" << html_escape(dir) << "</code>; page written "
       << written << " by gonio " << GONIO_VERSION_STRING << ".</p>\n";
     h << "</body></html>\n";
+}
 
+/// The folder's inputs: its descriptions, samples, table and fit, and the missing pictures drawn.
+Expected<ReportInputs> read_inputs(const fs::path& root,
+                                   const ReportOptions& options,
+                                   ReportResult& result) {
+    ReportInputs in;
+    in.root = root;
+    in.data_path = root / "dataset.csv";
+    in.campaign_path = root / "campaign.json";
+    in.metadata_path = root / "metadata.json";
+    in.dataset_json_path = root / "dataset.json";
+    in.fit_path = root / "fit.json";
+    in.fit_report_path = root / "fit.report.json";
+    in.plots_dir = root / "plots";
+    in.previews_dir = root / "previews";
+    if (!fs::exists(in.data_path) && !fs::exists(in.campaign_path) && !fs::exists(in.fit_path) &&
+        !fs::exists(in.dataset_json_path)) {
+        return make_error(root.string() +
+                          ": neither dataset.csv, dataset.json, campaign.json nor fit.json: not a "
+                          "campaign folder");
+    }
+    if (auto r = read_descriptions(in, result.notes); !r) {
+        return tl::unexpected(r.error());
+    }
+    // No campaign's description nor its samples, and a fit report that names its data: the page
+    // of a fit of that file.
+    if (in.fit_result && !in.fit_result->data.empty() && !fs::exists(in.data_path) &&
+        !fs::exists(in.campaign_path) && !fs::exists(in.metadata_path) &&
+        !fs::exists(in.dataset_json_path)) {
+        in.file_fit = true;
+        in.data_file = in.fit_result->data;
+    }
+    read_samples(in, result.notes);
+    read_table(in, result.notes);
+    read_fit(in, result.notes);
+    draw_missing_pictures(in, options, result);
+    return in;
+}
+
+}  // namespace
+
+Expected<ReportResult> build_report(const std::string& dir, const ReportOptions& options) {
+    std::error_code ec;
+    const fs::path root(dir);
+    if (!fs::is_directory(root, ec)) {
+        return make_error(dir + ": not a folder");
+    }
+    ReportResult result;
+    auto in = read_inputs(root, options, result);
+    if (!in) {
+        return tl::unexpected(in.error());
+    }
+    const std::string sample =
+        in->file_fit ? fs::path(in->data_file).filename().string() : sample_name(*in);
+    const std::string title = (in->file_fit ? "gonio fit report" : "gonio campaign report") +
+                              (sample.empty() ? std::string() : ": " + sample);
+    std::ostringstream h;
+    write_head(h, title, campaign_facts(*in));
+    write_result(h, *in);
+    write_pictures(h, *in, options, sample, result);
+    if (!in->file_fit) {
+        // A fit of a file has no campaign: no calibration, no drift, no runs to show.
+        write_calibration(h, *in);
+        write_history(h, *in);
+    }
+    write_runtime(h, root);
+    write_tail(h, *in, result.notes, dir);
     const fs::path out = root / "report.html";
     if (auto w = write_file_atomic(out.string(), h.str()); !w) {
         return tl::unexpected(w.error());

@@ -104,6 +104,12 @@ Image tone_map(const RadianceImage& radiance, double exposure, Color background)
             out.rgb[3 * i + 2] = background.b;
             continue;
         }
+        if (!radiance.hole.empty() && radiance.hole[i]) {
+            out.rgb[3 * i] = kHoleColor.r;
+            out.rgb[3 * i + 1] = kHoleColor.g;
+            out.rgb[3 * i + 2] = kHoleColor.b;
+            continue;
+        }
         for (int c = 0; c < 3; ++c) {
             const double v = srgb_encode(tone_map_filmic(exposure * radiance.pixels[i][c]));
             out.rgb[3 * i + c] = static_cast<std::uint8_t>(std::lround(255.0 * v));

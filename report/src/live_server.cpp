@@ -23,6 +23,7 @@
 #include <httplib.h>
 #pragma GCC diagnostic pop
 
+#include "gonio/base/limits.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/model.h"
 #include "gonio/fitting/fit.h"
@@ -45,19 +46,22 @@ h1{font-size:1.4em}#bar{height:18px;background:#eee;border:1px solid #bbb}#fill{
 img{max-width:100%;height:auto;border:1px solid #ddd}figcaption{font-size:.9em;color:#444}
 .note{border:1px dashed #bbb;padding:2em 1em;color:#555;text-align:center}
 #fit{font-family:monospace;white-space:pre-wrap;overflow-wrap:anywhere}
+.ended{border:1px solid #3a7;background:#efe;padding:.5em 1em}
 </style></head><body>
 <h1>TITLE</h1>
-<p id="progress">waiting for the first measurement</p>
+<p id="progress" data-state="starting">waiting for the first measurement</p>
 <div id="bar"><div id="fill"></div></div>
+<p id="ended" class="ended" style="display:none"></p>
 <p id="latest"></p>
 <div class="grid">
 <figure id="in_plane-figure" style="display:none"><img id="in_plane" alt="in-plane plot of the data so far" onload="loaded(this)"><figcaption>In-plane slices of the data so far and the live fit: BRDF luminance Y [1/sr].</figcaption></figure>
 <figure id="coverage-figure" style="display:none"><img id="coverage" alt="coverage of the angular domain" onload="loaded(this)"><figcaption id="coverage-caption"></figcaption></figure>
 <figure id="frame-figure"><img id="frame" alt="latest camera frame" style="display:none" onload="loaded(this)"><p id="frame-note" class="note">FRAME_NOTE</p><figcaption id="frame-caption">Latest camera frame.</figcaption></figure>
 </div>
-<h2>Fit of the data so far</h2><p id="fit">no fit yet</p>
+<h2 id="fit-heading">Fit of the data so far</h2><p id="fit">no fit yet</p>
 <script>
 var shown = {};
+var last = null;
 function loaded(img) { img.setAttribute('data-natural-width', img.naturalWidth); }
 function show(name, v) {
   if (v > 0 && shown[name] !== v) {
@@ -68,11 +72,43 @@ function show(name, v) {
   }
 }
 function text(id, t) { if (t !== undefined) { document.getElementById(id).textContent = t; } }
+function clock() { return new Date().toTimeString().substring(0, 8); }
+function counted(s) {
+  return s.done + ' of ' + s.planned + (s.mode === 'image' ? ' light positions' : ' measured');
+}
+function ended(s) {
+  var e = document.getElementById('ended');
+  e.textContent = 'Campaign ended: ' + s.state + '. The final fit is below. ';
+  if (s.report) {
+    var a = document.createElement('a'); a.id = 'report-link'; a.href = s.report;
+    a.textContent = 'Campaign report'; e.appendChild(a);
+  }
+  e.style.display = '';
+  text('fit-heading', 'Final fit');
+}
+function lost() {
+  // The server is gone: say so with the last state seen, never a state that is not running.
+  var p = document.getElementById('progress');
+  var t;
+  if (last && last.ended) {
+    t = 'campaign ended (' + last.state + '); the live page\'s server has closed since (noticed ' + clock() + '); last state: ' + counted(last);
+    p.setAttribute('data-state', 'ended');
+  } else {
+    t = 'connection lost: the live page\'s server did not answer at ' + clock() + '; ' +
+        (last ? 'last state seen: ' + counted(last) : 'no state seen');
+    p.setAttribute('data-state', 'connection lost');
+  }
+  p.textContent = t;
+}
 function tick() {
-  fetch('/status.json', {cache: 'no-store'}).then(function (r) { return r.json(); }).then(function (s) {
+  fetch('/status.json', {cache: 'no-store'}).then(function (r) {
+    if (!r.ok) { throw new Error('HTTP ' + r.status); }
+    return r.json();
+  }).then(function (s) {
+    last = s;
     text('progress', s.progress);
     document.getElementById('progress').setAttribute('data-done', s.done);
-    document.getElementById('progress').setAttribute('data-state', s.state);
+    document.getElementById('progress').setAttribute('data-state', s.ended ? 'ended' : s.state);
     if (s.mode === 'image') {
       document.getElementById('progress').setAttribute('data-coverage', s.coverage_percent.toFixed(2));
     }
@@ -80,7 +116,8 @@ function tick() {
     text('latest', s.latest); text('fit', s.fit);
     text('coverage-caption', s.captions.coverage); text('frame-caption', s.captions.frame);
     show('in_plane', s.versions.in_plane); show('coverage', s.versions.coverage); show('frame', s.versions.frame);
-  }).catch(function () {}).then(function () { setTimeout(tick, 1000); });
+    if (s.ended) { ended(s); }
+  }).catch(lost).then(function () { setTimeout(tick, 1000); });
 }
 tick();
 </script></body></html>
@@ -92,6 +129,15 @@ std::string replace_all(std::string s, const std::string& from, const std::strin
     }
     return s;
 }
+
+/// The page with its title and the note shown until the first camera frame.
+std::string page_with(const std::string& title, const std::string& frame_note) {
+    return replace_all(
+        replace_all(kPage, "TITLE", html_escape(title)), "FRAME_NOTE", html_escape(frame_note));
+}
+
+/// The largest campaign report served at /report.html (its pictures are embedded).
+constexpr std::size_t kMaxReportBytes = std::size_t{256} << 20;
 
 std::string duration_text(double s) {
     if (!std::isfinite(s) || s < 0) {
@@ -163,6 +209,15 @@ struct LiveServer::Impl {
     std::atomic<std::size_t> first_done{static_cast<std::size_t>(-1)};
     Clock::time_point first_done_at = Clock::now();
     std::atomic<std::uint64_t> version{0};
+    // The campaign has ended (finish): its last state stays on the page with the final fit and
+    // the report, read from report_path and served at /report.html.
+    std::atomic<bool> ended{false};
+    std::atomic<bool> final_fit_pending{false};
+    std::string report_path;
+
+    // The page, with its title (set_title may change it once the campaign's folder is known).
+    std::mutex page_mu;
+    std::string page;
 
     // Rendered by the render thread, served by the HTTP threads.
     struct Rendered {
@@ -195,9 +250,11 @@ std::string LiveServer::Impl::status_json() {
     double cov = 0;
     double target = 0;
     std::vector<std::pair<std::size_t, double>> history;
+    std::string report_path_copy;
     {
         std::lock_guard<std::mutex> lock(in_mu);
         st = state;
+        report_path_copy = report_path;
         t0 = first_done_at;
         cov = coverage;
         target = coverage_target;
@@ -235,7 +292,8 @@ std::string LiveServer::Impl::status_json() {
         }
     }
     const double eta = rate_per_s > 0 ? left / rate_per_s : std::nan("");
-    const std::string eta_text = st == "running" ? duration_text(eta) : "-";
+    const bool is_ended = ended.load();
+    const std::string eta_text = st == "running" && !is_ended ? duration_text(eta) : "-";
     nlohmann::json j;
     j["mode"] = image ? "image" : "point";
     j["done"] = d;
@@ -243,12 +301,37 @@ std::string LiveServer::Impl::status_json() {
     const double percent = p > 0 ? 100.0 * static_cast<double>(d) / static_cast<double>(p) : 0.0;
     j["percent"] = percent;
     j["state"] = st;
+    j["ended"] = is_ended;
+    j["report"] = is_ended && !report_path_copy.empty() ? "/report.html" : "";
     j["rate_per_min"] = rate_per_s * 60;
     j["eta"] = eta_text;
     j["eta_basis"] = basis;
     j["elapsed_s"] = std::chrono::duration<double>(Clock::now() - started).count();
     char buf[400];
-    if (image) {
+    if (is_ended) {
+        j["bar_percent"] =
+            image ? std::max(percent, target > 0 ? 100 * cov / target : 0.0) : percent;
+        if (image) {
+            j["coverage_percent"] = 100 * cov;
+            j["target_percent"] = 100 * target;
+            std::snprintf(buf,
+                          sizeof buf,
+                          "campaign ended (%s): %zu light positions; coverage %.1f %% of the "
+                          "valid bins (target %.1f %%)",
+                          st.c_str(),
+                          d,
+                          100 * cov,
+                          100 * target);
+        } else {
+            std::snprintf(buf,
+                          sizeof buf,
+                          "campaign ended (%s): %zu of %zu measured (%.1f %%)",
+                          st.c_str(),
+                          d,
+                          p,
+                          percent);
+        }
+    } else if (image) {
         j["coverage_percent"] = 100 * cov;
         j["target_percent"] = 100 * target;
         // The campaign ends at the target or at the frame limit, whichever comes first.
@@ -340,12 +423,18 @@ void LiveServer::Impl::render_loop() {
         po.width = options.plot_width;
         const Clock::time_point now = Clock::now();
         if (image_mode.load() && data.samples.empty()) {
-            r.fit =
-                "An image campaign fills a half/difference table; it is fitted when the campaign "
-                "ends (gonio fit on the campaign's dataset.csv).";
+            r.fit = ended.load() ? "The campaign has ended; its table is fitted by gonio fit on "
+                                   "the campaign's dataset.csv."
+                                 : "An image campaign fills a half/difference table; it is fitted "
+                                   "when the campaign ends (gonio fit on the campaign's "
+                                   "dataset.csv).";
         }
-        if (data.samples.size() >= options.fit_min_samples && data.samples.size() > fitted_at &&
-            now - last_fit >= std::chrono::duration<double>(options.fit_interval_s)) {
+        // The campaign's end asks for one more fit, on every sample, whenever the last one was.
+        const bool final_fit = final_fit_pending.exchange(false);
+        if (data.samples.size() >= options.fit_min_samples &&
+            (final_fit ||
+             (data.samples.size() > fitted_at &&
+              now - last_fit >= std::chrono::duration<double>(options.fit_interval_s)))) {
             last_fit = now;
             fitted_at = data.samples.size();
             auto spec = fitting::make_fit_spec(fitting::ModelOptions{});
@@ -358,7 +447,8 @@ void LiveServer::Impl::render_loop() {
                     char buf[160];
                     std::snprintf(buf,
                                   sizeof buf,
-                                  "on %zu samples: log RMSE (r g b) %.4g %.4g %.4g; %s\n",
+                                  "%son %zu samples: log RMSE (r g b) %.4g %.4g %.4g; %s\n",
+                                  final_fit ? "final fit " : "",
                                   data.samples.size(),
                                   res->metrics.log_rmse[0],
                                   res->metrics.log_rmse[1],
@@ -369,7 +459,8 @@ void LiveServer::Impl::render_loop() {
                     r.fit = buf + fit->describe();
                 } else {
                     r.fit =
-                        "fit on " + std::to_string(data.samples.size()) + " samples: " +
+                        std::string(final_fit ? "final fit" : "fit") + " on " +
+                        std::to_string(data.samples.size()) + " samples: " +
                         (res ? "did not converge: " + res->solver.message : res.error().message);
                 }
             }
@@ -443,12 +534,32 @@ Expected<std::unique_ptr<LiveServer>> LiveServer::start(const std::string& host,
     s.set_write_timeout(options.io_timeout_s, 0);
     s.set_keep_alive_timeout(options.io_timeout_s);
     s.set_keep_alive_max_count(100);
-    const std::string page = replace_all(replace_all(kPage, "TITLE", html_escape(options.title)),
-                                         "FRAME_NOTE",
-                                         html_escape(options.frame_note));
-    s.Get("/", [p, page](const httplib::Request&, httplib::Response& res) {
+    impl->page = page_with(options.title, options.frame_note);
+    s.Get("/", [p](const httplib::Request&, httplib::Response& res) {
         ++p->requests;
+        std::string page;
+        {
+            std::lock_guard<std::mutex> lock(p->page_mu);
+            page = p->page;
+        }
         res.set_content(page, "text/html; charset=utf-8");
+        res.set_header("Cache-Control", "no-store");
+    });
+    s.Get("/report.html", [p](const httplib::Request&, httplib::Response& res) {
+        ++p->requests;
+        std::string path;
+        {
+            std::lock_guard<std::mutex> lock(p->in_mu);
+            path = p->report_path;
+        }
+        auto bytes = path.empty() ? Expected<std::string>(make_error("no report"))
+                                  : read_input_file(path, kMaxReportBytes);
+        if (!p->ended.load() || !bytes) {
+            res.status = 404;
+            res.set_content("no report yet (it is written when the campaign ends)\n", "text/plain");
+            return;
+        }
+        res.set_content(*bytes, "text/html; charset=utf-8");
         res.set_header("Cache-Control", "no-store");
     });
     s.Get("/status.json", [p](const httplib::Request&, httplib::Response& res) {
@@ -509,6 +620,28 @@ void LiveServer::publish_progress(std::size_t done, std::size_t planned, const s
     impl_->done.store(done);
     impl_->planned.store(planned);
     ++impl_->version;
+}
+
+void LiveServer::set_title(const std::string& title) {
+    std::lock_guard<std::mutex> lock(impl_->page_mu);
+    impl_->options.title = title;
+    impl_->page = page_with(title, impl_->options.frame_note);
+}
+
+void LiveServer::finish(const std::string& state, const std::string& report_path) {
+    {
+        std::lock_guard<std::mutex> lock(impl_->in_mu);
+        impl_->state = state;
+        impl_->report_path = report_path;
+    }
+    impl_->final_fit_pending.store(true);
+    impl_->ended.store(true);
+    ++impl_->version;
+    impl_->wake.notify_all();
+}
+
+bool LiveServer::ended() const {
+    return impl_->ended.load();
 }
 
 void LiveServer::publish_sample(const brdf::Sample& sample) {

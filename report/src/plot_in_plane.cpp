@@ -53,6 +53,29 @@ double in_plane_angle(const brdf::Sample& s, double tol) {
     return std::cos(dphi) >= 0 ? -s.theta_o : s.theta_o;
 }
 
+/// The fit's luminance in the plane of incidence at phi_i, theta_i_slice, in-plane angle `a`.
+double on_slice(const brdf::Brdf& fit, double phi_i, double theta_i_slice, double a);
+
+/// The factor that moves a sample measured at its own theta_i to a slice at theta_i_slice (same
+/// in-plane angle `a`, same phi_i): the fit's luminance there over the fit's luminance at the
+/// sample's own geometry. 1 when the sample is on the slice (within 0.01 deg) or when the fit
+/// gives no positive finite ratio.
+double on_slice(const brdf::Brdf& fit, double phi_i, double theta_i_slice, double a) {
+    const brdf::Vec3d wi = brdf::spherical_to_cartesian(theta_i_slice, phi_i);
+    const brdf::Vec3d wo =
+        brdf::spherical_to_cartesian(std::abs(a), a >= 0 ? phi_i + brdf::kPi : phi_i);
+    return luminance(fit.eval(wi, wo));
+}
+
+double to_slice(const brdf::Brdf& fit, const brdf::Sample& s, double theta_i_slice, double a) {
+    if (std::abs(s.theta_i - theta_i_slice) < 0.01 * kDeg) {
+        return 1.0;
+    }
+    const double own = luminance(fit.eval(s.wi(), s.wo()));
+    const double k = on_slice(fit, s.phi_i, theta_i_slice, a) / own;
+    return std::isfinite(k) && k > 0 ? k : 1.0;
+}
+
 /// Slices from the data: the theta_i of in-plane samples (degrees, sorted) grouped greedily into
 /// windows of width 2 tol holding the most samples (at least 3), up to `max_slices`, in order of
 /// theta_i; each slice at the median theta_i of its members.
@@ -138,6 +161,8 @@ Expected<Image> plot_in_plane(const brdf::Dataset& data,
 
     const std::vector<double> angles = curve_angles();
     std::vector<Slice> slices;
+    std::size_t moved = 0;    // samples moved to their slice's theta_i
+    double worst_misfit = 0;  // largest |log10(marker / curve)| at a marker's angle
     double vmax = 0;
     double vmax_data = 0;  // the radius follows the measured data, not the model out to 90 degrees
     double vmin_pos = std::numeric_limits<double>::infinity();
@@ -162,8 +187,19 @@ Expected<Image> plot_in_plane(const brdf::Dataset& data,
             if (std::isnan(a)) {
                 continue;
             }
-            const double y = luminance(s.value);
-            const double sy = luminance_sigma(s.sigma);
+            // A sample measured at its own theta_i, off the slice's (an image campaign's pixels
+            // spread over the tolerance): moved to the slice by the fit's ratio between the two
+            // geometries, so that it is compared with the curve at its own incident angle.
+            const double k = fit != nullptr ? to_slice(*fit, s, t_deg * kDeg, a) : 1.0;
+            moved += k != 1.0;
+            const double y = k * luminance(s.value);
+            const double sy = k * luminance_sigma(s.sigma);
+            if (fit != nullptr && y > 0) {
+                const double c = on_slice(*fit, s.phi_i, t_deg * kDeg, a);
+                if (c > 0 && std::isfinite(c)) {
+                    worst_misfit = std::max(worst_misfit, std::abs(std::log10(y / c)));
+                }
+            }
             sl.points.push_back({a, y, sy});
             phis.push_back(s.phi_i);
             vmax = std::max(vmax, y + sy);
@@ -214,9 +250,10 @@ Expected<Image> plot_in_plane(const brdf::Dataset& data,
     char sub[240];
     std::snprintf(sub,
                   sizeof sub,
-                  "markers: measured +-1 sigma at their own theta_o (slice tolerance %.3g deg); "
+                  "markers: measured +-1 sigma at their own theta_o (slice tolerance %.3g deg%s); "
                   "curves: %s",
                   options.angle_tolerance_deg,
+                  moved > 0 ? ", moved to the slice's theta_i by the fit" : "",
                   fit ? "fit" : "(no fit given)");
     cv::Mat img = draw::blank(
         W, H, "In-plane BRDF (luminance Y) - " + plot_detail::short_name(data.source), sub);
@@ -332,6 +369,8 @@ Expected<Image> plot_in_plane(const brdf::Dataset& data,
     const cv::Size ls = draw::legend_size(entries);
     draw::legend(img, entries, {origin.x - ls.width / 2, origin.y + 72}, true);
     draw::text(img, "triangles: light direction", {8, 62}, 0.45, draw::kAxis);
+    out.moved_to_slice = moved;
+    out.worst_marker_misfit = worst_misfit;
     if (layout != nullptr) {
         *layout = out;
     }

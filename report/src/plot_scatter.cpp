@@ -120,7 +120,7 @@ Expected<Image> plot_coverage_cells(const CoverageCells& cells,
     char sub[240];
     std::snprintf(sub,
                   sizeof sub,
-                  "%zu of %zu %sbins measured (%.1f %%), grid %dx%dx%d; %zu holes outlined",
+                  "%zu of %zu %sbins measured (%.1f %%), grid %dx%dx%d; %zu hole%s outlined",
                   cells.measured_bins,
                   cells.total_bins,
                   cells.total_is_valid_bins ? "valid " : "",
@@ -130,7 +130,8 @@ Expected<Image> plot_coverage_cells(const CoverageCells& cells,
                   cells.n_theta_h,
                   cells.n_theta_d,
                   cells.n_phi_d,
-                  holes.size());
+                  holes.size(),
+                  holes.size() == 1 ? "" : "s");
     cv::Mat img = draw::blank(W, H, "Coverage of the table - " + title, sub);
     const draw::Axes ax = draw::half_diff_axes(cv::Rect(90, 70, side, side));
     const cv::Scalar empty_colour(225, 225, 225);

@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "canvas.h"
+#include "gonio/brdf/table.h"
 #include "image_cv.h"
 
 namespace gonio::report {
@@ -109,15 +110,32 @@ SphereLayout sphere_layout(int size_px) {
 RadianceImage render_directional(const brdf::Brdf& brdf, const PreviewOptions& options) {
     const Vec3d l = options.light_dir.normalized();
     const Vec3d v(0, 0, 1);
-    return render(options.size_px, [&](const Frame& f, std::size_t) -> Rgbd {
+    // A table's unmeasured bins are holes, not black reflectance.
+    const auto* table = dynamic_cast<const brdf::TabulatedBrdf*>(&brdf);
+    std::vector<bool> hole(static_cast<std::size_t>(options.size_px) * options.size_px, false);
+    bool any_hole = false;
+    RadianceImage img = render(options.size_px, [&](const Frame& f, std::size_t idx) -> Rgbd {
         const Vec3d wi = f.to_local(l);
         const Vec3d wo = f.to_local(v);
         if (wi.z() <= 0 || wo.z() <= 0) {
             // Light or camera below the local horizon: no direct light reaches the camera.
             return Rgbd::Zero();
         }
+        if (table != nullptr) {
+            const brdf::TableLookup t = table->lookup(wi, wo);
+            if (!t.valid) {
+                hole[idx] = true;
+                any_hole = true;
+                return Rgbd::Zero();
+            }
+            return t.value * (options.light_irradiance * wi.z());
+        }
         return brdf.eval(wi, wo) * (options.light_irradiance * wi.z());
     });
+    if (any_hole) {
+        img.hole = std::move(hole);
+    }
+    return img;
 }
 
 brdf::Rgbd environment_radiance(const brdf::Vec3d& w) {
@@ -134,7 +152,11 @@ RadianceImage render_environment(const brdf::Brdf& brdf, const PreviewOptions& o
     const Vec3d v(0, 0, 1);
     const int per = std::max(1, options.env_samples / kStrategies);
     const double n_k = per;  // samples per strategy (equal allocation)
-    return render(options.size_px, [&](const Frame& f, std::size_t idx) -> Rgbd {
+    // A pixel most of whose directions fall in a table's unmeasured bins is a hole.
+    const auto* table = dynamic_cast<const brdf::TabulatedBrdf*>(&brdf);
+    std::vector<bool> hole(static_cast<std::size_t>(options.size_px) * options.size_px, false);
+    bool any_hole = false;
+    RadianceImage img = render(options.size_px, [&](const Frame& f, std::size_t idx) -> Rgbd {
         const Vec3d wo = f.to_local(v);
         if (wo.z() <= 0) {
             // Silhouette: the camera grazes the surface.
@@ -162,6 +184,8 @@ RadianceImage render_environment(const brdf::Brdf& brdf, const PreviewOptions& o
             return p;
         };
         Rgbd sum = Rgbd::Zero();
+        int drawn = 0;
+        int unmeasured = 0;
         for (int s = 0; s < kStrategies; ++s) {
             for (int k = 0; k < per; ++k) {
                 // Hammersley point, rotated per pixel (Cranley-Patterson).
@@ -188,6 +212,12 @@ RadianceImage render_environment(const brdf::Brdf& brdf, const PreviewOptions& o
                     // Below the local horizon: the BRDF is zero there.
                     continue;
                 }
+                ++drawn;
+                if (table != nullptr && !table->lookup(wi, wo).valid) {
+                    // An unmeasured bin: no value, counted toward the pixel's being a hole.
+                    ++unmeasured;
+                    continue;
+                }
                 const double pdf = mixture_pdf(w);
                 if (!(pdf > 0)) {
                     // Cannot happen for a direction we drew; guard the division anyway.
@@ -196,8 +226,16 @@ RadianceImage render_environment(const brdf::Brdf& brdf, const PreviewOptions& o
                 sum += brdf.eval(wi, wo) * environment_radiance(w) * (wi.z() / pdf);
             }
         }
+        if (2 * unmeasured > drawn) {
+            hole[idx] = true;
+            any_hole = true;
+        }
         return sum;
     });
+    if (any_hole) {
+        img.hole = std::move(hole);
+    }
+    return img;
 }
 
 /// Splits a label into lines no wider than width_px: at spaces, or inside a word longer than a
@@ -307,7 +345,7 @@ Expected<Image> preview_sheet(const brdf::Brdf& a,
         std::vector<double> lum;
         for (const RadianceImage& r : renders) {
             for (std::size_t i = 0; i < r.pixels.size(); ++i) {
-                if (r.covered[i]) {
+                if (r.covered[i] && (r.hole.empty() || !r.hole[i])) {
                     lum.push_back(luminance(r.pixels[i]));
                 }
             }
@@ -334,7 +372,16 @@ Expected<Image> preview_sheet(const brdf::Brdf& a,
                   l.x(),
                   l.y(),
                   l.z());
-    draw::text(img, foot, {W / 2, H - 12}, 0.42, draw::kAxis, draw::Align::kCenter);
+    bool holes = false;
+    for (const RadianceImage& r : renders) {
+        holes = holes || !r.hole.empty();
+    }
+    draw::text(img,
+               std::string(foot) + (holes ? "; magenta: table bins not measured" : ""),
+               {W / 2, H - 12},
+               0.42,
+               draw::kAxis,
+               draw::Align::kCenter);
     return from_mat(img);
 }
 

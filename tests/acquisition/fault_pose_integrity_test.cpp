@@ -17,6 +17,7 @@
 #include <mutex>
 #include <set>
 
+#include "campaign_fixture.h"
 #include "gonio/acquisition/point/campaign.h"
 #include "gonio/acquisition/point/journal.h"
 #include "gonio/brdf/brdf.h"
@@ -37,59 +38,24 @@ const char* kModel = R"({
                "fresnel": {"type": "schlick", "f0": [0.04, 0.04, 0.04]}, "scale": [1, 1, 1]}]
 })";
 
-struct Fixture {
-    std::string dir;
-    std::string model;
-    RigConfig rig;
-    CampaignSpec spec;
-};
+using Fixture = testing::CampaignFixture;
+using testing::LiveRig;
 
 Fixture make_campaign(const std::string& name) {
-    Fixture f;
-    f.dir = std::string(GONIO_BINARY_DIR) + "/test_campaigns/" + name + "_" +
-            std::to_string(::getpid());
-    fs::remove_all(f.dir);
-    fs::create_directories(f.dir);
-    f.model = f.dir + "_model.json";
-    std::ofstream(f.model) << kModel;
-    auto rig = read_rig_config(std::string(GONIO_SOURCE_DIR) + "/data/rigs/sim4.json");
-    EXPECT_TRUE(rig) << rig.error().message;
-    f.rig = *rig;
-    f.spec = default_campaign_spec("pose-test");
-    f.spec.uniform.n_theta = 5;
-    f.spec.uniform.n_dphi = 4;
-    f.spec.adaptive = false;
-    f.spec.drift_every = 0;
-    f.spec.rig = "rig.json";
-    f.spec.json = campaign_spec_json(f.spec);
-    auto c = create_campaign_dir(f.dir, f.spec, f.rig);
-    EXPECT_TRUE(c) << c.error().message;
-    return f;
+    CampaignSpec spec = default_campaign_spec("pose-test");
+    spec.uniform.n_theta = 5;
+    spec.uniform.n_dphi = 4;
+    spec.adaptive = false;
+    spec.drift_every = 0;
+    return testing::make_campaign_fixture(name, kModel, spec);
 }
 
-struct LiveRig {
-    std::unique_ptr<sim::SimRig> sim;
-    RigDevices dev;
-};
-
 LiveRig start_rig(const Fixture& f, const std::string& motor_query = "") {
-    LiveRig r;
-    sim::SimRigOptions so;
-    so.brdf_path = f.model;
-    so.time_scale = 500;
-    auto s = sim::SimRig::start(f.rig.json, so);
-    EXPECT_TRUE(s) << s.error().message;
-    r.sim = std::move(*s);
-    auto dev = open_rig(
-        with_addresses(f.rig, r.sim->motor_address() + motor_query, r.sim->camera_address()));
-    EXPECT_TRUE(dev) << dev.error().message;
-    r.dev = std::move(*dev);
-    return r;
+    return testing::start_live_rig(f, 500, motor_query);
 }
 
 RunHooks quiet() {
-    RunHooks h;
-    h.out = nullptr;
+    RunHooks h = testing::quiet_hooks();
     h.outage_probe_s = 0.1;
     return h;
 }

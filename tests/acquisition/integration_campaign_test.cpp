@@ -15,6 +15,7 @@
 #include <set>
 #include <thread>
 
+#include "campaign_fixture.h"
 #include "gonio/acquisition/point/campaign.h"
 #include "gonio/acquisition/point/journal.h"
 #include "gonio/brdf/brdf.h"
@@ -33,70 +34,28 @@ const char* kModel = R"({
                "fresnel": {"type": "schlick", "f0": [0.04, 0.04, 0.04]}, "scale": [1, 1, 1]}]
 })";
 
-struct Fixture {
-    std::string dir;
-    std::string model;
-    RigConfig rig;
-    CampaignSpec spec;
-};
+using Fixture = testing::CampaignFixture;
+using testing::LiveRig;
 
 /// A fresh campaign folder with a small plan on the sim4 rig at a large time scale; with
 /// `quiet_rig` the rig's error budget is the quiet one (the detector's noise only), for tests
 /// that read exact levels.
 Fixture make_campaign(
     const std::string& name, int n_theta, int n_dphi, int drift_every, bool quiet_rig = false) {
-    Fixture f;
-    f.dir = std::string(GONIO_BINARY_DIR) + "/test_campaigns/" + name + "_" +
-            std::to_string(::getpid());
-    fs::remove_all(f.dir);
-    fs::create_directories(f.dir);
-    f.model = f.dir + "_model.json";
-    std::ofstream(f.model) << kModel;
-    auto rig = read_rig_config(std::string(GONIO_SOURCE_DIR) + "/data/rigs/sim4.json");
-    EXPECT_TRUE(rig) << rig.error().message;
-    f.rig = *rig;
-    if (quiet_rig) {
-        nlohmann::json j = nlohmann::json::parse(f.rig.json);
-        j["error_budget"] = "quiet";
-        auto q = parse_rig_config(j.dump(2), "sim4.json");
-        EXPECT_TRUE(q) << q.error().message;
-        f.rig = *q;
-    }
-    f.spec = default_campaign_spec("ggx-test");
-    f.spec.uniform.n_theta = n_theta;
-    f.spec.uniform.n_dphi = n_dphi;
-    f.spec.adaptive = false;
-    f.spec.drift_every = drift_every;
-    f.spec.rig = "rig.json";
-    f.spec.json = campaign_spec_json(f.spec);
-    auto c = create_campaign_dir(f.dir, f.spec, f.rig);
-    EXPECT_TRUE(c) << c.error().message;
-    return f;
+    CampaignSpec spec = default_campaign_spec("ggx-test");
+    spec.uniform.n_theta = n_theta;
+    spec.uniform.n_dphi = n_dphi;
+    spec.adaptive = false;
+    spec.drift_every = drift_every;
+    return testing::make_campaign_fixture(name, kModel, spec, quiet_rig);
 }
 
-struct LiveRig {
-    std::unique_ptr<sim::SimRig> sim;
-    RigDevices dev;
-};
-
 LiveRig start_rig(const Fixture& f, double time_scale = 500) {
-    LiveRig r;
-    sim::SimRigOptions so;
-    so.brdf_path = f.model;
-    so.time_scale = time_scale;
-    auto s = sim::SimRig::start(f.rig.json, so);
-    EXPECT_TRUE(s) << s.error().message;
-    r.sim = std::move(*s);
-    auto dev = open_rig(with_addresses(f.rig, r.sim->motor_address(), r.sim->camera_address()));
-    EXPECT_TRUE(dev) << dev.error().message;
-    r.dev = std::move(*dev);
-    return r;
+    return testing::start_live_rig(f, time_scale);
 }
 
 RunHooks quiet() {
-    RunHooks h;
-    h.out = nullptr;
-    return h;
+    return testing::quiet_hooks();
 }
 
 /// (pass, index) -> number of measurement records.

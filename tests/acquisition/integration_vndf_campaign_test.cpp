@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
+#include "campaign_fixture.h"
 #include "gonio/acquisition/point/campaign.h"
 #include "gonio/acquisition/point/journal.h"
 #include "gonio/brdf/brdf.h"
@@ -34,73 +35,36 @@ const char* kModel = R"({
                "fresnel": {"type": "schlick", "f0": [0.04, 0.04, 0.04]}, "scale": [1, 1, 1]}]
 })";
 
-struct Fixture {
-    std::string dir;
-    std::string model;
-    RigConfig rig;
-    CampaignSpec spec;
-};
+using Fixture = testing::CampaignFixture;
+using testing::LiveRig;
 
 /// A small vndf plan: 12 retro-reflection nodes, 4 theta_i nodes of 6 x 6; anisotropic: the
 /// retro-reflection at 8 azimuths and 4 incident azimuths in the file.
 Fixture make_campaign(const std::string& name,
                       const char* model = kModel,
                       bool anisotropic = false) {
-    Fixture f;
-    f.dir = std::string(GONIO_BINARY_DIR) + "/test_campaigns/" + name + "_" +
-            std::to_string(::getpid());
-    fs::remove_all(f.dir);
-    fs::create_directories(f.dir);
-    f.model = f.dir + "_model.json";
-    std::ofstream(f.model) << model;
-    auto rig = read_rig_config(std::string(GONIO_SOURCE_DIR) + "/data/rigs/sim4.json");
-    EXPECT_TRUE(rig) << rig.error().message;
-    // The quiet rig: the file's values are compared with the truth at the detector's noise.
-    nlohmann::json quiet = nlohmann::json::parse(rig->json);
-    quiet["error_budget"] = "quiet";
-    auto q = parse_rig_config(quiet.dump(2), "sim4.json");
-    EXPECT_TRUE(q) << q.error().message;
-    f.rig = *q;
-    f.spec = default_campaign_spec("vndf-test");
-    f.spec.plan_kind = "vndf";
-    f.spec.adaptive = false;
-    f.spec.vndf.retro_count = 12;
-    f.spec.vndf.theta_i_count = 4;
-    f.spec.vndf.resolution = 6;
+    CampaignSpec spec = default_campaign_spec("vndf-test");
+    spec.plan_kind = "vndf";
+    spec.adaptive = false;
+    spec.vndf.retro_count = 12;
+    spec.vndf.theta_i_count = 4;
+    spec.vndf.resolution = 6;
     if (anisotropic) {
-        f.spec.vndf.phi_i_count = 4;
-        f.spec.vndf.retro_phi_count = 8;
-        f.spec.vndf.ndf_resolution = 32;
+        spec.vndf.phi_i_count = 4;
+        spec.vndf.retro_phi_count = 8;
+        spec.vndf.ndf_resolution = 32;
         // The drift reference is held at one spin (an anisotropic sample reads differently at
         // every spin); checked every 40 measurements.
-        f.spec.drift_every = 40;
+        spec.drift_every = 40;
     } else {
-        f.spec.drift_every = 0;
+        spec.drift_every = 0;
     }
-    f.spec.rig = "rig.json";
-    f.spec.json = campaign_spec_json(f.spec);
-    auto c = create_campaign_dir(f.dir, f.spec, f.rig);
-    EXPECT_TRUE(c) << c.error().message;
-    return f;
+    // The quiet rig: the file's values are compared with the truth at the detector's noise.
+    return testing::make_campaign_fixture(name, model, spec, /*quiet_rig=*/true);
 }
 
-struct LiveRig {
-    std::unique_ptr<sim::SimRig> sim;
-    RigDevices dev;
-};
-
 LiveRig start_rig(const Fixture& f) {
-    LiveRig r;
-    sim::SimRigOptions so;
-    so.brdf_path = f.model;
-    so.time_scale = 1000;
-    auto s = sim::SimRig::start(f.rig.json, so);
-    EXPECT_TRUE(s) << s.error().message;
-    r.sim = std::move(*s);
-    auto dev = open_rig(with_addresses(f.rig, r.sim->motor_address(), r.sim->camera_address()));
-    EXPECT_TRUE(dev) << dev.error().message;
-    r.dev = std::move(*dev);
-    return r;
+    return testing::start_live_rig(f, 1000);
 }
 
 TEST(VndfCampaign, KilledInItsSecondPassResumesToTheSameNodesAndWritesTheFile) {

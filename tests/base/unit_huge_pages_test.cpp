@@ -81,7 +81,9 @@ TEST(HugePages, KeptHeapServesLargeBuffersFromTheHeapAndKeepsThemAfterFree) {
     // Freed, it stays with the process: the heap's top does not come down (trim threshold).
     EXPECT_EQ(static_cast<char*>(sbrk(0)), top);
 #else
-    GTEST_SKIP() << "glibc's own allocator only";
+    GTEST_SKIP()
+        << "not glibc's own allocator (a sanitizer's or another libc's): the kept-heap settings "
+           "are glibc's";
 #endif
 }
 

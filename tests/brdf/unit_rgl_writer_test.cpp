@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <random>
 #include <set>
 #include <sstream>
@@ -182,7 +183,10 @@ void expect_rgl_reader_agrees(const std::string& path,
     for (std::size_t k = 0; k < pairs.size(); ++k) {
         for (int c = 0; c < 3; ++c) {
             const double rel = std::abs(theirs[k][c] - gonio_values[k][c]) / std::abs(theirs[k][c]);
-            worst = std::max(worst, rel);
+            // A NaN (either reader, or a zero reference value) is the worst there is:
+            // std::max(worst, NaN) would keep `worst` and drop it.
+            worst =
+                std::isnan(rel) ? std::numeric_limits<double>::infinity() : std::max(worst, rel);
         }
     }
     std::printf(

@@ -3,7 +3,10 @@
 // Synthetic measurements for the fitting tests: a goniometer-like angular grid and exact model
 // values on it.
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <random>
 #include <vector>
 
 #include "gonio/brdf/dataset.h"
@@ -67,6 +70,59 @@ inline brdf::Dataset synthesize(const brdf::ModelD& truth,
         d.samples.push_back(s);
     }
     return d;
+}
+
+/// The sigma a noisy dataset states for each value (Dataset::has_sigma).
+enum class StatedSigma {
+    kNone,        ///< No sigma column.
+    kOfTruth,     ///< sqrt((relative v)^2 + absolute^2) of the true value v: the noise itself.
+    kOfMeasured,  ///< relative times the measured value: what a user who knows only the relative
+                  ///< noise writes.
+};
+
+/// Measurement noise: Gaussian, relative to the value and absolute.
+struct Noise {
+    double relative = 0.02;
+    double absolute = 0;
+    StatedSigma sigma = StatedSigma::kNone;
+};
+
+/// `data` with seeded noise on every channel of every value, as a measurement adds it: v becomes
+/// max(0, v (1 + relative n1) + absolute n2) with n1, n2 standard normal draws from one
+/// mt19937_64 seeded with `seed` (n2 drawn only when absolute > 0), channel by channel and sample
+/// by sample in order, so that a seed names one dataset.
+inline brdf::Dataset with_noise(brdf::Dataset data, std::uint64_t seed, const Noise& noise) {
+    std::mt19937_64 rng(seed);
+    std::normal_distribution<double> n01(0.0, 1.0);
+    data.has_sigma = noise.sigma != StatedSigma::kNone;
+    for (brdf::Sample& s : data.samples) {
+        for (int c = 0; c < 3; ++c) {
+            const double v = s.value[c];
+            const double n1 = n01(rng);
+            const double n2 = noise.absolute > 0 ? n01(rng) : 0.0;
+            s.value[c] = std::max(0.0, v * (1 + noise.relative * n1) + noise.absolute * n2);
+            switch (noise.sigma) {
+                case StatedSigma::kNone:
+                    s.sigma[c] = 0.0;
+                    break;
+                case StatedSigma::kOfTruth:
+                    s.sigma[c] = std::sqrt(noise.relative * v * noise.relative * v +
+                                           noise.absolute * noise.absolute);
+                    break;
+                case StatedSigma::kOfMeasured:
+                    s.sigma[c] = noise.relative * s.value[c];
+                    break;
+            }
+        }
+    }
+    return data;
+}
+
+/// Exact model values on measurement_grid() with `noise` drawn from `seed`.
+inline brdf::Dataset noisy_measurement(const brdf::ModelD& truth,
+                                       std::uint64_t seed,
+                                       const Noise& noise = {}) {
+    return with_noise(synthesize(truth, measurement_grid()), seed, noise);
 }
 
 }  // namespace gonio::fitting::testing

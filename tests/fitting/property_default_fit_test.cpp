@@ -66,14 +66,8 @@ TEST_P(DefaultFitOnCampaign, RecoversTheSpecularPeakRegion) {
         c.material, std::string(GONIO_SOURCE_DIR) + "/data/materials/ngan2005.json");
     ASSERT_TRUE(truth) << truth.error().message;
     ASSERT_EQ(truth->lobes.size(), 1u);
-    brdf::Dataset data = testing::synthesize(*truth, uniform_grid(c.n_theta, c.n_dphi));
-    std::mt19937_64 rng(seed);
-    std::normal_distribution<double> n01(0.0, 1.0);
-    for (brdf::Sample& s : data.samples) {
-        for (int ch = 0; ch < 3; ++ch) {
-            s.value[ch] = std::max(0.0, s.value[ch] * (1 + 0.03 * n01(rng)));
-        }
-    }
+    const brdf::Dataset data = testing::with_noise(
+        testing::synthesize(*truth, uniform_grid(c.n_theta, c.n_dphi)), seed, {0.03});
 
     Expected<FitSpec> spec = make_fit_spec({});
     ASSERT_TRUE(spec) << spec.error().message;

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <random>
@@ -205,6 +206,10 @@ void expect_recovered(double ax, double ay, double phi_deg) {
     double dphi = fo.value - phi_deg;
     dphi -= 180 * std::round(dphi / 180);
     EXPECT_LT(std::abs(dphi), 4 * fo.sigma) << fo.value << " +- " << fo.sigma;
+    // And within a fixed bound of the truth whatever the sigmas: 3 % of a width, 1 degree.
+    EXPECT_LE(std::abs(fx.value - ax), 0.03 * ax) << fx.value;
+    EXPECT_LE(std::abs(fy.value - ay), 0.03 * ay) << fy.value;
+    EXPECT_LE(std::abs(dphi), 1.0) << fo.value;
     EXPECT_LT(fx.sigma, 0.05 * ax);
     EXPECT_LT(fy.sigma, 0.05 * ay);
     EXPECT_LT(fo.sigma, 2.0);
@@ -229,9 +234,9 @@ TEST(Orientation, ReportsTheCanonicalFormOfAnEquivalentTruth) {
     const Fitted fx = param(*r, "lobes[0].alpha_x");
     const Fitted fy = param(*r, "lobes[0].alpha_y");
     const Fitted fo = param(*r, "lobes[0].orientation_deg");
-    EXPECT_NEAR(fx.value, 0.08, 4 * fx.sigma);
-    EXPECT_NEAR(fy.value, 0.3, 4 * fy.sigma);
-    EXPECT_NEAR(fo.value, 30, 4 * fo.sigma);
+    EXPECT_NEAR(fx.value, 0.08, std::min(4 * fx.sigma, 0.03 * 0.08));
+    EXPECT_NEAR(fy.value, 0.3, std::min(4 * fy.sigma, 0.03 * 0.3));
+    EXPECT_NEAR(fo.value, 30, std::min(4 * fo.sigma, 1.0));
 }
 
 // An isotropic truth fitted with an anisotropic lobe: alpha_x = alpha_y within the sigma of their

@@ -175,17 +175,8 @@ TEST(FitRecovery, NoisyDataGiveErrorsWithinThreeSigmaAtLeast95Percent) {
     int inside_one = 0;
     int total = 0;
     for (std::uint64_t seed = 1; seed <= 24; ++seed) {
-        brdf::Dataset data = testing::synthesize(truth, grid);
-        data.has_sigma = true;
-        std::mt19937_64 rng(seed);
-        std::normal_distribution<double> n01(0.0, 1.0);
-        for (brdf::Sample& s : data.samples) {
-            for (int c = 0; c < 3; ++c) {
-                const double v = s.value[c];
-                s.sigma[c] = std::sqrt(0.02 * v * 0.02 * v + 1e-3 * 1e-3);
-                s.value[c] = std::max(0.0, v * (1 + 0.02 * n01(rng)) + 1e-3 * n01(rng));
-            }
-        }
+        const brdf::Dataset data = testing::with_noise(
+            testing::synthesize(truth, grid), seed, {0.02, 1e-3, testing::StatedSigma::kOfTruth});
         Expected<FitResult> r = fit(data, spec);
         ASSERT_TRUE(r) << "seed " << seed << ": " << r.error().message;
         ASSERT_TRUE(r->usable()) << "seed " << seed << ": " << r->solver.message;

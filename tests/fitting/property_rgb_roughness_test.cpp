@@ -7,9 +7,11 @@
 #include <ceres/gradient_checker.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <vector>
 
 #include "fit_test_util.h"
 #include "gonio/brdf/model_eval.h"
@@ -204,17 +206,8 @@ TEST(RgbRoughness, NoisyDataGiveErrorsWithinThreeSigma) {
     int alpha_inside = 0;
     int alpha_total = 0;
     for (std::uint64_t seed = 1; seed <= 10; ++seed) {
-        brdf::Dataset data = testing::synthesize(truth, grid);
-        data.has_sigma = true;
-        std::mt19937_64 rng(seed);
-        std::normal_distribution<double> n01(0.0, 1.0);
-        for (Sample& s : data.samples) {
-            for (int c = 0; c < 3; ++c) {
-                const double v = s.value[c];
-                s.sigma[c] = std::sqrt(0.02 * v * 0.02 * v + 1e-3 * 1e-3);
-                s.value[c] = std::max(0.0, v * (1 + 0.02 * n01(rng)) + 1e-3 * n01(rng));
-            }
-        }
+        const brdf::Dataset data = testing::with_noise(
+            testing::synthesize(truth, grid), seed, {0.02, 1e-3, testing::StatedSigma::kOfTruth});
         Expected<FitResult> r = fit(data, spec);
         ASSERT_TRUE(r) << "seed " << seed << ": " << r.error().message;
         ASSERT_TRUE(r->usable()) << "seed " << seed << ": " << r->solver.message;
@@ -308,15 +301,7 @@ TEST(RgbRoughness, StructuresWithoutOneAlphaPerChannelAreRefused) {
 
 /// Noisy data (2 % multiplicative, seeded) of a grey or a colour-dependent roughness.
 brdf::Dataset noisy(const brdf::ModelD& truth, std::uint64_t seed) {
-    brdf::Dataset data = testing::synthesize(truth, testing::measurement_grid());
-    std::mt19937_64 rng(seed);
-    std::normal_distribution<double> n01(0.0, 1.0);
-    for (Sample& s : data.samples) {
-        for (int c = 0; c < 3; ++c) {
-            s.value[c] = std::max(0.0, s.value[c] * (1 + 0.02 * n01(rng)));
-        }
-    }
-    return data;
+    return testing::noisy_measurement(truth, seed);
 }
 
 TEST(RgbRoughness, AutoKeepsTheGreyRoughnessOnGreyDataAndTakesRgbWhenTheChannelsDiffer) {
@@ -343,12 +328,52 @@ TEST(RgbRoughness, AutoKeepsTheGreyRoughnessOnGreyDataAndTakesRgbWhenTheChannels
     ASSERT_TRUE(a) << a.error().message;
     EXPECT_NE(a->chosen.find("rgb-roughness"), std::string::npos) << a->chosen;
     ASSERT_FALSE(a->best.model.lobes.empty());
-    const brdf::Lobe<double>& l = a->best.model.lobes[0];
-    ASSERT_TRUE(l.rgb_roughness);
-    if (a->best.model.lobes.size() == 1) {
+    // Whatever the lobe count, every lobe takes one alpha per channel and the lobes together
+    // have the truth's widths: at every measured direction pair with both elevations up to 60
+    // degrees where the true lobe is above a tenth of its peak, each channel of the fitted model
+    // is within 15 % of the noise-free truth (the data fix the sum of the diffuse part and the
+    // lobes, not how they are split; another family may win, and Student-t x2 differs from GGX
+    // by up to 11 % there, while a width 20 % off moves the flanks by more). One lobe: its
+    // alphas themselves within 5 %.
+    const std::vector<brdf::Lobe<double>>& lobes = a->best.model.lobes;
+    for (const brdf::Lobe<double>& l : lobes) {
+        EXPECT_TRUE(l.rgb_roughness);
+    }
+    if (lobes.size() == 1) {
         for (int c = 0; c < 3; ++c) {
-            EXPECT_NEAR(l.alpha_rgb[c], rgb_truth.lobes[0].alpha_rgb[c], 0.05 * l.alpha_rgb[c]);
+            EXPECT_NEAR(lobes[0].alpha_rgb[c],
+                        rgb_truth.lobes[0].alpha_rgb[c],
+                        0.05 * rgb_truth.lobes[0].alpha_rgb[c])
+                << "channel " << c;
         }
+    }
+    const auto specular = [](const brdf::ModelD& m, const brdf::Vec3d& wi, const brdf::Vec3d& wo) {
+        Rgbd f = Rgbd::Zero();
+        for (const brdf::Lobe<double>& l : m.lobes) {
+            f += brdf::eval_lobe(l, wi, wo);
+        }
+        return f;
+    };
+    double worst[3] = {0, 0, 0};
+    for (const auto& [wi, wo] : testing::measurement_grid()) {
+        if (wi.z() < std::cos(testing::deg(60.5)) || wo.z() < std::cos(testing::deg(60.5))) {
+            continue;  // grazing tails: where the families differ, not the widths
+        }
+        const brdf::Vec3d mirror(-wi.x(), -wi.y(), wi.z());
+        const Rgbd peak = specular(rgb_truth, wi, mirror);
+        const Rgbd t = brdf::eval_model(rgb_truth, wi, wo);
+        const Rgbd f = brdf::eval_model(a->best.model, wi, wo);
+        const Rgbd t_specular = specular(rgb_truth, wi, wo);
+        for (int c = 0; c < 3; ++c) {
+            if (t_specular[c] > 0.1 * peak[c]) {
+                worst[c] = std::max(worst[c], std::abs(f[c] / t[c] - 1));
+            }
+        }
+    }
+    for (int c = 0; c < 3; ++c) {
+        EXPECT_LT(worst[c], 0.15) << "channel " << c << " (alpha "
+                                  << rgb_truth.lobes[0].alpha_rgb[c] << "), " << lobes.size()
+                                  << " lobe(s): " << a->chosen;
     }
     EXPECT_EQ(a->ranking.front().name, a->chosen);
 }

@@ -38,17 +38,9 @@ brdf::ModelD default_truth(Distribution d, double alpha, Rgbd diffuse, Rgbd scal
 /// Multiplicative Gaussian noise of 2 %, seeded; with sigma columns stated as 2 % of the measured
 /// value when `with_sigma` (what a user who knows the relative noise writes).
 brdf::Dataset noisy(const brdf::ModelD& truth, std::uint64_t seed, bool with_sigma) {
-    brdf::Dataset d = testing::synthesize(truth, testing::measurement_grid());
-    std::mt19937_64 rng(seed);
-    std::normal_distribution<double> n01(0.0, 1.0);
-    d.has_sigma = with_sigma;
-    for (brdf::Sample& s : d.samples) {
-        for (int c = 0; c < 3; ++c) {
-            s.value[c] = std::max(0.0, s.value[c] * (1 + 0.02 * n01(rng)));
-            s.sigma[c] = with_sigma ? 0.02 * s.value[c] : 0.0;
-        }
-    }
-    return d;
+    testing::Noise noise;
+    noise.sigma = with_sigma ? testing::StatedSigma::kOfMeasured : testing::StatedSigma::kNone;
+    return testing::noisy_measurement(truth, seed, noise);
 }
 
 struct Coverage {

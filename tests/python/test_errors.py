@@ -32,7 +32,8 @@ def test_missing_table_same_message_as_cli(workdir):
     path = workdir / "missing.binary"
     with pytest.raises(gonio.Error) as e:
         gonio.load(path)
-    assert str(e.value) == cli_message("check", path)
+    # The command line says the same, after the argument it was given as.
+    assert cli_message("check", path) == "brdf: " + str(e.value)
 
 
 def test_unknown_material_same_message_as_cli():
@@ -85,3 +86,22 @@ def test_bad_table_dict_raises_instead_of_aborting():
 def test_save_unknown_extension(workdir):
     with pytest.raises(gonio.Error, match="unknown file type"):
         gonio.save(workdir / "x.txt", TRUTH)
+
+
+def test_fit_in_degrees_says_angles_are_radians():
+    # The same four samples in degrees: every one is refused, and the reason says why.
+    deg = {
+        "theta_i": [30.0, 30.0, 45.0, 45.0],
+        "phi_i": [0.0, 0.0, 0.0, 0.0],
+        "theta_o": [20.0, 40.0, 20.0, 40.0],
+        "phi_o": [180.0, 180.0, 180.0, 180.0],
+        "value": [[0.1, 0.1, 0.1]] * 4,
+    }
+    with pytest.raises(gonio.Error, match=r"no valid sample to fit \(4 rejected.*theta_i = 30 "
+                       r"at or below the horizon.*looks like degrees: angles are radians"):
+        gonio.fit(deg)
+    # Azimuths alone in degrees say so too.
+    az = dict(deg, theta_i=[0.5] * 4, theta_o=[0.3, 0.6, 0.3, 0.6])
+    with pytest.raises(gonio.Error, match=r"phi_o = 180 outside \[-2 pi, 2 pi\]; it looks like "
+                       r"degrees"):
+        gonio.fit(az)

@@ -80,12 +80,22 @@ def test_fit_releases_the_gil():
     # tenth of its span is long against the GIL's switch interval and the scheduler's slices on a
     # loaded machine.
     data = synthetic_samples(TRUTH, n_theta=60, n_phi=80)
-    result, tenths = tenths_with_progress(lambda: gonio.fit(data, model="beckmann", starts=8, threads=1))
     # Held by the solve, the GIL would let the counter run only at the Python edges of the call
-    # (a few switch intervals of 5 ms). Released, the counter runs throughout: its ticks fall in
-    # (nearly) every tenth of the fit's span.
-    assert len(tenths) >= 8, sorted(tenths)
-    assert result[1]["solver"]["iterations"] > 0
+    # (a few switch intervals of 5 ms: at most 3 tenths, as the control below shows). Released,
+    # the counter runs throughout: its ticks fall in most tenths of the fit's span. A loaded
+    # machine can take the counter's core away for a while, so the fit is measured up to three
+    # times and the best kept: a held GIL never reaches the bound in any of them.
+    best = set()
+    for _ in range(3):
+        result, tenths = tenths_with_progress(
+            lambda: gonio.fit(data, model="beckmann", starts=8, threads=1)
+        )
+        assert result[1]["solver"]["iterations"] > 0
+        if len(tenths) > len(best):
+            best = tenths
+        if len(best) >= 8:
+            break
+    assert len(best) >= 8, sorted(best)
 
 
 def test_gil_measure_detects_a_call_that_holds_it():
@@ -98,7 +108,12 @@ def test_gil_measure_detects_a_call_that_holds_it():
 def test_fit_auto_ranks_candidates_and_refuses_structure_options():
     data = synthetic_samples(TRUTH, n_theta=8, n_phi=9)
     model, report = gonio.fit(data, model="auto", threads=1, max_samples=400)
-    assert report["auto"]["chosen"] in [r["name"] for r in report["auto"]["ranking"]]
+    # The generating family wins (one GGX lobe; the two-lobe GGX is the same family) and the
+    # model returned is the chosen one.
+    chosen = report["auto"]["chosen"]
+    assert chosen.split()[0] == "ggx", chosen
+    assert [lobe["distribution"] for lobe in model["lobes"]] == ["ggx"] * len(model["lobes"]), model
+    assert report["auto"]["ranking"][0]["name"] == chosen, report["auto"]["ranking"]
     assert len(report["auto"]["ranking"]) >= 3
     assert "BIC" in report["auto"]["criterion"]
     for key, value in [("lobes", 2), ("fresnel", "none"), ("diffuse", False)]:

@@ -100,7 +100,7 @@ def test_rejected_rows_are_listed_with_line_and_reason(workdir):
     np.testing.assert_array_equal(d["line"], [2])
     assert [line for line, _ in d["rejected"]] == [3, 4]
     assert d["rejected"][0][1].startswith("theta_i = 1.7 outside [0, pi/2)")
-    assert d["rejected"][1][1].startswith("r = -1 outside [0, 1e9] 1/sr")
+    assert d["rejected"][1][1].startswith("r = -1 below zero beyond its noise")
     # Only a dataset CSV can be read row by row.
     with pytest.raises(gonio.Error, match="keep_going applies to dataset CSV files only"):
         gonio.load(workdir / "t.binary", keep_going=True)

@@ -503,3 +503,49 @@ TEST(CoverageCells, EachCellDrawnInTheColourOfItsFraction) {
 
 }  // namespace
 }  // namespace gonio::report
+
+namespace gonio::report {
+namespace {
+
+TEST(InPlanePlot, SamplesSpreadInThetaIAreComparedAtTheirOwnIncidentAngle) {
+    // Samples as an image campaign gives them: every theta_i within +-2.4 deg of 30 deg, in the
+    // plane of incidence, exactly the model's values. Each marker sits on the fit's curve once
+    // moved to the slice by the fit; drawn at the slice's theta_i unmoved, markers near the
+    // highlight sit far off it.
+    const auto models = testing::every_model_type();
+    const brdf::AnalyticBrdf truth(models[0].second);
+    brdf::Dataset d;
+    d.source = "image-campaign.csv";
+    d.has_sigma = true;
+    int k = 0;
+    for (int t = -86; t <= 86; t += 2, ++k) {
+        brdf::Sample s;
+        s.theta_i = (30.0 + 2.4 * std::sin(1.7 * k)) * kDeg;
+        s.phi_i = 0.0;
+        s.theta_o = std::abs(t) * kDeg;
+        s.phi_o = t >= 0 ? brdf::kPi : 0.0;
+        s.value = truth.eval(s.wi(), s.wo());
+        s.sigma = 0.01 * s.value;
+        d.samples.push_back(s);
+    }
+    PlotOptions o;
+    o.theta_i_deg = {30.0};
+    PolarLayout lay;
+    ASSERT_TRUE(plot_in_plane(d, &truth, o, &lay));
+    EXPECT_GT(lay.moved_to_slice, 40u);
+    EXPECT_LT(lay.worst_marker_misfit, 1e-9);
+    // The misfit the unmoved markers would have: the model's own change over 2.4 deg of theta_i
+    // at the highlight, well above the plot's resolution.
+    double unmoved = 0;
+    for (const brdf::Sample& s : d.samples) {
+        const double a = s.phi_o == 0.0 ? -s.theta_o : s.theta_o;
+        const brdf::Vec3d wi = brdf::spherical_to_cartesian(30.0 * kDeg, 0.0);
+        const brdf::Vec3d wo = brdf::spherical_to_cartesian(std::abs(a), a >= 0 ? brdf::kPi : 0.0);
+        unmoved = std::max(
+            unmoved, std::abs(std::log10(luminance(s.value) / luminance(truth.eval(wi, wo)))));
+    }
+    EXPECT_GT(unmoved, 0.05);
+}
+
+}  // namespace
+}  // namespace gonio::report

@@ -3,7 +3,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/resample.h"
@@ -141,6 +143,83 @@ TEST(Preview, SheetHasTwoLabelledRowsForAComparison) {
     EXPECT_GT(two->height, one->height + o.size_px);
     o.size_px = 4;
     EXPECT_FALSE(preview_sheet(a, "a", nullptr, "", o));
+}
+
+}  // namespace
+}  // namespace gonio::report
+
+namespace gonio::report {
+namespace {
+
+/// A table of a model with the bins of its lower third of theta_h (the highlight) not measured.
+brdf::TabulatedBrdf table_with_a_hole(bool hole) {
+    const brdf::AnalyticBrdf truth(testing::every_model_type()[0].second);
+    brdf::TabulateOptions to;
+    to.grid = brdf::TableGrid{30, 30, 60};
+    to.threads = 2;
+    brdf::TabulatedBrdf t = brdf::tabulate(truth, to);
+    if (hole) {
+        const brdf::TableGrid& g = t.grid();
+        for (int ih = 0; ih < g.n_theta_h / 3; ++ih) {
+            for (int id = 0; id < g.n_theta_d; ++id) {
+                for (int ip = 0; ip < g.n_phi_d; ++ip) {
+                    t.set_bin_invalid(g.index(ih, id, ip));
+                }
+            }
+        }
+    }
+    return t;
+}
+
+TEST(Preview, TableHolesAreShownAsHolesNotAsBlackReflectance) {
+    PreviewOptions o;
+    o.size_px = 64;
+    o.env_samples = 24;
+    const brdf::TabulatedBrdf holed = table_with_a_hole(true);
+    for (const RadianceImage& r : {render_directional(holed, o), render_environment(holed, o)}) {
+        ASSERT_EQ(r.hole.size(), r.pixels.size());
+        std::size_t holes = 0;
+        for (std::size_t i = 0; i < r.pixels.size(); ++i) {
+            if (r.hole[i]) {
+                EXPECT_TRUE(r.covered[i]);
+                ++holes;
+            }
+        }
+        EXPECT_GT(holes, 10u);
+        // Tone mapped, every hole has the hole colour and no other pixel has it.
+        const Image img = tone_map(r, 1.0, Color{48, 48, 48});
+        for (std::size_t i = 0; i < r.pixels.size(); ++i) {
+            const Color c{img.rgb[3 * i], img.rgb[3 * i + 1], img.rgb[3 * i + 2]};
+            EXPECT_EQ(c == kHoleColor, static_cast<bool>(r.hole[i])) << "pixel " << i;
+        }
+    }
+    // The directional picture: the highlight (theta_h near 0) is where the hole is, at the pixel
+    // whose normal is the half vector of the light and the viewer.
+    const RadianceImage d = render_directional(holed, o);
+    const brdf::Vec3d h = (o.light_dir.normalized() + brdf::Vec3d(0, 0, 1)).normalized();
+    const SphereLayout lay = sphere_layout(o.size_px);
+    const int px = static_cast<int>(lay.cx + h.x() * lay.radius);
+    const int py = static_cast<int>(lay.cy - h.y() * lay.radius);
+    EXPECT_TRUE(d.hole[static_cast<std::size_t>(py) * o.size_px + px]);
+    // A whole tabulation leaves only the bins whose centre is no reflection unmeasured: a few
+    // pixels at the rim, where the camera or the light grazes; a model has no hole.
+    const auto count = [](const RadianceImage& r) {
+        return static_cast<std::size_t>(std::count(r.hole.begin(), r.hole.end(), true));
+    };
+    const std::size_t full = count(render_directional(table_with_a_hole(false), o));
+    const std::size_t holed_count = count(d);
+    std::printf("hole pixels: %zu of the holed table, %zu of the whole one\n", holed_count, full);
+    EXPECT_LT(5 * full, holed_count);
+    const brdf::AnalyticBrdf model(testing::every_model_type()[0].second);
+    EXPECT_TRUE(render_environment(model, o).hole.empty());
+    // The sheet says what the colour means.
+    auto sheet = preview_sheet(holed, "measured", nullptr, "", o);
+    ASSERT_TRUE(sheet);
+    std::size_t magenta = 0;
+    for (std::size_t i = 0; i + 2 < sheet->rgb.size(); i += 3) {
+        magenta += Color{sheet->rgb[i], sheet->rgb[i + 1], sheet->rgb[i + 2]} == kHoleColor;
+    }
+    EXPECT_GT(magenta, 20u);
 }
 
 }  // namespace

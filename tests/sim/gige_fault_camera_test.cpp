@@ -8,7 +8,9 @@
 
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <memory>
+#include <mutex>
 #include <opencv2/core.hpp>
 #include <thread>
 
@@ -83,17 +85,37 @@ TEST(GigeCameraFault, CaptureAfterALostFrameRunsOnANewStream) {
 // aside a frame stamped earlier. Each frame here is rendered at its own level (1, 2, 3 times a
 // base radiance), the first one late; without the check the second capture returns the first
 // frame, and every capture after it the one before its own.
+// The first frame is held back until the camera has received the second trigger (the scene is
+// read at each trigger), so it is late for its own capture and arrives after the next capture
+// latched the camera's clock, however slowly a loaded machine runs either side.
 TEST(GigeCameraFault, LateFrameOfATimedOutCaptureIsNotTakenForTheNextTrigger) {
     ServedCamera cam(camera_config());
+    struct Gate {
+        std::mutex m;
+        std::condition_variable cv;
+        int triggers = 0;
+    };
+    auto gate = std::make_shared<Gate>();
+    const gonio::sim::SceneState scene = cam.scene;
+    cam.camera->set_scene([gate, scene] {
+        {
+            std::lock_guard<std::mutex> lock(gate->m);
+            ++gate->triggers;
+        }
+        gate->cv.notify_all();
+        return scene;
+    });
     auto calls = std::make_shared<std::atomic<int>>(0);
-    cam.camera->set_renderer([calls](const gonio::brdf::Brdf&,
-                                     const gonio::sim::SceneState&,
-                                     int,
-                                     int,
-                                     const gonio::devices::Roi& roi) {
+    cam.camera->set_renderer([calls, gate](const gonio::brdf::Brdf&,
+                                           const gonio::sim::SceneState&,
+                                           int,
+                                           int,
+                                           const gonio::devices::Roi& roi) {
         const int k = ++*calls;
         if (k == 1) {
-            std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+            // Bounded, so that a camera that never sees the second trigger cannot hang the test.
+            std::unique_lock<std::mutex> lock(gate->m);
+            gate->cv.wait_for(lock, std::chrono::seconds(60), [&] { return gate->triggers >= 2; });
         }
         return cv::Mat(roi.height, roi.width, CV_32F, cv::Scalar(0.05 * k));
     });

@@ -2,8 +2,10 @@
 // 127.0.0.1) serving GenICam descriptions written for these tests (tests/data/genicam): one without
 // SensorWidth/SensorHeight, as several real cameras describe themselves (the size comes from
 // WidthMax/HeightMax), and one whose GainRaw range has its minimum above its maximum (reported as
-// the camera's fault, naming the feature). The fake device listens on port 3956 of 127.0.0.1, so
-// like every test that serves a GigE camera it runs with the 'stream' tests, one at a time.
+// the camera's fault, naming the feature), and two whose Width and Height have no maximum (a plain
+// register; an Integer without Max), whose size is their current value. The fake device listens on
+// port 3956 of 127.0.0.1, so like every test that serves a GigE camera it runs with the 'stream'
+// tests, one at a time.
 
 #include <signal.h>
 #include <sys/wait.h>
@@ -99,6 +101,43 @@ TEST(GenicamVariants, ReversedFeatureRangeIsTheCamerasFaultNamingTheFeature) {
                        std::string(GONIO_BINARY_DIR) + "/genicam_variants_never_written.exr");
     EXPECT_NE(c.status, 0) << c.out;
     EXPECT_NE(c.out.find("GainRaw the range [10, 0]"), std::string::npos) << c.out;
+}
+
+/// `gonio camera info` on a description whose Width and Height have no maximum: Aravis's own tool
+/// sees the register's top, 4294967295; gonio opens the camera at the current 512 x 512 (the
+/// fake device's image registers) and says where the size came from.
+void expect_opened_from_the_current_size(const std::string& xml) {
+    FakeCamera cam(data(xml));
+    ASSERT_TRUE(cam.ready());
+    const auto arv = run("arv-tool-0.8 -a 127.0.0.1 control Width Height WidthMax");
+    EXPECT_NE(arv.out.find("Width = 512"), std::string::npos) << arv.out;
+    EXPECT_NE(arv.out.find("max:4294967295"), std::string::npos) << arv.out;
+    EXPECT_NE(arv.out.find("'WidthMax' not found"), std::string::npos) << arv.out;
+    const auto r = run(kGonio + " camera --connect gige://127.0.0.1 info");
+    ASSERT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("sensor: 512 x 512 (from the current Width and Height; the camera's "
+                         "description gives them no maximum)"),
+              std::string::npos)
+        << r.out;
+    EXPECT_EQ(r.out.find("4294967295"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("bit_depth: 8"), std::string::npos) << r.out;
+}
+
+TEST(GenicamVariants, WidthAsAPlainRegisterOpensFromTheCurrentSize) {
+    expect_opened_from_the_current_size("width_plain_register.xml");
+}
+
+TEST(GenicamVariants, WidthWithoutMaximumOpensFromTheCurrentSize) {
+    expect_opened_from_the_current_size("width_without_max.xml");
+}
+
+TEST(GenicamVariants, SensorSizeSaysWhereItCameFrom) {
+    FakeCamera cam(data("no_sensor_size.xml"));
+    ASSERT_TRUE(cam.ready());
+    const auto r = run(kGonio + " camera --connect gige://127.0.0.1 info");
+    ASSERT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("sensor: 2048 x 2048 (from WidthMax and HeightMax)"), std::string::npos)
+        << r.out;
 }
 
 }  // namespace

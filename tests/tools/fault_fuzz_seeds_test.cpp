@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -30,9 +31,14 @@ std::string text_of(const std::string& path) {
     return ss.str();
 }
 
-/// The reader's error message, or "" when it accepted the file.
+/// The reader's error message, or "" when it accepted the file. A seed missing from the corpus
+/// fails the test (a reader's refusal of a file that is not there would prove nothing).
 std::string refusal(const std::string& target, const std::string& name) {
     const std::string path = corpus(target, name);
+    if (!std::filesystem::is_regular_file(path)) {
+        ADD_FAILURE() << target << "/" << name << ": no such seed in fuzz/corpus";
+        return "missing seed";
+    }
     auto why = [](const auto& r) { return r ? std::string() : r.error().message; };
     if (target == "campaign_json") {
         return why(acquisition::parse_campaign_spec(text_of(path), "campaign.json"));

@@ -100,11 +100,13 @@ TEST(AcquireCli, PlanOnlyListsUnreachableTargetsWithReasons) {
 
 TEST(AcquireCli, ErrorsNameTheProblem) {
     int st = 0;
+    // Inputs named on the command line that do not exist: usage errors (exit 2), before any work.
     const std::string out = run_gonio("acquire --rig /nonexistent/rig.json --out x", &st);
-    EXPECT_EQ(st, 1);
+    EXPECT_EQ(st, 2);
     EXPECT_NE(out.find("/nonexistent/rig.json"), std::string::npos) << out;
     const std::string out2 = run_gonio("acquire --resume /nonexistent/campaign", &st);
-    EXPECT_EQ(st, 1);
+    EXPECT_EQ(st, 2);
+    EXPECT_NE(out2.find("/nonexistent/campaign"), std::string::npos) << out2;
 }
 
 // The separate `gonio sim` serves its camera as a GigE Vision device on port 3956 of a loopback

@@ -167,7 +167,7 @@ TEST_F(ConvertCli, SparseCsvLeavesBinsInvalidAndCountsThem) {
 }
 
 TEST_F(ConvertCli, ErrorsNameTheFile) {
-    EXPECT_EQ(run("convert '" + path("missing.json") + "' '" + path("x.binary") + "'"), 1);
+    EXPECT_EQ(run("convert '" + path("missing.json") + "' '" + path("x.binary") + "'"), 2);
     EXPECT_NE(read("err.txt").find(path("missing.json")), std::string::npos) << read("err.txt");
     std::ofstream(path("short.binary"), std::ios::binary) << "abc";
     EXPECT_EQ(run("convert '" + path("short.binary") + "' '" + path("x.csv") + "'"), 1);

@@ -14,6 +14,7 @@
 #include "cli_run.h"
 #include "gonio/brdf/model_json.h"
 #include "gonio/devices/axis_profile.h"
+#include "gonio/devices/modbus_light.h"
 #include "gonio/sim/motor_controller_server.h"
 #include "help_walk.h"
 
@@ -232,6 +233,20 @@ TEST(HelpWalk, AxisEveryOptionHonouredOrRefused) {
           },
           run_line);
 
+    // The served shutter, opened and read back through coil 5 of unit 3: a server whose shutter
+    // is another coil answers with an exception (illegal data address).
+    auto shutter_coil_5 = [](const std::string& printed) {
+        auto light = gonio::devices::open_modbus_light(word_after(printed, "serving "), 3, 5);
+        if (!light) {
+            return light.error().message;
+        }
+        if (auto r = (*light)->set_shutter_open(true); !r) {
+            return "open: " + r.error().message;
+        }
+        auto open = (*light)->shutter_open();
+        return open ? std::string(*open ? "coil 5 open" : "coil 5 closed")
+                    : "read: " + open.error().message;
+    };
     const BusyPort busy;
     ASSERT_GT(busy.port(), 0);
     const std::string s = "axis serve";
@@ -274,7 +289,10 @@ TEST(HelpWalk, AxisEveryOptionHonouredOrRefused) {
                "",
                {},
                ready,
-               served_status(3, "status")},
+               served_status(3, "status"),
+               false,
+               0,
+               true},
               {"--shutter-coil",
                s + " --shutter-unit 3",
                s + " --shutter-unit 3 --shutter-coil 5",
@@ -282,7 +300,10 @@ TEST(HelpWalk, AxisEveryOptionHonouredOrRefused) {
                "",
                {},
                ready,
-               nullptr},
+               shutter_coil_5,
+               false,
+               0,
+               true},
               {"--shutter-coil", s + " --shutter-coil 5", ""},
           });
     for (const char* action : {"status", "home", "stop", "reset"}) {
@@ -312,9 +333,10 @@ TEST(HelpWalk, CameraEveryOptionHonouredOrRefused) {
             {"--camera-gain", c + " --gain 2 --camera-gain 6 " + exr, ""},
             {"--format", c + " " + exr, c + " --format Mono8 " + exr, "", exr},
             {"--roi", c + " " + exr, c + " --roi 8,8,32,24 " + exr, "", exr},
-            // A 2048 x 2048 frame takes longer than 1 ms to render and send.
+            // A 2048 x 2048 frame takes longer than 1 ms to render and send (its noise alone takes
+            // several), and far less than a minute however loaded the machine.
             {"--timeout-ms",
-             "camera --connect sim capture --width 2048 --height 2048 " + exr,
+             "camera --connect sim capture --width 2048 --height 2048 --timeout-ms 60000 " + exr,
              "camera --connect sim capture --width 2048 --height 2048 --timeout-ms 1 " + exr},
             {"--width",
              "camera --connect sim capture --height 48 --width 64 " + exr,
@@ -359,6 +381,12 @@ TEST(HelpWalk, CameraEveryOptionHonouredOrRefused) {
             run_gonio("camera --connect " + word_after(printed, "") + " capture " + exr);
         return r.out + take_written(exr);
     };
+    // Whether a camera answers at 127.77.3.9 (addresses are compared as placeholders, so the
+    // printed one cannot show where the camera went).
+    auto info_at_fixed_address = [](const std::string&) {
+        const CliRun r = run_gonio("camera --connect gige://127.77.3.9 info");
+        return std::to_string(r.status) + "\n" + r.out;
+    };
     const std::string s = "camera serve --ip auto --width 64 --height 48";
     const std::string sw = "camera serve --ip auto --height 48";
     const std::string sh = "camera serve --ip auto --width 64";
@@ -371,7 +399,10 @@ TEST(HelpWalk, CameraEveryOptionHonouredOrRefused) {
                "",
                {},
                ready,
-               info},
+               info_at_fixed_address,
+               false,
+               0,
+               true},
               {"--exposure-abs", s, s + " --exposure-abs", "", "", {}, ready, info},
               {"--material", s, s + " --material gold", "", "", {}, ready, frame},
               {"--brdf", s, s + " --brdf " + m, "", "", {}, ready, frame},
@@ -417,12 +448,16 @@ TEST(HelpWalk, SimEveryOptionHonouredOrRefused) {
                                    " --unit 1 move 10 --timeout-ms 3000");
         return std::to_string(r.status) + "\n" + r.out;
     };
+    auto camera_at_fixed_address = [](const std::string&) {
+        const CliRun r = run_gonio("camera --connect gige://127.77.4.2 info");
+        return std::to_string(r.status) + "\n" + r.out;
+    };
     const std::string rig_out = d + "/served.json";
     auto served_rig = [rig_out](const std::string&) { return take_written(rig_out); };
     const std::string s = "sim --camera-ip auto";
     prove("sim",
           {
-              {"--config", s, s + " --config " + config, "", "", {}, ready, nullptr},
+              {"--config", s, s + " --config " + config, "", "", {}, ready, frame, false, 0, true},
               {"--material", s, s + " --material gold", "", "", {}, ready, frame},
               {"--brdf", s, s + " --brdf " + m, "", "", {}, ready, frame},
               {"--brdf", s + " --brdf " + m + " --material gold", ""},
@@ -444,7 +479,10 @@ TEST(HelpWalk, SimEveryOptionHonouredOrRefused) {
                "",
                {},
                ready,
-               nullptr},
+               camera_at_fixed_address,
+               false,
+               0,
+               true},
               {"--exposure-abs", s, s + " --exposure-abs", "", "", {}, ready, camera_info},
               {"--rig-out", s, s + " --rig-out " + rig_out, "", "", {}, ready, served_rig},
           });

@@ -8,7 +8,9 @@
 #include <string>
 #include <vector>
 
+#include "../fitting/fit_test_util.h"
 #include "cli_run.h"
+#include "gonio/brdf/dataset.h"
 #include "gonio/brdf/model_json.h"
 #include "help_walk.h"
 
@@ -56,47 +58,89 @@ std::string dirs_csv(const std::string& name, const std::string& row) {
     return p;
 }
 
+/// A small real dataset: the GGX model of model_json() on the fitting tests' measurement grid,
+/// 2 % relative noise drawn from seed 1, and every 40th value twice what it should be (outliers,
+/// which a robust loss and its scale treat differently from the rest).
+std::string noisy_csv() {
+    const std::string p = dir() + "/noisy.csv";
+    const gonio::brdf::ModelD m = *gonio::brdf::load_model_json(model_json());
+    gonio::brdf::Dataset d = gonio::fitting::testing::noisy_measurement(m, 1);
+    for (std::size_t k = 0; k < d.samples.size(); k += 40) {
+        d.samples[k].value *= 2.0;
+    }
+    EXPECT_TRUE(gonio::brdf::write_dataset_csv(p, d));
+    return p;
+}
+
 TEST(HelpWalk, FitEveryOptionHonouredOrRefused) {
-    const std::string d = dir() + "/absent.csv";  // the request line prints before the data load
-    const std::string f = "fit " + d;
-    prove("fit",
-          {
-              {"data", "fit --manifest m.csv " + d, "", "data"},
-              {"--model", f + " --compare ggx --model beckmann", ""},
-              {"--template", f + " --compare ggx --template t.json", ""},
-              {"--no-diffuse", f + " --model auto --no-diffuse", ""},
-              {"--no-diffuse", f, f + " --no-diffuse"},
-              {"--fresnel", f + " --model auto --fresnel none", ""},
-              {"--fresnel", f, f + " --fresnel none"},
-              {"--shadowing", f + " --model auto --shadowing v-groove", ""},
-              {"--shadowing", f, f + " --shadowing v-groove"},
-              {"--anisotropic", f + " --model auto --anisotropic", ""},
-              {"--anisotropic", f, f + " --anisotropic"},
-              {"--lobes", f + " --model auto --lobes 2", ""},
-              {"--lobes", f, f + " --lobes 2"},
-              {"--roughness", f + " --model auto --roughness rgb", ""},
-              {"--roughness", f, f + " --roughness rgb"},
-              {"--residual", f, f + " --residual relative"},
-              {"--loss", f, f + " --loss huber"},
-              {"--loss-scale", f, f + " --loss-scale 0.5"},
-              {"--max-samples", f, f + " --max-samples 100"},
-              {"--starts", f, f + " --starts 2"},
-              {"--seed", f, f + " --seed 9"},
-              {"--max-iterations", f, f + " --max-iterations 7"},
-              {"--threads", f, f + " --threads 2"},
-              {"--out", f, f + " --out " + dir() + "/no/such/folder/f.json"},
-              {"--truth", f, f + " --truth " + dir() + "/absent-truth.json"},
-              {"--compare", "fit --manifest m.csv --out o --compare ggx", ""},
-              {"--manifest", "fit --manifest m.csv --out o --model ggx", "", "--manifest"},
-              {"--shard", f + " --shard 0/2", ""},
-              {"--strict", f, f + " --strict"},
-          });
+    // Every pair fits the same small real dataset and compares what the fits wrote (the model
+    // file: parameters and verdict); the printed request line, which echoes every option, is not
+    // the outcome.
+    const std::string data = noisy_csv();
+    const std::string w = dir() + "/fit-walk.json";
+    const std::string f = "fit " + data + " --out " + w;
+    const std::string report = dir() + "/fit-walk.report.json";
+    // A manifest that exists (one that does not is refused before any work, naming only itself).
+    const std::string manifest = dir() + "/m.csv";
+    std::ofstream(manifest) << "not a manifest\n";
+    prove(
+        "fit",
+        {
+            {"data", "fit --manifest " + manifest + " " + data, "", "data"},
+            {"--model", f + " --compare ggx --model beckmann", ""},
+            {"--model", f, f + " --model beckmann", "", w},
+            {"--template", f + " --compare ggx --template t.json", ""},
+            {"--no-diffuse", f + " --model auto --no-diffuse", ""},
+            {"--no-diffuse", f, f + " --no-diffuse", "", w},
+            {"--fresnel", f + " --model auto --fresnel none", ""},
+            {"--fresnel", f, f + " --fresnel none", "", w},
+            {"--shadowing", f + " --model auto --shadowing v-groove", ""},
+            {"--shadowing", f, f + " --shadowing v-groove", "", w},
+            {"--anisotropic", f + " --model auto --anisotropic", ""},
+            {"--anisotropic", f, f + " --anisotropic", "", w},
+            {"--lobes", f + " --model auto --lobes 2", ""},
+            {"--lobes", f, f + " --lobes 2", "", w},
+            {"--roughness", f + " --model auto --roughness rgb", ""},
+            {"--roughness", f, f + " --roughness rgb", "", w},
+            {"--residual", f, f + " --residual relative", "", w},
+            {"--loss", f, f + " --loss huber", "", w},
+            {"--loss-scale", f + " --loss huber", f + " --loss huber --loss-scale 0.05", "", w},
+            {"--max-samples", f, f + " --max-samples 100", "", w},
+            // Fewer starts may end in the same optimum: the report says how many were scored.
+            {"--starts", f, f + " --starts 2", "", report},
+            // The seed draws the reduction's samples.
+            {"--seed", f + " --max-samples 300", f + " --max-samples 300 --seed 9", "", w},
+            // One iteration does not converge: exit status 1 and no model file.
+            {"--max-iterations", f, f + " --max-iterations 1", "", w, {}, "", nullptr, false, 1},
+            // The solver's passes give the same result on any number of threads (documented in
+            // docs/fitting-guide.md): the proof is that the results are equal.
+            {"--threads", f + " --threads 1", f + " --threads 2", "", w, {}, "", nullptr, true},
+            {"--out", f, "fit " + data + " --out " + dir() + "/elsewhere.json", "", w},
+            {"--truth", f, f + " --truth " + model_json(), "", report},
+            {"--compare", "fit --manifest " + manifest + " --out o --compare ggx", ""},
+            {"--manifest", "fit --manifest " + manifest + " --out o --model ggx", "", "--manifest"},
+            {"--shard", f + " --shard 0/2", ""},
+            // A misfit (one lobe without its diffuse part on data that has one) exits 1 only
+            // with --strict.
+            {"--strict",
+             f + " --no-diffuse",
+             f + " --no-diffuse --strict",
+             "",
+             w,
+             {},
+             "",
+             nullptr,
+             false,
+             1},
+        });
 }
 
 TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
     const BusyPort busy;
     ASSERT_GT(busy.port(), 0);
+    // A folder to resume (refused options are refused before it is read).
     const std::string r = "acquire --resume " + dir() + "/camp";
+    fs::create_directories(dir() + "/camp");
     const std::string camp = dir() + "/c.json";
     const std::string zoom_rig = std::string(GONIO_SOURCE_DIR) + "/data/rigs/sim-image-zoom.json";
     std::ofstream(camp) << R"({"plan": {"kind": "uniform", "n_theta": 3, "n_dphi": 2}})";
@@ -107,7 +151,6 @@ TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
               {"--out", r + " --out x", ""},
               {"--out", "acquire --plan-only --out x", ""},
               {"--campaigns-dir", r + " --campaigns-dir x", ""},
-              {"--resume", "acquire --mode image --resume x", "acquire --mode image --resume y"},
               {"--material", r + " --material gold", ""},
               {"--brdf", r + " --brdf x.json", ""},
               {"--scene", "acquire --mode image --scene s.json", ""},
@@ -193,6 +236,12 @@ TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
                    "/served --serve 127.0.0.1:" + std::to_string(busy.port()),
                "acquire --mode image --max-frames 1 --out " + dir() + "/served"},
               {"--serve", "acquire --plan-only --serve 0", ""},
+              // The campaign the --serve proof just ran (one light position, its frame limit),
+              // resumed: read from its folder, with nothing left to measure; a folder that holds
+              // no campaign is refused, naming it.
+              {"--resume",
+               "acquire --mode image --resume " + dir() + "/served",
+               "acquire --mode image --resume " + dir() + "/no-campaign"},
               {"--plan-only", r + " --plan-only", ""},
           });
 }

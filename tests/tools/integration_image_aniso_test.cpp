@@ -56,6 +56,11 @@ const char* kIsotropicModel =
         "shadowing": "smith-correlated", "fresnel": {"type": "none"},
         "scale": [0.9, 0.9, 0.9]}]})";
 
+/// The largest error allowed of a recovered width (relative) and orientation (degrees) on the turned sphere,
+/// whatever the reported sigma.
+constexpr double kRelativeCap = 0.02;
+constexpr double kAngleCapDeg = 0.5;
+
 struct Param {
     double value = 0;
     double sigma = -1;
@@ -120,6 +125,9 @@ std::map<std::string, Param> measure_and_fit(const std::string& name, const std:
 }
 
 /// |value - truth| within k sigma, an orientation compared modulo 180 degrees.
+/// Within `k` of the reported sigmas of the truth, and within `cap` of it whatever the sigma (a
+/// sigma grown large would otherwise let any value pass): a relative cap for a width, degrees for
+/// an angle.
 void expect_within(const Param& p, double truth, double k, bool angle, const char* what) {
     ASSERT_GT(p.sigma, 0) << what;
     double d = p.value - truth;
@@ -128,6 +136,9 @@ void expect_within(const Param& p, double truth, double k, bool angle, const cha
     }
     EXPECT_LE(std::abs(d), k * p.sigma)
         << what << " = " << p.value << " +- " << p.sigma << ", truth " << truth;
+    const double cap = angle ? kAngleCapDeg : kRelativeCap * std::abs(truth);
+    EXPECT_LE(std::abs(d), cap) << what << " = " << p.value << ", truth " << truth
+                                << ": off by more than " << cap;
 }
 
 void expect_recovered(const std::string& name, double phi_deg) {

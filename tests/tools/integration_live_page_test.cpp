@@ -194,7 +194,11 @@ TEST(LivePage, ChromiumWatchesTheCampaignAndFloodingClientsDoNotStopIt) {
             break;
         }
     }
+    const std::size_t lines_before_flood_window = journal_lines(out);
     const double flooded = journal_rate(out, 4);
+    // While flooded, the campaign still measures: at least one journal line in the 4 s window
+    // (a paced configuration takes a fraction of a second).
+    const std::size_t measured_while_flooded = journal_lines(out) - lines_before_flood_window;
     for (int fd : fds) {
         ::close(fd);
     }
@@ -207,6 +211,7 @@ TEST(LivePage, ChromiumWatchesTheCampaignAndFloodingClientsDoNotStopIt) {
         flooded,
         after);
     EXPECT_EQ(fds.size(), 200u);
+    EXPECT_GE(measured_while_flooded, 1u) << "the campaign measured nothing while flooded";
     // The flood did not stop the campaign: it still measures afterwards, and it ends only when
     // asked to, in the orderly way (a resumable stop), not by an error.
     EXPECT_GT(after, 0.0) << "the campaign stopped measuring after the flood";
@@ -342,13 +347,158 @@ TEST(LivePage, ChromiumWatchesAnImageCampaignFillItsTable) {
     EXPECT_NE(progress.find("ETA"), std::string::npos) << progress;
     EXPECT_NE(progress.find("target 45.0 %"), std::string::npos) << progress;
 
-    // The campaign ends by itself, at its target, with its table written.
+    // The campaign ends by itself, at its target, with its table written; its page stays up
+    // until Ctrl-C and shows the end.
+    std::string ended_text;
+    for (int i = 0; i < 3000 && ended_text.empty() && !finished; ++i) {
+        const std::string t = log_text();
+        if (t.find("campaign ended (") != std::string::npos) {
+            ended_text = t;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    ASSERT_FALSE(ended_text.empty()) << log_text();
+    EXPECT_FALSE(finished) << "the command ended with the campaign, its page with it";
+    const std::string end_dom = chromium_dump_dom(url, dir / "profile_end", 3000);
+    EXPECT_EQ(attribute_of(end_dom, "progress", "data-state"), "ended") << end_dom.substr(0, 3000);
+    EXPECT_NE(inner_text(end_dom, "progress").find("campaign ended (completed)"), std::string::npos)
+        << inner_text(end_dom, "progress");
+    EXPECT_EQ(attribute_of(end_dom, "report-link", "href"), "/report.html");
+    {
+        std::ifstream in(pid_file);
+        long pid = 0;
+        in >> pid;
+        ASSERT_GT(pid, 0);
+        ::kill(static_cast<pid_t>(pid), SIGINT);
+    }
     campaign.join();
     const std::string text = log_text();
     ASSERT_TRUE(WIFEXITED(status)) << text;
     EXPECT_EQ(WEXITSTATUS(status), 0) << text;
     EXPECT_NE(text.find("stopped: coverage target met"), std::string::npos) << text;
     EXPECT_TRUE(fs::exists(out / "dataset.csv"));
+    EXPECT_TRUE(fs::exists(out / "report.html"));
+    EXPECT_NE(text.find("next: gonio fit " + (out / "dataset.csv").string()), std::string::npos)
+        << text;
+}
+
+TEST(LivePage, AnAddressThatCannotBeServedLeavesNoFolder) {
+    const fs::path dir = fresh_test_dir("live_page_unbound");
+    // An address of no interface of this machine, and a port another server holds.
+    const int busy_fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    ASSERT_GE(busy_fd, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ASSERT_EQ(::bind(busy_fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+    ASSERT_EQ(::listen(busy_fd, 1), 0);
+    socklen_t len = sizeof a;
+    ::getsockname(busy_fd, reinterpret_cast<sockaddr*>(&a), &len);
+    const std::string busy = "127.0.0.1:" + std::to_string(ntohs(a.sin_port));
+    for (const std::string& serve : {std::string("1.2.3.4:80"), busy}) {
+        for (const char* mode : {"", " --mode image"}) {
+            const fs::path out = dir / "zz";
+            const CliRun r = run_gonio("acquire" + std::string(mode) + " --serve " + serve +
+                                       " --out " + out.string());
+            EXPECT_EQ(r.status, 1) << serve << mode << "\n" << r.out;
+            EXPECT_NE(r.out.find("cannot listen on"), std::string::npos) << r.out;
+            EXPECT_EQ(r.out.find("campaign folder:"), std::string::npos) << r.out;
+            EXPECT_FALSE(fs::exists(out)) << serve << mode << ": a failed start left its folder";
+            // Without --out nothing appears among the automatically named folders either.
+            const fs::path parent = dir / "campaigns";
+            const CliRun q = run_gonio("acquire" + std::string(mode) + " --serve " + serve +
+                                       " --campaigns-dir " + parent.string());
+            EXPECT_EQ(q.status, 1) << q.out;
+            std::error_code ec;
+            EXPECT_TRUE(!fs::exists(parent) || fs::is_empty(parent, ec))
+                << serve << mode << ": a failed start left a folder in " << parent;
+        }
+    }
+    ::close(busy_fd);
+}
+
+TEST(LivePage, AfterTheCampaignThePageShowsTheEndUntilCtrlC) {
+    GONIO_REQUIRE_CHROMIUM();
+    const fs::path dir = fresh_test_dir("live_page_end");
+    const fs::path out = dir / "campaign";
+    const fs::path log = dir / "acquire.log";
+    const fs::path pid_file = dir / "acquire.pid";
+    const std::string cmd = "echo $$ > " + pid_file.string() + "; exec " + std::string(GONIO_EXE) +
+                            " acquire --serve 127.0.0.1:0 --out " + out.string() +
+                            " --n-theta 4 --n-dphi 4 --adaptive 0 > " + log.string() + " 2>&1";
+    int status = -1;
+    std::atomic<bool> finished{false};
+    std::thread campaign([&] {
+        status = std::system(cmd.c_str());
+        finished = true;
+    });
+    const auto child_pid = [&]() -> pid_t {
+        std::ifstream in(pid_file);
+        long pid = 0;
+        in >> pid;
+        return static_cast<pid_t>(pid);
+    };
+    struct Reaper {
+        std::thread& t;
+        std::function<pid_t()> pid;
+        ~Reaper() {
+            if (t.joinable()) {
+                if (const pid_t p = pid(); p > 0) {
+                    ::kill(p, SIGKILL);
+                }
+                t.join();
+            }
+        }
+    } reaper{campaign, child_pid};
+    auto log_text = [&] {
+        std::ifstream in(log);
+        std::stringstream ss;
+        ss << in.rdbuf();
+        return ss.str();
+    };
+    // The campaign ends; the command says its page stays up, and stays.
+    std::string text;
+    for (int i = 0; i < 3000 && !finished; ++i) {
+        text = log_text();
+        if (text.find("until Ctrl-C") != std::string::npos) {
+            break;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    ASSERT_FALSE(finished) << "the command ended with its campaign\n" << log_text();
+    EXPECT_NE(text.find("campaign ended (completed); the live page http://127.0.0.1:"),
+              std::string::npos)
+        << text;
+    EXPECT_NE(text.find("next: gonio fit " + (out / "dataset.csv").string() + " --out " +
+                        (out / "fit.json").string()),
+              std::string::npos)
+        << text;
+    EXPECT_NE(text.find("gonio report " + out.string()), std::string::npos) << text;
+    std::smatch m;
+    ASSERT_TRUE(
+        std::regex_search(text, m, std::regex("live page: (http://127\\.0\\.0\\.1:[0-9]+/)")));
+    const std::string url = m[1];
+    const std::string dom = chromium_dump_dom(url, dir / "profile", 4000);
+    EXPECT_EQ(attribute_of(dom, "progress", "data-state"), "ended") << dom.substr(0, 3000);
+    const std::string progress = inner_text(dom, "progress");
+    EXPECT_EQ(progress.rfind("campaign ended (completed): ", 0), 0u) << progress;
+    EXPECT_EQ(progress.find("running"), std::string::npos) << progress;
+    EXPECT_EQ(attribute_of(dom, "report-link", "href"), "/report.html") << dom.substr(0, 3000);
+    EXPECT_NE(inner_text(dom, "fit").find("final fit on "), std::string::npos)
+        << inner_text(dom, "fit");
+    // /status.json says so, and the report is served.
+    const std::string status_dom = chromium_dump_dom(url + "status.json", dir / "profile2", 1000);
+    EXPECT_NE(status_dom.find("\"ended\":true"), std::string::npos) << status_dom;
+    const std::string report_dom = chromium_dump_dom(url + "report.html", dir / "profile3", 1000);
+    EXPECT_NE(report_dom.find("id=\"verdict\""), std::string::npos) << report_dom.substr(0, 2000);
+    EXPECT_TRUE(fs::exists(out / "report.html"));
+    // Ctrl-C ends the command with the campaign's status.
+    const pid_t pid = child_pid();
+    ASSERT_GT(pid, 0);
+    ::kill(pid, SIGINT);
+    campaign.join();
+    ASSERT_TRUE(WIFEXITED(status)) << log_text();
+    EXPECT_EQ(WEXITSTATUS(status), 0) << log_text();
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -926,7 +927,9 @@ JournalRecord Runner::record_of(RecordType type, const Shot& s, const BrdfValue&
 }
 
 Expected<void> Runner::white_calibration(std::string* pause) {
-    say("white reference: measuring (reflectance " + std::to_string(rig_.white_reflectance) + ")");
+    char reflectance[32];
+    std::snprintf(reflectance, sizeof reflectance, "%.4g", rig_.white_reflectance);
+    say(std::string("white reference: measuring (reflectance ") + reflectance + ")");
     auto mount = [&](bool white) -> Expected<void> {
         if (dev_.reference_changer) {
             return dev_.reference_changer->set_shutter_open(white);

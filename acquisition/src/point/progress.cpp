@@ -80,10 +80,12 @@ void Progress::draw(bool force) {
         std::fflush(out_);
     } else {
         const int decile = static_cast<int>(pct / 10);
-        if (!force && decile == last_decile_ && now - last_draw_ < std::chrono::seconds(10)) {
+        if ((!force && decile == last_decile_ && now - last_draw_ < std::chrono::seconds(10)) ||
+            done_ == last_line_done_) {
             return;
         }
         last_decile_ = decile;
+        last_line_done_ = done_;
         std::fprintf(out_,
                      "progress %zu/%zu (%.0f%%), %.1f measurements/s, ETA %s\n",
                      done_,

@@ -2,8 +2,9 @@
 
 // Aravis's simulated GigE Vision camera (arv-fake-gv-camera-0.8) on 127.0.0.1, started by the test
 // and killed by its PID. GigE Vision control uses the fixed UDP port 3956, so the fixture holds the
-// machine-wide lock file /tmp/gonio-gige.lock (the same one `flock` takes) while the camera runs;
-// ctest also gives these tests RESOURCE_LOCK gige.
+// machine-wide lock file /tmp/gonio-gige.lock (the same one `flock` takes) while the camera runs,
+// unless the test runs in a network namespace of its own (GONIO_TEST_NETNS=1, tests/netns-run.sh),
+// where its 127.0.0.1:3956 is its own.
 
 #include <fcntl.h>
 #include <signal.h>
@@ -90,10 +91,12 @@ class FakeGvCamera {
         std::vector<std::string> argv;
     };
     explicit FakeGvCamera(const Command& command) {
-        lock_fd_ = ::open("/tmp/gonio-gige.lock", O_RDWR | O_CREAT | O_CLOEXEC, 0666);
-        if (lock_fd_ < 0 || ::flock(lock_fd_, LOCK_EX) != 0) {
-            error_ = "cannot lock /tmp/gonio-gige.lock";
-            return;
+        if (!alone_on_loopback()) {
+            lock_fd_ = ::open("/tmp/gonio-gige.lock", O_RDWR | O_CREAT | O_CLOEXEC, 0666);
+            if (lock_fd_ < 0 || ::flock(lock_fd_, LOCK_EX) != 0) {
+                error_ = "cannot lock /tmp/gonio-gige.lock";
+                return;
+            }
         }
         std::vector<std::string> args = command.argv;
         std::vector<char*> argv;
@@ -151,6 +154,11 @@ class FakeGvCamera {
     const std::string& error() const { return error_; }
 
   private:
+    static bool alone_on_loopback() {
+        const char* netns = std::getenv("GONIO_TEST_NETNS");
+        return netns != nullptr && std::string(netns) == "1";
+    }
+
     static Command with_program(std::vector<std::string> argv,
                                 const std::vector<std::string>& extra) {
         argv.insert(argv.end(), extra.begin(), extra.end());

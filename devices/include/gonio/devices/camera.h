@@ -20,6 +20,10 @@ struct CameraInfo {
     std::string version;
     int sensor_width = 0;
     int sensor_height = 0;
+    /// Where the sensor size was read: "SensorWidth and SensorHeight", "WidthMax and HeightMax",
+    /// the top of Width's and Height's ranges, or the current Width and Height when the camera's
+    /// description gives them no maximum.
+    std::string sensor_size_from;
     int bit_depth = 0;
 };
 

@@ -43,16 +43,37 @@ struct Metrics {
     brdf::Rgbd rmse = brdf::Rgbd::Zero();      ///< sqrt(mean((m - d)^2)), 1/sr.
     brdf::Rgbd rel_rmse = brdf::Rgbd::Zero();  ///< sqrt(mean(((m - d) / (d + relative_floor))^2)).
     brdf::Rgbd log_rmse = brdf::Rgbd::Zero();  ///< sqrt(mean((log(1+m cos_i) - log(1+d cos_i))^2)).
-    /// Median over the samples with d > 0 of |m - d| / d: the relative error of f itself, with no
-    /// floor and no 1 + f cos, so that a dark channel's error counts as much as a bright one's
-    /// (log(1 + f cos) is nearly absolute for f cos << 1). 0 when no sample has d > 0.
+    /// Median of |m - d| / d over the samples whose value is above its noise (d > 2 sigma, sigma
+    /// the sample's own or, without one, the noise the dataset implies,
+    /// brdf/values_below_zero.h): the relative error of f itself, with no floor and no
+    /// 1 + f cos, so that a dark channel's error counts as much as a bright one's (log(1 + f cos)
+    /// is nearly absolute for f cos << 1). 0 when no sample is above its noise.
     brdf::Rgbd median_rel = brdf::Rgbd::Zero();
     /// Log residuals by theta_h band (edges 0, 2, 5, 10, 20, 40, 90 degrees); empty bands omitted.
     std::vector<BandResidual> bands;
 };
 
+/// The headline of a fit, one of three states decided channel by channel on measures that see a
+/// dark channel as well as a bright one (docs/fitting-guide.md, "Goodness of fit").
+enum class Verdict {
+    kRepresents,        ///< No channel shows a visible misfit.
+    kVisibleMisfit,     ///< Usable, with a visible misfit in the channels it names.
+    kDoesNotRepresent,  ///< A misfit far beyond the noise: that model's best, not the material.
+};
+
+/// "represents", "visible-misfit", "does-not-represent" (the report's goodness.verdict).
+const char* to_string(Verdict v);
+/// Parses to_string's names.
+Expected<Verdict> parse_verdict(const std::string& name);
+
 /// Whether the model represents the data (docs/fitting-guide.md, "Goodness of fit").
 struct GoodnessOfFit {
+    /// The one headline: the worst state of any channel (and of the chi-square).
+    Verdict verdict = Verdict::kRepresents;
+    /// The headline in words, naming the channels and figures that decide it: "represents these
+    /// data", "usable, with a visible misfit in channel b (median relative error 0.091 above
+    /// 0.05)", "does not represent these data: channel b (median relative error 0.21 above 0.15)".
+    std::string headline = "represents these data";
     /// Sum of squared normalised residuals / (3 N - p) when the data carry sigmas, else empty.
     std::optional<double> reduced_chi_square;
     /// False when the misfit is far beyond measurement noise (a misfit; a converged misfit is
@@ -179,6 +200,16 @@ Expected<AutoFitResult> fit_auto(const brdf::Dataset& data,
 /// with two lobes, and the tabulated NDF by power iteration (power_iteration.h; its table's nodes
 /// count as parameters of the criterion).
 std::vector<std::pair<std::string, FitSpec>> auto_candidates(const FitOptions& options);
+
+/// What to try after a misfit of `fitted`: the families, lobes and options it did not use (never
+/// one it used). Empty after `--model auto` (`auto_tried`), which ranked every family: what is
+/// left then is the measurement itself as a table (batch::table_alternative).
+/// `f0_per_channel`: the fit had a Schlick f0 per channel (`--fresnel schlick-rgb`).
+std::string suggest_after(const brdf::ModelD& fitted, bool f0_per_channel, bool auto_tried);
+
+/// The headline of a verdict with its named findings ("channel b (median relative error 0.091
+/// above 0.05)").
+std::string headline_of(Verdict v, const std::string& named);
 
 /// Metrics of `model` against the valid samples of `data`.
 Metrics evaluate_metrics(const brdf::ModelD& model,

@@ -19,7 +19,6 @@
 
 #include <cstddef>
 
-#include "gonio/brdf/model.h"
 #include "gonio/fitting/lobe_shape_packets.h"
 
 namespace gonio::fitting {
@@ -40,8 +39,9 @@ struct PacketModel {
     int lobes = 0;
     LobeShapeKind kind[kMaxLobes];
     double alpha[kMaxLobes] = {};
-    brdf::Fresnel<double> fresnel[kMaxLobes];  ///< Schlick's or none.
+    bool schlick[kMaxLobes] = {};
     double scale[kMaxLobes][3] = {};
+    double f0[kMaxLobes][3] = {};
     double diffuse[3] = {};  ///< rho_c / pi (0 without a diffuse term).
     int slots = 0;           ///< At most kMaxSlots.
     PacketSlot slot[kMaxSlots] = {};

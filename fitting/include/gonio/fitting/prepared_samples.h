@@ -118,8 +118,30 @@ class PreparedSamples {
   private:
     template <class T>
     brdf::Rgb<T> eval(const brdf::Model<T>& m, std::size_t i) const;
-    /// Sample i's geometry as the lobe body takes it (brdf/lobe_body.h): prepared_samples.cpp.
-    class SampleSquares;
+    /// D G / (4 cos_i cos_o) of one lobe (0 where D underflows).
+    /// `rot` turns the geometry into the frame of an anisotropic lobe (Lobe::orientation_deg); null
+    /// for a lobe that does not depend on it.
+    template <class T>
+    T shape(brdf::Distribution dist,
+            brdf::Shadowing shadowing,
+            const T& ax,
+            const T& ay,
+            const T& exponent,
+            std::size_t i,
+            const brdf::LobeRotation<T>* rot = nullptr) const;
+    /// The same for a Student-t lobe (brdf/student_t.h), whose D and Lambda also take gamma.
+    template <class T>
+    T shape_student_t(brdf::Shadowing shadowing,
+                      const T& ax,
+                      const T& ay,
+                      const T& gamma,
+                      std::size_t i,
+                      const brdf::LobeRotation<T>* rot = nullptr) const;
+    /// The squared tangent components of h (hx2, hy2) and the squared slopes of wi (ti_x, ti_y)
+    /// and wo (to_x, to_y) of sample i along the axes of the lobe turned by `rot` (the stored
+    /// sample-frame ones when null); an anisotropic structure only.
+    template <class T>
+    void lobe_squares(std::size_t i, const brdf::LobeRotation<T>* rot, T out[6]) const;
     /// dg/dm of the residual form at m.
     double g_prime(double m, std::size_t i) const;
     /// Closed-form residuals r[3] and their derivatives v[c * slots + slot] of sample i:
@@ -169,7 +191,6 @@ class PreparedSamples {
     ResidualForm form_;
     std::size_t n_ = 0;
     bool anisotropic_ = false;
-    bool tabulated_ = false;  // A tabulated lobe in the structure.
     // Geometry (empty when the structure does not need the field).
     std::vector<double> cos_i_, inv_4cc_;
     std::vector<double> hx2_, hy2_, hz2_;  // hx2_ holds hx^2 + hy^2 for isotropic structures

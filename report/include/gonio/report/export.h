@@ -28,6 +28,7 @@
 // w_d = 1 - sum w_k and reflectance diffuse / w_d; when sum w_k + max diffuse > 1 every weight is
 // divided by T = sum w_k + max_c diffuse_c (the material is the model / T, stated in the comment).
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -48,6 +49,24 @@ Expected<RendererExport> export_mitsuba(const brdf::ModelD& model, const std::st
 
 /// pbrt-v4 scene text: MakeNamedMaterial statements, the last one named `name`.
 Expected<RendererExport> export_pbrt(const brdf::ModelD& model, const std::string& name);
+
+/// The verdict a fitted model file carries under "fit" (written by `gonio fit --out`).
+struct ModelFileVerdict {
+    std::string verdict;   ///< "represents", "visible-misfit", "does-not-represent"
+    std::string headline;  ///< the fit's headline, as `gonio fit` printed it
+    std::string report;    ///< the report's file name
+};
+
+/// Reads the "fit" object of a model file: nothing when the file has none (a model written by
+/// hand), an error when it cannot be read. A file from before the three-state verdict gives
+/// "represents" or "does-not-represent" from its "represents" flag.
+Expected<std::optional<ModelFileVerdict>> read_model_verdict(const std::string& model_path);
+
+/// The export text with the verdict of a misfit stated at its top, as a comment of the format
+/// (`xml`: an XML comment after the declaration, else `#` lines for pbrt): a material exported from
+/// a fit that does not represent its data says so wherever the file goes. Unchanged for a fit that
+/// represents its data.
+std::string with_verdict(const std::string& text, const ModelFileVerdict& v, bool xml);
 
 /// Refractive index with k = 0 whose normal-incidence reflectance is f0: (1 + sqrt f0) / (1 -
 /// sqrt f0). Domain f0 in [0, 1); f0 = 0 gives 1.

@@ -10,6 +10,16 @@
 // bench/runtime_vs_error.csv. Missing plots (when there is a dataset) and previews (when there is a
 // fit) are generated into plots/ and previews/ first; the coverage plot is always drawn from the
 // dataset. Output: DIR/report.html.
+//
+// A folder holding a fit and its report but no campaign (gonio fit FILE --out DIR/fit.json) gives
+// the page of that fit: titled "gonio fit report: FILE", its plots drawn from the data file
+// fit.report.json names (as named, else beside the fit), without the calibration and run-history
+// sections of a campaign.
+//
+// The page is built in stages, each a function of html_report.cpp: read the inputs (descriptions,
+// samples, table, fit), draw the missing pictures, then write the head, the result, the pictures,
+// calibration and drift, the run history, the run-time table and the raw descriptions with the
+// notes.
 
 #include <string>
 #include <vector>

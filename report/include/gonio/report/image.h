@@ -39,7 +39,13 @@ struct RadianceImage {
     int height = 0;
     std::vector<brdf::Rgbd> pixels;
     std::vector<bool> covered;
+    /// Pixels whose value a table could not give (its bins there were not measured); empty when
+    /// none. tone_map shows them in kHoleColor, not as black reflectance.
+    std::vector<bool> hole;
 };
+
+/// The colour of a table's holes in pictures (magenta: no material is drawn in it).
+inline constexpr Color kHoleColor{230, 0, 200};
 
 /// Encodes an image as PNG bytes.
 Expected<std::vector<std::uint8_t>> encode_png(const Image& image);

@@ -19,7 +19,12 @@
 // pictures. A client that never reads, or hundreds of open connections, hold HTTP threads only
 // (bounded by the read/write timeouts), never the campaign.
 //
-// Routes: GET / (the page), /status.json, /img/in_plane.png, /img/coverage.png, /img/frame.png.
+// The end: finish() keeps the final state, the final fit and the campaign's report on the page
+// until the server stops. A page whose server has gone says so ("campaign ended" when the last
+// state it saw was the end, else "connection lost"), with the last state it saw.
+//
+// Routes: GET / (the page), /status.json, /img/in_plane.png, /img/coverage.png, /img/frame.png,
+// /report.html (after finish() with a report).
 // Everything else is 404; methods other than GET are refused (the page is read-only).
 
 #include <cstdint>
@@ -85,6 +90,16 @@ class LiveServer {
     /// Campaign thread, image campaigns: the coverage of the table so far, moved in (drawn by the
     /// render thread with plot_coverage_cells).
     void publish_coverage(CoverageCells cells);
+
+    /// The page's title (shown from the next load of the page).
+    void set_title(const std::string& title);
+
+    /// The campaign has ended in `state` ("completed", "paused", "stopped", ...): the server goes
+    /// on serving its final state until stop(), with one more fit on every sample (the final fit)
+    /// and, when report_path names a file, that page at /report.html, linked from the live page.
+    /// /status.json says "ended": true; the page says "campaign ended" instead of an ETA.
+    void finish(const std::string& state, const std::string& report_path = {});
+    bool ended() const;
 
     /// Stops serving and joins the threads (also done by the destructor).
     void stop();

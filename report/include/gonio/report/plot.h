@@ -41,6 +41,32 @@ struct PlotOptions {
     double angle_tolerance_deg = 2.5;
 };
 
+/// A text drawn on a picture: what, where (its box in pixels, glyphs included) and the size of the
+/// picture it was drawn on. A text that would not fit is drawn smaller, then shortened in its
+/// middle ("..."), and moved inside: it is never cut at the picture's edge.
+struct DrawnText {
+    std::string text;   ///< as drawn (shortened when it had to be)
+    std::string asked;  ///< as the plot asked for it
+    int x = 0, y = 0, width = 0, height = 0;
+    int image_width = 0, image_height = 0;
+    bool vertical = false;  ///< rotated by 90 degrees (a y-axis or colour-bar label)
+};
+
+/// While alive, records every text the pictures drawn on this thread put down (tests check that
+/// each lies inside its picture). One recorder per thread at a time.
+class TextRecorder {
+  public:
+    TextRecorder();
+    ~TextRecorder();
+    TextRecorder(const TextRecorder&) = delete;
+    TextRecorder& operator=(const TextRecorder&) = delete;
+    const std::vector<DrawnText>& texts() const { return texts_; }
+    void clear() { texts_.clear(); }
+
+  private:
+    std::vector<DrawnText> texts_;
+};
+
 /// Geometry of an in-plane polar plot, for callers that place marks on it: the polar origin (the
 /// point on the sample surface) in pixels and the radius, in pixels, of the largest ring.
 /// Outgoing direction theta_o is drawn at angle theta_o from the upward vertical, positive
@@ -55,6 +81,10 @@ struct PolarLayout {
     std::size_t points_drawn = 0;     ///< measured samples drawn in all slices together
     bool log_scale = false;           ///< the radius scale used (after AxisScale::kAuto)
     std::vector<double> ring_values;  ///< BRDF values of the labelled rings, 1/sr, inner first
+    /// Measured samples off their slice's theta_i moved onto it by the fit (see plot_in_plane).
+    std::size_t moved_to_slice = 0;
+    /// With a fit: the largest |log10(marker / curve)| at a marker's in-plane angle.
+    double worst_marker_misfit = 0;
 };
 
 /// In-plane polar plot: measured samples (markers with radial error bars of +-1 sigma) and the fit
@@ -63,7 +93,10 @@ struct PolarLayout {
 /// theta_i agree within 2 angle_tolerance_deg and whose wo lies within angle_tolerance_deg of the
 /// plane of incidence (scattered directions included). When the dataset has samples but no slice
 /// holds 3 of them, the picture is plot_half_angle() instead (its title says so). Error when there
-/// is nothing to draw.
+/// is nothing to draw. With a fit, a sample whose own theta_i is off its slice's (an image
+/// campaign's pixels spread over the tolerance) is moved onto the slice by the fit's ratio between
+/// the slice's geometry and its own, so that each marker is compared with the fit at its own
+/// incident angle (the subtitle says so).
 Expected<Image> plot_in_plane(const brdf::Dataset& data,
                               const brdf::Brdf* fit,
                               const PlotOptions& options,

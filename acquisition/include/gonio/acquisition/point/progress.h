@@ -35,6 +35,9 @@ class Progress {
     std::chrono::steady_clock::time_point start_;
     std::chrono::steady_clock::time_point last_draw_;
     int last_decile_ = -1;
+    /// Measurements done when the last line was printed (no terminal): the same count is not
+    /// printed twice.
+    std::size_t last_line_done_ = static_cast<std::size_t>(-1);
 };
 
 /// "1:02:03" / "2:03" / "7 s".
