@@ -7,13 +7,13 @@
 #include <filesystem>
 #include <map>
 #include <memory>
-#include <opencv2/imgproc.hpp>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "embedded_rig.h"
 #include "gonio/acquisition/image/image_planner.h"
+#include "gonio/acquisition/shared/frame_picture.h"
 #include "gonio/brdf/coords.h"
 #include "gonio/report/live_server.h"
 #include "live_page.h"
@@ -21,51 +21,13 @@
 namespace gonio::tools {
 
 report::Image live_frame_picture(const devices::Frame& frame, int max_width) {
+    const acquisition::FramePicture p = acquisition::frame_picture(frame, max_width);
     report::Image out;
-    const cv::Mat& src = frame.image;
-    if (src.empty() || max_width < 1) {
-        return out;
-    }
-    cv::Mat grey;
-    if (src.channels() == 3) {
-        cv::cvtColor(src, grey, cv::COLOR_BGR2GRAY);
-    } else if (src.channels() == 1) {
-        grey = src;
-    } else {
-        return out;
-    }
-    // Counts above black relative to the range up to saturation (8-bit frames: their own range).
-    double black = frame.black_level;
-    double range = frame.saturation_level - frame.black_level;
-    if (!(range > 0)) {
-        black = 0;
-        range = grey.depth() == CV_8U ? 255.0 : grey.depth() == CV_16U ? 65535.0 : 1.0;
-    }
-    cv::Mat linear;
-    grey.convertTo(linear, CV_32F, 1.0 / range, -black / range);
-    if (linear.cols > max_width) {
-        const int h =
-            std::max(1,
-                     static_cast<int>(std::lround(static_cast<double>(linear.rows) * max_width /
-                                                  static_cast<double>(linear.cols))));
-        cv::Mat small;
-        cv::resize(linear, small, cv::Size(max_width, h), 0, 0, cv::INTER_AREA);
-        linear = small;
-    }
-    cv::max(linear, 0.0, linear);
-    cv::min(linear, 1.0, linear);
-    cv::sqrt(linear, linear);
-    cv::Mat bytes;
-    linear.convertTo(bytes, CV_8U, 255.0);
-    out.width = bytes.cols;
-    out.height = bytes.rows;
-    out.rgb.resize(static_cast<std::size_t>(out.width) * out.height * 3);
-    for (int y = 0; y < bytes.rows; ++y) {
-        const std::uint8_t* row = bytes.ptr<std::uint8_t>(y);
-        for (int x = 0; x < bytes.cols; ++x) {
-            const std::size_t i = (static_cast<std::size_t>(y) * out.width + x) * 3;
-            out.rgb[i] = out.rgb[i + 1] = out.rgb[i + 2] = row[x];
-        }
+    out.width = p.width;
+    out.height = p.height;
+    out.rgb.resize(p.grey.size() * 3);
+    for (std::size_t i = 0; i < p.grey.size(); ++i) {
+        out.rgb[3 * i] = out.rgb[3 * i + 1] = out.rgb[3 * i + 2] = p.grey[i];
     }
     return out;
 }
@@ -73,20 +35,7 @@ report::Image live_frame_picture(const devices::Frame& frame, int max_width) {
 std::string live_frame_description(const devices::Frame& frame,
                                    const report::Image& picture,
                                    const std::string& what) {
-    char buf[400];
-    std::snprintf(buf,
-                  sizeof buf,
-                  "Latest camera frame: %s; frame %llu, exposure %.3g ms, %d x %d px, shown at "
-                  "%d x %d px as the square root of the counts above black relative to "
-                  "saturation (white: saturated).",
-                  what.c_str(),
-                  static_cast<unsigned long long>(frame.frame_id),
-                  frame.exposure_us / 1000,
-                  frame.image.cols,
-                  frame.image.rows,
-                  picture.width,
-                  picture.height);
-    return buf;
+    return acquisition::frame_picture_caption(frame, picture.width, picture.height, what);
 }
 
 namespace {

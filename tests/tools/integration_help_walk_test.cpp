@@ -117,6 +117,8 @@ TEST(HelpWalk, FitEveryOptionHonouredOrRefused) {
             {"--threads", f + " --threads 1", f + " --threads 2", "", w, {}, "", nullptr, true},
             {"--out", f, "fit " + data + " --out " + dir() + "/elsewhere.json", "", w},
             {"--truth", f, f + " --truth " + model_json(), "", report},
+            // The request as run, printed only when asked for.
+            {"--verbose", f, f + " --verbose"},
             {"--compare", "fit --manifest " + manifest + " --out o --compare ggx", ""},
             {"--manifest", "fit --manifest " + manifest + " --out o --model ggx", "", "--manifest"},
             {"--shard", f + " --shard 0/2", ""},

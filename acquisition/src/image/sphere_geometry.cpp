@@ -92,18 +92,19 @@ double high_percentile(const cv::Mat& f) {
     return v[k];
 }
 
-}  // namespace
+/// Median of the values (the vector is reordered).
+double median_of(std::vector<float> v) {
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return static_cast<double>(v[v.size() / 2]);
+}
 
-Expected<SphereGeometry> detect_sphere(const cv::Mat& frame,
-                                       const CameraModel& camera,
-                                       const SilhouetteOptions& options) {
-    if (frame.empty() || frame.channels() != 1) {
-        return make_error("sphere detection: the frame must be a non-empty single-channel image");
-    }
-    cv::Mat f;
-    frame.convertTo(f, CV_32F);
-    // Background level and noise from the frame's border (robust: median and MAD), so that the
-    // threshold stays clear of the noise whatever the sphere's brightness.
+/// Background level and noise from the frame's border (robust: median and MAD), so that the
+/// threshold stays clear of the noise whatever the sphere's brightness.
+struct Background {
+    double level = 0;
+    double noise_sigma = 0;
+};
+Background border_background(const cv::Mat& f) {
     std::vector<float> border;
     for (int x = 0; x < f.cols; ++x) {
         border.push_back(f.at<float>(0, x));
@@ -113,44 +114,54 @@ Expected<SphereGeometry> detect_sphere(const cv::Mat& frame,
         border.push_back(f.at<float>(y, 0));
         border.push_back(f.at<float>(y, f.cols - 1));
     }
-    const auto median = [](std::vector<float> v) {
-        std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-        return static_cast<double>(v[v.size() / 2]);
-    };
-    const double lo = median(border);
-    for (float& b : border) {
-        b = static_cast<float>(std::abs(b - lo));
+    Background b;
+    b.level = median_of(border);
+    for (float& v : border) {
+        v = static_cast<float>(std::abs(v - b.level));
     }
-    const double noise_sigma = 1.4826 * median(border);
-    const double hi = high_percentile(f);
-    if (!(hi > lo + 5 * noise_sigma) || !(hi > lo)) {
-        return make_error("sphere detection: the frame is uniform (nothing lit above the noise)");
-    }
-    // Largest outline above a threshold, and its area.
-    const auto outline = [&](double threshold) {
-        cv::Mat mask;
-        cv::threshold(f, mask, threshold, 255, cv::THRESH_BINARY);
-        mask.convertTo(mask, CV_8U);
-        // Close small holes (noise, dark texture) before taking the outline.
-        cv::morphologyEx(mask,
-                         mask,
-                         cv::MORPH_CLOSE,
-                         cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(5, 5)));
-        std::vector<std::vector<cv::Point>> contours;
-        cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
-        std::vector<cv::Point> best;
-        double best_area = -1;
-        for (auto& c : contours) {
-            const double a = cv::contourArea(c);
-            if (a > best_area) {
-                best_area = a;
-                best = std::move(c);
-            }
+    b.noise_sigma = 1.4826 * median_of(border);
+    return b;
+}
+
+/// Largest outline above a threshold, and its area.
+std::pair<std::vector<cv::Point>, double> largest_outline(const cv::Mat& f, double threshold) {
+    cv::Mat mask;
+    cv::threshold(f, mask, threshold, 255, cv::THRESH_BINARY);
+    mask.convertTo(mask, CV_8U);
+    // Close small holes (noise, dark texture) before taking the outline.
+    cv::morphologyEx(
+        mask, mask, cv::MORPH_CLOSE, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(5, 5)));
+    std::vector<std::vector<cv::Point>> contours;
+    cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+    std::vector<cv::Point> best;
+    double best_area = -1;
+    for (auto& c : contours) {
+        const double a = cv::contourArea(c);
+        if (a > best_area) {
+            best_area = a;
+            best = std::move(c);
         }
-        return std::make_pair(std::move(best), std::max(best_area, 0.0));
-    };
-    double threshold = std::max(lo + options.threshold_fraction * (hi - lo), lo + 5 * noise_sigma);
-    auto [largest, area] = outline(threshold);
+    }
+    return std::make_pair(std::move(best), std::max(best_area, 0.0));
+}
+
+/// The outline of the lit sphere and the threshold that gave it.
+struct Outline {
+    std::vector<cv::Point> contour;
+    double threshold = 0;
+    bool glossy = false;  ///< The threshold was taken at the sphere's level, not its highlight's.
+};
+
+Outline sphere_outline(const cv::Mat& f,
+                       const Background& bg,
+                       double hi,
+                       const SilhouetteOptions& options) {
+    const double lo = bg.level;
+    const double floor = lo + 5 * bg.noise_sigma;
+    Outline o;
+    o.threshold = std::max(lo + options.threshold_fraction * (hi - lo), floor);
+    double area = 0;
+    std::tie(o.contour, area) = largest_outline(f, o.threshold);
     // A glossy sphere: its highlight is orders of magnitude above the rest of it, and a threshold
     // at a fraction of the highlight outlines the highlight instead of the limb. When the pixels
     // clear of the noise cover half as much again as that outline, the threshold is taken at the
@@ -159,51 +170,64 @@ Expected<SphereGeometry> detect_sphere(const cv::Mat& frame,
     for (int y = 0; y < f.rows; ++y) {
         const float* row = f.ptr<float>(y);
         for (int x = 0; x < f.cols; ++x) {
-            if (row[x] > lo + 5 * noise_sigma) {
+            if (row[x] > floor) {
                 object.push_back(row[x]);
             }
         }
     }
-    bool glossy = false;
     if (object.size() >= 20 && static_cast<double>(object.size()) > 1.5 * area) {
-        glossy = true;
-        const double level = median(std::move(object));
-        threshold = std::max(lo + options.threshold_fraction * (level - lo), lo + 5 * noise_sigma);
-        std::tie(largest, area) = outline(threshold);
+        o.glossy = true;
+        const double level = median_of(std::move(object));
+        o.threshold = std::max(lo + options.threshold_fraction * (level - lo), floor);
+        std::tie(o.contour, area) = largest_outline(f, o.threshold);
     }
-    if (largest.empty()) {
-        return make_error("sphere detection: nothing above the threshold " +
-                          std::to_string(threshold));
+    return o;
+}
+
+/// The frame bilinearly interpolated at (x, y); `outside` beyond its pixels.
+double bilinear(const cv::Mat& f, double x, double y, double outside) {
+    const int x0 = static_cast<int>(std::floor(x));
+    const int y0 = static_cast<int>(std::floor(y));
+    if (x0 < 0 || y0 < 0 || x0 + 1 >= f.cols || y0 + 1 >= f.rows) {
+        return outside;
     }
-    if (largest.size() < 20) {
-        return make_error("sphere detection: largest contour has " +
-                          std::to_string(largest.size()) + " points, need at least 20");
-    }
-    std::vector<cv::Point2d> pixel_pts;
-    for (const cv::Point& p : largest) {
-        pixel_pts.emplace_back(p.x, p.y);
-    }
-    auto coarse = fit_circle_algebraic(pixel_pts);
-    if (!coarse) {
-        return make_error("sphere detection: " + coarse.error().message);
-    }
-    // Sub-pixel boundary: along the radial line through each contour pixel, the outermost place
-    // where the bilinearly interpolated frame crosses the threshold.
-    const auto sample = [&](double x, double y) {
-        const int x0 = static_cast<int>(std::floor(x));
-        const int y0 = static_cast<int>(std::floor(y));
-        if (x0 < 0 || y0 < 0 || x0 + 1 >= f.cols || y0 + 1 >= f.rows) {
-            return lo;
+    const double ax = x - x0;
+    const double ay = y - y0;
+    return (1 - ay) * ((1 - ax) * f.at<float>(y0, x0) + ax * f.at<float>(y0, x0 + 1)) +
+           ay * ((1 - ax) * f.at<float>(y0 + 1, x0) + ax * f.at<float>(y0 + 1, x0 + 1));
+}
+
+/// A glossy sphere's limb is a step (its tails do not fade to zero there, as a Lambertian limb
+/// lit from the camera does), blurred by the pixels: its edge is where the profile `at(q)` (q
+/// along the outward radial line) crosses half way between the background and the level 2 px
+/// inside `edge`, which a threshold near the background would place outside.
+template <class Profile>
+double glossy_edge(double edge, double background, Profile at, double step) {
+    const double half = 0.5 * (background + at(edge - 2));
+    double q_prev = edge + 1;
+    double w_prev = at(q_prev);
+    for (double q = edge + 1 - step; q >= edge - 2; q -= step) {
+        const double w = at(q);
+        if (w >= half && w_prev < half) {
+            return q + (half - w) / (w_prev - w) * (q_prev - q);
         }
-        const double ax = x - x0;
-        const double ay = y - y0;
-        return (1 - ay) * ((1 - ax) * f.at<float>(y0, x0) + ax * f.at<float>(y0, x0 + 1)) +
-               ay * ((1 - ax) * f.at<float>(y0 + 1, x0) + ax * f.at<float>(y0 + 1, x0 + 1));
-    };
+        q_prev = q;
+        w_prev = w;
+    }
+    return edge;
+}
+
+/// Sub-pixel boundary: along the radial line through each contour pixel, the outermost place
+/// where the bilinearly interpolated frame crosses the threshold.
+std::vector<cv::Point2d> subpixel_boundary(const cv::Mat& f,
+                                           const std::vector<cv::Point2d>& pixel_pts,
+                                           const ImageCircle& coarse,
+                                           const Outline& o,
+                                           double lo) {
     std::vector<cv::Point2d> pts;
     for (const cv::Point2d& p : pixel_pts) {
-        const double dx = p.x - coarse->cx;
-        const double dy = p.y - coarse->cy;
+        const double dx = p.x - coarse.cx;
+        const double dy = p.y - coarse.cy;
         const double n = std::hypot(dx, dy);
         if (!(n > 0)) {
             // A contour pixel at the centre: no radial direction (a degenerate blob).
@@ -211,32 +235,17 @@ Expected<SphereGeometry> detect_sphere(const cv::Mat& frame,
         }
         const double ux = dx / n;
         const double uy = dy / n;
+        const auto at = [&](double s) { return bilinear(f, p.x + s * ux, p.y + s * uy, lo); };
         constexpr double kStep = 0.05;
         double prev_s = 2.0;
-        double prev_v = sample(p.x + prev_s * ux, p.y + prev_s * uy);
+        double prev_v = at(prev_s);
         for (double s = 2.0 - kStep; s >= -2.0; s -= kStep) {
-            const double v = sample(p.x + s * ux, p.y + s * uy);
-            if (v >= threshold && prev_v < threshold) {
-                const double t = (threshold - v) / (prev_v - v);
+            const double v = at(s);
+            if (v >= o.threshold && prev_v < o.threshold) {
+                const double t = (o.threshold - v) / (prev_v - v);
                 double edge = s + t * (prev_s - s);
-                if (glossy) {
-                    // A glossy sphere's limb is a step (its tails do not fade to zero there, as a
-                    // Lambertian limb lit from the camera does), blurred by the pixels: its edge is
-                    // where the profile crosses half way between the background and the level
-                    // 2 px inside, which a threshold near the background would place outside.
-                    const double half =
-                        0.5 * (lo + sample(p.x + (edge - 2) * ux, p.y + (edge - 2) * uy));
-                    double q_prev = edge + 1;
-                    double w_prev = sample(p.x + q_prev * ux, p.y + q_prev * uy);
-                    for (double q = edge + 1 - kStep; q >= edge - 2; q -= kStep) {
-                        const double w = sample(p.x + q * ux, p.y + q * uy);
-                        if (w >= half && w_prev < half) {
-                            edge = q + (half - w) / (w_prev - w) * (q_prev - q);
-                            break;
-                        }
-                        q_prev = q;
-                        w_prev = w;
-                    }
+                if (o.glossy) {
+                    edge = glossy_edge(edge, lo, at, kStep);
                 }
                 pts.emplace_back(p.x + edge * ux, p.y + edge * uy);
                 break;
@@ -245,12 +254,14 @@ Expected<SphereGeometry> detect_sphere(const cv::Mat& frame,
             prev_v = v;
         }
     }
-    auto circle = fit_circle_algebraic(pts);
-    if (!circle) {
-        return make_error("sphere detection: " + circle.error().message);
-    }
-    // Trim points inside the circle (where the lit region ends at the shadow terminator rather
-    // than at the limb) and refit, a few times.
+    return pts;
+}
+
+/// Trim points inside the circle (where the lit region ends at the shadow terminator rather than
+/// at the limb) and refit, a few times; the points kept.
+std::vector<cv::Point2d> trim_terminator(const std::vector<cv::Point2d>& pts,
+                                         const SilhouetteOptions& options,
+                                         ImageCircle* circle) {
     std::vector<cv::Point2d> kept = pts;
     for (int round = 0; round < 5; ++round) {
         std::vector<cv::Point2d> next;
@@ -268,34 +279,75 @@ Expected<SphereGeometry> detect_sphere(const cv::Mat& frame,
             break;
         }
         kept = std::move(next);
-        circle = c2;
+        *circle = *c2;
     }
+    return kept;
+}
 
-    SphereGeometry g;
-    g.silhouette = *circle;
-    std::vector<Ray> rays = camera.pixel_rays(kept);
-    const Ray centre_ray = camera.pixel_ray(circle->cx, circle->cy);
+/// The image circle with sub-pixel limb points (the outline, its coarse circle, the boundary,
+/// the terminator trimmed); `kept` receives the points the circle was fitted to.
+Expected<ImageCircle> silhouette_circle(const cv::Mat& f,
+                                        const Background& bg,
+                                        const Outline& o,
+                                        const SilhouetteOptions& options,
+                                        std::vector<cv::Point2d>* kept) {
+    if (o.contour.empty()) {
+        return make_error("sphere detection: nothing above the threshold " +
+                          std::to_string(o.threshold));
+    }
+    if (o.contour.size() < 20) {
+        return make_error("sphere detection: largest contour has " +
+                          std::to_string(o.contour.size()) + " points, need at least 20");
+    }
+    std::vector<cv::Point2d> pixel_pts;
+    for (const cv::Point& p : o.contour) {
+        pixel_pts.emplace_back(p.x, p.y);
+    }
+    auto coarse = fit_circle_algebraic(pixel_pts);
+    if (!coarse) {
+        return make_error("sphere detection: " + coarse.error().message);
+    }
+    const std::vector<cv::Point2d> pts = subpixel_boundary(f, pixel_pts, *coarse, o, bg.level);
+    auto circle = fit_circle_algebraic(pts);
+    if (!circle) {
+        return make_error("sphere detection: " + circle.error().message);
+    }
+    *kept = trim_terminator(pts, options, &*circle);
+    return circle;
+}
+
+/// The sphere's first estimate from its image circle. Orthographic: depth along the axis is
+/// unobservable, the centre goes in the plane through the origin. Perspective: angular radius
+/// from the circle, distance from the known physical radius.
+Expected<void> initial_sphere(const CameraModel& camera,
+                              const ImageCircle& circle,
+                              const SilhouetteOptions& options,
+                              SphereGeometry* g) {
+    const Ray centre_ray = camera.pixel_ray(circle.cx, circle.cy);
     if (camera.projection == Projection::kOrthographic) {
-        // Depth along the axis is unobservable: put the centre in the plane through the origin.
         const double s = -centre_ray.origin.dot(centre_ray.direction);
-        g.centre = centre_ray.origin + s * centre_ray.direction;
-        g.radius_m =
-            options.orthographic_known_radius ? options.radius_m : circle->r / camera.intrinsics.fx;
-    } else {
-        // Angular radius from the circle, distance from the known physical radius.
-        const Ray edge = camera.pixel_ray(circle->cx + circle->r, circle->cy);
-        const double alpha =
-            std::acos(std::clamp(edge.direction.dot(centre_ray.direction), -1.0, 1.0));
-        if (!(alpha > 0)) {
-            return make_error("sphere detection: zero apparent radius");
-        }
-        g.radius_m = options.radius_m;
-        g.centre = centre_ray.origin + centre_ray.direction * (options.radius_m / std::sin(alpha));
+        g->centre = centre_ray.origin + s * centre_ray.direction;
+        g->radius_m =
+            options.orthographic_known_radius ? options.radius_m : circle.r / camera.intrinsics.fx;
+        return {};
     }
+    const Ray edge = camera.pixel_ray(circle.cx + circle.r, circle.cy);
+    const double alpha = std::acos(std::clamp(edge.direction.dot(centre_ray.direction), -1.0, 1.0));
+    if (!(alpha > 0)) {
+        return make_error("sphere detection: zero apparent radius");
+    }
+    g->radius_m = options.radius_m;
+    g->centre = centre_ray.origin + centre_ray.direction * (options.radius_m / std::sin(alpha));
+    return {};
+}
 
-    // Geometric refinement: contour rays tangent to the sphere. Perspective: unknown centre (3),
-    // radius known. Orthographic: centre moves in the plane perpendicular to the axis (2) and the
-    // radius (1) is unknown.
+/// Geometric refinement: contour rays tangent to the sphere. Perspective: unknown centre (3),
+/// radius known. Orthographic: centre moves in the plane perpendicular to the axis (2) and the
+/// radius (1) is unknown unless given. Returns the rms distance of the rays from the sphere, m.
+Expected<double> refine_sphere(const CameraModel& camera,
+                               const std::vector<Ray>& rays,
+                               const SilhouetteOptions& options,
+                               SphereGeometry* g) {
     const bool ortho = camera.projection == Projection::kOrthographic;
     const bool fit_radius = ortho && !options.orthographic_known_radius;
     const brdf::Vec3d axis = camera.axis_world();
@@ -307,7 +359,7 @@ Expected<SphereGeometry> detect_sphere(const cv::Mat& frame,
         Eigen::VectorXd res(rays.size());
         for (std::size_t k = 0; k < rays.size(); ++k) {
             brdf::Vec3d grad;
-            res[k] = ray_distance(g.centre, rays[k], &grad) - g.radius_m;
+            res[k] = ray_distance(g->centre, rays[k], &grad) - g->radius_m;
             if (ortho) {
                 jac(k, 0) = grad.dot(e1);
                 jac(k, 1) = grad.dot(e2);
@@ -322,26 +374,60 @@ Expected<SphereGeometry> detect_sphere(const cv::Mat& frame,
             return make_error("sphere detection: the least-squares refinement diverged");
         }
         if (ortho) {
-            g.centre += step[0] * e1 + step[1] * e2;
+            g->centre += step[0] * e1 + step[1] * e2;
             if (fit_radius) {
-                g.radius_m += step[2];
+                g->radius_m += step[2];
             }
         } else {
-            g.centre += step;
+            g->centre += step;
         }
         rms = std::sqrt(res.squaredNorm() / res.size());
-        if (step.norm() < 1e-12 * std::max(1.0, g.radius_m)) {
+        if (step.norm() < 1e-12 * std::max(1.0, g->radius_m)) {
             break;
         }
     }
-    if (!(g.radius_m > 0) || !g.centre.allFinite()) {
+    if (!(g->radius_m > 0) || !g->centre.allFinite()) {
         return make_error("sphere detection: the refinement gave no valid sphere");
     }
+    return rms;
+}
+
+}  // namespace
+
+Expected<SphereGeometry> detect_sphere(const cv::Mat& frame,
+                                       const CameraModel& camera,
+                                       const SilhouetteOptions& options) {
+    if (frame.empty() || frame.channels() != 1) {
+        return make_error("sphere detection: the frame must be a non-empty single-channel image");
+    }
+    cv::Mat f;
+    frame.convertTo(f, CV_32F);
+    const Background bg = border_background(f);
+    const double hi = high_percentile(f);
+    if (!(hi > bg.level + 5 * bg.noise_sigma) || !(hi > bg.level)) {
+        return make_error("sphere detection: the frame is uniform (nothing lit above the noise)");
+    }
+    std::vector<cv::Point2d> kept;
+    auto circle = silhouette_circle(f, bg, sphere_outline(f, bg, hi, options), options, &kept);
+    if (!circle) {
+        return tl::unexpected(circle.error());
+    }
+    SphereGeometry g;
+    g.silhouette = *circle;
+    std::vector<Ray> rays = camera.pixel_rays(kept);
+    if (auto s = initial_sphere(camera, *circle, options, &g); !s) {
+        return tl::unexpected(s.error());
+    }
+    auto rms = refine_sphere(camera, rays, options, &g);
+    if (!rms) {
+        return tl::unexpected(rms.error());
+    }
     // Residuals in pixels: metres at the sphere's distance times pixels per metre.
+    const bool ortho = camera.projection == Projection::kOrthographic;
     const double px_per_m =
         ortho ? camera.intrinsics.fx
               : camera.intrinsics.fx / std::max((g.centre - camera.centre_world()).norm(), 1e-12);
-    g.rms_residual_px = rms * px_per_m;
+    g.rms_residual_px = *rms * px_per_m;
     g.contour_points = static_cast<int>(rays.size());
     // Silhouette circle consistent with the refined sphere (used for the edge margin).
     const Eigen::Vector2d c_px = camera.project(g.centre);

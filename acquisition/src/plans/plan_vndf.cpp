@@ -168,15 +168,11 @@ Expected<Plan> plan_vndf_retro(const VndfSpec& spec, const RigLimits& limits) {
     return plan;
 }
 
-Expected<VndfNdf> vndf_ndf_from_retro(const std::vector<RetroMeasurement>& retro,
-                                      const VndfSpec& spec) {
-    if (auto ok = check_vndf_spec(spec); !ok) {
-        return tl::unexpected(ok.error());
-    }
-    if (retro.empty()) {
-        return make_error("NDF from retro-reflection: no measurement");
-    }
-    // (u, f(w, w) cos(theta)) of each measurement.
+namespace {
+
+/// (u, f(w, w) cos(theta)) of each measurement, checked.
+Expected<std::vector<std::pair<double, double>>> retro_points(
+    const std::vector<RetroMeasurement>& retro) {
     std::vector<std::pair<double, double>> pts;
     for (std::size_t k = 0; k < retro.size(); ++k) {
         const RetroMeasurement& r = retro[k];
@@ -198,9 +194,120 @@ Expected<VndfNdf> vndf_ndf_from_retro(const std::vector<RetroMeasurement>& retro
         // f(w, w) cos(theta) from the pair whose half vector is w (plan_vndf.h).
         pts.emplace_back(brdf::rgl_theta_to_u(theta), r.value * wi.z() * wo.z() / w.z());
     }
+    return pts;
+}
+
+/// The logarithm of one retro_row per measured azimuth (the nearest planned one; the pole belongs
+/// to all), by azimuth index (empty rows unmeasured); `measured` lists the indices with a row.
+std::vector<std::vector<double>> log_rows_by_azimuth(
+    const std::vector<RetroMeasurement>& retro,
+    const std::vector<std::pair<double, double>>& pts,
+    const VndfSpec& spec,
+    double tiny,
+    std::vector<int>* measured) {
+    const std::size_t n = static_cast<std::size_t>(spec.ndf_resolution);
+    const int K = spec.retro_phi_count;
+    std::vector<std::vector<std::pair<double, double>>> by_azimuth(static_cast<std::size_t>(K));
+    std::vector<std::pair<double, double>> pole;
+    // The pole node, as measured (the axes' read-back positions), within half the first
+    // elevation step of the normal.
+    const double pole_theta = 0.5 * brdf::rgl_u_to_theta(1.0 / (spec.retro_count - 1));
+    for (std::size_t k = 0; k < pts.size(); ++k) {
+        const Vec3d w = (retro[k].wi.normalized() + retro[k].wo.normalized()).normalized();
+        if (polar(w) < pole_theta) {
+            pole.push_back(pts[k]);
+            continue;
+        }
+        const double phi = std::atan2(w.y(), w.x());
+        const long idx = std::lround((phi + kPi) / (2.0 * kPi) * K);
+        by_azimuth[static_cast<std::size_t>(((idx % K) + K) % K)].push_back(pts[k]);
+    }
+    std::vector<std::vector<double>> logs(static_cast<std::size_t>(K));
+    for (int k = 0; k < K; ++k) {
+        auto& row = by_azimuth[static_cast<std::size_t>(k)];
+        if (row.empty()) {
+            continue;
+        }
+        row.insert(row.end(), pole.begin(), pole.end());
+        for (double v : retro_row(row, n)) {
+            logs[static_cast<std::size_t>(k)].push_back(std::log(std::max(v, tiny)));
+        }
+        measured->push_back(k);
+    }
+    return logs;
+}
+
+/// The n x n grid over (azimuth, u) from the measured azimuths' log rows: the periodic
+/// Catmull-Rom cubic through the four rows around each grid row's azimuth when every azimuth was
+/// measured (the log of a microfacet NDF is smooth in the azimuth; linear interpolation cuts the
+/// narrow axis of an anisotropic lobe by tens of percent), else linear between the measured
+/// azimuths around it, periodically.
+std::vector<double> azimuth_grid(const std::vector<std::vector<double>>& logs,
+                                 const std::vector<int>& measured,
+                                 std::size_t n) {
+    const int K = static_cast<int>(logs.size());
+    const bool every_azimuth = static_cast<int>(measured.size()) == K;
+    auto row_of = [&](int k) -> const std::vector<double>& {
+        return logs[static_cast<std::size_t>(((k % K) + K) % K)];
+    };
+    std::vector<double> grid(n * n, 0.0);
+    for (std::size_t r = 0; r < n; ++r) {
+        // The grid row's azimuth in units of the retro azimuth step, in [0, K].
+        const double phi = brdf::rgl_u_to_phi(static_cast<double>(r) / static_cast<double>(n - 1));
+        const double x = (phi + kPi) / (2.0 * kPi) * K;
+        double* out_row = grid.data() + r * n;
+        if (every_azimuth) {
+            const int i = std::min(static_cast<int>(std::floor(x)), K - 1);
+            const double t = x - i;
+            const auto &p0 = row_of(i - 1), &p1 = row_of(i), &p2 = row_of(i + 1),
+                       &p3 = row_of(i + 2);
+            const double t2 = t * t, t3 = t2 * t;
+            for (std::size_t j = 0; j + 1 < n; ++j) {
+                const double v = 0.5 * (2 * p1[j] + (p2[j] - p0[j]) * t +
+                                        (2 * p0[j] - 5 * p1[j] + 4 * p2[j] - p3[j]) * t2 +
+                                        (3 * p1[j] - p0[j] - 3 * p2[j] + p3[j]) * t3);
+                out_row[j] = std::exp(v);
+            }
+            continue;
+        }
+        int lo = measured.back() - K, hi = measured.front() + K;
+        for (int m : measured) {
+            if (m <= x) {
+                lo = m;
+            }
+        }
+        for (auto it = measured.rbegin(); it != measured.rend(); ++it) {
+            if (*it >= x) {
+                hi = *it;
+            }
+        }
+        const auto& a = row_of(lo);
+        const auto& b = row_of(hi);
+        const double t = hi > lo ? (x - lo) / static_cast<double>(hi - lo) : 0.0;
+        for (std::size_t j = 0; j + 1 < n; ++j) {
+            out_row[j] = std::exp(a[j] + t * (b[j] - a[j]));
+        }
+    }
+    return grid;
+}
+
+}  // namespace
+
+Expected<VndfNdf> vndf_ndf_from_retro(const std::vector<RetroMeasurement>& retro,
+                                      const VndfSpec& spec) {
+    if (auto ok = check_vndf_spec(spec); !ok) {
+        return tl::unexpected(ok.error());
+    }
+    if (retro.empty()) {
+        return make_error("NDF from retro-reflection: no measurement");
+    }
+    auto pts = retro_points(retro);
+    if (!pts) {
+        return tl::unexpected(pts.error());
+    }
     double max_value = 0;
     double u_max = 0;
-    for (const auto& p : pts) {
+    for (const auto& p : *pts) {
         max_value = std::max(max_value, p.second);
         u_max = std::max(u_max, p.first);
     }
@@ -214,110 +321,27 @@ Expected<VndfNdf> vndf_ndf_from_retro(const std::vector<RetroMeasurement>& retro
     o.ndf_resolution = n;
     std::vector<double> grid;
     if (spec.phi_i_count < 2) {
-        grid = retro_row(pts, n);
+        grid = retro_row(*pts, n);
     } else {
-        // One row per measured azimuth (the nearest planned one; the pole belongs to all), each
-        // along u as above, then the logarithm linear in the azimuth between them, periodically.
         o.phi_i_count = static_cast<std::size_t>(spec.phi_i_count);
-        const int K = spec.retro_phi_count;
-        std::vector<std::vector<std::pair<double, double>>> by_azimuth(static_cast<std::size_t>(K));
-        std::vector<std::pair<double, double>> pole;
-        // The pole node, as measured (the axes' read-back positions), within half the first
-        // elevation step of the normal.
-        const double pole_theta = 0.5 * brdf::rgl_u_to_theta(1.0 / (spec.retro_count - 1));
-        for (std::size_t k = 0; k < pts.size(); ++k) {
-            const Vec3d w = (retro[k].wi.normalized() + retro[k].wo.normalized()).normalized();
-            if (polar(w) < pole_theta) {
-                pole.push_back(pts[k]);
-                continue;
-            }
-            const double phi = std::atan2(w.y(), w.x());
-            const long idx = std::lround((phi + kPi) / (2.0 * kPi) * K);
-            by_azimuth[static_cast<std::size_t>(((idx % K) + K) % K)].push_back(pts[k]);
-        }
-        std::vector<int> measured;  // azimuth indices with a row
-        std::vector<std::vector<double>> rows(static_cast<std::size_t>(K));
-        for (int k = 0; k < K; ++k) {
-            auto& row = by_azimuth[static_cast<std::size_t>(k)];
-            if (row.empty()) {
-                continue;
-            }
-            row.insert(row.end(), pole.begin(), pole.end());
-            rows[static_cast<std::size_t>(k)] = retro_row(row, n);
-            measured.push_back(k);
-        }
+        std::vector<int> measured;
+        const std::vector<std::vector<double>> logs =
+            log_rows_by_azimuth(retro, *pts, spec, max_value * 1e-12, &measured);
         if (measured.empty()) {
             return make_error(
                 "NDF from retro-reflection: an anisotropic plan needs measurements away from the "
                 "normal; only the pole was measured");
         }
-        const double tiny = max_value * 1e-12;
-        // The logarithm of each measured row, by azimuth index.
-        std::vector<std::vector<double>> logs(static_cast<std::size_t>(K));
-        for (int k : measured) {
-            auto& l = logs[static_cast<std::size_t>(k)];
-            for (double v : rows[static_cast<std::size_t>(k)]) {
-                l.push_back(std::log(std::max(v, tiny)));
-            }
-        }
-        const bool every_azimuth = static_cast<int>(measured.size()) == K;
-        auto row_of = [&](int k) -> const std::vector<double>& {
-            return logs[static_cast<std::size_t>(((k % K) + K) % K)];
-        };
-        grid.assign(n * n, 0.0);
-        for (std::size_t r = 0; r < n; ++r) {
-            // The grid row's azimuth in units of the retro azimuth step, in [0, K].
-            const double phi =
-                brdf::rgl_u_to_phi(static_cast<double>(r) / static_cast<double>(n - 1));
-            const double x = (phi + kPi) / (2.0 * kPi) * K;
-            double* out_row = grid.data() + r * n;
-            if (every_azimuth) {
-                // Every azimuth measured: the periodic Catmull-Rom cubic through the four
-                // around x (the log of a microfacet NDF is smooth in the azimuth; linear
-                // interpolation cuts the narrow axis of an anisotropic lobe by tens of percent).
-                const int i = std::min(static_cast<int>(std::floor(x)), K - 1);
-                const double t = x - i;
-                const auto &p0 = row_of(i - 1), &p1 = row_of(i), &p2 = row_of(i + 1),
-                           &p3 = row_of(i + 2);
-                const double t2 = t * t, t3 = t2 * t;
-                for (std::size_t j = 0; j + 1 < n; ++j) {
-                    const double v = 0.5 * (2 * p1[j] + (p2[j] - p0[j]) * t +
-                                            (2 * p0[j] - 5 * p1[j] + 4 * p2[j] - p3[j]) * t2 +
-                                            (3 * p1[j] - p0[j] - 3 * p2[j] + p3[j]) * t3);
-                    out_row[j] = std::exp(v);
-                }
-                continue;
-            }
-            // Some azimuths unreachable: linear between the measured azimuths around x,
-            // periodically.
-            int lo = measured.back() - K, hi = measured.front() + K;
-            for (int m : measured) {
-                if (m <= x) {
-                    lo = m;
-                }
-            }
-            for (auto it = measured.rbegin(); it != measured.rend(); ++it) {
-                if (*it >= x) {
-                    hi = *it;
-                }
-            }
-            const auto& a = row_of(lo);
-            const auto& b = row_of(hi);
-            const double t = hi > lo ? (x - lo) / static_cast<double>(hi - lo) : 0.0;
-            for (std::size_t j = 0; j + 1 < n; ++j) {
-                out_row[j] = std::exp(a[j] + t * (b[j] - a[j]));
-            }
-        }
+        grid = azimuth_grid(logs, measured, n);
     }
     Expected<brdf::RglNdf> ndf = brdf::rgl_ndf_from_retro(grid, o);
     if (!ndf) {
         return tl::unexpected(ndf.error());
     }
-    const double theta_last = brdf::rgl_u_to_theta(u_max);
     VndfNdf out;
     out.ndf = std::move(*ndf);
     out.measured = retro.size();
-    out.theta_last = theta_last;
+    out.theta_last = brdf::rgl_u_to_theta(u_max);
     return out;
 }
 

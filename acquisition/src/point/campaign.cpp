@@ -570,6 +570,46 @@ class Runner {
     /// Fits the values so far against the stop rule; true when it holds.
     Expected<bool> check_stop_rule(const Plan& plan);
 
+    // The stages of run(), in order.
+    /// The campaign's description, rig and plan from its folder; the journal opened and the run
+    /// listed in metadata.json.
+    Expected<Plan> load_campaign();
+    /// The state the journal holds: measurements done, the white reference, the drift baseline.
+    /// Returns whether the white reference was measured.
+    bool replay_journal();
+    void say_plan(const Plan& plan) const;
+    /// Homing, the pose read back, the camera prepared, the white reference and the drift
+    /// baseline when needed; an error is the reason to pause.
+    Expected<void> prepare_devices(bool have_white, std::string* pause);
+    /// The configurations of a pass: 0 the plan, then the vndf plan's second pass or an adaptive
+    /// refinement (everything derived from the journal, so a resume rebuilds the same passes).
+    Expected<Plan> pass_plan(int pass, const Plan& plan);
+    Plan adaptive_pass(int pass) const;
+    /// The pass's configurations not yet measured, solved in plan order for continuity.
+    void pending_poses(int pass,
+                       const Plan& pp,
+                       std::vector<const PlannedConfig*>* pending,
+                       std::vector<RigPosed>* poses) const;
+    /// Measures a pass in scheduled order; a value when the run ends within it (stopped,
+    /// paused, or a journal that cannot be written).
+    std::optional<Expected<RunResult>> measure_pass(int pass,
+                                                    const Plan& pp,
+                                                    const Plan& plan,
+                                                    std::string* pause);
+    /// After each measurement: the stop rule checked every check_every_ measurements; a value
+    /// when it holds or its check fails.
+    std::optional<Expected<RunResult>> after_measurement(const Plan& plan, Progress* progress);
+    /// Before the passes (a resume) or after them: the stop rule on what the journal holds.
+    std::optional<Expected<RunResult>> rule_on_journal(const Plan& plan);
+    /// One configuration measured and journaled.
+    Expected<JournalRecord> measure_config(int pass,
+                                           const PlannedConfig& c,
+                                           const RigPosed& pose,
+                                           std::string* pause,
+                                           bool* journal_failed);
+    void publish_measurement(const JournalRecord& r) const;
+    std::string completion_summary() const;
+
     std::string dir_;
     RigDevices& dev_;
     RunHooks hooks_;
@@ -596,6 +636,9 @@ class Runner {
     std::size_t check_every_ = 0;
     /// The stop rule's last check, for metadata.json (null before the first).
     json until_ = nullptr;
+    /// (pass, index) of every measurement in the journal.
+    std::set<std::pair<int, std::uint32_t>> done_;
+    std::size_t planned_total_ = 0;
 };
 
 Expected<RigPosed> Runner::read_pose() {
@@ -1224,8 +1267,7 @@ Expected<bool> Runner::check_stop_rule(const Plan& plan) {
     return held;
 }
 
-Expected<RunResult> Runner::run() {
-    started_ = now_s();
+Expected<Plan> Runner::load_campaign() {
     auto spec = read_campaign_spec(path("campaign.json"));
     if (!spec) {
         return tl::unexpected(spec.error());
@@ -1270,13 +1312,15 @@ Expected<RunResult> Runner::run() {
         say("journal: the last record was cut short by the previous stop; its measurement will "
             "be repeated");
     }
-    // State from the journal.
-    std::set<std::pair<int, std::uint32_t>> done;
+    return plan0;
+}
+
+bool Runner::replay_journal() {
     bool have_white = false;
     for (const JournalRecord& r : journal_->records()) {
         switch (r.type) {
             case RecordType::kMeasurement:
-                done.insert({r.pass, r.index});
+                done_.insert({r.pass, r.index});
                 ++since_reference_;
                 break;
             case RecordType::kWhite:
@@ -1296,8 +1340,11 @@ Expected<RunResult> Runner::run() {
                 break;
         }
     }
-    result_.measured_total = done.size();
-    const Plan& plan = *plan0;
+    result_.measured_total = done_.size();
+    return have_white;
+}
+
+void Runner::say_plan(const Plan& plan) const {
     say("plan: " + plan.kind + ", " + std::to_string(plan.configs.size()) +
         " configurations (naive 4D grid of the same resolution: " +
         std::to_string(plan.naive_count) + ", reduction x" +
@@ -1308,205 +1355,217 @@ Expected<RunResult> Runner::run() {
                                   : ", " + std::to_string(plan.unreachable.size()) +
                                         " unreachable (first: " + plan.unreachable.front().reason +
                                         "; all listed in metadata.json)"));
-    if (!done.empty()) {
-        say("resuming: " + std::to_string(done.size()) + " measurements already in the journal");
+    if (!done_.empty()) {
+        say("resuming: " + std::to_string(done_.size()) + " measurements already in the journal");
     }
-    // Devices.
+}
+
+Expected<void> Runner::prepare_devices(bool have_white, std::string* pause) {
     if (hooks_.home) {
         if (auto h = home_if_needed(); !h) {
-            return finish(Outcome::kPaused, h.error().message, plan);
+            return h;
         }
     }
     auto pose = read_pose();
     if (!pose) {
-        return finish(Outcome::kPaused, pose.error().message, plan);
+        return tl::unexpected(pose.error());
     }
     current_ = *pose;
     session_.emplace(dev_.camera.get(), dev_.shutter.get(), rig_.capture, rig_.noise);
     session_->set_frame_observer(hooks_.on_frame);
     if (auto p = session_->prepare(); !p) {
-        return finish(Outcome::kPaused, "camera: " + p.error().message, plan);
+        return make_error("camera: " + p.error().message);
     }
-    std::string pause;
     if (!have_white) {
-        if (auto w = white_calibration(&pause); !w) {
-            return finish(Outcome::kPaused, w.error().message, plan);
+        if (auto w = white_calibration(pause); !w) {
+            return w;
         }
     }
     if (spec_.drift_every > 0) {
         const bool rebase = !baseline_ || hooks_.accept_drift;
-        if (auto d = drift_check(rebase, &pause); !d) {
-            return finish(Outcome::kPaused, d.error().message, plan);
+        if (auto d = drift_check(rebase, pause); !d) {
+            return d;
         }
     }
-    check_every_ = rule_.every > 0 ? static_cast<std::size_t>(rule_.every)
-                                   : std::max<std::size_t>(8, plan.configs.size() / 10);
-    if (rule_.active() && !done.empty()) {
-        // A resume checks the rule on what the journal holds before measuring anything more.
-        auto held = check_stop_rule(plan);
-        if (!held) {
-            return finish(Outcome::kPaused, held.error().message, plan);
-        }
-        if (*held) {
-            return finish(Outcome::kCompleted, "target reached: " + result_.until, plan);
+    return {};
+}
+
+Plan Runner::adaptive_pass(int pass) const {
+    std::vector<std::pair<std::pair<int, std::uint32_t>, MeasuredPoint>> pts;
+    for (const JournalRecord& r : journal_->records()) {
+        if (r.type == RecordType::kMeasurement && r.pass < pass) {
+            pts.push_back({{r.pass, r.index},
+                           MeasuredPoint{brdf::to_canonical(r.wi, r.wo), luminance(r.value)}});
         }
     }
-    // Passes: 0 is the plan; each adaptive pass refines where the values measured so far change
-    // fastest. Everything is derived from the journal, so a resume rebuilds the same passes.
-    std::size_t planned_total = plan.configs.size();
-    const bool vndf = spec_.plan_kind == "vndf";
-    const int last_pass = vndf ? 1 : (spec_.adaptive ? spec_.adaptive_passes : 0);
-    for (int pass = 0; pass <= last_pass; ++pass) {
-        Plan pp;
-        if (pass == 0) {
-            pp = plan;
-        } else if (vndf) {
-            VndfNdf ndf;
-            auto layout = vndf_pass_from_records(journal_->records(), spec_, rig_, &ndf);
-            if (!layout) {
-                return finish(Outcome::kPaused, layout.error().message, plan);
-            }
-            vndf_ndf_ = ndf;
-            vndf_pass_ = *layout;
-            pp = std::move(layout->plan);
-            planned_total += pp.configs.size();
-            say("vndf pass 1: NDF from " + std::to_string(ndf.measured) +
-                " retro-reflection measurements (" + std::to_string(ndf.ndf.iterations) +
-                " power iterations); " + std::to_string(pp.configs.size()) +
-                " configurations in the VNDF-warped domain, " +
-                std::to_string(pp.unreachable.size()) + " unreachable, " +
-                std::to_string(layout->below_horizon) + " below the horizon");
-        } else {
-            std::vector<std::pair<std::pair<int, std::uint32_t>, MeasuredPoint>> pts;
-            for (const JournalRecord& r : journal_->records()) {
-                if (r.type == RecordType::kMeasurement && r.pass < pass) {
-                    pts.push_back(
-                        {{r.pass, r.index},
-                         MeasuredPoint{brdf::to_canonical(r.wi, r.wo), luminance(r.value)}});
-                }
-            }
-            std::sort(pts.begin(), pts.end(), [](const auto& a, const auto& b) {
-                return a.first < b.first;
-            });
-            std::vector<MeasuredPoint> mp;
-            for (const auto& p : pts) {
-                mp.push_back(p.second);
-            }
-            pp = plan_refine(mp, spec_.refine);
-            if (!spec_.scene.empty()) {
-                auto scene = read_scene(spec_.scene);
-                if (scene) {
-                    apply_roi(*scene, &pp);
-                }
-            }
-            remove_unreachable(lim_, &pp);
-            planned_total += pp.configs.size();
-            say("adaptive pass " + std::to_string(pass) + ": " + std::to_string(pp.configs.size()) +
-                " configurations where the values change fastest");
+    std::sort(
+        pts.begin(), pts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::vector<MeasuredPoint> mp;
+    for (const auto& p : pts) {
+        mp.push_back(p.second);
+    }
+    Plan pp = plan_refine(mp, spec_.refine);
+    if (!spec_.scene.empty()) {
+        auto scene = read_scene(spec_.scene);
+        if (scene) {
+            apply_roi(*scene, &pp);
         }
-        result_.planned_total = planned_total;
-        // Remaining configurations, solved in plan order for continuity, then scheduled.
-        std::vector<const PlannedConfig*> pending;
-        std::vector<RigPosed> poses;
-        RigPosed prev = current_;
-        for (const PlannedConfig& c : pp.configs) {
-            if (done.count({pass, c.index})) {
-                continue;
-            }
-            auto sol = solve(Target{c.wi, c.wo, c.isotropic, true}, lim_, dyn_, prev);
-            if (!sol) {
-                // remove_unreachable() already kept only reachable ones.
-                continue;
-            }
-            pending.push_back(&c);
-            poses.push_back(sol->pose);
-            prev = sol->pose;
-        }
-        if (pending.empty()) {
+    }
+    remove_unreachable(lim_, &pp);
+    return pp;
+}
+
+Expected<Plan> Runner::pass_plan(int pass, const Plan& plan) {
+    if (pass == 0) {
+        return plan;
+    }
+    if (spec_.plan_kind != "vndf") {
+        Plan pp = adaptive_pass(pass);
+        planned_total_ += pp.configs.size();
+        say("adaptive pass " + std::to_string(pass) + ": " + std::to_string(pp.configs.size()) +
+            " configurations where the values change fastest");
+        return pp;
+    }
+    VndfNdf ndf;
+    auto layout = vndf_pass_from_records(journal_->records(), spec_, rig_, &ndf);
+    if (!layout) {
+        return tl::unexpected(layout.error());
+    }
+    vndf_ndf_ = ndf;
+    vndf_pass_ = *layout;
+    Plan pp = std::move(layout->plan);
+    planned_total_ += pp.configs.size();
+    say("vndf pass 1: NDF from " + std::to_string(ndf.measured) +
+        " retro-reflection measurements (" + std::to_string(ndf.ndf.iterations) +
+        " power iterations); " + std::to_string(pp.configs.size()) +
+        " configurations in the VNDF-warped domain, " + std::to_string(pp.unreachable.size()) +
+        " unreachable, " + std::to_string(layout->below_horizon) + " below the horizon");
+    return pp;
+}
+
+void Runner::pending_poses(int pass,
+                           const Plan& pp,
+                           std::vector<const PlannedConfig*>* pending,
+                           std::vector<RigPosed>* poses) const {
+    RigPosed prev = current_;
+    for (const PlannedConfig& c : pp.configs) {
+        if (done_.count({pass, c.index})) {
             continue;
         }
-        ScheduleOptions so;
-        so.budget_s = spec_.schedule_budget_s;
-        const Schedule sch = schedule(poses, current_, dyn_, so);
-        say("pass " + std::to_string(pass) + ": " + std::to_string(pending.size()) +
-            " to measure; motion time planned " + format_duration(sch.planned_s) +
-            ", raster order " + format_duration(sch.raster_s) + ", lower bound " +
-            format_duration(sch.lower_bound_s));
-        const std::size_t done_before = done.size();
-        Progress progress(hooks_.out, done_before + pending.size(), done_before, sch.planned_s);
-        for (std::size_t q = 0; q < sch.order.size(); ++q) {
-            if (stop_requested()) {
-                progress.finish("stopped on request");
-                return finish(Outcome::kInterrupted,
-                              "stopped on request after " + std::to_string(result_.measured_now) +
-                                  " measurements; resume with --resume " + dir_,
-                              plan);
-            }
-            if (spec_.drift_every > 0 &&
-                since_reference_ >= static_cast<std::size_t>(spec_.drift_every)) {
-                if (auto d = drift_check(false, &pause); !d) {
-                    progress.finish("paused");
-                    return finish(Outcome::kPaused, d.error().message, plan);
-                }
-            }
-            const std::size_t k = sch.order[q];
-            const PlannedConfig& c = *pending[k];
-            auto s =
-                attempt(poses[k],
-                        "configuration " + std::to_string(pass) + ":" + std::to_string(c.index),
-                        &pause);
-            if (!s) {
+        auto sol = solve(Target{c.wi, c.wo, c.isotropic, true}, lim_, dyn_, prev);
+        if (!sol) {
+            // remove_unreachable() already kept only reachable ones.
+            continue;
+        }
+        pending->push_back(&c);
+        poses->push_back(sol->pose);
+        prev = sol->pose;
+    }
+}
+
+Expected<JournalRecord> Runner::measure_config(int pass,
+                                               const PlannedConfig& c,
+                                               const RigPosed& pose,
+                                               std::string* pause,
+                                               bool* journal_failed) {
+    auto s = attempt(
+        pose, "configuration " + std::to_string(pass) + ":" + std::to_string(c.index), pause);
+    if (!s) {
+        return tl::unexpected(s.error());
+    }
+    auto v = rate_to_brdf(white_, s->rate.rate, s->rate.sigma, s->wi.z());
+    if (!v) {
+        return tl::unexpected(v.error());
+    }
+    JournalRecord r = record_of(RecordType::kMeasurement, *s, *v);
+    r.pass = pass;
+    r.index = c.index;
+    r.flags |= c.flags;
+    r.weight = c.weight;
+    if (auto a = journal_->append(r); !a) {
+        *journal_failed = true;
+        return tl::unexpected(a.error());
+    }
+    done_.insert({pass, c.index});
+    ++since_reference_;
+    ++result_.measured_now;
+    result_.measured_total = done_.size();
+    return r;
+}
+
+void Runner::publish_measurement(const JournalRecord& r) const {
+    if (!hooks_.on_measurement) {
+        return;
+    }
+    brdf::Sample smp;
+    const auto si = brdf::cartesian_to_spherical(r.wi);
+    const auto so = brdf::cartesian_to_spherical(r.wo);
+    smp.theta_i = si.theta;
+    smp.phi_i = si.phi;
+    smp.theta_o = so.theta;
+    smp.phi_o = so.phi;
+    smp.value = r.value;
+    smp.sigma = r.sigma;
+    smp.weight = r.weight;
+    smp.flags = r.flags;
+    hooks_.on_measurement(smp, done_.size(), planned_total_);
+}
+
+std::optional<Expected<RunResult>> Runner::measure_pass(int pass,
+                                                        const Plan& pp,
+                                                        const Plan& plan,
+                                                        std::string* pause) {
+    std::vector<const PlannedConfig*> pending;
+    std::vector<RigPosed> poses;
+    pending_poses(pass, pp, &pending, &poses);
+    if (pending.empty()) {
+        return std::nullopt;
+    }
+    ScheduleOptions so;
+    so.budget_s = spec_.schedule_budget_s;
+    const Schedule sch = schedule(poses, current_, dyn_, so);
+    say("pass " + std::to_string(pass) + ": " + std::to_string(pending.size()) +
+        " to measure; motion time planned " + format_duration(sch.planned_s) + ", raster order " +
+        format_duration(sch.raster_s) + ", lower bound " + format_duration(sch.lower_bound_s));
+    const std::size_t done_before = done_.size();
+    Progress progress(hooks_.out, done_before + pending.size(), done_before, sch.planned_s);
+    for (std::size_t q = 0; q < sch.order.size(); ++q) {
+        if (stop_requested()) {
+            progress.finish("stopped on request");
+            return finish(Outcome::kInterrupted,
+                          "stopped on request after " + std::to_string(result_.measured_now) +
+                              " measurements; resume with --resume " + dir_,
+                          plan);
+        }
+        if (spec_.drift_every > 0 &&
+            since_reference_ >= static_cast<std::size_t>(spec_.drift_every)) {
+            if (auto d = drift_check(false, pause); !d) {
                 progress.finish("paused");
-                return finish(Outcome::kPaused, s.error().message, plan);
-            }
-            auto v = rate_to_brdf(white_, s->rate.rate, s->rate.sigma, s->wi.z());
-            if (!v) {
-                progress.finish("paused");
-                return finish(Outcome::kPaused, v.error().message, plan);
-            }
-            JournalRecord r = record_of(RecordType::kMeasurement, *s, *v);
-            r.pass = pass;
-            r.index = c.index;
-            r.flags |= c.flags;
-            r.weight = c.weight;
-            if (auto a = journal_->append(r); !a) {
-                return tl::unexpected(a.error());
-            }
-            done.insert({pass, c.index});
-            ++since_reference_;
-            ++result_.measured_now;
-            result_.measured_total = done.size();
-            progress.step();
-            if (hooks_.on_measurement) {
-                brdf::Sample smp;
-                const auto si = brdf::cartesian_to_spherical(r.wi);
-                const auto so = brdf::cartesian_to_spherical(r.wo);
-                smp.theta_i = si.theta;
-                smp.phi_i = si.phi;
-                smp.theta_o = so.theta;
-                smp.phi_o = so.phi;
-                smp.value = r.value;
-                smp.sigma = r.sigma;
-                smp.weight = r.weight;
-                smp.flags = r.flags;
-                hooks_.on_measurement(smp, done.size(), planned_total);
-            }
-            if (rule_.active() && ++since_check_ >= check_every_) {
-                auto held = check_stop_rule(plan);
-                if (!held) {
-                    progress.finish("paused");
-                    return finish(Outcome::kPaused, held.error().message, plan);
-                }
-                if (*held) {
-                    progress.finish("target reached");
-                    return finish(Outcome::kCompleted, "target reached: " + result_.until, plan);
-                }
+                return finish(Outcome::kPaused, d.error().message, plan);
             }
         }
-        progress.finish("pass " + std::to_string(pass) + " complete");
+        const std::size_t k = sch.order[q];
+        bool journal_failed = false;
+        auto r = measure_config(pass, *pending[k], poses[k], pause, &journal_failed);
+        if (!r) {
+            if (journal_failed) {
+                return Expected<RunResult>(tl::unexpected(r.error()));
+            }
+            progress.finish("paused");
+            return finish(Outcome::kPaused, r.error().message, plan);
+        }
+        progress.step();
+        publish_measurement(*r);
+        if (auto end = after_measurement(plan, &progress)) {
+            return end;
+        }
     }
-    result_.measured_total = done.size();
-    std::string summary = "completed: " + std::to_string(done.size()) + " configurations measured";
+    progress.finish("pass " + std::to_string(pass) + " complete");
+    return std::nullopt;
+}
+
+std::string Runner::completion_summary() const {
+    std::string summary = "completed: " + std::to_string(done_.size()) + " configurations measured";
     if (result_.pose_repeats + result_.pose_corrections > 0) {
         summary += "; pose checks: " + std::to_string(result_.pose_repeats) +
                    " exposures repeated after an axis moved, " +
@@ -1515,6 +1574,74 @@ Expected<RunResult> Runner::run() {
     if (result_.outages > 0) {
         summary += "; " + std::to_string(result_.outages) + " device outages waited out";
     }
+    return summary;
+}
+
+std::optional<Expected<RunResult>> Runner::after_measurement(const Plan& plan, Progress* progress) {
+    if (!rule_.active() || ++since_check_ < check_every_) {
+        return std::nullopt;
+    }
+    auto held = check_stop_rule(plan);
+    if (!held) {
+        progress->finish("paused");
+        return finish(Outcome::kPaused, held.error().message, plan);
+    }
+    if (*held) {
+        progress->finish("target reached");
+        return finish(Outcome::kCompleted, "target reached: " + result_.until, plan);
+    }
+    return std::nullopt;
+}
+
+std::optional<Expected<RunResult>> Runner::rule_on_journal(const Plan& plan) {
+    auto held = check_stop_rule(plan);
+    if (!held) {
+        return finish(Outcome::kPaused, held.error().message, plan);
+    }
+    if (*held) {
+        return finish(Outcome::kCompleted, "target reached: " + result_.until, plan);
+    }
+    return std::nullopt;
+}
+
+Expected<RunResult> Runner::run() {
+    started_ = now_s();
+    auto plan0 = load_campaign();
+    if (!plan0) {
+        return tl::unexpected(plan0.error());
+    }
+    const Plan& plan = *plan0;
+    const bool have_white = replay_journal();
+    say_plan(plan);
+    std::string pause;
+    if (auto d = prepare_devices(have_white, &pause); !d) {
+        return finish(Outcome::kPaused, d.error().message, plan);
+    }
+    check_every_ = rule_.every > 0 ? static_cast<std::size_t>(rule_.every)
+                                   : std::max<std::size_t>(8, plan.configs.size() / 10);
+    if (rule_.active() && !done_.empty()) {
+        // A resume checks the rule on what the journal holds before measuring anything more.
+        if (auto end = rule_on_journal(plan)) {
+            return std::move(*end);
+        }
+    }
+    // Passes: 0 is the plan; each adaptive pass refines where the values measured so far change
+    // fastest.
+    planned_total_ = plan.configs.size();
+    const int last_pass =
+        spec_.plan_kind == "vndf" ? 1 : (spec_.adaptive ? spec_.adaptive_passes : 0);
+    for (int pass = 0; pass <= last_pass; ++pass) {
+        auto pp = pass_plan(pass, plan);
+        if (!pp) {
+            return finish(Outcome::kPaused, pp.error().message, plan);
+        }
+        result_.planned_total = planned_total_;
+        if (auto end = measure_pass(pass, *pp, plan, &pause)) {
+            return std::move(*end);
+        }
+    }
+    result_.measured_total = done_.size();
+    std::string summary = completion_summary();
     if (rule_.active()) {
         // The plan ended first: the last check says how far the targets were.
         auto held = check_stop_rule(plan);

@@ -90,10 +90,9 @@ bool among(const std::string& field, std::initializer_list<const char*> fields) 
     return false;
 }
 
-}  // namespace
-
-std::optional<RequestConflict> find_conflict(const CampaignRequest& r) {
-    const std::vector<std::string> given = given_fields(r);
+/// An option of the other mode, or one the image campaign's kind does not take.
+std::optional<RequestConflict> mode_conflict(const CampaignRequest& r,
+                                             const std::vector<std::string>& given) {
     const bool image = r.mode == CampaignMode::kImage;
     for (const std::string& f : given) {
         if (!image && among(f,
@@ -141,19 +140,13 @@ std::optional<RequestConflict> find_conflict(const CampaignRequest& r) {
                                    "from the coverage of the table and checks no lamp drift"};
         }
     }
-    if (!r.resume_dir.empty()) {
-        for (const std::string& f : given) {
-            if (f != "resume_dir" && f != "accept_drift" && f != "serve") {
-                return RequestConflict{f,
-                                       "resume_dir",
-                                       image ? "an image campaign continues with the settings in "
-                                               "its folder's image_campaign.json"
-                                             : "a resume takes the description, rig and plan "
-                                               "from the campaign folder"};
-            }
-        }
-        return std::nullopt;
-    }
+    return std::nullopt;
+}
+
+/// What a plan-only request or a campaign description leaves no place for, and the two ground
+/// truths.
+std::optional<RequestConflict> job_conflict(const CampaignRequest& r,
+                                            const std::vector<std::string>& given) {
     if (r.plan_only) {
         for (const std::string& f : given) {
             if (among(f,
@@ -185,6 +178,12 @@ std::optional<RequestConflict> find_conflict(const CampaignRequest& r) {
     if (!r.material.empty() && !r.brdf_path.empty()) {
         return RequestConflict{"material", "brdf_path", "give one ground truth"};
     }
+    return std::nullopt;
+}
+
+/// The point-mode plan's options that its kind (uniform, anisotropic, vndf) does not take.
+std::optional<RequestConflict> plan_conflict(const CampaignRequest& r,
+                                             const std::vector<std::string>& given) {
     if (!r.symmetry.empty() && !r.anisotropic) {
         return RequestConflict{"symmetry",
                                "isotropic_plan",
@@ -220,27 +219,55 @@ std::optional<RequestConflict> find_conflict(const CampaignRequest& r) {
                                "adaptive refinement works in the isotropic (theta_i, theta_r, "
                                "delta_phi) space"};
     }
-    if (r.plan_kind == "vndf") {
-        for (const std::string& f : given) {
-            if (among(f, {"n_theta", "n_dphi"})) {
-                return RequestConflict{f,
-                                       "plan_kind",
-                                       "an option of the uniform plan; the vndf plan places its "
-                                       "nodes by the measured microfacet distribution"};
-            }
-            if (f == "adaptive" && r.adaptive > 0) {
-                return RequestConflict{f,
-                                       "plan_kind",
-                                       "the vndf plan places its own second pass from the "
-                                       "retro-reflection measurements"};
-            }
-            if (f == "scene" || f == "until") {
-                return RequestConflict{
-                    f, "plan_kind", "the vndf plan measures every node of its RGL file"};
-            }
+    if (r.plan_kind != "vndf") {
+        return std::nullopt;
+    }
+    for (const std::string& f : given) {
+        if (among(f, {"n_theta", "n_dphi"})) {
+            return RequestConflict{f,
+                                   "plan_kind",
+                                   "an option of the uniform plan; the vndf plan places its "
+                                   "nodes by the measured microfacet distribution"};
+        }
+        if (f == "adaptive" && r.adaptive > 0) {
+            return RequestConflict{f,
+                                   "plan_kind",
+                                   "the vndf plan places its own second pass from the "
+                                   "retro-reflection measurements"};
+        }
+        if (f == "scene" || f == "until") {
+            return RequestConflict{
+                f, "plan_kind", "the vndf plan measures every node of its RGL file"};
         }
     }
     return std::nullopt;
+}
+
+}  // namespace
+
+std::optional<RequestConflict> find_conflict(const CampaignRequest& r) {
+    const std::vector<std::string> given = given_fields(r);
+    if (auto c = mode_conflict(r, given)) {
+        return c;
+    }
+    if (!r.resume_dir.empty()) {
+        for (const std::string& f : given) {
+            if (f != "resume_dir" && f != "accept_drift" && f != "serve") {
+                return RequestConflict{f,
+                                       "resume_dir",
+                                       r.mode == CampaignMode::kImage
+                                           ? "an image campaign continues with the settings in "
+                                             "its folder's image_campaign.json"
+                                           : "a resume takes the description, rig and plan "
+                                             "from the campaign folder"};
+            }
+        }
+        return std::nullopt;
+    }
+    if (auto c = job_conflict(r, given)) {
+        return c;
+    }
+    return plan_conflict(r, given);
 }
 
 // ---- point mode ----------------------------------------------------------------------------
@@ -403,6 +430,174 @@ Expected<Plan> plan_point_campaign(const CampaignRequest& r, CampaignSpec* spec_
     return build_plan(*spec, *rig);
 }
 
+namespace {
+
+/// What starting a point campaign gathers before anything is written: the embedded rig's options,
+/// and for a new campaign its description and the name of the ground truth's copy in the folder.
+struct PointStart {
+    bool embedded = false;
+    EmbeddedRigOptions rig_options;
+    CampaignSpec new_spec;
+    std::string ground_truth_copy;
+};
+
+/// A resumed campaign: the rig as recorded in its folder; the virtual rig's ground truth, when a
+/// file, is read from the campaign folder only.
+Expected<void> resume_point_rig(PointCampaign* out, PointStart* st) {
+    out->resumed = true;
+    auto rig = read_rig_config((fs::path(out->dir) / "rig.json").string());
+    if (!rig) {
+        return tl::unexpected(rig.error());
+    }
+    out->rig = *rig;
+    st->embedded = is_embedded(out->rig.json);
+    if (!st->embedded) {
+        return {};
+    }
+    const nlohmann::json j = nlohmann::json::parse(out->rig.json, nullptr, false);
+    const std::string b = j.is_object() && j.contains("sim") && j["sim"].is_object()
+                              ? j["sim"].value("brdf", std::string())
+                              : std::string();
+    if (b.empty() || b.rfind("material:", 0) == 0) {
+        return {};
+    }
+    const fs::path bp(b);
+    bool outside = bp.is_absolute();
+    for (const auto& part : bp) {
+        outside = outside || part == "..";
+    }
+    if (outside) {
+        return make_error(out->dir + "/rig.json: sim.brdf = \"" + b +
+                          "\" lies outside the campaign folder; a resume reads only the folder "
+                          "(copy the file into it and name it relative to it)");
+    }
+    st->rig_options.brdf_path = (fs::path(out->dir) / bp).string();
+    return {};
+}
+
+/// Record that the virtual rig served this campaign, and its ground truth, so that a resume
+/// restarts the same world.
+Expected<void> record_virtual_rig(const CampaignRequest& r,
+                                  const CampaignSpec& spec,
+                                  PointCampaign* out,
+                                  PointStart* st) {
+    nlohmann::json j = nlohmann::json::parse(out->rig.json, nullptr, false);
+    if (!j.is_object()) {
+        return make_error(spec.rig + ": not a JSON object");
+    }
+    j["embedded_virtual_rig"] = true;
+    if (!r.brdf_path.empty()) {
+        // The ground truth is copied into the folder (ground_truth.<ext>) so that a resume
+        // reads nothing outside it; the simulator starts from the given file.
+        st->ground_truth_copy = ground_truth_name(r.brdf_path);
+        j["sim"]["brdf"] = st->ground_truth_copy.empty() ? r.brdf_path : st->ground_truth_copy;
+        st->rig_options.brdf_path = r.brdf_path;
+        j["sim"].erase("material");
+    } else if (!r.material.empty()) {
+        j["sim"]["material"] = r.material;
+        j["sim"].erase("brdf");
+    }
+    if (r.time_scale > 0) {
+        j["sim"]["time_scale"] = r.time_scale;
+    }
+    auto rr = parse_rig_config(j.dump(2), spec.rig);
+    if (!rr) {
+        return tl::unexpected(rr.error());
+    }
+    out->rig = *rr;
+    return {};
+}
+
+/// A new campaign: its description, rig and plan checked, its folder named (and not holding a
+/// campaign already).
+Expected<void> new_point_campaign(const CampaignRequest& r, PointCampaign* out, PointStart* st) {
+    auto spec = new_campaign_spec(r, &st->embedded);
+    if (!spec) {
+        return tl::unexpected(spec.error());
+    }
+    auto rig = read_rig_config(spec->rig);
+    if (!rig) {
+        return tl::unexpected(rig.error());
+    }
+    out->rig = *rig;
+    if (auto plan = build_plan(*spec, out->rig); !plan) {
+        return tl::unexpected(plan.error());
+    }
+    out->dir = !r.out_dir.empty()
+                   ? r.out_dir
+                   : auto_campaign_dir(r.campaigns_dir.empty() ? "campaigns" : r.campaigns_dir,
+                                       spec->sample);
+    if (st->embedded) {
+        if (auto v = record_virtual_rig(r, *spec, out, st); !v) {
+            return v;
+        }
+    }
+    std::error_code ec;
+    if (fs::exists(fs::path(out->dir) / "journal.log", ec) ||
+        fs::exists(fs::path(out->dir) / "campaign.json", ec)) {
+        return make_error(out->dir + ": already holds a campaign (use --resume " + out->dir + ")");
+    }
+    if (fs::exists(out->dir, ec) && !fs::is_directory(out->dir, ec)) {
+        return make_error(out->dir + ": exists and is not a folder");
+    }
+    st->new_spec = *spec;
+    return {};
+}
+
+/// The embedded virtual rig started, and the rig description pointed at its addresses.
+Expected<void> start_virtual_rig(const EmbeddedRigStarter& start_rig,
+                                 const PointStart& st,
+                                 std::FILE* log,
+                                 PointCampaign* out) {
+    if (!start_rig) {
+        return make_error(out->dir +
+                          ": the campaign runs on the embedded virtual rig, which this front end "
+                          "cannot start");
+    }
+    auto s = start_rig(out->rig.json, st.rig_options);
+    if (!s) {
+        return tl::unexpected(s.error());
+    }
+    out->embedded = std::move(*s);
+    if (log != nullptr) {
+        std::fprintf(log,
+                     "virtual rig: %s; motors %s, camera %s\n",
+                     out->embedded->describe().c_str(),
+                     out->embedded->motor_address().c_str(),
+                     out->embedded->camera_address().c_str());
+        if (st.new_spec.plan_kind == "vndf" && st.new_spec.vndf.phi_i_count < 2 &&
+            !out->embedded->isotropic_sample()) {
+            std::fprintf(log,
+                         "note: the virtual sample is anisotropic; the vndf plan measures with "
+                         "the light at phi_i = 0 and writes an isotropic RGL file "
+                         "(--anisotropic measures every azimuth)\n");
+        }
+    }
+    out->rig =
+        with_addresses(out->rig, out->embedded->motor_address(), out->embedded->camera_address());
+    return {};
+}
+
+/// The new campaign's folder written, with the copy of the ground truth.
+Expected<void> write_point_campaign(const CampaignRequest& r,
+                                    const PointStart& st,
+                                    const PointCampaign& out) {
+    if (auto c = create_campaign_dir(out.dir, st.new_spec, out.rig); !c) {
+        return tl::unexpected(c.error());
+    }
+    if (st.ground_truth_copy.empty()) {
+        return {};
+    }
+    auto bytes = read_input_file(r.brdf_path, max_memory_bytes());
+    if (!bytes) {
+        return tl::unexpected(bytes.error());
+    }
+    const std::string to = (fs::path(out.dir) / st.ground_truth_copy).string();
+    return write_file_atomic(to, *bytes);
+}
+
+}  // namespace
+
 Expected<std::unique_ptr<PointCampaign>> start_point_campaign(const CampaignRequest& r,
                                                               const EmbeddedRigStarter& start_rig,
                                                               std::FILE* log) {
@@ -410,125 +605,21 @@ Expected<std::unique_ptr<PointCampaign>> start_point_campaign(const CampaignRequ
         return tl::unexpected(c.error());
     }
     auto out = std::make_unique<PointCampaign>();
-    bool embedded = false;
-    EmbeddedRigOptions so;
     // A new campaign's folder is created only once everything is checked: description, plan,
     // scene, rig, ground truth and devices reachable. Until then nothing is written.
-    CampaignSpec new_spec;
-    std::string ground_truth_copy;
+    PointStart st;
     if (!r.resume_dir.empty()) {
         out->dir = r.resume_dir;
-        out->resumed = true;
-        auto rig = read_rig_config((fs::path(out->dir) / "rig.json").string());
-        if (!rig) {
-            return tl::unexpected(rig.error());
-        }
-        out->rig = *rig;
-        embedded = is_embedded(out->rig.json);
-        if (embedded) {
-            // The virtual rig's ground truth, when a file, is read from the campaign folder only.
-            const nlohmann::json j = nlohmann::json::parse(out->rig.json, nullptr, false);
-            const std::string b = j.is_object() && j.contains("sim") && j["sim"].is_object()
-                                      ? j["sim"].value("brdf", std::string())
-                                      : std::string();
-            if (!b.empty() && b.rfind("material:", 0) != 0) {
-                const fs::path bp(b);
-                bool outside = bp.is_absolute();
-                for (const auto& part : bp) {
-                    outside = outside || part == "..";
-                }
-                if (outside) {
-                    return make_error(out->dir + "/rig.json: sim.brdf = \"" + b +
-                                      "\" lies outside the campaign folder; a resume reads only "
-                                      "the folder (copy the file into it and name it relative "
-                                      "to it)");
-                }
-                so.brdf_path = (fs::path(out->dir) / bp).string();
-            }
-        }
-    } else {
-        auto spec = new_campaign_spec(r, &embedded);
-        if (!spec) {
-            return tl::unexpected(spec.error());
-        }
-        auto rig = read_rig_config(spec->rig);
-        if (!rig) {
-            return tl::unexpected(rig.error());
-        }
-        out->rig = *rig;
-        if (auto plan = build_plan(*spec, out->rig); !plan) {
-            return tl::unexpected(plan.error());
-        }
-        out->dir = !r.out_dir.empty()
-                       ? r.out_dir
-                       : auto_campaign_dir(r.campaigns_dir.empty() ? "campaigns" : r.campaigns_dir,
-                                           spec->sample);
-        if (embedded) {
-            // Record that the virtual rig served this campaign, and its ground truth, so that a
-            // resume restarts the same world.
-            nlohmann::json j = nlohmann::json::parse(out->rig.json, nullptr, false);
-            if (!j.is_object()) {
-                return make_error(spec->rig + ": not a JSON object");
-            }
-            j["embedded_virtual_rig"] = true;
-            if (!r.brdf_path.empty()) {
-                // The ground truth is copied into the folder (ground_truth.<ext>) so that a resume
-                // reads nothing outside it; the simulator starts from the given file.
-                ground_truth_copy = ground_truth_name(r.brdf_path);
-                j["sim"]["brdf"] = ground_truth_copy.empty() ? r.brdf_path : ground_truth_copy;
-                so.brdf_path = r.brdf_path;
-                j["sim"].erase("material");
-            } else if (!r.material.empty()) {
-                j["sim"]["material"] = r.material;
-                j["sim"].erase("brdf");
-            }
-            if (r.time_scale > 0) {
-                j["sim"]["time_scale"] = r.time_scale;
-            }
-            auto rr = parse_rig_config(j.dump(2), spec->rig);
-            if (!rr) {
-                return tl::unexpected(rr.error());
-            }
-            out->rig = *rr;
-        }
-        std::error_code ec;
-        if (fs::exists(fs::path(out->dir) / "journal.log", ec) ||
-            fs::exists(fs::path(out->dir) / "campaign.json", ec)) {
-            return make_error(out->dir + ": already holds a campaign (use --resume " + out->dir +
-                              ")");
-        }
-        if (fs::exists(out->dir, ec) && !fs::is_directory(out->dir, ec)) {
-            return make_error(out->dir + ": exists and is not a folder");
-        }
-        new_spec = *spec;
-    }
-    if (embedded) {
-        if (!start_rig) {
-            return make_error(out->dir +
-                              ": the campaign runs on the embedded virtual rig, which "
-                              "this front end cannot start");
-        }
-        auto s = start_rig(out->rig.json, so);
-        if (!s) {
+        if (auto s = resume_point_rig(out.get(), &st); !s) {
             return tl::unexpected(s.error());
         }
-        out->embedded = std::move(*s);
-        if (log != nullptr) {
-            std::fprintf(log,
-                         "virtual rig: %s; motors %s, camera %s\n",
-                         out->embedded->describe().c_str(),
-                         out->embedded->motor_address().c_str(),
-                         out->embedded->camera_address().c_str());
-            if (new_spec.plan_kind == "vndf" && new_spec.vndf.phi_i_count < 2 &&
-                !out->embedded->isotropic_sample()) {
-                std::fprintf(log,
-                             "note: the virtual sample is anisotropic; the vndf plan measures "
-                             "with the light at phi_i = 0 and writes an isotropic RGL file "
-                             "(--anisotropic measures every azimuth)\n");
-            }
+    } else if (auto s = new_point_campaign(r, out.get(), &st); !s) {
+        return tl::unexpected(s.error());
+    }
+    if (st.embedded) {
+        if (auto s = start_virtual_rig(start_rig, st, log, out.get()); !s) {
+            return tl::unexpected(s.error());
         }
-        out->rig = with_addresses(
-            out->rig, out->embedded->motor_address(), out->embedded->camera_address());
     }
     if (log != nullptr) {
         std::fprintf(log, "campaign folder: %s\n", out->dir.c_str());
@@ -540,18 +631,8 @@ Expected<std::unique_ptr<PointCampaign>> start_point_campaign(const CampaignRequ
     }
     out->devices = std::move(*dev);
     if (!out->resumed) {
-        if (auto c = create_campaign_dir(out->dir, new_spec, out->rig); !c) {
-            return tl::unexpected(c.error());
-        }
-        if (!ground_truth_copy.empty()) {
-            auto bytes = read_input_file(r.brdf_path, max_memory_bytes());
-            if (!bytes) {
-                return tl::unexpected(bytes.error());
-            }
-            const std::string to = (fs::path(out->dir) / ground_truth_copy).string();
-            if (auto w = write_file_atomic(to, *bytes); !w) {
-                return tl::unexpected(w.error());
-            }
+        if (auto w = write_point_campaign(r, st, *out); !w) {
+            return tl::unexpected(w.error());
         }
     }
     return out;
@@ -949,6 +1030,58 @@ Expected<CampaignRequest> read_image_settings(const std::string& dir) {
     });
 }
 
+/// A new image campaign's folder (refused when it holds one already) with its settings and the
+/// ground truth's file copied into it, so that a resume reads only the folder.
+Expected<void> create_image_campaign_dir(const CampaignRequest& r, const ImageCampaignRun& run) {
+    std::error_code ec;
+    if (fs::exists(run.journal, ec)) {
+        return make_error(run.dir +
+                          ": already holds an image campaign (continue it with --resume " +
+                          run.dir + ")");
+    }
+    fs::create_directories(run.dir, ec);
+    if (ec) {
+        return make_error(run.dir + ": cannot create: " + ec.message());
+    }
+    std::string brdf_in_dir;
+    if (!r.brdf_path.empty()) {
+        brdf_in_dir = "ground_truth" + fs::path(r.brdf_path).extension().string();
+        auto bytes = read_input_file(r.brdf_path, max_memory_bytes());
+        if (!bytes) {
+            return tl::unexpected(bytes.error());
+        }
+        if (auto w = write_file_atomic((fs::path(run.dir) / brdf_in_dir).string(), *bytes); !w) {
+            return w;
+        }
+    }
+    return write_file_atomic((fs::path(run.dir) / kImageSettingsFile).string(),
+                             image_settings_json(r, brdf_in_dir));
+}
+
+/// What dataset.json says of the run beside the campaign's own metadata: the sample, operator,
+/// rig, ground truth and the pose checks.
+std::string image_run_metadata(const CampaignRequest& r,
+                               const ImageCampaignRun& run,
+                               const ImageRig& rig) {
+    nlohmann::json extra;
+    extra["sample"] = run.sample;
+    if (!r.operator_name.empty()) {
+        extra["operator"] = r.operator_name;
+    }
+    if (run.embedded) {
+        extra["ground_truth"] = rig.embedded->ground_truth();
+    }
+    extra["rig"] = r.rig_path.empty() ? "embedded virtual rig (sim-image)" : r.rig_path;
+    extra["embedded_virtual_rig"] = run.embedded;
+    extra["camera_address"] = run.camera_address;
+    extra["seed"] = r.seed;
+    extra["pose_repeats"] = run.poses.repeats;
+    extra["pose_corrections"] = run.poses.corrections;
+    extra["capture_retries"] = run.poses.capture_retries;
+    extra["pose_notes"] = run.poses.notes;
+    return extra.dump();
+}
+
 }  // namespace
 
 bool is_image_campaign_dir(const std::string& dir) {
@@ -1008,34 +1141,8 @@ Expected<ImageCampaignRun> run_image_request(const CampaignRequest& given,
         }
     }
     if (!run.resumed) {
-        std::error_code ec;
-        if (fs::exists(run.journal, ec)) {
-            return make_error(run.dir +
-                              ": already holds an image campaign (continue it with --resume " +
-                              run.dir + ")");
-        }
-        fs::create_directories(run.dir, ec);
-        if (ec) {
-            return make_error(run.dir + ": cannot create: " + ec.message());
-        }
-        // The ground truth's file is copied into the folder so that a resume reads only the
-        // folder.
-        std::string brdf_in_dir;
-        if (!r.brdf_path.empty()) {
-            brdf_in_dir = "ground_truth" + fs::path(r.brdf_path).extension().string();
-            auto bytes = read_input_file(r.brdf_path, max_memory_bytes());
-            if (!bytes) {
-                return tl::unexpected(bytes.error());
-            }
-            if (auto w = write_file_atomic((fs::path(run.dir) / brdf_in_dir).string(), *bytes);
-                !w) {
-                return tl::unexpected(w.error());
-            }
-        }
-        if (auto w = write_file_atomic((fs::path(run.dir) / kImageSettingsFile).string(),
-                                       image_settings_json(r, brdf_in_dir));
-            !w) {
-            return tl::unexpected(w.error());
+        if (auto d = create_image_campaign_dir(r, run); !d) {
+            return tl::unexpected(d.error());
         }
     }
     if (r.anisotropic && !(*rig)->dev.axes[static_cast<int>(AxisRole::kSpin)]) {
@@ -1053,23 +1160,8 @@ Expected<ImageCampaignRun> run_image_request(const CampaignRequest& given,
     if (!result) {
         return tl::unexpected(result.error());
     }
-    nlohmann::json extra;
-    extra["sample"] = run.sample;
-    if (!r.operator_name.empty()) {
-        extra["operator"] = r.operator_name;
-    }
-    if (run.embedded) {
-        extra["ground_truth"] = (*rig)->embedded->ground_truth();
-    }
-    extra["rig"] = r.rig_path.empty() ? "embedded virtual rig (sim-image)" : r.rig_path;
-    extra["embedded_virtual_rig"] = run.embedded;
-    extra["camera_address"] = run.camera_address;
-    extra["seed"] = r.seed;
-    extra["pose_repeats"] = run.poses.repeats;
-    extra["pose_corrections"] = run.poses.corrections;
-    extra["capture_retries"] = run.poses.capture_retries;
-    extra["pose_notes"] = run.poses.notes;
-    if (auto w = write_image_campaign(run.dir, *result, run.config, extra.dump()); !w) {
+    const std::string extra = image_run_metadata(r, run, **rig);
+    if (auto w = write_image_campaign(run.dir, *result, run.config, extra); !w) {
         return tl::unexpected(w.error());
     }
     run.result.emplace(std::move(*result));

@@ -46,6 +46,41 @@ CoilConfig parse_coil(const json& j) {
     return c;
 }
 
+// Every number of the rig's own sections is finite and of a sane magnitude before any cast, and
+// every string of a bounded length.
+void check_rig_values(const json& j) {
+    std::vector<std::pair<const json*, std::string>> pending;
+    for (auto it = j.begin(); it != j.end(); ++it) {
+        // The error budget has its own strict reader (brdf/rig_error_budget.h).
+        if (it.key() != "sim" && it.key() != "camera_model" && it.key() != "error_budget") {
+            pending.emplace_back(&*it, it.key());
+        }
+    }
+    while (!pending.empty()) {
+        auto [v, path] = pending.back();
+        pending.pop_back();
+        if (v->is_number()) {
+            const double x = v->get<double>();
+            if (!std::isfinite(x) || std::abs(x) > 1e9) {
+                json_fail(path + " = " + show_number(x) +
+                          ": out of range (numbers of a rig description lie in [-1e9, "
+                          "1e9])");
+            }
+        } else if (v->is_object()) {
+            for (auto it = v->begin(); it != v->end(); ++it) {
+                pending.emplace_back(&*it, path + "." + it.key());
+            }
+        } else if (v->is_array()) {
+            for (std::size_t i = 0; i < v->size(); ++i) {
+                pending.emplace_back(&(*v)[i], path + "[" + std::to_string(i) + "]");
+            }
+        } else if (v->is_string() && v->get_ref<const std::string&>().size() > kMaxJsonString) {
+            json_fail(path + ": string longer than " + std::to_string(kMaxJsonString) +
+                      " characters");
+        }
+    }
+}
+
 // Keys of a rig description (docs/file-formats.md); "camera_model" is checked by its own reader.
 void check_rig_keys(const json& j) {
     static const std::set<std::string> kTop = {"name",
@@ -132,41 +167,249 @@ void check_rig_keys(const json& j) {
             check(j.at("axes")[k], "axes[" + std::to_string(k) + "]", kAxis);
         }
     }
-    // Every number of the rig's own sections is finite and of a sane magnitude before any cast.
-    std::vector<std::pair<const json*, std::string>> pending;
-    for (auto it = j.begin(); it != j.end(); ++it) {
-        // The error budget has its own strict reader (brdf/rig_error_budget.h).
-        if (it.key() != "sim" && it.key() != "camera_model" && it.key() != "error_budget") {
-            pending.emplace_back(&*it, it.key());
-        }
-    }
-    while (!pending.empty()) {
-        auto [v, path] = pending.back();
-        pending.pop_back();
-        if (v->is_number()) {
-            const double x = v->get<double>();
-            if (!std::isfinite(x) || std::abs(x) > 1e9) {
-                json_fail(path + " = " + show_number(x) +
-                          ": out of range (numbers of a rig description lie in [-1e9, "
-                          "1e9])");
-            }
-        } else if (v->is_object()) {
-            for (auto it = v->begin(); it != v->end(); ++it) {
-                pending.emplace_back(&*it, path + "." + it.key());
-            }
-        } else if (v->is_array()) {
-            for (std::size_t i = 0; i < v->size(); ++i) {
-                pending.emplace_back(&(*v)[i], path + "[" + std::to_string(i) + "]");
-            }
-        } else if (v->is_string() && v->get_ref<const std::string&>().size() > kMaxJsonString) {
-            json_fail(path + ": string longer than " + std::to_string(kMaxJsonString) +
-                      " characters");
-        }
-    }
+    check_rig_values(j);
 }
 
 json coil_json(const CoilConfig& c) {
     return json{{"address", c.address}, {"unit", c.unit}, {"coil", c.coil}};
+}
+
+/// One axis description (axes[k]); `seen` marks the roles already given.
+Expected<void> parse_axis(
+    const json& a, const std::string& source, const std::string& at, bool* seen, RigConfig* rig) {
+    const std::string role = a.at("role").get<std::string>();
+    int r = -1;
+    for (int q = 0; q < kNumAxes; ++q) {
+        if (role == to_string(static_cast<AxisRole>(q))) {
+            r = q;
+        }
+    }
+    if (r < 0) {
+        return make_error(source + ": " + at + ".role: \"" + excerpt(role) +
+                          "\" is not one of light, detector, tilt, spin");
+    }
+    if (seen[r]) {
+        return make_error(source + ": " + at + ".role: \"" + excerpt(role) + "\" given twice");
+    }
+    seen[r] = true;
+    AxisConfig& ax = rig->axes[r];
+    ax.name = a.value("name", role);
+    ax.address = a.at("address").get<std::string>();
+    ax.unit = modbus_int(a, "unit", 0, 247);
+    ax.profile = a.value("profile", std::string("generic"));
+    const json& lim = a.at("limits_deg");
+    ax.limits.min_deg = lim.at(0).get<double>();
+    ax.limits.max_deg = lim.at(1).get<double>();
+    if (!(ax.limits.min_deg < ax.limits.max_deg)) {
+        return make_error(source + ": " + at + ".limits_deg: min must be < max");
+    }
+    ax.motion.speed_deg_per_s = a.value("speed_deg_per_s", 20.0);
+    ax.motion.accel_deg_per_s2 = a.value("accel_deg_per_s2", 40.0);
+    ax.motion.settle_ms = a.value("settle_ms", 50.0);
+    if (!(ax.motion.speed_deg_per_s > 0) || !(ax.motion.accel_deg_per_s2 > 0) ||
+        !(ax.motion.settle_ms >= 0)) {
+        return make_error(source + ": " + at + ": speed and acceleration must be > 0, settle >= 0");
+    }
+    return {};
+}
+
+/// The four axes, each role once. The parse stages below throw JsonFailure or json::exception on
+/// a missing key or a wrong type, with *at naming where they were.
+Expected<void> parse_axes(const json& j,
+                          const std::string& source,
+                          std::string* at,
+                          RigConfig* rig) {
+    bool seen[kNumAxes] = {false, false, false, false};
+    *at = "axes";
+    const json& axes = j.at("axes");
+    for (std::size_t k = 0; k < axes.size(); ++k) {
+        *at = "axes[" + std::to_string(k) + "]";
+        if (auto a = parse_axis(axes[k], source, *at, seen, rig); !a) {
+            return a;
+        }
+    }
+    for (int q = 0; q < kNumAxes; ++q) {
+        if (!seen[q]) {
+            return make_error(source + ": axes: no axis with role \"" +
+                              to_string(static_cast<AxisRole>(q)) + "\"");
+        }
+    }
+    return {};
+}
+
+/// The camera, the shutter, the reference changer and the filter wheel.
+Expected<void> parse_devices(const json& j,
+                             const std::string& source,
+                             std::string* at,
+                             RigConfig* rig) {
+    *at = "camera";
+    rig->camera_address = j.at("camera").at("address").get<std::string>();
+    rig->camera_readout_ms = j.at("camera").value("readout_ms", rig->camera_readout_ms);
+    if (!(rig->camera_readout_ms >= 0 && rig->camera_readout_ms <= 60000)) {
+        return make_error(source + ": camera.readout_ms = " + show_number(rig->camera_readout_ms) +
+                          ": must be in [0, 60000] ms");
+    }
+    *at = "shutter";
+    rig->shutter = parse_coil(j.at("shutter"));
+    if (j.contains("reference_changer")) {
+        *at = "reference_changer";
+        rig->reference_changer = parse_coil(j.at("reference_changer"));
+    }
+    if (!j.contains("filter_wheel")) {
+        return {};
+    }
+    *at = "filter_wheel";
+    const json& fw = j.at("filter_wheel");
+    const json& filters = fw.at("filters");
+    if (!filters.is_array() || filters.size() != 3) {
+        return make_error(source + ": filter_wheel.filters: three coils (red, green, blue) needed");
+    }
+    std::array<CoilConfig, 3> coils;
+    for (std::size_t c = 0; c < 3; ++c) {
+        *at = "filter_wheel.filters[" + std::to_string(c) + "]";
+        // The filter coils share the shutter's bus unless an address is given.
+        coils[c].address = fw.value("address", rig->shutter.address);
+        coils[c].unit = modbus_int(filters.at(c), "unit", 0, 247);
+        coils[c].coil = modbus_int(filters.at(c), "coil", 0, 65535);
+    }
+    rig->filter_wheel = coils;
+    return {};
+}
+
+/// The geometry limits, the white reference and the sensor noise.
+Expected<void> parse_references(const json& j,
+                                const std::string& source,
+                                std::string* at,
+                                RigConfig* rig) {
+    *at = "geometry";
+    if (j.contains("geometry")) {
+        const json& g = j.at("geometry");
+        rig->blind_angle_deg = g.value("blind_angle_deg", rig->blind_angle_deg);
+        rig->max_theta_deg = g.value("max_theta_deg", rig->max_theta_deg);
+    }
+    if (!(rig->blind_angle_deg >= 0 && rig->blind_angle_deg < 90) ||
+        !(rig->max_theta_deg > 0 && rig->max_theta_deg < 90)) {
+        return make_error(source +
+                          ": geometry: blind_angle_deg in [0, 90), max_theta_deg in (0, 90)");
+    }
+    *at = "white_reference";
+    if (j.contains("white_reference")) {
+        const json& w = j.at("white_reference");
+        rig->white_reflectance = w.value("reflectance", rig->white_reflectance);
+        rig->white_theta_i_deg = w.value("theta_i_deg", rig->white_theta_i_deg);
+        rig->white_theta_o_deg = w.value("theta_o_deg", rig->white_theta_o_deg);
+    }
+    if (!(rig->white_reflectance > 0 && rig->white_reflectance <= 1)) {
+        return make_error(source + ": white_reference.reflectance must be in (0, 1]");
+    }
+    *at = "noise";
+    if (j.contains("noise")) {
+        rig->noise.e_per_count = j.at("noise").value("e_per_count", rig->noise.e_per_count);
+        rig->noise.read_noise_counts =
+            j.at("noise").value("read_noise_counts", rig->noise.read_noise_counts);
+    }
+    return {};
+}
+
+/// The capture settings.
+Expected<void> parse_capture(const json& j,
+                             const std::string& source,
+                             std::string* at,
+                             RigConfig* rig) {
+    *at = "capture";
+    if (!j.contains("capture")) {
+        return {};
+    }
+    const json& c = j.at("capture");
+    CaptureConfig& cc = rig->capture;
+    cc.target_fraction = c.value("target_fraction", cc.target_fraction);
+    cc.linear_max_fraction = c.value("linear_max_fraction", cc.linear_max_fraction);
+    cc.min_exposure_us = c.value("min_exposure_us", cc.min_exposure_us);
+    cc.max_exposure_us = c.value("max_exposure_us", cc.max_exposure_us);
+    cc.max_brackets = c.value("max_brackets", cc.max_brackets);
+    cc.bracket_ratio = c.value("bracket_ratio", cc.bracket_ratio);
+    cc.hdr_low_fraction = c.value("hdr_low_fraction", cc.hdr_low_fraction);
+    cc.dark_frames = c.value("dark_frames", cc.dark_frames);
+    cc.roi_fraction = c.value("roi_fraction", cc.roi_fraction);
+    cc.gain = c.value("gain", cc.gain);
+    cc.timeout_ms = c.value("timeout_ms", cc.timeout_ms);
+    if (!(cc.target_fraction > 0 && cc.target_fraction < cc.linear_max_fraction &&
+          cc.linear_max_fraction <= 1) ||
+        !(cc.min_exposure_us > 0 && cc.min_exposure_us < cc.max_exposure_us) ||
+        cc.max_brackets < 1 || !(cc.bracket_ratio > 1) || cc.dark_frames < 1 ||
+        !(cc.roi_fraction > 0 && cc.roi_fraction <= 1) || !(cc.gain > 0)) {
+        return make_error(source +
+                          ": capture: target_fraction in (0, 1), 0 < "
+                          "min_exposure_us < max_exposure_us, max_brackets >= 1, "
+                          "bracket_ratio > 1, dark_frames >= 1, roi_fraction in "
+                          "(0, 1], gain > 0");
+    }
+    return {};
+}
+
+/// One zoomed placement (placements[k]).
+Expected<PlacementConfig> parse_placement(const json& pj,
+                                          std::size_t k,
+                                          const std::string& source,
+                                          const std::string& at,
+                                          const RigConfig& rig) {
+    check_json_keys(pj, at, {"name", "magnification", "offset_m", "address", "unit", "coil"});
+    PlacementConfig pc;
+    pc.placement.name = pj.value("name", "zoom-" + std::to_string(k + 1));
+    pc.placement.magnification = pj.at("magnification").get<double>();
+    if (!(pc.placement.magnification >= 1 && pc.placement.magnification <= 100)) {
+        return make_error(source + ": " + at +
+                          ".magnification = " + show_number(pc.placement.magnification) +
+                          ": must be in [1, 100] (relative to the wide view)");
+    }
+    const json& off = pj.at("offset_m");
+    if (!off.is_array() || off.size() != 2) {
+        return make_error(source + ": " + at + ".offset_m: expected [x, y] in metres");
+    }
+    for (int c = 0; c < 2; ++c) {
+        const double v = off.at(static_cast<std::size_t>(c)).get<double>();
+        if (!(std::abs(v) < 10)) {
+            return make_error(source + ": " + at + ".offset_m[" + std::to_string(c) +
+                              "] = " + show_number(v) + ": must be within 10 metres");
+        }
+        pc.placement.offset_m[static_cast<std::size_t>(c)] = v;
+    }
+    pc.coil.address = pj.value("address", rig.shutter.address);
+    pc.coil.unit = modbus_int(pj, "unit", 0, 247);
+    pc.coil.coil = modbus_int(pj, "coil", 0, 65535);
+    return pc;
+}
+
+/// The image-mode sample sphere and the zoomed placements.
+Expected<void> parse_image_views(const json& j,
+                                 const std::string& source,
+                                 std::string* at,
+                                 RigConfig* rig) {
+    *at = "image_sample";
+    if (j.contains("image_sample")) {
+        rig->sphere_radius_m = j.at("image_sample").value("sphere_radius_m", rig->sphere_radius_m);
+        if (!(rig->sphere_radius_m > 0 && rig->sphere_radius_m < 10)) {
+            return make_error(source + ": image_sample.sphere_radius_m = " +
+                              show_number(rig->sphere_radius_m) + ": must be in (0, 10) metres");
+        }
+    }
+    if (!j.contains("placements")) {
+        return {};
+    }
+    *at = "placements";
+    const json& ps = j.at("placements");
+    if (!ps.is_array() || ps.size() > 16) {
+        return make_error(source + ": placements: an array of at most 16 placements");
+    }
+    for (std::size_t k = 0; k < ps.size(); ++k) {
+        *at = "placements[" + std::to_string(k) + "]";
+        auto pc = parse_placement(ps.at(k), k, source, *at, *rig);
+        if (!pc) {
+            return tl::unexpected(pc.error());
+        }
+        rig->placements.push_back(*pc);
+    }
+    return {};
 }
 
 }  // namespace
@@ -180,183 +423,10 @@ Expected<RigConfig> parse_rig_config(const std::string& text, const std::string&
         const json j = parse_json_checked(text, source);
         check_rig_keys(j);
         rig.name = j.value("name", source);
-        bool seen[kNumAxes] = {false, false, false, false};
-        at = "axes";
-        const json& axes = j.at("axes");
-        for (std::size_t k = 0; k < axes.size(); ++k) {
-            at = "axes[" + std::to_string(k) + "]";
-            const json& a = axes[k];
-            const std::string role = a.at("role").get<std::string>();
-            int r = -1;
-            for (int q = 0; q < kNumAxes; ++q) {
-                if (role == to_string(static_cast<AxisRole>(q))) {
-                    r = q;
-                }
-            }
-            if (r < 0) {
-                return make_error(source + ": " + at + ".role: \"" + excerpt(role) +
-                                  "\" is not one of light, detector, tilt, spin");
-            }
-            if (seen[r]) {
-                return make_error(source + ": " + at + ".role: \"" + excerpt(role) +
-                                  "\" given twice");
-            }
-            seen[r] = true;
-            AxisConfig& ax = rig.axes[r];
-            ax.name = a.value("name", role);
-            ax.address = a.at("address").get<std::string>();
-            ax.unit = modbus_int(a, "unit", 0, 247);
-            ax.profile = a.value("profile", std::string("generic"));
-            const json& lim = a.at("limits_deg");
-            ax.limits.min_deg = lim.at(0).get<double>();
-            ax.limits.max_deg = lim.at(1).get<double>();
-            if (!(ax.limits.min_deg < ax.limits.max_deg)) {
-                return make_error(source + ": " + at + ".limits_deg: min must be < max");
-            }
-            ax.motion.speed_deg_per_s = a.value("speed_deg_per_s", 20.0);
-            ax.motion.accel_deg_per_s2 = a.value("accel_deg_per_s2", 40.0);
-            ax.motion.settle_ms = a.value("settle_ms", 50.0);
-            if (!(ax.motion.speed_deg_per_s > 0) || !(ax.motion.accel_deg_per_s2 > 0) ||
-                !(ax.motion.settle_ms >= 0)) {
-                return make_error(source + ": " + at +
-                                  ": speed and acceleration must be > 0, settle >= 0");
-            }
-        }
-        for (int q = 0; q < kNumAxes; ++q) {
-            if (!seen[q]) {
-                return make_error(source + ": axes: no axis with role \"" +
-                                  to_string(static_cast<AxisRole>(q)) + "\"");
-            }
-        }
-        at = "camera";
-        rig.camera_address = j.at("camera").at("address").get<std::string>();
-        rig.camera_readout_ms = j.at("camera").value("readout_ms", rig.camera_readout_ms);
-        if (!(rig.camera_readout_ms >= 0 && rig.camera_readout_ms <= 60000)) {
-            return make_error(source + ": camera.readout_ms = " +
-                              show_number(rig.camera_readout_ms) + ": must be in [0, 60000] ms");
-        }
-        at = "shutter";
-        rig.shutter = parse_coil(j.at("shutter"));
-        if (j.contains("reference_changer")) {
-            at = "reference_changer";
-            rig.reference_changer = parse_coil(j.at("reference_changer"));
-        }
-        if (j.contains("filter_wheel")) {
-            at = "filter_wheel";
-            const json& fw = j.at("filter_wheel");
-            const json& filters = fw.at("filters");
-            if (!filters.is_array() || filters.size() != 3) {
-                return make_error(source +
-                                  ": filter_wheel.filters: three coils (red, green, blue) needed");
-            }
-            std::array<CoilConfig, 3> coils;
-            for (std::size_t c = 0; c < 3; ++c) {
-                at = "filter_wheel.filters[" + std::to_string(c) + "]";
-                // The filter coils share the shutter's bus unless an address is given.
-                coils[c].address = fw.value("address", rig.shutter.address);
-                coils[c].unit = modbus_int(filters.at(c), "unit", 0, 247);
-                coils[c].coil = modbus_int(filters.at(c), "coil", 0, 65535);
-            }
-            rig.filter_wheel = coils;
-        }
-        at = "geometry";
-        if (j.contains("geometry")) {
-            const json& g = j.at("geometry");
-            rig.blind_angle_deg = g.value("blind_angle_deg", rig.blind_angle_deg);
-            rig.max_theta_deg = g.value("max_theta_deg", rig.max_theta_deg);
-        }
-        if (!(rig.blind_angle_deg >= 0 && rig.blind_angle_deg < 90) ||
-            !(rig.max_theta_deg > 0 && rig.max_theta_deg < 90)) {
-            return make_error(source +
-                              ": geometry: blind_angle_deg in [0, 90), max_theta_deg in (0, 90)");
-        }
-        at = "white_reference";
-        if (j.contains("white_reference")) {
-            const json& w = j.at("white_reference");
-            rig.white_reflectance = w.value("reflectance", rig.white_reflectance);
-            rig.white_theta_i_deg = w.value("theta_i_deg", rig.white_theta_i_deg);
-            rig.white_theta_o_deg = w.value("theta_o_deg", rig.white_theta_o_deg);
-        }
-        if (!(rig.white_reflectance > 0 && rig.white_reflectance <= 1)) {
-            return make_error(source + ": white_reference.reflectance must be in (0, 1]");
-        }
-        at = "noise";
-        if (j.contains("noise")) {
-            rig.noise.e_per_count = j.at("noise").value("e_per_count", rig.noise.e_per_count);
-            rig.noise.read_noise_counts =
-                j.at("noise").value("read_noise_counts", rig.noise.read_noise_counts);
-        }
-        at = "capture";
-        if (j.contains("capture")) {
-            const json& c = j.at("capture");
-            CaptureConfig& cc = rig.capture;
-            cc.target_fraction = c.value("target_fraction", cc.target_fraction);
-            cc.linear_max_fraction = c.value("linear_max_fraction", cc.linear_max_fraction);
-            cc.min_exposure_us = c.value("min_exposure_us", cc.min_exposure_us);
-            cc.max_exposure_us = c.value("max_exposure_us", cc.max_exposure_us);
-            cc.max_brackets = c.value("max_brackets", cc.max_brackets);
-            cc.bracket_ratio = c.value("bracket_ratio", cc.bracket_ratio);
-            cc.hdr_low_fraction = c.value("hdr_low_fraction", cc.hdr_low_fraction);
-            cc.dark_frames = c.value("dark_frames", cc.dark_frames);
-            cc.roi_fraction = c.value("roi_fraction", cc.roi_fraction);
-            cc.gain = c.value("gain", cc.gain);
-            cc.timeout_ms = c.value("timeout_ms", cc.timeout_ms);
-            if (!(cc.target_fraction > 0 && cc.target_fraction < cc.linear_max_fraction &&
-                  cc.linear_max_fraction <= 1) ||
-                !(cc.min_exposure_us > 0 && cc.min_exposure_us < cc.max_exposure_us) ||
-                cc.max_brackets < 1 || !(cc.bracket_ratio > 1) || cc.dark_frames < 1 ||
-                !(cc.roi_fraction > 0 && cc.roi_fraction <= 1) || !(cc.gain > 0)) {
-                return make_error(source +
-                                  ": capture: target_fraction in (0, 1), 0 < "
-                                  "min_exposure_us < max_exposure_us, max_brackets >= 1, "
-                                  "bracket_ratio > 1, dark_frames >= 1, roi_fraction in "
-                                  "(0, 1], gain > 0");
-            }
-        }
-        at = "image_sample";
-        if (j.contains("image_sample")) {
-            rig.sphere_radius_m =
-                j.at("image_sample").value("sphere_radius_m", rig.sphere_radius_m);
-            if (!(rig.sphere_radius_m > 0 && rig.sphere_radius_m < 10)) {
-                return make_error(source + ": image_sample.sphere_radius_m = " +
-                                  show_number(rig.sphere_radius_m) + ": must be in (0, 10) metres");
-            }
-        }
-        if (j.contains("placements")) {
-            at = "placements";
-            const json& ps = j.at("placements");
-            if (!ps.is_array() || ps.size() > 16) {
-                return make_error(source + ": placements: an array of at most 16 placements");
-            }
-            for (std::size_t k = 0; k < ps.size(); ++k) {
-                at = "placements[" + std::to_string(k) + "]";
-                const json& pj = ps.at(k);
-                check_json_keys(
-                    pj, at, {"name", "magnification", "offset_m", "address", "unit", "coil"});
-                PlacementConfig pc;
-                pc.placement.name = pj.value("name", "zoom-" + std::to_string(k + 1));
-                pc.placement.magnification = pj.at("magnification").get<double>();
-                if (!(pc.placement.magnification >= 1 && pc.placement.magnification <= 100)) {
-                    return make_error(source + ": " + at + ".magnification = " +
-                                      show_number(pc.placement.magnification) +
-                                      ": must be in [1, 100] (relative to the wide view)");
-                }
-                const json& off = pj.at("offset_m");
-                if (!off.is_array() || off.size() != 2) {
-                    return make_error(source + ": " + at + ".offset_m: expected [x, y] in metres");
-                }
-                for (int c = 0; c < 2; ++c) {
-                    const double v = off.at(static_cast<std::size_t>(c)).get<double>();
-                    if (!(std::abs(v) < 10)) {
-                        return make_error(source + ": " + at + ".offset_m[" + std::to_string(c) +
-                                          "] = " + show_number(v) + ": must be within 10 metres");
-                    }
-                    pc.placement.offset_m[static_cast<std::size_t>(c)] = v;
-                }
-                pc.coil.address = pj.value("address", rig.shutter.address);
-                pc.coil.unit = modbus_int(pj, "unit", 0, 247);
-                pc.coil.coil = modbus_int(pj, "coil", 0, 65535);
-                rig.placements.push_back(pc);
+        for (const auto stage :
+             {parse_axes, parse_devices, parse_references, parse_capture, parse_image_views}) {
+            if (auto s = stage(j, source, &at, &rig); !s) {
+                return tl::unexpected(s.error());
             }
         }
         rig.move_timeout_ms = j.value("move_timeout_ms", rig.move_timeout_ms);
