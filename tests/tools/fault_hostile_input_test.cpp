@@ -164,7 +164,8 @@ TEST_F(Hostile, PlotThetaNanIsRefusedBeforeAnyPicture) {
 }
 
 TEST_F(Hostile, MaxMemoryOptionIsValidated) {
-    const Child c = gonio({"--max-memory", "12X", "check", "x.json"});
+    put(p("x.json"), "{}");  // a readable input: the refusal is the memory size
+    const Child c = gonio({"--max-memory", "12X", "check", p("x.json").string()});
     EXPECT_EQ(c.status, 2) << c.out;
     EXPECT_NE(c.out.find("12X"), std::string::npos) << c.out;
 }

@@ -86,7 +86,14 @@ TEST(FitContract, TemplateRefusesStructureOptions) {
 }
 
 TEST(FitContract, CompareRefusesTemplateModelOutAndTruth) {
-    for (const char* opt : {"--template x.json", "--model ggx", "--out f.json", "--truth t.json"}) {
+    // The files named exist, so the refusal is the conflict, not an unreadable input.
+    for (const char* name : {"x.json", "t.json"}) {
+        std::ofstream(dir() + "/" + name) << "{}";
+    }
+    for (const std::string& opt : {"--template " + dir() + "/x.json",
+                                   std::string("--model ggx"),
+                                   "--out " + dir() + "/f.json",
+                                   "--truth " + dir() + "/t.json"}) {
         CliRun r = run_gonio("fit " + data_csv() + " --compare ggx,beckmann " + opt);
         EXPECT_EQ(r.status, 2) << opt << "\n" << r.out;
         const std::string flag = std::string(opt).substr(0, std::string(opt).find(' '));
@@ -139,8 +146,10 @@ TEST(FitContract, ManifestAppliesCommandLineOptionsToEveryEntry) {
     EXPECT_EQ(c.status, 2) << c.out;
     EXPECT_TRUE(has(c.out, "--lobes cannot be combined with " + m + " line 2, model auto"))
         << c.out;
-    // Options that name one fit are refused with --manifest.
-    CliRun t = run_gonio("fit --manifest " + m + " --out " + out + " --truth x.json");
+    // Options that name one fit are refused with --manifest (the truth file exists: the refusal
+    // is the conflict, not an unreadable input).
+    std::ofstream(dir() + "/x.json") << "{}";
+    CliRun t = run_gonio("fit --manifest " + m + " --out " + out + " --truth " + dir() + "/x.json");
     EXPECT_EQ(t.status, 2) << t.out;
     EXPECT_TRUE(has(t.out, "--truth cannot be combined with --manifest")) << t.out;
 }
@@ -176,9 +185,10 @@ TEST(FitContract, DegreesInARadianColumnGetAHint) {
 TEST(AcquireContract, ImageModeRefusesPointModeOptionsNamingBoth) {
     const std::string camp = dir() + "/campaign.json";
     std::ofstream(camp) << "{}";
+    std::ofstream(dir() + "/s.json") << "{}";  // readable: the refusal is the combination
     const std::pair<std::string, std::string> cases[] = {
         {camp, "campaign.json (the positional description) cannot be combined with --mode image"},
-        {"--scene s.json", "--scene cannot be combined with --mode image"},
+        {"--scene " + dir() + "/s.json", "--scene cannot be combined with --mode image"},
         {"--plan uniform", "--plan cannot be combined with --mode image"},
         {"--n-theta 4", "--n-theta cannot be combined with --mode image"},
         {"--n-dphi 4", "--n-dphi cannot be combined with --mode image"},
@@ -195,11 +205,16 @@ TEST(AcquireContract, ImageModeRefusesPointModeOptionsNamingBoth) {
 }
 
 TEST(AcquireContract, ImageResumeReadsTheFolderAndRefusesNewCampaignOptions) {
-    // A folder that holds no image campaign: an error naming it, nothing created.
+    // A folder that holds no image campaign: an error naming it, nothing created in it.
+    fs::create_directories(dir() + "/old");
     CliRun a = run_gonio("acquire --mode image --resume " + dir() + "/old");
     EXPECT_EQ(a.status, 1) << a.out;
     EXPECT_TRUE(has(a.out, "not an image-mode campaign folder")) << a.out;
-    EXPECT_FALSE(fs::exists(dir() + "/old"));
+    EXPECT_TRUE(fs::is_empty(dir() + "/old"));
+    // A folder that does not exist is an input that cannot be read: refused before any work.
+    CliRun missing = run_gonio("acquire --mode image --resume " + dir() + "/nowhere");
+    EXPECT_EQ(missing.status, 2) << missing.out;
+    EXPECT_FALSE(fs::exists(dir() + "/nowhere"));
     // The settings of a resumed image campaign come from its folder.
     const std::pair<std::string, std::string> cases[] = {
         {"--grid 15x15x30", "--grid cannot be combined with --resume"},
@@ -251,6 +266,7 @@ TEST(AcquireContract, PointModeRefusesImageOptionsAndResumeRefusesNewCampaignOpt
     CliRun a = run_gonio("acquire --plan-only --coverage-target 0.5");
     EXPECT_EQ(a.status, 2) << a.out;
     EXPECT_TRUE(has(a.out, "--coverage-target cannot be combined with --mode point")) << a.out;
+    fs::create_directories(dir() + "/c");  // readable: the refusal is the combination
     CliRun b = run_gonio("acquire --resume " + dir() + "/c --material gold");
     EXPECT_EQ(b.status, 2) << b.out;
     EXPECT_TRUE(has(b.out, "--material cannot be combined with --resume")) << b.out;

@@ -21,6 +21,7 @@ TEST(FileFitReport, ABsdfFitIsReportedAsAFitOfThatFile) {
                                "/data/models/plastic-ggx.json " + bsdf.string());
     ASSERT_EQ(c.status, 0) << c.out;
     const fs::path out = dir / "fit";
+    fs::create_directories(out);  // gonio fit writes into an existing folder
     const CliRun f = run_gonio("fit " + bsdf.string() + " --out " + (out / "fit.json").string());
     ASSERT_EQ(f.status, 0) << f.out;
     const CliRun r = run_gonio("report " + out.string());

@@ -29,6 +29,14 @@ std::string dir() {
     return d;
 }
 
+/// A readable dataset with its header and no sample: a fit of it fails (exit 1) once it reads the
+/// data, so an option refused before that (exit 2) is refused before any work.
+std::string empty_data() {
+    const std::string path = dir() + "/no-samples.csv";
+    std::ofstream(path) << "theta_i,phi_i,theta_o,phi_o,r,g,b\n";
+    return path;
+}
+
 /// One fit option and its values; the first value is the command's default (not passed).
 struct Axis {
     std::string flag;
@@ -175,8 +183,9 @@ void walk(const std::string& data) {
     for (const std::vector<int>& row : rows) {
         const std::string opts = options_of(row) + " --starts 2 --max-iterations 30 --threads 1";
         SCOPED_TRACE("gonio fit DATA" + opts);
-        // Refused before any work: the same refusal when the data do not even exist.
-        CliRun missing = run_gonio("fit " + dir() + "/no-such-data.csv" + opts);
+        // Refused before any work: the same refusal when the data hold no sample at all (a file
+        // that does not exist is refused before the options, as every unreadable input is).
+        CliRun missing = run_gonio("fit " + empty_data() + opts);
         ASSERT_NE(missing.status, -1) << "signal\n" << missing.out;
         CliRun r = run_gonio("fit " + data + " --max-samples 400" + opts);
         ASSERT_NE(r.status, -1) << "signal\n" << r.out;
@@ -187,7 +196,7 @@ void walk(const std::string& data) {
             continue;
         }
         EXPECT_EQ(missing.status, 1) << missing.out;
-        EXPECT_NE(missing.out.find("no-such-data.csv"), std::string::npos) << missing.out;
+        EXPECT_NE(missing.out.find("no-samples.csv"), std::string::npos) << missing.out;
         // A fit: exit 0, or 1 when the iteration budget of the walk ends before the solver
         // converges, said as such (the report is the fit's, with usable false).
         const bool stopped = r.out.find("the fit did not converge") != std::string::npos;

@@ -143,9 +143,11 @@ TEST_F(ReportCli, ReportPrintsThePathOfASelfContainedPage) {
     const std::string page = slurp(html);
     EXPECT_NE(page.find("data:image/png;base64,"), std::string::npos);
     EXPECT_NE(page.find("Coverage of the angular domain"), std::string::npos);
+    // A folder that does not exist is an input that cannot be read: exit 2, naming it.
     r = gonio("report " + (dir_ / "nowhere").string(), dir_);
-    EXPECT_NE(r.status, 0);
-    EXPECT_NE(r.out.find("not a folder"), std::string::npos);
+    EXPECT_EQ(r.status, 2) << r.out;
+    EXPECT_NE(r.out.find((dir_ / "nowhere").string() + ": cannot open"), std::string::npos)
+        << r.out;
 }
 
 }  // namespace
