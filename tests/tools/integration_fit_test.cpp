@@ -185,7 +185,8 @@ TEST(GonioFit, MalformedCsvRowsAreErrorsNamingFileLineAndColumn) {
     const Case cases[] = {
         {"0.3,0,0.4,3.1,nan,0.1,0.1\n", "bad1.csv:" + line + ":5: r = nan is not finite"},
         {"0.3,0,1.7,3.1,0.1,0.1,0.1\n", "bad2.csv:" + line + ":3: theta_o = 1.7"},
-        {"0.3,0,0.4,3.1,1e308,0.1,0.1\n", "bad3.csv:" + line + ":5: r = 1e+308 outside [-1e9, 1e9]"},
+        {"0.3,0,0.4,3.1,1e308,0.1,0.1\n",
+         "bad3.csv:" + line + ":5: r = 1e+308 outside [-1e9, 1e9]"},
         {"0.3,0,0.4,3.1,0.1,0.1\n", "bad4.csv:" + line + ": 6 fields, the header has 7"},
         {"0.3,0,0.4,3.1,0.1,x,0.1\n", "bad5.csv:" + line + ":6: g = \"x\" is not a number"},
     };
