@@ -267,6 +267,7 @@ int run(const acq::CampaignRequest& r) {
     acq::RunHooks hooks = operator_hooks();
     hooks.accept_drift = r.accept_drift;
     hooks.fit_check = gonio::tools::default_fit_check();
+    hooks.plan_fit = gonio::tools::default_plan_fit();
     if (live) {
         live->set_title("gonio campaign " + fs::path(dir).filename().string());
         attach_live_page(live.get(), &hooks);
@@ -333,9 +334,12 @@ GONIO_COMMAND(acquire) {
     cmd->add_option("--operator", r.operator_name, "operator name");
     cmd->add_option("--plan",
                     r.plan_kind,
-                    "uniform, half-diff or vndf (retro-reflection, then the VNDF-warped domain; "
-                    "writes dataset.bsdf)")
-        ->check(CLI::IsMember({"uniform", "half-diff", "vndf"}));
+                    "uniform, half-diff, vndf (retro-reflection, then the VNDF-warped domain; "
+                    "writes dataset.bsdf) or fit (a space-filling batch, then each batch chosen "
+                    "from the fit of the values so far: where its prediction is least certain "
+                    "or it misfits, per second of rig time; with --anisotropic over every "
+                    "azimuth)")
+        ->check(CLI::IsMember({"uniform", "half-diff", "vndf", "fit"}));
     cmd->add_option("--n-theta", r.n_theta, "uniform plan: polar angles")
         ->check(gonio::tools::integer_in(2, acq::kMaxPlanAxis));
     cmd->add_option("--n-dphi", r.n_dphi, "uniform plan: azimuth differences")

@@ -359,7 +359,8 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
                               on_bound,
                               result.parameters,
                               result.not_identifiable,
-                              &chi2);
+                              &chi2,
+                              &result.covariance);
         result.covariance_method =
             ctx.cost.use_sigma
                 ? "inverse J^T J of the residuals normalised by relative sigmas reweighted at the "

@@ -164,7 +164,8 @@ void uncertainties(const PreparedSamples& ps,
                    const std::vector<bool>& on_bound,
                    std::vector<FittedParameter>& params,
                    std::vector<std::string>& not_identifiable,
-                   std::optional<double>* reduced_chi2);
+                   std::optional<double>* reduced_chi2,
+                   ParameterCovariance* covariance);
 
 // --- goodness.cpp ----------------------------------------------------------------------------
 

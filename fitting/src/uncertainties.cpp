@@ -34,6 +34,22 @@ bool spd_inverse(const Eigen::MatrixXd& a, Eigen::MatrixXd& inv) {
     return inv.allFinite();
 }
 
+/// The covariance of the parameters `good` (free indices) into `out`, named.
+void keep_covariance(const ParameterMap& map,
+                     const std::vector<int>& good,
+                     const Eigen::MatrixXd& cov,
+                     ParameterCovariance* out) {
+    const int g = static_cast<int>(good.size());
+    out->names.clear();
+    out->matrix.assign(static_cast<std::size_t>(g) * g, 0.0);
+    for (int a = 0; a < g; ++a) {
+        out->names.push_back(map.scalars()[map.free()[good[a]]].name);
+        for (int b = 0; b < g; ++b) {
+            out->matrix[static_cast<std::size_t>(a) * g + b] = cov(a, b);
+        }
+    }
+}
+
 }  // namespace
 
 /// Fills sigma / identifiable of the free parameters at the solution x of the prepared samples.
@@ -55,7 +71,8 @@ void uncertainties(const PreparedSamples& ps,
                    const std::vector<bool>& on_bound,
                    std::vector<FittedParameter>& params,
                    std::vector<std::string>& not_identifiable,
-                   std::optional<double>* reduced_chi2) {
+                   std::optional<double>* reduced_chi2,
+                   ParameterCovariance* covariance) {
     const ParameterMap& map = ps.map();
     const int n = map.size();
     NormalEquations ne;
@@ -149,6 +166,9 @@ void uncertainties(const PreparedSamples& ps,
             }
             for (int a = 0; a < g && cov.rows() == g; ++a) {
                 sigma[good[a]] = std::sqrt(std::max(0.0, cov(a, a)));
+            }
+            if (cov.rows() == g && cov.allFinite()) {
+                keep_covariance(map, good, cov, covariance);
             }
         }
     }

@@ -88,10 +88,34 @@ std::array<double, 4> pose_deg(const RigPosed& p) {
     return {p.light / kDeg, p.detector / kDeg, p.tilt / kDeg, p.spin / kDeg};
 }
 
+/// campaign.json "plan" of kind "fit" (plan_fit.h).
+void parse_fit_plan(JsonObject& p, FitPlanSpec* f) {
+    f->first = p.integer("first", f->first, 1, kMaxPlanConfigs);
+    f->batch = p.integer("batch", f->batch, 1, kMaxPlanConfigs);
+    f->budget = p.integer("budget", f->budget, 1, kMaxPlanConfigs);
+    f->space_share = p.number("space_share", f->space_share, 0, 1);
+    f->theta_max = p.number("theta_max_deg", f->theta_max / kDeg, 1, 89, "deg") * kDeg;
+    f->anisotropic = p.boolean("anisotropic", f->anisotropic);
+    const std::string sym = p.string("symmetry", to_string(f->symmetry), 16);
+    auto parsed = parse_symmetry(sym);
+    if (!parsed) {
+        json_fail("plan.symmetry = \"" + excerpt(sym) +
+                  "\": must be \"none\", \"mirror\" or \"2-fold\"");
+    }
+    f->symmetry = *parsed;
+    if (auto ok = check_fit_plan_spec(*f); !ok) {
+        json_fail("plan: " + ok.error().message);
+    }
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
 // Campaign description
+
+bool isotropic_plan(const CampaignSpec& spec) {
+    return spec.plan_kind != "anisotropic" && !(spec.plan_kind == "fit" && spec.fit.anisotropic);
+}
 
 Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::string& source) {
     CampaignSpec s;
@@ -151,9 +175,12 @@ Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::s
                               "\": must be \"none\", \"mirror\" or \"2-fold\"");
                 }
                 a.symmetry = *parsed;
+            } else if (s.plan_kind == "fit") {
+                parse_fit_plan(p, &s.fit);
             } else {
                 json_fail("plan.kind = \"" + s.plan_kind +
-                          "\": must be \"uniform\", \"half-diff\", \"vndf\" or \"anisotropic\"");
+                          "\": must be \"uniform\", \"half-diff\", \"vndf\", \"anisotropic\" "
+                          "or \"fit\"");
             }
             p.finish();
         }
@@ -196,6 +223,11 @@ Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::s
                 "adaptive: refinement works in the isotropic (theta_i, theta_r, delta_phi) "
                 "space and cannot follow plan.kind \"anisotropic\" (set \"enabled\": "
                 "false)");
+        }
+        if (s.plan_kind == "fit" && s.adaptive && s.adaptive_passes > 0) {
+            json_fail(
+                "adaptive: the fit plan chooses every batch after the first from the fit "
+                "(set \"enabled\": false)");
         }
         if (s.plan_kind == "vndf" && s.adaptive) {
             json_fail(
@@ -260,6 +292,15 @@ std::string campaign_spec_json(const CampaignSpec& s) {
                      {"theta_max_deg", s.vndf.theta_max / kDeg},
                      {"phi_i_count", s.vndf.phi_i_count},
                      {"retro_phi_count", s.vndf.retro_phi_count}};
+    } else if (s.plan_kind == "fit") {
+        j["plan"] = {{"kind", "fit"},
+                     {"first", s.fit.first},
+                     {"batch", s.fit.batch},
+                     {"budget", s.fit.budget},
+                     {"space_share", s.fit.space_share},
+                     {"theta_max_deg", s.fit.theta_max / kDeg},
+                     {"anisotropic", s.fit.anisotropic},
+                     {"symmetry", to_string(s.fit.symmetry)}};
     } else if (s.plan_kind == "anisotropic") {
         j["plan"] = {{"kind", "anisotropic"},
                      {"n_theta", s.anisotropic.n_theta},
@@ -304,6 +345,17 @@ Expected<Plan> build_plan(const CampaignSpec& spec, const RigConfig& rig) {
                               ") asked for; the vndf plan measures every node of its RGL file");
         }
         return plan_vndf_retro(spec.vndf, rig_limits(rig));
+    }
+    if (spec.plan_kind == "fit") {
+        if (spec.adaptive && spec.adaptive_passes > 0) {
+            return make_error(
+                "fit plan: adaptive passes asked for; the fit plan chooses its own batches");
+        }
+        auto pool = fit_pool_for_rig(spec.fit, spec.scene, rig_limits(rig));
+        if (!pool) {
+            return pool;
+        }
+        return fit_first_batch(*pool, spec.fit);
     }
     Expected<Plan> plan = spec.plan_kind == "half-diff"     ? plan_half_diff(spec.half_diff)
                           : spec.plan_kind == "anisotropic" ? plan_anisotropic(spec.anisotropic)
@@ -402,7 +454,7 @@ Expected<std::vector<brdf::Sample>> campaign_samples(const std::string& dir,
         s.flags = r.flags;
         samples.push_back(s);
     }
-    add_error_budget(rig->error_budget, rig_hours, spec->plan_kind != "anisotropic", &samples);
+    add_error_budget(rig->error_budget, rig_hours, isotropic_plan(*spec), &samples);
     return samples;
 }
 
@@ -585,6 +637,8 @@ class Runner {
     /// refinement (everything derived from the journal, so a resume rebuilds the same passes).
     Expected<Plan> pass_plan(int pass, const Plan& plan);
     Plan adaptive_pass(int pass) const;
+    /// The fit-driven plan's batch `pass` (>= 1) from the journal; empty at the budget.
+    Plan fit_batch(int pass);
     /// The pass's configurations not yet measured, solved in plan order for continuity.
     void pending_poses(int pass,
                        const Plan& pp,
@@ -636,6 +690,10 @@ class Runner {
     std::size_t check_every_ = 0;
     /// The stop rule's last check, for metadata.json (null before the first).
     json until_ = nullptr;
+    /// The fit-driven plan's pool (reachable, within the scene) and its batches for metadata.json
+    /// (by pass: when chosen, from what, why).
+    Plan fit_pool_;
+    json fit_batches_ = json::object();
     /// (pass, index) of every measurement in the journal.
     std::set<std::pair<int, std::uint32_t>> done_;
     std::size_t planned_total_ = 0;
@@ -985,8 +1043,8 @@ Expected<void> Runner::drift_check(bool baseline, std::string* pause) {
                                                   spec_.drift_delta_phi_deg * kDeg);
     // An anisotropic sample reads differently at every spin: its reference is held at one spin,
     // the directions fixed in the sample's frame, so that only the lamp can change the reading.
-    const bool isotropic = spec_.plan_kind != "anisotropic" &&
-                           !(spec_.plan_kind == "vndf" && spec_.vndf.phi_i_count >= 2);
+    const bool isotropic =
+        isotropic_plan(spec_) && !(spec_.plan_kind == "vndf" && spec_.vndf.phi_i_count >= 2);
     auto sol = solve(Target{wi, wo, isotropic, true}, lim_, dyn_, current_);
     if (!sol) {
         return make_error("drift reference configuration unreachable: " + sol.error().message);
@@ -1151,6 +1209,20 @@ Expected<void> Runner::write_metadata(const std::string& state, const Plan& plan
     if (!until_.is_null()) {
         meta["until"] = until_;
     }
+    if (spec_.plan_kind == "fit") {
+        // Batches chosen by an earlier run stay as they were recorded.
+        json batches = meta.contains("fit_plan") && meta["fit_plan"].is_object() &&
+                               meta["fit_plan"].contains("batches") &&
+                               meta["fit_plan"]["batches"].is_object()
+                           ? meta["fit_plan"]["batches"]
+                           : json::object();
+        for (auto it = fit_batches_.begin(); it != fit_batches_.end(); ++it) {
+            if (!batches.contains(it.key())) {
+                batches[it.key()] = it.value();
+            }
+        }
+        meta["fit_plan"] = {{"pool", fit_pool_.configs.size()}, {"batches", batches}};
+    }
     return write_text_atomic(path("metadata.json"), meta.dump(2) + "\n");
 }
 
@@ -1299,6 +1371,16 @@ Expected<Plan> Runner::load_campaign() {
     if (!plan0) {
         return tl::unexpected(plan0.error());
     }
+    if (spec_.plan_kind == "fit") {
+        auto pool = fit_pool_for_rig(spec_.fit, spec_.scene, lim_);
+        if (!pool) {
+            return tl::unexpected(pool.error());
+        }
+        fit_pool_ = std::move(*pool);
+        if (!hooks_.plan_fit) {
+            say("fit plan: no fit available; every batch fills space");
+        }
+    }
     auto jn = Journal::open(path("journal.log"));
     if (!jn) {
         return tl::unexpected(jn.error());
@@ -1415,9 +1497,36 @@ Plan Runner::adaptive_pass(int pass) const {
     return pp;
 }
 
+Plan Runner::fit_batch(int pass) {
+    FitBatch b =
+        fit_next_batch(journal_->records(), pass, fit_pool_, spec_.fit, rig_, hooks_.plan_fit);
+    if (!b.plan.configs.empty()) {
+        say("fit plan, batch " + std::to_string(pass) + ": " +
+            std::to_string(b.plan.configs.size()) + " configurations; " + b.note);
+    }
+    const std::string key = std::to_string(pass);
+    if (!fit_batches_.contains(key) && !b.plan.configs.empty()) {
+        // The batch as first chosen (a resume rebuilds the same one and keeps this record).
+        fit_batches_[key] = {{"measured_before", b.measured_before},
+                             {"rig_time_s", prior_rig_time_s_ + rig_time().total_s()},
+                             {"configurations", b.plan.configs.size()},
+                             {"fitted", b.fitted},
+                             {"by_variance", b.by_variance},
+                             {"by_misfit", b.by_misfit},
+                             {"by_space", b.by_space},
+                             {"note", b.note}};
+    }
+    return std::move(b.plan);
+}
+
 Expected<Plan> Runner::pass_plan(int pass, const Plan& plan) {
     if (pass == 0) {
         return plan;
+    }
+    if (spec_.plan_kind == "fit") {
+        Plan pp = fit_batch(pass);
+        planned_total_ += pp.configs.size();
+        return pp;
     }
     if (spec_.plan_kind != "vndf") {
         Plan pp = adaptive_pass(pass);
@@ -1617,8 +1726,9 @@ Expected<RunResult> Runner::run() {
     if (auto d = prepare_devices(have_white, &pause); !d) {
         return finish(Outcome::kPaused, d.error().message, plan);
     }
-    check_every_ = rule_.every > 0 ? static_cast<std::size_t>(rule_.every)
-                                   : std::max<std::size_t>(8, plan.configs.size() / 10);
+    check_every_ = rule_.every > 0            ? static_cast<std::size_t>(rule_.every)
+                   : spec_.plan_kind == "fit" ? static_cast<std::size_t>(spec_.fit.batch)
+                                              : std::max<std::size_t>(8, plan.configs.size() / 10);
     if (rule_.active() && !done_.empty()) {
         // A resume checks the rule on what the journal holds before measuring anything more.
         if (auto end = rule_on_journal(plan)) {
@@ -1628,12 +1738,18 @@ Expected<RunResult> Runner::run() {
     // Passes: 0 is the plan; each adaptive pass refines where the values measured so far change
     // fastest.
     planned_total_ = plan.configs.size();
-    const int last_pass =
-        spec_.plan_kind == "vndf" ? 1 : (spec_.adaptive ? spec_.adaptive_passes : 0);
+    // The fit plan's passes are its batches, until its budget is measured.
+    const int last_pass = spec_.plan_kind == "vndf"  ? 1
+                          : spec_.plan_kind == "fit" ? spec_.fit.budget
+                          : spec_.adaptive           ? spec_.adaptive_passes
+                                                     : 0;
     for (int pass = 0; pass <= last_pass; ++pass) {
         auto pp = pass_plan(pass, plan);
         if (!pp) {
             return finish(Outcome::kPaused, pp.error().message, plan);
+        }
+        if (spec_.plan_kind == "fit" && pp->configs.empty()) {
+            break;
         }
         result_.planned_total = planned_total_;
         if (auto end = measure_pass(pass, *pp, plan, &pause)) {

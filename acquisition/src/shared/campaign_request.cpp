@@ -189,7 +189,7 @@ std::optional<RequestConflict> plan_conflict(const CampaignRequest& r,
                                "isotropic_plan",
                                "the symmetry folds the anisotropic plan (give --anisotropic)"};
     }
-    if (r.anisotropic && !r.plan_kind.empty() && r.plan_kind != "vndf") {
+    if (r.anisotropic && !r.plan_kind.empty() && r.plan_kind != "vndf" && r.plan_kind != "fit") {
         return RequestConflict{"plan_kind",
                                "anisotropic",
                                "the anisotropic plan is its own grid over (theta_i, phi_i, "
@@ -218,6 +218,17 @@ std::optional<RequestConflict> plan_conflict(const CampaignRequest& r,
                                "anisotropic",
                                "adaptive refinement works in the isotropic (theta_i, theta_r, "
                                "delta_phi) space"};
+    }
+    if (r.plan_kind == "fit") {
+        for (const std::string& f : given) {
+            if (among(f, {"n_theta", "n_dphi"}) || (f == "adaptive" && r.adaptive > 0)) {
+                return RequestConflict{f,
+                                       "plan_kind",
+                                       "the fit plan chooses every batch after the first from "
+                                       "the fit, among its own pool of configurations"};
+            }
+        }
+        return std::nullopt;
     }
     if (r.plan_kind != "vndf") {
         return std::nullopt;
@@ -334,8 +345,9 @@ Expected<CampaignSpec> new_campaign_spec(const CampaignRequest& r, bool* embedde
     }
     if (!r.plan_kind.empty()) {
         spec.plan_kind = r.plan_kind;
-        if (r.plan_kind == "vndf") {
-            // Its second pass is the VNDF-warped domain: no adaptive pass, no ROI.
+        if (r.plan_kind == "vndf" || r.plan_kind == "fit") {
+            // The vndf plan's second pass is the VNDF-warped domain, the fit plan's batches are
+            // chosen by the fit: no adaptive pass.
             spec.adaptive = false;
         }
     }
@@ -362,7 +374,18 @@ Expected<CampaignSpec> new_campaign_spec(const CampaignRequest& r, bool* embedde
             return tl::unexpected(ok.error());
         }
     }
-    if (r.anisotropic && spec.plan_kind != "anisotropic" && spec.plan_kind != "vndf") {
+    if (spec.plan_kind == "fit" && (r.anisotropic || !r.symmetry.empty())) {
+        spec.fit.anisotropic = spec.fit.anisotropic || r.anisotropic;
+        if (!r.symmetry.empty()) {
+            auto sym = parse_symmetry(r.symmetry);
+            if (!sym) {
+                return tl::unexpected(sym.error());
+            }
+            spec.fit.symmetry = *sym;
+        }
+    }
+    if (r.anisotropic && spec.plan_kind != "anisotropic" && spec.plan_kind != "vndf" &&
+        spec.plan_kind != "fit") {
         // The anisotropic plan at the step of the description's uniform grid.
         spec.plan_kind = "anisotropic";
         spec.anisotropic.n_theta = spec.uniform.n_theta;

@@ -131,9 +131,18 @@ struct SolverInfo {
     std::vector<StageInfo> stages;
 };
 
+/// The covariance of the free parameters that have a sigma (FittedParameter::sigma), in the order
+/// of `names`, row-major (names.size() squared values); empty when no sigma was computed. What
+/// propagates the fit's uncertainty to a prediction: var f(x) = j^T C j, j = df/dp at x.
+struct ParameterCovariance {
+    std::vector<std::string> names;
+    std::vector<double> matrix;
+};
+
 struct FitResult {
     brdf::ModelD model;
     std::vector<FittedParameter> parameters;
+    ParameterCovariance covariance;
     std::vector<std::string> not_identifiable;
     /// Free parameters that ended on a bound ("lobes[0].alpha_x (upper bound 1.5)").
     std::vector<std::string> at_bounds;

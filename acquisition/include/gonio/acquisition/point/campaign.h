@@ -11,9 +11,11 @@
 #include <string>
 
 #include "gonio/acquisition/plans/plan.h"
+#include "gonio/acquisition/plans/plan_fit.h"
 #include "gonio/acquisition/plans/plan_vndf.h"
 #include "gonio/acquisition/plans/schedule.h"
 #include "gonio/acquisition/point/calibration.h"
+#include "gonio/acquisition/point/fit_pass.h"
 #include "gonio/acquisition/point/rig_clock.h"
 #include "gonio/acquisition/point/stop_rule.h"
 #include "gonio/acquisition/shared/rig_config.h"
@@ -26,15 +28,19 @@ struct CampaignSpec {
     std::string sample = "sample";  ///< Material or sample name (the folder name uses it).
     std::string operator_name;
     std::string notes;
-    std::string rig;                    ///< Rig description path (relative to the campaign file).
-    std::string scene;                  ///< Optional scene (ROI) path.
-    std::string plan_kind = "uniform";  ///< "uniform", "half-diff", "vndf" or "anisotropic".
+    std::string rig;    ///< Rig description path (relative to the campaign file).
+    std::string scene;  ///< Optional scene (ROI) path.
+    /// "uniform", "half-diff", "vndf", "anisotropic" or "fit".
+    std::string plan_kind = "uniform";
     UniformGridSpec uniform;
     HalfDiffSpec half_diff;
     /// The vndf plan (plan_vndf.h): pass 0 retro-reflection, pass 1 the VNDF-warped nodes built
     /// from it; the campaign ends by writing dataset.bsdf. No scene, no adaptive pass.
     VndfSpec vndf;
     AnisotropicGridSpec anisotropic;  ///< plan_kind "anisotropic" (no adaptive passes).
+    /// The fit-driven plan (plan_fit.h): pass 0 its space-filling first batch, each later pass a
+    /// batch chosen from the fit of the passes before it, up to its budget. No adaptive pass.
+    FitPlanSpec fit;
     bool adaptive = false;
     int adaptive_passes = 1;
     RefineSpec refine;
@@ -48,6 +54,10 @@ struct CampaignSpec {
     std::string until;
     std::string json;  ///< The JSON text.
 };
+
+/// Whether the campaign's plan treats the sample as isotropic (every plan but the anisotropic one
+/// and the fit-driven plan over anisotropic candidates).
+bool isotropic_plan(const CampaignSpec& spec);
 
 /// The default campaign (no description given): `sample` measured on a uniform grid of 7 polar x 5
 /// azimuth-difference values up to 75 deg, one adaptive pass of 30, drift check every 40.
@@ -130,6 +140,9 @@ struct RunHooks {
     /// The fit a campaign with a stop rule (CampaignSpec::until) runs between batches; a campaign
     /// with a rule and without it is refused.
     FitCheckFn fit_check;
+    /// The fit the fit-driven plan chooses each batch from; without it every batch fills space
+    /// (and the campaign says so).
+    PlanFitFn plan_fit;
 };
 
 /// Runs (or resumes) the campaign in `dir` on the rig's devices until completed, interrupted or

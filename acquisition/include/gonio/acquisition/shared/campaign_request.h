@@ -43,7 +43,7 @@ struct CampaignRequest {
     std::string scene;          ///< Point mode: region of interest.
     std::string sample;         ///< Sample name.
     std::string operator_name;  ///< Operator name.
-    std::string plan_kind;      ///< Point mode: "uniform", "half-diff" or "vndf".
+    std::string plan_kind;      ///< Point mode: "uniform", "half-diff", "vndf" or "fit".
     int n_theta = 0;            ///< Point mode, uniform plan: polar angles.
     int n_dphi = 0;             ///< Point mode, uniform plan: azimuth differences.
     int adaptive = -1;          ///< Point mode: adaptive passes (-1 = the campaign's).
@@ -111,8 +111,9 @@ std::string option_key(const std::string& field);
 /// The first option the mode refuses (none: every given option is honoured). Rules:
 /// - point mode refuses coverage_target, max_frames, grid, camera_px, max_theta_deg and no_zoom
 ///   (image-mode options); no_zoom is refused with anisotropic (its frames are all wide);
-/// - anisotropic excludes plan_kind and adaptive passes (adaptive > 0); symmetry needs
-///   anisotropic;
+/// - anisotropic excludes plan_kind (but the vndf and fit plans) and adaptive passes (adaptive >
+///   0); symmetry needs anisotropic;
+/// - the fit plan refuses n_theta, n_dphi and adaptive > 0 (it chooses from its own pool);
 /// - image mode refuses the campaign file, scene, plan, n_theta, n_dphi, adaptive, symmetry, the
 ///   vndf plan's options,
 ///   accept_drift (point-mode plans, symmetry folds and drift checks), and grid with anisotropic
