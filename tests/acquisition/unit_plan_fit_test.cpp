@@ -56,7 +56,7 @@ FitView two_parameter_view(double sa2, double sb2) {
 
 TEST(PlanFit, ChoosesWhereTheClosedFormPredictiveVarianceIsLargest) {
     const std::vector<CandidateForPlan> cands = line_of_candidates();
-    const double sa2 = 1e-4, sb2 = 1e-2, s2 = 1e-4;
+    const double sa2 = 1e-4, sb2 = 1e-4, s2 = 1e-4;
     const FitView v = two_parameter_view(sa2, sb2);
     FitChoiceOptions o;
     o.count = 3;
@@ -100,15 +100,16 @@ TEST(PlanFit, ChoosesWhereTheClosedFormPredictiveVarianceIsLargest) {
 TEST(PlanFit, InformationIsPerSecondOfRigTime) {
     std::vector<CandidateForPlan> cands = line_of_candidates();
     FitView v = two_parameter_view(1e-4, 0);
-    // Candidates 13 and 14 as informative (same Jacobian); 14 takes four times the rig time.
+    // Candidates 13 and 14 as informative (same Jacobian); 13 (the first on a tie) takes four
+    // times the rig time.
     v.jacobian[13 * 2] = v.jacobian[14 * 2] = 5;
-    cands[14].cost_s = 4;
+    cands[13].cost_s = 4;
     FitChoiceOptions o;
     o.count = 1;
     o.space_share = 0;
     const BatchChoice b = choose_batch(cands, {}, &v, 1e-4, o);
     ASSERT_EQ(b.chosen.size(), 1u);
-    EXPECT_EQ(b.chosen[0], 13u);
+    EXPECT_EQ(b.chosen[0], 14u);
 }
 
 TEST(PlanFit, AMisfitRegionIsMeasuredNotAvoided) {

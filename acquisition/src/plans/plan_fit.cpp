@@ -377,9 +377,9 @@ BatchChoice choose_batch(const std::vector<CandidateForPlan>& candidates,
     const bool informed = fit_is_usable(fit, candidates.size());
     int n_space = o.count;
     if (informed) {
-        n_space = std::min(
-            o.count,
-            std::max(o.count >= 2 ? 1 : 0, static_cast<int>(std::lround(o.space_share * o.count))));
+        n_space = std::min(o.count,
+                           std::max(o.count >= 2 && o.space_share > 0 ? 1 : 0,
+                                    static_cast<int>(std::lround(o.space_share * o.count))));
         const double s2 = std::max(noise_rel_var, 1e-12);
         information_picks(candidates,
                           *fit,

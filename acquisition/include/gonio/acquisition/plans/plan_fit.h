@@ -29,11 +29,12 @@ namespace gonio::acquisition {
 
 /// The fit-driven plan's settings (campaign.json "plan": {"kind": "fit", ...}).
 struct FitPlanSpec {
-    int first = 16;             ///< Configurations of the first, space-filling batch.
-    int batch = 8;              ///< Configurations of every later batch.
-    int budget = 120;           ///< Most configurations the campaign measures.
-    double space_share = 0.25;  ///< Share of a later batch chosen to fill space (at least one).
-    double theta_max = 1.309;   ///< rad (75 deg): the pool's largest polar angle.
+    int first = 16;    ///< Configurations of the first, space-filling batch.
+    int batch = 8;     ///< Configurations of every later batch.
+    int budget = 120;  ///< Most configurations the campaign measures.
+    double space_share =
+        0.25;                  ///< Share of a later batch chosen to fill space (> 0: at least one).
+    double theta_max = 1.309;  ///< rad (75 deg): the pool's largest polar angle.
     /// The pool spans (theta_i, phi_i, theta_o, phi_o) (anisotropic samples, the spin axis turns
     /// the sample) instead of the isotropic (theta_i, theta_r, delta_phi).
     bool anisotropic = false;
