@@ -590,6 +590,31 @@ bool GigeCamera::check_heartbeat(Clock::time_point now) {
     return false;
 }
 
+/// WRITEMEM as consecutive register writes; `*written` counts the bytes accepted before the
+/// first refusal.
+Status GigeCamera::write_mem_locked(const gvcp::MemWrite& w,
+                                    const HostId& from,
+                                    Clock::time_point now,
+                                    std::uint16_t* written) {
+    *written = 0;
+    if (w.address % 4 != 0 || w.data.size() % 4 != 0) {
+        return Status::kBadAlignment;
+    }
+    // A block that runs past the last address does not wrap around to address 0.
+    if (static_cast<std::uint64_t>(w.address) + w.data.size() > (std::uint64_t{1} << 32)) {
+        return Status::kInvalidAddress;
+    }
+    for (std::size_t i = 0; i < w.data.size(); i += 4) {
+        const Status st = write_reg_locked(
+            w.address + static_cast<std::uint32_t>(i), gvcp::get_u32(&w.data[i]), from, now);
+        if (st != Status::kSuccess) {
+            return st;
+        }
+        *written = static_cast<std::uint16_t>(*written + 4);
+    }
+    return Status::kSuccess;
+}
+
 std::optional<gvcp::Bytes> GigeCamera::handle_gvcp(const std::uint8_t* bytes,
                                                    std::size_t size,
                                                    const HostId& from,
@@ -698,26 +723,9 @@ std::optional<gvcp::Bytes> GigeCamera::handle_gvcp(const std::uint8_t* bytes,
             if (others_read_only) {
                 return reply(gvcp::make_write_mem_ack(cmd->req_id, Status::kAccessDenied, 0));
             }
-            if (w->address % 4 != 0 || w->data.size() % 4 != 0) {
-                return reply(gvcp::make_write_mem_ack(cmd->req_id, Status::kBadAlignment, 0));
-            }
-            // A block that runs past the last address does not wrap around to address 0.
-            if (static_cast<std::uint64_t>(w->address) + w->data.size() >
-                (std::uint64_t{1} << 32)) {
-                return reply(gvcp::make_write_mem_ack(cmd->req_id, Status::kInvalidAddress, 0));
-            }
             std::uint16_t written = 0;
-            for (std::size_t i = 0; i < w->data.size(); i += 4) {
-                const Status st = write_reg_locked(w->address + static_cast<std::uint32_t>(i),
-                                                   gvcp::get_u32(&w->data[i]),
-                                                   from,
-                                                   now);
-                if (st != Status::kSuccess) {
-                    return reply(gvcp::make_write_mem_ack(cmd->req_id, st, written));
-                }
-                written = static_cast<std::uint16_t>(written + 4);
-            }
-            return reply(gvcp::make_write_mem_ack(cmd->req_id, Status::kSuccess, written));
+            const Status st = write_mem_locked(*w, from, now, &written);
+            return reply(gvcp::make_write_mem_ack(cmd->req_id, st, written));
         }
         case gvcp::Command::kPacketResendCmd: {
             auto r = gvcp::parse_packet_resend(*cmd);
@@ -732,6 +740,43 @@ std::optional<gvcp::Bytes> GigeCamera::handle_gvcp(const std::uint8_t* bytes,
             return error_ack(Status::kNotImplemented);
     }
 }
+
+namespace {
+
+/// The sensor's counts as a GVSP payload: one byte a pixel, or two little-endian bytes (PFNC).
+std::vector<std::uint8_t> payload_of(const cv::Mat& counts, bool one_byte) {
+    std::vector<std::uint8_t> payload;
+    const std::size_t n = static_cast<std::size_t>(counts.rows) * counts.cols;
+    if (one_byte) {
+        payload.resize(n);
+        std::size_t k = 0;
+        for (int y = 0; y < counts.rows; ++y) {
+            const auto* row = counts.ptr<std::uint16_t>(y);
+            for (int x = 0; x < counts.cols; ++x) {
+                payload[k++] = static_cast<std::uint8_t>(row[x]);
+            }
+        }
+    } else {
+        // PFNC multi-byte pixels travel little-endian.
+        payload.resize(2 * n);
+        std::size_t k = 0;
+        for (int y = 0; y < counts.rows; ++y) {
+            const auto* row = counts.ptr<std::uint16_t>(y);
+            if constexpr (kLittleEndianHost) {
+                std::memcpy(payload.data() + k, row, 2 * static_cast<std::size_t>(counts.cols));
+                k += 2 * static_cast<std::size_t>(counts.cols);
+                continue;
+            }
+            for (int x = 0; x < counts.cols; ++x) {
+                payload[k++] = static_cast<std::uint8_t>(row[x] & 0xFF);
+                payload[k++] = static_cast<std::uint8_t>(row[x] >> 8);
+            }
+        }
+    }
+    return payload;
+}
+
+}  // namespace
 
 std::optional<RenderedFrame> GigeCamera::next_frame(Clock::time_point now,
                                                     Clock::time_point* next_due) {
@@ -808,33 +853,7 @@ std::optional<RenderedFrame> GigeCamera::next_frame(Clock::time_point now,
     f.offset_x = p.roi.x;
     f.offset_y = p.roi.y;
     f.settings = p.settings;
-    const std::size_t n = static_cast<std::size_t>(counts.rows) * counts.cols;
-    if (devices::bytes_per_pixel(p.settings.format) == 1) {
-        f.payload.resize(n);
-        std::size_t k = 0;
-        for (int y = 0; y < counts.rows; ++y) {
-            const auto* row = counts.ptr<std::uint16_t>(y);
-            for (int x = 0; x < counts.cols; ++x) {
-                f.payload[k++] = static_cast<std::uint8_t>(row[x]);
-            }
-        }
-    } else {
-        // PFNC multi-byte pixels travel little-endian.
-        f.payload.resize(2 * n);
-        std::size_t k = 0;
-        for (int y = 0; y < counts.rows; ++y) {
-            const auto* row = counts.ptr<std::uint16_t>(y);
-            if constexpr (kLittleEndianHost) {
-                std::memcpy(f.payload.data() + k, row, 2 * static_cast<std::size_t>(counts.cols));
-                k += 2 * static_cast<std::size_t>(counts.cols);
-                continue;
-            }
-            for (int x = 0; x < counts.cols; ++x) {
-                f.payload[k++] = static_cast<std::uint8_t>(row[x] & 0xFF);
-                f.payload[k++] = static_cast<std::uint8_t>(row[x] >> 8);
-            }
-        }
-    }
+    f.payload = payload_of(counts, devices::bytes_per_pixel(p.settings.format) == 1);
     return f;
 }
 

@@ -173,6 +173,10 @@ class GigeCamera {
     std::optional<devices::gvcp::Status> write_acquisition_reg_locked(std::uint32_t address,
                                                                       std::uint32_t value,
                                                                       Clock::time_point now);
+    devices::gvcp::Status write_mem_locked(const devices::gvcp::MemWrite& w,
+                                           const HostId& from,
+                                           Clock::time_point now,
+                                           std::uint16_t* written);
     void release_control_locked();
     std::uint64_t ticks_locked(Clock::time_point now) const;
 
