@@ -285,6 +285,7 @@ Expected<std::unique_ptr<SimRig>> SimRig::start(const std::string& rig_json,
     }
     gc.exposure_naming = opt.exposure_abs ? ExposureNaming::kAbs : ExposureNaming::kSfnc;
     rig->camera_ = std::make_shared<GigeCamera>(gc, rig->mounted_, rig->world_->scene_fn());
+    rig->camera_->set_scene_path(rig->world_->scene_path_fn());
     if (opt.sphere) {
         SphereImaging imaging = *opt.sphere;
         imaging.placements = zooms;
