@@ -178,11 +178,11 @@ std::uint64_t GigeCamera::ticks_locked(Clock::time_point now) const {
                                std::chrono::duration_cast<std::chrono::nanoseconds>(d).count());
 }
 
-Status GigeCamera::read_reg_locked(std::uint32_t a, std::uint32_t* v) const {
+/// The bootstrap registers kept in the state rather than in the bootstrap memory (GigE Vision
+/// 2.0, 28.1); nullopt for any other address.
+std::optional<Status> GigeCamera::read_bootstrap_reg_locked(std::uint32_t a,
+                                                            std::uint32_t* v) const {
     const State& s = *state_;
-    if (a % 4 != 0) {
-        return Status::kBadAlignment;
-    }
     switch (a) {
         case gvbs::kControlChannelPrivilege:
             *v = s.ccp;
@@ -217,6 +217,15 @@ Status GigeCamera::read_reg_locked(std::uint32_t a, std::uint32_t* v) const {
         case gvbs::kStreamChannelConfig:
             *v = 0;
             return Status::kSuccess;
+        default:
+            return std::nullopt;
+    }
+}
+
+/// The camera's feature registers (gige_map); nullopt for any other address.
+std::optional<Status> GigeCamera::read_feature_reg_locked(std::uint32_t a, std::uint32_t* v) const {
+    const State& s = *state_;
+    switch (a) {
         case m::kRoiBasePointer:
             *v = m::kRoiBlock;
             return Status::kSuccess;
@@ -280,7 +289,20 @@ Status GigeCamera::read_reg_locked(std::uint32_t a, std::uint32_t* v) const {
                 s.temperature_sixteenths[(a - m::kTemperatureTable) / 4]);
             return Status::kSuccess;
         default:
-            break;
+            return std::nullopt;
+    }
+}
+
+Status GigeCamera::read_reg_locked(std::uint32_t a, std::uint32_t* v) const {
+    const State& s = *state_;
+    if (a % 4 != 0) {
+        return Status::kBadAlignment;
+    }
+    if (auto r = read_bootstrap_reg_locked(a, v)) {
+        return *r;
+    }
+    if (auto r = read_feature_reg_locked(a, v)) {
+        return *r;
     }
     // Range checks in 64 bits: a + 4 wraps to 0 for a = 0xFFFFFFFC in 32.
     const std::uint64_t end = static_cast<std::uint64_t>(a) + 4;
@@ -300,28 +322,13 @@ Status GigeCamera::read_reg_locked(std::uint32_t a, std::uint32_t* v) const {
     return Status::kInvalidAddress;
 }
 
-Status GigeCamera::write_reg_locked(std::uint32_t a,
-                                    std::uint32_t v,
-                                    const HostId& from,
-                                    Clock::time_point now) {
+/// Writes to the bootstrap registers (GigE Vision 2.0, 28.1): control privilege, heartbeat,
+/// timestamp, stream channel, user-defined name; nullopt for any other address.
+std::optional<Status> GigeCamera::write_bootstrap_reg_locked(std::uint32_t a,
+                                                             std::uint32_t v,
+                                                             const HostId& from,
+                                                             Clock::time_point now) {
     State& s = *state_;
-    if (a % 4 != 0) {
-        return Status::kBadAlignment;
-    }
-    const auto roi_ok = [&](std::uint32_t w, std::uint32_t h, std::uint32_t ox, std::uint32_t oy) {
-        return w >= 1 && h >= 1 &&
-               static_cast<std::uint64_t>(ox) + w <=
-                   static_cast<std::uint64_t>(config_.sensor.width) &&
-               static_cast<std::uint64_t>(oy) + h <=
-                   static_cast<std::uint64_t>(config_.sensor.height);
-    };
-    // Payload-shaping registers are frozen while TLParamsLocked is set.
-    const bool payload_reg = a == m::kRoiBlock || a == m::kRoiBlock + 4 || a == m::kRoiBlock + 8 ||
-                             a == m::kRoiBlock + 12 || a == m::kPixelFormat ||
-                             a == gvbs::kStreamChannelPacketSize;
-    if (payload_reg && s.tl_locked()) {
-        return Status::kAccessDenied;
-    }
     switch (a) {
         case gvbs::kControlChannelPrivilege:
             if ((v & (gvbs::kCcpControl | gvbs::kCcpExclusive)) != 0) {
@@ -376,6 +383,23 @@ Status GigeCamera::write_reg_locked(std::uint32_t a,
         case gvbs::kUserDefinedName + 12:
             gvcp::put_u32(&s.bootstrap[a], v);
             return Status::kSuccess;
+        default:
+            return std::nullopt;
+    }
+}
+
+/// Writes to the image-shaping feature registers (region of interest, pixel format, exposure,
+/// gain, temperature selector); nullopt for any other address.
+std::optional<Status> GigeCamera::write_image_reg_locked(std::uint32_t a, std::uint32_t v) {
+    State& s = *state_;
+    const auto roi_ok = [&](std::uint32_t w, std::uint32_t h, std::uint32_t ox, std::uint32_t oy) {
+        return w >= 1 && h >= 1 &&
+               static_cast<std::uint64_t>(ox) + w <=
+                   static_cast<std::uint64_t>(config_.sensor.width) &&
+               static_cast<std::uint64_t>(oy) + h <=
+                   static_cast<std::uint64_t>(config_.sensor.height);
+    };
+    switch (a) {
         case m::kRoiBlock + 0:
             return roi_ok(v, s.height, s.offset_x, s.offset_y) ? (s.width = v, Status::kSuccess)
                                                                : Status::kInvalidParameter;
@@ -414,6 +438,24 @@ Status GigeCamera::write_reg_locked(std::uint32_t a,
             }
             s.gain_centi_db[(a - m::kGainTable) / 4] = v;
             return Status::kSuccess;
+        case m::kTemperatureSelector:
+            if (v > 1) {
+                return Status::kInvalidParameter;
+            }
+            s.temperature_selector = v;
+            return Status::kSuccess;
+        default:
+            return std::nullopt;
+    }
+}
+
+/// Writes to the acquisition feature registers (trigger, start/stop, mode, frame rate); nullopt
+/// for any other address.
+std::optional<Status> GigeCamera::write_acquisition_reg_locked(std::uint32_t a,
+                                                               std::uint32_t v,
+                                                               Clock::time_point now) {
+    State& s = *state_;
+    switch (a) {
         case m::kTriggerControl:
             // Selector FrameStart (0), activation RisingEdge (0), source Software (0), mode bit.
             if ((v & ~1u) != 0) {
@@ -466,14 +508,34 @@ Status GigeCamera::write_reg_locked(std::uint32_t a,
             s.frame_rate_hz = f;
             return Status::kSuccess;
         }
-        case m::kTemperatureSelector:
-            if (v > 1) {
-                return Status::kInvalidParameter;
-            }
-            s.temperature_selector = v;
-            return Status::kSuccess;
         default:
-            break;
+            return std::nullopt;
+    }
+}
+
+Status GigeCamera::write_reg_locked(std::uint32_t a,
+                                    std::uint32_t v,
+                                    const HostId& from,
+                                    Clock::time_point now) {
+    State& s = *state_;
+    if (a % 4 != 0) {
+        return Status::kBadAlignment;
+    }
+    // Payload-shaping registers are frozen while TLParamsLocked is set.
+    const bool payload_reg = a == m::kRoiBlock || a == m::kRoiBlock + 4 || a == m::kRoiBlock + 8 ||
+                             a == m::kRoiBlock + 12 || a == m::kPixelFormat ||
+                             a == gvbs::kStreamChannelPacketSize;
+    if (payload_reg && s.tl_locked()) {
+        return Status::kAccessDenied;
+    }
+    if (auto r = write_bootstrap_reg_locked(a, v, from, now)) {
+        return *r;
+    }
+    if (auto r = write_image_reg_locked(a, v)) {
+        return *r;
+    }
+    if (auto r = write_acquisition_reg_locked(a, v, now)) {
+        return *r;
     }
     std::uint32_t dummy = 0;
     // Anything else that exists is read-only.
@@ -529,6 +591,31 @@ bool GigeCamera::check_heartbeat(Clock::time_point now) {
         return true;
     }
     return false;
+}
+
+/// WRITEMEM as consecutive register writes; `*written` counts the bytes accepted before the
+/// first refusal.
+Status GigeCamera::write_mem_locked(const gvcp::MemWrite& w,
+                                    const HostId& from,
+                                    Clock::time_point now,
+                                    std::uint16_t* written) {
+    *written = 0;
+    if (w.address % 4 != 0 || w.data.size() % 4 != 0) {
+        return Status::kBadAlignment;
+    }
+    // A block that runs past the last address does not wrap around to address 0.
+    if (static_cast<std::uint64_t>(w.address) + w.data.size() > (std::uint64_t{1} << 32)) {
+        return Status::kInvalidAddress;
+    }
+    for (std::size_t i = 0; i < w.data.size(); i += 4) {
+        const Status st = write_reg_locked(
+            w.address + static_cast<std::uint32_t>(i), gvcp::get_u32(&w.data[i]), from, now);
+        if (st != Status::kSuccess) {
+            return st;
+        }
+        *written = static_cast<std::uint16_t>(*written + 4);
+    }
+    return Status::kSuccess;
 }
 
 std::optional<gvcp::Bytes> GigeCamera::handle_gvcp(const std::uint8_t* bytes,
@@ -639,26 +726,9 @@ std::optional<gvcp::Bytes> GigeCamera::handle_gvcp(const std::uint8_t* bytes,
             if (others_read_only) {
                 return reply(gvcp::make_write_mem_ack(cmd->req_id, Status::kAccessDenied, 0));
             }
-            if (w->address % 4 != 0 || w->data.size() % 4 != 0) {
-                return reply(gvcp::make_write_mem_ack(cmd->req_id, Status::kBadAlignment, 0));
-            }
-            // A block that runs past the last address does not wrap around to address 0.
-            if (static_cast<std::uint64_t>(w->address) + w->data.size() >
-                (std::uint64_t{1} << 32)) {
-                return reply(gvcp::make_write_mem_ack(cmd->req_id, Status::kInvalidAddress, 0));
-            }
             std::uint16_t written = 0;
-            for (std::size_t i = 0; i < w->data.size(); i += 4) {
-                const Status st = write_reg_locked(w->address + static_cast<std::uint32_t>(i),
-                                                   gvcp::get_u32(&w->data[i]),
-                                                   from,
-                                                   now);
-                if (st != Status::kSuccess) {
-                    return reply(gvcp::make_write_mem_ack(cmd->req_id, st, written));
-                }
-                written = static_cast<std::uint16_t>(written + 4);
-            }
-            return reply(gvcp::make_write_mem_ack(cmd->req_id, Status::kSuccess, written));
+            const Status st = write_mem_locked(*w, from, now, &written);
+            return reply(gvcp::make_write_mem_ack(cmd->req_id, st, written));
         }
         case gvcp::Command::kPacketResendCmd: {
             auto r = gvcp::parse_packet_resend(*cmd);
@@ -673,6 +743,43 @@ std::optional<gvcp::Bytes> GigeCamera::handle_gvcp(const std::uint8_t* bytes,
             return error_ack(Status::kNotImplemented);
     }
 }
+
+namespace {
+
+/// The sensor's counts as a GVSP payload: one byte a pixel, or two little-endian bytes (PFNC).
+std::vector<std::uint8_t> payload_of(const cv::Mat& counts, bool one_byte) {
+    std::vector<std::uint8_t> payload;
+    const std::size_t n = static_cast<std::size_t>(counts.rows) * counts.cols;
+    if (one_byte) {
+        payload.resize(n);
+        std::size_t k = 0;
+        for (int y = 0; y < counts.rows; ++y) {
+            const auto* row = counts.ptr<std::uint16_t>(y);
+            for (int x = 0; x < counts.cols; ++x) {
+                payload[k++] = static_cast<std::uint8_t>(row[x]);
+            }
+        }
+    } else {
+        // PFNC multi-byte pixels travel little-endian.
+        payload.resize(2 * n);
+        std::size_t k = 0;
+        for (int y = 0; y < counts.rows; ++y) {
+            const auto* row = counts.ptr<std::uint16_t>(y);
+            if constexpr (kLittleEndianHost) {
+                std::memcpy(payload.data() + k, row, 2 * static_cast<std::size_t>(counts.cols));
+                k += 2 * static_cast<std::size_t>(counts.cols);
+                continue;
+            }
+            for (int x = 0; x < counts.cols; ++x) {
+                payload[k++] = static_cast<std::uint8_t>(row[x] & 0xFF);
+                payload[k++] = static_cast<std::uint8_t>(row[x] >> 8);
+            }
+        }
+    }
+    return payload;
+}
+
+}  // namespace
 
 std::optional<RenderedFrame> GigeCamera::next_frame(Clock::time_point now,
                                                     Clock::time_point* next_due) {
@@ -752,33 +859,7 @@ std::optional<RenderedFrame> GigeCamera::next_frame(Clock::time_point now,
     f.offset_x = p.roi.x;
     f.offset_y = p.roi.y;
     f.settings = p.settings;
-    const std::size_t n = static_cast<std::size_t>(counts.rows) * counts.cols;
-    if (devices::bytes_per_pixel(p.settings.format) == 1) {
-        f.payload.resize(n);
-        std::size_t k = 0;
-        for (int y = 0; y < counts.rows; ++y) {
-            const auto* row = counts.ptr<std::uint16_t>(y);
-            for (int x = 0; x < counts.cols; ++x) {
-                f.payload[k++] = static_cast<std::uint8_t>(row[x]);
-            }
-        }
-    } else {
-        // PFNC multi-byte pixels travel little-endian.
-        f.payload.resize(2 * n);
-        std::size_t k = 0;
-        for (int y = 0; y < counts.rows; ++y) {
-            const auto* row = counts.ptr<std::uint16_t>(y);
-            if constexpr (kLittleEndianHost) {
-                std::memcpy(f.payload.data() + k, row, 2 * static_cast<std::size_t>(counts.cols));
-                k += 2 * static_cast<std::size_t>(counts.cols);
-                continue;
-            }
-            for (int x = 0; x < counts.cols; ++x) {
-                f.payload[k++] = static_cast<std::uint8_t>(row[x] & 0xFF);
-                f.payload[k++] = static_cast<std::uint8_t>(row[x] >> 8);
-            }
-        }
-    }
+    f.payload = payload_of(counts, devices::bytes_per_pixel(p.settings.format) == 1);
     return f;
 }
 

@@ -138,24 +138,7 @@ class XmlWriter {
     }
 };
 
-}  // namespace
-
-std::string gige_camera_xml(const GigeCameraConfig& c) {
-    namespace m = gige_map;
-    XmlWriter w;
-    auto& x = w.x;
-    const std::string exposure =
-        c.exposure_naming == ExposureNaming::kAbs ? "ExposureTimeAbs" : "ExposureTime";
-    x << "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n"
-      << "<!-- GenICam description of the gonio simulated GigE Vision camera -->\n"
-      << "<RegisterDescription ModelName=\"" << c.model << "\" VendorName=\"" << c.vendor
-      << "\" ToolTip=\"Simulated GigE Vision camera rendering a ground-truth BRDF\""
-      << " StandardNameSpace=\"GEV\" SchemaMajorVersion=\"1\" SchemaMinorVersion=\"1\""
-      << " SchemaSubMinorVersion=\"0\" MajorVersion=\"1\" MinorVersion=\"0\""
-      << " SubMinorVersion=\"0\" ProductGuid=\"6f1c3a52-0b2e-4f7d-9a41-3c5d2e8b7a10\""
-      << " VersionGuid=\"0d9e4b71-5a3c-4e2f-8b16-7c2a9f4e3d58\""
-      << " xmlns=\"http://www.genicam.org/GenApi/Version_1_1\""
-      << " xmlns:xsi=\"http://www.w3.org/2001/XMLSchema-instance\">\n";
+void write_categories(XmlWriter& w, const std::string& exposure) {
     w.category("Root",
                {"DeviceControl",
                 "ImageFormatControl",
@@ -201,7 +184,11 @@ std::string gige_camera_xml(const GigeCameraConfig& c) {
                 "GevTimestampValue",
                 "GevHeartbeatTimeout",
                 "GevSCPSPacketSize"});
+}
 
+void write_device_control(XmlWriter& w) {
+    namespace m = gige_map;
+    auto& x = w.x;
     // Device identity: the bootstrap strings.
     w.string_reg("DeviceVendorName", devices::gvbs::kManufacturerName, 32, "RO");
     w.string_reg("DeviceModelName", devices::gvbs::kModelName, 32, "RO");
@@ -227,7 +214,11 @@ std::string gige_camera_xml(const GigeCameraConfig& c) {
       << "    <Formula>RAW/16</Formula>\n"
       << "    <Unit>C</Unit>\n"
       << "  </SwissKnife>\n";
+}
 
+void write_image_format(XmlWriter& w) {
+    namespace m = gige_map;
+    auto& x = w.x;
     // Image format: the ROI block is found through a pointer register (pAddress).
     w.int_reg("RoiBlockAddress", XmlWriter::at(m::kRoiBasePointer), "RO");
     const auto roi_reg = [&](const std::string& name, int offset) {
@@ -307,7 +298,11 @@ std::string gige_camera_xml(const GigeCameraConfig& c) {
                   "PixelFormatReg",
                   locked);
     w.int_reg("PixelFormatReg", XmlWriter::at(m::kPixelFormat), "RW");
+}
 
+void write_acquisition(XmlWriter& w) {
+    namespace m = gige_map;
+    auto& x = w.x;
     // Acquisition.
     w.masked("TLParamsLockedReg", m::kAcquisitionControl, "    <Bit>31</Bit>\n");
     w.masked(
@@ -356,6 +351,11 @@ std::string gige_camera_xml(const GigeCameraConfig& c) {
     w.enumeration("TriggerSource", "Source of the trigger", {{"Software", 0}}, "TriggerSourceReg");
     w.enumeration(
         "TriggerActivation", "Edge that triggers", {{"RisingEdge", 0}}, "TriggerActivationReg");
+}
+
+void write_exposure(XmlWriter& w, const std::string& exposure) {
+    namespace m = gige_map;
+    auto& x = w.x;
     // Exposure: 100 ns ticks in the register, microseconds through a Converter.
     w.int_reg("ExposureTimeRawReg", XmlWriter::at(m::kExposureTicks), "RW");
     w.int_reg("ExposureTickReg", XmlWriter::at(m::kExposureTickNs), "RO");
@@ -373,7 +373,11 @@ std::string gige_camera_xml(const GigeCameraConfig& c) {
       << "    <Unit>us</Unit>\n"
       << "    <Slope>Increasing</Slope>\n"
       << "  </Converter>\n";
+}
 
+void write_analog(XmlWriter& w) {
+    namespace m = gige_map;
+    auto& x = w.x;
     // Gain: a table indexed by the selector (pIndex), 0.01 dB per count, dB through a Converter.
     w.enumeration("GainSelector",
                   "Which gain Gain sets (the sensor sees their sum in dB)",
@@ -402,7 +406,10 @@ std::string gige_camera_xml(const GigeCameraConfig& c) {
       << "    <Min>0</Min>\n    <Max>65535</Max>\n    <Unit>DN</Unit>\n"
       << "  </Float>\n";
     w.float_reg("BlackLevelReg", m::kBlackLevel, "RO");
+}
 
+void write_transport_layer(XmlWriter& w) {
+    auto& x = w.x;
     // Transport layer.
     x << "  <IntSwissKnife Name=\"PayloadSize\">\n"
       << "    <ToolTip>Bytes of one image (bits per pixel from the PFNC code)</ToolTip>\n"
@@ -447,6 +454,31 @@ std::string gige_camera_xml(const GigeCameraConfig& c) {
       << "    <pValue>GevSCPSPacketSizeReg</pValue>\n"
       << "    <Min>576</Min>\n    <Max>65500</Max>\n    <Inc>4</Inc>\n"
       << "  </Integer>\n";
+}
+}  // namespace
+
+std::string gige_camera_xml(const GigeCameraConfig& c) {
+    XmlWriter w;
+    auto& x = w.x;
+    const std::string exposure =
+        c.exposure_naming == ExposureNaming::kAbs ? "ExposureTimeAbs" : "ExposureTime";
+    x << "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n"
+      << "<!-- GenICam description of the gonio simulated GigE Vision camera -->\n"
+      << "<RegisterDescription ModelName=\"" << c.model << "\" VendorName=\"" << c.vendor
+      << "\" ToolTip=\"Simulated GigE Vision camera rendering a ground-truth BRDF\""
+      << " StandardNameSpace=\"GEV\" SchemaMajorVersion=\"1\" SchemaMinorVersion=\"1\""
+      << " SchemaSubMinorVersion=\"0\" MajorVersion=\"1\" MinorVersion=\"0\""
+      << " SubMinorVersion=\"0\" ProductGuid=\"6f1c3a52-0b2e-4f7d-9a41-3c5d2e8b7a10\""
+      << " VersionGuid=\"0d9e4b71-5a3c-4e2f-8b16-7c2a9f4e3d58\""
+      << " xmlns=\"http://www.genicam.org/GenApi/Version_1_1\""
+      << " xmlns:xsi=\"http://www.w3.org/2001/XMLSchema-instance\">\n";
+    write_categories(w, exposure);
+    write_device_control(w);
+    write_image_format(w);
+    write_acquisition(w);
+    write_exposure(w, exposure);
+    write_analog(w);
+    write_transport_layer(w);
     x << "  <Port Name=\"Device\">\n    <ToolTip>The camera's register space</ToolTip>\n"
       << "  </Port>\n"
       << "</RegisterDescription>\n";

@@ -19,6 +19,50 @@ namespace gonio::sim::detail {
 namespace mb = devices::modbus;
 using Bytes = std::vector<std::uint8_t>;
 
+namespace {
+
+/// Serves the whole frames at the front of `buf`: each request's reply goes out now or, when
+/// delayed (or behind a delayed one), into `delayed`; garbled input and noise are dropped.
+void serve_rtu_frames(const LoopContext& ctx,
+                      Bytes& buf,
+                      Bytes& out,
+                      std::deque<std::pair<Clock::time_point, Bytes>>& delayed,
+                      Clock::time_point& partial_since,
+                      Clock::time_point now) {
+    for (;;) {
+        const std::size_t flen = mb::rtu_request_length(buf.data(), buf.size());
+        if (flen == 0 || buf.size() < flen) {
+            if (buf.size() > mb::kMaxRtuAdu) {
+                buf.clear();  // Longer than any RTU frame: noise.
+            }
+            break;
+        }
+        auto frame = mb::parse_rtu_adu(buf.data(), flen);
+        if (!frame) {
+            buf.clear();  // Garbled (or too long): wait for the master to retry.
+            break;
+        }
+        buf.erase(buf.begin(), buf.begin() + static_cast<long>(flen));
+        partial_since = now;
+        const Reply a = ctx.registers->process(frame->unit_id, frame->pdu, true);
+        if (a.kind != Reply::Kind::kSend) {
+            continue;
+        }
+        Bytes adu = mb::encode_rtu_adu(frame->unit_id, a.pdu);
+        if (a.delay.count() > 0 || !delayed.empty()) {
+            auto due = now + a.delay;
+            if (!delayed.empty()) {
+                due = std::max(due, delayed.back().first);
+            }
+            delayed.emplace_back(due, std::move(adu));
+        } else {
+            out.insert(out.end(), adu.begin(), adu.end());
+        }
+    }
+}
+
+}  // namespace
+
 void serve_modbus_rtu(const LoopContext& ctx, int pty_master) {
     const ServerOptions& options = ctx.options;
     Bytes buf;
@@ -80,36 +124,7 @@ void serve_modbus_rtu(const LoopContext& ctx, int pty_master) {
                 buf.insert(buf.end(), chunk, chunk + n);
             }
         }
-        for (;;) {
-            const std::size_t flen = mb::rtu_request_length(buf.data(), buf.size());
-            if (flen == 0 || buf.size() < flen) {
-                if (buf.size() > mb::kMaxRtuAdu) {
-                    buf.clear();  // Longer than any RTU frame: noise.
-                }
-                break;
-            }
-            auto frame = mb::parse_rtu_adu(buf.data(), flen);
-            if (!frame) {
-                buf.clear();  // Garbled (or too long): wait for the master to retry.
-                break;
-            }
-            buf.erase(buf.begin(), buf.begin() + static_cast<long>(flen));
-            partial_since = now;
-            const Reply a = ctx.registers->process(frame->unit_id, frame->pdu, true);
-            if (a.kind != Reply::Kind::kSend) {
-                continue;
-            }
-            Bytes adu = mb::encode_rtu_adu(frame->unit_id, a.pdu);
-            if (a.delay.count() > 0 || !delayed.empty()) {
-                auto due = now + a.delay;
-                if (!delayed.empty()) {
-                    due = std::max(due, delayed.back().first);
-                }
-                delayed.emplace_back(due, std::move(adu));
-            } else {
-                out.insert(out.end(), adu.begin(), adu.end());
-            }
-        }
+        serve_rtu_frames(ctx, buf, out, delayed, partial_since, now);
         while (!delayed.empty() && delayed.front().first <= now) {
             out.insert(out.end(), delayed.front().second.begin(), delayed.front().second.end());
             delayed.pop_front();

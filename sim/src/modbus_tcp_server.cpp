@@ -115,6 +115,94 @@ bool flush(int fd, Bytes& out) {
     return true;
 }
 
+/// Accepts the pending connections, up to 64 a turn; past the connection limit, or out of
+/// descriptors (the spare one released for it), a connection is accepted and closed.
+void accept_pending(const LoopContext& ctx,
+                    int listen_fd,
+                    std::vector<std::unique_ptr<Conn>>& conns,
+                    std::uint64_t& next_id,
+                    std::uint64_t& refused,
+                    int& spare) {
+    const ServerOptions& options = ctx.options;
+    for (int k = 0; k < 64; ++k) {
+        const int c = ::accept4(listen_fd, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+        if (c < 0) {
+            if ((errno == EMFILE || errno == ENFILE) && spare >= 0) {
+                ::close(spare);
+                const int x = ::accept(listen_fd, nullptr, nullptr);
+                if (x >= 0) {
+                    ::close(x);
+                }
+                spare = ::open("/dev/null", O_RDONLY | O_CLOEXEC);
+                ctx.log("out of file descriptors: refused a connection");
+                continue;
+            }
+            break;
+        }
+        if (static_cast<int>(conns.size()) >= options.max_connections) {
+            ::close(c);
+            if (refused++ % 100 == 0) {
+                ctx.log("connection limit " + std::to_string(options.max_connections) +
+                        " reached: refused a connection (" + std::to_string(refused) +
+                        " refused so far)");
+            }
+            continue;
+        }
+        const int one = 1;
+        ::setsockopt(c, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+        ::setsockopt(c, SOL_SOCKET, SO_SNDBUF, &kSocketSendBuffer, sizeof kSocketSendBuffer);
+        auto conn = std::make_unique<Conn>();
+        conn->fd = c;
+        conn->id = next_id++;
+        conns.push_back(std::move(conn));
+    }
+}
+
+/// One turn of one connection: reads what arrived, serves whole frames, sends the replies due;
+/// false when the connection is to be closed (peer gone, replies not read, frame incomplete too
+/// long).
+bool serve_connection(const LoopContext& ctx, Conn& c, short re, Clock::time_point now) {
+    const ServerOptions& options = ctx.options;
+    const auto frame_timeout = std::chrono::milliseconds(options.frame_timeout_ms);
+    bool ok = true;
+    if ((re & (POLLIN | POLLHUP | POLLERR)) != 0 && c.in.size() < kMaxInputBytes) {
+        std::uint8_t buf[4096];
+        const ssize_t n = ::recv(c.fd, buf, sizeof buf, MSG_DONTWAIT);
+        if (n > 0) {
+            if (c.in.empty()) {
+                c.partial_since = now;
+            }
+            c.in.insert(c.in.end(), buf, buf + n);
+        } else if (n == 0 || (errno != EAGAIN && errno != EINTR)) {
+            ok = false;
+        }
+    }
+    if (ok && (!c.in.empty())) {
+        ok = serve_frames(ctx, c, kFramesPerTurn, now);
+    }
+    while (ok && !c.delayed.empty() && c.delayed.front().first <= now) {
+        c.out.insert(c.out.end(), c.delayed.front().second.begin(), c.delayed.front().second.end());
+        c.delayed.pop_front();
+    }
+    if (ok && !c.out.empty()) {
+        ok = flush(c.fd, c.out);
+    }
+    if (ok && c.out.size() > options.max_output_bytes) {
+        ctx.log("client " + std::to_string(c.id) + " does not read its replies (" +
+                std::to_string(c.out.size()) + " bytes pending, limit " +
+                std::to_string(options.max_output_bytes) + "): connection closed");
+        ok = false;
+    }
+    if (ok && !c.in.empty() && !c.backlog && frame_timeout.count() > 0 &&
+        now - c.partial_since > frame_timeout) {
+        ctx.log("client " + std::to_string(c.id) + ": incomplete frame (" +
+                std::to_string(c.in.size()) + " bytes) for more than " +
+                std::to_string(options.frame_timeout_ms) + " ms: connection closed");
+        ok = false;
+    }
+    return ok;
+}
+
 }  // namespace
 
 int make_tcp_listener(int port, std::string* err) {
@@ -216,81 +304,13 @@ void serve_modbus_tcp(const LoopContext& ctx, int& listen_fd, int port) {
             continue;  // Stop or blip: re-check at the top.
         }
         if (listen_fd >= 0 && (fds[1].revents & POLLIN) != 0) {
-            for (int k = 0; k < 64; ++k) {
-                const int c = ::accept4(listen_fd, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
-                if (c < 0) {
-                    if ((errno == EMFILE || errno == ENFILE) && spare >= 0) {
-                        ::close(spare);
-                        const int x = ::accept(listen_fd, nullptr, nullptr);
-                        if (x >= 0) {
-                            ::close(x);
-                        }
-                        spare = ::open("/dev/null", O_RDONLY | O_CLOEXEC);
-                        ctx.log("out of file descriptors: refused a connection");
-                        continue;
-                    }
-                    break;
-                }
-                if (static_cast<int>(conns.size()) >= options.max_connections) {
-                    ::close(c);
-                    if (refused++ % 100 == 0) {
-                        ctx.log("connection limit " + std::to_string(options.max_connections) +
-                                " reached: refused a connection (" + std::to_string(refused) +
-                                " refused so far)");
-                    }
-                    continue;
-                }
-                const int one = 1;
-                ::setsockopt(c, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-                ::setsockopt(
-                    c, SOL_SOCKET, SO_SNDBUF, &kSocketSendBuffer, sizeof kSocketSendBuffer);
-                auto conn = std::make_unique<Conn>();
-                conn->fd = c;
-                conn->id = next_id++;
-                conns.push_back(std::move(conn));
-            }
+            accept_pending(ctx, listen_fd, conns, next_id, refused, spare);
         }
         // Existing connections (the ones accepted just now are served next turn).
         for (size_t i = 0, pi = 2; i < conns.size(); ++pi) {
             Conn& c = *conns[i];
             const short re = pi < fds.size() && fds[pi].fd == c.fd ? fds[pi].revents : 0;
-            bool ok = true;
-            if ((re & (POLLIN | POLLHUP | POLLERR)) != 0 && c.in.size() < kMaxInputBytes) {
-                std::uint8_t buf[4096];
-                const ssize_t n = ::recv(c.fd, buf, sizeof buf, MSG_DONTWAIT);
-                if (n > 0) {
-                    if (c.in.empty()) {
-                        c.partial_since = now;
-                    }
-                    c.in.insert(c.in.end(), buf, buf + n);
-                } else if (n == 0 || (errno != EAGAIN && errno != EINTR)) {
-                    ok = false;
-                }
-            }
-            if (ok && (!c.in.empty())) {
-                ok = serve_frames(ctx, c, kFramesPerTurn, now);
-            }
-            while (ok && !c.delayed.empty() && c.delayed.front().first <= now) {
-                c.out.insert(
-                    c.out.end(), c.delayed.front().second.begin(), c.delayed.front().second.end());
-                c.delayed.pop_front();
-            }
-            if (ok && !c.out.empty()) {
-                ok = flush(c.fd, c.out);
-            }
-            if (ok && c.out.size() > options.max_output_bytes) {
-                ctx.log("client " + std::to_string(c.id) + " does not read its replies (" +
-                        std::to_string(c.out.size()) + " bytes pending, limit " +
-                        std::to_string(options.max_output_bytes) + "): connection closed");
-                ok = false;
-            }
-            if (ok && !c.in.empty() && !c.backlog && frame_timeout.count() > 0 &&
-                now - c.partial_since > frame_timeout) {
-                ctx.log("client " + std::to_string(c.id) + ": incomplete frame (" +
-                        std::to_string(c.in.size()) + " bytes) for more than " +
-                        std::to_string(options.frame_timeout_ms) + " ms: connection closed");
-                ok = false;
-            }
+            const bool ok = serve_connection(ctx, c, re, now);
             if (!ok) {
                 close_conn(i);
                 continue;

@@ -97,6 +97,168 @@ std::function<double()> simulated_clock(double time_scale) {
     };
 }
 
+/// The ground truth: a BRDF file or a material, from the options or else from the rig's sim
+/// section.
+struct GroundTruth {
+    std::shared_ptr<const brdf::Brdf> sample;
+    std::string name;
+};
+
+Expected<GroundTruth> load_ground_truth(const SimRigOptions& opt, const SimSection& sim) {
+    GroundTruth t;
+    std::string brdf_path = opt.brdf_path;
+    std::string material = opt.material;
+    if (brdf_path.empty() && material.empty()) {
+        brdf_path = sim.brdf;
+        material = sim.material;
+    }
+    if (!brdf_path.empty()) {
+        auto b = brdf::load_brdf(brdf_path);
+        if (!b) {
+            return make_error("sim rig: " + b.error().message);
+        }
+        t.sample = std::shared_ptr<const brdf::Brdf>(std::move(*b));
+        t.name = brdf_path;
+    } else {
+        auto m = brdf::load_material(material);
+        if (!m) {
+            return make_error("sim rig: " + m.error().message);
+        }
+        t.sample = std::shared_ptr<const brdf::Brdf>(brdf::make_analytic_brdf(*m));
+        t.name = material;
+    }
+    return t;
+}
+
+/// The motor controllers: one unit per axis, the shutter, the reference changer and the filter
+/// wheel's coils.
+Expected<void> add_motor_units(MotorControllerServer& motors,
+                               RigUnits& units,
+                               const json& j,
+                               const SimSection& sim,
+                               double time_scale,
+                               std::uint64_t seed) {
+    try {
+        for (const json& a : j.at("axes")) {
+            const std::string role = a.at("role").get<std::string>();
+            const int unit = a.at("unit").get<int>();
+            auto prof = devices::load_axis_profile(a.value("profile", std::string("generic")));
+            if (!prof) {
+                return make_error("sim rig: axis " + role + ": " + prof.error().message);
+            }
+            MotorSimConfig mc;
+            mc.time_scale = time_scale;
+            mc.seed = seed + static_cast<std::uint64_t>(unit);
+            mc.start_homed = sim.start_homed;
+            const auto initial = sim.initial_deg.find(role);
+            mc.initial_deg = initial != sim.initial_deg.end() ? initial->second
+                             : role == "detector"             ? 45.0
+                                                              : 0.0;
+            const json lim = a.at("limits_deg");
+            // Limit switches a little beyond the soft limits.
+            mc.limit_min_deg = lim.at(0).get<double>() - 5;
+            mc.limit_max_deg = lim.at(1).get<double>() + 5;
+            if (auto r = motors.add_unit(unit, *prof, mc); !r) {
+                return make_error("sim rig: axis " + role + ": " + r.error().message);
+            }
+            if (role == "light") {
+                units.light = unit;
+            } else if (role == "detector") {
+                units.detector = unit;
+            } else if (role == "tilt") {
+                units.tilt = unit;
+            } else if (role == "spin") {
+                units.spin = unit;
+            }
+        }
+        const json& sh = j.at("shutter");
+        units.shutter = sh.at("unit").get<int>();
+        if (auto r = motors.add_shutter(units.shutter, sh.at("coil").get<int>()); !r) {
+            return make_error("sim rig: shutter: " + r.error().message);
+        }
+        if (j.contains("reference_changer")) {
+            const json& rc = j.at("reference_changer");
+            units.reference_changer = rc.at("unit").get<int>();
+            if (auto r = motors.add_shutter(units.reference_changer, rc.at("coil").get<int>());
+                !r) {
+                return make_error("sim rig: reference changer: " + r.error().message);
+            }
+        }
+        if (j.contains("filter_wheel")) {
+            const json& filters = j.at("filter_wheel").at("filters");
+            if (!filters.is_array() || filters.size() != 3) {
+                return make_error("sim rig: filter_wheel.filters: three coils needed");
+            }
+            for (std::size_t c = 0; c < 3; ++c) {
+                const int unit = filters.at(c).at("unit").get<int>();
+                units.filters[c] = unit;
+                if (auto r = motors.add_shutter(unit, filters.at(c).at("coil").get<int>()); !r) {
+                    return make_error("sim rig: filter " + std::to_string(c) + ": " +
+                                      r.error().message);
+                }
+            }
+        }
+    } catch (const std::exception& e) {
+        return make_error(std::string("sim rig: ") + gonio::json_error_text(e.what()));
+    }
+    return {};
+}
+
+/// Zoomed camera placements: a coil each, and what the camera sees through them.
+Expected<std::vector<ZoomPlacement>> add_placements(MotorControllerServer& motors,
+                                                    RigUnits& units,
+                                                    const json& j) {
+    std::vector<ZoomPlacement> zooms;
+    try {
+        if (j.contains("placements")) {
+            const json& ps = j.at("placements");
+            if (!ps.is_array()) {
+                return make_error("sim rig: placements: an array of placements");
+            }
+            for (std::size_t k = 0; k < ps.size(); ++k) {
+                const json& p = ps.at(k);
+                ZoomPlacement z;
+                z.magnification = p.at("magnification").get<double>();
+                z.offset_m = {p.at("offset_m").at(0).get<double>(),
+                              p.at("offset_m").at(1).get<double>()};
+                if (!(z.magnification >= 1 && z.magnification <= 100) ||
+                    !std::isfinite(z.offset_m[0]) || !std::isfinite(z.offset_m[1])) {
+                    return make_error("sim rig: placements[" + std::to_string(k) +
+                                      "]: magnification in [1, 100] and a finite offset needed");
+                }
+                const int unit = p.at("unit").get<int>();
+                if (auto r = motors.add_shutter(unit, p.at("coil").get<int>()); !r) {
+                    return make_error("sim rig: placements[" + std::to_string(k) +
+                                      "]: " + r.error().message);
+                }
+                units.placements.push_back(unit);
+                zooms.push_back(z);
+            }
+        }
+    } catch (const std::exception& e) {
+        return make_error(std::string("sim rig: ") + gonio::json_error_text(e.what()));
+    }
+    return zooms;
+}
+
+/// The camera's sensor and feature naming.
+GigeCameraConfig camera_config(const SimSection& sim,
+                               const SimRigOptions& opt,
+                               const brdf::RigErrorBudget& budget,
+                               std::uint64_t seed) {
+    GigeCameraConfig gc;
+    gc.sensor.nonlinearity = budget.nonlinearity;
+    gc.sensor.width = sim.sensor_width;
+    gc.sensor.height = sim.sensor_height;
+    gc.sensor.seed = seed;
+    if (opt.sphere) {
+        gc.sensor.width = opt.sphere->camera.width;
+        gc.sensor.height = opt.sphere->camera.height;
+    }
+    gc.exposure_naming = opt.exposure_abs ? ExposureNaming::kAbs : ExposureNaming::kSfnc;
+    return gc;
+}
+
 }  // namespace
 
 SimRig::~SimRig() {
@@ -139,127 +301,21 @@ Expected<std::unique_ptr<SimRig>> SimRig::start(const std::string& rig_json,
     const SimSection& sim = *section;
     const double time_scale = opt.time_scale > 0 ? opt.time_scale : sim.time_scale;
     const std::uint64_t seed = opt.seed > 0 ? opt.seed : sim.seed;
-    // Ground truth.
-    std::string brdf_path = opt.brdf_path;
-    std::string material = opt.material;
-    if (brdf_path.empty() && material.empty()) {
-        brdf_path = sim.brdf;
-        material = sim.material;
+    auto truth = load_ground_truth(opt, sim);
+    if (!truth) {
+        return tl::unexpected(truth.error());
     }
-    if (!brdf_path.empty()) {
-        auto b = brdf::load_brdf(brdf_path);
-        if (!b) {
-            return make_error("sim rig: " + b.error().message);
-        }
-        rig->sample_ = std::shared_ptr<const brdf::Brdf>(std::move(*b));
-        rig->sample_name_ = brdf_path;
-    } else {
-        auto m = brdf::load_material(material);
-        if (!m) {
-            return make_error("sim rig: " + m.error().message);
-        }
-        rig->sample_ = std::shared_ptr<const brdf::Brdf>(brdf::make_analytic_brdf(*m));
-        rig->sample_name_ = material;
-    }
+    rig->sample_ = truth->sample;
+    rig->sample_name_ = truth->name;
     const double white = j.value("white_reference", json::object()).value("reflectance", 0.99);
     rig->mounted_ = std::make_shared<MountedBrdf>(rig->sample_, white);
-    // Motor controllers.
     rig->motors_ = std::make_unique<MotorControllerServer>();
-    try {
-        for (const json& a : j.at("axes")) {
-            const std::string role = a.at("role").get<std::string>();
-            const int unit = a.at("unit").get<int>();
-            auto prof = devices::load_axis_profile(a.value("profile", std::string("generic")));
-            if (!prof) {
-                return make_error("sim rig: axis " + role + ": " + prof.error().message);
-            }
-            MotorSimConfig mc;
-            mc.time_scale = time_scale;
-            mc.seed = seed + static_cast<std::uint64_t>(unit);
-            mc.start_homed = sim.start_homed;
-            const auto initial = sim.initial_deg.find(role);
-            mc.initial_deg = initial != sim.initial_deg.end() ? initial->second
-                             : role == "detector"             ? 45.0
-                                                              : 0.0;
-            const json lim = a.at("limits_deg");
-            // Limit switches a little beyond the soft limits.
-            mc.limit_min_deg = lim.at(0).get<double>() - 5;
-            mc.limit_max_deg = lim.at(1).get<double>() + 5;
-            if (auto r = rig->motors_->add_unit(unit, *prof, mc); !r) {
-                return make_error("sim rig: axis " + role + ": " + r.error().message);
-            }
-            if (role == "light") {
-                rig->units_.light = unit;
-            } else if (role == "detector") {
-                rig->units_.detector = unit;
-            } else if (role == "tilt") {
-                rig->units_.tilt = unit;
-            } else if (role == "spin") {
-                rig->units_.spin = unit;
-            }
-        }
-        const json& sh = j.at("shutter");
-        rig->units_.shutter = sh.at("unit").get<int>();
-        if (auto r = rig->motors_->add_shutter(rig->units_.shutter, sh.at("coil").get<int>()); !r) {
-            return make_error("sim rig: shutter: " + r.error().message);
-        }
-        if (j.contains("reference_changer")) {
-            const json& rc = j.at("reference_changer");
-            rig->units_.reference_changer = rc.at("unit").get<int>();
-            if (auto r = rig->motors_->add_shutter(rig->units_.reference_changer,
-                                                   rc.at("coil").get<int>());
-                !r) {
-                return make_error("sim rig: reference changer: " + r.error().message);
-            }
-        }
-        if (j.contains("filter_wheel")) {
-            const json& filters = j.at("filter_wheel").at("filters");
-            if (!filters.is_array() || filters.size() != 3) {
-                return make_error("sim rig: filter_wheel.filters: three coils needed");
-            }
-            for (std::size_t c = 0; c < 3; ++c) {
-                const int unit = filters.at(c).at("unit").get<int>();
-                rig->units_.filters[c] = unit;
-                if (auto r = rig->motors_->add_shutter(unit, filters.at(c).at("coil").get<int>());
-                    !r) {
-                    return make_error("sim rig: filter " + std::to_string(c) + ": " +
-                                      r.error().message);
-                }
-            }
-        }
-    } catch (const std::exception& e) {
-        return make_error(std::string("sim rig: ") + gonio::json_error_text(e.what()));
+    if (auto r = add_motor_units(*rig->motors_, rig->units_, j, sim, time_scale, seed); !r) {
+        return tl::unexpected(r.error());
     }
-    // Zoomed camera placements: a coil each, and what the camera sees through them.
-    std::vector<ZoomPlacement> zooms;
-    try {
-        if (j.contains("placements")) {
-            const json& ps = j.at("placements");
-            if (!ps.is_array()) {
-                return make_error("sim rig: placements: an array of placements");
-            }
-            for (std::size_t k = 0; k < ps.size(); ++k) {
-                const json& p = ps.at(k);
-                ZoomPlacement z;
-                z.magnification = p.at("magnification").get<double>();
-                z.offset_m = {p.at("offset_m").at(0).get<double>(),
-                              p.at("offset_m").at(1).get<double>()};
-                if (!(z.magnification >= 1 && z.magnification <= 100) ||
-                    !std::isfinite(z.offset_m[0]) || !std::isfinite(z.offset_m[1])) {
-                    return make_error("sim rig: placements[" + std::to_string(k) +
-                                      "]: magnification in [1, 100] and a finite offset needed");
-                }
-                const int unit = p.at("unit").get<int>();
-                if (auto r = rig->motors_->add_shutter(unit, p.at("coil").get<int>()); !r) {
-                    return make_error("sim rig: placements[" + std::to_string(k) +
-                                      "]: " + r.error().message);
-                }
-                rig->units_.placements.push_back(unit);
-                zooms.push_back(z);
-            }
-        }
-    } catch (const std::exception& e) {
-        return make_error(std::string("sim rig: ") + gonio::json_error_text(e.what()));
+    auto zooms = add_placements(*rig->motors_, rig->units_, j);
+    if (!zooms) {
+        return tl::unexpected(zooms.error());
     }
     if (auto r = rig->motors_->start(); !r) {
         return make_error("sim rig: motor controllers: " + r.error().message);
@@ -274,21 +330,12 @@ Expected<std::unique_ptr<SimRig>> SimRig::start(const std::string& rig_json,
     rig->budget_ = *budget;
     rig->world_->set_instrument(std::make_shared<InstrumentErrors>(*budget, seed),
                                 simulated_clock(time_scale));
-    GigeCameraConfig gc;
-    gc.sensor.nonlinearity = budget->nonlinearity;
-    gc.sensor.width = sim.sensor_width;
-    gc.sensor.height = sim.sensor_height;
-    gc.sensor.seed = seed;
-    if (opt.sphere) {
-        gc.sensor.width = opt.sphere->camera.width;
-        gc.sensor.height = opt.sphere->camera.height;
-    }
-    gc.exposure_naming = opt.exposure_abs ? ExposureNaming::kAbs : ExposureNaming::kSfnc;
+    const GigeCameraConfig gc = camera_config(sim, opt, *budget, seed);
     rig->camera_ = std::make_shared<GigeCamera>(gc, rig->mounted_, rig->world_->scene_fn());
     rig->camera_->set_scene_path(rig->world_->scene_path_fn());
     if (opt.sphere) {
         SphereImaging imaging = *opt.sphere;
-        imaging.placements = zooms;
+        imaging.placements = *zooms;
         rig->camera_->set_renderer(sphere_renderer(imaging));
     }
     rig->camera_server_ = std::make_unique<GigeServer>(rig->camera_);

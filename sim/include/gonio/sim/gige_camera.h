@@ -163,6 +163,23 @@ class GigeCamera {
     devices::gvcp::Status read_mem_locked(std::uint32_t address,
                                           std::size_t count,
                                           devices::gvcp::Bytes* out) const;
+    std::optional<devices::gvcp::Status> read_bootstrap_reg_locked(std::uint32_t address,
+                                                                   std::uint32_t* value) const;
+    std::optional<devices::gvcp::Status> read_feature_reg_locked(std::uint32_t address,
+                                                                 std::uint32_t* value) const;
+    std::optional<devices::gvcp::Status> write_bootstrap_reg_locked(std::uint32_t address,
+                                                                    std::uint32_t value,
+                                                                    const HostId& from,
+                                                                    Clock::time_point now);
+    std::optional<devices::gvcp::Status> write_image_reg_locked(std::uint32_t address,
+                                                                std::uint32_t value);
+    std::optional<devices::gvcp::Status> write_acquisition_reg_locked(std::uint32_t address,
+                                                                      std::uint32_t value,
+                                                                      Clock::time_point now);
+    devices::gvcp::Status write_mem_locked(const devices::gvcp::MemWrite& w,
+                                           const HostId& from,
+                                           Clock::time_point now,
+                                           std::uint16_t* written);
     void release_control_locked();
     std::uint64_t ticks_locked(Clock::time_point now) const;
 
