@@ -68,6 +68,21 @@ std::string validate_sample(const Sample& s) {
     if (std::abs(s.phi_o) > 2 * kPi) {
         return azimuth("phi_o", s.phi_o);
     }
+    if (s.has_path) {
+        for (int k = 0; k < 8; ++k) {
+            const double v = k < 4 ? s.path_start[k] : s.path_end[k - 4];
+            const char* name = kColNames[kTi0 + k];
+            if (!std::isfinite(v)) {
+                return std::string(name) + " is not finite";
+            }
+            if (k % 2 == 0 && (v < 0 || v >= half_pi)) {
+                return polar(name, v);
+            }
+            if (k % 2 == 1 && std::abs(v) > 2 * kPi) {
+                return azimuth(name, v);
+            }
+        }
+    }
     return {};
 }
 
@@ -81,6 +96,12 @@ std::string dataset_csv_header(const Dataset& layout) {
     }
     if (layout.has_flags) {
         h += ",flag";
+    }
+    if (layout.has_path) {
+        for (int c = kTi0; c <= kPo1; ++c) {
+            h += ',';
+            h += kColNames[c];
+        }
     }
     return h;
 }
@@ -97,6 +118,15 @@ std::string format_sample_row(const Sample& s, const Dataset& layout) {
     }
     if (layout.has_flags) {
         row += "," + std::to_string(s.flags);
+    }
+    if (layout.has_path) {
+        // A standing exposure's path starts and ends at its own directions.
+        const std::array<double, 4> own{s.theta_i, s.phi_i, s.theta_o, s.phi_o};
+        for (const std::array<double, 4>* a : {&s.path_start, &s.path_end}) {
+            for (int k = 0; k < 4; ++k) {
+                row += "," + fmt_g(s.has_path ? (*a)[k] : own[k]);
+            }
+        }
     }
     return row;
 }

@@ -43,7 +43,7 @@ struct Range {
 };
 
 Range column_range(int c) {
-    switch (c) {
+    switch (path_base_column(c)) {
         case kTi:
         case kTo:
             return {0.0, kPi / 2, true, "[0, pi/2)"};
@@ -203,14 +203,15 @@ void parse_chunk(const char* p,
                            (c == kF && x != std::floor(x))) {
                     reason =
                         std::string(kColNames[c]) + " = " + fmt_value(x) + " outside " + r.text;
-                    if ((c == kTi || c == kTo) && x >= r.hi) {
+                    const int base = path_base_column(c);
+                    if ((base == kTi || base == kTo) && x >= r.hi) {
                         // A polar angle in (pi/2, 90] is most likely written in degrees.
                         reason += x > r.hi && x <= 90
                                       ? " (at or below the horizon; it looks like degrees: "
                                         "angles are radians, 90 deg = 1.5708)"
                                       : " (at or below the horizon)";
                     }
-                    if ((c == kPhiI || c == kPo) && std::abs(x) <= 360) {
+                    if ((base == kPhiI || base == kPo) && std::abs(x) <= 360) {
                         // An azimuth in (2 pi, 360] is most likely written in degrees.
                         reason += " (it looks like degrees: angles are radians, 180 deg = 3.1416)";
                     }
@@ -255,6 +256,14 @@ void parse_chunk(const char* p,
         s.weight = v[kW];
         s.flags = static_cast<std::uint32_t>(v[kF]);
         s.line = line_no;
+        if (layout.index[kTi0] >= 0) {
+            for (int k = 0; k < 4; ++k) {
+                s.path_start[k] = v[kTi0 + k];
+                s.path_end[k] = v[kTi1 + k];
+            }
+            // A path that starts and ends where it is measured is a standing exposure.
+            s.has_path = s.path_start != s.path_end;
+        }
         p = next;
         ++line_no;
     }
@@ -292,7 +301,9 @@ Expected<void> parse_header(
         if (found < 0) {
             return make_error(where + ": unknown column \"" + excerpt(name) +
                               "\" (expected theta_i,phi_i,theta_o,phi_o,r,g,b and optionally "
-                              "sigma_r,sigma_g,sigma_b,weight,flag)");
+                              "sigma_r,sigma_g,sigma_b,weight,flag and the exposure path "
+                              "theta_i_start,phi_i_start,theta_o_start,phi_o_start,theta_i_end,"
+                              "phi_i_end,theta_o_end,phi_o_end)");
         }
         if (layout.index[found] >= 0) {
             return make_error(where + ": column \"" + name + "\" appears twice");
@@ -316,6 +327,16 @@ Expected<void> parse_header(
         return make_error(where + ": sigma_r, sigma_g and sigma_b must come together");
     }
     data.has_sigma = sig == 3;
+    int path = 0;
+    for (int c = kTi0; c <= kPo1; ++c) {
+        path += layout.index[c] >= 0;
+    }
+    if (path != 0 && path != kPo1 - kTi0 + 1) {
+        return make_error(where +
+                          ": the exposure path columns theta_i_start .. phi_o_end must come "
+                          "together (all eight)");
+    }
+    data.has_path = path != 0;
     data.has_weight = layout.index[kW] >= 0;
     data.has_flags = layout.index[kF] >= 0;
     layout.num_fields = f;

@@ -282,7 +282,7 @@ Expected<AxisProfile> parse_axis_profile(const std::string& json_text,
                          "timeouts",
                          "alarm_codes"});
         const std::pair<const char*, std::vector<std::string>> sections[] = {
-            {"registers", {"position", "status", "alarm_code"}},
+            {"registers", {"position", "status", "alarm_code", "probe_start", "probe_end"}},
             {"status_bits", {"moving", "in_position", "homed", "alarm", "homing", "ready"}},
             {"actions", {"move", "home", "stop", "reset_alarm"}},
             {"timeouts", {"response_ms", "retries", "backoff_ms", "poll_ms", "stall_ms"}},
@@ -466,11 +466,30 @@ Expected<AxisProfile> parse_axis_profile(const std::string& json_text,
             }
         }
     }
+    // The touch probe's two latches come together or not at all.
+    for (auto [key, field] : {std::pair<const char*, RegisterField*>{"probe_start", &p.probe_start},
+                              {"probe_end", &p.probe_end}}) {
+        if (!regs.contains(key)) {
+            continue;
+        }
+        auto f = get_field(regs[key], s + ": registers." + key);
+        if (!f) {
+            return tl::unexpected(f.error());
+        }
+        *field = *f;
+    }
+    if (p.probe_start.present() != p.probe_end.present()) {
+        return make_error(s + ": registers: probe_start and probe_end come together");
+    }
     // Every documented address must map to a wire address.
     std::vector<std::pair<std::string, int>> addrs = {
         {"registers.position", p.position.address},
         {"registers.status", p.status.reg.address},
         {"registers.alarm_code", p.alarm_code.address}};
+    if (p.probe_start.present()) {
+        addrs.push_back({"registers.probe_start", p.probe_start.address});
+        addrs.push_back({"registers.probe_end", p.probe_end.address});
+    }
     for (const Action* a : {&p.move, &p.home, &p.stop, &p.reset_alarm}) {
         if (a->block.present()) {
             addrs.push_back({"actions block", a->block.address + a->block.register_count() - 1});

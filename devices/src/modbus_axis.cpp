@@ -438,6 +438,25 @@ Expected<double> ModbusAxis::position_deg() {
         static_cast<double>(decode_value(pw->data(), pr.width, pr.is_signed, profile_.word_order)));
 }
 
+Expected<std::array<double, 2>> ModbusAxis::exposure_latch_deg() {
+    if (!profile_.probe_start.present()) {
+        return Axis::exposure_latch_deg();
+    }
+    std::array<double, 2> out{};
+    int k = 0;
+    for (const RegisterField* f : {&profile_.probe_start, &profile_.probe_end}) {
+        auto w = bus_->read_registers(
+            unit_, *wire_address(profile_, f->address), f->count(), policy_, reg_label(f->address));
+        if (!w) {
+            return tl::unexpected(w.error());
+        }
+        out[k++] = steps_to_degrees(profile_,
+                                    static_cast<double>(decode_value(
+                                        w->data(), f->width, f->is_signed, profile_.word_order)));
+    }
+    return out;
+}
+
 Expected<void> ModbusAxis::stop() {
     approach_pending_ = false;
     homing_ = false;

@@ -13,6 +13,7 @@
 #include "gonio/base/thread_pool.h"
 #include "gonio/brdf/model_eval.h"
 #include "gonio/brdf/values_below_zero.h"
+#include "gonio/fitting/exposure_paths.h"
 #include "gonio/fitting/vector_log.h"
 
 namespace gonio::fitting {
@@ -156,7 +157,7 @@ Metrics evaluate_metrics(const ModelD& model,
                       [&](std::size_t i, Rgbd& f, double& cos_i, double& cos_h, double*) {
                           const brdf::Vec3d wi = samples[i].wi();
                           const brdf::Vec3d wo = samples[i].wo();
-                          f = brdf::eval_model(model, wi, wo);
+                          f = sample_model_value(model, samples[i]);
                           cos_i = wi.z();
                           cos_h = (wi.z() + wo.z()) / (wi + wo).norm();
                           return false;

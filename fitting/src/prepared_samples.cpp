@@ -155,6 +155,12 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
             packets_ && (slot_field_[k] == Field::kDiffuse || slot_field_[k] == Field::kAlphaX ||
                          slot_field_[k] == Field::kScale || slot_field_[k] == Field::kF0);
     }
+    paths_ = ExposurePaths::of(samples);
+    if (paths_) {
+        // A swept sample's model value is a mean over its path (exposure_paths.h), which the
+        // closed-form derivatives and the packet passes do not take.
+        analytic_ = packets_ = false;
+    }
     auto alloc = [&](std::vector<double>& v, bool need) {
         if (need) {
             resize_huge(v, n_);
@@ -418,6 +424,9 @@ T PreparedSamples::shape_student_t(brdf::Shadowing shadowing,
 
 template <class T>
 brdf::Rgb<T> PreparedSamples::eval(const brdf::Model<T>& m, std::size_t i) const {
+    if (paths_ && paths_->swept(i)) {
+        return paths_->mean(m, i);
+    }
     brdf::Rgb<T> f = m.has_diffuse ? brdf::Rgb<T>(m.diffuse * T(brdf::kInvPi))
                                    : brdf::Rgb<T>(brdf::Rgb<T>::Zero());
     for (const brdf::Lobe<T>& l : m.lobes) {

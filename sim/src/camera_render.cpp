@@ -43,6 +43,18 @@ double patch_radiance(const brdf::Brdf& f,
     return f_mono * irradiance_w_m2 * cos_theta_i;
 }
 
+double patch_radiance_over(const brdf::Brdf& f, const SceneState& scene) {
+    if (scene.path.empty()) {
+        return patch_radiance(
+            f, scene.wi.normalized(), scene.wo.normalized(), scene.irradiance_w_m2, scene.filter);
+    }
+    double sum = 0;
+    for (const brdf::PathNode& n : scene.path) {
+        sum += n.weight * patch_radiance(f, n.wi, n.wo, scene.irradiance_w_m2, scene.filter);
+    }
+    return sum;
+}
+
 namespace {
 
 // Right-handed frame (t, b, n) with n the given unit normal.
@@ -141,11 +153,10 @@ cv::Mat render_scene(const brdf::Brdf& f,
                                scene.filter,
                                roi);
     }
-    // Point mode: one geometry for the whole patch, one BRDF evaluation.
-    const float L = static_cast<float>(
-        patch_radiance(
-            f, scene.wi.normalized(), scene.wo.normalized(), scene.irradiance_w_m2, scene.filter) +
-        scene.stray_radiance_w_m2_sr);
+    // Point mode: one geometry for the whole patch, one BRDF evaluation (or the mean over the
+    // stages' path during the exposure).
+    const float L =
+        static_cast<float>(patch_radiance_over(f, scene) + scene.stray_radiance_w_m2_sr);
     cv::Mat out(roi.height, roi.width, CV_32F);
     const double r = 0.25 * std::min(sensor_width, sensor_height);
     const double cx = 0.5 * sensor_width;

@@ -469,6 +469,9 @@ std::optional<Status> GigeCamera::write_acquisition_reg_locked(std::uint32_t a,
                 PendingFrame p;
                 p.scene = scene_ ? scene_() : SceneState{};
                 p.settings = s.settings();
+                if (scene_path_) {
+                    scene_path_(p.settings.exposure_us * 1e-6, &p.scene);
+                }
                 p.roi = {static_cast<int>(s.offset_x),
                          static_cast<int>(s.offset_y),
                          static_cast<int>(s.width),
@@ -817,6 +820,9 @@ std::optional<RenderedFrame> GigeCamera::next_frame(Clock::time_point now,
             }
             p.scene = scene_ ? scene_() : SceneState{};
             p.settings = s.settings();
+            if (scene_path_) {
+                scene_path_(p.settings.exposure_us * 1e-6, &p.scene);
+            }
             p.roi = {static_cast<int>(s.offset_x),
                      static_cast<int>(s.offset_y),
                      static_cast<int>(s.width),

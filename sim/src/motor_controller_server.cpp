@@ -215,6 +215,15 @@ std::map<int, double> MotorControllerServer::positions_deg() const {
     return impl_->registers.positions_deg();
 }
 
+std::vector<double> MotorControllerServer::path_deg(int unit,
+                                                    const std::vector<double>& after_s) const {
+    return impl_->registers.path_deg(unit, after_s);
+}
+
+void MotorControllerServer::latch_exposure(int unit, double exposure_s) const {
+    impl_->registers.latch_exposure(unit, exposure_s);
+}
+
 Expected<UnitSnapshot> MotorControllerServer::snapshot(int unit) const {
     return impl_->registers.snapshot(unit);
 }

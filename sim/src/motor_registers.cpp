@@ -396,8 +396,19 @@ Expected<void> MotorRegisters::add_unit(int unit,
     u->add_field(profile.position);
     u->add_field(profile.status.reg);
     u->add_field(profile.alarm_code);
+    if (profile.probe_start.present()) {
+        u->add_field(profile.probe_start);
+        u->add_field(profile.probe_end);
+    }
     // The drive writes these itself: a client's write is refused (exception 2).
-    for (const RegisterField* f : {&profile.position, &profile.status.reg, &profile.alarm_code}) {
+    for (const RegisterField* f : {&profile.position,
+                                   &profile.status.reg,
+                                   &profile.alarm_code,
+                                   &profile.probe_start,
+                                   &profile.probe_end}) {
+        if (!f->present()) {
+            continue;
+        }
         const int w = wire(profile, f->address);
         for (int k = 0; k < f->count(); ++k) {
             u->read_only.insert(w + k);
@@ -519,6 +530,41 @@ std::map<int, double> MotorRegisters::positions_deg() const {
         }
     }
     return out;
+}
+
+std::vector<double> MotorRegisters::path_deg(int unit, const std::vector<double>& after_s) const {
+    std::lock_guard<std::mutex> lock(impl_->mu);
+    Unit* u = impl_->unit_locked(unit);
+    if (u == nullptr || !u->has_motor) {
+        return std::vector<double>(after_s.size(), std::numeric_limits<double>::quiet_NaN());
+    }
+    const double now = u->now(Clock::now());
+    u->sim->update(now);
+    std::vector<double> t;
+    t.reserve(after_s.size());
+    for (double a : after_s) {
+        t.push_back(now + a);
+    }
+    std::vector<double> out = u->sim->load_steps_at(t);
+    for (double& v : out) {
+        v /= u->spd;
+    }
+    return out;
+}
+
+void MotorRegisters::latch_exposure(int unit, double exposure_s) const {
+    std::lock_guard<std::mutex> lock(impl_->mu);
+    Unit* u = impl_->unit_locked(unit);
+    if (u == nullptr || !u->has_motor || !u->profile.probe_start.present()) {
+        return;
+    }
+    const double now = u->now(Clock::now());
+    u->sim->update(now);
+    std::vector<double> motor;
+    u->sim->load_steps_at({now, now + std::max(0.0, exposure_s)}, &motor);
+    const double offset = u->sim->counter_offset();
+    u->put(u->profile.probe_start, std::llround(motor[0] + offset));
+    u->put(u->profile.probe_end, std::llround(motor[1] + offset));
 }
 
 Expected<UnitSnapshot> MotorRegisters::snapshot(int unit) const {

@@ -80,6 +80,25 @@ void MotorSim::apply_backlash(double motor) {
     }
 }
 
+std::vector<double> MotorSim::load_steps_at(const std::vector<double>& t,
+                                            std::vector<double>* motor_out) const {
+    std::vector<double> out;
+    out.reserve(t.size());
+    const double b = std::fabs(cfg_.backlash_deg * steps_per_degree_);
+    double load = load_;
+    for (double ti : t) {
+        const bool ended = phases_.empty() || ti >= phases_.back().t0 + phases_.back().duration;
+        const double motor = phases_.empty() ? pos_ : ended ? move_end_ : position_at(ti, nullptr);
+        // The play of apply_backlash(), carried from node to node (the nodes come in time order).
+        load = std::clamp(load, motor - b, motor);
+        out.push_back(load);
+        if (motor_out != nullptr) {
+            motor_out->push_back(motor);
+        }
+    }
+    return out;
+}
+
 void MotorSim::update(double t) {
     if (t <= now_) {
         return;

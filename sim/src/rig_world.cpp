@@ -1,5 +1,6 @@
 #include "gonio/sim/rig_world.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "gonio/brdf/rig_geometry.h"
@@ -127,6 +128,81 @@ void RigWorld::apply_instrument(const brdf::RigPosed& p,
 
 SceneFn RigWorld::scene_fn() const {
     return [this]() { return scene(); };
+}
+
+std::pair<brdf::Vec3d, brdf::Vec3d> RigWorld::pose_directions(const brdf::RigPosed& p) const {
+    if (!instrument_) {
+        return brdf::rig_forward(p);
+    }
+    std::array<std::uint64_t, 2> moves;
+    {
+        std::lock_guard<std::mutex> lock(moves_mutex_);
+        moves = moves_;
+    }
+    const InstrumentErrors& e = *instrument_;
+    return {brdf::world_to_sample(e.arm_direction(Arm::kLight, p.light, moves[0]), p.tilt, p.spin),
+            brdf::world_to_sample(
+                e.arm_direction(Arm::kDetector, p.detector, moves[1]), p.tilt, p.spin)};
+}
+
+void RigWorld::fill_path(double exposure_s, SceneState* scene) const {
+    constexpr double kDeg = brdf::kPi / 180.0;
+    scene->path.clear();
+    if (!(exposure_s > 0)) {
+        return;
+    }
+    const int units[4] = {units_.light, units_.detector, units_.tilt, units_.spin};
+    // The drives' touch probes latch the exposure's edges (every exposure, as the camera's
+    // exposure-active line pulses for each).
+    for (int u : units) {
+        server_->latch_exposure(u, exposure_s);
+    }
+    if (scene->shape != SampleShape::kFlatPatch) {
+        return;
+    }
+    double travel = 0;
+    for (int u : units) {
+        const std::vector<double> ends = server_->path_deg(u, {0.0, exposure_s});
+        if (std::isfinite(ends[0]) && std::isfinite(ends[1])) {
+            travel = std::max(travel, std::abs(ends[1] - ends[0]) * kDeg);
+        }
+    }
+    if (travel < 1e-9) {
+        return;  // every stage stands: the scene's own directions hold for the whole exposure
+    }
+    // Time nodes: composite Gauss-Legendre over the exposure (a monotonic stage travels at most
+    // kPathPieceRad per piece).
+    const int pieces = std::clamp(static_cast<int>(std::ceil(travel / kPathPieceRad)), 1, 20000);
+    double x[kPathNodesPerPiece];
+    double w[kPathNodesPerPiece];
+    brdf::gauss_legendre_unit(kPathNodesPerPiece, x, w);
+    std::vector<double> t;
+    std::vector<double> weight;
+    for (int p = 0; p < pieces; ++p) {
+        for (int k = 0; k < kPathNodesPerPiece; ++k) {
+            t.push_back(exposure_s * (p + x[k]) / pieces);
+            weight.push_back(w[k] / pieces);
+        }
+    }
+    std::vector<double> deg[4];
+    for (int a = 0; a < 4; ++a) {
+        deg[a] = server_->path_deg(units[a], t);
+    }
+    scene->path.reserve(t.size());
+    for (std::size_t k = 0; k < t.size(); ++k) {
+        const brdf::RigPosed p{
+            deg[0][k] * kDeg, deg[1][k] * kDeg, deg[2][k] * kDeg, deg[3][k] * kDeg};
+        const auto [wi, wo] = pose_directions(p);
+        if (!wi.allFinite() || !wo.allFinite()) {
+            scene->path.clear();  // an unknown unit: the scene's own (dark) directions hold
+            return;
+        }
+        scene->path.push_back(brdf::PathNode{wi, wo, weight[k]});
+    }
+}
+
+ScenePathFn RigWorld::scene_path_fn() const {
+    return [this](double exposure_s, SceneState* s) { fill_path(exposure_s, s); };
 }
 
 }  // namespace gonio::sim

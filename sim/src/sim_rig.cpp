@@ -332,6 +332,7 @@ Expected<std::unique_ptr<SimRig>> SimRig::start(const std::string& rig_json,
                                 simulated_clock(time_scale));
     const GigeCameraConfig gc = camera_config(sim, opt, *budget, seed);
     rig->camera_ = std::make_shared<GigeCamera>(gc, rig->mounted_, rig->world_->scene_fn());
+    rig->camera_->set_scene_path(rig->world_->scene_path_fn());
     if (opt.sphere) {
         SphereImaging imaging = *opt.sphere;
         imaging.placements = *zooms;

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -260,6 +261,57 @@ TEST(SamplesCsv, KeepGoingAcrossParallelChunksKeepsFileOrderAndItsLimit) {
                                         std::to_string(bad.front()) + ")"),
               std::string::npos)
         << over.error().message;
+}
+
+TEST(SamplesCsv, ExposurePathColumnsRoundTripAndOldFilesStillRead) {
+    // A fly scan's rows: swept samples with their exposure's start and end, a standing one among
+    // them (its path starts and ends at its own angles and reads back as no path).
+    Dataset d = random_dataset(50);
+    d.has_path = true;
+    for (std::size_t i = 0; i < d.samples.size(); ++i) {
+        Sample& s = d.samples[i];
+        if (i % 5 == 0) {
+            continue;
+        }
+        s.has_path = true;
+        s.path_start = {s.theta_i, s.phi_i, std::max(0.0, s.theta_o - 0.1), s.phi_o};
+        s.path_end = {s.theta_i, s.phi_i, std::min(1.55, s.theta_o + 0.1), s.phi_o};
+    }
+    const std::string p = temp_path("fly.csv");
+    ASSERT_TRUE(write_dataset_csv(p, d));
+    auto r = read_dataset_csv(p);
+    ASSERT_TRUE(r) << r.error().message;
+    ASSERT_TRUE(r->has_path);
+    ASSERT_EQ(r->samples.size(), d.samples.size());
+    for (std::size_t i = 0; i < d.samples.size(); ++i) {
+        EXPECT_EQ(r->samples[i].has_path, d.samples[i].has_path) << i;
+        if (d.samples[i].has_path) {
+            EXPECT_EQ(r->samples[i].path_start, d.samples[i].path_start) << i;
+            EXPECT_EQ(r->samples[i].path_end, d.samples[i].path_end) << i;
+        }
+        EXPECT_EQ(r->samples[i].theta_o, d.samples[i].theta_o) << i;
+    }
+    // A file of before the columns reads as standing exposures.
+    const std::string old =
+        write("old.csv", "theta_i,phi_i,theta_o,phi_o,r,g,b\n0.1,0,0.2,3,1,1,1\n");
+    auto o = read_dataset_csv(old);
+    ASSERT_TRUE(o) << o.error().message;
+    EXPECT_FALSE(o->has_path);
+    EXPECT_FALSE(o->samples[0].has_path);
+    // The eight come together, and a path angle below the horizon names its column and line.
+    const std::string some = write(
+        "some.csv", "theta_i,phi_i,theta_o,phi_o,r,g,b,theta_i_start\n0.1,0,0.2,3,1,1,1,0.1\n");
+    auto s = read_dataset_csv(some);
+    ASSERT_FALSE(s);
+    EXPECT_NE(s.error().message.find("all eight"), std::string::npos) << s.error().message;
+    const std::string below = write("below.csv",
+                                    "theta_i,phi_i,theta_o,phi_o,r,g,b,theta_i_start,phi_i_start,"
+                                    "theta_o_start,phi_o_start,theta_i_end,phi_i_end,theta_o_end,"
+                                    "phi_o_end\n0.1,0,0.2,3,1,1,1,0.1,0,0.1,3,0.1,0,1.7,3\n");
+    auto b = read_dataset_csv(below);
+    ASSERT_FALSE(b);
+    EXPECT_NE(b.error().message.find(":2:14: theta_o_end = 1.7"), std::string::npos)
+        << b.error().message;
 }
 
 }  // namespace

@@ -4,7 +4,10 @@
 //
 // On disk (docs/file-formats.md): CSV with a header; required columns
 // theta_i,phi_i,theta_o,phi_o,r,g,b (radians; BRDF in 1/sr); optional sigma_r,sigma_g,sigma_b
-// (one-sigma uncertainty, 1/sr), weight (>= 0) and flag (unsigned integer bit set, see SampleFlag).
+// (one-sigma uncertainty, 1/sr), weight (>= 0) and flag (unsigned integer bit set, see SampleFlag);
+// optional, all eight together, the path of an exposure taken while the arms moved (fly scans):
+// theta_i_start,phi_i_start,theta_o_start,phi_o_start,theta_i_end,phi_i_end,theta_o_end,phi_o_end
+// (radians; brdf/exposure_path.h).
 // Columns may come in any order; unknown columns are an error. Lines starting with '#' are
 // comments.
 
@@ -35,6 +38,13 @@ struct Sample {
     double weight = 1.0;        ///< relative weight in a fit, >= 0
     std::uint32_t flags = 0;
     std::size_t line = 0;  ///< source line (1-based) when read from a file, else 0
+    /// Fly scans: the directions at the start and at the end of the exposure (theta_i, phi_i,
+    /// theta_o, phi_o, radians), between which the arms moved along great circles at constant
+    /// speed; theta_i .. phi_o above are then the directions at mid-exposure and `value` the
+    /// exposure's mean (brdf/exposure_path.h). False: the arms stood still during the exposure.
+    bool has_path = false;
+    std::array<double, 4> path_start{};
+    std::array<double, 4> path_end{};
 
     Vec3d wi() const { return spherical_to_cartesian(theta_i, phi_i); }
     Vec3d wo() const { return spherical_to_cartesian(theta_o, phi_o); }
@@ -53,6 +63,9 @@ struct Dataset {
     bool has_sigma = false;
     bool has_weight = false;
     bool has_flags = false;
+    /// The eight exposure-path columns are present (a sample without a path has its start and end
+    /// equal to its angles).
+    bool has_path = false;
     /// Rows the reader refused and skipped, in file order (only with
     /// DatasetReadOptions::keep_going; a strict read refuses the file instead).
     std::vector<RejectedRow> rejected;
@@ -61,7 +74,7 @@ struct Dataset {
 /// Checks one sample against the rules of a valid measurement: finite values, value >= 0, sigma >=
 /// 0, weight >= 0, theta in [0, pi/2) for both directions (at or below the horizon is rejected),
 /// phi in
-/// [-2 pi, 2 pi]. Returns an empty string when valid, else the reason naming the field.
+/// [-2 pi, 2 pi], the same for the start and end of an exposure path. Returns an empty string when valid, else the reason naming the field.
 std::string validate_sample(const Sample& s);
 
 /// Limits of the values a dataset CSV may hold (1/sr for values and sigmas): far above any

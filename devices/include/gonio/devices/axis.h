@@ -3,6 +3,7 @@
 // A motorised rotary stage. Degrees at this interface; steps only on the wire (the driver scales).
 // Implementations own their I/O (one owner per bus); calls on one Axis are not concurrent.
 
+#include <array>
 #include <chrono>
 #include <string>
 
@@ -71,6 +72,14 @@ class Axis {
     virtual Expected<void> stop() = 0;
     /// Clears a drive alarm (where the drive allows it).
     virtual Expected<void> reset_alarm() = 0;
+    /// Fly scans: the positions (degrees) the drive latched at the start and at the end of the
+    /// camera's last exposure (a touch probe on the camera's exposure-active output, latching on
+    /// its rising and falling edges). An error when the drive has no such latch.
+    virtual Expected<std::array<double, 2>> exposure_latch_deg() {
+        return make_error("axis \"" + name() +
+                          "\": its drive latches no exposure positions (no touch probe in its "
+                          "register map): fly scans need one");
+    }
 };
 
 }  // namespace gonio::devices

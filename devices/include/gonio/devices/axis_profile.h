@@ -126,6 +126,10 @@ struct AxisProfile {
     RegisterField position;  ///< Feedback position, steps.
     StatusBits status;
     RegisterField alarm_code;  ///< Present alarm code.
+    /// Touch probe (optional, fly scans): the position latched at the rising and at the falling
+    /// edge of the camera's exposure-active line, steps (as `position`).
+    RegisterField probe_start;
+    RegisterField probe_end;
 
     Action move;
     Action home;

@@ -63,6 +63,7 @@ class ModbusAxis : public Axis {
     Expected<void> wait_done(std::chrono::milliseconds timeout) override;
     Expected<AxisStatus> status() override;
     Expected<double> position_deg() override;
+    Expected<std::array<double, 2>> exposure_latch_deg() override;
     Expected<void> stop() override;
     Expected<void> reset_alarm() override;
 

@@ -28,6 +28,7 @@
 #include "gonio/brdf/lobe_orientation.h"
 #include "gonio/brdf/model.h"
 #include "gonio/fitting/cost.h"
+#include "gonio/fitting/exposure_paths.h"
 #include "gonio/fitting/normal_equation_packets.h"
 
 namespace gonio::fitting {
@@ -211,6 +212,9 @@ class PreparedSamples {
     bool analytic_ = false;
     bool packets_ = false;
     std::shared_ptr<const ceres::LossFunction> loss_;
+    /// Samples measured while the arms moved (exposure_paths.h): their model value is the mean
+    /// over their path, on the per-sample Jet passes. Null when no sample has a path.
+    std::shared_ptr<const ExposurePaths> paths_;
     /// Per-block partial sums of the passes (kept between passes: no allocation per iteration).
     /// The passes of one PreparedSamples run one at a time.
     mutable std::vector<double> scratch_;

@@ -42,6 +42,11 @@ double patch_radiance(const brdf::Brdf& f,
                       const brdf::Rgbd& filter,
                       bool* nonfinite = nullptr);
 
+/// The flat patch's radiance over an exposure: patch_radiance at the scene's wi and wo, or, when
+/// the stages moved during it, the weighted mean over SceneState::path (the time mean the sensor
+/// integrates; stray light not included).
+double patch_radiance_over(const brdf::Brdf& f, const SceneState& scene);
+
 /// Geometry for the scene: point mode (flat patch) or a sphere.
 GeometryFn scene_geometry(const SceneState& scene, int sensor_width, int sensor_height);
 

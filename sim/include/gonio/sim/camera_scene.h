@@ -4,8 +4,10 @@
 // callback (the rig reads its simulated motor controllers and shutter to fill it in).
 
 #include <functional>
+#include <vector>
 
 #include "gonio/brdf/coords.h"
+#include "gonio/brdf/exposure_path.h"
 
 namespace gonio::sim {
 
@@ -47,10 +49,18 @@ struct SceneState {
     /// Image mode: the camera placement switched in (0: the wide view; k: the rig's k-th zoomed
     /// placement, sphere_imaging.h).
     int placement = 0;
+    /// Point mode, an exposure taken while the stages moved: the directions along the stages'
+    /// trajectory during the exposure with the quadrature weights of its time mean
+    /// (brdf/exposure_path.h); the patch's radiance is then the mean over these nodes. Empty: the
+    /// stages stood still (wi, wo above).
+    std::vector<brdf::PathNode> path;
 };
 
 /// Called at each exposure to learn the rig's state.
 using SceneFn = std::function<SceneState()>;
+/// Called after SceneFn with the exposure's duration (seconds): fills SceneState::path when the
+/// stages move during it.
+using ScenePathFn = std::function<void(double exposure_s, SceneState* scene)>;
 
 /// A fixed point-mode scene from spherical angles (radians; theta from the normal, phi from x).
 inline SceneState scene_from_angles(

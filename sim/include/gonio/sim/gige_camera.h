@@ -135,6 +135,9 @@ class GigeCamera {
     bool take_frame_drop();
     void set_brdf(std::shared_ptr<const brdf::Brdf> brdf);
     void set_scene(SceneFn scene);
+    /// The stages' path during each exposure (fly scans): called with the exposure time after
+    /// the scene is taken. Set it before the camera is used.
+    void set_scene_path(ScenePathFn path) { scene_path_ = std::move(path); }
     /// Replaces the radiance renderer (an empty function restores the flat-patch default). Frames
     /// exposed from then on use it.
     void set_renderer(RadianceFn renderer);
@@ -185,6 +188,7 @@ class GigeCamera {
     mutable std::mutex mutex_;
     std::shared_ptr<const brdf::Brdf> brdf_;
     SceneFn scene_;
+    ScenePathFn scene_path_;
     RadianceFn renderer_;
     std::unique_ptr<State> state_;
     GigeFaults faults_;

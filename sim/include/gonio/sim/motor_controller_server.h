@@ -78,6 +78,11 @@ class MotorControllerServer {
     /// Physical load angle of a unit's stage, degrees (NaN for an unknown unit).
     double position_deg(int unit) const;
     std::map<int, double> positions_deg() const;
+    /// A unit's load angles `after_s[k]` simulated seconds from now (MotorRegisters::path_deg).
+    std::vector<double> path_deg(int unit, const std::vector<double>& after_s) const;
+    /// Latches an exposure of `exposure_s` starting now in a unit's touch probe
+    /// (MotorRegisters::latch_exposure).
+    void latch_exposure(int unit, double exposure_s) const;
     Expected<UnitSnapshot> snapshot(int unit) const;
     bool shutter_open(int unit) const;
 

@@ -106,6 +106,15 @@ class MotorRegisters {
     /// Physical load angle of a unit's stage, degrees (NaN for an unknown unit).
     double position_deg(int unit) const;
     std::map<int, double> positions_deg() const;
+    /// The load angles of a unit's stage, degrees, `after_s[k]` simulated seconds from now (in
+    /// increasing order) along the move under way (MotorSim::load_steps_at); NaN for an unknown
+    /// unit.
+    std::vector<double> path_deg(int unit, const std::vector<double>& after_s) const;
+    /// The touch probe (profiles with registers probe_start and probe_end): latches the counter
+    /// now and `exposure_s` simulated seconds from now along the move under way, as the rising and
+    /// falling edges of an exposure of that length starting now would. Nothing for a unit without
+    /// a drive or a probe.
+    void latch_exposure(int unit, double exposure_s) const;
     Expected<UnitSnapshot> snapshot(int unit) const;
     bool shutter_open(int unit) const;
     /// Requests received for `unit` (0 = all units), including ones answered with exceptions.

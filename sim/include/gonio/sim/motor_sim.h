@@ -78,6 +78,15 @@ class MotorSim {
     double motor_steps() const { return pos_; }
     double load_steps() const { return load_; }
     double steps_per_degree() const { return steps_per_degree_; }
+    /// The load position (steps) at simulated times t >= the last update() along the move under
+    /// way (its profile, then the backlash from the present load), as an encoder would read it
+    /// then without noise; faults armed for later are not foreseen.
+    /// `motor`, when given, receives the motor's positions (what its encoder reads) at the same
+    /// times.
+    std::vector<double> load_steps_at(const std::vector<double>& t,
+                                      std::vector<double>* motor = nullptr) const;
+    /// counter = physical motor position + this offset (steps).
+    double counter_offset() const { return counter_offset_; }
 
   private:
     void apply_backlash(double motor);

@@ -70,6 +70,16 @@ class RigWorld {
     /// changer coil is on.
     SceneState scene() const;
     SceneFn scene_fn() const;
+    /// Point mode, fly scans: when a stage moves during an exposure of `exposure_s` that starts
+    /// now, fills scene->path with the directions along the stages' trajectory (their profiles as
+    /// the drives run them, sampled by composite Gauss-Legendre quadrature in time: pieces of at
+    /// most kPathPieceRad of stage travel, kPathNodesPerPiece nodes each); leaves it empty while
+    /// every stage stands.
+    void fill_path(double exposure_s, SceneState* scene) const;
+    ScenePathFn scene_path_fn() const;
+    /// Longest stage travel of one quadrature piece of an exposure's path: 0.1 deg.
+    static constexpr double kPathPieceRad = 0.1 * brdf::kPi / 180;
+    static constexpr int kPathNodesPerPiece = 4;
     /// Multiplies the lamp's irradiance (1 = nominal): simulates lamp drift.
     void set_lamp_factor(double f) { lamp_factor_.store(f); }
     /// Called with the running count (1, 2, ...) at every exposure the camera asks the world
@@ -87,6 +97,8 @@ class RigWorld {
   private:
     /// Counts the moves of each arm (a new encoder reading since the last exposure is a move).
     std::array<std::uint64_t, 2> arm_moves(double light_rad, double detector_rad) const;
+    /// The directions (wi, wo) of a pose, through the instrument's errors when it has them.
+    std::pair<brdf::Vec3d, brdf::Vec3d> pose_directions(const brdf::RigPosed& p) const;
     /// The scene's directions and stage angles as the imperfect instrument has them.
     void apply_instrument(const brdf::RigPosed& p, std::uint64_t exposure, SceneState* s) const;
 
