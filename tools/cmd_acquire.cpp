@@ -240,6 +240,11 @@ int run(const acq::CampaignRequest& r) {
         serve_at = *a;
     }
     if (r.mode == acq::CampaignMode::kImage) {
+        // Before any work: work whose memory estimate is above the budget is refused, and no
+        // campaign folder is made.
+        if (auto m = acq::check_image_request_memory(r); !m) {
+            return gonio::tools::usage_error("acquire", m.error().message);
+        }
         if (r.plan_only) {
             return gonio::tools::print_image_plan(r);
         }

@@ -121,6 +121,36 @@ TEST(ImageJournal, RecordsReadBackAsWritten) {
     std::filesystem::remove(path);
 }
 
+TEST(ImageJournal, AppendedFramesAreOnDiskNotInMemory) {
+    const std::string path = temp_path("held");
+    std::filesystem::remove(path);
+    const ImageJournalSetup setup = make_setup();
+    const ImageJournalFrame f1 = make_frame(1, setup.layout);
+    const ImageJournalFrame f2 = make_frame(2, setup.layout);
+    {
+        auto j = ImageJournal::open(path);
+        ASSERT_TRUE(j) << j.error().message;
+        ASSERT_TRUE(j->append_setup(setup));
+        ASSERT_TRUE(j->append_frame(f1));
+        // A campaign holds its table: the journal keeps no second copy of a frame's bins.
+        EXPECT_TRUE(j->frames().empty());
+    }
+    auto j = ImageJournal::open(path);
+    ASSERT_TRUE(j) << j.error().message;
+    ASSERT_EQ(j->frames().size(), 1u);
+    expect_same(j->frames()[0], f1);
+    // Merged by the campaign, then released; appending goes on after them.
+    j->release_frames();
+    EXPECT_TRUE(j->frames().empty());
+    EXPECT_EQ(j->frames().capacity(), 0u);
+    ASSERT_TRUE(j->append_frame(f2));
+    auto again = ImageJournal::open(path);
+    ASSERT_TRUE(again) << again.error().message;
+    ASSERT_EQ(again->frames().size(), 2u);
+    expect_same(again->frames()[1], f2);
+    std::filesystem::remove(path);
+}
+
 TEST(ImageJournal, RecordCutAtAnyByteIsDroppedAndAppendingContinues) {
     const std::string path = temp_path("torn");
     std::filesystem::remove(path);

@@ -64,6 +64,41 @@ TEST(SphereRender, LambertRadianceMatchesClosedFormAtEveryPixel) {
     EXPECT_GT(on, 2500);
 }
 
+TEST(SphereRender, RowTilesRenderEveryRowOfALargeFrame) {
+    // 700 x 1100 px at one ray per pixel: the rays are traced in tiles of whole rows (three here,
+    // the last one short); every pixel must be rendered once, by its own ray.
+    SphereScene s;
+    s.camera = camera_on_x(SphereProjection::kOrthographic, 700, 25000, 1.0);
+    s.camera.height = 1100;
+    s.camera.cy = (1100 - 1) / 2.0;
+    s.radius_m = 0.02;  // 500 px
+    s.light_world = Vec3d(std::cos(0.4), std::sin(0.4), 0);
+    s.filter = brdf::Rgbd(1, 0, 0);
+    s.supersample = 1;
+    const auto f = lambert(0.5);
+    const cv::Mat img = render_sphere_radiance(*f, s);
+    ASSERT_EQ(img.rows, 1100);
+    double worst = 0;
+    long on = 0;
+    for (int y = 0; y < img.rows; ++y) {
+        for (int x = 0; x < img.cols; ++x) {
+            const double u = (x - s.camera.cx) / 500.0;
+            const double v = (y - s.camera.cy) / 500.0;
+            const double rho2 = u * u + v * v;
+            double expected = 0;
+            if (rho2 < 1) {
+                ++on;
+                const Vec3d n(std::sqrt(1 - rho2), u, -v);
+                expected = 0.5 / kPi * std::max(0.0, n.dot(s.light_world));
+            }
+            worst = std::max(worst, std::abs(img.at<float>(y, x) - expected));
+        }
+    }
+    EXPECT_LT(worst, 1e-6);
+    // pi 500^2 pixels on the sphere.
+    EXPECT_NEAR(static_cast<double>(on), kPi * 500 * 500, 2 * kPi * 500);
+}
+
 TEST(SphereRender, TruthDirectionsKeepTheirAngle) {
     SphereScene s;
     s.camera = camera_on_x(SphereProjection::kOrthographic, 48, 1000, 1.0);

@@ -8,30 +8,6 @@
 namespace gonio::acquisition {
 namespace {
 
-/// The nominal sample sphere: radius `silhouette.radius_m` at the rig origin, as the camera model
-/// sees it.
-Expected<SphereGeometry> nominal_sphere(const ImageCampaignConfig& cfg) {
-    SphereGeometry sphere;
-    sphere.radius_m = cfg.silhouette.radius_m;
-    const Eigen::Vector2d c_px = cfg.camera.project(sphere.centre);
-    if (!c_px.allFinite()) {
-        return make_error("image coverage prediction: the camera does not see the rig origin");
-    }
-    sphere.silhouette.cx = c_px.x();
-    sphere.silhouette.cy = c_px.y();
-    if (cfg.camera.projection == Projection::kOrthographic) {
-        sphere.silhouette.r = sphere.radius_m * cfg.camera.intrinsics.fx;
-    } else {
-        // The outline of a sphere at distance d subtends asin(R / d) from the camera centre.
-        const double d = (sphere.centre - cfg.camera.centre_world()).norm();
-        if (!(d > sphere.radius_m)) {
-            return make_error("image coverage prediction: the camera is inside the sphere");
-        }
-        sphere.silhouette.r = cfg.camera.intrinsics.fx * std::tan(std::asin(sphere.radius_m / d));
-    }
-    return sphere;
-}
-
 /// The campaign's choice of frames (run_image_campaign, step 5) on predicted bins: each chosen
 /// candidate's bins are covered as its frame would cover them.
 template <class Choice, class Coverage>
@@ -112,7 +88,7 @@ Expected<ImageCoveragePrediction> predict_image_coverage(const ImageCampaignConf
             "image coverage prediction: the sphere radius and lights.step_rad must "
             "be > 0");
     }
-    auto sphere = nominal_sphere(cfg);
+    auto sphere = detail::nominal_sphere(cfg);
     if (!sphere) {
         return tl::unexpected(sphere.error());
     }

@@ -264,7 +264,7 @@ class AnisoFrames {
 
 /// Step 4: the frames already journaled merged, their poses taken off the candidates.
 template <class Path>
-Expected<void> resume_frames(const ImageJournal& journal,
+Expected<void> resume_frames(ImageJournal& journal,
                              const std::string& journal_path,
                              Path& path,
                              ImageCampaignResult* result) {
@@ -276,6 +276,8 @@ Expected<void> resume_frames(const ImageJournal& journal,
     }
     result->resumed_frames = journal.frames().size();
     path.resumed_all();
+    // Merged into the table: the journal's copy of their bins is no longer needed.
+    journal.release_frames();
     return {};
 }
 

@@ -295,6 +295,7 @@ std::vector<PoseCandidate> pose_candidates(const CameraModel& camera,
     const AnisoCoverage valid(layout);
     const std::vector<double> light_arm_rad = light_positions(lights, detector_arm_rad);
     std::vector<PoseCandidate> out;
+    detail::BinMarks marks(layout.size());
     for (const double s : spin_positions(spins)) {
         const brdf::Vec3d axis = lathe_axis_world(0, s);
         std::vector<brdf::Vec3d> tangents(pixels.size());
@@ -320,7 +321,8 @@ std::vector<PoseCandidate> pose_candidates(const CameraModel& camera,
                 [&](const brdf::Vec3d& wi, const brdf::Vec3d& wo) {
                     return aniso_bin(layout, wi, wo);
                 },
-                [&](std::size_t b) { return valid.valid(b); });
+                [&](std::size_t b) { return valid.valid(b); },
+                &marks);
             if (!c.bins.empty()) {
                 out.push_back(std::move(c));
             }

@@ -492,11 +492,7 @@ Expected<void> ImageJournal::append_setup(const ImageJournalSetup& s) {
 
 Expected<void> ImageJournal::append_frame(const ImageJournalFrame& f) {
     GONIO_CHECK_MSG(setup_.has_value(), path() << ": frame before the set-up");
-    if (auto w = log_.append(encode_frame(f)); !w) {
-        return w;
-    }
-    frames_.push_back(f);
-    return {};
+    return log_.append(encode_frame(f));
 }
 
 }  // namespace gonio::acquisition

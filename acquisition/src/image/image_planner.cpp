@@ -51,6 +51,7 @@ std::vector<LightCandidate> light_candidates_at(const CameraModel& camera,
         detail::strided_pixels(camera, sphere, rules, pixel_stride);
     const double cos_max_i = std::cos(rules.max_theta_i);
     std::vector<LightCandidate> out;
+    detail::BinMarks marks(layout.size());
     for (const double a : light_arm_rad) {
         const brdf::Vec3d l = brdf::arm_direction(a);
         LightCandidate c;
@@ -66,7 +67,8 @@ std::vector<LightCandidate> light_candidates_at(const CameraModel& camera,
                 const brdf::HalfDiff<double> hd = brdf::to_half_diff(wi, wo);
                 return bin_index(layout, hd.theta_h, hd.theta_d, hd.phi_d);
             },
-            [&](std::size_t b) { return bin_valid(layout, b); });
+            [&](std::size_t b) { return bin_valid(layout, b); },
+            &marks);
         c.theta_d_lo = layout.n_theta_d;
         c.theta_d_hi = -1;
         for (std::uint32_t b : c.bins) {

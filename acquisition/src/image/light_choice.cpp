@@ -8,6 +8,28 @@
 
 namespace gonio::acquisition::detail {
 
+Expected<SphereGeometry> nominal_sphere(const ImageCampaignConfig& cfg) {
+    SphereGeometry sphere;
+    sphere.radius_m = cfg.silhouette.radius_m;
+    const Eigen::Vector2d c_px = cfg.camera.project(sphere.centre);
+    if (!c_px.allFinite()) {
+        return make_error("image coverage prediction: the camera does not see the rig origin");
+    }
+    sphere.silhouette.cx = c_px.x();
+    sphere.silhouette.cy = c_px.y();
+    if (cfg.camera.projection == Projection::kOrthographic) {
+        sphere.silhouette.r = sphere.radius_m * cfg.camera.intrinsics.fx;
+    } else {
+        // The outline of a sphere at distance d subtends asin(R / d) from the camera centre.
+        const double d = (sphere.centre - cfg.camera.centre_world()).norm();
+        if (!(d > sphere.radius_m)) {
+            return make_error("image coverage prediction: the camera is inside the sphere");
+        }
+        sphere.silhouette.r = cfg.camera.intrinsics.fx * std::tan(std::asin(sphere.radius_m / d));
+    }
+    return sphere;
+}
+
 /// What bounds the reachable part of the table under this configuration.
 HoleLimits hole_limits(const ImageCampaignConfig& cfg) {
     HoleLimits limits;

@@ -16,6 +16,10 @@
 
 namespace gonio::acquisition::detail {
 
+/// The nominal sample sphere: radius `silhouette.radius_m` at the rig origin, as the camera model
+/// sees it (what the prediction and the memory estimate plan with before any frame).
+Expected<SphereGeometry> nominal_sphere(const ImageCampaignConfig& cfg);
+
 /// What bounds the reachable part of the table under this configuration.
 HoleLimits hole_limits(const ImageCampaignConfig& cfg);
 

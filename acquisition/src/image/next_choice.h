@@ -74,13 +74,50 @@ inline std::vector<SpherePixel> strided_pixels(const CameraModel& camera,
     return pixels;
 }
 
+/// Working memory of predicted_bins(), reused from one candidate to the next: one mark per bin of
+/// the table (which bins the candidate's pixels already reached) and the list of the marked ones.
+/// Its size is the table's (one bit per bin), never the camera's.
+class BinMarks {
+  public:
+    explicit BinMarks(std::size_t bins) : seen_(bins, false) {}
+
+    /// Marks `bin` (a bin index of the table).
+    void add(std::size_t bin) {
+        if (!seen_[bin]) {
+            seen_[bin] = true;
+            marked_.push_back(static_cast<std::uint32_t>(bin));
+        }
+    }
+    /// The marked bins, sorted, in a vector of exactly their count; the marks are cleared.
+    std::vector<std::uint32_t> take_sorted() {
+        std::sort(marked_.begin(), marked_.end());
+        for (const std::uint32_t b : marked_) {
+            seen_[b] = false;
+        }
+        std::vector<std::uint32_t> out(marked_.begin(), marked_.end());
+        marked_.clear();
+        return out;
+    }
+
+  private:
+    std::vector<bool> seen_;
+    std::vector<std::uint32_t> marked_;
+};
+
 /// The valid bins a frame fills, sorted and unique: for each pixel i, `directions(i)` gives (wi,
 /// wo) in its local frame (or false for a pixel that gives no sample), those lit within
 /// `cos_max_i` are binned by `bin(wi, wo)` and kept when `valid(bin)`.
+///
+/// Streamed over the pixels: each bin is marked once in `marks` (sized to the table, reused from
+/// one candidate to the next), so that a candidate costs the memory of its unique bins (at most
+/// those of the theta_d rows it spans), never one entry per pixel of a megapixel camera.
 template <class Directions, class Bin, class Valid>
-std::vector<std::uint32_t> predicted_bins(
-    std::size_t pixels, double cos_max_i, Directions directions, Bin bin, Valid valid) {
-    std::vector<std::uint32_t> bins;
+std::vector<std::uint32_t> predicted_bins(std::size_t pixels,
+                                          double cos_max_i,
+                                          Directions directions,
+                                          Bin bin,
+                                          Valid valid,
+                                          BinMarks* marks) {
     for (std::size_t i = 0; i < pixels; ++i) {
         brdf::Vec3d wi;
         brdf::Vec3d wo;
@@ -93,12 +130,10 @@ std::vector<std::uint32_t> predicted_bins(
         }
         const std::size_t b = bin(wi, wo);
         if (valid(b)) {
-            bins.push_back(static_cast<std::uint32_t>(b));
+            marks->add(b);
         }
     }
-    std::sort(bins.begin(), bins.end());
-    bins.erase(std::unique(bins.begin(), bins.end()), bins.end());
-    return bins;
+    return marks->take_sorted();
 }
 
 }  // namespace gonio::acquisition::detail

@@ -452,27 +452,65 @@ brdf::Vec3d reference_tangent(const brdf::Vec3d& normal) {
     return t.normalized();
 }
 
-std::vector<SpherePixel> sphere_pixels(const CameraModel& camera,
-                                       const SphereGeometry& sphere,
-                                       const ExclusionRules& rules,
-                                       PixelCounts* counts) {
+namespace {
+
+/// Bounding rows and columns of the silhouette (two pixels of margin) within the image.
+struct PixelBox {
+    int x0 = 0;
+    int x1 = -1;
+    int y0 = 0;
+    int y1 = -1;
+};
+
+PixelBox silhouette_box(const CameraModel& camera, const ImageCircle& c) {
+    PixelBox b;
+    b.x0 = std::max(0, static_cast<int>(std::floor(c.cx - c.r - 2)));
+    b.x1 = std::min(camera.intrinsics.width - 1, static_cast<int>(std::ceil(c.cx + c.r + 2)));
+    b.y0 = std::max(0, static_cast<int>(std::floor(c.cy - c.r - 2)));
+    b.y1 = std::min(camera.intrinsics.height - 1, static_cast<int>(std::ceil(c.cy + c.r + 2)));
+    return b;
+}
+
+/// How many pixels of the box lie within `radius` of the centre (those the edge test keeps at
+/// most): the room sphere_pixels() reserves, so that its list never grows by reallocation.
+std::size_t pixels_within(const PixelBox& b, const ImageCircle& c, double radius) {
+    if (!(radius > 0)) {
+        return 0;
+    }
+    std::size_t n = 0;
+    for (int y = b.y0; y <= b.y1; ++y) {
+        const double dy = y - c.cy;
+        if (std::abs(dy) > radius) {
+            continue;
+        }
+        const double half = std::sqrt(radius * radius - dy * dy);
+        const int lo = std::max(b.x0, static_cast<int>(std::ceil(c.cx - half)));
+        const int hi = std::min(b.x1, static_cast<int>(std::floor(c.cx + half)));
+        n += hi >= lo ? static_cast<std::size_t>(hi - lo + 1) : 0;
+    }
+    return n;
+}
+
+/// Rows [y0, y1) of the box: each pixel whose ray meets the sphere within the rules appended to
+/// `out`, the others counted.
+void trace_rows(const CameraModel& camera,
+                const SphereGeometry& sphere,
+                const ExclusionRules& rules,
+                const PixelBox& box,
+                int y0,
+                int y1,
+                std::vector<SpherePixel>* out,
+                PixelCounts* counts) {
     const ImageCircle& c = sphere.silhouette;
-    const int w = camera.intrinsics.width;
-    const int h = camera.intrinsics.height;
-    const int x0 = std::max(0, static_cast<int>(std::floor(c.cx - c.r - 2)));
-    const int x1 = std::min(w - 1, static_cast<int>(std::ceil(c.cx + c.r + 2)));
-    const int y0 = std::max(0, static_cast<int>(std::floor(c.cy - c.r - 2)));
-    const int y1 = std::min(h - 1, static_cast<int>(std::ceil(c.cy + c.r + 2)));
     std::vector<cv::Point2d> px;
-    for (int y = y0; y <= y1; ++y) {
-        for (int x = x0; x <= x1; ++x) {
+    px.reserve(static_cast<std::size_t>(y1 - y0) * (box.x1 - box.x0 + 1));
+    for (int y = y0; y < y1; ++y) {
+        for (int x = box.x0; x <= box.x1; ++x) {
             px.emplace_back(x, y);
         }
     }
     const std::vector<Ray> rays = camera.pixel_rays(px);
     const double cos_max_o = std::cos(rules.max_theta_o);
-    std::vector<SpherePixel> out;
-    PixelCounts local;
     for (std::size_t k = 0; k < px.size(); ++k) {
         const Ray& ray = rays[k];
         const brdf::Vec3d wvec = ray.origin - sphere.centre;
@@ -482,9 +520,9 @@ std::vector<SpherePixel> sphere_pixels(const CameraModel& camera,
             // The ray misses the sphere (or grazes it at one point): background.
             continue;
         }
-        ++local.on_sphere;
+        ++counts->on_sphere;
         if (std::hypot(px[k].x - c.cx, px[k].y - c.cy) > c.r - rules.edge_margin_px) {
-            ++local.edge;
+            ++counts->edge;
             continue;
         }
         const double s = -b - std::sqrt(disc);
@@ -495,11 +533,47 @@ std::vector<SpherePixel> sphere_pixels(const CameraModel& camera,
         p.normal = ((x - sphere.centre) / sphere.radius_m).normalized();
         p.wo_world = -ray.direction;
         if (p.normal.dot(p.wo_world) < cos_max_o) {
-            ++local.grazing_view;
+            ++counts->grazing_view;
             continue;
         }
         p.tangent = reference_tangent(p.normal);
-        out.push_back(p);
+        out->push_back(p);
+    }
+}
+
+}  // namespace
+
+std::size_t sphere_pixel_bound(const CameraModel& camera,
+                               const SphereGeometry& sphere,
+                               const ExclusionRules& rules) {
+    const ImageCircle& c = sphere.silhouette;
+    const PixelBox box = silhouette_box(camera, c);
+    if (box.x1 < box.x0 || box.y1 < box.y0) {
+        return 0;
+    }
+    // One pixel of slack: rounding at the circle's edge must not make the list reallocate.
+    return pixels_within(box, c, c.r - rules.edge_margin_px + 1);
+}
+
+std::vector<SpherePixel> sphere_pixels(const CameraModel& camera,
+                                       const SphereGeometry& sphere,
+                                       const ExclusionRules& rules,
+                                       PixelCounts* counts) {
+    const PixelBox box = silhouette_box(camera, sphere.silhouette);
+    std::vector<SpherePixel> out;
+    if (box.x1 < box.x0 || box.y1 < box.y0) {
+        // The silhouette lies outside the image.
+        return out;
+    }
+    out.reserve(sphere_pixel_bound(camera, sphere, rules));
+    // Rows of the box in tiles of about kPixelsPerTile rays: a zoomed view filling a 5 MP frame
+    // traces tens of megabytes of rays at a time, not hundreds.
+    const std::size_t width = static_cast<std::size_t>(box.x1 - box.x0 + 1);
+    const int rows_per_tile = static_cast<int>(std::max<std::size_t>(1, kPixelsPerTile / width));
+    PixelCounts local;
+    for (int y = box.y0; y <= box.y1; y += rows_per_tile) {
+        trace_rows(
+            camera, sphere, rules, box, y, std::min(box.y1 + 1, y + rows_per_tile), &out, &local);
     }
     if (counts != nullptr) {
         *counts += local;

@@ -1107,6 +1107,50 @@ std::string image_run_metadata(const CampaignRequest& r,
 
 }  // namespace
 
+Expected<ImageMemoryEstimate> estimate_image_request_memory(const CampaignRequest& given) {
+    CampaignRequest r = given;
+    double journal_bytes = 0;
+    if (!given.resume_dir.empty()) {
+        auto settings = read_image_settings(given.resume_dir);
+        if (!settings) {
+            return tl::unexpected(settings.error());
+        }
+        r = *settings;
+        std::error_code ec;
+        const auto size = fs::file_size(fs::path(given.resume_dir) / kImageJournalFile, ec);
+        journal_bytes = ec ? 0.0 : static_cast<double>(size);
+    }
+    if (auto t = check_table_factor(r); !t) {
+        return tl::unexpected(t.error());
+    }
+    bool embedded = false;
+    auto described = image_rig_description(image_rig_options(r), &embedded);
+    if (!described) {
+        return tl::unexpected(described.error());
+    }
+    auto cfg = image_config(r, described->first, described->second);
+    if (!cfg) {
+        return tl::unexpected(cfg.error());
+    }
+    auto e =
+        estimate_image_memory(*cfg, given.plan_only, embedded ? std::max(1, r.supersample) : 0);
+    if (e) {
+        // A resume reads its journal's frames back before it merges them.
+        e->table_bytes += journal_bytes;
+    }
+    return e;
+}
+
+Expected<void> check_image_request_memory(const CampaignRequest& request) {
+    auto e = estimate_image_request_memory(request);
+    if (!e) {
+        return {};
+    }
+    return check_memory(e->total(),
+                        std::string(request.plan_only ? "the image plan" : "the image campaign") +
+                            " (" + e->describe() + ")");
+}
+
 bool is_image_campaign_dir(const std::string& dir) {
     std::error_code ec;
     return !dir.empty() && fs::exists(fs::path(dir) / kImageSettingsFile, ec);
@@ -1156,6 +1200,9 @@ Expected<ImageCampaignRun> run_image_request(const CampaignRequest& given,
         return tl::unexpected(cfg.error());
     }
     run.config = *cfg;
+    if (auto m = check_image_request_memory(given); !m) {
+        return tl::unexpected(m.error());
+    }
     run.dir = run.resumed ? r.resume_dir : image_campaign_dir(r, run.sample);
     run.journal = (fs::path(run.dir) / kImageJournalFile).string();
     if (hooks.started) {

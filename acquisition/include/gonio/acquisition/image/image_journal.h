@@ -85,13 +85,18 @@ class ImageJournal {
     static Expected<ImageJournal> open(const std::string& path);
 
     const std::optional<ImageJournalSetup>& setup() const { return setup_; }
+    /// The frames read back when the journal was opened (the frames appended since are on disk
+    /// only: a campaign holds its table, not every frame's bins a second time).
     const std::vector<ImageJournalFrame>& frames() const { return frames_; }
+    /// Frees the frames read back, once the campaign has merged them into its table.
+    void release_frames() { std::vector<ImageJournalFrame>().swap(frames_); }
     bool torn_tail() const { return torn_tail_; }
     const std::string& path() const { return log_.path(); }
 
     /// Appends the set-up (only as the first record), then fsync.
     Expected<void> append_setup(const ImageJournalSetup& s);
-    /// Appends a frame (after the set-up), then fsync: the frame is durable when this returns.
+    /// Appends a frame (after the set-up), then fsync: the frame is durable when this returns. It
+    /// is not kept in frames().
     Expected<void> append_frame(const ImageJournalFrame& f);
 
   private:

@@ -124,6 +124,15 @@ struct PixelCounts {
     PixelCounts& operator+=(const PixelCounts& o);
 };
 
+/// Pixels whose rays sphere_pixels() traces at a time (whole rows of the silhouette's box).
+constexpr std::size_t kPixelsPerTile = std::size_t{1} << 18;
+
+/// At most this many pixels pass sphere_pixels(): those within the silhouette's radius less the
+/// edge margin (plus one pixel of slack), inside the image. The room sphere_pixels() reserves.
+std::size_t sphere_pixel_bound(const CameraModel& camera,
+                               const SphereGeometry& sphere,
+                               const ExclusionRules& rules);
+
 /// Pixels of the image whose ray meets the sphere, outside the edge margin and with theta_o within
 /// the limit; the others are counted into `counts` (on_sphere, edge, grazing_view).
 std::vector<SpherePixel> sphere_pixels(const CameraModel& camera,

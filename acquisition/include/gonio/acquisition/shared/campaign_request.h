@@ -17,6 +17,7 @@
 #include "gonio/acquisition/image/camera_model.h"
 #include "gonio/acquisition/image/image_binning.h"
 #include "gonio/acquisition/image/image_campaign.h"
+#include "gonio/acquisition/image/image_memory.h"
 #include "gonio/acquisition/plans/plan.h"
 #include "gonio/acquisition/point/campaign.h"
 #include "gonio/acquisition/shared/rig_config.h"
@@ -265,9 +266,21 @@ struct ImageRunHooks {
     std::function<CaptureFn(CaptureFn)> wrap_capture;
 };
 
+/// The memory an image request's work needs (image_memory.h), without touching a device or a
+/// file of the campaign: the prediction alone for `plan_only`, else the campaign (a resume with
+/// its folder's settings and the frames its journal holds). Fails where the request itself would
+/// (an unreadable rig description, a bad table).
+Expected<ImageMemoryEstimate> estimate_image_request_memory(const CampaignRequest& request);
+
+/// estimate_image_request_memory() against the memory budget (base/limits.h, --max-memory):
+/// "the image campaign needs about 2.9 GiB (program ..., pixels ..., ...) of memory, above the
+/// limit of 2 GiB (...)". An estimate that cannot be made is no refusal (the work reports why).
+Expected<void> check_image_request_memory(const CampaignRequest& request);
+
 /// Runs an image campaign, new or resumed, journaled so that a campaign ended by a crash or a
 /// kill resumes where it stopped:
-/// - refuses a conflict (find_conflict) and a bad table resolution;
+/// - refuses a conflict (find_conflict), a bad table resolution and work whose memory estimate
+///   (check_image_request_memory) is above the budget, before the folder exists;
 /// - a resume (request.resume_dir) takes every setting from the folder's image_campaign.json;
 /// - starts the rig (start_image_rig with the ground truth, time scale and seed), refuses an
 ///   anisotropic virtual sample unless the request is anisotropic (the table is isotropic) and an
