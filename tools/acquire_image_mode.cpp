@@ -14,6 +14,7 @@
 #include "embedded_rig.h"
 #include "gonio/acquisition/image/image_planner.h"
 #include "gonio/acquisition/shared/frame_picture.h"
+#include "gonio/base/limits.h"
 #include "gonio/brdf/coords.h"
 #include "gonio/report/live_server.h"
 #include "live_page.h"
@@ -145,6 +146,22 @@ void print_summary(const acquisition::ImageCampaignRun& run) {
         run.poses.capture_retries,
         run.poses.repeats,
         run.poses.corrections);
+}
+
+/// The memory estimates of the plan and of the campaign it plans, against the budget.
+void print_memory_estimate(const acquisition::CampaignRequest& request) {
+    acquisition::CampaignRequest run = request;
+    run.plan_only = false;
+    auto plan = acquisition::estimate_image_request_memory(request);
+    auto campaign = acquisition::estimate_image_request_memory(run);
+    if (!plan || !campaign) {
+        return;
+    }
+    std::printf("memory estimate: plan %s, campaign %s (%s); budget %s (--max-memory)\n",
+                human_bytes(plan->total()).c_str(),
+                human_bytes(campaign->total()).c_str(),
+                campaign->describe().c_str(),
+                human_bytes(static_cast<double>(max_memory_bytes())).c_str());
 }
 
 }  // namespace
@@ -316,6 +333,7 @@ int print_image_plan(const acquisition::CampaignRequest& request) {
             c.spins.step_rad * 180 / brdf::kPi,
             c.pole_rad * 180 / brdf::kPi);
     }
+    print_memory_estimate(request);
     std::fflush(stdout);
     auto p = acquisition::predict_image_coverage(c);
     if (!p) {

@@ -13,10 +13,11 @@ namespace gonio::acquisition {
 namespace {
 
 constexpr double kMiB = 1024.0 * 1024.0;
-/// The process before the work: the executable and its libraries (measured: 25 to 30 MiB for a
-/// plan), with a rig also its drivers, the stream's threads and the virtual rig's servers.
-constexpr double kProgramPlanBytes = 48 * kMiB;
-constexpr double kProgramRunBytes = 128 * kMiB;
+/// The process before the work: the executable and its libraries (a plan of a 64 px camera peaks
+/// at 78 MiB), with a rig also its drivers, the stream's threads and the virtual rig's servers (a
+/// campaign of the default 256 px camera on a 30 x 30 x 60 table peaks at 155 MiB).
+constexpr double kProgramPlanBytes = 96 * kMiB;
+constexpr double kProgramRunBytes = 160 * kMiB;
 /// Bytes a traced ray costs sphere_pixels() (its pixel position and the ray).
 constexpr double kRayBytes = sizeof(cv::Point2d) + sizeof(Ray);
 /// Sub-pixel rays the virtual camera traces at a time (sim/src/sphere_render.cpp), each with its
