@@ -172,19 +172,24 @@ TEST(FlyCampaign, SweptValuesCarryTheLatchedPathAroundTheirDirections) {
             continue;
         }
         ++swept;
-        // The light arm stood; the detector's direction ran along an arc of at most the smear
-        // bound (1 deg), and the value's own direction is the arc's middle.
+        // One arm stood; the other's direction ran along an arc of at most the smear bound (1
+        // deg), and the value's own direction is the arc's middle.
         const brdf::Vec3d wi0 = brdf::spherical_to_cartesian(s.path_start[0], s.path_start[1]);
         const brdf::Vec3d wi1 = brdf::spherical_to_cartesian(s.path_end[0], s.path_end[1]);
         const brdf::Vec3d wo0 = brdf::spherical_to_cartesian(s.path_start[2], s.path_start[3]);
         const brdf::Vec3d wo1 = brdf::spherical_to_cartesian(s.path_end[2], s.path_end[3]);
-        EXPECT_LT((wi0 - s.wi()).norm(), 1e-6);
-        EXPECT_LT((wi1 - s.wi()).norm(), 1e-6);
-        const double arc = std::acos(std::min(1.0, wo0.dot(wo1)));
+        const bool light_swept = (wi0 - wi1).norm() > 1e-9;
+        const brdf::Vec3d a0 = light_swept ? wi0 : wo0;
+        const brdf::Vec3d a1 = light_swept ? wi1 : wo1;
+        const brdf::Vec3d mid = light_swept ? s.wi() : s.wo();
+        const brdf::Vec3d stood = light_swept ? s.wo() : s.wi();
+        EXPECT_LT(((light_swept ? wo0 : wi0) - stood).norm(), 1e-6);
+        EXPECT_LT(((light_swept ? wo1 : wi1) - stood).norm(), 1e-6);
+        const double arc = std::acos(std::min(1.0, a0.dot(a1)));
         EXPECT_GT(arc, 0);
         EXPECT_LE(arc, 1.0 * brdf::kPi / 180 + 1e-6);
-        EXPECT_NEAR(std::acos(std::min(1.0, wo0.dot(s.wo()))), 0.5 * arc, 1e-6);
-        EXPECT_NEAR(std::acos(std::min(1.0, wo1.dot(s.wo()))), 0.5 * arc, 1e-6);
+        EXPECT_NEAR(std::acos(std::min(1.0, a0.dot(mid))), 0.5 * arc, 1e-6);
+        EXPECT_NEAR(std::acos(std::min(1.0, a1.dot(mid))), 0.5 * arc, 1e-6);
     }
     EXPECT_EQ(swept, res->swept);
     EXPECT_GT(swept, 20u);

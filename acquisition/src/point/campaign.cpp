@@ -717,6 +717,11 @@ class Runner {
                                            bool* journal_failed);
     void publish_measurement(const JournalRecord& r) const;
     std::string completion_summary() const;
+    /// Before each measurement (or sweep): a stop on request, the drift check when due; a value
+    /// when the run ends there.
+    std::optional<Expected<RunResult>> before_measurement(const Plan& plan,
+                                                          std::string* pause,
+                                                          Progress* progress);
     /// One configuration measured standing with the pass's bookkeeping (progress, live page,
     /// stop rule); a value when the run ends there.
     std::optional<Expected<RunResult>> measure_standing(int pass,
@@ -728,8 +733,8 @@ class Runner {
 
     // Fly scans (fly_plan.h, fly_sweep.h).
     FlyLimits fly_limits() const;
-    /// A pass measured in sweeps (and standing where no sweep goes); a value when the run ends
-    /// within it.
+    /// A pass measured in sweeps, then in one scheduled tour what no sweep measured (no sweep
+    /// partner, a saturated frame, a missed trigger); a value when the run ends within it.
     std::optional<Expected<RunResult>> measure_fly_pass(int pass,
                                                         const std::vector<const PlannedConfig*>& c,
                                                         const std::vector<RigPosed>& poses,
@@ -1754,19 +1759,8 @@ std::optional<Expected<RunResult>> Runner::measure_pass(int pass,
     const std::size_t done_before = done_.size();
     Progress progress(hooks_.out, done_before + pending.size(), done_before, sch.planned_s);
     for (std::size_t q = 0; q < sch.order.size(); ++q) {
-        if (stop_requested()) {
-            progress.finish("stopped on request");
-            return finish(Outcome::kInterrupted,
-                          "stopped on request after " + std::to_string(result_.measured_now) +
-                              " measurements; resume with --resume " + dir_,
-                          plan);
-        }
-        if (spec_.drift_every > 0 &&
-            since_reference_ >= static_cast<std::size_t>(spec_.drift_every)) {
-            if (auto d = drift_check(false, pause); !d) {
-                progress.finish("paused");
-                return finish(Outcome::kPaused, d.error().message, plan);
-            }
+        if (auto end = before_measurement(plan, pause, &progress)) {
+            return end;
         }
         const std::size_t k = sch.order[q];
         if (auto end = measure_standing(pass, *pending[k], poses[k], plan, pause, &progress)) {
@@ -1844,36 +1838,57 @@ std::optional<Expected<RunResult>> Runner::measure_fly_pass(
         " standing; motion time planned " + format_duration(planned_s));
     const std::size_t done_before = done_.size();
     Progress progress(hooks_.out, done_before + pending.size(), done_before, planned_s);
+    std::vector<std::size_t> standing;
     for (const FlyUnit& u : units) {
-        if (stop_requested()) {
-            progress.finish("stopped on request");
-            return finish(Outcome::kInterrupted,
-                          "stopped on request after " + std::to_string(result_.measured_now) +
-                              " measurements; resume with --resume " + dir_,
-                          plan);
-        }
-        if (spec_.drift_every > 0 &&
-            since_reference_ >= static_cast<std::size_t>(spec_.drift_every)) {
-            if (auto d = drift_check(false, pause); !d) {
-                progress.finish("paused");
-                return finish(Outcome::kPaused, d.error().message, plan);
-            }
-        }
-        std::vector<std::size_t> standing;
         if (u.standing) {
-            standing = u.sweep.members;
-        } else if (auto end =
-                       fly_sweep(pass, u.sweep, pending, poses, plan, &progress, &standing)) {
+            standing.insert(standing.end(), u.sweep.members.begin(), u.sweep.members.end());
+            continue;
+        }
+        if (auto end = before_measurement(plan, pause, &progress)) {
             return end;
         }
-        for (std::size_t k : standing) {
-            ++result_.standing;
-            if (auto end = measure_standing(pass, *pending[k], poses[k], plan, pause, &progress)) {
-                return end;
-            }
+        if (auto end = fly_sweep(pass, u.sweep, pending, poses, plan, &progress, &standing)) {
+            return end;
+        }
+    }
+    // What no sweep measured, in one scheduled tour after the sweeps.
+    std::vector<RigPosed> stand_poses;
+    for (std::size_t k : standing) {
+        stand_poses.push_back(poses[k]);
+    }
+    ScheduleOptions so;
+    so.budget_s = spec_.schedule_budget_s;
+    const Schedule sch = schedule(stand_poses, current_, dyn_, so);
+    for (std::size_t q : sch.order) {
+        if (auto end = before_measurement(plan, pause, &progress)) {
+            return end;
+        }
+        const std::size_t k = standing[q];
+        ++result_.standing;
+        if (auto end = measure_standing(pass, *pending[k], poses[k], plan, pause, &progress)) {
+            return end;
         }
     }
     progress.finish("pass " + std::to_string(pass) + " complete");
+    return std::nullopt;
+}
+
+std::optional<Expected<RunResult>> Runner::before_measurement(const Plan& plan,
+                                                              std::string* pause,
+                                                              Progress* progress) {
+    if (stop_requested()) {
+        progress->finish("stopped on request");
+        return finish(Outcome::kInterrupted,
+                      "stopped on request after " + std::to_string(result_.measured_now) +
+                          " measurements; resume with --resume " + dir_,
+                      plan);
+    }
+    if (spec_.drift_every > 0 && since_reference_ >= static_cast<std::size_t>(spec_.drift_every)) {
+        if (auto d = drift_check(false, pause); !d) {
+            progress->finish("paused");
+            return finish(Outcome::kPaused, d.error().message, plan);
+        }
+    }
     return std::nullopt;
 }
 
