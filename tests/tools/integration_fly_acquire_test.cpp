@@ -94,7 +94,7 @@ TEST(AcquireFly, FitOfTheFlyDatasetRecoversGgxAlpha) {
     const std::string fit =
         run_gonio("fit " + dir + "/dataset.csv --model ggx --out " + dir + "/fit.json", &st);
     ASSERT_EQ(st, 0) << fit;
-    const nlohmann::json rep = json_file(dir + "/fit.json");
+    const nlohmann::json rep = json_file(dir + "/fit.report.json");
     double alpha = NAN, sigma = NAN;
     for (const auto& p : rep.at("parameters")) {
         if (p.at("name") == "lobes[0].alpha_x") {
