@@ -227,6 +227,9 @@ TEST(AcquireFly, RefusesWhatItCannotHonourWithExitStatus2) {
     out = run_gonio("acquire --fly --out " + dir, &st);
     EXPECT_EQ(st, 2) << out;
     EXPECT_NE(out.find("filter_wheel"), std::string::npos) << out;
+    out = run_gonio("acquire --fly --plan-only --rig " + mono_rig(), &st);
+    EXPECT_EQ(st, 2) << out;
+    EXPECT_NE(out.find("--plan-only"), std::string::npos) << out;
     out = run_gonio("acquire --fly-smear 2 --rig " + mono_rig() + " --out " + dir, &st);
     EXPECT_EQ(st, 2) << out;
     EXPECT_NE(out.find("--fly-smear"), std::string::npos) << out;

@@ -168,7 +168,9 @@ std::optional<RequestConflict> job_conflict(const CampaignRequest& r,
                        "operator_name",
                        "accept_drift",
                        "serve",
-                       "until"})) {
+                       "until",
+                       "fly",
+                       "fly_smear_deg"})) {
                 return RequestConflict{
                     f, "plan_only", "only the plan is printed; nothing is measured or written"};
             }

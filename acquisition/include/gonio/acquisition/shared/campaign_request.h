@@ -127,7 +127,8 @@ std::string option_key(const std::string& field);
 /// - a resume reads everything from the folder (an image campaign: its settings and frame
 ///   journal): only accept_drift and serve go with it;
 /// - plan_only prints the plan: nothing that only matters to a run (out, campaigns_dir,
-///   material, brdf, time_scale, sample, operator, accept_drift, serve) goes with it;
+///   material, brdf, time_scale, sample, operator, accept_drift, serve, until, fly,
+///   fly_smear_deg) goes with it;
 /// - the virtual rig's options (material, brdf, time_scale) need the embedded rig: a campaign
 ///   file names its own rig; material and brdf exclude each other;
 /// - the vndf plan refuses n_theta, n_dphi (uniform-plan options), adaptive > 0 (it places its
