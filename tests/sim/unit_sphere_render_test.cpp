@@ -65,10 +65,10 @@ TEST(SphereRender, LambertRadianceMatchesClosedFormAtEveryPixel) {
 }
 
 TEST(SphereRender, RowTilesRenderEveryRowOfALargeFrame) {
-    // 700 x 1100 px at one ray per pixel: the rays are traced in tiles of whole rows (three here,
+    // 1050 x 1100 px at one ray per pixel: the rays are traced in tiles of whole rows (five here,
     // the last one short); every pixel must be rendered once, by its own ray.
     SphereScene s;
-    s.camera = camera_on_x(SphereProjection::kOrthographic, 700, 25000, 1.0);
+    s.camera = camera_on_x(SphereProjection::kOrthographic, 1050, 25000, 1.0);
     s.camera.height = 1100;
     s.camera.cy = (1100 - 1) / 2.0;
     s.radius_m = 0.02;  // 500 px
