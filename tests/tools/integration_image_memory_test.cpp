@@ -25,15 +25,14 @@ bool has(const std::string& out, const std::string& what) {
 }
 
 /// A small campaign on the default virtual rig: 48 px camera, 15 x 15 x 30 table.
-const char* const kSmall =
-    "acquire --mode image --camera-px 48 --grid 15x15x30 --max-frames 3 --time-scale 1000 ";
+const char* const kSmall = "acquire --mode image --camera-px 48 --grid 15x15x30 --max-frames 3 ";
 
 TEST(ImageMemory, OverBudgetIsRefusedBeforeTheFolderExists) {
     const std::string dir = temp_dir("refused");
     // 1 MiB: below what the program alone needs.
     int st = 0;
-    std::string out =
-        run_gonio(std::string("--max-memory 1M ") + kSmall + "--out " + dir + "/run", &st);
+    std::string out = run_gonio(
+        std::string("--max-memory 1M ") + kSmall + "--time-scale 1000 --out " + dir + "/run", &st);
     EXPECT_EQ(st, 2) << out;
     EXPECT_TRUE(has(out, "the image campaign (program ")) << out;
     EXPECT_TRUE(has(out, "candidates")) << out;
@@ -55,7 +54,9 @@ TEST(ImageMemory, WithinTheDefaultBudgetThePlanAndTheCampaignRun) {
     std::string out = run_gonio(std::string(kSmall) + "--plan-only", &st);
     EXPECT_EQ(st, 0) << out;
     EXPECT_TRUE(has(out, "predicted from the nominal sphere")) << out;
-    out = run_gonio(std::string(kSmall) + "--coverage-target 0.01 --out " + dir + "/run", &st);
+    out = run_gonio(
+        std::string(kSmall) + "--time-scale 1000 --coverage-target 0.01 --out " + dir + "/run",
+        &st);
     EXPECT_EQ(st, 0) << out;
     EXPECT_TRUE(fs::exists(dir + "/run/dataset.csv")) << out;
     fs::remove_all(dir);
