@@ -9,6 +9,7 @@
 #include <sstream>
 #include <thread>
 
+#include "common/test_units.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/rig_geometry.h"
 #include "gonio/devices/axis_profile.h"
@@ -20,7 +21,7 @@
 namespace gonio::sim {
 namespace {
 
-constexpr double kDeg = brdf::kPi / 180;
+using gonio::test_units::kDeg;
 constexpr double kAlpha = 0.05;
 
 /// sim4.json as a quiet rig at the real time scale, the light arm at -30 deg and the detector

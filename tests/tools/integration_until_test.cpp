@@ -47,14 +47,14 @@ double truth_of(const std::string& name) {
     return std::nan("");
 }
 
-struct Campaign {
+struct UntilCampaign {
     std::string dir;
     std::string truth;
     std::string args;
 };
 
-Campaign make(const std::string& name, const std::string& until) {
-    Campaign c;
+UntilCampaign make(const std::string& name, const std::string& until) {
+    UntilCampaign c;
     c.dir = gonio::testing::test_folder("test_tools_until", name, false);
     c.truth = c.dir + "_truth.json";
     std::ofstream(c.truth) << kTruth;
@@ -86,7 +86,7 @@ void expect_known(const nlohmann::json& until, double target) {
 }
 
 TEST(AcquireUntil, StopsWhenTheFitIsKnownBeforeThePlansEnd) {
-    const Campaign c = make("known", "sigma=0.01");
+    const UntilCampaign c = make("known", "sigma=0.01");
     int st = 0;
     const std::string out = run_gonio(c.args, &st);
     ASSERT_EQ(st, 0) << out;
@@ -106,7 +106,7 @@ TEST(AcquireUntil, StopsWhenTheFitIsKnownBeforeThePlansEnd) {
 }
 
 TEST(AcquireUntil, KilledAndResumedKeepsTheStopRule) {
-    const Campaign c = make("kill9", "sigma=0.01");
+    const UntilCampaign c = make("kill9", "sigma=0.01");
     // The campaign in a child process, killed with SIGKILL once its first check (not yet held) is
     // in metadata.json.
     std::vector<std::string> words = {GONIO_EXE};
@@ -160,7 +160,7 @@ TEST(AcquireUntil, KilledAndResumedKeepsTheStopRule) {
 }
 
 TEST(AcquireUntil, TargetOutOfReachEndsAtThePlansEndSayingSo) {
-    Campaign c = make("never", "sigma=1e-6,every=20");
+    UntilCampaign c = make("never", "sigma=1e-6,every=20");
     c.args = "acquire --brdf " + c.truth + " --out " + c.dir +
              " --n-theta 4 --n-dphi 3 --adaptive 0 --time-scale 500 --until sigma=1e-6,every=20";
     int st = 0;
