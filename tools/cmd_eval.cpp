@@ -92,15 +92,24 @@ std::string parse_row(const std::vector<std::string>& fields,
             return std::string(kNames[k]) + " = " + f + ": must be finite";
         }
         if ((k == 0 || k == 2) && (v < 0 || v > gonio::brdf::kPi)) {
-            return std::string(kNames[k]) + " = " + f + ": outside [0, pi]";
+            // A polar angle above pi in radians but within [0, 180] is most likely in degrees.
+            return std::string(kNames[k]) + " = " + f + ": outside [0, pi]" +
+                   (v > 0 && v <= 180 ? " (it looks like degrees: angles are radians, 180 deg = "
+                                        "3.1416)"
+                                      : "");
         }
         angles[k] = v;
     }
     return {};
 }
 
+/// The output line of a row that gives no value (refused, or a non-finite BRDF value): it keeps
+/// its place, so that output row k answers input row k.
+constexpr const char* kNanRow = "nan,nan,nan\n";
+
 /// Rows evaluated together: directions as structure of arrays, an analytic model through
-/// eval_model_packets, any other BRDF one row at a time; values printed in row order.
+/// eval_model_packets, any other BRDF one row at a time; values (or the NaN row of a refused
+/// row) printed in input order.
 class Block {
   public:
     static constexpr std::size_t kRows = 4096;
@@ -113,17 +122,55 @@ class Block {
             dir_[3 + k].push_back(wo[k]);
         }
         line_.push_back(line_no);
+        refused_.push_back(false);
+    }
+
+    /// A refused row: its place, evaluated at the normal (a valid direction) and printed as NaN.
+    void add_refused(std::size_t line_no) {
+        const double normal[4] = {0, 0, 0, 0};
+        add(normal, line_no);
+        refused_.back() = true;
     }
 
     bool full() const { return line_.size() >= kRows; }
 
-    /// Evaluates the rows held and hands their text to `emit` in one piece.
+    /// Evaluates the rows held and hands their text to `emit` in one piece; returns the number
+    /// of evaluated rows whose value was not finite (reported by line, printed as NaN).
     template <typename Emit>
-    void flush(const gonio::brdf::Brdf& brdf,
-               Emit&& emit,
-               const std::string& in_name,
-               std::size_t& good,
-               std::size_t& bad) {
+    std::size_t flush(const gonio::brdf::Brdf& brdf, Emit&& emit, const std::string& in_name) {
+        evaluate(brdf);
+        text_.clear();
+        std::size_t non_finite = 0;
+        for (std::size_t k = 0; k < line_.size(); ++k) {
+            const double f[3] = {value_[0][k], value_[1][k], value_[2][k]};
+            if (refused_[k]) {
+                text_ += kNanRow;
+                continue;
+            }
+            if (!std::isfinite(f[0]) || !std::isfinite(f[1]) || !std::isfinite(f[2])) {
+                std::fprintf(stderr,
+                             "gonio eval: %s:%zu: non-finite BRDF value (NaN row written)\n",
+                             in_name.c_str(),
+                             line_[k]);
+                text_ += kNanRow;
+                ++non_finite;
+                continue;
+            }
+            append_values(f);
+        }
+        if (!text_.empty()) {
+            emit(text_);
+        }
+        for (std::vector<double>& v : dir_) {
+            v.clear();
+        }
+        line_.clear();
+        refused_.clear();
+        return non_finite;
+    }
+
+  private:
+    void evaluate(const gonio::brdf::Brdf& brdf) {
         const std::size_t n = line_.size();
         for (std::vector<double>& v : value_) {
             v.resize(n);
@@ -140,51 +187,181 @@ class Block {
                                              dir_[4].data(),
                                              dir_[5].data()},
                                             values);
-        } else {
-            for (std::size_t k = 0; k < n; ++k) {
-                const gonio::brdf::Rgbd f =
-                    brdf.eval(gonio::brdf::Vec3d(dir_[0][k], dir_[1][k], dir_[2][k]),
-                              gonio::brdf::Vec3d(dir_[3][k], dir_[4][k], dir_[5][k]));
-                for (int c = 0; c < 3; ++c) {
-                    value_[c][k] = f[c];
-                }
-            }
+            return;
         }
-        text_.clear();
         for (std::size_t k = 0; k < n; ++k) {
-            const double f[3] = {value_[0][k], value_[1][k], value_[2][k]};
-            if (!std::isfinite(f[0]) || !std::isfinite(f[1]) || !std::isfinite(f[2])) {
-                std::fprintf(stderr,
-                             "gonio eval: %s:%zu: non-finite BRDF value (row skipped)\n",
-                             in_name.c_str(),
-                             line_[k]);
-                ++bad;
-                continue;
-            }
-            // %.17g, formatted by to_chars (the same digits as printf's, without its locale).
-            char buf[3 * 32];
-            char* p = buf;
+            const gonio::brdf::Rgbd f =
+                brdf.eval(gonio::brdf::Vec3d(dir_[0][k], dir_[1][k], dir_[2][k]),
+                          gonio::brdf::Vec3d(dir_[3][k], dir_[4][k], dir_[5][k]));
             for (int c = 0; c < 3; ++c) {
-                p = std::to_chars(p, buf + sizeof buf, f[c], std::chars_format::general, 17).ptr;
-                *p++ = c < 2 ? ',' : '\n';
+                value_[c][k] = f[c];
             }
-            text_.append(buf, static_cast<std::size_t>(p - buf));
-            ++good;
         }
-        if (!text_.empty()) {
-            emit(text_);
-        }
-        for (std::vector<double>& v : dir_) {
-            v.clear();
-        }
-        line_.clear();
     }
 
-  private:
+    /// %.17g, formatted by to_chars (the same digits as printf's, without its locale).
+    void append_values(const double f[3]) {
+        char buf[3 * 32];
+        char* p = buf;
+        for (int c = 0; c < 3; ++c) {
+            p = std::to_chars(p, buf + sizeof buf, f[c], std::chars_format::general, 17).ptr;
+            *p++ = c < 2 ? ',' : '\n';
+        }
+        text_.append(buf, static_cast<std::size_t>(p - buf));
+    }
+
     std::vector<double> dir_[6];
     std::vector<double> value_[3];
     std::vector<std::size_t> line_;
+    std::vector<bool> refused_;
     std::string text_;
+};
+
+/// Where the values go: standard output, or a file through AtomicFile (never through a planted
+/// link, nothing left behind when the command fails before the end).
+class Output {
+  public:
+    static std::optional<Output> open(const std::string& path) {
+        Output out;
+        if (path != "-") {
+            auto f = gonio::AtomicFile::create(path);
+            if (!f) {
+                std::fprintf(stderr, "gonio eval: %s\n", f.error().message.c_str());
+                return std::nullopt;
+            }
+            out.file_.emplace(std::move(*f));
+        }
+        return out;
+    }
+
+    void operator()(const std::string& text) {
+        if (file_) {
+            (void)file_->write(text);  // the first failure is returned by commit()
+        } else {
+            std::fwrite(text.data(), 1, text.size(), stdout);
+        }
+    }
+
+    bool commit() {
+        if (file_) {
+            if (auto c = file_->commit(); !c) {
+                std::fprintf(stderr, "gonio eval: %s\n", c.error().message.c_str());
+                return false;
+            }
+        }
+        return true;
+    }
+
+  private:
+    std::optional<gonio::AtomicFile> file_;
+};
+
+/// The rows of one input, in order. Nothing is written before the first row that can be
+/// evaluated: an input without one is refused whole (exit 2, no output); the refused rows
+/// before it are written as NaN rows then.
+class EvalRun {
+  public:
+    EvalRun(const gonio::brdf::Brdf& brdf, std::string in_name, Output& out)
+        : brdf_(brdf), in_name_(std::move(in_name)), out_(out) {}
+
+    /// Reads the header line; false (reported) when it lacks a required column.
+    bool header(const std::string& t, std::size_t line_no) {
+        header_ = split_commas(t);
+        std::string error;
+        if (!find_columns(header_, index_, error)) {
+            std::fprintf(
+                stderr, "gonio eval: %s:%zu: %s\n", in_name_.c_str(), line_no, error.c_str());
+            return false;
+        }
+        return true;
+    }
+
+    bool has_header() const { return !header_.empty(); }
+
+    /// One data row: evaluated, or refused (reported by line) and written as a NaN row.
+    void row(const std::string& t, std::size_t line_no) {
+        double a[4];
+        const std::string reason = parse_row(split_commas(t), header_.size(), index_, a);
+        if (!reason.empty()) {
+            std::fprintf(stderr,
+                         "gonio eval: %s:%zu: %s (NaN row written)\n",
+                         in_name_.c_str(),
+                         line_no,
+                         reason.c_str());
+            ++refused_;
+            if (started_) {
+                block_.add_refused(line_no);
+            } else {
+                ++leading_refused_;
+            }
+        } else {
+            start();
+            block_.add(a, line_no);
+            ++evaluated_;
+        }
+        if (block_.full()) {
+            non_finite_ += block_.flush(brdf_, out_, in_name_);
+        }
+    }
+
+    /// The end of the input: the exit status (2 when no row could be evaluated).
+    int finish() {
+        if (header_.empty()) {
+            std::fprintf(stderr,
+                         "gonio eval: %s: no header line (required: theta_i,phi_i,theta_o,phi_o); "
+                         "nothing written\n",
+                         in_name_.c_str());
+            return 2;
+        }
+        if (!started_ && refused_ > 0) {
+            std::fprintf(stderr,
+                         "gonio eval: %s: none of its %zu row(s) can be evaluated; nothing "
+                         "written\n",
+                         in_name_.c_str(),
+                         refused_);
+            return 2;
+        }
+        start();
+        non_finite_ += block_.flush(brdf_, out_, in_name_);
+        if (!out_.commit()) {
+            return 1;
+        }
+        if (refused_ + non_finite_ > 0) {
+            std::fprintf(stderr,
+                         "gonio eval: warning: %zu of %zu row(s) written as NaN (reasons above), "
+                         "%zu evaluated\n",
+                         refused_ + non_finite_,
+                         refused_ + evaluated_,
+                         evaluated_ - non_finite_);
+        }
+        return 0;
+    }
+
+  private:
+    /// Writes the header and the NaN rows of the refused rows before the first evaluated one.
+    void start() {
+        if (started_) {
+            return;
+        }
+        started_ = true;
+        std::string text = "r,g,b\n";
+        for (std::size_t k = 0; k < leading_refused_; ++k) {
+            text += kNanRow;
+        }
+        out_(text);
+    }
+
+    const gonio::brdf::Brdf& brdf_;
+    std::string in_name_;
+    Output& out_;
+    std::vector<std::string> header_;
+    int index_[4] = {-1, -1, -1, -1};
+    bool started_ = false;
+    std::size_t leading_refused_ = 0;
+    std::size_t refused_ = 0;
+    std::size_t evaluated_ = 0;
+    std::size_t non_finite_ = 0;
+    Block block_;
 };
 
 int run_eval(const EvalOptions& opts) {
@@ -204,86 +381,28 @@ int run_eval(const EvalOptions& opts) {
         }
         in = &file_in;
     }
-    // A file output goes through AtomicFile: never through a planted link, nothing left behind
-    // when the command fails before the end.
-    std::optional<gonio::AtomicFile> file_out;
-    if (opts.output != "-") {
-        auto f = gonio::AtomicFile::create(opts.output);
-        if (!f) {
-            std::fprintf(stderr, "gonio eval: %s\n", f.error().message.c_str());
-            return 1;
-        }
-        file_out.emplace(std::move(*f));
+    std::optional<Output> out = Output::open(opts.output);
+    if (!out) {
+        return 1;
     }
-    auto emit = [&](const std::string& text) {
-        if (file_out) {
-            (void)file_out->write(text);  // the first failure is returned by commit()
-        } else {
-            std::fwrite(text.data(), 1, text.size(), stdout);
-        }
-    };
+    EvalRun run(**brdf, in_name, *out);
     std::string line;
     std::size_t line_no = 0;
-    std::vector<std::string> header;
-    int index[4] = {-1, -1, -1, -1};
-    std::size_t bad = 0;
-    std::size_t good = 0;
-    Block block;
     while (std::getline(*in, line)) {
         ++line_no;
         const std::string t = trim(line);
         if (t.empty() || t[0] == '#') {
-            // Blank lines and comments carry no row.
-            continue;
+            continue;  // blank lines and comments carry no row
         }
-        if (header.empty()) {
-            header = split_commas(t);
-            std::string error;
-            if (!find_columns(header, index, error)) {
-                std::fprintf(
-                    stderr, "gonio eval: %s:%zu: %s\n", in_name.c_str(), line_no, error.c_str());
-                return 1;
+        if (!run.has_header()) {
+            if (!run.header(t, line_no)) {
+                return 2;
             }
-            emit("r,g,b\n");
             continue;
         }
-        double a[4];
-        const std::string reason = parse_row(split_commas(t), header.size(), index, a);
-        if (!reason.empty()) {
-            std::fprintf(stderr,
-                         "gonio eval: %s:%zu: %s (row skipped)\n",
-                         in_name.c_str(),
-                         line_no,
-                         reason.c_str());
-            ++bad;
-            continue;
-        }
-        block.add(a, line_no);
-        if (block.full()) {
-            block.flush(**brdf, emit, in_name, good, bad);
-        }
+        run.row(t, line_no);
     }
-    block.flush(**brdf, emit, in_name, good, bad);
-    if (header.empty()) {
-        std::fprintf(stderr,
-                     "gonio eval: %s: no header line (required: theta_i,phi_i,theta_o,phi_o)\n",
-                     in_name.c_str());
-        bad = 1;
-    }
-    if (header.empty()) {
-        return 1;
-    }
-    if (file_out) {
-        if (auto c = file_out->commit(); !c) {
-            std::fprintf(stderr, "gonio eval: %s\n", c.error().message.c_str());
-            return 1;
-        }
-    }
-    if (bad > 0) {
-        std::fprintf(stderr, "gonio eval: %zu row(s) failed, %zu evaluated\n", bad, good);
-        return 1;
-    }
-    return 0;
+    return run.finish();
 }
 
 }  // namespace
@@ -302,10 +421,13 @@ GONIO_COMMAND(eval) {
     cmd->footer(
         "Input: a header naming the columns theta_i,phi_i,theta_o,phi_o (radians; any order,\n"
         "other columns ignored), then one row per direction pair; blank lines and lines starting\n"
-        "with '#' are skipped. Output: the header r,g,b, then one line per valid row with the\n"
-        "BRDF in 1/sr printed with %.17g. A row that does not parse (or has theta outside\n"
-        "[0, pi]) produces no output line; it is reported on standard error with its line number.\n"
-        "Exit status 1 here also means that some rows were skipped.\n" +
+        "with '#' are skipped. Output: the header r,g,b, then one line per input row, in order,\n"
+        "with the BRDF in 1/sr printed with %.17g. A row that does not parse (or has theta\n"
+        "outside [0, pi], as in degrees) gives the line nan,nan,nan in its place, so that output\n"
+        "row k answers input row k; it is named on standard error with its line number (a\n"
+        "warning: exit status 0). An input without a usable row (no header naming the four\n"
+        "columns, or no row that can be evaluated) is refused whole before anything is written:\n"
+        "exit status 2.\n" +
         std::string(gonio::tools::kExitRule));
     return [opts]() -> int { return run_eval(*opts); };
 }

@@ -5,7 +5,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <array>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -81,7 +83,7 @@ std::vector<std::vector<double>> parse_csv_numbers(const std::string& text, std:
     return rows;
 }
 
-TEST_F(EvalCli, ValuesEqualEvalModelAndBadRowsAreReportedByLine) {
+TEST_F(EvalCli, ValuesEqualEvalModelAndBadRowsKeepTheirPlaceAsNaN) {
     write("model.json", kEvalModel);
     // Line 1 header, line 2 comment, 3-4 good, 5 bad number, 6 good, 7 theta out of range,
     // 8 below the horizon (valid: value 0), 9 wrong field count.
@@ -97,29 +99,156 @@ TEST_F(EvalCli, ValuesEqualEvalModelAndBadRowsAreReportedByLine) {
           "0.1,0.2,0.3\n");
     const int status = run("eval " + path("model.json") + " < " + path("dirs.csv") + " > " +
                            path("out.csv") + " 2> " + path("err.txt"));
-    EXPECT_EQ(status, 1);
+    EXPECT_EQ(status, 0) << read("err.txt");
     std::string header;
     const auto rows = parse_csv_numbers(read("out.csv"), &header);
     EXPECT_EQ(header, "r,g,b");
-    ASSERT_EQ(rows.size(), 4u) << read("out.csv");
+    ASSERT_EQ(rows.size(), 7u) << read("out.csv");
     const ModelD m = *load_model_json(path("model.json"));
-    const double dirs[4][4] = {
+    // Input rows in order; nullptr marks a refused row.
+    const double good[4][4] = {
         {0.3, 0.1, 0.5, 3.0}, {1.2, -0.4, 0.2, 2.0}, {0, 0, 0, 0}, {0.3, 0, 1.8, 0}};
-    for (int r = 0; r < 4; ++r) {
+    const double* dirs[7] = {good[0], good[1], nullptr, good[2], nullptr, good[3], nullptr};
+    for (int r = 0; r < 7; ++r) {
+        ASSERT_EQ(rows[r].size(), 3u);
+        if (dirs[r] == nullptr) {
+            for (int c = 0; c < 3; ++c) {
+                EXPECT_TRUE(std::isnan(rows[r][c])) << "row " << r;
+            }
+            continue;
+        }
         const Rgbd f = eval_model(m,
                                   spherical_to_cartesian(dirs[r][0], dirs[r][1]),
                                   spherical_to_cartesian(dirs[r][2], dirs[r][3]));
-        ASSERT_EQ(rows[r].size(), 3u);
         for (int c = 0; c < 3; ++c) {
             EXPECT_NEAR(rows[r][c], f[c], 1e-15 * std::abs(f[c])) << "row " << r;
         }
     }
-    EXPECT_EQ(rows[3][0], 0.0);  // below the horizon
+    EXPECT_EQ(rows[5][0], 0.0);  // below the horizon
     const std::string err = read("err.txt");
-    EXPECT_NE(err.find("<stdin>:5: phi_i = \"abc\": not a number"), std::string::npos) << err;
+    EXPECT_NE(err.find("<stdin>:5: phi_i = \"abc\": not a number (NaN row written)"),
+              std::string::npos)
+        << err;
     EXPECT_NE(err.find("<stdin>:7: theta_i = 4.0: outside [0, pi]"), std::string::npos) << err;
     EXPECT_NE(err.find("<stdin>:9: 3 fields, header has 4"), std::string::npos) << err;
-    EXPECT_NE(err.find("3 row(s) failed, 4 evaluated"), std::string::npos) << err;
+    EXPECT_NE(err.find("warning: 3 of 7 row(s) written as NaN"), std::string::npos) << err;
+}
+
+/// GGX with height-correlated Smith G and Schlick F plus Lambert, written here from the papers
+/// (Walter et al. 2007 eq. 33 for D; Heitz 2014 eq. 99 for G), independently of brdf/.
+Rgbd ggx_closed_form(
+    double alpha, const Rgbd& rho, const Rgbd& f0, const Vec3d& wi, const Vec3d& wo) {
+    const double kPiHere = 3.14159265358979323846;
+    if (wi.z() <= 0 || wo.z() <= 0) {
+        return Rgbd::Zero();
+    }
+    const Vec3d h = (wi + wo).normalized();
+    const double a2 = alpha * alpha;
+    const double c2 = h.z() * h.z();
+    const double t2 = (1 - c2) / c2;
+    const double D = a2 / (kPiHere * c2 * c2 * (a2 + t2) * (a2 + t2));
+    const auto lambda = [a2](const Vec3d& w) {
+        const double tan2 = (1 - w.z() * w.z()) / (w.z() * w.z());
+        return (-1 + std::sqrt(1 + a2 * tan2)) / 2;
+    };
+    const double G = 1 / (1 + lambda(wi) + lambda(wo));
+    const double c_d = wi.dot(h);
+    Rgbd f;
+    for (int c = 0; c < 3; ++c) {
+        const double F = f0[c] + (1 - f0[c]) * std::pow(1 - c_d, 5);
+        f[c] = rho[c] / kPiHere + F * D * G / (4 * wi.z() * wo.z());
+    }
+    return f;
+}
+
+TEST_F(EvalCli, RowsInDegreesInTheMiddleKeepTheOthersAligned) {
+    write("ggx.json",
+          R"({"diffuse": [0.25, 0.12, 0.05], "lobes": [{"distribution": "ggx", "alpha": 0.18,
+              "shadowing": "smith-correlated", "fresnel": {"type": "schlick",
+              "f0": [0.9, 0.55, 0.3]}, "scale": [1, 1, 1]}]})");
+    // 40 rows; rows 13 and 27 (0-based) were written in degrees, row 20 does not parse.
+    std::vector<std::string> lines;
+    std::vector<std::array<double, 4>> angles;
+    for (int k = 0; k < 40; ++k) {
+        const std::array<double, 4> a = {
+            0.02 + 0.035 * k, -3.0 + 0.15 * k, 1.3 - 0.03 * k, 0.4 + 0.07 * k};
+        angles.push_back(a);
+        char buf[128];
+        std::snprintf(buf, sizeof buf, "%.17g,%.17g,%.17g,%.17g", a[0], a[1], a[2], a[3]);
+        lines.emplace_back(buf);
+    }
+    lines[13] = "45,0,30,180";
+    lines[20] = "0.5,0.1,0.5,";
+    lines[27] = "0.4,0,75.5,90";
+    std::string text = "theta_i,phi_i,theta_o,phi_o\n";
+    for (const std::string& l : lines) {
+        text += l + "\n";
+    }
+    write("dirs.csv", text);
+    ASSERT_EQ(run("eval " + path("ggx.json") + " -i " + path("dirs.csv") + " -o " +
+                  path("out.csv") + " 2> " + path("err.txt")),
+              0)
+        << read("err.txt");
+    std::istringstream out(read("out.csv"));
+    std::string line;
+    std::getline(out, line);
+    ASSERT_EQ(line, "r,g,b");
+    std::vector<std::string> out_rows;
+    while (std::getline(out, line)) {
+        out_rows.push_back(line);
+    }
+    ASSERT_EQ(out_rows.size(), lines.size()) << read("out.csv");
+    const std::string err = read("err.txt");
+    EXPECT_NE(err.find("dirs.csv:15: theta_i = 45: outside [0, pi] (it looks like degrees"),
+              std::string::npos)
+        << err;
+    EXPECT_NE(err.find("dirs.csv:22: phi_o = \"\": not a number"), std::string::npos) << err;
+    EXPECT_NE(err.find("dirs.csv:29: theta_o = 75.5: outside [0, pi]"), std::string::npos) << err;
+    const Rgbd rho(0.25, 0.12, 0.05);
+    const Rgbd f0(0.9, 0.55, 0.3);
+    for (std::size_t k = 0; k < lines.size(); ++k) {
+        if (k == 13 || k == 20 || k == 27) {
+            EXPECT_EQ(out_rows[k], "nan,nan,nan") << "row " << k;
+            continue;
+        }
+        // The same text as `gonio eval` prints for the row alone ...
+        write("one.csv", "theta_i,phi_i,theta_o,phi_o\n" + lines[k] + "\n");
+        ASSERT_EQ(run("eval " + path("ggx.json") + " -i " + path("one.csv") + " -o " +
+                      path("one_out.csv")),
+                  0);
+        EXPECT_EQ("r,g,b\n" + out_rows[k] + "\n", read("one_out.csv")) << "row " << k;
+        // ... and the closed form.
+        const auto& a = angles[k];
+        const Rgbd f = ggx_closed_form(
+            0.18, rho, f0, spherical_to_cartesian(a[0], a[1]), spherical_to_cartesian(a[2], a[3]));
+        std::string header;
+        const auto v = parse_csv_numbers("r,g,b\n" + out_rows[k] + "\n", &header);
+        for (int c = 0; c < 3; ++c) {
+            EXPECT_NEAR(v[0][c], f[c], 1e-10 * std::abs(f[c]) + 1e-300) << "row " << k;
+        }
+    }
+}
+
+TEST_F(EvalCli, AnInputWithoutAUsableRowIsRefusedWholeBeforeAnyOutput) {
+    write("model.json", kEvalModel);
+    write("degrees.csv", "theta_i,phi_i,theta_o,phi_o\n30,0,45,180\n60,90,10,0\n");
+    EXPECT_EQ(run("eval " + path("model.json") + " -i " + path("degrees.csv") + " > " + path("o") +
+                  " 2> " + path("e")),
+              2);
+    EXPECT_EQ(read("o"), "");
+    EXPECT_NE(read("e").find("none of its 2 row(s) can be evaluated; nothing written"),
+              std::string::npos)
+        << read("e");
+    // A file output is not created at all.
+    EXPECT_EQ(run("eval " + path("model.json") + " -i " + path("degrees.csv") + " -o " +
+                  path("out.csv") + " 2> " + path("e")),
+              2);
+    EXPECT_FALSE(fs::exists(path("out.csv")));
+    // A header alone is a usable (empty) input.
+    write("empty.csv", "theta_i,phi_i,theta_o,phi_o\n");
+    EXPECT_EQ(run("eval " + path("model.json") + " -i " + path("empty.csv") + " > " + path("o")),
+              0);
+    EXPECT_EQ(read("o"), "r,g,b\n");
 }
 
 TEST_F(EvalCli, ColumnsInAnyOrderAndFilesAsOptions) {
@@ -142,7 +271,8 @@ TEST_F(EvalCli, StructuralErrorsFailTheWork) {
     write("noheader.csv", "0.1,0.2,0.3,0.4\n");
     EXPECT_EQ(run("eval " + path("model.json") + " < " + path("noheader.csv") + " > " + path("o") +
                   " 2> " + path("e")),
-              1);
+              2);
+    EXPECT_EQ(read("o"), "");
     EXPECT_NE(read("e").find("header lacks column \"theta_i\""), std::string::npos) << read("e");
     write(
         "bad.json",
