@@ -75,13 +75,6 @@ Child run_child(const fs::path& dir, const std::vector<std::string>& args) {
     return c;
 }
 
-std::string hostile_slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
-
 void put(const fs::path& p, const std::string& text) {
     std::ofstream(p, std::ios::binary) << text;
 }
@@ -381,7 +374,8 @@ TEST_F(Hostile, ExportRefusesNamesThatWouldInjectStatements) {
                             "--name",
                             "red_plastic-2.b"});
     EXPECT_EQ(ok.status, 0) << ok.out;
-    EXPECT_NE(hostile_slurp(p("ok.pbrt")).find("\"red_plastic-2.b\""), std::string::npos);
+    EXPECT_NE(gonio::testing::read_text(p("ok.pbrt")).find("\"red_plastic-2.b\""),
+              std::string::npos);
 }
 
 // --- outputs that are folders or devices --------------------------------------------------------
@@ -492,12 +486,12 @@ TEST_F(Hostile, KilledRunsAreListedInMetadata) {
                                            "1"},
                                           &out))
         << out;
-    const std::string first = hostile_slurp(p("camp/metadata.json"));
+    const std::string first = gonio::testing::read_text(p("camp/metadata.json"));
     EXPECT_NE(first.find("\"state\": \"running\""), std::string::npos) << first;
     // The second run starts (and is killed too): it marks the first one.
     out.clear();
     ASSERT_TRUE(start_and_kill_after_plan({"acquire", "--resume", camp}, &out)) << out;
-    const std::string second = hostile_slurp(p("camp/metadata.json"));
+    const std::string second = gonio::testing::read_text(p("camp/metadata.json"));
     const auto killed = second.find("\"state\": \"killed\"");
     const auto running = second.find("\"state\": \"running\"");
     EXPECT_NE(killed, std::string::npos) << second;
@@ -540,7 +534,7 @@ TEST_F(Hostile, CampaignStoppedByAFullDiskSaysHowToResume) {
     }
     int st = 0;
     ASSERT_EQ(waitpid(pid, &st, 0), pid);
-    const std::string out = hostile_slurp(out_path);
+    const std::string out = gonio::testing::read_text(out_path);
     ASSERT_TRUE(WIFEXITED(st)) << out;
     EXPECT_EQ(WEXITSTATUS(st), 1) << out;
     EXPECT_NE(out.find("File too large"), std::string::npos) << out;
@@ -570,13 +564,13 @@ TEST_F(Hostile, ResumeReadsOnlyTheCampaignFolder) {
                            "--time-scale",
                            "500"});
     ASSERT_EQ(c.status, 0) << c.out;
-    EXPECT_EQ(hostile_slurp(p("camp/ground_truth.json")), kHostileModel);
+    EXPECT_EQ(gonio::testing::read_text(p("camp/ground_truth.json")), kHostileModel);
     fs::remove(p("truth.json"));
     const Child again = gonio({"acquire", "--resume", camp});
     EXPECT_EQ(again.status, 0) << again.out;
     EXPECT_NE(again.out.find("ground_truth.json"), std::string::npos) << again.out;
 
-    std::string rig = hostile_slurp(p("camp/rig.json"));
+    std::string rig = gonio::testing::read_text(p("camp/rig.json"));
     const std::string from = "\"brdf\": \"ground_truth.json\"";
     const auto at = rig.find(from);
     ASSERT_NE(at, std::string::npos) << rig;

@@ -22,13 +22,6 @@ using gonio::testing::run_gonio;
 const char* kLinksModel = R"({"diffuse": [0.2, 0.15, 0.1], "lobes": [{"distribution": "ggx",
     "alpha": 0.3, "shadowing": "smith-correlated", "fresnel": {"type": "schlick", "f0": 0.04}}]})";
 
-std::string links_slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
-
 class OutputLinks : public ::testing::Test {
   protected:
     void SetUp() override {
@@ -58,7 +51,8 @@ class OutputLinks : public ::testing::Test {
     /// refused); no hidden temporary file anywhere.
     void check(const std::string& what) {
         for (std::size_t k = 0; k < planted_.size(); ++k) {
-            EXPECT_EQ(links_slurp(planted_[k].second), "precious " + std::to_string(k))
+            EXPECT_EQ(gonio::testing::read_text(planted_[k].second),
+                      "precious " + std::to_string(k))
                 << what << ": the link at " << planted_[k].first << " was followed";
         }
         for (const auto& e : fs::recursive_directory_iterator(dir_)) {
@@ -97,7 +91,7 @@ TEST_F(OutputLinks, ConvertAndExport) {
     for (const char* o : {"o.gtab", "o.csv", "o.pbrt", "o.xml", "o.binary"}) {
         expect_regular(p(o), o);
     }
-    EXPECT_NE(links_slurp(p("o.pbrt")).find("MakeNamedMaterial"), std::string::npos);
+    EXPECT_NE(gonio::testing::read_text(p("o.pbrt")).find("MakeNamedMaterial"), std::string::npos);
     check("convert/export");
 }
 
@@ -146,7 +140,7 @@ TEST_F(OutputLinks, Report) {
     const CliRun r = run_gonio("report " + q("D") + " --preview-size 32 --preview-samples 16");
     EXPECT_EQ(r.status, 0) << r.out;
     expect_regular(p("D/report.html"), "report");
-    EXPECT_NE(links_slurp(p("D/report.html")).find("<html"), std::string::npos);
+    EXPECT_NE(gonio::testing::read_text(p("D/report.html")).find("<html"), std::string::npos);
     check("report");
 }
 
