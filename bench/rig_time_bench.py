@@ -13,7 +13,9 @@ GGX, alpha 0.1 x 0.3, turned 30 deg), satin, paper, felt. Plans (families): unif
 7x5, 10x8: a curve), half-diff, vndf, adaptive (uniform 5x4 and 7x5 with one neighbour-adaptive
 pass of 30), uniform-until (10x8 --until sigma=0.01), fit (--plan fit to its budget of 120: a
 curve, one point per batch, each the fit of the measurements before it) and fit-until (--plan fit
---until sigma=0.01). The brushed truth runs the anisotropic variants (uniform: --anisotropic;
+--until sigma=0.01), and fly (stop-and-go against `--fly` on the same plan, on the monochrome
+rig data/rigs/sim4-mono.json: uniform 7x5, uniform 16x2 (in-plane), and the fit plan, which
+--fly refuses). The brushed truth runs the anisotropic variants (uniform: --anisotropic;
 vndf: --plan vndf --anisotropic; fit: --plan fit --anisotropic; half-diff and adaptive have none)
 and is fitted with --anisotropic.
 
@@ -76,13 +78,30 @@ def plan_runs(family, aniso):
                  ([] if aniso else ["--adaptive", "0"]) + ["--until", "sigma=0.01"], False)]
     if family == "fit":
         return [("fit", ["--plan", "fit"] + a, True)]
+    if family == "fly":
+        if aniso:
+            return []
+        mono = ["--rig", MONO_RIG]
+        # Fly scans need the arms to keep pace with the camera: a slower virtual rig (the rig
+        # time it records does not depend on the scale).
+        fly = ["--fly", "--time-scale", "5"]
+        runs = []
+        for label, plan in (("uniform 7x5", ["--n-theta", "7", "--n-dphi", "5", "--adaptive", "0"]),
+                            ("uniform 16x2", ["--n-theta", "16", "--n-dphi", "2", "--adaptive",
+                                              "0"]),
+                            ("fit", ["--plan", "fit"])):
+            runs.append((label + " mono stop-and-go", mono + plan, False))
+            runs.append((label + " mono --fly", mono + plan + fly, False))
+        return runs
     if family == "fit-until":
         return [("fit --until sigma=0.01", ["--plan", "fit"] + a + ["--until", "sigma=0.01"],
                  False)]
     raise SystemExit("unknown plan family " + family)
 
 
-FAMILIES = ["uniform", "half-diff", "vndf", "adaptive", "uniform-until", "fit", "fit-until"]
+FAMILIES = ["uniform", "half-diff", "vndf", "adaptive", "uniform-until", "fit", "fit-until", "fly"]
+MONO_RIG = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "data", "rigs",
+                        "sim4-mono.json")
 
 
 def run(cmd):
@@ -190,7 +209,8 @@ def campaign(truth, label, args, curve, work):
     """Points (label, measurements, rig seconds, errors, stopped) of one campaign."""
     d = os.path.join(work, (truth.name + "_" + label).replace(" ", "_").replace("=", ""))
     shutil.rmtree(d, ignore_errors=True)
-    run([truth.gonio, "acquire", "--brdf", truth.path, "--out", d, "--time-scale", "1000"] + args)
+    scale = [] if "--time-scale" in args else ["--time-scale", "1000"]
+    run([truth.gonio, "acquire", "--brdf", truth.path, "--out", d] + scale + args)
     meta = json.load(open(os.path.join(d, "metadata.json")))
     dataset = os.path.join(d, "dataset.csv")
     stopped = meta["runs"][-1].get("stopped", "")
@@ -304,7 +324,7 @@ def plot(results, png):
     rows = (len(names) + cols - 1) // cols
     fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.4 * rows), squeeze=False)
     styles = {"uniform": "o-", "half-diff": "s", "vndf": "D", "adaptive": "^-",
-              "uniform-until": "v", "fit": ".-", "fit-until": "*"}
+              "uniform-until": "v", "fit": ".-", "fit-until": "*", "fly": "P"}
     for ax, tname in zip(axes.flat, names):
         for fam, pts in results[tname].items():
             pts = sorted(pts, key=lambda p: p[2])

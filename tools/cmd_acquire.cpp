@@ -408,6 +408,17 @@ GONIO_COMMAND(acquire) {
                     "point mode: fit between batches and stop when every fitted parameter's "
                     "relative sigma <= TARGET and the held-out values are predicted within the "
                     "noise (sigma=0.01[,holdout=2][,every=N]; kept by --resume)");
+    cmd->add_flag("--fly",
+                  r.fly,
+                  "point mode: fly scans: the arms measure while moving, one arm sweeping at "
+                  "constant speed through each run of configurations it reaches alone, each value "
+                  "the mean over its exposure's path (kept by --resume; not with --plan fit, image "
+                  "mode or a colour filter changer)");
+    cmd->add_option("--fly-smear",
+                    r.fly_smear_deg,
+                    "fly scans: the largest arc one exposure may span, degrees (default 1); the "
+                    "sweep's speed is bounded by it")
+        ->check(CLI::Range(1e-3, 10.0));
     cmd->add_option("--serve",
                     r.serve,
                     "serve a live page of the campaign at [ADDR:]PORT (ADDR default 127.0.0.1, "

@@ -26,13 +26,14 @@ struct CampaignFixture {
 };
 
 /// A fresh campaign folder `<build>/test_campaigns/NAME_PID` created from `spec` (its rig file
-/// and JSON set here) on data/rigs/sim4.json, the ground truth `model_json` written beside it.
-/// With `quiet_rig` the rig's error budget is the quiet one (the detector's noise only), for
-/// tests that read exact levels.
+/// and JSON set here) on data/rigs/`rig_file` (sim4.json), the ground truth `model_json` written
+/// beside it. With `quiet_rig` the rig's error budget is the quiet one (the detector's noise
+/// only), for tests that read exact levels.
 inline CampaignFixture make_campaign_fixture(const std::string& name,
                                              const std::string& model_json,
                                              CampaignSpec spec,
-                                             bool quiet_rig = false) {
+                                             bool quiet_rig = false,
+                                             const std::string& rig_file = "sim4.json") {
     namespace fs = std::filesystem;
     CampaignFixture f;
     f.dir = std::string(GONIO_BINARY_DIR) + "/test_campaigns/" + name + "_" +
@@ -41,7 +42,7 @@ inline CampaignFixture make_campaign_fixture(const std::string& name,
     fs::create_directories(f.dir);
     f.model = f.dir + "_model.json";
     std::ofstream(f.model) << model_json;
-    auto rig = read_rig_config(std::string(GONIO_SOURCE_DIR) + "/data/rigs/sim4.json");
+    auto rig = read_rig_config(std::string(GONIO_SOURCE_DIR) + "/data/rigs/" + rig_file);
     EXPECT_TRUE(rig) << rig.error().message;
     if (rig) {
         f.rig = *rig;
@@ -49,7 +50,7 @@ inline CampaignFixture make_campaign_fixture(const std::string& name,
     if (rig && quiet_rig) {
         nlohmann::json j = nlohmann::json::parse(f.rig.json);
         j["error_budget"] = "quiet";
-        auto q = parse_rig_config(j.dump(2), "sim4.json");
+        auto q = parse_rig_config(j.dump(2), rig_file);
         EXPECT_TRUE(q) << q.error().message;
         if (q) {
             f.rig = *q;

@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "gonio/brdf/analytic_brdf.h"
+#include "gonio/brdf/exposure_path.h"
 #include "gonio/brdf/rig_geometry.h"
 #include "gonio/devices/axis_profile.h"
 #include "gonio/devices/modbus_axis.h"
@@ -111,6 +112,53 @@ TEST(FlyPath, SweptExposureIsThePathIntegralOfTheTruth) {
     const auto [wi, wo] = brdf::rig_forward(brdf::RigPosed{-30 * kDeg, mid, 0, 0});
     const double at_mid = truth->eval(wi, wo).mean() * wi.z();
     EXPECT_GT(at_mid / swept, 1.5);
+}
+
+TEST(FlyPath, LatchedPathMeanReproducesTheRigsIntegral) {
+    // What a fly campaign records and the fit models: the exposure's path between the positions
+    // the drive latched, averaged by the fit's quadrature (brdf/exposure_path.h: 1 deg pieces, 4
+    // nodes), against the rig's own integral along the stages' trajectory.
+    auto rig = SimRig::start(fly_rig_json(), SimRigOptions{});
+    ASSERT_TRUE(rig) << rig.error().message;
+    const auto truth = ggx_truth();
+    const double speed = 30 * kDeg;
+    const double exposure_s = 4 * kAlpha / speed;  // the exposure spans 4 alpha
+    MotorControllerServer& motors = (*rig)->motors();
+    auto profile = devices::load_axis_profile("generic");
+    ASSERT_TRUE(profile) << profile.error().message;
+    auto bus = devices::ModbusBus::open(*devices::parse_bus_address((*rig)->motor_address()));
+    ASSERT_TRUE(bus) << bus.error().message;
+    devices::ModbusAxis detector(
+        *bus, 2, *profile, "detector", devices::SoftLimits{-170, 170}, devices::Motion{30, 60, 5});
+    ASSERT_TRUE(detector.start_move(60.0));
+    const double start_deg = 30 - 0.5 * 4 * kAlpha / kDeg - 0.2;
+    for (int guard = 0; motors.position_deg(2) < start_deg; ++guard) {
+        ASSERT_LT(guard, 100000) << motors.position_deg(2);
+        std::this_thread::sleep_for(std::chrono::microseconds(200));  // polls the arm's travel
+    }
+    SceneState s = (*rig)->world().scene();
+    s.shutter_open = true;
+    (*rig)->world().fill_path(exposure_s, &s);
+    ASSERT_FALSE(s.path.empty());
+    auto latch = detector.exposure_latch_deg();
+    ASSERT_TRUE(latch) << latch.error().message;
+    const auto [wi0, wo0] = brdf::rig_forward(brdf::RigPosed{-30 * kDeg, (*latch)[0] * kDeg, 0, 0});
+    const auto [wi1, wo1] = brdf::rig_forward(brdf::RigPosed{-30 * kDeg, (*latch)[1] * kDeg, 0, 0});
+    const std::vector<brdf::PathNode> nodes =
+        brdf::exposure_path_nodes(wi0, wo0, wi1, wo1, 1.0 * kDeg, 4);
+    const double cos_i = wi0.z();
+    const brdf::Rgbd mean = brdf::exposure_path_mean<double>(
+        nodes, cos_i, [&](const brdf::Vec3d& wi, const brdf::Vec3d& wo) {
+            return truth->eval(wi, wo);
+        });
+    // The rig integrates f cos_i over the exposure (irradiance 1): the same mean times cos_i, to
+    // the latch's step (0.001 deg of a 11.5 deg exposure).
+    const double swept = patch_radiance_over(*truth, s);
+    EXPECT_NEAR(mean.mean() * cos_i / swept, 1, 2e-4) << mean.mean() * cos_i << " " << swept;
+    // And the independent midpoint rule along the latched path.
+    const double reference = reference_radiance(
+        *truth, (*latch)[0] * kDeg, speed, ((*latch)[1] - (*latch)[0]) * kDeg / speed);
+    EXPECT_NEAR(mean.mean() * cos_i / reference, 1, 1e-6);
 }
 
 TEST(FlyPath, StandingStagesHaveNoPath) {

@@ -17,6 +17,7 @@
 #include <thread>
 
 #include "gonio/acquisition/point/capture_session.h"
+#include "gonio/acquisition/point/fly_sweep.h"
 #include "gonio/acquisition/point/journal.h"
 #include "gonio/acquisition/point/progress.h"
 #include "gonio/acquisition/point/stated_uncertainty.h"
@@ -106,6 +107,21 @@ void parse_fit_plan(JsonObject& p, FitPlanSpec* f) {
     if (auto ok = check_fit_plan_spec(*f); !ok) {
         json_fail("plan: " + ok.error().message);
     }
+}
+
+/// Why fly scans refuse a rig with a colour filter changer.
+constexpr const char* kFlyColourRule =
+    "fly scans need a monochrome detector: behind a colour filter changer each colour would be "
+    "exposed on a path of its own, and a dataset row holds one path (use a rig without "
+    "\"filter_wheel\", e.g. data/rigs/sim4-mono.json, or measure standing)";
+
+/// campaign.json "fly" (fly_plan.h).
+void parse_fly(const json& raw, FlySpec* f) {
+    JsonObject o(raw, "fly");
+    f->enabled = o.boolean("enabled", true);
+    f->max_smear_deg = o.number("max_smear_deg", f->max_smear_deg, 1e-3, 10, "deg");
+    f->speed_deg_per_s = o.number("speed_deg_per_s", f->speed_deg_per_s, 0, 1000, "deg/s");
+    o.finish();
 }
 
 }  // namespace
@@ -204,6 +220,9 @@ Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::s
             d.finish();
         }
         s.schedule_budget_s = top.number("schedule_budget_s", s.schedule_budget_s, 0, 3600, "s");
+        if (top.has("fly")) {
+            parse_fly(top.raw("fly"), &s.fly);
+        }
         s.until = top.string("until", s.until, 256);
         if (!s.until.empty()) {
             auto rule = parse_stop_rule(s.until);
@@ -228,6 +247,12 @@ Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::s
             json_fail(
                 "adaptive: the fit plan chooses every batch after the first from the fit "
                 "(set \"enabled\": false)");
+        }
+        if (s.fly.enabled && s.plan_kind == "fit") {
+            json_fail(
+                "fly: the fit plan's batches are scattered configurations chosen one by one "
+                "from the fit, which no arm sweeps through (use a uniform or half-diff plan, or "
+                "remove \"fly\")");
         }
         if (s.plan_kind == "vndf" && s.adaptive) {
             json_fail(
@@ -327,6 +352,11 @@ std::string campaign_spec_json(const CampaignSpec& s) {
                   {"theta_r_deg", s.drift_theta_r_deg},
                   {"delta_phi_deg", s.drift_delta_phi_deg}};
     j["schedule_budget_s"] = s.schedule_budget_s;
+    if (s.fly.enabled) {
+        j["fly"] = {{"enabled", true},
+                    {"max_smear_deg", s.fly.max_smear_deg},
+                    {"speed_deg_per_s", s.fly.speed_deg_per_s}};
+    }
     if (!s.until.empty()) {
         j["until"] = s.until;
     }
@@ -419,6 +449,24 @@ Expected<void> create_campaign_dir(const std::string& dir,
                              campaign_spec_json(stored));
 }
 
+namespace {
+
+/// A fly-scan measurement's exposure path: the directions of the poses latched at its start and
+/// end (forward kinematics, as the record's own directions).
+void set_exposure_path(const JournalRecord& r, brdf::Sample* s) {
+    for (int end = 0; end < 2; ++end) {
+        const std::array<double, 4>& d = end ? r.path_end_deg : r.path_start_deg;
+        const auto [wi, wo] =
+            brdf::rig_forward(RigPosed{d[0] * kDeg, d[1] * kDeg, d[2] * kDeg, d[3] * kDeg});
+        const auto si = brdf::cartesian_to_spherical(wi);
+        const auto so = brdf::cartesian_to_spherical(wo);
+        (end ? s->path_end : s->path_start) = {si.theta, si.phi, so.theta, so.phi};
+    }
+    s->has_path = true;
+}
+
+}  // namespace
+
 Expected<std::vector<brdf::Sample>> campaign_samples(const std::string& dir,
                                                      bool references,
                                                      double rig_hours) {
@@ -452,6 +500,9 @@ Expected<std::vector<brdf::Sample>> campaign_samples(const std::string& dir,
         s.sigma = r.sigma;
         s.weight = r.weight;
         s.flags = r.flags;
+        if (r.has_path) {
+            set_exposure_path(r, &s);
+        }
         samples.push_back(s);
     }
     add_error_budget(rig->error_budget, rig_hours, isotropic_plan(*spec), &samples);
@@ -467,6 +518,9 @@ Expected<std::size_t> write_campaign_dataset(const std::string& dir, double rig_
     ds.source = dir;
     ds.has_sigma = ds.has_weight = ds.has_flags = true;
     ds.samples = std::move(*samples);
+    for (const brdf::Sample& smp : ds.samples) {
+        ds.has_path = ds.has_path || smp.has_path;
+    }
     if (auto w = brdf::write_dataset_csv((fs::path(dir) / "dataset.csv").string(), ds); !w) {
         return tl::unexpected(w.error());
     }
@@ -663,6 +717,51 @@ class Runner {
                                            bool* journal_failed);
     void publish_measurement(const JournalRecord& r) const;
     std::string completion_summary() const;
+    /// Before each measurement (or sweep): a stop on request, the drift check when due; a value
+    /// when the run ends there.
+    std::optional<Expected<RunResult>> before_measurement(const Plan& plan,
+                                                          std::string* pause,
+                                                          Progress* progress);
+    /// One configuration measured standing with the pass's bookkeeping (progress, live page,
+    /// stop rule); a value when the run ends there.
+    std::optional<Expected<RunResult>> measure_standing(int pass,
+                                                        const PlannedConfig& c,
+                                                        const RigPosed& pose,
+                                                        const Plan& plan,
+                                                        std::string* pause,
+                                                        Progress* progress);
+
+    // Fly scans (fly_plan.h, fly_sweep.h).
+    FlyLimits fly_limits() const;
+    /// A pass measured in sweeps, then in one scheduled tour what no sweep measured (no sweep
+    /// partner, a saturated frame, a missed trigger); a value when the run ends within it.
+    std::optional<Expected<RunResult>> measure_fly_pass(int pass,
+                                                        const std::vector<const PlannedConfig*>& c,
+                                                        const std::vector<RigPosed>& poses,
+                                                        const Plan& plan,
+                                                        std::string* pause);
+    /// Runs one sweep and journals its values; `standing` receives the members (indices into
+    /// the pass's pending list) left to measure standing. A value when the run ends within it.
+    std::optional<Expected<RunResult>> fly_sweep(int pass,
+                                                 const Sweep& sw,
+                                                 const std::vector<const PlannedConfig*>& c,
+                                                 const std::vector<RigPosed>& poses,
+                                                 const Plan& plan,
+                                                 Progress* progress,
+                                                 std::vector<std::size_t>* standing);
+    /// The sweep's start in the journal (its configurations' plan indices listed), then the arm
+    /// at its lead-in; the pose read back there.
+    Expected<RigPosed> start_sweep(int pass,
+                                   const Sweep& sw,
+                                   const std::vector<const PlannedConfig*>& pending);
+    /// The journal record of a frame taken during a sweep from pose `stood` (the arm's angle
+    /// replaced by its latched path); an error when the frame is no value (saturated, a latch
+    /// outside the sweep).
+    Expected<JournalRecord> fly_record(int pass,
+                                       const PlannedConfig& c,
+                                       const Sweep& sw,
+                                       const RigPosed& stood,
+                                       const FlyFrame& f);
 
     std::string dir_;
     RigDevices& dev_;
@@ -697,6 +796,11 @@ class Runner {
     /// (pass, index) of every measurement in the journal.
     std::set<std::pair<int, std::uint32_t>> done_;
     std::size_t planned_total_ = 0;
+    /// Fly scans: the auto exposure carried from frame to frame (microseconds; 0 before the
+    /// first), and frames that gave no value (the arm passed the trigger, or saturated).
+    double fly_exposure_us_ = 0;
+    std::size_t fly_missed_ = 0;
+    std::size_t fly_saturated_ = 0;
 };
 
 Expected<RigPosed> Runner::read_pose() {
@@ -1238,6 +1342,15 @@ void Runner::record_run(json& meta, json& run, bool running) {
     if (!running) {
         run["stopped"] = result_.stopped;
     }
+    if (spec_.fly.enabled) {
+        run["fly"] = {{"sweeps", result_.sweeps},
+                      {"swept", result_.swept},
+                      {"standing", result_.standing},
+                      {"missed_triggers", fly_missed_},
+                      {"saturated_frames", fly_saturated_},
+                      {"moving_frames", session_ ? session_->moving_frames() : 0},
+                      {"moving_exposure_s", session_ ? session_->moving_exposure_s() : 0.0}};
+    }
 }
 
 RigTime Runner::rig_time() const {
@@ -1356,6 +1469,9 @@ Expected<Plan> Runner::load_campaign() {
     lim_ = rig_limits(rig_);
     dyn_ = rig_dynamics(rig_);
     clock_.emplace(dyn_, rig_.camera_readout_ms / 1000.0);
+    if (spec_.fly.enabled && dev_.filter_wheel) {
+        return make_error(kFlyColourRule);
+    }
     if (!spec_.until.empty()) {
         auto rule = parse_stop_rule(spec_.until);
         if (!rule) {
@@ -1419,6 +1535,7 @@ bool Runner::replay_journal() {
                 }
                 break;
             case RecordType::kNote:
+            case RecordType::kSweep:
                 break;
         }
     }
@@ -1630,6 +1747,9 @@ std::optional<Expected<RunResult>> Runner::measure_pass(int pass,
     if (pending.empty()) {
         return std::nullopt;
     }
+    if (spec_.fly.enabled) {
+        return measure_fly_pass(pass, pending, poses, plan, pause);
+    }
     ScheduleOptions so;
     so.budget_s = spec_.schedule_budget_s;
     const Schedule sch = schedule(poses, current_, dyn_, so);
@@ -1639,37 +1759,274 @@ std::optional<Expected<RunResult>> Runner::measure_pass(int pass,
     const std::size_t done_before = done_.size();
     Progress progress(hooks_.out, done_before + pending.size(), done_before, sch.planned_s);
     for (std::size_t q = 0; q < sch.order.size(); ++q) {
-        if (stop_requested()) {
-            progress.finish("stopped on request");
-            return finish(Outcome::kInterrupted,
-                          "stopped on request after " + std::to_string(result_.measured_now) +
-                              " measurements; resume with --resume " + dir_,
-                          plan);
-        }
-        if (spec_.drift_every > 0 &&
-            since_reference_ >= static_cast<std::size_t>(spec_.drift_every)) {
-            if (auto d = drift_check(false, pause); !d) {
-                progress.finish("paused");
-                return finish(Outcome::kPaused, d.error().message, plan);
-            }
+        if (auto end = before_measurement(plan, pause, &progress)) {
+            return end;
         }
         const std::size_t k = sch.order[q];
-        bool journal_failed = false;
-        auto r = measure_config(pass, *pending[k], poses[k], pause, &journal_failed);
-        if (!r) {
-            if (journal_failed) {
-                return Expected<RunResult>(tl::unexpected(r.error()));
-            }
-            progress.finish("paused");
-            return finish(Outcome::kPaused, r.error().message, plan);
-        }
-        progress.step();
-        publish_measurement(*r);
-        if (auto end = after_measurement(plan, &progress)) {
+        if (auto end = measure_standing(pass, *pending[k], poses[k], plan, pause, &progress)) {
             return end;
         }
     }
     progress.finish("pass " + std::to_string(pass) + " complete");
+    return std::nullopt;
+}
+
+std::optional<Expected<RunResult>> Runner::measure_standing(int pass,
+                                                            const PlannedConfig& c,
+                                                            const RigPosed& pose,
+                                                            const Plan& plan,
+                                                            std::string* pause,
+                                                            Progress* progress) {
+    bool journal_failed = false;
+    auto r = measure_config(pass, c, pose, pause, &journal_failed);
+    if (!r) {
+        if (journal_failed) {
+            return Expected<RunResult>(tl::unexpected(r.error()));
+        }
+        progress->finish("paused");
+        return finish(Outcome::kPaused, r.error().message, plan);
+    }
+    progress->step();
+    publish_measurement(*r);
+    return after_measurement(plan, progress);
+}
+
+FlyLimits Runner::fly_limits() const {
+    FlyLimits l;
+    l.dyn = dyn_;
+    l.range = lim_.range;
+    l.readout_s = rig_.camera_readout_ms / 1000.0;
+    l.min_exposure_s = rig_.capture.min_exposure_us * 1e-6;
+    l.max_exposure_s = rig_.capture.max_exposure_us * 1e-6;
+    return l;
+}
+
+/// Motion time of the units from `start`: the moves into each, the sweeps' trapezoids.
+double fly_motion_s(const std::vector<FlyUnit>& units,
+                    const RigPosed& start,
+                    const std::array<AxisDynamics, kNumAxes>& dyn) {
+    double t = 0;
+    RigPosed at = start;
+    for (const FlyUnit& u : units) {
+        t += move_time(at, u.sweep.stand, dyn);
+        at = u.sweep.stand;
+        if (!u.standing) {
+            t += trapezoid_time(
+                std::abs(u.sweep.to - u.sweep.from), u.sweep.speed, dyn[u.sweep.axis].accel);
+            set_axis_angle(&at, u.sweep.axis, u.sweep.to);
+        }
+    }
+    return t;
+}
+
+std::optional<Expected<RunResult>> Runner::measure_fly_pass(
+    int pass,
+    const std::vector<const PlannedConfig*>& pending,
+    const std::vector<RigPosed>& poses,
+    const Plan& plan,
+    std::string* pause) {
+    const std::vector<FlyUnit> units = plan_fly_units(poses, current_, spec_.fly, fly_limits());
+    std::size_t sweeps = 0, swept = 0;
+    for (const FlyUnit& u : units) {
+        sweeps += !u.standing;
+        swept += u.standing ? 0 : u.sweep.members.size();
+    }
+    const double planned_s = fly_motion_s(units, current_, dyn_);
+    say("pass " + std::to_string(pass) + ": " + std::to_string(pending.size()) +
+        " to measure; fly scans: " + std::to_string(sweeps) + " sweeps through " +
+        std::to_string(swept) + " configurations, " + std::to_string(pending.size() - swept) +
+        " standing; motion time planned " + format_duration(planned_s));
+    const std::size_t done_before = done_.size();
+    Progress progress(hooks_.out, done_before + pending.size(), done_before, planned_s);
+    std::vector<std::size_t> standing;
+    for (const FlyUnit& u : units) {
+        if (u.standing) {
+            standing.insert(standing.end(), u.sweep.members.begin(), u.sweep.members.end());
+            continue;
+        }
+        if (auto end = before_measurement(plan, pause, &progress)) {
+            return end;
+        }
+        if (auto end = fly_sweep(pass, u.sweep, pending, poses, plan, &progress, &standing)) {
+            return end;
+        }
+    }
+    // What no sweep measured, in one scheduled tour after the sweeps.
+    std::vector<RigPosed> stand_poses;
+    for (std::size_t k : standing) {
+        stand_poses.push_back(poses[k]);
+    }
+    ScheduleOptions so;
+    so.budget_s = spec_.schedule_budget_s;
+    const Schedule sch = schedule(stand_poses, current_, dyn_, so);
+    for (std::size_t q : sch.order) {
+        if (auto end = before_measurement(plan, pause, &progress)) {
+            return end;
+        }
+        const std::size_t k = standing[q];
+        ++result_.standing;
+        if (auto end = measure_standing(pass, *pending[k], poses[k], plan, pause, &progress)) {
+            return end;
+        }
+    }
+    progress.finish("pass " + std::to_string(pass) + " complete");
+    return std::nullopt;
+}
+
+std::optional<Expected<RunResult>> Runner::before_measurement(const Plan& plan,
+                                                              std::string* pause,
+                                                              Progress* progress) {
+    if (stop_requested()) {
+        progress->finish("stopped on request");
+        return finish(Outcome::kInterrupted,
+                      "stopped on request after " + std::to_string(result_.measured_now) +
+                          " measurements; resume with --resume " + dir_,
+                      plan);
+    }
+    if (spec_.drift_every > 0 && since_reference_ >= static_cast<std::size_t>(spec_.drift_every)) {
+        if (auto d = drift_check(false, pause); !d) {
+            progress->finish("paused");
+            return finish(Outcome::kPaused, d.error().message, plan);
+        }
+    }
+    return std::nullopt;
+}
+
+Expected<RigPosed> Runner::start_sweep(int pass,
+                                       const Sweep& sw,
+                                       const std::vector<const PlannedConfig*>& pending) {
+    JournalRecord r;
+    r.text = "configurations:";
+    for (std::size_t k : sw.members) {
+        r.text += " " + std::to_string(pending[k]->index);
+    }
+    r.type = RecordType::kSweep;
+    r.pass = pass;
+    r.index = static_cast<std::uint32_t>(result_.sweeps);
+    RigPosed end = sw.stand;
+    set_axis_angle(&end, sw.axis, sw.to);
+    r.pose_deg = pose_deg(sw.stand);
+    r.has_path = true;
+    r.path_start_deg = pose_deg(sw.stand);
+    r.path_end_deg = pose_deg(end);
+    r.speed_deg_per_s = sw.speed / kDeg;
+    r.exposure_us = sw.max_exposure_s * 1e6;
+    r.time_s = now_s();
+    if (auto a = journal_->append(r); !a) {
+        return tl::unexpected(a.error());
+    }
+    if (auto m = move_to(sw.stand); !m) {
+        return tl::unexpected(m.error());
+    }
+    return read_pose();
+}
+
+Expected<JournalRecord> Runner::fly_record(
+    int pass, const PlannedConfig& c, const Sweep& sw, const RigPosed& stood, const FlyFrame& f) {
+    const double a0 = f.latch_deg[0] * kDeg;
+    const double a1 = f.latch_deg[1] * kDeg;
+    const double lo = std::min(sw.from, sw.to);
+    const double hi = std::max(sw.from, sw.to);
+    if (!(std::isfinite(a0) && std::isfinite(a1) && std::min(a0, a1) >= lo - 1e-3 &&
+          std::max(a0, a1) <= hi + 1e-3)) {
+        return make_error("the drive latched the exposure at " + std::to_string(f.latch_deg[0]) +
+                          " .. " + std::to_string(f.latch_deg[1]) +
+                          " deg, outside the sweep: measured standing");
+    }
+    auto rate = session_->rate_of(f.frame);
+    if (!rate) {
+        return tl::unexpected(rate.error());
+    }
+    if (rate->saturated) {
+        ++fly_saturated_;
+        return make_error("saturated at the sweep's exposure: measured standing (HDR)");
+    }
+    RigPosed p0 = stood, p1 = stood, mid = stood;
+    set_axis_angle(&p0, sw.axis, a0);
+    set_axis_angle(&p1, sw.axis, a1);
+    set_axis_angle(&mid, sw.axis, 0.5 * (a0 + a1));
+    Shot s;
+    s.pose = mid;
+    s.rate = *rate;
+    std::tie(s.wi, s.wo) = brdf::rig_forward(mid);
+    auto v = rate_to_brdf(white_, rate->rate, rate->sigma, s.wi.z());
+    if (!v) {
+        return tl::unexpected(v.error());
+    }
+    JournalRecord r = record_of(RecordType::kMeasurement, s, *v);
+    r.pass = pass;
+    r.index = c.index;
+    r.flags |= c.flags;
+    r.weight = c.weight;
+    r.has_path = true;
+    r.path_start_deg = pose_deg(p0);
+    r.path_end_deg = pose_deg(p1);
+    return r;
+}
+
+std::optional<Expected<RunResult>> Runner::fly_sweep(
+    int pass,
+    const Sweep& sw,
+    const std::vector<const PlannedConfig*>& pending,
+    const std::vector<RigPosed>& poses,
+    const Plan& plan,
+    Progress* progress,
+    std::vector<std::size_t>* standing) {
+    auto stood = start_sweep(pass, sw, pending);
+    std::vector<double> targets_deg;
+    for (std::size_t k : sw.members) {
+        targets_deg.push_back(axis_angle(poses[k], sw.axis) / kDeg);
+    }
+    if (fly_exposure_us_ <= 0) {
+        fly_exposure_us_ = sw.max_exposure_s * 1e6 / 8;
+    }
+    Expected<SweepFrames> frames = stood
+                                       ? run_sweep(*dev_.axes[sw.axis],
+                                                   *session_,
+                                                   sw,
+                                                   targets_deg,
+                                                   &fly_exposure_us_,
+                                                   std::chrono::milliseconds(rig_.move_timeout_ms))
+                                       : Expected<SweepFrames>(tl::unexpected(stood.error()));
+    ++result_.sweeps;
+    if (!frames) {
+        // The standing measurements that follow retry, wait out outages or pause.
+        note("fly sweep " + std::to_string(result_.sweeps) + " failed (" + frames.error().message +
+             "): its configurations are measured standing");
+        if (auto p = read_pose(); p) {
+            current_ = *p;
+        }
+        *standing = sw.members;
+        return std::nullopt;
+    }
+    clock_->sweep(sw.axis, sw.to - sw.from, sw.speed);
+    current_ = *stood;
+    set_axis_angle(&current_, sw.axis, sw.to);
+    for (std::size_t k : frames->missed) {
+        ++fly_missed_;
+        standing->push_back(sw.members[k]);
+    }
+    for (const FlyFrame& f : frames->frames) {
+        const std::size_t i = sw.members[f.member];
+        auto r = fly_record(pass, *pending[i], sw, *stood, f);
+        if (!r) {
+            standing->push_back(i);
+            continue;
+        }
+        if (auto a = journal_->append(*r); !a) {
+            return Expected<RunResult>(tl::unexpected(a.error()));
+        }
+        done_.insert({pass, r->index});
+        ++since_reference_;
+        ++result_.measured_now;
+        ++result_.swept;
+        result_.measured_total = done_.size();
+        progress->step();
+        publish_measurement(*r);
+        if (auto end = after_measurement(plan, progress)) {
+            return end;
+        }
+    }
     return std::nullopt;
 }
 

@@ -69,6 +69,46 @@ Expected<devices::Frame> CaptureSession::grab(double exposure_us) {
     return f;
 }
 
+Expected<void> CaptureSession::set_moving_exposure(double exposure_us) {
+    if (auto r = camera_->set_exposure_us(exposure_us); !r) {
+        return r;
+    }
+    moving_exposure_us_ = exposure_us;
+    return {};
+}
+
+Expected<devices::Frame> CaptureSession::grab_moving() {
+    auto f = camera_->capture(
+        std::chrono::milliseconds(cfg_.timeout_ms + static_cast<int>(moving_exposure_us_ / 1000)));
+    if (!f) {
+        return f;
+    }
+    ++moving_frames_;
+    if (!(f->exposure_us > 0)) {
+        f->exposure_us = moving_exposure_us_;
+    }
+    moving_exposure_s_ += f->exposure_us * 1e-6;
+    f->saturation_level =
+        f->black_level + cfg_.linear_max_fraction * (f->saturation_level - f->black_level);
+    if (!f->linear) {
+        return make_error(
+            "camera frames are not linear (gamma-encoded): no radiometric measurement");
+    }
+    return f;
+}
+
+Expected<RoiStats> CaptureSession::level_of(const devices::Frame& f) const {
+    return roi_stats(f, cv::Mat(), roi_, noise_);
+}
+
+Expected<SignalRate> CaptureSession::rate_of(const devices::Frame& f) {
+    auto dark = dark_for(f.exposure_us);
+    if (!dark) {
+        return tl::unexpected(dark.error());
+    }
+    return merge_hdr({f}, {*dark}, roi_, noise_);
+}
+
 Expected<cv::Mat> CaptureSession::dark_for(double exposure_us) {
     const auto key =
         std::make_pair(std::llround(exposure_us * 1000), std::llround(cfg_.gain * 1e6));

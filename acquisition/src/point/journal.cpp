@@ -22,6 +22,8 @@ const char* type_name(RecordType t) {
             return "reference";
         case RecordType::kNote:
             return "note";
+        case RecordType::kSweep:
+            return "sweep";
     }
     return "?";
 }
@@ -43,6 +45,17 @@ void get_arr(const nlohmann::json& j, const char* key, V* out, int n) {
     }
     for (int k = 0; k < n; ++k) {
         (*out)[k] = a[k].get<double>();
+    }
+}
+
+/// Element `k` of the array `a`: a pose of four numbers.
+void get_arr(const nlohmann::json& a, std::size_t k, std::array<double, 4>* out) {
+    const auto& p = a.at(k);
+    if (!p.is_array() || p.size() != 4) {
+        throw std::runtime_error("path_deg: each pose has 4 numbers");
+    }
+    for (int i = 0; i < 4; ++i) {
+        (*out)[i] = p[i].get<double>();
     }
 }
 
@@ -76,6 +89,12 @@ std::string encode_record(const JournalRecord& r) {
     if (!r.text.empty()) {
         j["text"] = r.text;
     }
+    if (r.has_path) {
+        j["path_deg"] = {arr(r.path_start_deg, 4), arr(r.path_end_deg, 4)};
+    }
+    if (r.type == RecordType::kSweep) {
+        j["speed_deg_per_s"] = r.speed_deg_per_s;
+    }
     const std::string body = j.dump();
     char hash[24];
     std::snprintf(hash, sizeof hash, "%016" PRIx64, fnv1a64(body));
@@ -105,6 +124,8 @@ Expected<JournalRecord> decode_record(const std::string& line) {
             r.type = RecordType::kReference;
         } else if (t == "note") {
             r.type = RecordType::kNote;
+        } else if (t == "sweep") {
+            r.type = RecordType::kSweep;
         } else {
             return make_error("unknown record type \"" + t + "\"");
         }
@@ -122,6 +143,16 @@ Expected<JournalRecord> decode_record(const std::string& line) {
         r.exposure_us = j.at("exposure_us").get<double>();
         r.time_s = j.at("time_s").get<double>();
         r.text = j.value("text", std::string());
+        if (j.contains("path_deg")) {
+            const auto& p = j.at("path_deg");
+            if (!p.is_array() || p.size() != 2) {
+                throw std::runtime_error("path_deg: expected [start pose, end pose]");
+            }
+            get_arr(p, 0, &r.path_start_deg);
+            get_arr(p, 1, &r.path_end_deg);
+            r.has_path = true;
+        }
+        r.speed_deg_per_s = j.value("speed_deg_per_s", 0.0);
     } catch (const std::exception& e) {
         return make_error(gonio::json_error_text(e.what()));
     }

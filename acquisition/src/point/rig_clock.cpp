@@ -41,6 +41,10 @@ void RigClock::home(int k, double from_rad) {
     spent_.settle_s += dyn_[k].settle_s;
 }
 
+void RigClock::sweep(int k, double d_rad, double speed) {
+    spent_.motion_s += trapezoid_time(std::abs(d_rad), speed, dyn_[k].accel);
+}
+
 void RigClock::expose(double exposure_s, std::size_t frames) {
     spent_.exposure_s += exposure_s;
     spent_.readout_s += static_cast<double>(frames) * readout_s_;

@@ -27,6 +27,7 @@ std::string option_key(const std::string& field) {
         {"rig_path", "rig"},
         {"out_dir", "out"},
         {"plan_kind", "plan"},
+        {"fly_smear_deg", "fly-smear"},
     };
     for (const auto& [from, to] : renamed) {
         if (field == from) {
@@ -78,6 +79,8 @@ std::vector<std::string> given_fields(const CampaignRequest& r) {
     add(r.no_zoom, "no_zoom");
     add(!r.serve.empty(), "serve");
     add(!r.until.empty(), "until");
+    add(r.fly, "fly");
+    add(r.fly_smear_deg > 0, "fly_smear_deg");
     return out;
 }
 
@@ -122,6 +125,12 @@ std::optional<RequestConflict> mode_conflict(const CampaignRequest& r,
                                    "the grid is the isotropic half/difference table; an "
                                    "anisotropic image campaign bins into its own 4-D table"};
         }
+        if (image && among(f, {"fly", "fly_smear_deg"})) {
+            return RequestConflict{f,
+                                   "mode",
+                                   "fly scans are point mode's: an image campaign's frames each "
+                                   "need the light and the sphere standing"};
+        }
         if (image && among(f,
                            {"campaign_file",
                             "scene",
@@ -159,7 +168,9 @@ std::optional<RequestConflict> job_conflict(const CampaignRequest& r,
                        "operator_name",
                        "accept_drift",
                        "serve",
-                       "until"})) {
+                       "until",
+                       "fly",
+                       "fly_smear_deg"})) {
                 return RequestConflict{
                     f, "plan_only", "only the plan is printed; nothing is measured or written"};
             }
@@ -218,6 +229,17 @@ std::optional<RequestConflict> plan_conflict(const CampaignRequest& r,
                                "anisotropic",
                                "adaptive refinement works in the isotropic (theta_i, theta_r, "
                                "delta_phi) space"};
+    }
+    if (r.fly_smear_deg > 0 && !r.fly) {
+        return RequestConflict{
+            "fly_smear_deg", "fly", "bounds the smear of fly scans (give --fly)"};
+    }
+    if (r.plan_kind == "fit" && r.fly) {
+        return RequestConflict{"fly",
+                               "plan_kind",
+                               "the fit plan's batches are scattered configurations chosen one "
+                               "by one from the fit, which no arm sweeps through (use the uniform "
+                               "or half-diff plan)"};
     }
     if (r.plan_kind == "fit") {
         for (const std::string& f : given) {
@@ -420,6 +442,20 @@ Expected<CampaignSpec> new_campaign_spec(const CampaignRequest& r, bool* embedde
             return tl::unexpected(rule.error());
         }
         spec.until = format_stop_rule(*rule);
+    }
+    if (r.fly) {
+        spec.fly.enabled = true;
+        if (r.fly_smear_deg > 0) {
+            spec.fly.max_smear_deg = r.fly_smear_deg;
+        }
+        if (auto bad = fly_spec_problem(spec.fly); !bad.empty()) {
+            return make_error("--fly-smear: " + bad);
+        }
+    }
+    if (spec.fly.enabled && spec.plan_kind == "fit") {
+        return make_error(
+            "fly: the fit plan's batches are scattered configurations chosen one by one from the "
+            "fit, which no arm sweeps through (use a uniform or half-diff plan)");
     }
     return spec;
 }
@@ -883,6 +919,27 @@ Expected<void> check_table_factor(const CampaignRequest& r) {
 }
 
 std::optional<RequestConflict> find_rig_conflict(const CampaignRequest& r) {
+    if (r.mode == CampaignMode::kPoint) {
+        // Fly scans (asked for here or in the campaign's description) on the rig it runs on.
+        bool embedded = false;
+        auto spec = r.resume_dir.empty() && (r.fly || !r.campaign_file.empty())
+                        ? new_campaign_spec(r, &embedded)
+                        : Expected<CampaignSpec>(make_error("no fly scans asked for"));
+        if (!spec || !spec->fly.enabled) {
+            return std::nullopt;
+        }
+        auto rig = read_rig_config(spec->rig);
+        if (rig && rig->filter_wheel) {
+            return RequestConflict{"fly",
+                                   "rig_path",
+                                   "fly scans need a monochrome detector; rig " + rig->name +
+                                       " has a colour filter changer (\"filter_wheel\"), whose "
+                                       "colours would each be exposed on a path of their own "
+                                       "(give a rig without one, e.g. --rig "
+                                       "data/rigs/sim4-mono.json)"};
+        }
+        return std::nullopt;
+    }
     if (r.mode != CampaignMode::kImage || !r.resume_dir.empty() ||
         (r.camera_px <= 0 && r.max_theta_deg <= 0 && !r.no_zoom)) {
         return std::nullopt;

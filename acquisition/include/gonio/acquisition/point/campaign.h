@@ -16,6 +16,7 @@
 #include "gonio/acquisition/plans/schedule.h"
 #include "gonio/acquisition/point/calibration.h"
 #include "gonio/acquisition/point/fit_pass.h"
+#include "gonio/acquisition/point/fly_plan.h"
 #include "gonio/acquisition/point/rig_clock.h"
 #include "gonio/acquisition/point/stop_rule.h"
 #include "gonio/acquisition/shared/rig_config.h"
@@ -52,6 +53,9 @@ struct CampaignSpec {
     double schedule_budget_s = 0.5;
     /// The stop rule (stop_rule.h: "sigma=0.01,holdout=2"); empty: the whole plan is measured.
     std::string until;
+    /// Fly scans (fly_plan.h): the arms measure while moving; kept in campaign.json, so a resume
+    /// keeps them.
+    FlySpec fly;
     std::string json;  ///< The JSON text.
 };
 
@@ -105,6 +109,11 @@ struct RunResult {
     /// Rig time of this run (rig_clock.h), seconds, and of every run of the campaign so far.
     RigTime rig_time;
     double campaign_rig_time_s = 0;
+    /// Fly scans: sweeps run, values measured while an arm moved, and configurations measured
+    /// standing (no sweep partner, a saturated frame or a trigger the arm passed).
+    std::size_t sweeps = 0;
+    std::size_t swept = 0;
+    std::size_t standing = 0;
     /// The stop rule held (stopped == "target reached"); `until` says which targets and when.
     bool target_reached = false;
     std::string until;

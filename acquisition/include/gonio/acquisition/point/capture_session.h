@@ -26,6 +26,22 @@ class CaptureSession {
     /// One calibrated signal rate at the current geometry (shutter opened for it).
     Expected<SignalRate> measure();
 
+    /// Fly scans: sets the exposure of the next frame taken while an arm moves (set ahead, so that
+    /// the trigger sends one command).
+    Expected<void> set_moving_exposure(double exposure_us);
+    /// Fly scans: one frame at the exposure set by set_moving_exposure (shutter open). Its
+    /// exposure and readout overlap the sweep's motion: counted in moving_frames(), not in
+    /// frames_taken() or exposure_s_taken().
+    Expected<devices::Frame> grab_moving();
+    /// Fly scans: the ROI's level of a frame (black subtracted), for the next frame's exposure.
+    Expected<RoiStats> level_of(const devices::Frame& f) const;
+    /// Fly scans: the calibrated signal rate of one frame, its dark frame taken (shutter closed,
+    /// after the sweep) or reused.
+    Expected<SignalRate> rate_of(const devices::Frame& f);
+    std::size_t moving_frames() const { return moving_frames_; }
+    double moving_exposure_s() const { return moving_exposure_s_; }
+    const CaptureConfig& config() const { return cfg_; }
+
     /// Exposures on the ladder t_min * 2^(k/2): dark frames are reused across measurements.
     double quantise_exposure(double exposure_us) const;
     const PixelRoi& roi() const { return roi_; }
@@ -61,6 +77,9 @@ class CaptureSession {
     std::size_t dark_taken_ = 0;
     std::size_t frames_taken_ = 0;
     double exposure_s_taken_ = 0;
+    double moving_exposure_us_ = 0;
+    std::size_t moving_frames_ = 0;
+    double moving_exposure_s_ = 0;
     std::function<void(const devices::Frame&)> frame_observer_;
 };
 

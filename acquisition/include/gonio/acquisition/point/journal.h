@@ -24,6 +24,9 @@ enum class RecordType {
     kWhite,        ///< The white-reference measurement (calibration).
     kReference,    ///< A re-measurement of the drift reference configuration on the sample.
     kNote,         ///< An event in words (pause, resume, drift accepted).
+    /// A fly scan's sweep as it starts: pose_deg the lead-in, path_end_deg the lead-out, at
+    /// speed_deg_per_s; its measurements follow (docs/operator-guide.md, "Fly scans").
+    kSweep,
 };
 
 struct JournalRecord {
@@ -42,6 +45,13 @@ struct JournalRecord {
     double exposure_us = 0;
     double time_s = 0;  ///< Seconds since the Unix epoch.
     std::string text;   ///< kNote: the event.
+    /// A measurement taken while an arm moved (fly scans): the poses the drive latched at the
+    /// exposure's start and end (light, detector, tilt, spin, degrees); pose_deg, wi and wo are
+    /// the pose at mid-exposure. kSweep: path_end_deg is the lead-out.
+    bool has_path = false;
+    std::array<double, 4> path_start_deg{};
+    std::array<double, 4> path_end_deg{};
+    double speed_deg_per_s = 0;  ///< kSweep: the arm's cruise speed.
 };
 
 /// FNV-1a, 64 bit, of a byte string.

@@ -39,6 +39,9 @@ class RigClock {
     void move(const brdf::RigPosed& from, const brdf::RigPosed& to);
     /// A homing move of axis k from `from_rad` to its zero.
     void home(int k, double from_rad);
+    /// A fly scan's sweep of axis k over `d_rad` at cruise speed `speed` (its trapezoid, the
+    /// drive's acceleration); its exposures and readouts happen during it and add nothing.
+    void sweep(int k, double d_rad, double speed);
     /// Exposures: their summed exposure time and the frames read out.
     void expose(double exposure_s, std::size_t frames);
     const RigTime& spent() const { return spent_; }

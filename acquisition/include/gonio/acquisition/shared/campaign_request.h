@@ -82,6 +82,12 @@ struct CampaignRequest {
     /// Point mode: the stop rule (point/stop_rule.h, "sigma=0.01[,holdout=2]"): fit between
     /// batches and stop when it holds. Kept in campaign.json, so a resume keeps it.
     std::string until;
+    /// Point mode: fly scans (point/fly_plan.h): the arms measure while moving. Kept in
+    /// campaign.json, so a resume keeps them. Refused in image mode, with the fit plan and with a
+    /// rig that has a colour filter changer.
+    bool fly = false;
+    /// Point mode, fly scans: the largest arc one exposure may span, degrees (0 = 1 deg).
+    double fly_smear_deg = 0;
     /// Image mode settings no command-line option gives (tests and scripts set them): the table
     /// resolution (90 / factor bins per angle; 1 = MERL), the virtual rig's default camera size
     /// and sub-pixel rays, and its noise seed.
@@ -121,14 +127,18 @@ std::string option_key(const std::string& field);
 /// - a resume reads everything from the folder (an image campaign: its settings and frame
 ///   journal): only accept_drift and serve go with it;
 /// - plan_only prints the plan: nothing that only matters to a run (out, campaigns_dir,
-///   material, brdf, time_scale, sample, operator, accept_drift, serve) goes with it;
+///   material, brdf, time_scale, sample, operator, accept_drift, serve, until, fly,
+///   fly_smear_deg) goes with it;
 /// - the virtual rig's options (material, brdf, time_scale) need the embedded rig: a campaign
 ///   file names its own rig; material and brdf exclude each other;
 /// - the vndf plan refuses n_theta, n_dphi (uniform-plan options), adaptive > 0 (it places its
-///   own second pass) and scene (its RGL file needs every node).
+///   own second pass) and scene (its RGL file needs every node);
+/// - fly (and fly_smear_deg) is point mode's: image mode refuses it, and the fit plan (its
+///   batches are scattered configurations no arm sweeps through); fly_smear_deg needs fly.
 std::optional<RequestConflict> find_conflict(const CampaignRequest& request);
 
-/// An image-mode option the rig description cannot honour (read without starting anything):
+/// An option the rig description cannot honour (read without starting anything): point mode, fly
+/// with a rig that has a colour filter changer. Image mode:
 /// camera_px with a rig whose calibrated camera_model is the camera, max_theta_deg beyond the
 /// rig's geometry.max_theta_deg, no_zoom with a rig without zoomed camera placements. `with` is
 /// "rig_path"; the rule names the rig and its limit. None when the description cannot be read (the
