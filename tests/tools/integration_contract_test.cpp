@@ -305,12 +305,13 @@ TEST(EvalContract, OutputReplacesAPlantedLinkAndFailureLeavesNoFile) {
     EXPECT_EQ(read(victim), "precious\n");
     EXPECT_FALSE(fs::is_symlink(out));
     EXPECT_TRUE(has(read(out), "r,g,b\n"));
-    // A failure (no header line) leaves no file and no temporary debris.
+    // A failure (no header line: the input is refused whole, exit 2) leaves no file and no
+    // temporary debris.
     const std::string bad_in = contract_dir() + "/empty.csv";
     std::ofstream(bad_in) << "# nothing\n";
     const std::string out2 = contract_dir() + "/out2.csv";
     CliRun f = run_gonio("eval " + model + " -i " + bad_in + " -o " + out2);
-    EXPECT_EQ(f.status, 1) << f.out;
+    EXPECT_EQ(f.status, 2) << f.out;
     EXPECT_FALSE(fs::exists(out2));
     for (const auto& e : fs::directory_iterator(contract_dir())) {
         EXPECT_FALSE(has(e.path().filename().string(), ".tmp")) << e.path();
