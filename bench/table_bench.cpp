@@ -196,7 +196,7 @@ void BM_TableSample(benchmark::State& state) {
     double sum = 0;
     for (auto _ : state) {
         const DirectionSample d = sampler.sample(wi, u(rng), u(rng), u(rng));
-        sum += table.eval(wi, d.wo)[1] * d.wo.z() / d.pdf;
+        sum += table.eval(wi, d.w)[1] * d.w.z() / d.pdf;
         benchmark::DoNotOptimize(sum);
     }
     state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));

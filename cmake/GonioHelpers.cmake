@@ -100,7 +100,9 @@ function(gonio_add_tests module)
     if(sources)
       set(exe gonio_${module}_${label}_tests)
       add_executable(${exe} ${sources})
+      set_target_properties(${exe} PROPERTIES UNITY_BUILD ${GONIO_UNITY_TESTS} UNITY_BUILD_BATCH_SIZE 8)
       target_link_libraries(${exe} PRIVATE ${ARG_DEPS} GTest::gtest_main GTest::gmock gonio_warnings)
+      target_include_directories(${exe} PRIVATE ${PROJECT_SOURCE_DIR}/tests)
       target_compile_definitions(${exe} PRIVATE
         GONIO_SOURCE_DIR="${PROJECT_SOURCE_DIR}" GONIO_BINARY_DIR="${PROJECT_BINARY_DIR}")
       # One label each: gtest_discover_tests hands the properties to its generated script as a flat

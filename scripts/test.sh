@@ -1,22 +1,25 @@
 #!/usr/bin/env bash
 # Set-up (packages, configure, build), then every test through ctest.
-# Environment: as scripts/setup.sh, plus CTEST_ARGS (more ctest options, e.g. -L or -LE to choose a group).
+# Environment: as scripts/setup.sh, plus CTEST_ARGS (more ctest options, e.g. -L or -LE to choose a group)
+# and TEST_JOBS (tests run at once; default twice the cores: most of the long tests wait on the simulated
+# rig's motion, a peer's timeout or a child process, not on the processor).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/phase.sh
 bash scripts/setup.sh
 build_dir=${BUILD_DIR:-build}
 jobs=${JOBS:-$(nproc)}
+test_jobs=${TEST_JOBS:-$((2 * jobs))}
 status=0
 # The tests that stream frames through Aravis (label "stream") run each in a network namespace of its
 # own where the build found one usable (root), beside all the others; elsewhere they run after the
 # others, one at a time, with no other loopback traffic on the machine (cmake/GonioHelpers.cmake).
 phase_start
 if grep -q '^GONIO_TEST_NETNS:BOOL=ON$' "$build_dir/CMakeCache.txt"; then
-  ctest --test-dir "$build_dir" --output-on-failure -j "$jobs" ${CTEST_ARGS:-} || status=$?
+  ctest --test-dir "$build_dir" --output-on-failure -j "$test_jobs" ${CTEST_ARGS:-} || status=$?
   python3 scripts/ctest_skips.py "$build_dir"
 else
-  ctest --test-dir "$build_dir" --output-on-failure -j "$jobs" -LE '^stream$' ${CTEST_ARGS:-} || status=$?
+  ctest --test-dir "$build_dir" --output-on-failure -j "$test_jobs" -LE '^stream$' ${CTEST_ARGS:-} || status=$?
   python3 scripts/ctest_skips.py "$build_dir"
   ctest --test-dir "$build_dir" --output-on-failure -j 1 -L '^stream$' ${CTEST_ARGS:-} || status=$?
   python3 scripts/ctest_skips.py "$build_dir"

@@ -186,8 +186,9 @@ GONIO_COMMAND(fit) {
     cmd->add_option("--model",
                     o->model,
                     "lobe distribution: ggx, beckmann, blinn-phong, student-t, tabulated (D "
-                    "extracted from the data by power iteration), or auto (candidates ranked by "
-                    "BIC on the reduction, the winner polished on all samples)")
+                    "extracted from the data by power iteration), or auto (each candidate fitted "
+                    "on a reduction and ranked by BIC on all samples, the winner fitted on all "
+                    "samples)")
         ->capture_default_str();
     cmd->add_option("--template",
                     o->template_path,

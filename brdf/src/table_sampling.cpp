@@ -134,7 +134,7 @@ DirectionSample TableSampler::sample(const Vec3d& wi, double u_mix, double u1, d
     if (u_mix < e) {
         // Cosine-weighted hemisphere: cos(theta) = sqrt(1 - u1), phi = 2 pi u2.
         const double cos_t = std::sqrt(std::max(0.0, 1 - u1));
-        out.wo = spherical_to_cartesian(std::acos(cos_t), 2 * kPi * u2);
+        out.w = spherical_to_cartesian(std::acos(cos_t), 2 * kPi * u2);
     } else {
         const int nt = options_.n_theta_o;
         const int np = options_.n_phi_o;
@@ -151,9 +151,9 @@ DirectionSample TableSampler::sample(const Vec3d& wi, double u_mix, double u1, d
         const double c1 = std::cos((i + 1) * dtheta);
         const double cos_t = c0 + v1 * (c1 - c0);
         const double phi_rel = (j + v2) * dphi;
-        out.wo = spherical_to_cartesian(std::acos(std::min(cos_t, 1.0)), si.phi + phi_rel);
+        out.w = spherical_to_cartesian(std::acos(std::min(cos_t, 1.0)), si.phi + phi_rel);
     }
-    out.pdf = pdf(wi, out.wo);
+    out.pdf = pdf(wi, out.w);
     return out;
 }
 

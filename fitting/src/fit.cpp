@@ -17,6 +17,7 @@
 #include "gonio/base/thread_pool.h"
 #include "gonio/brdf/values_below_zero.h"
 #include "gonio/fitting/cost.h"
+#include "gonio/fitting/exposure_paths.h"
 #include "gonio/fitting/power_iteration.h"
 #include "gonio/fitting/prepared_samples.h"
 #include "gonio/fitting/reduction.h"
@@ -409,6 +410,19 @@ std::vector<std::pair<std::string, FitSpec>> auto_candidates(const FitOptions& o
             out.emplace_back(std::string(name) + (lobes == 2 ? " x2" : ""), *spec);
         }
     }
+    // V-groove shadowing (Cook and Torrance 1982) with the two families whose slopes it was
+    // written for: measured plastics and paints follow it where Smith's G falls off too early.
+    for (const auto& [name, dist] :
+         {std::pair<const char*, brdf::Distribution>{"ggx v-groove", brdf::Distribution::kGgx},
+          {"beckmann v-groove", brdf::Distribution::kBeckmann}}) {
+        ModelOptions mo;
+        mo.distribution = dist;
+        mo.shadowing = brdf::Shadowing::kVGroove;
+        if (Expected<FitSpec> spec = make_fit_spec(mo)) {
+            spec->options = options;
+            out.emplace_back(name, *spec);
+        }
+    }
     ModelOptions tab;
     tab.distribution = brdf::Distribution::kTabulated;
     if (Expected<FitSpec> spec = make_fit_spec(tab)) {
@@ -425,10 +439,20 @@ namespace {
 /// below the noise of any measurement (2 % noise alone gives 0.02).
 constexpr double kMinRgbRoughnessGain = 1e-4;
 
-/// Samples of the stratified set on which the candidates of an automatic choice are fitted and
-/// ranked. Every candidate's fit costs in proportion to its samples; 2000 strata-balanced samples
-/// keep the specular peak's share (the reduction's strata are sqrt-spaced in theta_h).
-constexpr std::size_t kRankSamples = 2000;
+/// Samples of the stratified set on which the candidates of an automatic choice are fitted:
+/// every candidate's fit costs in proportion to its samples; 1000 strata-balanced samples keep
+/// the specular peak's share (the reduction's strata are sqrt-spaced in theta_h).
+constexpr std::size_t kRankSamples = 1000;
+
+/// Samples on which the candidates are scored: all valid samples up to twice this many, else a
+/// stratified reduction to it whose weights stand for all of them (the criterion's RSS is then
+/// an unbiased estimate of the one on all valid samples).
+constexpr std::size_t kScoreSamples = 4000;
+
+/// Bound on the iterations of each candidate's solve on the ranking set: from a shared start the
+/// ranking needs the candidates' standing, not their last digits (the winner is then fitted to
+/// convergence on all samples).
+constexpr int kRankIterations = 40;
 
 /// Ratio of the half-maximum points of GGX and Beckmann in units of alpha (initialisation.cpp,
 /// estimate_alpha): a Beckmann lobe as wide as a GGX lobe of slope alpha has 0.773 alpha.
@@ -472,6 +496,23 @@ bool seeds_candidates(const brdf::ModelD& m) {
            !m.lobes[0].anisotropic && !m.lobes[0].rgb_roughness;
 }
 
+/// `spec` from its model's values, brought inside the bounds of its free parameters, with a single
+/// start (no multi-start, no data-driven start).
+FitSpec single_start_within_bounds(FitSpec spec) {
+    brdf::ModelD& m = spec.model;
+    Expected<ParameterMap> map = ParameterMap::make(spec);
+    if (map) {
+        for (const ScalarParam& s : map->scalars()) {
+            if (s.free) {
+                ParameterMap::set(m, s, std::clamp(map->value_of(m, s), s.lower, s.upper));
+            }
+        }
+    }
+    spec.options.auto_init = false;
+    spec.options.starts = 1;
+    return spec;
+}
+
 /// A shared start: the candidate `spec` started from the fitted GGX model `ref` (one lobe): the
 /// same diffuse albedo, Fresnel f0 and scale; the width mapped so that the half-maximum of D
 /// stays where the data put it (Beckmann 0.773 alpha, Blinn-Phong e = 2 / alpha_B^2 - 2,
@@ -510,17 +551,25 @@ FitSpec started_from(FitSpec spec, const brdf::ModelD& ref) {
         }
         l.scale = r.scale * (i == 0 ? 1.0 : 0.1);
     }
-    Expected<ParameterMap> map = ParameterMap::make(spec);
-    if (map) {
-        for (const ScalarParam& s : map->scalars()) {
-            if (s.free) {
-                ParameterMap::set(m, s, std::clamp(map->value_of(m, s), s.lower, s.upper));
-            }
-        }
+    return single_start_within_bounds(std::move(spec));
+}
+
+/// A two-lobe candidate started from the fitted one-lobe model `one` of its family: the first
+/// lobe as fitted, the second 3x wider at a tenth of its scale (single start, every free value
+/// brought inside its bounds). Nested this way, the pair starts where one lobe ended.
+FitSpec with_second_lobe(FitSpec spec, const brdf::ModelD& one) {
+    brdf::ModelD& m = spec.model;
+    if (m.has_diffuse && one.has_diffuse) {
+        m.diffuse = one.diffuse;
     }
-    spec.options.auto_init = false;
-    spec.options.starts = 1;
-    return spec;
+    m.lobes[0] = one.lobes[0];
+    brdf::Lobe<double> wide = one.lobes[0];
+    wide.alpha_x *= 3;
+    wide.alpha_y *= 3;
+    wide.alpha_rgb *= 3;
+    wide.scale *= 0.1;
+    m.lobes[1] = wide;
+    return single_start_within_bounds(std::move(spec));
 }
 
 /// A spec that continues from the fitted model `m` (single start).
@@ -531,25 +580,92 @@ FitSpec continued_from(FitSpec spec, const brdf::ModelD& m) {
     return spec;
 }
 
+/// The samples of an automatic choice: how many are valid (the n of the criterion), the scoring
+/// set and the fitting set (a stratified reduction of the scoring set to about kRankSamples).
+struct RankingSets {
+    std::size_t valid = 0;
+    brdf::Dataset score;
+    brdf::Dataset fit;
+};
+
+RankingSets make_ranking_sets(const brdf::Dataset& data, const FitOptions& o) {
+    RankingSets sets;
+    SampleCounts counts;
+    std::vector<Sample> copy;
+    const std::vector<Sample>& valid =
+        select_samples(data, o, detail::thread_count(o.num_threads), counts, copy);
+    sets.valid = valid.size();
+    for (brdf::Dataset* d : {&sets.score, &sets.fit}) {
+        d->source = data.source;
+        d->has_sigma = data.has_sigma;
+    }
+    sets.score.samples = valid.size() <= 2 * kScoreSamples
+                             ? valid
+                             : stratified_reduce(valid, kScoreSamples, o.seed + 3);
+    sets.fit.samples = stratified_reduce(sets.score.samples, kRankSamples, o.seed + 4);
+    return sets;
+}
+
+/// Per channel, the sum of the squared log residuals of `m` over the valid samples, estimated
+/// from the weighted scoring set (its weights sum to the samples they stand for).
+Rgbd log_rss(const brdf::ModelD& m, const RankingSets& sets) {
+    Rgbd rss = Rgbd::Zero();
+    double weight = 0;
+    for (const Sample& s : sets.score.samples) {
+        const Rgbd f = sample_model_value(m, s);
+        const double cos_i = s.wi().z();
+        for (int c = 0; c < 3; ++c) {
+            const double r = channel_residual(ResidualForm::kLog, f[c], s.value[c], cos_i, 0);
+            rss[c] += s.weight * r * r;
+        }
+        weight += s.weight;
+    }
+    return weight > 0 ? Rgbd(rss * (static_cast<double>(sets.valid) / weight))
+                      : Rgbd::Constant(std::numeric_limits<double>::infinity());
+}
+
 /// One candidate fitted on the ranking set and its standing.
 struct RankedFit {
     RankedModel rank;
-    brdf::ModelD model;  ///< Its fitted model (the start of the polish if it wins).
+    brdf::ModelD model;  ///< Its fitted model (the start of the final fit if it wins).
 };
 
-/// Fits one candidate on the ranking set (no polish, no covariance, log residual) and scores it
-/// by BIC; empty with `error` set when the fit could not run. `total_weight` is the sum of the
-/// ranking samples' weights (a stratified reduction's weights sum to the samples it stands for).
-std::optional<RankedFit> rank_candidate(const brdf::Dataset& ranking,
-                                        double total_weight,
+/// The criterion of a model with `p` free parameters whose log residuals over `samples` valid
+/// samples sum (squared, per channel) to `rss`: BIC = n log(RSS / n) + p log(n), n = 3 x samples.
+double bic_of(const Rgbd& rss_rgb, std::size_t samples, int p) {
+    const double n = 3.0 * static_cast<double>(samples);
+    const double rss = rss_rgb.sum();
+    // Residuals at rounding level carry no information: below 1e-12 per residual (log units; the
+    // arithmetic's own rounding is near 1e-16) the RSS is held at that floor, so that among models
+    // that all reproduce the data to rounding the fewest parameters win, not the luckiest rounding.
+    constexpr double kResidualFloor = 1e-12;
+    const double rss_floor = n * kResidualFloor * kResidualFloor;
+    if (!(rss >= 0) || !std::isfinite(rss) || samples == 0) {
+        return std::numeric_limits<double>::infinity();
+    }
+    return n * std::log(std::max(rss, rss_floor) / n) + p * std::log(n);
+}
+
+/// Fits one candidate on the fitting set (at most kRankIterations, no polish, no covariance, log
+/// residual) and scores it by BIC on all valid samples, estimated on the scoring set; empty with
+/// `error` set when the fit could not run. A solve stopped by the iteration bound is ranked (its
+/// model is as far as the ranking needs); one that failed or left a non-finite value is not. A
+/// tabulated candidate extracts its table from the scoring set and fits its factors on a
+/// reduction of it to the fitting set's size.
+std::optional<RankedFit> rank_candidate(const RankingSets& sets,
                                         const std::string& name,
                                         FitSpec spec,
                                         std::string* error) {
-    spec.options.polish_iterations = 0;
-    spec.options.reweight_rounds = 0;
-    spec.options.covariance = false;
-    spec.options.residual = ResidualForm::kLog;
-    Expected<FitResult> r = fit_any(ranking, spec);
+    FitOptions& o = spec.options;
+    o.coarse_samples = kRankSamples;
+    o.polish_iterations = 0;
+    o.reweight_rounds = 0;
+    o.covariance = false;
+    o.residual = ResidualForm::kLog;
+    // A second lobe starts where its family's one lobe ended (rank_all): half the iterations.
+    o.max_iterations = std::min(
+        o.max_iterations, spec.model.lobes.size() > 1 ? kRankIterations / 2 : kRankIterations);
+    Expected<FitResult> r = fit_any(needs_power_iteration(spec) ? sets.score : sets.fit, spec);
     if (!r) {
         *error = name + ": " + r.error().message;
         return std::nullopt;
@@ -558,7 +674,6 @@ std::optional<RankedFit> rank_candidate(const brdf::Dataset& ranking,
     out.model = r->model;
     RankedModel& rm = out.rank;
     rm.name = name;
-    rm.converged = r->solver.converged;
     int p = 0;
     for (const FittedParameter& fp : r->parameters) {
         p += fp.free ? 1 : 0;
@@ -566,24 +681,137 @@ std::optional<RankedFit> rank_candidate(const brdf::Dataset& ranking,
     // A table's nodes are parameters estimated from the data too.
     p += table_nodes(r->model);
     rm.parameters = p;
-    rm.log_rmse = r->metrics.log_rmse.mean();
-    // RSS on the samples of the last solve: final_cost = RSS / 2 with the samples' weights, which
-    // sum to the number of samples they stand for: normalise to the solve's size. (The ranking
-    // set is at most twice FitOptions::coarse_samples, so the solve is on all of it.)
-    const std::size_t n_red =
-        r->solver.stages.empty() ? r->samples.used : r->solver.stages.back().samples;
-    const double n = 3.0 * static_cast<double>(n_red);
-    const double rss = total_weight > 0
-                           ? 2 * r->solver.final_cost * static_cast<double>(n_red) / total_weight
-                           : 0.0;
-    // Residuals at rounding level carry no information: below 1e-12 per residual (log units; the
-    // arithmetic's own rounding is near 1e-16) the RSS is held at that floor, so that among models
-    // that all reproduce the data to rounding the fewest parameters win, not the luckiest rounding.
-    constexpr double kResidualFloor = 1e-12;
-    const double rss_floor = n * kResidualFloor * kResidualFloor;
-    rm.criterion = rss >= 0 ? n * std::log(std::max(rss, rss_floor) / n) + p * std::log(n)
-                            : std::numeric_limits<double>::infinity();
+    const Rgbd rss = log_rss(r->model, sets);
+    rm.log_rmse = (rss / static_cast<double>(sets.valid)).cwiseSqrt().mean();
+    rm.criterion = bic_of(rss, sets.valid, p);
+    rm.converged = std::isfinite(rm.criterion) &&
+                   (r->solver.converged || r->solver.termination == "NO_CONVERGENCE");
     return out;
+}
+
+/// The one-lobe structure of which `spec` is the two-lobe extension (same distribution and
+/// shadowing), found among the ranked fits; null when there is none.
+const brdf::ModelD* one_lobe_of(const FitSpec& spec, const std::vector<RankedFit>& fits) {
+    if (spec.model.lobes.size() != 2) {
+        return nullptr;
+    }
+    const brdf::Lobe<double>& l = spec.model.lobes[0];
+    for (const RankedFit& f : fits) {
+        if (f.rank.converged && f.model.lobes.size() == 1 &&
+            f.model.lobes[0].distribution == l.distribution &&
+            f.model.lobes[0].shadowing == l.shadowing &&
+            f.model.lobes[0].fresnel.type == l.fresnel.type) {
+            return &f.model;
+        }
+    }
+    return nullptr;
+}
+
+/// Every candidate ranked. Shared starts: the first (one isotropic GGX lobe) fitted on the
+/// fitting set with its own starts seeds every other one-lobe analytic candidate; a two-lobe
+/// candidate starts from its family's fitted lobe; a tabulated one extracts its table.
+/// `first_error`: the first candidate that could not run.
+std::vector<RankedFit> rank_all(const RankingSets& sets,
+                                const std::vector<std::pair<std::string, FitSpec>>& candidates,
+                                std::vector<std::size_t>& spec_of,
+                                std::string& first_error) {
+    std::vector<RankedFit> fits;
+    std::optional<brdf::ModelD> seed;
+    for (std::size_t i = 0; i < candidates.size(); ++i) {
+        const FitSpec& spec = candidates[i].second;
+        FitSpec start = spec;
+        if (const brdf::ModelD* one = one_lobe_of(spec, fits)) {
+            start = with_second_lobe(spec, *one);
+        } else if (seed && !needs_power_iteration(spec)) {
+            start = started_from(spec, *seed);
+        }
+        std::string error;
+        std::optional<RankedFit> rf = rank_candidate(sets, candidates[i].first, start, &error);
+        if (!rf) {
+            if (first_error.empty()) {
+                first_error = error;
+            }
+            continue;
+        }
+        if (i == 0 && rf->rank.converged && seeds_candidates(rf->model)) {
+            seed = rf->model;
+        }
+        fits.push_back(std::move(*rf));
+        spec_of.push_back(i);
+    }
+    return fits;
+}
+
+/// The winner and what it came from.
+struct Choice {
+    std::string name;
+    FitSpec spec;
+    brdf::ModelD model;  ///< Its optimum on the ranking set.
+};
+
+/// Whether `spec` has an RGB-roughness variant that auto tries: not with Student-t lobes, whose
+/// Lambda (a continued fraction) per channel makes that one fit cost more than every candidate
+/// together (`--model student-t --roughness rgb` fits it).
+bool tries_rgb_roughness(const FitSpec& spec) {
+    for (const brdf::Lobe<double>& l : spec.model.lobes) {
+        if (l.distribution == brdf::Distribution::kStudentT) {
+            return false;
+        }
+    }
+    return with_rgb_roughness(spec).has_value();
+}
+
+/// RGB-varying roughness as a refinement: the structure of the best-ranked candidate that takes
+/// it (`base`, the winner itself unless that is a Student-t one) with one alpha per channel,
+/// fitted on the fitting set from `base`'s optimum, replaces the winner when BIC prefers it and
+/// the log RMSE drops by at least kMinRgbRoughnessGain. One more fit of one structure instead of
+/// doubling the candidates. Listed in the ranking unless it ranks above the winner by BIC without
+/// the gain (noise-free data, where RSS is rounding): the ranking stays ordered, chosen first.
+void refine_rgb_roughness(const RankingSets& sets,
+                          const RankedModel& winner,
+                          const Choice& base,
+                          Choice& choice,
+                          std::vector<RankedFit>& fits) {
+    std::optional<FitSpec> rgb = with_rgb_roughness(base.spec);
+    if (!rgb) {
+        return;
+    }
+    brdf::ModelD start = base.model;
+    for (brdf::Lobe<double>& l : start.lobes) {
+        l.rgb_roughness = true;
+        l.alpha_rgb = Rgbd::Constant(l.alpha_x);
+    }
+    std::string error;
+    const std::string name = base.name + " rgb-roughness";
+    std::optional<RankedFit> rf = rank_candidate(sets, name, continued_from(*rgb, start), &error);
+    if (!rf) {
+        return;
+    }
+    const bool better = rf->rank.converged && rf->rank.criterion < winner.criterion &&
+                        winner.log_rmse - rf->rank.log_rmse >= kMinRgbRoughnessGain;
+    if (better || !(rf->rank.criterion < winner.criterion)) {
+        fits.push_back(*rf);
+    }
+    if (better) {
+        choice = Choice{name, *rgb, rf->model};
+    }
+}
+
+/// The best-ranked fit (lowest criterion among the ranked ones) whose candidate satisfies `pred`;
+/// fits.size() when none does.
+template <typename Pred>
+std::size_t best_ranked(const std::vector<RankedFit>& fits,
+                        const std::vector<std::size_t>& spec_of,
+                        const std::vector<std::pair<std::string, FitSpec>>& candidates,
+                        Pred&& pred) {
+    std::size_t best = fits.size();
+    for (std::size_t k = 0; k < fits.size(); ++k) {
+        if (fits[k].rank.converged && pred(candidates[spec_of[k]].second) &&
+            (best == fits.size() || fits[k].rank.criterion < fits[best].rank.criterion)) {
+            best = k;
+        }
+    }
+    return best;
 }
 
 }  // namespace
@@ -592,108 +820,29 @@ Expected<AutoFitResult> fit_auto(const brdf::Dataset& data,
                                  const std::vector<std::pair<std::string, FitSpec>>& candidates) {
     AutoFitResult out;
     out.criterion =
-        "BIC = n log(RSS/n) + p log(n) of the log residuals on a stratified set of at most " +
-        std::to_string(kRankSamples) +
-        " samples (n = 3 x samples, p = free parameters); lower is better";
+        "BIC = n log(RSS/n) + p log(n) of the log residuals on all valid samples (n = 3 x "
+        "samples, p = free parameters), each candidate fitted on a stratified set of at most " +
+        std::to_string(kRankSamples) + " samples; lower is better";
     if (candidates.empty()) {
         return make_error("--model auto: no candidate");
     }
-    const FitOptions& o0 = candidates.front().second.options;
-    // The first candidate (the default family) fitted in full on all samples: the result when it
-    // wins, and the start that every other candidate shares.
-    Expected<FitResult> reference = fit_any(data, candidates.front().second);
-    if (!reference) {
-        return make_error("--model auto: " + candidates.front().first + ": " +
-                          reference.error().message);
-    }
-    const bool shared_start = reference->solver.converged && seeds_candidates(reference->model);
-
-    // The ranking set: a stratified reduction of the valid samples (their weights kept, so the
-    // objective estimates the one on all samples).
-    SampleCounts counts;
-    std::vector<Sample> valid_copy;
-    const std::vector<Sample>& valid =
-        select_samples(data, o0, detail::thread_count(o0.num_threads), counts, valid_copy);
-    brdf::Dataset ranking;
-    ranking.source = data.source;
-    ranking.has_sigma = data.has_sigma;
-    ranking.samples = stratified_reduce(valid, kRankSamples, o0.seed + 3);
-    double total_weight = 0;
-    for (const Sample& s : ranking.samples) {
-        total_weight += s.weight;
-    }
-
-    std::vector<RankedFit> fits;
-    std::vector<std::size_t> spec_of;  // index into candidates (or candidates.size(): the RGB one)
+    const RankingSets sets = make_ranking_sets(data, candidates.front().second.options);
+    std::vector<std::size_t> spec_of;
     std::string first_error;
-    for (std::size_t i = 0; i < candidates.size(); ++i) {
-        const FitSpec& spec = candidates[i].second;
-        // The reference continues from its own optimum; the analytic candidates start from it;
-        // a tabulated one extracts its table from the ranking set; without a reference to share,
-        // each uses its own data-driven starts.
-        FitSpec start = spec;
-        if (shared_start && !needs_power_iteration(spec)) {
-            start = i == 0 ? continued_from(spec, reference->model)
-                           : started_from(spec, reference->model);
-        }
-        std::string error;
-        std::optional<RankedFit> rf =
-            rank_candidate(ranking, total_weight, candidates[i].first, start, &error);
-        if (!rf) {
-            if (first_error.empty()) {
-                first_error = error;
-            }
-            continue;
-        }
-        fits.push_back(std::move(*rf));
-        spec_of.push_back(i);
-    }
-    std::size_t win = fits.size();
-    for (std::size_t k = 0; k < fits.size(); ++k) {
-        if (fits[k].rank.converged &&
-            (win == fits.size() || fits[k].rank.criterion < fits[win].rank.criterion)) {
-            win = k;
-        }
-    }
+    std::vector<RankedFit> fits = rank_all(sets, candidates, spec_of, first_error);
+    const std::size_t win =
+        best_ranked(fits, spec_of, candidates, [](const FitSpec&) { return true; });
     if (win == fits.size()) {
         return make_error("--model auto: no candidate converged" +
                           (first_error.empty() ? std::string() : " (" + first_error + ")"));
     }
-    FitSpec chosen_spec = candidates[spec_of[win]].second;
-    std::string chosen = candidates[spec_of[win]].first;
-    brdf::ModelD chosen_model = fits[win].model;
-    bool chosen_is_reference = spec_of[win] == 0;
-    // RGB-varying roughness as a refinement of the winner: its structure with one alpha per
-    // channel, fitted on the ranking set from the winner's optimum, replaces it when BIC prefers
-    // it and the log RMSE drops by at least kMinRgbRoughnessGain. One more fit of one structure
-    // instead of doubling the candidates.
-    if (std::optional<FitSpec> rgb = with_rgb_roughness(chosen_spec)) {
-        brdf::ModelD start = chosen_model;
-        for (brdf::Lobe<double>& l : start.lobes) {
-            l.rgb_roughness = true;
-            l.alpha_rgb = Rgbd::Constant(l.alpha_x);
-        }
-        std::string error;
-        const std::string name = chosen + " rgb-roughness";
-        std::optional<RankedFit> rf =
-            rank_candidate(ranking, total_weight, name, continued_from(*rgb, start), &error);
-        if (rf) {
-            const RankedModel& w = fits[win].rank;
-            const bool better = rf->rank.converged && rf->rank.criterion < w.criterion &&
-                                w.log_rmse - rf->rank.log_rmse >= kMinRgbRoughnessGain;
-            // Listed in the ranking unless it ranks above the winner by BIC without the gain
-            // (noise-free data, where RSS is rounding): the ranking stays ordered, chosen first.
-            if (better || !(rf->rank.criterion < w.criterion)) {
-                fits.push_back(*rf);
-                spec_of.push_back(candidates.size());
-            }
-            if (better) {
-                chosen = name;
-                chosen_spec = *rgb;
-                chosen_model = rf->model;
-                chosen_is_reference = false;
-            }
-        }
+    Choice choice{candidates[spec_of[win]].first, candidates[spec_of[win]].second, fits[win].model};
+    const RankedModel winner = fits[win].rank;
+    const std::size_t base = best_ranked(fits, spec_of, candidates, tries_rgb_roughness);
+    if (base < fits.size()) {
+        const Choice from{
+            candidates[spec_of[base]].first, candidates[spec_of[base]].second, fits[base].model};
+        refine_rgb_roughness(sets, winner, from, choice, fits);
     }
     for (const RankedFit& f : fits) {
         out.ranking.push_back(f.rank);
@@ -705,20 +854,19 @@ Expected<AutoFitResult> fit_auto(const brdf::Dataset& data,
             }
             return a.criterion < b.criterion;
         });
-    out.chosen = chosen;
-    // The winner on all samples: the reference fit itself, or a polish from the ranking optimum
-    // (a tabulated winner extracts its table again from all samples).
-    if (chosen_is_reference) {
-        out.best = *reference;
-        return out;
-    }
-    Expected<FitResult> best = needs_power_iteration(chosen_spec) || !shared_start
-                                   ? fit_any(data, chosen_spec)
-                                   : fit(data, continued_from(chosen_spec, chosen_model));
+    out.chosen = choice.name;
+    // The winner on all samples, from its ranking optimum (a tabulated winner extracts its table
+    // again from all samples): solved on a reduction to kRankSamples, then polished on all.
+    FitSpec final_spec = needs_power_iteration(choice.spec)
+                             ? choice.spec
+                             : continued_from(choice.spec, choice.model);
+    final_spec.options.coarse_samples = kRankSamples;
+    Expected<FitResult> best = fit_any(data, final_spec);
     if (!best) {
         return make_error(out.chosen + ": " + best.error().message);
     }
     out.best = *best;
+    out.best.automatic = AutoChoice{out.chosen, out.criterion, out.ranking};
     return out;
 }
 

@@ -521,13 +521,14 @@ std::string suggest_after(const ModelD& fitted, bool f0_per_channel, bool auto_t
     }
     if (fitted.lobes.empty()) {
         return "try a specular lobe (`--lobes 1`) or `--model auto` (ranks ggx, beckmann, "
-               "student-t, blinn-phong, two lobes and a tabulated distribution by BIC)";
+               "student-t, blinn-phong, two lobes, v-groove shadowing and a tabulated distribution "
+               "by BIC)";
     }
     const brdf::Lobe<double>& lobe = fitted.lobes[0];
     const std::string dist = brdf::to_string(lobe.distribution);
     std::vector<std::string> tries = {
-        "`--model auto` (ranks ggx, beckmann, student-t, blinn-phong, two lobes and a tabulated "
-        "distribution by BIC)"};
+        "`--model auto` (ranks ggx, beckmann, student-t, blinn-phong, two lobes, v-groove "
+        "shadowing and a tabulated distribution by BIC)"};
     if (fitted.lobes.size() < 2) {
         tries.push_back("a second lobe (`--lobes 2`)");
     }

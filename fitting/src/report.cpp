@@ -43,6 +43,23 @@ std::string report_path_for(const std::string& model_path) {
     return model_path + ".report.json";
 }
 
+namespace {
+
+/// The ranking of an automatic model choice, as the report's "auto" key.
+json auto_choice_json(const AutoChoice& a) {
+    json ranking = json::array();
+    for (const RankedModel& m : a.ranking) {
+        ranking.push_back({{"name", m.name},
+                           {"parameters", m.parameters},
+                           {"log_rmse", number_or_null(m.log_rmse)},
+                           {"criterion", number_or_null(m.criterion)},
+                           {"converged", m.converged}});
+    }
+    return {{"chosen", a.chosen}, {"criterion", a.criterion}, {"ranking", ranking}};
+}
+
+}  // namespace
+
 std::string fit_report_json(const FitResult& r) {
     json j;
     j["model"] = json::parse(brdf::model_to_json(r.model));
@@ -112,6 +129,9 @@ std::string fit_report_json(const FitResult& r) {
     j["data"] = r.data;
     if (r.ground_truth) {
         j["ground_truth"] = json::parse(brdf::model_to_json(*r.ground_truth));
+    }
+    if (r.automatic) {
+        j["auto"] = auto_choice_json(*r.automatic);
     }
     return j.dump(2) + "\n";
 }
@@ -248,6 +268,35 @@ std::string item_path(const std::string& at, std::size_t i) {
     return at + "[" + std::to_string(i) + "]";
 }
 
+/// The report's "auto" key (auto_choice_json): the winner, the criterion and every candidate.
+AutoChoice read_auto_choice(const json& v) {
+    JsonObject o(v, "auto");
+    o.allow({"chosen", "criterion", "ranking"});
+    o.finish();
+    AutoChoice a;
+    a.chosen = text_at(o.raw("chosen"), o.key_path("chosen"));
+    a.criterion = text_at(o.raw("criterion"), o.key_path("criterion"));
+    const json& ranking = array_key(o, "ranking");
+    for (std::size_t i = 0; i < ranking.size(); ++i) {
+        JsonObject m(ranking[i], item_path("auto.ranking", i));
+        m.allow({"name", "parameters", "log_rmse", "criterion", "converged"});
+        m.finish();
+        RankedModel rm;
+        rm.name = text_at(m.raw("name"), m.key_path("name"));
+        m.raw("parameters");  // required
+        rm.parameters = m.integer("parameters", 0, 0, 1 << 30);
+        rm.log_rmse = number_or_nan(m.raw("log_rmse"), m.key_path("log_rmse"));
+        rm.criterion = number_or_nan(m.raw("criterion"), m.key_path("criterion"));
+        if (!m.raw("converged").is_boolean()) {
+            json_fail(m.key_path("converged") + ": expected true or false, got " +
+                      json_type(m.raw("converged")));
+        }
+        rm.converged = m.raw("converged").get<bool>();
+        a.ranking.push_back(rm);
+    }
+    return a;
+}
+
 FitResult read_report_document(const json& j) {
     JsonObject top(j, "");
     top.allow({"model",
@@ -263,12 +312,16 @@ FitResult read_report_document(const json& j) {
                "loss",
                "solver",
                "data",
-               "ground_truth"});
+               "ground_truth",
+               "auto"});
     top.finish();
     FitResult r;
     r.model = brdf::read_model_json(top.raw("model"), "model");
     if (const json* gt = top.find("ground_truth")) {
         r.ground_truth = brdf::read_model_json(*gt, "ground_truth");
+    }
+    if (const json* a = top.find("auto")) {
+        r.automatic = read_auto_choice(*a);
     }
     const json& params = array_key(top, "parameters");
     for (std::size_t i = 0; i < params.size(); ++i) {

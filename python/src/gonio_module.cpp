@@ -631,23 +631,7 @@ py::tuple fit(const py::object& samples,
     gonio::batch::FitRun r = value_or_raise(std::move(run));
     r.result.ground_truth = ground_truth;
     py::dict report = from_json_text(gonio::fitting::fit_report_json(r.result));
-    if (request.is_auto()) {
-        py::dict automatic;
-        automatic["chosen"] = r.chosen;
-        automatic["criterion"] = r.criterion;
-        py::list ranking;
-        for (const gonio::fitting::RankedModel& m : r.ranking) {
-            py::dict row;
-            row["name"] = m.name;
-            row["parameters"] = m.parameters;
-            row["log_rmse"] = m.log_rmse;
-            row["criterion"] = m.criterion;
-            row["converged"] = m.converged;
-            ranking.append(row);
-        }
-        automatic["ranking"] = ranking;
-        report["auto"] = automatic;
-    }
+    // After model="auto" the report carries the ranking under "auto" (fit_report_json).
     return py::make_tuple(report["model"], report);
 }
 

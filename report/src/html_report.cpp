@@ -323,6 +323,32 @@ std::string model_block(const fitting::FitResult& rep, const std::string& model_
     return os.str();
 }
 
+/// How `--model auto` chose the model: every candidate tried, its error and criterion, the
+/// winner marked (fitting::AutoChoice, the report's "auto" key).
+std::string auto_choice_block(const fitting::AutoChoice& a) {
+    std::ostringstream os;
+    os << "<div id=\"auto-choice\"><p><b>Model chosen automatically</b> (<code>--model "
+          "auto</code>): <b>"
+       << html_escape(a.chosen) << "</b> of " << a.ranking.size() << " candidates, ranked by "
+       << html_escape(a.criterion) << ".</p>\n";
+    os << "<table class=\"grid auto-ranking\"><tr><th>rank</th><th>model</th><th>free "
+          "parameters</th><th>log RMSE (channel mean)</th><th>BIC</th><th></th></tr>";
+    for (std::size_t i = 0; i < a.ranking.size(); ++i) {
+        const fitting::RankedModel& m = a.ranking[i];
+        const bool chosen = m.name == a.chosen;
+        os << "<tr" << (chosen ? " class=\"chosen\"" : "") << "><td>" << i + 1 << "</td><td><code>"
+           << html_escape(m.name) << "</code></td><td>" << m.parameters << "</td><td>"
+           << html_escape(fmt_num(m.log_rmse)) << "</td><td>" << html_escape(fmt_num(m.criterion))
+           << "</td><td>"
+           << (chosen        ? "chosen"
+               : m.converged ? ""
+                             : "not ranked (did not converge)")
+           << "</td></tr>";
+    }
+    os << "</table></div>\n";
+    return os.str();
+}
+
 /// Caption of a known picture: what it shows, in the report's words and units.
 std::string caption_for(const std::string& file) {
     if (file == "in_plane.png") {
@@ -788,6 +814,9 @@ void write_head(std::ostream& h, const std::string& title, const std::vector<std
 void write_result(std::ostream& h, const ReportInputs& in) {
     if (in.fit_result) {
         h << verdict_block(*in.fit_result) << model_block(*in.fit_result, in.model_summary);
+        if (in.fit_result->automatic) {
+            h << auto_choice_block(*in.fit_result->automatic);
+        }
     } else if (in.fit_report.is_object()) {
         h << "<div id=\"verdict\" class=\"verdict bad\"><p><b>Verdict: none</b>. "
              "fit.report.json is not a fit report this version reads (see the notes).</p>"

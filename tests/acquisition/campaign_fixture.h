@@ -11,9 +11,11 @@
 #include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 
 #include "gonio/acquisition/point/campaign.h"
+#include "gonio/sim/motor_sim.h"
 #include "gonio/sim/sim_rig.h"
 
 namespace gonio::acquisition::testing {
@@ -100,6 +102,20 @@ inline RunHooks quiet_hooks() {
     RunHooks h;
     h.out = nullptr;
     return h;
+}
+
+/// A JSON file of a campaign (metadata.json, campaign.json), parsed.
+inline nlohmann::json read_json(const std::string& path) {
+    std::ifstream in(path);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return nlohmann::json::parse(ss.str());
+}
+
+/// Duration of the simulated drive's move of `d` degrees (its own profile planner).
+inline double sim_move_s(double d, double speed, double accel) {
+    const auto phases = sim::plan_trapezoid(0, 0, d, speed, accel, accel);
+    return phases.empty() ? 0.0 : phases.back().t0 + phases.back().duration;
 }
 
 }  // namespace gonio::acquisition::testing

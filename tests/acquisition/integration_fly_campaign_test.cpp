@@ -28,18 +28,8 @@ const char* kGgx = R"({"diffuse": [0.02, 0.02, 0.02],
     "lobes": [{"distribution": "ggx", "alpha": 0.05, "shadowing": "smith-correlated",
                "fresnel": {"type": "schlick", "f0": [0.04, 0.04, 0.04]}, "scale": [1, 1, 1]}]})";
 
-nlohmann::json read_json(const std::string& path) {
-    std::ifstream in(path);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return nlohmann::json::parse(ss.str());
-}
-
-/// Duration of the simulated drive's move of `d` degrees (its own profile planner).
-double sim_move_s(double d, double speed, double accel) {
-    const auto phases = sim::plan_trapezoid(0, 0, d, speed, accel, accel);
-    return phases.empty() ? 0.0 : phases.back().t0 + phases.back().duration;
-}
+using testing::read_json;
+using testing::sim_move_s;
 
 /// A uniform in-plane plan (delta_phi 0 and 180 deg): one detector sweep per incidence.
 CampaignSpec in_plane_spec(bool fly) {

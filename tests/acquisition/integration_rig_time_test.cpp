@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "campaign_fixture.h"
 #include "gonio/acquisition/point/campaign.h"
 #include "gonio/acquisition/point/journal.h"
 #include "gonio/brdf/brdf.h"
@@ -27,18 +28,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-nlohmann::json read_json(const std::string& path) {
-    std::ifstream in(path);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return nlohmann::json::parse(ss.str());
-}
-
-/// Duration of the simulated drive's move of `d` degrees (its own profile planner).
-double sim_move_s(double d, double speed, double accel) {
-    const auto phases = sim::plan_trapezoid(0, 0, d, speed, accel, accel);
-    return phases.empty() ? 0.0 : phases.back().t0 + phases.back().duration;
-}
+using testing::read_json;
+using testing::sim_move_s;
 
 TEST(RigTime, EqualsTheSimulatedMovesSettlesAndExposures) {
     const std::string dir =

@@ -29,7 +29,7 @@ namespace {
 namespace fs = std::filesystem;
 using brdf::kPi;
 
-const char* kModel = R"({
+const char* kVndfModel = R"({
     "diffuse": [0.1, 0.1, 0.1],
     "lobes": [{"distribution": "ggx", "alpha": 0.15, "shadowing": "smith-correlated",
                "fresnel": {"type": "schlick", "f0": [0.04, 0.04, 0.04]}, "scale": [1, 1, 1]}]
@@ -41,7 +41,7 @@ using testing::LiveRig;
 /// A small vndf plan: 12 retro-reflection nodes, 4 theta_i nodes of 6 x 6; anisotropic: the
 /// retro-reflection at 8 azimuths and 4 incident azimuths in the file.
 Fixture make_campaign(const std::string& name,
-                      const char* model = kModel,
+                      const char* model = kVndfModel,
                       bool anisotropic = false) {
     CampaignSpec spec = default_campaign_spec("vndf-test");
     spec.plan_kind = "vndf";
@@ -63,7 +63,7 @@ Fixture make_campaign(const std::string& name,
     return testing::make_campaign_fixture(name, model, spec, /*quiet_rig=*/true);
 }
 
-LiveRig start_rig(const Fixture& f) {
+LiveRig start_vndf_rig(const Fixture& f) {
     return testing::start_live_rig(f, 1000);
 }
 
@@ -77,7 +77,7 @@ TEST(VndfCampaign, KilledInItsSecondPassResumesToTheSameNodesAndWritesTheFile) {
     const pid_t pid = fork();
     ASSERT_GE(pid, 0);
     if (pid == 0) {
-        LiveRig r = start_rig(f);
+        LiveRig r = start_vndf_rig(f);
         RunHooks h;
         h.out = nullptr;
         h.on_measurement = [n0](const brdf::Sample&, std::size_t measured, std::size_t) {
@@ -100,7 +100,7 @@ TEST(VndfCampaign, KilledInItsSecondPassResumesToTheSameNodesAndWritesTheFile) {
     EXPECT_EQ(ndf.measured, n0);
     // Resume.
     {
-        LiveRig r = start_rig(f);
+        LiveRig r = start_vndf_rig(f);
         RunHooks h;
         h.out = nullptr;
         auto res = run_campaign(f.dir, r.dev, h);
@@ -199,7 +199,7 @@ TEST(VndfCampaign, AnisotropicSampleKilledAndResumedWritesAnAnisotropicFile) {
     const pid_t pid = fork();
     ASSERT_GE(pid, 0);
     if (pid == 0) {
-        LiveRig r = start_rig(f);
+        LiveRig r = start_vndf_rig(f);
         RunHooks h;
         h.out = nullptr;
         h.on_measurement = [n0](const brdf::Sample&, std::size_t measured, std::size_t) {
@@ -226,7 +226,7 @@ TEST(VndfCampaign, AnisotropicSampleKilledAndResumedWritesAnAnisotropicFile) {
     };
     EXPECT_LT(d_at(15 * kPi / 180, 30 * kPi / 180), 0.8 * d_at(15 * kPi / 180, 120 * kPi / 180));
     {
-        LiveRig r = start_rig(f);
+        LiveRig r = start_vndf_rig(f);
         RunHooks h;
         h.out = nullptr;
         auto res = run_campaign(f.dir, r.dev, h);

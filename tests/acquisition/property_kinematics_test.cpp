@@ -5,6 +5,7 @@
 
 #include <random>
 
+#include "common/test_units.h"
 #include "gonio/acquisition/shared/kinematics.h"
 #include "gonio/brdf/rig_geometry.h"
 
@@ -14,7 +15,7 @@ namespace {
 using brdf::kPi;
 using brdf::RigPosed;
 using brdf::Vec3d;
-constexpr double kDeg = kPi / 180;
+using gonio::test_units::kDeg;
 
 Vec3d random_upper(std::mt19937_64& rng, double max_theta) {
     std::uniform_real_distribution<double> u(0.0, 1.0);

@@ -17,13 +17,13 @@
 namespace gonio::acquisition {
 namespace {
 
-std::string temp_path(const std::string& name) {
+std::string journal_path(const std::string& name) {
     return (std::filesystem::temp_directory_path() /
             ("gonio_image_journal_" + name + "_" + std::to_string(::getpid())))
         .string();
 }
 
-std::string read_all(const std::string& path) {
+std::string journal_text(const std::string& path) {
     std::ifstream in(path, std::ios::binary);
     std::stringstream ss;
     ss << in.rdbuf();
@@ -92,7 +92,7 @@ void expect_same(const ImageJournalFrame& a, const ImageJournalFrame& b) {
 }
 
 TEST(ImageJournal, RecordsReadBackAsWritten) {
-    const std::string path = temp_path("roundtrip");
+    const std::string path = journal_path("roundtrip");
     std::filesystem::remove(path);
     const ImageJournalSetup setup = make_setup();
     std::vector<ImageJournalFrame> frames;
@@ -152,7 +152,7 @@ TEST(ImageJournal, AppendedFramesAreOnDiskNotInMemory) {
 }
 
 TEST(ImageJournal, RecordCutAtAnyByteIsDroppedAndAppendingContinues) {
-    const std::string path = temp_path("torn");
+    const std::string path = journal_path("torn");
     std::filesystem::remove(path);
     const ImageJournalSetup setup = make_setup();
     const ImageJournalFrame f1 = make_frame(1, setup.layout);
@@ -177,13 +177,13 @@ TEST(ImageJournal, RecordCutAtAnyByteIsDroppedAndAppendingContinues) {
         expect_same(j->frames()[0], f1);
         // The damaged tail is gone: the next frame follows the good records.
         ASSERT_TRUE(j->append_frame(f2));
-        EXPECT_EQ(read_all(path), good + last);
+        EXPECT_EQ(journal_text(path), good + last);
     }
     std::filesystem::remove(path);
 }
 
 TEST(ImageJournal, ZoomedFramesKeepTheirPlacementThroughATornTail) {
-    const std::string path = temp_path("zoomed");
+    const std::string path = journal_path("zoomed");
     std::filesystem::remove(path);
     const ImageJournalSetup setup = make_setup();
     const ImageJournalFrame wide = make_frame(1, setup.layout);
@@ -210,7 +210,7 @@ TEST(ImageJournal, ZoomedFramesKeepTheirPlacementThroughATornTail) {
         EXPECT_EQ(j->frames()[1].offset_m, zoomed.offset_m);
         expect_same(j->frames()[1], zoomed);
         ASSERT_TRUE(j->append_frame(later));
-        EXPECT_EQ(read_all(path), good + last);
+        EXPECT_EQ(journal_text(path), good + last);
     }
     auto j = ImageJournal::open(path);
     ASSERT_TRUE(j) << j.error().message;
@@ -228,7 +228,7 @@ TEST(ImageJournal, ZoomedFramesKeepTheirPlacementThroughATornTail) {
 }
 
 TEST(ImageJournal, DamagedRecordWithGoodOnesAfterItIsCorruption) {
-    const std::string path = temp_path("corrupt");
+    const std::string path = journal_path("corrupt");
     const ImageJournalSetup setup = make_setup();
     const std::string f1 = encode_frame(make_frame(1, setup.layout));
     std::string bytes = encode_setup(setup) + f1 + encode_frame(make_frame(2, setup.layout));
@@ -239,12 +239,12 @@ TEST(ImageJournal, DamagedRecordWithGoodOnesAfterItIsCorruption) {
     EXPECT_NE(j.error().message.find("record 2"), std::string::npos) << j.error().message;
     EXPECT_NE(j.error().message.find("corrupt"), std::string::npos) << j.error().message;
     // Nothing was cut from a corrupt journal.
-    EXPECT_EQ(read_all(path), bytes);
+    EXPECT_EQ(journal_text(path), bytes);
     std::filesystem::remove(path);
 }
 
 TEST(ImageJournal, FrameBeforeSetupAndBinOutsideTheTableAreRefused) {
-    const std::string path = temp_path("order");
+    const std::string path = journal_path("order");
     const ImageJournalSetup setup = make_setup();
     ImageJournalFrame f = make_frame(1, setup.layout);
     write_all(path, encode_frame(f) + encode_frame(f));
@@ -348,7 +348,7 @@ ImageJournalFrame make_aniso_frame(std::uint32_t seed, const AnisoLayout& layout
 }
 
 TEST(ImageJournal, AnisotropicRecordsKeepTheSpinOfEachFrame) {
-    const std::string path = temp_path("aniso");
+    const std::string path = journal_path("aniso");
     std::filesystem::remove(path);
     const ImageJournalSetup setup = make_aniso_setup();
     std::vector<ImageJournalFrame> frames;
@@ -362,7 +362,7 @@ TEST(ImageJournal, AnisotropicRecordsKeepTheSpinOfEachFrame) {
         }
     }
     // A cut inside the last record: the first three frames stay, with their spins.
-    const std::string bytes = read_all(path);
+    const std::string bytes = journal_text(path);
     write_all(path, bytes.substr(0, bytes.size() - 9));
     auto j = ImageJournal::open(path);
     ASSERT_TRUE(j) << j.error().message;
@@ -384,12 +384,12 @@ TEST(ImageJournal, AnisotropicRecordsKeepTheSpinOfEachFrame) {
     }
     // Appending continues after the good records.
     ASSERT_TRUE(j->append_frame(frames[3]));
-    EXPECT_EQ(read_all(path), bytes);
+    EXPECT_EQ(journal_text(path), bytes);
     std::filesystem::remove(path);
 }
 
 TEST(ImageJournal, FramesOfTheOtherKindAndBinsOutsideThe4DTableAreRefused) {
-    const std::string path = temp_path("aniso_kind");
+    const std::string path = journal_path("aniso_kind");
     const ImageJournalSetup aniso = make_aniso_setup();
     const ImageJournalSetup iso = make_setup();
     write_all(path,

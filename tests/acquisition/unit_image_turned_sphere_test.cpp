@@ -8,6 +8,7 @@
 
 #include <cmath>
 
+#include "common/test_units.h"
 #include "embedded_rig.h"
 #include "gonio/acquisition/image/camera_model.h"
 #include "gonio/acquisition/image/sphere_geometry.h"
@@ -21,7 +22,7 @@ namespace {
 using brdf::kPi;
 using brdf::Vec3d;
 
-constexpr double kDeg = kPi / 180;
+using gonio::test_units::kDeg;
 
 TEST(TurnedSphere, TangentAtTheFrontIsTheHolderXAxisTurnedBySpin) {
     // At the point facing along the holder's normal the circles of latitude about the holder's y

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <string>
 
+#include "common/test_units.h"
 #include "gonio/acquisition/shared/kinematics.h"
 #include "gonio/brdf/rig_geometry.h"
 
@@ -19,7 +20,7 @@ namespace {
 using brdf::kPi;
 using brdf::RigPosed;
 using brdf::Vec3d;
-constexpr double kDeg = kPi / 180;
+using gonio::test_units::kDeg;
 
 double& axis(RigPosed& p, int k) {
     return k == 0 ? p.light : k == 1 ? p.detector : k == 2 ? p.tilt : p.spin;

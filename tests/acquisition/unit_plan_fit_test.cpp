@@ -10,6 +10,7 @@
 #include <limits>
 #include <set>
 
+#include "common/test_units.h"
 #include "gonio/acquisition/plans/plan_fit.h"
 #include "gonio/brdf/dataset.h"
 
@@ -18,7 +19,7 @@ namespace {
 
 using brdf::kPi;
 using brdf::Vec3d;
-constexpr double kDeg = kPi / 180;
+using gonio::test_units::kDeg;
 
 PlannedConfig config(double ti_deg, double to_deg, double dphi_deg, bool isotropic = true) {
     PlannedConfig c;

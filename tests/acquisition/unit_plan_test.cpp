@@ -11,6 +11,7 @@
 #include <random>
 #include <set>
 
+#include "common/test_units.h"
 #include "gonio/acquisition/plans/plan.h"
 #include "gonio/acquisition/plans/schedule.h"
 #include "gonio/brdf/dataset.h"
@@ -21,7 +22,7 @@ namespace {
 using brdf::kPi;
 using brdf::RigPosed;
 using brdf::Vec3d;
-constexpr double kDeg = kPi / 180;
+using gonio::test_units::kDeg;
 
 std::set<std::tuple<long, long, long>> keys(const Plan& p) {
     std::set<std::tuple<long, long, long>> s;

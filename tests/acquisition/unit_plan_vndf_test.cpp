@@ -10,6 +10,7 @@
 #include <random>
 #include <vector>
 
+#include "common/test_units.h"
 #include "gonio/acquisition/plans/plan.h"
 #include "gonio/acquisition/plans/plan_vndf.h"
 #include "gonio/acquisition/point/campaign.h"
@@ -29,7 +30,7 @@ using brdf::kPi;
 using brdf::Rgbd;
 using brdf::Vec3d;
 
-constexpr double kDeg = kPi / 180.0;
+using gonio::test_units::kDeg;
 
 brdf::ModelD ggx_model(double alpha, double diffuse) {
     brdf::ModelD m;

@@ -4,13 +4,14 @@
 #include <filesystem>
 #include <fstream>
 
+#include "common/test_units.h"
 #include "gonio/acquisition/plans/plan.h"
 #include "gonio/brdf/dataset.h"
 
 namespace gonio::acquisition {
 namespace {
 
-constexpr double kDeg = brdf::kPi / 180;
+using gonio::test_units::kDeg;
 
 Scene ranges_scene(double margin_deg) {
     Scene sc;

@@ -9,18 +9,13 @@
 #include <random>
 #include <vector>
 
+#include "brdf_test_util.h"
 #include "gonio/brdf/sampling.h"
 
 namespace gonio::brdf {
 namespace {
 
-/// Upper tail probability of a chi-square variable with `dof` degrees of freedom, by the
-/// Wilson-Hilferty normal approximation (E. B. Wilson, M. M. Hilferty, PNAS 17, 1931): accurate to
-/// a few percent of p for dof >= 30, enough for a 1e-4 rejection threshold.
-double chi2_upper_tail(double chi2, double dof) {
-    const double z = (std::cbrt(chi2 / dof) - (1 - 2 / (9 * dof))) / std::sqrt(2 / (9 * dof));
-    return 0.5 * std::erfc(z / std::sqrt(2.0));
-}
+using test_util::chi2_upper_tail;
 
 struct Binning {
     int n_theta;

@@ -8,6 +8,7 @@
 #include <random>
 #include <vector>
 
+#include "brdf_test_util.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/model.h"
 #include "gonio/brdf/resample.h"
@@ -56,12 +57,7 @@ double integrate_pdf(const TableSampler& s,
     return sum * dt * dp;
 }
 
-// Upper tail probability of chi-square with k degrees of freedom (Wilson-Hilferty cube-root normal
-// approximation, E. B. Wilson, M. M. Hilferty, PNAS 17, 1931; accurate to ~1e-3 for k > 10).
-double chi2_upper_tail(double x, double k) {
-    const double z = (std::cbrt(x / k) - (1 - 2 / (9 * k))) / std::sqrt(2 / (9 * k));
-    return 0.5 * std::erfc(z / std::sqrt(2.0));
-}
+using test_util::chi2_upper_tail;
 
 TEST(TableSampling, ChiSquareOfSamplesAgainstPdf) {
     const TabulatedBrdf table = ggx_table(0.2);
@@ -83,9 +79,9 @@ TEST(TableSampling, ChiSquareOfSamplesAgainstPdf) {
         for (int k = 0; k < n_samples; ++k) {
             const DirectionSample d = sampler.sample(wi, u(rng), u(rng), u(rng));
             ASSERT_GT(d.pdf, 0) << "seed " << seed;
-            ASSERT_GT(d.wo.z(), 0) << "seed " << seed;
-            ASSERT_NEAR(d.pdf, sampler.pdf(wi, d.wo), 1e-12 * d.pdf);
-            const Spherical<double> sp = cartesian_to_spherical(d.wo);
+            ASSERT_GT(d.w.z(), 0) << "seed " << seed;
+            ASSERT_NEAR(d.pdf, sampler.pdf(wi, d.w), 1e-12 * d.pdf);
+            const Spherical<double> sp = cartesian_to_spherical(d.w);
             double rel = sp.phi - phi_i;
             rel -= 2 * kPi * std::floor(rel / (2 * kPi));
             const int a = std::min(static_cast<int>(sp.theta / (kPi / 2) * n_t), n_t - 1);
@@ -165,7 +161,7 @@ TEST(TableSampling, ImportanceSampledAlbedoMatchesQuadrature) {
             double sum = 0, sum2 = 0;
             for (int k = 0; k < n; ++k) {
                 const DirectionSample d = s.sample(wi, u(rng), u(rng), u(rng));
-                const double x = table.eval(wi, d.wo)[1] * d.wo.z() / d.pdf;
+                const double x = table.eval(wi, d.w)[1] * d.w.z() / d.pdf;
                 sum += x;
                 sum2 += x * x;
             }
@@ -204,7 +200,7 @@ TEST(TableSampling, HorizonAndEmptyTables) {
     const Vec3d wo = spherical_to_cartesian(0.7, 2.0);
     EXPECT_NEAR(s.pdf(wi, wo), std::cos(0.7) / kPi, 1e-15);
     const DirectionSample d = s.sample(wi, 0.9, 0.3, 0.6);
-    EXPECT_NEAR(d.pdf, d.wo.z() / kPi, 1e-15);
+    EXPECT_NEAR(d.pdf, d.w.z() / kPi, 1e-15);
     // At or below the horizon: nothing to sample, density 0.
     EXPECT_EQ(s.pdf(Vec3d(0, 0, -1), wo), 0.0);
     EXPECT_EQ(s.pdf(wi, Vec3d(0.6, 0, -0.8)), 0.0);

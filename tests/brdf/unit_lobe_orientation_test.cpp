@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "brdf_test_util.h"
 #include "gonio/brdf/model_eval.h"
 #include "gonio/brdf/model_eval_packets.h"
 #include "gonio/brdf/model_json.h"
@@ -225,10 +226,7 @@ TEST(LobeOrientation, SamplingTurnsWithTheLobe) {
     }
 }
 
-std::string error_of(const std::string& text) {
-    const Expected<ModelD> m = parse_model_json(text, "model.json");
-    return m ? std::string("(parsed)") : m.error().message;
-}
+using test_util::error_of;
 
 TEST(LobeOrientation, ModelFileRoundTripKeepsOrientation) {
     const auto m = parse_model_json(

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "common/test_units.h"
 #include "gonio/brdf/merl.h"
 #include "gonio/brdf/resample.h"
 #include "gonio/brdf/table.h"
@@ -60,7 +61,7 @@ std::vector<std::uint8_t> file_bytes(const std::string& path) {
                                      std::istreambuf_iterator<char>());
 }
 
-constexpr double kDeg = kPi / 180;
+using gonio::test_units::kDeg;
 
 TEST(MerlIndex, ThetaHalfHandCases) {
     const TableGrid g = TableGrid::merl();

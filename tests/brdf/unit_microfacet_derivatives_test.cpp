@@ -57,12 +57,12 @@ std::vector<double> tan_squares() {
     return out;
 }
 
-const double kAlphas[] = {1e-4, 2e-3, 0.05, 0.3, 1.0, 1.5};
+const double kDerivativeAlphas[] = {1e-4, 2e-3, 0.05, 0.3, 1.0, 1.5};
 
 TEST(MicrofacetDerivatives, GgxDMatchesJet) {
     int checked = 0;
     for (const auto& [hxy2, hz2] : half_squares()) {
-        for (double a : kAlphas) {
+        for (double a : kDerivativeAlphas) {
             const J aj(a, 0);
             const J D = D_ggx_from_squares(J(hxy2), J(0.0), J(hz2), aj, aj);
             const double d = dD_ggx_dalpha_from_squares(hxy2, hz2, a, D.a);
@@ -77,7 +77,7 @@ TEST(MicrofacetDerivatives, GgxDMatchesJet) {
 TEST(MicrofacetDerivatives, BeckmannDMatchesJetIncludingTheTail) {
     int tail = 0;
     for (const auto& [hxy2, hz2] : half_squares()) {
-        for (double a : kAlphas) {
+        for (double a : kDerivativeAlphas) {
             const J aj(a, 0);
             const J D = D_beckmann_from_squares(J(hxy2), J(0.0), J(hz2), aj, aj);
             const double d = dD_beckmann_dalpha_from_squares(hxy2, hz2, a, D.a);
@@ -92,7 +92,7 @@ TEST(MicrofacetDerivatives, BeckmannDMatchesJetIncludingTheTail) {
 
 TEST(MicrofacetDerivatives, LambdasMatchJets) {
     for (double t2 : tan_squares()) {
-        for (double a : kAlphas) {
+        for (double a : kDerivativeAlphas) {
             const J aj(a, 0);
             const J a2 = aj * aj * J(t2);
             const J lg = lambda_ggx_from_a2(a2);
@@ -129,7 +129,7 @@ TEST(MicrofacetDerivatives, PacketsMatchScalars) {
     constexpr std::size_t kW = B::size;
     const auto hs = half_squares();
     const auto ts = tan_squares();
-    for (double a : kAlphas) {
+    for (double a : kDerivativeAlphas) {
         for (std::size_t k = 0; k < hs.size(); k += kW) {
             alignas(64) double hx[kW], hz[kW], tv[kW], out[4][kW];
             for (std::size_t l = 0; l < kW; ++l) {

@@ -7,16 +7,14 @@
 #include <random>
 #include <string>
 
+#include "brdf_test_util.h"
 #include "gonio/brdf/ior.h"
 #include "gonio/brdf/model_json.h"
 
 namespace gonio::brdf {
 namespace {
 
-std::string error_of(const std::string& text) {
-    const Expected<ModelD> m = parse_model_json(text, "model.json");
-    return m ? std::string("(parsed)") : m.error().message;
-}
+using test_util::error_of;
 
 const char* kLobeTail = R"("shadowing":"smith-correlated","fresnel":{"type":"none"})";
 

@@ -8,6 +8,7 @@
 #include <random>
 #include <string>
 
+#include "brdf_test_util.h"
 #include "gonio/brdf/model_eval.h"
 #include "gonio/brdf/model_eval_packets.h"
 #include "gonio/brdf/model_json.h"
@@ -15,10 +16,7 @@
 namespace gonio::brdf {
 namespace {
 
-std::string error_of(const std::string& text) {
-    const Expected<ModelD> m = parse_model_json(text, "model.json");
-    return m ? std::string("(parsed)") : m.error().message;
-}
+using test_util::error_of;
 
 std::string lobe(const std::string& distribution, const std::string& alpha) {
     return R"({"lobes":[{"distribution":")" + distribution + R"(",)" + alpha +

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "common/test_units.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/coords.h"
 #include "gonio/brdf/model.h"
@@ -29,7 +30,7 @@ namespace {
 
 using namespace gonio::brdf;
 
-constexpr double kDeg = kPi / 180.0;
+using gonio::test_units::kDeg;
 
 ModelD microfacet_model(Distribution d, double alpha) {
     ModelD m;

@@ -60,15 +60,15 @@ double integrate_hemisphere_tails(G g, int n_theta, int n_phi) {
 
 const double kGammas[] = {1.6, 2.0, 3.0, 10.0, 60.0};
 
-struct Alphas {
+struct StudentAlphas {
     double x;
     double y;
 };
-const Alphas kAlphas[] = {{0.05, 0.05}, {0.2, 0.2}, {0.6, 0.6}, {0.1, 0.4}};
+const StudentAlphas kStudentAlphas[] = {{0.05, 0.05}, {0.2, 0.2}, {0.6, 0.6}, {0.1, 0.4}};
 
 TEST(StudentT, NormalisedOverProjectedArea) {
     for (double g : kGammas) {
-        for (const Alphas& a : kAlphas) {
+        for (const StudentAlphas& a : kStudentAlphas) {
             const double integral = integrate_hemisphere(
                 [&](const Vec3d& h) { return D_student_t(h, a.x, a.y, g) * h.z(); }, 2000, 400);
             // The heaviest tail (gamma 1.6) puts mass near the horizon, where the quadrature is
@@ -122,7 +122,7 @@ TEST(StudentT, LargeGammaTendsToBeckmann) {
 
 TEST(StudentT, SmithG1SatisfiesVisibleNormalNormalisation) {
     for (double g : {1.6, 2.5, 5.0, 30.0}) {
-        for (const Alphas& a : {Alphas{0.2, 0.2}, Alphas{0.5, 0.5}, Alphas{0.15, 0.45}}) {
+        for (const StudentAlphas& a : {StudentAlphas{0.2, 0.2}, StudentAlphas{0.5, 0.5}, StudentAlphas{0.15, 0.45}}) {
             for (double theta_o : {0.0, 0.5, 1.0, 1.3, 1.5}) {
                 for (double phi_o : {0.0, 0.8}) {
                     const Vec3d wo = spherical_to_cartesian(theta_o, phi_o);

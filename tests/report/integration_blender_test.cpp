@@ -32,7 +32,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path fresh(const std::string& name) {
+fs::path fresh_blender_dir(const std::string& name) {
     const fs::path d = fs::path(GONIO_BINARY_DIR) / "tests" / "blender" / name;
     fs::remove_all(d);
     fs::create_directories(d);
@@ -68,7 +68,7 @@ BlenderComparison render(const brdf::ModelD& exported,
         return {};
     }
     BlenderRenderOptions r;
-    r.work_dir = fresh(test_name()).string();
+    r.work_dir = fresh_blender_dir(test_name()).string();
     const auto brdf = brdf::make_analytic_brdf(truth);
     auto cmp = render_and_compare(script->text, o.name, *brdf, r);
     EXPECT_TRUE(cmp) << cmp.error().message;
@@ -384,7 +384,7 @@ class ExportBlenderCli : public ::testing::Test {
         if (!fs::exists(kGonio)) {
             GTEST_SKIP() << "the gonio executable is not built (" << kGonio << ")";
         }
-        dir_ = fresh("cli_" + test_name());
+        dir_ = fresh_blender_dir("cli_" + test_name());
     }
     fs::path dir_;
 };
@@ -463,7 +463,7 @@ TEST_F(ExportBlenderCli, ApproximateIsRefusedForTheOtherRenderers) {
 
 /// Point samples of the model (in-plane slices at four theta_i and an azimuthal ring), 2 % noise
 /// with matching sigma, seed 7.
-brdf::Dataset point_samples(const brdf::Brdf& truth) {
+brdf::Dataset blender_point_samples(const brdf::Brdf& truth) {
     constexpr double kDeg = brdf::kPi / 180;
     std::mt19937 rng(7);
     std::normal_distribution<double> noise(0.0, 0.02);
@@ -500,7 +500,7 @@ TEST_F(ExportBlenderCli, AFitOfTheDefaultFamilyRendersInBlenderWithinTheAims) {
     auto spec = fitting::make_fit_spec(fitting::ModelOptions{});
     ASSERT_TRUE(spec) << spec.error().message;
     spec->options.num_threads = 1;
-    auto fit = fitting::fit(point_samples(*truth), *spec);
+    auto fit = fitting::fit(blender_point_samples(*truth), *spec);
     ASSERT_TRUE(fit) << fit.error().message;
     const std::string fit_json = (dir_ / "fit.json").string();
     ASSERT_TRUE(fitting::write_fit_report(fit_json, *fit));

@@ -18,6 +18,7 @@
 #include <string>
 #include <thread>
 
+#include "common/test_units.h"
 #include "browser_support.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/report/live_server.h"
@@ -37,7 +38,7 @@ namespace {
 namespace fs = std::filesystem;
 using gonio::testing::chromium_dump_dom;
 
-constexpr double kDeg = brdf::kPi / 180.0;
+using gonio::test_units::kDeg;
 
 fs::path work_dir(const std::string& name) {
     const fs::path d = fs::path(GONIO_BINARY_DIR) / "tests" / ("live_page_end_" + name);

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
+#include "common/test_units.h"
 #include "browser_support.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/merl.h"
@@ -25,9 +26,9 @@ namespace gonio::report {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr double kDeg = brdf::kPi / 180.0;
+using gonio::test_units::kDeg;
 
-fs::path fresh(const std::string& name) {
+fs::path fresh_page_dir(const std::string& name) {
     const fs::path d = fs::path(GONIO_BINARY_DIR) / "tests" / name;
     fs::remove_all(d);
     fs::create_directories(d);
@@ -47,7 +48,7 @@ void fit_into(const brdf::Dataset& data, const fs::path& dir) {
 
 /// Point-mode samples of the model: in-plane slices at four theta_i and an azimuthal ring, 2 %
 /// noise with matching sigma (seed 7).
-brdf::Dataset point_samples(const brdf::Brdf& truth) {
+brdf::Dataset page_point_samples(const brdf::Brdf& truth) {
     std::mt19937 rng(7);
     std::normal_distribution<double> noise(0.0, 0.02);
     brdf::Dataset d;
@@ -77,9 +78,9 @@ brdf::Dataset point_samples(const brdf::Brdf& truth) {
 
 TEST(ReportPage, PointCampaignLeadsWithTheResultAndFitsTheWindow) {
     GONIO_REQUIRE_CHROMIUM();
-    const fs::path dir = fresh("report_page_point");
+    const fs::path dir = fresh_page_dir("report_page_point");
     const brdf::AnalyticBrdf truth(testing::every_model_type()[0].second);
-    const brdf::Dataset data = point_samples(truth);
+    const brdf::Dataset data = page_point_samples(truth);
     ASSERT_TRUE(brdf::write_dataset_csv((dir / "dataset.csv").string(), data));
     std::ofstream(dir / "metadata.json") << R"J({"sample": "red plastic", "operator": "J. Doe",
         "created": "2026-12-01T10:00:00Z", "rig": {"name": "sim4", "description": {"axes": [1, 2]}},
@@ -124,7 +125,7 @@ TEST(ReportPage, PointCampaignLeadsWithTheResultAndFitsTheWindow) {
 
 TEST(ReportPage, ImageCampaignShowsCoverageHolesCalibrationAndTheTablesFit) {
     GONIO_REQUIRE_CHROMIUM();
-    const fs::path dir = fresh("report_page_image");
+    const fs::path dir = fresh_page_dir("report_page_image");
     const brdf::AnalyticBrdf truth(testing::every_model_type()[0].second);
     brdf::TabulateOptions to;
     to.grid = brdf::TableGrid{30, 30, 60};

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "common/test_units.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/dataset.h"
 #include "gonio/brdf/model_json.h"
@@ -18,7 +19,7 @@ namespace gonio::report {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr double kDeg = brdf::kPi / 180.0;
+using gonio::test_units::kDeg;
 
 void write(const fs::path& p, const std::string& text) {
     fs::create_directories(p.parent_path());

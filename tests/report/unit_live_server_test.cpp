@@ -15,6 +15,7 @@
 #include <thread>
 #include <vector>
 
+#include "common/test_units.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/report/live_server.h"
 #include "test_models.h"
@@ -31,7 +32,7 @@
 namespace gonio::report {
 namespace {
 
-constexpr double kDeg = brdf::kPi / 180.0;
+using gonio::test_units::kDeg;
 
 TEST(LiveAddress, ParsesAddressAndPort) {
     auto a = parse_listen_address("0");

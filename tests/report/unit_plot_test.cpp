@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <random>
 
+#include "common/test_units.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/resample.h"
 #include "gonio/report/plot.h"
@@ -16,7 +17,7 @@
 namespace gonio::report {
 namespace {
 
-constexpr double kDeg = brdf::kPi / 180.0;
+using gonio::test_units::kDeg;
 
 int color_distance(Color a, Color b) {
     return std::abs(a.r - b.r) + std::abs(a.g - b.g) + std::abs(a.b - b.b);

@@ -9,6 +9,7 @@
 #include <random>
 #include <string>
 
+#include "common/test_units.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/resample.h"
 #include "gonio/report/plot.h"
@@ -18,7 +19,7 @@
 namespace gonio::report {
 namespace {
 
-constexpr double kDeg = brdf::kPi / 180.0;
+using gonio::test_units::kDeg;
 
 /// A file name far longer than any picture is wide.
 const std::string kLongName =

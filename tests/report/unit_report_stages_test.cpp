@@ -15,6 +15,7 @@
 #include <sstream>
 #include <string>
 
+#include "common/test_units.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/dataset.h"
 #include "gonio/brdf/merl.h"
@@ -28,7 +29,7 @@ namespace gonio::report {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr double kDeg = brdf::kPi / 180.0;
+using gonio::test_units::kDeg;
 
 void write(const fs::path& p, const std::string& text) {
     fs::create_directories(p.parent_path());
@@ -42,7 +43,7 @@ std::string read(const fs::path& p) {
     return ss.str();
 }
 
-fs::path fresh(const std::string& name) {
+fs::path fresh_stages_dir(const std::string& name) {
     const fs::path dir = fs::path(GONIO_BINARY_DIR) / "tests" / ("report_stages_" + name);
     fs::remove_all(dir);
     fs::create_directories(dir);
@@ -102,7 +103,7 @@ std::string fit_report(const brdf::ModelD& model) {
 }
 
 fs::path point_campaign() {
-    const fs::path dir = fresh("point");
+    const fs::path dir = fresh_stages_dir("point");
     const brdf::ModelD model = testing::every_model_type()[0].second;
     const brdf::AnalyticBrdf truth(model);
     EXPECT_TRUE(brdf::write_dataset_csv((dir / "dataset.csv").string(), samples_of(truth, true)));
@@ -128,7 +129,7 @@ fs::path point_campaign() {
 }
 
 fs::path image_campaign() {
-    const fs::path dir = fresh("image");
+    const fs::path dir = fresh_stages_dir("image");
     const brdf::ModelD model = testing::every_model_type()[0].second;
     const brdf::AnalyticBrdf truth(model);
     brdf::TabulateOptions to;

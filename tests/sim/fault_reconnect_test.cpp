@@ -26,13 +26,13 @@ using gonio::sim::MotorControllerServer;
 using gonio::sim::Transport;
 using namespace std::chrono_literals;
 
-struct Stage {
+struct ReconnectStage {
     gonio::devices::AxisProfile p;
     MotorControllerServer server;
     std::shared_ptr<ModbusBus> bus;
     std::unique_ptr<ModbusAxis> axis;
 
-    Stage(const char* profile, Transport t, double time_scale, const std::string& query) {
+    ReconnectStage(const char* profile, Transport t, double time_scale, const std::string& query) {
         auto prof = gonio::devices::load_axis_profile(profile);
         EXPECT_TRUE(prof) << prof.error().message;
         p = *prof;
@@ -59,7 +59,7 @@ struct Stage {
 TEST(Reconnect, GatewayRebootMidMoveIsSurvivedAndTheMoveCompletes) {
     // 60 deg at 30 deg/s, 60 deg/s^2: 2.5 s of motion at time scale 1. The gateway is down for
     // 1.5 s in the middle; the drive behind it keeps moving.
-    Stage s("oriental-az", Transport::kTcp, 1.0, "outage_ms=10000");
+    ReconnectStage s("oriental-az", Transport::kTcp, 1.0, "outage_ms=10000");
     ASSERT_TRUE(s.axis->start_move(60));
     s.server.blip(1500ms, /*drive_power_loss=*/false);
     auto r = s.axis->wait_done(20s);
@@ -76,7 +76,7 @@ TEST(Reconnect, GatewayRebootMidMoveIsSurvivedAndTheMoveCompletes) {
 
 TEST(Reconnect, DrivePowerBlipLosesTheMoveWhichIsSentAgain) {
     for (const char* profile : {"oriental-az", "leadshine", "generic"}) {
-        Stage s(profile, Transport::kTcp, 1.0, "");
+        ReconnectStage s(profile, Transport::kTcp, 1.0, "");
         ASSERT_TRUE(s.axis->start_move(45)) << profile;
         s.server.blip(800ms, /*drive_power_loss=*/true);
         auto r = s.axis->wait_done(20s);
@@ -88,7 +88,7 @@ TEST(Reconnect, DrivePowerBlipLosesTheMoveWhichIsSentAgain) {
 }
 
 TEST(Reconnect, SilentRtuLineMidMoveIsWaitedForAndTheLostMoveSentAgain) {
-    Stage s("leadshine", Transport::kRtu, 1.0, "outage_ms=10000");
+    ReconnectStage s("leadshine", Transport::kRtu, 1.0, "outage_ms=10000");
     ASSERT_TRUE(s.axis->start_move(-40));
     s.server.blip(1500ms, /*drive_power_loss=*/true);
     auto r = s.axis->wait_done(30s);
@@ -99,7 +99,7 @@ TEST(Reconnect, SilentRtuLineMidMoveIsWaitedForAndTheLostMoveSentAgain) {
 }
 
 TEST(Reconnect, OutageLongerThanTheWindowFailsClearlyThenTheAxisWorksAgain) {
-    Stage s("oriental-az", Transport::kTcp, 20.0, "outage_ms=400");
+    ReconnectStage s("oriental-az", Transport::kTcp, 20.0, "outage_ms=400");
     ASSERT_TRUE(s.axis->move_to(10, 10s));
     s.server.blip(1500ms, false);
     // The server drops its connections when it takes the blip request; the next request finds the

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "common/test_units.h"
 #include "gonio/brdf/rig_error_budget.h"
 #include "gonio/brdf/rig_geometry.h"
 #include "gonio/sim/instrument_errors.h"
@@ -18,7 +19,7 @@
 namespace gonio::sim {
 namespace {
 
-constexpr double kDeg = brdf::kPi / 180.0;
+using gonio::test_units::kDeg;
 
 nlohmann::json sim4() {
     std::ifstream in(std::string(GONIO_SOURCE_DIR) + "/data/rigs/sim4.json");

@@ -3,7 +3,9 @@
 // Runs the gonio binary under test (GONIO_EXE) and gives each test a folder of its own: ctest runs
 // the tests of one executable as parallel processes, so nothing may be shared between them.
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -12,6 +14,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 namespace gonio::testing {
 
@@ -52,6 +55,23 @@ inline std::string run_gonio(const std::string& args, int* status) {
     CliRun r = run_gonio(args);
     *status = r.status;
     return std::move(r.out);
+}
+
+/// Starts `words` (words[0] the program, e.g. GONIO_EXE) as a child process with its standard output
+/// sent to /dev/null, for a test that kills it midway; returns its pid, or -1 when it did not start.
+inline pid_t spawn_quietly(std::vector<std::string> words) {
+    std::vector<char*> argv;
+    for (std::string& w : words) {
+        argv.push_back(w.data());
+    }
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
+    pid_t pid = -1;
+    const int e = posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ);
+    posix_spawn_file_actions_destroy(&fa);
+    return e == 0 ? pid : -1;
 }
 
 /// A fresh folder for the running test: GONIO_BINARY_DIR/tests/<prefix>_<test name>.

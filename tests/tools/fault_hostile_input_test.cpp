@@ -75,13 +75,6 @@ Child run_child(const fs::path& dir, const std::vector<std::string>& args) {
     return c;
 }
 
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
-
 void put(const fs::path& p, const std::string& text) {
     std::ofstream(p, std::ios::binary) << text;
 }
@@ -98,7 +91,7 @@ std::vector<std::string> debris(const fs::path& dir) {
     return out;
 }
 
-const char* kModel = R"({"diffuse": [0.2, 0.15, 0.1], "lobes": [{"distribution": "ggx",
+const char* kHostileModel = R"({"diffuse": [0.2, 0.15, 0.1], "lobes": [{"distribution": "ggx",
     "alpha": 0.3, "shadowing": "smith-correlated", "fresnel": {"type": "schlick", "f0": 0.04}}]})";
 
 constexpr long kMiB = 1024;  // ru_maxrss is in KiB
@@ -151,7 +144,7 @@ TEST_F(Hostile, AcquireOptionsOutOfRangeAreUsageErrors) {
 }
 
 TEST_F(Hostile, PlotThetaNanIsRefusedBeforeAnyPicture) {
-    put(p("model.json"), kModel);
+    put(p("model.json"), kHostileModel);
     ASSERT_EQ(gonio({"convert", p("model.json").string(), p("d.csv").string(), "--grid", "8x8x16"})
                   .status,
               0);
@@ -218,7 +211,7 @@ TEST_F(Hostile, ModelWithHugeDiffuseIsRefusedByConvertAndExport) {
 }
 
 TEST_F(Hostile, GiantGridIsRefusedBeforeAllocating) {
-    put(p("m.json"), kModel);
+    put(p("m.json"), kHostileModel);
     const Child c =
         gonio({"convert", p("m.json").string(), p("o.gtab").string(), "--grid", "4096x4096x4096"});
     EXPECT_EQ(c.signal, 0) << c.out;
@@ -239,7 +232,7 @@ TEST_F(Hostile, GiantGridIsRefusedBeforeAllocating) {
 }
 
 TEST_F(Hostile, MaxMemoryLowersAndRaisesTheBudget) {
-    put(p("m.json"), kModel);
+    put(p("m.json"), kHostileModel);
     // 90 x 90 x 180 bins x 25 bytes = 35 MiB for the table, as much again for its encoding.
     const Child low = gonio({"--max-memory",
                              "16M",
@@ -357,7 +350,7 @@ TEST_F(Hostile, CheckAndPreviewRefuseATableWithoutValidBins) {
 }
 
 TEST_F(Hostile, ExportRefusesNamesThatWouldInjectStatements) {
-    put(p("m.json"), kModel);
+    put(p("m.json"), kHostileModel);
     for (const char* to : {"pbrt", "mitsuba"}) {
         const std::string out = p(std::string("o.") + to).string();
         const Child c = gonio({"export",
@@ -381,13 +374,14 @@ TEST_F(Hostile, ExportRefusesNamesThatWouldInjectStatements) {
                             "--name",
                             "red_plastic-2.b"});
     EXPECT_EQ(ok.status, 0) << ok.out;
-    EXPECT_NE(slurp(p("ok.pbrt")).find("\"red_plastic-2.b\""), std::string::npos);
+    EXPECT_NE(gonio::testing::read_text(p("ok.pbrt")).find("\"red_plastic-2.b\""),
+              std::string::npos);
 }
 
 // --- outputs that are folders or devices --------------------------------------------------------
 
 TEST_F(Hostile, OutputsThatAreFoldersOrDevicesAreRefusedBeforeWork) {
-    put(p("m.json"), kModel);
+    put(p("m.json"), kHostileModel);
     ASSERT_EQ(
         gonio({"convert", p("m.json").string(), p("d.csv").string(), "--grid", "8x8x16"}).status,
         0);
@@ -492,12 +486,12 @@ TEST_F(Hostile, KilledRunsAreListedInMetadata) {
                                            "1"},
                                           &out))
         << out;
-    const std::string first = slurp(p("camp/metadata.json"));
+    const std::string first = gonio::testing::read_text(p("camp/metadata.json"));
     EXPECT_NE(first.find("\"state\": \"running\""), std::string::npos) << first;
     // The second run starts (and is killed too): it marks the first one.
     out.clear();
     ASSERT_TRUE(start_and_kill_after_plan({"acquire", "--resume", camp}, &out)) << out;
-    const std::string second = slurp(p("camp/metadata.json"));
+    const std::string second = gonio::testing::read_text(p("camp/metadata.json"));
     const auto killed = second.find("\"state\": \"killed\"");
     const auto running = second.find("\"state\": \"running\"");
     EXPECT_NE(killed, std::string::npos) << second;
@@ -540,7 +534,7 @@ TEST_F(Hostile, CampaignStoppedByAFullDiskSaysHowToResume) {
     }
     int st = 0;
     ASSERT_EQ(waitpid(pid, &st, 0), pid);
-    const std::string out = slurp(out_path);
+    const std::string out = gonio::testing::read_text(out_path);
     ASSERT_TRUE(WIFEXITED(st)) << out;
     EXPECT_EQ(WEXITSTATUS(st), 1) << out;
     EXPECT_NE(out.find("File too large"), std::string::npos) << out;
@@ -554,7 +548,7 @@ TEST_F(Hostile, CampaignStoppedByAFullDiskSaysHowToResume) {
 // --resume reads everything from the campaign folder: the embedded rig's ground truth is copied
 // in, the original can go; a rig.json pointing outside the folder is refused.
 TEST_F(Hostile, ResumeReadsOnlyTheCampaignFolder) {
-    put(p("truth.json"), kModel);
+    put(p("truth.json"), kHostileModel);
     const std::string camp = p("camp").string();
     const Child c = gonio({"acquire",
                            "--brdf",
@@ -570,13 +564,13 @@ TEST_F(Hostile, ResumeReadsOnlyTheCampaignFolder) {
                            "--time-scale",
                            "500"});
     ASSERT_EQ(c.status, 0) << c.out;
-    EXPECT_EQ(slurp(p("camp/ground_truth.json")), kModel);
+    EXPECT_EQ(gonio::testing::read_text(p("camp/ground_truth.json")), kHostileModel);
     fs::remove(p("truth.json"));
     const Child again = gonio({"acquire", "--resume", camp});
     EXPECT_EQ(again.status, 0) << again.out;
     EXPECT_NE(again.out.find("ground_truth.json"), std::string::npos) << again.out;
 
-    std::string rig = slurp(p("camp/rig.json"));
+    std::string rig = gonio::testing::read_text(p("camp/rig.json"));
     const std::string from = "\"brdf\": \"ground_truth.json\"";
     const auto at = rig.find(from);
     ASSERT_NE(at, std::string::npos) << rig;

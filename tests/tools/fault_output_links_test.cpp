@@ -19,15 +19,8 @@ namespace fs = std::filesystem;
 using gonio::testing::CliRun;
 using gonio::testing::run_gonio;
 
-const char* kModel = R"({"diffuse": [0.2, 0.15, 0.1], "lobes": [{"distribution": "ggx",
+const char* kLinksModel = R"({"diffuse": [0.2, 0.15, 0.1], "lobes": [{"distribution": "ggx",
     "alpha": 0.3, "shadowing": "smith-correlated", "fresnel": {"type": "schlick", "f0": 0.04}}]})";
-
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
 
 class OutputLinks : public ::testing::Test {
   protected:
@@ -58,7 +51,8 @@ class OutputLinks : public ::testing::Test {
     /// refused); no hidden temporary file anywhere.
     void check(const std::string& what) {
         for (std::size_t k = 0; k < planted_.size(); ++k) {
-            EXPECT_EQ(slurp(planted_[k].second), "precious " + std::to_string(k))
+            EXPECT_EQ(gonio::testing::read_text(planted_[k].second),
+                      "precious " + std::to_string(k))
                 << what << ": the link at " << planted_[k].first << " was followed";
         }
         for (const auto& e : fs::recursive_directory_iterator(dir_)) {
@@ -78,7 +72,7 @@ class OutputLinks : public ::testing::Test {
 };
 
 TEST_F(OutputLinks, ConvertAndExport) {
-    std::ofstream(p("m.json")) << kModel;
+    std::ofstream(p("m.json")) << kLinksModel;
     plant(p("o.gtab"));
     plant(p("o.csv"));
     plant(p("o.pbrt"));
@@ -97,12 +91,12 @@ TEST_F(OutputLinks, ConvertAndExport) {
     for (const char* o : {"o.gtab", "o.csv", "o.pbrt", "o.xml", "o.binary"}) {
         expect_regular(p(o), o);
     }
-    EXPECT_NE(slurp(p("o.pbrt")).find("MakeNamedMaterial"), std::string::npos);
+    EXPECT_NE(gonio::testing::read_text(p("o.pbrt")).find("MakeNamedMaterial"), std::string::npos);
     check("convert/export");
 }
 
 TEST_F(OutputLinks, FitPlotAndPreview) {
-    std::ofstream(p("m.json")) << kModel;
+    std::ofstream(p("m.json")) << kLinksModel;
     ASSERT_EQ(run_gonio("convert " + q("m.json") + " " + q("d.csv") + " --grid 8x8x16").status, 0);
     plant(p("fit.json"));
     plant(p("fit.report.json"));
@@ -138,7 +132,7 @@ TEST_F(OutputLinks, FitPlotAndPreview) {
 
 TEST_F(OutputLinks, Report) {
     fs::create_directories(p("D"));
-    std::ofstream(p("D/fit.json")) << kModel;
+    std::ofstream(p("D/fit.json")) << kLinksModel;
     ASSERT_EQ(run_gonio("convert " + q("D/fit.json") + " " + q("D/dataset.csv") + " --grid 8x8x16")
                   .status,
               0);
@@ -146,7 +140,7 @@ TEST_F(OutputLinks, Report) {
     const CliRun r = run_gonio("report " + q("D") + " --preview-size 32 --preview-samples 16");
     EXPECT_EQ(r.status, 0) << r.out;
     expect_regular(p("D/report.html"), "report");
-    EXPECT_NE(slurp(p("D/report.html")).find("<html"), std::string::npos);
+    EXPECT_NE(gonio::testing::read_text(p("D/report.html")).find("<html"), std::string::npos);
     check("report");
 }
 

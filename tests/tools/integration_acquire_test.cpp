@@ -23,12 +23,12 @@ namespace fs = std::filesystem;
 
 using gonio::testing::run_gonio;
 
-std::string temp_dir(const std::string& name) {
+std::string acquire_dir(const std::string& name) {
     return gonio::testing::test_folder("test_tools_acquire", name, false);
 }
 
 TEST(AcquireCli, EmbeddedCampaignThenResumeMeasuresNothingTwice) {
-    const std::string dir = temp_dir("embedded");
+    const std::string dir = acquire_dir("embedded");
     int st = 0;
     const std::string out = run_gonio(
         "acquire --out " + dir + " --n-theta 4 --n-dphi 3 --adaptive 0 --time-scale 500", &st);
@@ -70,7 +70,7 @@ double param(const std::string& out, const std::string& name) {
 
 TEST(AcquireCli, AcquireThenFitRecoversTheGroundTruth) {
     // GGX + Lambert ground truth, acquired on the virtual rig, fitted with the same model family.
-    const std::string dir = temp_dir("fit");
+    const std::string dir = acquire_dir("fit");
     const std::string model = dir + "_model.json";
     std::ofstream(model) << R"({"diffuse": [0.3, 0.3, 0.3], "lobes": [{"distribution": "ggx",
         "alpha": 0.25, "shadowing": "smith-correlated",
@@ -113,7 +113,7 @@ TEST(AcquireCli, ErrorsNameTheProblem) {
 // address of its own (--camera-ip auto), opened by gonio's Aravis camera: the whole point-mode
 // campaign goes through GVCP/GVSP.
 TEST(AcquireCli, CampaignAgainstASeparateSimProcess) {
-    const std::string dir = temp_dir("separate");
+    const std::string dir = acquire_dir("separate");
     fs::create_directories(dir);
     const std::string live = dir + "/live-rig.json";
     int pipefd[2];

@@ -26,7 +26,7 @@ namespace fs = std::filesystem;
 
 using gonio::testing::run_gonio;
 
-std::string temp_dir(const std::string& name) {
+std::string aniso_dir(const std::string& name) {
     return gonio::testing::test_folder("test_tools_aniso", name, false);
 }
 
@@ -69,7 +69,7 @@ std::string brushed_model(double ax, double ay, double phi_deg) {
 std::map<std::string, Param> measure_and_fit(const std::string& name,
                                              const std::string& truth,
                                              const std::string& symmetry) {
-    const std::string dir = temp_dir(name);
+    const std::string dir = aniso_dir(name);
     const std::string model = dir + "_truth.json";
     std::ofstream(model) << truth;
     int st = 0;

@@ -22,7 +22,7 @@ namespace fs = std::filesystem;
 using gonio::testing::CliRun;
 using gonio::testing::run_gonio;
 
-std::string dir() {
+std::string contract_dir() {
     static const std::string d = gonio::testing::fresh_test_dir("contract").string();
     return d;
 }
@@ -42,7 +42,7 @@ gonio::brdf::ModelD truth() {
 }
 
 std::string data_csv() {
-    const std::string path = dir() + "/data.csv";
+    const std::string path = contract_dir() + "/data.csv";
     if (!fs::exists(path)) {
         gonio::brdf::Dataset d = gonio::fitting::testing::synthesize(
             truth(), gonio::fitting::testing::measurement_grid());
@@ -77,7 +77,7 @@ TEST(FitContract, AutoRefusesEveryStructureOptionNamingBoth) {
 }
 
 TEST(FitContract, TemplateRefusesStructureOptions) {
-    const std::string tmpl = dir() + "/t.json";
+    const std::string tmpl = contract_dir() + "/t.json";
     std::ofstream(tmpl) << R"({"model": )" << gonio::brdf::model_to_json(truth())
                         << R"(, "free": ["diffuse", "lobes[0].alpha"]})";
     CliRun r = run_gonio("fit " + data_csv() + " --template " + tmpl + " --fresnel none");
@@ -88,12 +88,12 @@ TEST(FitContract, TemplateRefusesStructureOptions) {
 TEST(FitContract, CompareRefusesTemplateModelOutAndTruth) {
     // The files named exist, so the refusal is the conflict, not an unreadable input.
     for (const char* name : {"x.json", "t.json"}) {
-        std::ofstream(dir() + "/" + name) << "{}";
+        std::ofstream(contract_dir() + "/" + name) << "{}";
     }
-    for (const std::string& opt : {"--template " + dir() + "/x.json",
+    for (const std::string& opt : {"--template " + contract_dir() + "/x.json",
                                    std::string("--model ggx"),
-                                   "--out " + dir() + "/f.json",
-                                   "--truth " + dir() + "/t.json"}) {
+                                   "--out " + contract_dir() + "/f.json",
+                                   "--truth " + contract_dir() + "/t.json"}) {
         CliRun r = run_gonio("fit " + data_csv() + " --compare ggx,beckmann " + opt);
         EXPECT_EQ(r.status, 2) << opt << "\n" << r.out;
         const std::string flag = std::string(opt).substr(0, std::string(opt).find(' '));
@@ -105,7 +105,7 @@ TEST(FitContract, CompareRefusesTemplateModelOutAndTruth) {
 }
 
 TEST(FitContract, UnreadableTruthIsRefusedBeforeTheFit) {
-    CliRun r = run_gonio("fit " + data_csv() + " --truth " + dir() + "/missing.json");
+    CliRun r = run_gonio("fit " + data_csv() + " --truth " + contract_dir() + "/missing.json");
     EXPECT_EQ(r.status, 2) << r.out;
     EXPECT_TRUE(has(r.out, "gonio fit: --truth:")) << r.out;
     // Nothing of a fit was printed: the check came first.
@@ -127,9 +127,9 @@ TEST(FitContract, MistypedOptionGetsASuggestionAndTheCommandName) {
 }
 
 TEST(FitContract, ManifestAppliesCommandLineOptionsToEveryEntry) {
-    const std::string m = dir() + "/m.csv";
+    const std::string m = contract_dir() + "/m.csv";
     std::ofstream(m) << "input,model,options,id\n" << data_csv() << ",ggx,,a\n";
-    const std::string out = dir() + "/fits";
+    const std::string out = contract_dir() + "/fits";
     fs::remove_all(out);
     CliRun r = run_gonio("fit --manifest " + m + " --out " + out +
                          " --residual relative --max-samples 150 --starts 2");
@@ -148,27 +148,27 @@ TEST(FitContract, ManifestAppliesCommandLineOptionsToEveryEntry) {
         << c.out;
     // Options that name one fit are refused with --manifest (the truth file exists: the refusal
     // is the conflict, not an unreadable input).
-    std::ofstream(dir() + "/x.json") << "{}";
-    CliRun t = run_gonio("fit --manifest " + m + " --out " + out + " --truth " + dir() + "/x.json");
+    std::ofstream(contract_dir() + "/x.json") << "{}";
+    CliRun t = run_gonio("fit --manifest " + m + " --out " + out + " --truth " + contract_dir() + "/x.json");
     EXPECT_EQ(t.status, 2) << t.out;
     EXPECT_TRUE(has(t.out, "--truth cannot be combined with --manifest")) << t.out;
 }
 
 TEST(FitContract, ManifestExitCodesFollowTheScheme) {
     // Unreadable manifest: an input error (2).
-    CliRun r = run_gonio("fit --manifest " + dir() + "/none.csv --out " + dir() + "/o");
+    CliRun r = run_gonio("fit --manifest " + contract_dir() + "/none.csv --out " + contract_dir() + "/o");
     EXPECT_EQ(r.status, 2) << r.out;
     // An output folder that cannot be made: the work failed (1).
-    const std::string m = dir() + "/m2.csv";
+    const std::string m = contract_dir() + "/m2.csv";
     std::ofstream(m) << "input,model,options,id\n" << data_csv() << ",ggx,,a\n";
-    std::ofstream(dir() + "/plainfile") << "x";
-    CliRun f = run_gonio("fit --manifest " + m + " --out " + dir() + "/plainfile/sub");
+    std::ofstream(contract_dir() + "/plainfile") << "x";
+    CliRun f = run_gonio("fit --manifest " + m + " --out " + contract_dir() + "/plainfile/sub");
     EXPECT_EQ(f.status, 1) << f.out;
     EXPECT_TRUE(has(f.out, "cannot create the folder")) << f.out;
 }
 
 TEST(FitContract, DegreesInARadianColumnGetAHint) {
-    const std::string path = dir() + "/deg.csv";
+    const std::string path = contract_dir() + "/deg.csv";
     std::ofstream(path) << "theta_i,phi_i,theta_o,phi_o,r,g,b\n45,0,30,180,0.5,0.5,0.5\n";
     CliRun r = run_gonio("fit " + path);
     EXPECT_EQ(r.status, 1) << r.out;
@@ -183,12 +183,12 @@ TEST(FitContract, DegreesInARadianColumnGetAHint) {
 // ---- gonio acquire -------------------------------------------------------------------------
 
 TEST(AcquireContract, ImageModeRefusesPointModeOptionsNamingBoth) {
-    const std::string camp = dir() + "/campaign.json";
+    const std::string camp = contract_dir() + "/campaign.json";
     std::ofstream(camp) << "{}";
-    std::ofstream(dir() + "/s.json") << "{}";  // readable: the refusal is the combination
+    std::ofstream(contract_dir() + "/s.json") << "{}";  // readable: the refusal is the combination
     const std::pair<std::string, std::string> cases[] = {
         {camp, "campaign.json (the positional description) cannot be combined with --mode image"},
-        {"--scene " + dir() + "/s.json", "--scene cannot be combined with --mode image"},
+        {"--scene " + contract_dir() + "/s.json", "--scene cannot be combined with --mode image"},
         {"--plan uniform", "--plan cannot be combined with --mode image"},
         {"--n-theta 4", "--n-theta cannot be combined with --mode image"},
         {"--n-dphi 4", "--n-dphi cannot be combined with --mode image"},
@@ -206,15 +206,15 @@ TEST(AcquireContract, ImageModeRefusesPointModeOptionsNamingBoth) {
 
 TEST(AcquireContract, ImageResumeReadsTheFolderAndRefusesNewCampaignOptions) {
     // A folder that holds no image campaign: an error naming it, nothing created in it.
-    fs::create_directories(dir() + "/old");
-    CliRun a = run_gonio("acquire --mode image --resume " + dir() + "/old");
+    fs::create_directories(contract_dir() + "/old");
+    CliRun a = run_gonio("acquire --mode image --resume " + contract_dir() + "/old");
     EXPECT_EQ(a.status, 1) << a.out;
     EXPECT_TRUE(has(a.out, "not an image-mode campaign folder")) << a.out;
-    EXPECT_TRUE(fs::is_empty(dir() + "/old"));
+    EXPECT_TRUE(fs::is_empty(contract_dir() + "/old"));
     // A folder that does not exist is an input that cannot be read: refused before any work.
-    CliRun missing = run_gonio("acquire --mode image --resume " + dir() + "/nowhere");
+    CliRun missing = run_gonio("acquire --mode image --resume " + contract_dir() + "/nowhere");
     EXPECT_EQ(missing.status, 2) << missing.out;
-    EXPECT_FALSE(fs::exists(dir() + "/nowhere"));
+    EXPECT_FALSE(fs::exists(contract_dir() + "/nowhere"));
     // The settings of a resumed image campaign come from its folder.
     const std::pair<std::string, std::string> cases[] = {
         {"--grid 15x15x30", "--grid cannot be combined with --resume"},
@@ -223,11 +223,11 @@ TEST(AcquireContract, ImageResumeReadsTheFolderAndRefusesNewCampaignOptions) {
         {"--material gold", "--material cannot be combined with --resume"},
     };
     for (const auto& [args, want] : cases) {
-        CliRun r = run_gonio("acquire --mode image --resume " + dir() + "/old " + args);
+        CliRun r = run_gonio("acquire --mode image --resume " + contract_dir() + "/old " + args);
         EXPECT_EQ(r.status, 2) << args << "\n" << r.out;
         EXPECT_TRUE(has(r.out, "gonio acquire: " + want)) << r.out;
     }  // The live page goes with a resume as with a new campaign: the folder is read first.
-    CliRun s = run_gonio("acquire --mode image --resume " + dir() + "/old --serve 127.0.0.1:0");
+    CliRun s = run_gonio("acquire --mode image --resume " + contract_dir() + "/old --serve 127.0.0.1:0");
     EXPECT_EQ(s.status, 1) << s.out;
     EXPECT_TRUE(has(s.out, "not an image-mode campaign folder")) << s.out;
 }
@@ -249,7 +249,7 @@ TEST(AcquireContract, GridIsAnImageModeOptionHonouredByThePlan) {
 
 TEST(AcquireContract, ImagePlanOnlyPrintsThePlanAndMeasuresNothing) {
     const fs::path cwd = fs::current_path();
-    const std::string here = dir() + "/plan";
+    const std::string here = contract_dir() + "/plan";
     fs::create_directories(here);
     fs::current_path(here);
     CliRun r = run_gonio("acquire --mode image --plan-only --coverage-target 0.4 --max-frames 7");
@@ -266,38 +266,38 @@ TEST(AcquireContract, PointModeRefusesImageOptionsAndResumeRefusesNewCampaignOpt
     CliRun a = run_gonio("acquire --plan-only --coverage-target 0.5");
     EXPECT_EQ(a.status, 2) << a.out;
     EXPECT_TRUE(has(a.out, "--coverage-target cannot be combined with --mode point")) << a.out;
-    fs::create_directories(dir() + "/c");  // readable: the refusal is the combination
-    CliRun b = run_gonio("acquire --resume " + dir() + "/c --material gold");
+    fs::create_directories(contract_dir() + "/c");  // readable: the refusal is the combination
+    CliRun b = run_gonio("acquire --resume " + contract_dir() + "/c --material gold");
     EXPECT_EQ(b.status, 2) << b.out;
     EXPECT_TRUE(has(b.out, "--material cannot be combined with --resume")) << b.out;
-    CliRun c = run_gonio("acquire --plan-only --out " + dir() + "/x");
+    CliRun c = run_gonio("acquire --plan-only --out " + contract_dir() + "/x");
     EXPECT_EQ(c.status, 2) << c.out;
     EXPECT_TRUE(has(c.out, "--out cannot be combined with --plan-only")) << c.out;
-    EXPECT_FALSE(fs::exists(dir() + "/x"));
+    EXPECT_FALSE(fs::exists(contract_dir() + "/x"));
 }
 
 // ---- gonio export, eval, check ---------------------------------------------------------------
 
 TEST(ExportContract, TwoOutputsAreRefused) {
-    const std::string model = dir() + "/m.json";
+    const std::string model = contract_dir() + "/m.json";
     std::ofstream(model) << gonio::brdf::model_to_json(truth());
-    CliRun r = run_gonio("export " + model + " --to mitsuba " + dir() + "/a.xml --out " + dir() +
+    CliRun r = run_gonio("export " + model + " --to mitsuba " + contract_dir() + "/a.xml --out " + contract_dir() +
                          "/b.xml");
     EXPECT_EQ(r.status, 2) << r.out;
     EXPECT_TRUE(has(r.out, "out_file")) << r.out;
     EXPECT_TRUE(has(r.out, "--out")) << r.out;
-    EXPECT_FALSE(fs::exists(dir() + "/a.xml"));
-    EXPECT_FALSE(fs::exists(dir() + "/b.xml"));
+    EXPECT_FALSE(fs::exists(contract_dir() + "/a.xml"));
+    EXPECT_FALSE(fs::exists(contract_dir() + "/b.xml"));
 }
 
 TEST(EvalContract, OutputReplacesAPlantedLinkAndFailureLeavesNoFile) {
-    const std::string model = dir() + "/m.json";
+    const std::string model = contract_dir() + "/m.json";
     std::ofstream(model) << gonio::brdf::model_to_json(truth());
-    const std::string in = dir() + "/dirs.csv";
+    const std::string in = contract_dir() + "/dirs.csv";
     std::ofstream(in) << "theta_i,phi_i,theta_o,phi_o\n0.3,0,0.4,3.1\n";
-    const std::string victim = dir() + "/victim.txt";
+    const std::string victim = contract_dir() + "/victim.txt";
     std::ofstream(victim) << "precious\n";
-    const std::string out = dir() + "/out.csv";
+    const std::string out = contract_dir() + "/out.csv";
     fs::remove(out);
     fs::create_symlink(victim, out);
     CliRun r = run_gonio("eval " + model + " -i " + in + " -o " + out);
@@ -305,20 +305,21 @@ TEST(EvalContract, OutputReplacesAPlantedLinkAndFailureLeavesNoFile) {
     EXPECT_EQ(read(victim), "precious\n");
     EXPECT_FALSE(fs::is_symlink(out));
     EXPECT_TRUE(has(read(out), "r,g,b\n"));
-    // A failure (no header line) leaves no file and no temporary debris.
-    const std::string bad_in = dir() + "/empty.csv";
+    // A failure (no header line: the input is refused whole, exit 2) leaves no file and no
+    // temporary debris.
+    const std::string bad_in = contract_dir() + "/empty.csv";
     std::ofstream(bad_in) << "# nothing\n";
-    const std::string out2 = dir() + "/out2.csv";
+    const std::string out2 = contract_dir() + "/out2.csv";
     CliRun f = run_gonio("eval " + model + " -i " + bad_in + " -o " + out2);
-    EXPECT_EQ(f.status, 1) << f.out;
+    EXPECT_EQ(f.status, 2) << f.out;
     EXPECT_FALSE(fs::exists(out2));
-    for (const auto& e : fs::directory_iterator(dir())) {
+    for (const auto& e : fs::directory_iterator(contract_dir())) {
         EXPECT_FALSE(has(e.path().filename().string(), ".tmp")) << e.path();
     }
 }
 
 TEST(CheckContract, PairsZeroIsRefusedWithTheRuleAsWritten) {
-    const std::string model = dir() + "/m.json";
+    const std::string model = contract_dir() + "/m.json";
     std::ofstream(model) << gonio::brdf::model_to_json(truth());
     CliRun r = run_gonio("check " + model + " --pairs 0");
     EXPECT_EQ(r.status, 2) << r.out;
@@ -357,7 +358,7 @@ TEST(Contract, ImageModeCameraSizeAndGrazingLimitAreCheckedAgainstTheRig) {
                            {"cy", 63.5},
                            {"rotation_world_to_camera", {0, 1, 0, 0, 0, -1, -1, 0, 0}},
                            {"translation_world_to_camera_m", {0, 0, 0.5}}};
-    const std::string path = dir() + "/rig-with-camera.json";
+    const std::string path = contract_dir() + "/rig-with-camera.json";
     std::ofstream(path) << rig.dump(2);
     const CliRun sized = run_gonio("acquire --mode image --plan-only --camera-px 96 --rig " + path);
     EXPECT_EQ(sized.status, 2) << sized.out;

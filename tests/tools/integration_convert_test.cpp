@@ -23,7 +23,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const char* kModel = R"({
+const char* kConvertModel = R"({
   "diffuse": [0.25, 0.2, 0.15],
   "lobes": [
     {"distribution": "ggx", "alpha": 0.25, "shadowing": "smith-correlated",
@@ -38,8 +38,8 @@ class ConvertCli : public ::testing::Test {
                ("gonio_convert_test_" + std::to_string(::getpid()) + "_" +
                 ::testing::UnitTest::GetInstance()->current_test_info()->name());
         fs::create_directories(dir_);
-        std::ofstream(path("model.json")) << kModel;
-        Expected<ModelD> m = parse_model_json(kModel, "model.json");
+        std::ofstream(path("model.json")) << kConvertModel;
+        Expected<ModelD> m = parse_model_json(kConvertModel, "model.json");
         ASSERT_TRUE(m) << m.error().message;
         model_ = *m;
     }

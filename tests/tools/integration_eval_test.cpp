@@ -56,7 +56,7 @@ class EvalCli : public ::testing::Test {
     fs::path dir_;
 };
 
-const char* kModel = R"({
+const char* kEvalModel = R"({
   "diffuse": [0.2, 0.3, 0.4],
   "lobes": [
     {"distribution": "ggx", "alpha_x": 0.15, "alpha_y": 0.3, "shadowing": "smith-correlated",
@@ -84,7 +84,7 @@ std::vector<std::vector<double>> parse_csv_numbers(const std::string& text, std:
 }
 
 TEST_F(EvalCli, ValuesEqualEvalModelAndBadRowsKeepTheirPlaceAsNaN) {
-    write("model.json", kModel);
+    write("model.json", kEvalModel);
     // Line 1 header, line 2 comment, 3-4 good, 5 bad number, 6 good, 7 theta out of range,
     // 8 below the horizon (valid: value 0), 9 wrong field count.
     write("dirs.csv",
@@ -230,7 +230,7 @@ TEST_F(EvalCli, RowsInDegreesInTheMiddleKeepTheOthersAligned) {
 }
 
 TEST_F(EvalCli, AnInputWithoutAUsableRowIsRefusedWholeBeforeAnyOutput) {
-    write("model.json", kModel);
+    write("model.json", kEvalModel);
     write("degrees.csv", "theta_i,phi_i,theta_o,phi_o\n30,0,45,180\n60,90,10,0\n");
     EXPECT_EQ(run("eval " + path("model.json") + " -i " + path("degrees.csv") + " > " + path("o") +
                   " 2> " + path("e")),
@@ -252,7 +252,7 @@ TEST_F(EvalCli, AnInputWithoutAUsableRowIsRefusedWholeBeforeAnyOutput) {
 }
 
 TEST_F(EvalCli, ColumnsInAnyOrderAndFilesAsOptions) {
-    write("model.json", kModel);
+    write("model.json", kEvalModel);
     write("dirs.csv", "phi_o,theta_o,note,phi_i,theta_i\n3.0,0.5,x,0.1,0.3\n");
     EXPECT_EQ(
         run("eval " + path("model.json") + " -i " + path("dirs.csv") + " -o " + path("out.csv")),
@@ -267,7 +267,7 @@ TEST_F(EvalCli, ColumnsInAnyOrderAndFilesAsOptions) {
 }
 
 TEST_F(EvalCli, StructuralErrorsFailTheWork) {
-    write("model.json", kModel);
+    write("model.json", kEvalModel);
     write("noheader.csv", "0.1,0.2,0.3,0.4\n");
     EXPECT_EQ(run("eval " + path("model.json") + " < " + path("noheader.csv") + " > " + path("o") +
                   " 2> " + path("e")),
@@ -285,7 +285,7 @@ TEST_F(EvalCli, StructuralErrorsFailTheWork) {
 }
 
 TEST_F(EvalCli, CheckPassesAPhysicalModelAndFlagsAnUnshadowedOne) {
-    // Diffuse plus a dielectric-like coat: albedo stays below 1 at every incidence. (kModel adds
+    // Diffuse plus a dielectric-like coat: albedo stays below 1 at every incidence. (kEvalModel adds
     // a strong gold lobe to a diffuse base and does exceed 1 near grazing incidence.)
     write("model.json",
           R"({"diffuse":[0.5,0.4,0.3],"lobes":[{"distribution":"ggx","alpha":0.2,)"

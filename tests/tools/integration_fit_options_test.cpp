@@ -24,7 +24,7 @@ namespace {
 using gonio::testing::CliRun;
 using gonio::testing::run_gonio;
 
-std::string dir() {
+std::string options_dir() {
     static const std::string d = gonio::testing::fresh_test_dir("integration_fit_options").string();
     return d;
 }
@@ -32,7 +32,7 @@ std::string dir() {
 /// A readable dataset with its header and no sample: a fit of it fails (exit 1) once it reads the
 /// data, so an option refused before that (exit 2) is refused before any work.
 std::string empty_data() {
-    const std::string path = dir() + "/no-samples.csv";
+    const std::string path = options_dir() + "/no-samples.csv";
     std::ofstream(path) << "theta_i,phi_i,theta_o,phi_o,r,g,b\n";
     return path;
 }
@@ -156,7 +156,7 @@ std::string synthetic_data() {
     m.lobes.push_back(l);
     gonio::brdf::Dataset d =
         gonio::fitting::testing::synthesize(m, gonio::fitting::testing::measurement_grid());
-    const std::string path = dir() + "/synthetic.csv";
+    const std::string path = options_dir() + "/synthetic.csv";
     EXPECT_TRUE(gonio::brdf::write_dataset_csv(path, d));
     return path;
 }
@@ -229,11 +229,11 @@ TEST(GonioFit, LambertOnlyFitRecoversTheAlbedo) {
     truth.diffuse = gonio::brdf::Rgbd(0.62, 0.35, 0.08);
     gonio::brdf::Dataset d =
         gonio::fitting::testing::synthesize(truth, gonio::fitting::testing::measurement_grid());
-    const std::string data = dir() + "/lambert.csv";
+    const std::string data = options_dir() + "/lambert.csv";
     ASSERT_TRUE(gonio::brdf::write_dataset_csv(data, d));
     for (const std::string model : {"ggx", "beckmann", "blinn-phong"}) {
         for (const std::string starts : {"1", "6"}) {
-            const std::string out = dir() + "/lambert_" + model + starts + ".json";
+            const std::string out = options_dir() + "/lambert_" + model + starts + ".json";
             CliRun r = run_gonio("fit " + data + " --lobes 0 --model " + model + " --starts " +
                                  starts + " --out " + out);
             ASSERT_EQ(r.status, 0) << r.out;

@@ -25,7 +25,7 @@ using gonio::testing::CliRun;
 using gonio::testing::run_gonio;
 
 /// The running test's own folder (created fresh on first use).
-std::string dir() {
+std::string fit_dir() {
     static const std::string d = gonio::testing::fresh_test_dir("integration_fit").string();
     return d;
 }
@@ -46,7 +46,7 @@ gonio::brdf::ModelD ggx_truth() {
 
 /// Writes the synthetic dataset of the default model's structure, with `extra` appended.
 std::string write_data(const std::string& name = "ggx.csv", const std::string& extra = "") {
-    const std::string path = dir() + "/" + name;
+    const std::string path = fit_dir() + "/" + name;
     gonio::brdf::Dataset d = gonio::fitting::testing::synthesize(
         ggx_truth(), gonio::fitting::testing::measurement_grid());
     EXPECT_TRUE(gonio::brdf::write_dataset_csv(path, d));
@@ -57,7 +57,7 @@ std::string write_data(const std::string& name = "ggx.csv", const std::string& e
 
 TEST(GonioFit, FitsACsvAndWritesModelAndReport) {
     const std::string data = write_data();
-    const std::string out = dir() + "/fit.json";
+    const std::string out = fit_dir() + "/fit.json";
     std::remove(out.c_str());
     CliRun r = run_gonio("fit " + data + " --model ggx --out " + out);
     ASSERT_EQ(r.status, 0) << r.out;
@@ -71,7 +71,7 @@ TEST(GonioFit, FitsACsvAndWritesModelAndReport) {
     auto brdf = gonio::brdf::load_brdf(out);
     ASSERT_TRUE(brdf) << brdf.error().message;
     // The report: keys other tools read.
-    std::ifstream in(dir() + "/fit.report.json");
+    std::ifstream in(fit_dir() + "/fit.report.json");
     std::stringstream ss;
     ss << in.rdbuf();
     const nlohmann::json j = nlohmann::json::parse(ss.str());
@@ -113,19 +113,19 @@ TEST(GonioFit, CompareRanksTheGeneratingModelFirst) {
 
 TEST(GonioFit, ANonConvergedFitExitsNonZeroAndWritesNoModel) {
     const std::string data = write_data();
-    const std::string out = dir() + "/stopped.json";
+    const std::string out = fit_dir() + "/stopped.json";
     std::remove(out.c_str());
     CliRun r = run_gonio("fit " + data + " --max-iterations 1 --starts 1 --out " + out);
     EXPECT_NE(r.status, 0) << r.out;
     EXPECT_NE(r.out.find("DID NOT CONVERGE"), std::string::npos) << r.out;
     EXPECT_EQ(r.out.find("parameters:"), std::string::npos) << r.out;
     EXPECT_FALSE(std::ifstream(out).good());
-    EXPECT_TRUE(std::ifstream(dir() + "/stopped.report.json").good());
+    EXPECT_TRUE(std::ifstream(fit_dir() + "/stopped.report.json").good());
 }
 
 TEST(GonioFit, AMisfitIsWrittenWithItsVerdictAndExitsZeroUnlessStrict) {
     // A retro-reflection peak that no microfacet lobe at the mirror direction follows.
-    const std::string path = dir() + "/retro.csv";
+    const std::string path = fit_dir() + "/retro.csv";
     gonio::brdf::Dataset d = gonio::fitting::testing::synthesize(
         ggx_truth(), gonio::fitting::testing::measurement_grid());
     for (gonio::brdf::Sample& s : d.samples) {
@@ -134,8 +134,8 @@ TEST(GonioFit, AMisfitIsWrittenWithItsVerdictAndExitsZeroUnlessStrict) {
         s.value += Rgbd(retro, 0.5 * retro, 0.2 * retro);
     }
     ASSERT_TRUE(gonio::brdf::write_dataset_csv(path, d));
-    const std::string out = dir() + "/misfit.json";
-    const std::string err = dir() + "/misfit.stderr";
+    const std::string out = fit_dir() + "/misfit.json";
+    const std::string err = fit_dir() + "/misfit.stderr";
     std::remove(out.c_str());
     CliRun r = run_gonio("fit " + path + " --out " + out, err);
     EXPECT_EQ(r.status, 0) << r.out;
@@ -167,7 +167,7 @@ TEST(GonioFit, AMisfitIsWrittenWithItsVerdictAndExitsZeroUnlessStrict) {
 }
 
 TEST(GonioFit, BadInputsAreClearErrors) {
-    CliRun missing = run_gonio("fit " + dir() + "/does-not-exist.csv");
+    CliRun missing = run_gonio("fit " + fit_dir() + "/does-not-exist.csv");
     EXPECT_NE(missing.status, 0);
     EXPECT_NE(missing.out.find("does-not-exist.csv"), std::string::npos) << missing.out;
     const std::string data = write_data();
@@ -193,7 +193,7 @@ TEST(GonioFit, MalformedCsvRowsAreErrorsNamingFileLineAndColumn) {
     int k = 1;
     for (const Case& c : cases) {
         const std::string name = "bad" + std::to_string(k++) + ".csv";
-        const std::string out = dir() + "/" + name + ".json";
+        const std::string out = fit_dir() + "/" + name + ".json";
         CliRun r = run_gonio("fit " + write_data(name, c.row) + " --out " + out);
         EXPECT_EQ(r.status, 1) << r.out;
         EXPECT_NE(r.out.find(c.expect), std::string::npos) << c.expect << "\n" << r.out;
@@ -219,10 +219,10 @@ TEST(GonioFit, ModelAutoRanksCandidatesAndPolishesTheWinner) {
             }
         }
     }
-    const std::string data = dir() + "/beckmann.csv";
+    const std::string data = fit_dir() + "/beckmann.csv";
     ASSERT_TRUE(
         gonio::brdf::write_dataset_csv(data, gonio::fitting::testing::synthesize(truth, dirs)));
-    const std::string out = dir() + "/auto.json";
+    const std::string out = fit_dir() + "/auto.json";
     CliRun r = run_gonio("fit --model auto " + data + " --out " + out);
     ASSERT_EQ(r.status, 0) << r.out;
     EXPECT_NE(r.out.find("BIC"), std::string::npos) << r.out;
@@ -233,7 +233,7 @@ TEST(GonioFit, ModelAutoRanksCandidatesAndPolishesTheWinner) {
     EXPECT_NE(r.out.find("chosen: beckmann\n"), std::string::npos) << r.out;
     // Polished: the result is the fit on every valid sample, not on the ranking set, and it
     // reaches the truth.
-    std::ifstream in(dir() + "/auto.report.json");
+    std::ifstream in(fit_dir() + "/auto.report.json");
     const nlohmann::json rep = nlohmann::json::parse(in);
     EXPECT_EQ(rep.at("samples").at("valid").get<std::size_t>(), dirs.size());
     EXPECT_EQ(rep.at("samples").at("used").get<std::size_t>(), dirs.size());
@@ -246,7 +246,7 @@ TEST(GonioFit, ModelAutoRanksCandidatesAndPolishesTheWinner) {
 
 TEST(GonioFit, ReductionAndTemplateOptionsWork) {
     const std::string data = write_data();
-    const std::string tmpl = dir() + "/template.json";
+    const std::string tmpl = fit_dir() + "/template.json";
     {
         gonio::brdf::ModelD start = ggx_truth();
         start.lobes[0].alpha_x = start.lobes[0].alpha_y = 0.3;

@@ -19,7 +19,7 @@ namespace {
 using gonio::testing::CliRun;
 using gonio::testing::run_gonio;
 
-std::string dir() {
+std::string values_dir() {
     static const std::string d = gonio::testing::fresh_test_dir("integration_fit_values").string();
     return d;
 }
@@ -56,11 +56,11 @@ gonio::brdf::Dataset yellow_measurement(double noise, bool with_sigma, int* belo
 
 /// Fits `d` written to NAME; returns the run and the report.
 CliRun fit(const gonio::brdf::Dataset& d, const std::string& name, nlohmann::json* report) {
-    const std::string data = dir() + "/" + name + ".csv";
+    const std::string data = values_dir() + "/" + name + ".csv";
     EXPECT_TRUE(gonio::brdf::write_dataset_csv(data, d));
-    const std::string out = dir() + "/" + name + ".fit.json";
+    const std::string out = values_dir() + "/" + name + ".fit.json";
     CliRun r = run_gonio("fit " + data + " --out " + out);
-    std::ifstream in(dir() + "/" + name + ".fit.report.json");
+    std::ifstream in(values_dir() + "/" + name + ".fit.report.json");
     if (in && report != nullptr) {
         *report = nlohmann::json::parse(in);
     }
@@ -97,7 +97,7 @@ TEST(GonioFit, AValueFarBelowZeroIsRefusedNamingItsRow) {
     int below = 0;
     gonio::brdf::Dataset d = yellow_measurement(1e-7, true, &below);
     d.samples[40].value[2] = -0.05;  // 5e5 sigmas below zero: no measurement of a dark value
-    const std::string data = dir() + "/far.csv";
+    const std::string data = values_dir() + "/far.csv";
     ASSERT_TRUE(gonio::brdf::write_dataset_csv(data, d));
     CliRun r = run_gonio("fit " + data);
     EXPECT_EQ(r.status, 1) << r.out;
@@ -109,7 +109,7 @@ TEST(GonioFit, AValueFarBelowZeroIsRefusedNamingItsRow) {
         s.sigma = gonio::brdf::Rgbd::Zero();
     }
     d.has_sigma = false;
-    const std::string plain = dir() + "/far_nosigma.csv";
+    const std::string plain = values_dir() + "/far_nosigma.csv";
     ASSERT_TRUE(gonio::brdf::write_dataset_csv(plain, d));
     CliRun p = run_gonio("fit " + plain);
     EXPECT_EQ(p.status, 1) << p.out;

@@ -24,14 +24,14 @@ using gonio::testing::CliRun;
 using gonio::testing::read_text;
 using gonio::testing::run_gonio;
 
-std::string dir() {
+std::string verdict_dir() {
     static const std::string d = gonio::testing::fresh_test_dir("integration_fit_verdict").string();
     return d;
 }
 
 /// The demo's material (Ngan 2005 red plastic: Beckmann + V-groove), noise-free on the grid.
 std::string red_plastic() {
-    const std::string path = dir() + "/red_plastic.csv";
+    const std::string path = verdict_dir() + "/red_plastic.csv";
     auto m = gonio::brdf::load_material("red-plastic");
     EXPECT_TRUE(m) << m.error().message;
     gonio::brdf::Dataset d =
@@ -42,7 +42,7 @@ std::string red_plastic() {
 
 /// A retro-reflection peak that no microfacet lobe at the mirror direction follows.
 std::string retro() {
-    const std::string path = dir() + "/retro.csv";
+    const std::string path = verdict_dir() + "/retro.csv";
     gonio::brdf::ModelD m;
     m.has_diffuse = true;
     m.diffuse = Rgbd(0.3, 0.3, 0.3);
@@ -73,7 +73,7 @@ std::size_t count(const std::string& text, const std::string& piece) {
 
 TEST(GonioFit, AVisibleMisfitOfADarkChannelIsTheHeadlineNotUsableAndRepresents) {
     const std::string data = red_plastic();
-    const std::string out = dir() + "/ggx.json";
+    const std::string out = verdict_dir() + "/ggx.json";
     CliRun r = run_gonio("fit " + data + " --model ggx --out " + out);
     ASSERT_EQ(r.status, 0) << r.out;
     const nlohmann::json rep = report_of(out);
@@ -92,7 +92,7 @@ TEST(GonioFit, AVisibleMisfitOfADarkChannelIsTheHeadlineNotUsableAndRepresents) 
     // A visible misfit is usable: --strict does not fail it.
     EXPECT_EQ(run_gonio("fit " + data + " --model ggx --strict").status, 0);
     // The family that fits it: the headline is then "represents".
-    const std::string out_b = dir() + "/beckmann.json";
+    const std::string out_b = verdict_dir() + "/beckmann.json";
     CliRun b = run_gonio("fit " + data + " --model beckmann --shadowing v-groove --out " + out_b);
     ASSERT_EQ(b.status, 0) << b.out;
     EXPECT_EQ(report_of(out_b)["goodness"]["verdict"], "represents");
@@ -102,7 +102,7 @@ TEST(GonioFit, AVisibleMisfitOfADarkChannelIsTheHeadlineNotUsableAndRepresents) 
 
 TEST(GonioFit, AMisfitIsPrintedOnceAndStrictFailsIt) {
     const std::string data = retro();
-    const std::string err = dir() + "/once.stderr";
+    const std::string err = verdict_dir() + "/once.stderr";
     CliRun r = run_gonio("fit " + data, err);
     ASSERT_EQ(r.status, 0) << r.out;
     EXPECT_EQ(count(r.out, "MISFIT"), 1u) << r.out;
@@ -130,7 +130,7 @@ TEST(GonioFit, SuggestionsNeverNameWhatWasUsed) {
                           Case{"--roughness rgb", "--roughness rgb"},
                           Case{"--model beckmann", "--model beckmann"},
                           Case{"--model student-t", "--model student-t"}}) {
-        const std::string out = dir() + "/suggest.json";
+        const std::string out = verdict_dir() + "/suggest.json";
         CliRun r = run_gonio("fit " + data + " " + c.options + " --out " + out);
         ASSERT_EQ(r.status, 0) << r.out;
         const nlohmann::json rep = report_of(out);
@@ -143,7 +143,7 @@ TEST(GonioFit, SuggestionsNeverNameWhatWasUsed) {
 
 TEST(GonioFit, AfterModelAutoTheSuggestionIsTheMeasurementAsATableWithItsError) {
     const std::string data = retro();
-    const std::string out = dir() + "/auto.json";
+    const std::string out = verdict_dir() + "/auto.json";
     CliRun r = run_gonio("fit " + data + " --model auto --out " + out);
     ASSERT_EQ(r.status, 0) << r.out;
     const nlohmann::json rep = report_of(out);
@@ -166,11 +166,11 @@ TEST(GonioFit, AfterModelAutoTheSuggestionIsTheMeasurementAsATableWithItsError) 
 
 TEST(GonioFit, AnExportOfAMisfitCarriesItsVerdictAndWarns) {
     const std::string data = retro();
-    const std::string model = dir() + "/misfit.json";
+    const std::string model = verdict_dir() + "/misfit.json";
     ASSERT_EQ(run_gonio("fit " + data + " --out " + model).status, 0);
     for (const std::string to : {"mitsuba", "pbrt"}) {
-        const std::string out = dir() + "/misfit." + (to == "mitsuba" ? "xml" : "pbrt");
-        const std::string err = dir() + "/export.stderr";
+        const std::string out = verdict_dir() + "/misfit." + (to == "mitsuba" ? "xml" : "pbrt");
+        const std::string err = verdict_dir() + "/export.stderr";
         CliRun r = run_gonio("export " + model + " --to " + to + " --out " + out, err);
         ASSERT_EQ(r.status, 0) << r.out;
         EXPECT_NE(r.out.find("warning: " + model + ": the fit's verdict is \"MISFIT"),
@@ -182,23 +182,23 @@ TEST(GonioFit, AnExportOfAMisfitCarriesItsVerdictAndWarns) {
             << text;
     }
     // A fit that represents its data exports without either.
-    const std::string good = dir() + "/good.json";
+    const std::string good = verdict_dir() + "/good.json";
     ASSERT_EQ(
         run_gonio("fit " + red_plastic() + " --model beckmann --shadowing v-groove --out " + good)
             .status,
         0);
-    CliRun g = run_gonio("export " + good + " --to mitsuba --out " + dir() + "/good.xml");
+    CliRun g = run_gonio("export " + good + " --to mitsuba --out " + verdict_dir() + "/good.xml");
     ASSERT_EQ(g.status, 0) << g.out;
     EXPECT_EQ(g.out.find("warning:"), std::string::npos) << g.out;
-    EXPECT_EQ(read_text(dir() + "/good.xml").find("gonio fit verdict"), std::string::npos);
+    EXPECT_EQ(read_text(verdict_dir() + "/good.xml").find("gonio fit verdict"), std::string::npos);
 }
 
 TEST(GonioExport, SchlickF0OfOneIsMappedToAConductorWithItsReasonNotEta4e12) {
-    const std::string model = dir() + "/mirror.json";
+    const std::string model = verdict_dir() + "/mirror.json";
     std::ofstream(model) << R"({"diffuse": [0.1, 0.1, 0.1], "lobes": [{"distribution": "ggx",
         "alpha": 0.1, "shadowing": "smith-correlated", "fresnel": {"type": "schlick", "f0": [1, 0.5, 1]}, "scale": [1, 1, 1]}]})";
-    const std::string out = dir() + "/mirror.xml";
-    const std::string err = dir() + "/mirror.stderr";
+    const std::string out = verdict_dir() + "/mirror.xml";
+    const std::string err = verdict_dir() + "/mirror.stderr";
     CliRun r = run_gonio("export " + model + " --to mitsuba --out " + out, err);
     ASSERT_EQ(r.status, 0) << r.out;
     const std::string text = read_text(out);

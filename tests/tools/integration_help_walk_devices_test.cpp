@@ -29,17 +29,17 @@ using gonio::testing::run_gonio;
 using gonio::testing::take_written;
 using gonio::testing::word_after;
 
-std::string dir() {
+std::string devices_walk_dir() {
     static const std::string d = gonio::testing::fresh_test_dir("help_walk_devices").string();
     return d;
 }
 
 /// A model unlike the simulators' default materials.
-std::string model_json() {
+std::string devices_walk_model() {
     gonio::brdf::ModelD m;
     m.has_diffuse = true;
     m.diffuse = gonio::brdf::Rgbd(0.05, 0.3, 0.6);
-    const std::string p = dir() + "/m.json";
+    const std::string p = devices_walk_dir() + "/m.json";
     std::ofstream(p) << gonio::brdf::model_to_json(m);
     return p;
 }
@@ -313,8 +313,8 @@ TEST(HelpWalk, AxisEveryOptionHonouredOrRefused) {
 }
 
 TEST(HelpWalk, CameraEveryOptionHonouredOrRefused) {
-    const std::string d = dir();
-    const std::string m = model_json();
+    const std::string d = devices_walk_dir();
+    const std::string m = devices_walk_model();
     const std::string exr = d + "/f.exr";
     // The embedded simulated camera, small frames.
     const std::string c = "camera --connect sim capture --width 64 --height 48";
@@ -419,8 +419,8 @@ TEST(HelpWalk, CameraEveryOptionHonouredOrRefused) {
 }
 
 TEST(HelpWalk, SimEveryOptionHonouredOrRefused) {
-    const std::string d = dir();
-    const std::string m = model_json();
+    const std::string d = devices_walk_dir();
+    const std::string m = devices_walk_model();
     const std::string exr = d + "/sim.exr";
     // A rig description whose simulated sample is gold (the shipped one mounts red plastic).
     const std::string config = d + "/gold.json";

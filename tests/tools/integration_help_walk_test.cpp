@@ -23,12 +23,12 @@ using gonio::testing::Proof;
 using gonio::testing::prove;
 using gonio::testing::run_gonio;
 
-std::string dir() {
+std::string walk_dir() {
     static const std::string d = gonio::testing::fresh_test_dir("help_walk").string();
     return d;
 }
 
-std::string model_json() {
+std::string walk_model() {
     gonio::brdf::ModelD m;
     m.has_diffuse = true;
     m.diffuse = gonio::brdf::Rgbd(0.3, 0.2, 0.1);
@@ -38,7 +38,7 @@ std::string model_json() {
     l.fresnel.type = gonio::brdf::FresnelType::kSchlick;
     l.fresnel.f0 = gonio::brdf::Rgbd::Constant(0.04);
     m.lobes.push_back(l);
-    const std::string p = dir() + "/m.json";
+    const std::string p = walk_dir() + "/m.json";
     std::ofstream(p) << gonio::brdf::model_to_json(m);
     return p;
 }
@@ -47,23 +47,23 @@ std::string other_model_json() {
     gonio::brdf::ModelD m;
     m.has_diffuse = true;
     m.diffuse = gonio::brdf::Rgbd(0.5, 0.5, 0.5);
-    const std::string p = dir() + "/m2.json";
+    const std::string p = walk_dir() + "/m2.json";
     std::ofstream(p) << gonio::brdf::model_to_json(m);
     return p;
 }
 
 std::string dirs_csv(const std::string& name, const std::string& row) {
-    const std::string p = dir() + "/" + name;
+    const std::string p = walk_dir() + "/" + name;
     std::ofstream(p) << "theta_i,phi_i,theta_o,phi_o\n" << row << "\n";
     return p;
 }
 
-/// A small real dataset: the GGX model of model_json() on the fitting tests' measurement grid,
+/// A small real dataset: the GGX model of walk_model() on the fitting tests' measurement grid,
 /// 2 % relative noise drawn from seed 1, and every 40th value twice what it should be (outliers,
 /// which a robust loss and its scale treat differently from the rest).
 std::string noisy_csv() {
-    const std::string p = dir() + "/noisy.csv";
-    const gonio::brdf::ModelD m = *gonio::brdf::load_model_json(model_json());
+    const std::string p = walk_dir() + "/noisy.csv";
+    const gonio::brdf::ModelD m = *gonio::brdf::load_model_json(walk_model());
     gonio::brdf::Dataset d = gonio::fitting::testing::noisy_measurement(m, 1);
     for (std::size_t k = 0; k < d.samples.size(); k += 40) {
         d.samples[k].value *= 2.0;
@@ -77,11 +77,11 @@ TEST(HelpWalk, FitEveryOptionHonouredOrRefused) {
     // file: parameters and verdict); the printed request line, which echoes every option, is not
     // the outcome.
     const std::string data = noisy_csv();
-    const std::string w = dir() + "/fit-walk.json";
+    const std::string w = walk_dir() + "/fit-walk.json";
     const std::string f = "fit " + data + " --out " + w;
-    const std::string report = dir() + "/fit-walk.report.json";
+    const std::string report = walk_dir() + "/fit-walk.report.json";
     // A manifest that exists (one that does not is refused before any work, naming only itself).
-    const std::string manifest = dir() + "/m.csv";
+    const std::string manifest = walk_dir() + "/m.csv";
     std::ofstream(manifest) << "not a manifest\n";
     prove(
         "fit",
@@ -115,8 +115,8 @@ TEST(HelpWalk, FitEveryOptionHonouredOrRefused) {
             // The solver's passes give the same result on any number of threads (documented in
             // docs/fitting-guide.md): the proof is that the results are equal.
             {"--threads", f + " --threads 1", f + " --threads 2", "", w, {}, "", nullptr, true},
-            {"--out", f, "fit " + data + " --out " + dir() + "/elsewhere.json", "", w},
-            {"--truth", f, f + " --truth " + model_json(), "", report},
+            {"--out", f, "fit " + data + " --out " + walk_dir() + "/elsewhere.json", "", w},
+            {"--truth", f, f + " --truth " + walk_model(), "", report},
             // The request as run, printed only when asked for.
             {"--verbose", f, f + " --verbose"},
             {"--compare", "fit --manifest " + manifest + " --out o --compare ggx", ""},
@@ -141,9 +141,9 @@ TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
     const BusyPort busy;
     ASSERT_GT(busy.port(), 0);
     // A folder to resume (refused options are refused before it is read).
-    const std::string r = "acquire --resume " + dir() + "/camp";
-    fs::create_directories(dir() + "/camp");
-    const std::string camp = dir() + "/c.json";
+    const std::string r = "acquire --resume " + walk_dir() + "/camp";
+    fs::create_directories(walk_dir() + "/camp");
+    const std::string camp = walk_dir() + "/c.json";
     const std::string zoom_rig = std::string(GONIO_SOURCE_DIR) + "/data/rigs/sim-image-zoom.json";
     std::ofstream(camp) << R"({"plan": {"kind": "uniform", "n_theta": 3, "n_dphi": 2}})";
     prove("acquire",
@@ -238,22 +238,22 @@ TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
               // Image mode serves its live page: given an address already in use, it says so
               // and stops before it writes anything; without the option the campaign runs.
               {"--serve",
-               "acquire --mode image --max-frames 1 --out " + dir() +
+               "acquire --mode image --max-frames 1 --out " + walk_dir() +
                    "/served --serve 127.0.0.1:" + std::to_string(busy.port()),
-               "acquire --mode image --max-frames 1 --out " + dir() + "/served"},
+               "acquire --mode image --max-frames 1 --out " + walk_dir() + "/served"},
               {"--serve", "acquire --plan-only --serve 0", ""},
               // The campaign the --serve proof just ran (one light position, its frame limit),
               // resumed: read from its folder, with nothing left to measure; a folder that holds
               // no campaign is refused, naming it.
               {"--resume",
-               "acquire --mode image --resume " + dir() + "/served",
-               "acquire --mode image --resume " + dir() + "/no-campaign"},
+               "acquire --mode image --resume " + walk_dir() + "/served",
+               "acquire --mode image --resume " + walk_dir() + "/no-campaign"},
               {"--plan-only", r + " --plan-only", ""},
           });
 }
 
 TEST(HelpWalk, ExportEvalCheckEveryOptionHonouredOrRefused) {
-    const std::string m = model_json();
+    const std::string m = walk_model();
     const std::string m2 = other_model_json();
     const std::string blinn_phong = std::string(GONIO_SOURCE_DIR) + "/data/models/blinn-phong.json";
     prove("export",
@@ -264,7 +264,7 @@ TEST(HelpWalk, ExportEvalCheckEveryOptionHonouredOrRefused) {
               {"out_file", "export " + m + " --to pbrt a.pbrt --out b.pbrt", ""},
               {"--out",
                "export " + m + " --to pbrt",
-               "export " + m + " --to pbrt --out " + dir() + "/x.pbrt"},
+               "export " + m + " --to pbrt --out " + walk_dir() + "/x.pbrt"},
               {"--approximate",
                "export " + blinn_phong + " --to blender",
                "export " + blinn_phong + " --to blender --approximate"},
@@ -278,11 +278,11 @@ TEST(HelpWalk, ExportEvalCheckEveryOptionHonouredOrRefused) {
               {"--input", "eval " + m + " -i " + in1, "eval " + m + " -i " + in2},
               {"--output",
                "eval " + m + " -i " + in1,
-               "eval " + m + " -i " + in1 + " -o " + dir() + "/e.csv"},
+               "eval " + m + " -i " + in1 + " -o " + walk_dir() + "/e.csv"},
           });
     const std::string c = "check " + m + " --pairs 200";
     // A measured dataset: two samples 0.7 deg from each other's reciprocal.
-    const std::string data = dir() + "/measured.csv";
+    const std::string data = walk_dir() + "/measured.csv";
     std::ofstream(data) << "theta_i,phi_i,theta_o,phi_o,r,g,b\n0.5236,0,0.7854,3.1416,0.5,0.5,0.5\n"
                            "0.7976,0,0.5236,3.1416,0.52,0.5,0.5\n";
     prove("check",
@@ -307,9 +307,9 @@ TEST(HelpWalk, ExportEvalCheckEveryOptionHonouredOrRefused) {
 }
 
 TEST(HelpWalk, ConvertEveryOptionHonouredOrRefused) {
-    const std::string m = model_json();
+    const std::string m = walk_model();
     const std::string m2 = other_model_json();
-    const std::string d = dir();
+    const std::string d = walk_dir();
     // A table and a sample CSV to convert from (made by the command itself).
     ASSERT_EQ(run_gonio("convert " + m + " " + d + "/t.gtab --grid 6x6x12").status, 0);
     ASSERT_EQ(run_gonio("convert " + m + " " + d + "/s.csv --grid 6x6x12").status, 0);
@@ -358,9 +358,9 @@ TEST(HelpWalk, ConvertEveryOptionHonouredOrRefused) {
 }
 
 TEST(HelpWalk, PlotPreviewReportEveryOptionHonouredOrRefused) {
-    const std::string m = model_json();
+    const std::string m = walk_model();
     const std::string m2 = other_model_json();
-    const std::string d = dir();
+    const std::string d = walk_dir();
     ASSERT_EQ(run_gonio("convert " + m + " " + d + "/s.csv --grid 6x6x12").status, 0);
     ASSERT_EQ(run_gonio("convert " + m2 + " " + d + "/s2.csv --grid 6x6x12").status, 0);
     const std::string plots = d + "/plots";

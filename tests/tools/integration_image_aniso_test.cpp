@@ -36,7 +36,7 @@ namespace {
 namespace fs = std::filesystem;
 using gonio::testing::run_gonio;
 
-std::string temp_dir(const std::string& name) {
+std::string image_aniso_dir(const std::string& name) {
     return gonio::testing::test_folder("test_tools_image_aniso", name, true);
 }
 
@@ -69,7 +69,7 @@ struct Param {
 /// Measures `truth` with the anisotropic image plan through the binary (the virtual rig's default
 /// 256 x 256 telecentric camera) and fits the dataset; returns the fit report's parameters.
 std::map<std::string, Param> measure_and_fit(const std::string& name, const std::string& truth) {
-    const std::string dir = temp_dir(name);
+    const std::string dir = image_aniso_dir(name);
     const std::string model = dir + "/truth.json";
     std::ofstream(model) << truth;
     int st = 0;
@@ -167,7 +167,7 @@ TEST(ImageAnisotropic, TurnedSphereBrushedAt30DegreesIsRecovered) {
 TEST(ImageAnisotropic, PerspectiveCameraRecoversTheBrushingAt30Degrees) {
     // The default perspective camera (0.5 m from the sphere; its distance from the outline's
     // apparent radius): the run of the command in process, the fit through the binary.
-    const std::string dir = temp_dir("perspective");
+    const std::string dir = image_aniso_dir("perspective");
     std::ofstream(dir + "/truth.json") << brushed_model(0.1, 0.3, 30);
     acquisition::CampaignRequest r;
     r.mode = acquisition::CampaignMode::kImage;
@@ -226,7 +226,7 @@ TEST(ImageAnisotropic, OptionsItCannotHonourAreRefused) {
     EXPECT_EQ(st, 2) << out;
     EXPECT_NE(out.find("--grid cannot be combined with --anisotropic"), std::string::npos) << out;
     // An anisotropic truth without --anisotropic: the isotropic table cannot hold it.
-    const std::string dir = temp_dir("refused");
+    const std::string dir = image_aniso_dir("refused");
     std::ofstream(dir + "/truth.json") << brushed_model(0.1, 0.3, 0);
     out =
         run_gonio("acquire --mode image --brdf " + dir + "/truth.json --out " + dir + "/run", &st);
@@ -244,7 +244,7 @@ TEST(ImageAnisotropic, OptionsItCannotHonourAreRefused) {
 TEST(ImageAnisotropic, CommandResumesFromTheFolderSettings) {
     // A campaign stopped by its frame limit, continued with --resume: the folder's settings
     // (image_campaign.json) keep it anisotropic, the journal's poses are not taken again.
-    const std::string dir = temp_dir("cli_resume");
+    const std::string dir = image_aniso_dir("cli_resume");
     std::ofstream(dir + "/truth.json") << brushed_model(0.15, 0.35, 20);
     int st = 0;
     std::string out = run_gonio("acquire --mode image --anisotropic --camera-px 64 --brdf " + dir +
@@ -271,18 +271,18 @@ TEST(ImageAnisotropic, CommandResumesFromTheFolderSettings) {
 
 // ---- resume after SIGKILL ------------------------------------------------------------------
 
-struct Campaign {
+struct AnisoCampaign {
     acquisition::ImageRigOptions rig;
     acquisition::AnisoLayout layout{8, 12, 6, 8};
     double coverage_target = 0.3;
     int max_frames = 60;
 };
 
-Expected<std::unique_ptr<acquisition::ImageRig>> start_rig(const Campaign& o) {
+Expected<std::unique_ptr<acquisition::ImageRig>> start_aniso_rig(const AnisoCampaign& o) {
     return acquisition::start_image_rig(o.rig, embedded_rig_starter());
 }
 
-acquisition::ImageCampaignConfig config_of(const Campaign& o, const acquisition::ImageRig& rig) {
+acquisition::ImageCampaignConfig aniso_config_of(const AnisoCampaign& o, const acquisition::ImageRig& rig) {
     acquisition::ImageCampaignConfig cfg =
         acquisition::image_campaign_config(rig.rig, rig.camera, 6, o.coverage_target, o.max_frames);
     acquisition::make_anisotropic(&cfg, rig.rig, o.layout);
@@ -291,12 +291,12 @@ acquisition::ImageCampaignConfig config_of(const Campaign& o, const acquisition:
 
 /// The campaign in a child process killed with SIGKILL at the `kill_exposure`-th exposure the
 /// virtual camera renders, or right after frame `kill_after_frames` is journaled (0: never).
-int killed_child(const Campaign& o,
+int killed_child(const AnisoCampaign& o,
                  const std::string& journal,
                  std::uint64_t kill_exposure,
                  std::size_t kill_after_frames) {
     return image_test::campaign_in_child(o.rig, kill_exposure, [&](acquisition::ImageRig& rig) {
-        const acquisition::ImageCampaignConfig cfg = config_of(o, rig);
+        const acquisition::ImageCampaignConfig cfg = aniso_config_of(o, rig);
         auto progress = [kill_after_frames](std::size_t i, const acquisition::FrameRecord&) {
             if (kill_after_frames > 0 && i + 1 == kill_after_frames) {
                 ::raise(SIGKILL);
@@ -312,11 +312,11 @@ int killed_child(const Campaign& o,
 }
 
 TEST(ImageAnisotropic, KillNineAtThreeMomentsLosesNoPoseAndRepeatsNone) {
-    const std::string dir = temp_dir("resume");
+    const std::string dir = image_aniso_dir("resume");
     const std::string model = dir + "/truth.json";
     std::ofstream(model) << brushed_model(0.15, 0.35, 20);
     const std::string journal = dir + "/frames.journal";
-    Campaign o;
+    AnisoCampaign o;
     o.rig.brdf_path = model;
     o.rig.image_size = 96;
     o.rig.supersample = 1;
@@ -357,9 +357,9 @@ TEST(ImageAnisotropic, KillNineAtThreeMomentsLosesNoPoseAndRepeatsNone) {
     }
 
     // To the end, in this process.
-    auto rig = start_rig(o);
+    auto rig = start_aniso_rig(o);
     ASSERT_TRUE(rig) << rig.error().message;
-    const acquisition::ImageCampaignConfig cfg = config_of(o, **rig);
+    const acquisition::ImageCampaignConfig cfg = aniso_config_of(o, **rig);
     auto r = acquisition::run_image_campaign(
         acquisition::image_rig_capture(**rig, cfg.detector_arm_rad, true), cfg, {}, journal);
     ASSERT_TRUE(r) << r.error().message;

@@ -34,7 +34,7 @@ namespace {
 namespace fs = std::filesystem;
 using gonio::testing::run_gonio;
 
-std::string temp_dir(const std::string& name) {
+std::string zoom_dir(const std::string& name) {
     return gonio::testing::test_folder("test_tools_image_zoom", name, true);
 }
 
@@ -61,14 +61,14 @@ std::shared_ptr<const brdf::Brdf> truth() {
 /// The campaign of these tests: a 15 x 15 x 30 table on a 128 px camera (the first theta_h row
 /// is 0.4 degrees wide, the wide view's pixels about 1.1 degrees of normal), run to the stop
 /// rule.
-struct Campaign {
+struct ZoomCampaign {
     acquisition::ImageRigOptions rig;
     bool zoom = true;
     int max_frames = 400;
 };
 
-Campaign campaign(const std::string& model, std::uint64_t seed) {
-    Campaign o;
+ZoomCampaign campaign(const std::string& model, std::uint64_t seed) {
+    ZoomCampaign o;
     o.rig.rig_path = zoom_rig();
     o.rig.brdf_path = model;
     o.rig.image_size = 128;
@@ -78,7 +78,7 @@ Campaign campaign(const std::string& model, std::uint64_t seed) {
     return o;
 }
 
-acquisition::ImageCampaignConfig config_of(const Campaign& o, const acquisition::ImageRig& rig) {
+acquisition::ImageCampaignConfig zoom_config_of(const ZoomCampaign& o, const acquisition::ImageRig& rig) {
     // Target beyond reach: the campaign runs until no light position (or placement) adds a bin.
     acquisition::ImageCampaignConfig cfg =
         acquisition::image_campaign_config(rig.rig, rig.camera, 6, 0.999, o.max_frames);
@@ -89,18 +89,18 @@ acquisition::ImageCampaignConfig config_of(const Campaign& o, const acquisition:
 }
 
 TEST(ImageZoom, ZoomedPlacementsFillBinsTheWideViewCannot) {
-    const std::string dir = temp_dir("coverage");
+    const std::string dir = zoom_dir("coverage");
     const std::string model = write_truth(dir);
     const auto f = truth();
 
     // The wide view alone.
-    Campaign wide = campaign(model, 5);
+    ZoomCampaign wide = campaign(model, 5);
     wide.zoom = false;
     double wide_coverage = 0;
     {
         auto rig = acquisition::start_image_rig(wide.rig, embedded_rig_starter());
         ASSERT_TRUE(rig) << rig.error().message;
-        const acquisition::ImageCampaignConfig cfg = config_of(wide, **rig);
+        const acquisition::ImageCampaignConfig cfg = zoom_config_of(wide, **rig);
         ASSERT_TRUE(cfg.placements.empty());
         auto r = acquisition::run_image_campaign(
             acquisition::image_rig_capture(**rig, cfg.detector_arm_rad), cfg);
@@ -113,11 +113,11 @@ TEST(ImageZoom, ZoomedPlacementsFillBinsTheWideViewCannot) {
     }
 
     // With the zoomed placements, journaled (the journal tells which frame filled which bin).
-    Campaign zoom = campaign(model, 5);
+    ZoomCampaign zoom = campaign(model, 5);
     const std::string journal = dir + "/frames.journal";
     auto rig = acquisition::start_image_rig(zoom.rig, embedded_rig_starter());
     ASSERT_TRUE(rig) << rig.error().message;
-    const acquisition::ImageCampaignConfig cfg = config_of(zoom, **rig);
+    const acquisition::ImageCampaignConfig cfg = zoom_config_of(zoom, **rig);
     ASSERT_EQ(cfg.placements.size(), 4u);
     auto r = acquisition::run_image_campaign(
         acquisition::image_rig_capture(**rig, cfg.detector_arm_rad), cfg, {}, journal);
@@ -211,12 +211,12 @@ TEST(ImageZoom, ZoomedPlacementsFillBinsTheWideViewCannot) {
 
 /// The campaign in a child process killed with SIGKILL right after its first zoomed frame is
 /// journaled (after_zoomed), or at the `kill_exposure`-th exposure the camera renders.
-int killed_child(const Campaign& o,
+int killed_child(const ZoomCampaign& o,
                  const std::string& journal,
                  bool after_zoomed,
                  std::uint64_t kill_exposure) {
     return image_test::campaign_in_child(o.rig, kill_exposure, [&](acquisition::ImageRig& rig) {
-        const acquisition::ImageCampaignConfig cfg = config_of(o, rig);
+        const acquisition::ImageCampaignConfig cfg = zoom_config_of(o, rig);
         auto progress = [after_zoomed](std::size_t, const acquisition::FrameRecord& rec) {
             if (after_zoomed && rec.placement > 0) {
                 ::raise(SIGKILL);
@@ -232,10 +232,10 @@ int killed_child(const Campaign& o,
 }
 
 TEST(ImageZoom, KillNineAroundZoomedFramesLosesNoFrameAndRepeatsNone) {
-    const std::string dir = temp_dir("resume");
+    const std::string dir = zoom_dir("resume");
     const std::string model = write_truth(dir);
     const std::string journal = dir + "/frames.journal";
-    Campaign o = campaign(model, 11);
+    ZoomCampaign o = campaign(model, 11);
 
     // 1. Right after the first zoomed frame is journaled.
     int st = killed_child(o, journal, true, 0);
@@ -273,7 +273,7 @@ TEST(ImageZoom, KillNineAroundZoomedFramesLosesNoFrameAndRepeatsNone) {
     // 3. To the end, in this process.
     auto rig = acquisition::start_image_rig(o.rig, embedded_rig_starter());
     ASSERT_TRUE(rig) << rig.error().message;
-    const acquisition::ImageCampaignConfig cfg = config_of(o, **rig);
+    const acquisition::ImageCampaignConfig cfg = zoom_config_of(o, **rig);
     auto r = acquisition::run_image_campaign(
         acquisition::image_rig_capture(**rig, cfg.detector_arm_rad), cfg, {}, journal);
     ASSERT_TRUE(r) << r.error().message;
@@ -329,7 +329,7 @@ TEST(ImageZoom, NoZoomIsRefusedWhereItCannotApply) {
     EXPECT_EQ(st, 2) << out;
     EXPECT_NE(out.find("no zoomed camera placements"), std::string::npos) << out;
     // A resume takes the folder's settings.
-    const std::string dir = temp_dir("option");
+    const std::string dir = zoom_dir("option");
     out = run_gonio("acquire --mode image --rig " + zoom_rig() + " --camera-px 48 --out " + dir +
                         "/run --max-frames 2 --grid 6x6x12 --time-scale 1000",
                     &st);

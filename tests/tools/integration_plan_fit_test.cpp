@@ -161,17 +161,8 @@ TEST(AcquirePlanFit, KilledInABatchAndResumedMeasuresThatBatchExactly) {
                                       "fit",
                                       "--time-scale",
                                       "200"};
-    std::vector<char*> argv;
-    for (std::string& w : words) {
-        argv.push_back(w.data());
-    }
-    argv.push_back(nullptr);
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
-    pid_t pid = 0;
-    ASSERT_EQ(posix_spawn(&pid, GONIO_EXE, &fa, nullptr, argv.data(), environ), 0);
-    posix_spawn_file_actions_destroy(&fa);
+    const pid_t pid = gonio::testing::spawn_quietly(words);
+    ASSERT_GT(pid, 0);
     // Killed once the third batch (pass 2) has its first measurements in the journal.
     bool inside = false;
     for (int k = 0; k < 60000 && !inside; ++k) {  // at most two minutes

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "cli_run.h"
+#include "common/test_units.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/dataset.h"
 #include "gonio/brdf/merl.h"
@@ -18,20 +19,13 @@
 namespace {
 
 namespace fs = std::filesystem;
-constexpr double kDeg = gonio::brdf::kPi / 180.0;
+using gonio::test_units::kDeg;
 
 using gonio::testing::CliRun;
 
 /// Runs the gonio binary with arguments; standard error is appended to out after a marker line.
 CliRun gonio(const std::string& args, const fs::path& dir) {
     return gonio::testing::run_gonio(args, (dir / "stderr.txt").string());
-}
-
-std::string slurp(const fs::path& p) {
-    std::ifstream f(p, std::ios::binary);
-    std::stringstream ss;
-    ss << f.rdbuf();
-    return ss.str();
 }
 
 gonio::brdf::ModelD glossy_model() {
@@ -111,7 +105,7 @@ TEST_F(ReportCli, PreviewOfAModelAgainstItsMerlTable) {
                   " --size 64 --samples 24 --out " + png.string(),
               dir_);
     ASSERT_EQ(r.status, 0) << r.out;
-    const std::string bytes = slurp(png);
+    const std::string bytes = gonio::testing::read_text(png);
     ASSERT_GT(bytes.size(), 8u);
     EXPECT_EQ(bytes.substr(1, 3), "PNG");
     r = gonio("preview " + (dir_ / "missing.json").string(), dir_);
@@ -128,7 +122,7 @@ TEST_F(ReportCli, ExportsForMitsubaAndPbrt) {
     const fs::path pbrt = dir_ / "fit.pbrt";
     r = gonio("export " + (dir_ / "fit.json").string() + " --to pbrt --out " + pbrt.string(), dir_);
     ASSERT_EQ(r.status, 0) << r.out;
-    const std::string text = slurp(pbrt);
+    const std::string text = gonio::testing::read_text(pbrt);
     EXPECT_NE(text.find("MakeNamedMaterial \"gonio_fit\""), std::string::npos);
     EXPECT_NE(text.find("\"float roughness\" [ 0.1 ]"), std::string::npos) << text;
     r = gonio("export " + (dir_ / "fit.json").string() + " --to povray", dir_);
@@ -140,7 +134,7 @@ TEST_F(ReportCli, ReportPrintsThePathOfASelfContainedPage) {
     ASSERT_EQ(r.status, 0) << r.out;
     const fs::path html = dir_ / "report.html";
     EXPECT_EQ(r.out.substr(0, r.out.find('\n')), html.string());
-    const std::string page = slurp(html);
+    const std::string page = gonio::testing::read_text(html);
     EXPECT_NE(page.find("data:image/png;base64,"), std::string::npos);
     EXPECT_NE(page.find("Coverage of the angular domain"), std::string::npos);
     // A folder that does not exist is an input that cannot be read: exit 2, naming it.

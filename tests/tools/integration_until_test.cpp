@@ -47,14 +47,14 @@ double truth_of(const std::string& name) {
     return std::nan("");
 }
 
-struct Campaign {
+struct UntilCampaign {
     std::string dir;
     std::string truth;
     std::string args;
 };
 
-Campaign make(const std::string& name, const std::string& until) {
-    Campaign c;
+UntilCampaign make(const std::string& name, const std::string& until) {
+    UntilCampaign c;
     c.dir = gonio::testing::test_folder("test_tools_until", name, false);
     c.truth = c.dir + "_truth.json";
     std::ofstream(c.truth) << kTruth;
@@ -86,7 +86,7 @@ void expect_known(const nlohmann::json& until, double target) {
 }
 
 TEST(AcquireUntil, StopsWhenTheFitIsKnownBeforeThePlansEnd) {
-    const Campaign c = make("known", "sigma=0.01");
+    const UntilCampaign c = make("known", "sigma=0.01");
     int st = 0;
     const std::string out = run_gonio(c.args, &st);
     ASSERT_EQ(st, 0) << out;
@@ -106,7 +106,7 @@ TEST(AcquireUntil, StopsWhenTheFitIsKnownBeforeThePlansEnd) {
 }
 
 TEST(AcquireUntil, KilledAndResumedKeepsTheStopRule) {
-    const Campaign c = make("kill9", "sigma=0.01");
+    const UntilCampaign c = make("kill9", "sigma=0.01");
     // The campaign in a child process, killed with SIGKILL once its first check (not yet held) is
     // in metadata.json.
     std::vector<std::string> words = {GONIO_EXE};
@@ -116,17 +116,8 @@ TEST(AcquireUntil, KilledAndResumedKeepsTheStopRule) {
             words.push_back(w);
         }
     }
-    std::vector<char*> argv;
-    for (std::string& w : words) {
-        argv.push_back(w.data());
-    }
-    argv.push_back(nullptr);
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
-    pid_t pid = 0;
-    ASSERT_EQ(posix_spawn(&pid, GONIO_EXE, &fa, nullptr, argv.data(), environ), 0);
-    posix_spawn_file_actions_destroy(&fa);
+    const pid_t pid = gonio::testing::spawn_quietly(words);
+    ASSERT_GT(pid, 0);
     bool checked = false;
     for (int k = 0; k < 12000 && !checked; ++k) {  // polls the folder, at most two minutes
         const nlohmann::json m = metadata(c.dir);
@@ -160,7 +151,7 @@ TEST(AcquireUntil, KilledAndResumedKeepsTheStopRule) {
 }
 
 TEST(AcquireUntil, TargetOutOfReachEndsAtThePlansEndSayingSo) {
-    Campaign c = make("never", "sigma=1e-6,every=20");
+    UntilCampaign c = make("never", "sigma=1e-6,every=20");
     c.args = "acquire --brdf " + c.truth + " --out " + c.dir +
              " --n-theta 4 --n-dphi 3 --adaptive 0 --time-scale 500 --until sigma=1e-6,every=20";
     int st = 0;

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "common/test_units.h"
 #include "cli_run.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/coords.h"
@@ -34,7 +35,7 @@ using gonio::brdf::kPi;
 using gonio::brdf::Rgbd;
 using gonio::brdf::Vec3d;
 
-constexpr double kDeg = kPi / 180.0;
+using gonio::test_units::kDeg;
 
 // The glossy truth of the benchmark (docs/benchmarks.md, vndf plan).
 const char* kGlossy = R"({"diffuse": [0.05, 0.03, 0.02], "lobes": [{"distribution": "ggx",
@@ -43,7 +44,7 @@ const char* kGlossy = R"({"diffuse": [0.05, 0.03, 0.02], "lobes": [{"distributio
 
 using gonio::testing::run_gonio;
 
-std::string temp_dir(const std::string& name) {
+std::string vndf_dir(const std::string& name) {
     return gonio::testing::test_folder("test_tools_vndf", name, false);
 }
 
@@ -139,7 +140,7 @@ std::vector<Rgbd> reference_reader(const std::string& file,
 }
 
 TEST(AcquireVndfCli, CampaignWritesDatasetAndRglFileThatMatchTheTruth) {
-    const std::string dir = temp_dir("glossy");
+    const std::string dir = vndf_dir("glossy");
     const std::string model = dir + "_model.json";
     std::ofstream(model) << kGlossy;
     int st = 0;

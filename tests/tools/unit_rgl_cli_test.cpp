@@ -20,7 +20,7 @@
 namespace gonio::testing {
 namespace {
 
-const char* kModel = R"({
+const char* kRglCliModel = R"({
   "diffuse": [0.2, 0.3, 0.4],
   "lobes": [
     {"distribution": "ggx", "alpha": 0.3, "shadowing": "smith-correlated",
@@ -32,7 +32,7 @@ class RglCli : public ::testing::Test {
   protected:
     void SetUp() override {
         dir_ = fresh_test_dir("rgl_cli");
-        std::ofstream(path("model.json")) << kModel;
+        std::ofstream(path("model.json")) << kRglCliModel;
     }
     std::string path(const std::string& name) const { return (dir_ / name).string(); }
     std::filesystem::path dir_;
@@ -50,7 +50,7 @@ TEST_F(RglCli, ModelToBsdfThenEvalCheckAndNodes) {
     }
     r = run_gonio("eval " + path("m.bsdf") + " -i " + path("dirs.csv") + " -o " + path("vals.csv"));
     ASSERT_EQ(r.status, 0) << r.out;
-    auto m = brdf::parse_model_json(kModel, "model");
+    auto m = brdf::parse_model_json(kRglCliModel, "model");
     ASSERT_TRUE(m);
     std::ifstream vals(path("vals.csv"));
     std::string line;

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <random>
 
+#include "common/test_units.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/checks.h"
 #include "gonio/brdf/model.h"
@@ -16,7 +17,7 @@
 namespace gonio::brdf {
 namespace {
 
-constexpr double kDeg = kPi / 180.0;
+using gonio::test_units::kDeg;
 
 ModelD glossy(double alpha) {
     ModelD m;

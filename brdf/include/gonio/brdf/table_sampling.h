@@ -19,6 +19,7 @@
 
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/coords.h"
+#include "gonio/brdf/sampling.h"
 
 namespace gonio::brdf {
 
@@ -29,13 +30,6 @@ struct TableSamplerOptions {
     double uniform_fraction = 0.1;  ///< e in the file comment, in [0, 1]
 };
 
-/// A sampled direction and its density (solid angle, 1/sr). pdf = 0 and wo = (0, 0, 1) when wi is
-/// at or below the horizon (nothing to sample).
-struct DirectionSample {
-    Vec3d wo = Vec3d(0, 0, 1);
-    double pdf = 0;
-};
-
 class TableSampler {
   public:
     /// Builds the slices by evaluating `brdf` at cell centres (n_theta_i n_theta_o n_phi_o calls).
@@ -43,7 +37,8 @@ class TableSampler {
     TableSampler(const Brdf& brdf, const TableSamplerOptions& options = {});
 
     /// Draws wo for wi from three uniform numbers in [0, 1): u_mix chooses table or cosine part,
-    /// (u1, u2) place the direction.
+    /// (u1, u2) place the direction. The sample's w is wo; pdf = 0 and w = (0, 0, 1) when wi is at or
+    /// below the horizon (nothing to sample).
     DirectionSample sample(const Vec3d& wi, double u_mix, double u1, double u2) const;
 
     /// Density of sample() at wo, 1/sr; 0 when wi or wo is at or below the horizon.

@@ -139,6 +139,23 @@ struct ParameterCovariance {
     std::vector<double> matrix;
 };
 
+/// One candidate of an automatic model choice and its standing.
+struct RankedModel {
+    std::string name;
+    int parameters = 0;    ///< Free scalars (a table's nodes included).
+    double log_rmse = 0;   ///< Channel mean, on all valid samples.
+    double criterion = 0;  ///< BIC on all valid samples (lower is better).
+    /// Ranked: finite, and converged or stopped by the ranking's iteration bound.
+    bool converged = false;
+};
+
+/// How an automatic model choice (`--model auto`) came to its model: every candidate ranked.
+struct AutoChoice {
+    std::string chosen;                ///< The winner's name (the first of the ranking).
+    std::string criterion;             ///< How the ranking was made.
+    std::vector<RankedModel> ranking;  ///< Best first.
+};
+
 struct FitResult {
     brdf::ModelD model;
     std::vector<FittedParameter> parameters;
@@ -160,6 +177,8 @@ struct FitResult {
     SolverInfo solver;
     std::string data;                          ///< Dataset source.
     std::optional<brdf::ModelD> ground_truth;  ///< Set by callers that know it (benchmarks, tests).
+    /// Set when the model was chosen by fit_auto: the ranking that chose it.
+    std::optional<AutoChoice> automatic;
 
     /// True when the solve converged: only then are the parameters a result.
     bool usable() const { return solver.usable; }
@@ -174,15 +193,6 @@ struct FitResult {
 /// solver.usable == false.
 Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec);
 
-/// One candidate of an automatic model choice and its standing.
-struct RankedModel {
-    std::string name;
-    int parameters = 0;    ///< Free scalars.
-    double log_rmse = 0;   ///< Channel mean, on the reduction.
-    double criterion = 0;  ///< BIC on the reduction (lower is better).
-    bool converged = false;
-};
-
 struct AutoFitResult {
     FitResult best;                    ///< The winner, polished on all samples.
     std::string chosen;                ///< Its name.
@@ -190,23 +200,25 @@ struct AutoFitResult {
     std::string criterion;             ///< How the ranking was made.
 };
 
-/// Ranks the candidates by the Bayesian information criterion of the log residuals on a
-/// stratified set of at most 2000 of the valid samples (their weights kept),
-///   BIC = n_r log(RSS / n_r) + p log(n_r),  n_r = 3 x samples of the set,
-/// (Schwarz 1978, Gaussian likelihood with the variance profiled out), and returns the winner
-/// fitted on all samples. Shared starts: the first candidate is fitted in full on all samples
-/// first (the result when it wins); when it is one isotropic GGX lobe, every other analytic
-/// candidate starts from it (widths mapped, single start, no screening) on the ranking set, and
-/// a winner other than the first is polished on all samples from its ranking optimum; a
-/// tabulated candidate extracts its table by power iteration on the ranking set (and on all
-/// samples when it wins). The winner's structure with RGB-varying roughness is then tried once
-/// (kept when BIC prefers it and the log RMSE drops by 1e-4). Error when no candidate converges.
+/// Ranks the candidates by the Bayesian information criterion of the log residuals on all valid
+/// samples,
+///   BIC = n log(RSS / n) + p log(n),  n = 3 x valid samples,
+/// (Schwarz 1978, Gaussian likelihood with the variance profiled out), each candidate fitted on
+/// a stratified set of at most 1000 of the valid samples (their weights kept) with at most 40
+/// iterations, and returns the winner fitted to convergence on all samples from its ranking
+/// optimum. Shared starts: the first candidate (one isotropic GGX lobe) is fitted on the ranking
+/// set with its own starts and seeds every other analytic candidate (widths mapped, single
+/// start); a tabulated candidate extracts its table by power iteration on the ranking set (and on
+/// all samples when it wins). The winner's structure with RGB-varying roughness is then tried
+/// once (kept when BIC prefers it and the log RMSE drops by 1e-4). Error when no candidate
+/// converges.
 Expected<AutoFitResult> fit_auto(const brdf::Dataset& data,
                                  const std::vector<std::pair<std::string, FitSpec>>& candidates);
 
 /// The candidate families of `gonio fit --model auto`: GGX, Beckmann, Blinn-Phong and Student-t
 /// with Lambert and a scalar Schlick Fresnel with an RGB scale, one lobe, GGX and Student-t
-/// with two lobes, and the tabulated NDF by power iteration (power_iteration.h; its table's nodes
+/// with two lobes, GGX and Beckmann with V-groove shadowing ("ggx v-groove", "beckmann
+/// v-groove"), and the tabulated NDF by power iteration (power_iteration.h; its table's nodes
 /// count as parameters of the criterion).
 std::vector<std::pair<std::string, FitSpec>> auto_candidates(const FitOptions& options);
 
