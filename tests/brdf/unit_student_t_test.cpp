@@ -122,7 +122,8 @@ TEST(StudentT, LargeGammaTendsToBeckmann) {
 
 TEST(StudentT, SmithG1SatisfiesVisibleNormalNormalisation) {
     for (double g : {1.6, 2.5, 5.0, 30.0}) {
-        for (const StudentAlphas& a : {StudentAlphas{0.2, 0.2}, StudentAlphas{0.5, 0.5}, StudentAlphas{0.15, 0.45}}) {
+        for (const StudentAlphas& a :
+             {StudentAlphas{0.2, 0.2}, StudentAlphas{0.5, 0.5}, StudentAlphas{0.15, 0.45}}) {
             for (double theta_o : {0.0, 0.5, 1.0, 1.3, 1.5}) {
                 for (double phi_o : {0.0, 0.8}) {
                     const Vec3d wo = spherical_to_cartesian(theta_o, phi_o);

@@ -18,8 +18,8 @@
 #include <string>
 #include <thread>
 
-#include "common/test_units.h"
 #include "browser_support.h"
+#include "common/test_units.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/report/live_server.h"
 #include "test_models.h"

@@ -11,8 +11,8 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
-#include "common/test_units.h"
 #include "browser_support.h"
+#include "common/test_units.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/merl.h"
 #include "gonio/brdf/resample.h"

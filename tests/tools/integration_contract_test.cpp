@@ -149,14 +149,16 @@ TEST(FitContract, ManifestAppliesCommandLineOptionsToEveryEntry) {
     // Options that name one fit are refused with --manifest (the truth file exists: the refusal
     // is the conflict, not an unreadable input).
     std::ofstream(contract_dir() + "/x.json") << "{}";
-    CliRun t = run_gonio("fit --manifest " + m + " --out " + out + " --truth " + contract_dir() + "/x.json");
+    CliRun t = run_gonio("fit --manifest " + m + " --out " + out + " --truth " + contract_dir() +
+                         "/x.json");
     EXPECT_EQ(t.status, 2) << t.out;
     EXPECT_TRUE(has(t.out, "--truth cannot be combined with --manifest")) << t.out;
 }
 
 TEST(FitContract, ManifestExitCodesFollowTheScheme) {
     // Unreadable manifest: an input error (2).
-    CliRun r = run_gonio("fit --manifest " + contract_dir() + "/none.csv --out " + contract_dir() + "/o");
+    CliRun r =
+        run_gonio("fit --manifest " + contract_dir() + "/none.csv --out " + contract_dir() + "/o");
     EXPECT_EQ(r.status, 2) << r.out;
     // An output folder that cannot be made: the work failed (1).
     const std::string m = contract_dir() + "/m2.csv";
@@ -227,7 +229,8 @@ TEST(AcquireContract, ImageResumeReadsTheFolderAndRefusesNewCampaignOptions) {
         EXPECT_EQ(r.status, 2) << args << "\n" << r.out;
         EXPECT_TRUE(has(r.out, "gonio acquire: " + want)) << r.out;
     }  // The live page goes with a resume as with a new campaign: the folder is read first.
-    CliRun s = run_gonio("acquire --mode image --resume " + contract_dir() + "/old --serve 127.0.0.1:0");
+    CliRun s =
+        run_gonio("acquire --mode image --resume " + contract_dir() + "/old --serve 127.0.0.1:0");
     EXPECT_EQ(s.status, 1) << s.out;
     EXPECT_TRUE(has(s.out, "not an image-mode campaign folder")) << s.out;
 }
@@ -281,8 +284,8 @@ TEST(AcquireContract, PointModeRefusesImageOptionsAndResumeRefusesNewCampaignOpt
 TEST(ExportContract, TwoOutputsAreRefused) {
     const std::string model = contract_dir() + "/m.json";
     std::ofstream(model) << gonio::brdf::model_to_json(truth());
-    CliRun r = run_gonio("export " + model + " --to mitsuba " + contract_dir() + "/a.xml --out " + contract_dir() +
-                         "/b.xml");
+    CliRun r = run_gonio("export " + model + " --to mitsuba " + contract_dir() + "/a.xml --out " +
+                         contract_dir() + "/b.xml");
     EXPECT_EQ(r.status, 2) << r.out;
     EXPECT_TRUE(has(r.out, "out_file")) << r.out;
     EXPECT_TRUE(has(r.out, "--out")) << r.out;

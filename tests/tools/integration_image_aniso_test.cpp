@@ -282,7 +282,8 @@ Expected<std::unique_ptr<acquisition::ImageRig>> start_aniso_rig(const AnisoCamp
     return acquisition::start_image_rig(o.rig, embedded_rig_starter());
 }
 
-acquisition::ImageCampaignConfig aniso_config_of(const AnisoCampaign& o, const acquisition::ImageRig& rig) {
+acquisition::ImageCampaignConfig aniso_config_of(const AnisoCampaign& o,
+                                                 const acquisition::ImageRig& rig) {
     acquisition::ImageCampaignConfig cfg =
         acquisition::image_campaign_config(rig.rig, rig.camera, 6, o.coverage_target, o.max_frames);
     acquisition::make_anisotropic(&cfg, rig.rig, o.layout);

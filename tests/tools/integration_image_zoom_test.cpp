@@ -78,7 +78,8 @@ ZoomCampaign campaign(const std::string& model, std::uint64_t seed) {
     return o;
 }
 
-acquisition::ImageCampaignConfig zoom_config_of(const ZoomCampaign& o, const acquisition::ImageRig& rig) {
+acquisition::ImageCampaignConfig zoom_config_of(const ZoomCampaign& o,
+                                                const acquisition::ImageRig& rig) {
     // Target beyond reach: the campaign runs until no light position (or placement) adds a bin.
     acquisition::ImageCampaignConfig cfg =
         acquisition::image_campaign_config(rig.rig, rig.camera, 6, 0.999, o.max_frames);

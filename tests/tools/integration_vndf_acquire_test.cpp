@@ -19,8 +19,8 @@
 #include <string>
 #include <vector>
 
-#include "common/test_units.h"
 #include "cli_run.h"
+#include "common/test_units.h"
 #include "gonio/brdf/analytic_brdf.h"
 #include "gonio/brdf/coords.h"
 #include "gonio/brdf/dataset.h"
