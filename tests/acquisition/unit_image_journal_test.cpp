@@ -122,7 +122,7 @@ TEST(ImageJournal, RecordsReadBackAsWritten) {
 }
 
 TEST(ImageJournal, AppendedFramesAreOnDiskNotInMemory) {
-    const std::string path = temp_path("held");
+    const std::string path = journal_path("held");
     std::filesystem::remove(path);
     const ImageJournalSetup setup = make_setup();
     const ImageJournalFrame f1 = make_frame(1, setup.layout);

@@ -129,51 +129,6 @@ void farthest_points(const std::vector<CandidateForPlan>& candidates,
     }
 }
 
-/// var ln f = j^T C j at candidate i.
-double predictive_variance(const std::vector<double>& cov, const double* j, int p) {
-    double v = 0;
-    for (int a = 0; a < p; ++a) {
-        double row = 0;
-        for (int b = 0; b < p; ++b) {
-            row += cov[static_cast<std::size_t>(a) * p + b] * j[b];
-        }
-        v += j[a] * row;
-    }
-    return std::max(0.0, v);
-}
-
-/// The covariance after one more measurement of relative variance s2 with Jacobian j:
-/// C - (C j)(C j)^T / (s2 + j^T C j) (the Kalman, or Sherman-Morrison, update).
-void measured_update(std::vector<double>* cov, const double* j, int p, double s2) {
-    std::vector<double> cj(p, 0.0);
-    for (int a = 0; a < p; ++a) {
-        for (int b = 0; b < p; ++b) {
-            cj[a] += (*cov)[static_cast<std::size_t>(a) * p + b] * j[b];
-        }
-    }
-    double v = 0;
-    for (int a = 0; a < p; ++a) {
-        v += j[a] * cj[a];
-    }
-    const double denom = s2 + std::max(0.0, v);
-    if (!(denom > 0)) {
-        return;
-    }
-    for (int a = 0; a < p; ++a) {
-        for (int b = 0; b < p; ++b) {
-            (*cov)[static_cast<std::size_t>(a) * p + b] -= cj[a] * cj[b] / denom;
-        }
-    }
-}
-
-bool fit_is_usable(const FitView* fit, std::size_t candidates) {
-    if (!fit || fit->parameters <= 0) {
-        return false;
-    }
-    const std::size_t p = static_cast<std::size_t>(fit->parameters);
-    return fit->covariance.size() == p * p && fit->jacobian.size() == candidates * p;
-}
-
 /// The information picks of a batch: greedy on expected information per rig second.
 void information_picks(const std::vector<CandidateForPlan>& candidates,
                        const FitView& fit,
@@ -220,6 +175,51 @@ void information_picks(const std::vector<CandidateForPlan>& candidates,
 }
 
 }  // namespace
+
+/// var ln f = j^T C j at candidate i.
+double predictive_variance(const std::vector<double>& cov, const double* j, int p) {
+    double v = 0;
+    for (int a = 0; a < p; ++a) {
+        double row = 0;
+        for (int b = 0; b < p; ++b) {
+            row += cov[static_cast<std::size_t>(a) * p + b] * j[b];
+        }
+        v += j[a] * row;
+    }
+    return std::max(0.0, v);
+}
+
+/// The covariance after one more measurement of relative variance s2 with Jacobian j:
+/// C - (C j)(C j)^T / (s2 + j^T C j) (the Kalman, or Sherman-Morrison, update).
+void measured_update(std::vector<double>* cov, const double* j, int p, double s2) {
+    std::vector<double> cj(p, 0.0);
+    for (int a = 0; a < p; ++a) {
+        for (int b = 0; b < p; ++b) {
+            cj[a] += (*cov)[static_cast<std::size_t>(a) * p + b] * j[b];
+        }
+    }
+    double v = 0;
+    for (int a = 0; a < p; ++a) {
+        v += j[a] * cj[a];
+    }
+    const double denom = s2 + std::max(0.0, v);
+    if (!(denom > 0)) {
+        return;
+    }
+    for (int a = 0; a < p; ++a) {
+        for (int b = 0; b < p; ++b) {
+            (*cov)[static_cast<std::size_t>(a) * p + b] -= cj[a] * cj[b] / denom;
+        }
+    }
+}
+
+bool fit_is_usable(const FitView* fit, std::size_t candidates) {
+    if (!fit || fit->parameters <= 0) {
+        return false;
+    }
+    const std::size_t p = static_cast<std::size_t>(fit->parameters);
+    return fit->covariance.size() == p * p && fit->jacobian.size() == candidates * p;
+}
 
 Expected<void> check_fit_plan_spec(const FitPlanSpec& s) {
     if (s.first < 1 || s.batch < 1 || s.budget < s.first || s.budget > kMaxPlanConfigs) {

@@ -17,6 +17,7 @@
 #include <thread>
 
 #include "gonio/acquisition/point/capture_session.h"
+#include "gonio/acquisition/point/fit_sweeps.h"
 #include "gonio/acquisition/point/fly_sweep.h"
 #include "gonio/acquisition/point/journal.h"
 #include "gonio/acquisition/point/progress.h"
@@ -248,11 +249,10 @@ Expected<CampaignSpec> parse_campaign_spec(const std::string& text, const std::s
                 "adaptive: the fit plan chooses every batch after the first from the fit "
                 "(set \"enabled\": false)");
         }
-        if (s.fly.enabled && s.plan_kind == "fit") {
+        if (s.fly.enabled && s.plan_kind == "fit" && s.fit.anisotropic) {
             json_fail(
-                "fly: the fit plan's batches are scattered configurations chosen one by one "
-                "from the fit, which no arm sweeps through (use a uniform or half-diff plan, or "
-                "remove \"fly\")");
+                "fly: the fit plan's sweeps run along an isotropic sample's lines; an anisotropic "
+                "fit plan measures standing (remove \"fly\")");
         }
         if (s.plan_kind == "vndf" && s.adaptive) {
             json_fail(
@@ -380,6 +380,13 @@ Expected<Plan> build_plan(const CampaignSpec& spec, const RigConfig& rig) {
         if (spec.adaptive && spec.adaptive_passes > 0) {
             return make_error(
                 "fit plan: adaptive passes asked for; the fit plan chooses its own batches");
+        }
+        if (spec.fly.enabled) {
+            auto lines = fit_sweep_pool(spec.fit, spec.fly, spec.scene, rig);
+            if (!lines) {
+                return tl::unexpected(lines.error());
+            }
+            return fit_first_sweeps(*lines, spec.fit);
         }
         auto pool = fit_pool_for_rig(spec.fit, spec.scene, rig_limits(rig));
         if (!pool) {
@@ -792,6 +799,8 @@ class Runner {
     /// The fit-driven plan's pool (reachable, within the scene) and its batches for metadata.json
     /// (by pass: when chosen, from what, why).
     Plan fit_pool_;
+    /// With fly scans, the fit plan's pool is its sweep lines' frames (fit_sweeps.h).
+    std::optional<FitSweepPool> fit_lines_;
     json fit_batches_ = json::object();
     /// (pass, index) of every measurement in the journal.
     std::set<std::pair<int, std::uint32_t>> done_;
@@ -1488,11 +1497,20 @@ Expected<Plan> Runner::load_campaign() {
         return tl::unexpected(plan0.error());
     }
     if (spec_.plan_kind == "fit") {
-        auto pool = fit_pool_for_rig(spec_.fit, spec_.scene, lim_);
-        if (!pool) {
-            return tl::unexpected(pool.error());
+        if (spec_.fly.enabled) {
+            auto lines = fit_sweep_pool(spec_.fit, spec_.fly, spec_.scene, rig_);
+            if (!lines) {
+                return tl::unexpected(lines.error());
+            }
+            fit_lines_ = std::move(*lines);
+            fit_pool_ = fit_lines_->pool;
+        } else {
+            auto pool = fit_pool_for_rig(spec_.fit, spec_.scene, lim_);
+            if (!pool) {
+                return tl::unexpected(pool.error());
+            }
+            fit_pool_ = std::move(*pool);
         }
-        fit_pool_ = std::move(*pool);
         if (!hooks_.plan_fit) {
             say("fit plan: no fit available; every batch fills space");
         }
@@ -1615,8 +1633,11 @@ Plan Runner::adaptive_pass(int pass) const {
 }
 
 Plan Runner::fit_batch(int pass) {
-    FitBatch b =
-        fit_next_batch(journal_->records(), pass, fit_pool_, spec_.fit, rig_, hooks_.plan_fit);
+    FitBatch b = fit_lines_
+                     ? fit_next_sweeps(
+                           journal_->records(), pass, *fit_lines_, spec_.fit, rig_, hooks_.plan_fit)
+                     : fit_next_batch(
+                           journal_->records(), pass, fit_pool_, spec_.fit, rig_, hooks_.plan_fit);
     if (!b.plan.configs.empty()) {
         say("fit plan, batch " + std::to_string(pass) + ": " +
             std::to_string(b.plan.configs.size()) + " configurations; " + b.note);
@@ -1631,6 +1652,7 @@ Plan Runner::fit_batch(int pass) {
                              {"by_variance", b.by_variance},
                              {"by_misfit", b.by_misfit},
                              {"by_space", b.by_space},
+                             {"sweeps", b.sweeps},
                              {"note", b.note}};
     }
     return std::move(b.plan);

@@ -190,6 +190,58 @@ double candidate_cost_s(const std::vector<JournalRecord>& measured,
     return fixed + 2 * exposure_us * 1e-6;
 }
 
+FitBatchInputs fit_batch_inputs(const std::vector<JournalRecord>& records,
+                                int pass,
+                                const Plan& pool,
+                                const FitPlanSpec& spec,
+                                const RigConfig& rig,
+                                const PlanFitFn& fit,
+                                FitBatch* out) {
+    FitBatchInputs in;
+    out->plan.kind = "fit";
+    in.measured = measured_before(records, pass);
+    out->measured_before = in.measured.size();
+    in.count = std::min<int>(spec.batch, spec.budget - static_cast<int>(in.measured.size()));
+    if (in.count <= 0) {
+        out->note = "the budget of " + std::to_string(spec.budget) + " configurations is measured";
+        return in;
+    }
+    const bool isotropic = !spec.anisotropic;
+    const std::vector<brdf::Sample> samples = samples_of(in.measured, rig, isotropic);
+    if (!fit) {
+        out->note = "no fit available: space-filling";
+    } else {
+        auto r = fit(samples, pool.configs, spec.anisotropic);
+        if (!r) {
+            out->note = "the fit failed (" + r.error().message + "): space-filling";
+        } else if (r->view.parameters <= 0) {
+            out->note = "the fit gave no covariance (" + r->summary + "): space-filling";
+        } else {
+            in.fit = std::move(*r);
+        }
+    }
+    const PlanFit* pf = in.fit ? &*in.fit : nullptr;
+    in.for_plan = measured_for_plan(in.measured, samples, pf, isotropic);
+    in.candidates = candidates_of(pool, in.measured, rig, pf ? &pf->view.predicted : nullptr);
+    std::vector<double> rel_var;
+    for (const MeasuredForPlan& m : in.for_plan) {
+        rel_var.push_back(m.rel_sigma * m.rel_sigma);
+    }
+    std::nth_element(rel_var.begin(),
+                     rel_var.begin() + static_cast<std::ptrdiff_t>(rel_var.size() / 2),
+                     rel_var.end());
+    in.noise_rel_var = rel_var.empty() ? 1e-4 : rel_var[rel_var.size() / 2];
+    return in;
+}
+
+void describe_batch(const FitBatchInputs& in, const BatchChoice& b, FitBatch* out) {
+    out->fitted = in.fit.has_value();
+    const std::string how = describe_choice(b, out);
+    out->note = in.fit ? "fit of " + std::to_string(in.measured.size()) + " values (" +
+                             in.fit->summary + "): " + how
+                       : out->note + ": " + how;
+}
+
 FitBatch fit_next_batch(const std::vector<JournalRecord>& records,
                         int pass,
                         const Plan& pool,
@@ -197,53 +249,19 @@ FitBatch fit_next_batch(const std::vector<JournalRecord>& records,
                         const RigConfig& rig,
                         const PlanFitFn& fit) {
     FitBatch out;
-    out.plan.kind = "fit";
-    const std::vector<JournalRecord> measured = measured_before(records, pass);
-    out.measured_before = measured.size();
-    const int count = std::min<int>(spec.batch, spec.budget - static_cast<int>(measured.size()));
-    if (count <= 0) {
-        out.note = "the budget of " + std::to_string(spec.budget) + " configurations is measured";
+    const FitBatchInputs in = fit_batch_inputs(records, pass, pool, spec, rig, fit, &out);
+    if (in.count <= 0) {
         return out;
     }
-    const bool isotropic = !spec.anisotropic;
-    const std::vector<brdf::Sample> samples = samples_of(measured, rig, isotropic);
-    std::optional<PlanFit> pf;
-    if (!fit) {
-        out.note = "no fit available: space-filling";
-    } else {
-        auto r = fit(samples, pool.configs, spec.anisotropic);
-        if (!r) {
-            out.note = "the fit failed (" + r.error().message + "): space-filling";
-        } else if (r->view.parameters <= 0) {
-            out.note = "the fit gave no covariance (" + r->summary + "): space-filling";
-        } else {
-            pf = std::move(*r);
-        }
-    }
-    const std::vector<MeasuredForPlan> mp =
-        measured_for_plan(measured, samples, pf ? &*pf : nullptr, isotropic);
-    const std::vector<CandidateForPlan> cands =
-        candidates_of(pool, measured, rig, pf ? &pf->view.predicted : nullptr);
-    std::vector<double> rel_var;
-    for (const MeasuredForPlan& m : mp) {
-        rel_var.push_back(m.rel_sigma * m.rel_sigma);
-    }
-    std::nth_element(rel_var.begin(),
-                     rel_var.begin() + static_cast<std::ptrdiff_t>(rel_var.size() / 2),
-                     rel_var.end());
-    const double s2 = rel_var.empty() ? 1e-4 : rel_var[rel_var.size() / 2];
     FitChoiceOptions o;
-    o.count = count;
+    o.count = in.count;
     o.space_share = spec.space_share;
-    const BatchChoice b = choose_batch(cands, mp, pf ? &pf->view : nullptr, s2, o);
+    const BatchChoice b = choose_batch(
+        in.candidates, in.for_plan, in.fit ? &in.fit->view : nullptr, in.noise_rel_var, o);
     for (std::size_t k : b.chosen) {
         out.plan.configs.push_back(pool.configs[k]);
     }
-    out.fitted = pf.has_value();
-    const std::string how = describe_choice(b, &out);
-    out.note =
-        pf ? "fit of " + std::to_string(measured.size()) + " values (" + pf->summary + "): " + how
-           : out.note + ": " + how;
+    describe_batch(in, b, &out);
     return out;
 }
 

@@ -234,12 +234,11 @@ std::optional<RequestConflict> plan_conflict(const CampaignRequest& r,
         return RequestConflict{
             "fly_smear_deg", "fly", "bounds the smear of fly scans (give --fly)"};
     }
-    if (r.plan_kind == "fit" && r.fly) {
+    if (r.plan_kind == "fit" && r.fly && r.anisotropic) {
         return RequestConflict{"fly",
-                               "plan_kind",
-                               "the fit plan's batches are scattered configurations chosen one "
-                               "by one from the fit, which no arm sweeps through (use the uniform "
-                               "or half-diff plan)"};
+                               "anisotropic",
+                               "the fit plan's sweeps run along an isotropic sample's lines; an "
+                               "anisotropic fit plan measures standing"};
     }
     if (r.plan_kind == "fit") {
         for (const std::string& f : given) {
@@ -451,11 +450,6 @@ Expected<CampaignSpec> new_campaign_spec(const CampaignRequest& r, bool* embedde
         if (auto bad = fly_spec_problem(spec.fly); !bad.empty()) {
             return make_error("--fly-smear: " + bad);
         }
-    }
-    if (spec.fly.enabled && spec.plan_kind == "fit") {
-        return make_error(
-            "fly: the fit plan's batches are scattered configurations chosen one by one from the "
-            "fit, which no arm sweeps through (use a uniform or half-diff plan)");
     }
     return spec;
 }

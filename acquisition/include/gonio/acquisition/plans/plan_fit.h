@@ -110,6 +110,16 @@ std::vector<double> misfit_variance(const std::vector<CandidateForPlan>& candida
                                     const std::vector<MeasuredForPlan>& measured,
                                     double length_scale);
 
+/// var ln f = j^T C j of a candidate with Jacobian row `j` under the P x P covariance `cov`.
+double predictive_variance(const std::vector<double>& cov, const double* j, int p);
+
+/// The covariance after one more measurement of relative variance s2 with Jacobian row j:
+/// C - (C j)(C j)^T / (s2 + j^T C j) (the Kalman, or Sherman-Morrison, update).
+void measured_update(std::vector<double>* cov, const double* j, int p, double s2);
+
+/// Whether `fit` holds a covariance and a Jacobian row for each of `candidates` candidates.
+bool fit_is_usable(const FitView* fit, std::size_t candidates);
+
 /// The next batch. Without a fit (`fit` null, or no parameter) every configuration fills space.
 /// `noise_rel_var` is s^2. Chooses at most the available candidates.
 BatchChoice choose_batch(const std::vector<CandidateForPlan>& candidates,

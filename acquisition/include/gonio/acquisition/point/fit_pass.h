@@ -7,6 +7,7 @@
 // measuring. The fit itself is the front end's (acquisition needs no fitting library).
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -47,7 +48,31 @@ struct FitBatch {
     bool fitted = false;  ///< Chosen from a fit (false: space-filling only).
     std::string note;     ///< What the fit said, or why there was none.
     int by_variance = 0, by_misfit = 0, by_space = 0;
+    std::size_t sweeps = 0;  ///< Fly scans: the sweeps the batch was chosen as (0: points).
 };
+
+/// What a later batch is chosen from: the measurements of the passes before it, the fit of them
+/// (none when missing or failing; FitBatch::note says why), the chooser's view of both, the
+/// noise s^2 (the median relative variance of the values) and how many configurations the batch
+/// holds (<= 0 at the budget).
+struct FitBatchInputs {
+    std::vector<JournalRecord> measured;
+    std::optional<PlanFit> fit;
+    std::vector<MeasuredForPlan> for_plan;
+    std::vector<CandidateForPlan> candidates;
+    double noise_rel_var = 1e-4;
+    int count = 0;
+};
+FitBatchInputs fit_batch_inputs(const std::vector<JournalRecord>& records,
+                                int pass,
+                                const Plan& pool,
+                                const FitPlanSpec& spec,
+                                const RigConfig& rig,
+                                const PlanFitFn& fit,
+                                FitBatch* out);
+
+/// The batch's counts by reason and its note from the choice.
+void describe_batch(const FitBatchInputs& in, const BatchChoice& b, FitBatch* out);
 
 /// Batch `pass` (>= 1) from the measurements of the passes before it in `records`. A missing or
 /// failing fit falls back to space-filling and says so in `note`.

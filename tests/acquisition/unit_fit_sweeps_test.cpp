@@ -1,0 +1,197 @@
+// The fit-driven plan with fly scans (fit_sweeps.h): every line of its pool is one sweep to the
+// runner (solved frame after frame, its poses differ in the moving arm alone); the batch is
+// chosen as sweeps where the fit expects most information per rig second, nearer sweeps first
+// when they teach alike; the space-filling share and the first batch are sweeps too.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+
+#include "../common/test_units.h"
+#include "gonio/acquisition/point/fit_sweeps.h"
+
+namespace gonio::acquisition::fit_sweeps_test {
+namespace {
+
+using gonio::test_units::kDeg;
+
+RigConfig mono_rig() {
+    auto rig = read_rig_config(std::string(GONIO_SOURCE_DIR) + "/data/rigs/sim4-mono.json");
+    EXPECT_TRUE(rig) << rig.error().message;
+    return *rig;
+}
+
+FitSweepPool pool_of(const RigConfig& rig) {
+    auto pool = fit_sweep_pool(FitPlanSpec{}, FlySpec{}, "", rig);
+    EXPECT_TRUE(pool) << pool.error().message;
+    return *pool;
+}
+
+std::vector<CandidateForPlan> candidates_of_pool(const FitSweepPool& pool) {
+    std::vector<CandidateForPlan> out;
+    for (const PlannedConfig& c : pool.pool.configs) {
+        CandidateForPlan k;
+        k.where = plan_features(c);
+        out.push_back(k);
+    }
+    return out;
+}
+
+TEST(FitSweeps, EveryLineOfThePoolIsOneSweepToTheRunner) {
+    const RigConfig rig = mono_rig();
+    const FitSweepPool pool = pool_of(rig);
+    ASSERT_GT(pool.lines.size(), 40u);
+    EXPECT_GT(pool.pool.configs.size(), 1000u);
+    const RigLimits lim = rig_limits(rig);
+    const auto dyn = rig_dynamics(rig);
+    for (std::size_t l = 0; l < pool.lines.size(); ++l) {
+        const SweepLine& line = pool.lines[l];
+        // The frames solved in order from wherever the rig stood (as the runner solves a batch)
+        // stand alike but for one arm: plan_fly_units makes them one sweep.
+        std::vector<brdf::RigPosed> poses;
+        brdf::RigPosed prev{0.3, -0.4, 0.1, 0.2};
+        for (std::size_t i : line.frames) {
+            const PlannedConfig& c = pool.pool.configs[i];
+            auto s = solve(Target{c.wi, c.wo, true, true}, lim, dyn, prev);
+            ASSERT_TRUE(s) << s.error().message;
+            poses.push_back(s->pose);
+            prev = s->pose;
+        }
+        const auto units = plan_fly_units(poses, poses.front(), FlySpec{}, fly_limits_of(rig));
+        ASSERT_EQ(units.size(), 1u) << "line " << l;
+        EXPECT_FALSE(units[0].standing);
+        EXPECT_EQ(units[0].sweep.members.size(), line.frames.size());
+        for (std::size_t k = 1; k < line.angles.size(); ++k) {
+            EXPECT_NEAR(line.angles[k] - line.angles[k - 1], kFitSweepGapRad, 1e-12);
+        }
+    }
+}
+
+/// A fit of one parameter whose Jacobian is `j_of(frame)` and variance 1.
+FitView one_parameter_view(const FitSweepPool& pool, double (*j_of)(const SweepLine&, double)) {
+    FitView v;
+    v.parameters = 1;
+    v.covariance = {1.0};
+    v.jacobian.assign(pool.pool.configs.size(), 0.0);
+    v.predicted.assign(pool.pool.configs.size(), 1.0);
+    for (const SweepLine& line : pool.lines) {
+        for (std::size_t k = 0; k < line.frames.size(); ++k) {
+            v.jacobian[line.frames[k]] = j_of(line, line.angles[k]);
+        }
+    }
+    return v;
+}
+
+TEST(FitSweeps, ChoosesTheSweepWhereTheFitIsLeastCertain) {
+    const RigConfig rig = mono_rig();
+    const FitSweepPool pool = pool_of(rig);
+    // Only the in-plane line with the light at 30 deg, near the specular direction (-30 deg),
+    // tells the parameter anything.
+    const FitView fit = one_parameter_view(pool, [](const SweepLine& l, double a) {
+        const bool line =
+            std::abs(l.stand.tilt) < 1e-9 && std::abs(l.stand.light - 30 * kDeg) < 1e-9;
+        return line && std::abs(a + 30 * kDeg) < 8 * kDeg ? 1.0 : 0.0;
+    });
+    const std::vector<MeasuredForPlan> none;
+    SweepChoiceInput in;
+    in.pool = &pool;
+    in.measured = &none;
+    in.fit = &fit;
+    in.noise_rel_var = 1e-2;
+    in.dyn = rig_dynamics(rig);
+    in.readout_s = 0.0052;
+    FitChoiceOptions o;
+    o.count = 8;
+    o.space_share = 0.25;
+    const SweepChoice c = choose_sweeps(candidates_of_pool(pool), in, o, 120);
+    ASSERT_GE(c.sweeps, 2u);
+    ASSERT_FALSE(c.frames.chosen.empty());
+    EXPECT_EQ(c.frames.reasons.front(), ChoiceReason::kVariance);
+    // The first sweep's frames lie on that line, within the informative arc, in arm order.
+    const std::size_t line = pool.line_of[c.frames.chosen.front()];
+    EXPECT_NEAR(pool.lines[line].stand.light, 30 * kDeg, 1e-9);
+    EXPECT_NEAR(pool.lines[line].stand.tilt, 0, 1e-9);
+    int informative = 0;
+    for (std::size_t q = 0; q < c.frames.chosen.size(); ++q) {
+        if (c.frames.reasons[q] != ChoiceReason::kSpace) {
+            EXPECT_EQ(pool.line_of[c.frames.chosen[q]], line);
+            informative += fit.jacobian[c.frames.chosen[q]] > 0;
+        }
+    }
+    EXPECT_GE(informative, 4);
+    // At least one space-filling sweep of kSpaceSweepFrames frames on one line.
+    std::set<std::size_t> space_lines;
+    int space = 0;
+    for (std::size_t q = 0; q < c.frames.chosen.size(); ++q) {
+        if (c.frames.reasons[q] == ChoiceReason::kSpace) {
+            ++space;
+            space_lines.insert(pool.line_of[c.frames.chosen[q]]);
+        }
+    }
+    EXPECT_GE(space, 2);
+    EXPECT_LE(space_lines.size(), static_cast<std::size_t>((space + 1) / 2));
+    EXPECT_GE(static_cast<int>(c.frames.chosen.size()), o.count);
+}
+
+TEST(FitSweeps, OfTwoSweepsThatTeachAlikeTheNearerGoesFirst) {
+    const RigConfig rig = mono_rig();
+    const FitSweepPool pool = pool_of(rig);
+    // Two in-plane lines teach alike (light at 20 and at 60 deg, every frame): from a rig
+    // standing on the second, it is chosen first; from one standing on the first, the first.
+    // Six frames each, from 5 to 15 deg beyond the light.
+    const FitView fit = one_parameter_view(pool, [](const SweepLine& l, double a) {
+        const bool in_plane = std::abs(l.stand.tilt) < 1e-9;
+        const bool pick = std::abs(l.stand.light - 20 * kDeg) < 1e-9 ||
+                          std::abs(l.stand.light - 60 * kDeg) < 1e-9;
+        return in_plane && pick && a > l.stand.light && a < l.stand.light + 16 * kDeg ? 1.0 : 0.0;
+    });
+    const std::vector<MeasuredForPlan> none;
+    SweepChoiceInput in;
+    in.pool = &pool;
+    in.measured = &none;
+    in.fit = &fit;
+    in.noise_rel_var = 1e-2;
+    in.dyn = rig_dynamics(rig);
+    FitChoiceOptions o;
+    o.count = 4;
+    o.space_share = 0;
+    for (double light_deg : {20.0, 60.0}) {
+        in.start = brdf::RigPosed{light_deg * kDeg, (light_deg + 10) * kDeg, 0, 0};
+        const SweepChoice c = choose_sweeps(candidates_of_pool(pool), in, o, 120);
+        ASSERT_FALSE(c.frames.chosen.empty());
+        EXPECT_NEAR(
+            pool.lines[pool.line_of[c.frames.chosen.front()]].stand.light, light_deg * kDeg, 1e-9)
+            << "from the light at " << light_deg << " deg";
+    }
+}
+
+TEST(FitSweeps, FirstBatchIsSpaceFillingSweeps) {
+    const RigConfig rig = mono_rig();
+    const FitSweepPool pool = pool_of(rig);
+    FitPlanSpec spec;
+    spec.first = 16;
+    const Plan first = fit_first_sweeps(pool, spec);
+    ASSERT_EQ(first.configs.size(), 16u);
+    // Runs of consecutive frames of one line (sweeps), at most half the batch long (two sweeps
+    // of 8 where the lines are long enough).
+    std::vector<int> runs;
+    for (std::size_t q = 0; q < first.configs.size(); ++q) {
+        const std::size_t i = first.configs[q].index;
+        const bool joins = q > 0 && pool.line_of[i] == pool.line_of[first.configs[q - 1].index] &&
+                           pool.step_of[i] == pool.step_of[first.configs[q - 1].index] + 1;
+        if (joins && runs.back() < 8) {
+            ++runs.back();
+        } else {
+            runs.push_back(1);
+        }
+    }
+    EXPECT_GE(runs.size(), 2u);
+    EXPECT_LE(runs.size(), 4u);
+    for (int n : runs) {
+        EXPECT_GE(n, 2);
+    }
+}
+
+}  // namespace
+}  // namespace gonio::acquisition::fit_sweeps_test
