@@ -382,6 +382,13 @@ GONIO_COMMAND(fit) {
                             m.criterion,
                             m.converged ? "" : "  (did not converge)");
             }
+            if (run->result.automatic && !run->result.automatic->rejected.empty()) {
+                std::printf("not fitted (a second lobe did not pay for ggx):");
+                for (const std::string& r : run->result.automatic->rejected) {
+                    std::printf(" %s", r.c_str());
+                }
+                std::printf("\n");
+            }
             std::printf("chosen: %s\n", run->chosen.c_str());
         }
         fitting::FitResult* result = &run->result;

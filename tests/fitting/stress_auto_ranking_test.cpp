@@ -9,12 +9,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "fit_test_util.h"
 #include "gonio/brdf/material_library.h"
@@ -92,6 +94,22 @@ void expect_same_family(const brdf::Dataset& data) {
     EXPECT_EQ(candidate_of(a->chosen), full.winner)
         << "auto chose " << a->chosen << ", the full ranking " << full.winner;
     EXPECT_TRUE(a->best.solver.converged);
+    // Early rejection: the Student-t pair is left out exactly when GGX's second lobe did not lower
+    // GGX's criterion.
+    double ggx = std::numeric_limits<double>::quiet_NaN();
+    double ggx2 = ggx;
+    for (const RankedModel& m : a->ranking) {
+        ggx = m.name == "ggx" ? m.criterion : ggx;
+        ggx2 = m.name == "ggx x2" ? m.criterion : ggx2;
+    }
+    ASSERT_TRUE(std::isfinite(ggx) && std::isfinite(ggx2));
+    const bool rejected =
+        std::find(a->rejected.begin(), a->rejected.end(), "student-t x2") != a->rejected.end();
+    EXPECT_EQ(rejected, !(ggx2 < ggx)) << "ggx " << ggx << ", ggx x2 " << ggx2;
+    EXPECT_EQ(a->rejected.size(), rejected ? 1u : 0u);
+    for (const RankedModel& m : a->ranking) {
+        EXPECT_FALSE(rejected && m.name == "student-t x2") << "a rejected candidate was ranked";
+    }
 }
 
 TEST(AutoRanking, ChoosesTheFullRankingsCandidateOnTheDemoMaterial) {
@@ -104,6 +122,8 @@ TEST(AutoRanking, ChoosesTheFullRankingsCandidateOnTheDemoMaterial) {
     ASSERT_TRUE(a) << a.error().message;
     EXPECT_EQ(a->chosen.rfind("beckmann v-groove", 0), 0u) << a->chosen;
     EXPECT_TRUE(a->best.goodness.represents);
+    // One lobe: GGX's second lobe does not pay, so the Student-t pair is not fitted.
+    EXPECT_EQ(a->rejected, std::vector<std::string>{"student-t x2"});
 }
 
 /// The RGL file `name` (measured nodes), or empty when the data are not here.

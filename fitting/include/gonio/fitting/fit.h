@@ -154,6 +154,8 @@ struct AutoChoice {
     std::string chosen;                ///< The winner's name (the first of the ranking).
     std::string criterion;             ///< How the ranking was made.
     std::vector<RankedModel> ranking;  ///< Best first.
+    /// Candidates rejected early as hopeless, not fitted (fit_auto).
+    std::vector<std::string> rejected;
 };
 
 struct FitResult {
@@ -198,6 +200,9 @@ struct AutoFitResult {
     std::string chosen;                ///< Its name.
     std::vector<RankedModel> ranking;  ///< Best first.
     std::string criterion;             ///< How the ranking was made.
+    /// Candidates rejected early as hopeless, not fitted: a two-lobe candidate of another family
+    /// than GGX when GGX's second lobe did not lower GGX's criterion.
+    std::vector<std::string> rejected;
 };
 
 /// Ranks the candidates by the Bayesian information criterion of the log residuals on all valid
@@ -205,13 +210,14 @@ struct AutoFitResult {
 ///   BIC = n log(RSS / n) + p log(n),  n = 3 x valid samples,
 /// (Schwarz 1978, Gaussian likelihood with the variance profiled out), each candidate fitted on
 /// a stratified set of at most 1000 of the valid samples (their weights kept) with at most 40
-/// iterations, and returns the winner fitted to convergence on all samples from its ranking
+/// iterations (20 for a second lobe or a Student-t lobe), and returns the winner fitted to convergence on all samples from its ranking
 /// optimum. Shared starts: the first candidate (one isotropic GGX lobe) is fitted on the ranking
 /// set with its own starts and seeds every other analytic candidate (widths mapped, single
 /// start); a tabulated candidate extracts its table by power iteration on the ranking set (and on
-/// all samples when it wins). The winner's structure with RGB-varying roughness is then tried
-/// once (kept when BIC prefers it and the log RMSE drops by 1e-4). Error when no candidate
-/// converges.
+/// all samples when it wins). A two-lobe candidate of another family than GGX is rejected
+/// early, not fitted, when GGX's second lobe did not lower GGX's criterion (AutoFitResult::
+/// rejected). The winner's structure with RGB-varying roughness is then tried once (kept when BIC
+/// prefers it and the log RMSE drops by 1e-4). Error when no candidate converges.
 Expected<AutoFitResult> fit_auto(const brdf::Dataset& data,
                                  const std::vector<std::pair<std::string, FitSpec>>& candidates);
 
