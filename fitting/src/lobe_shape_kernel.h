@@ -1,7 +1,7 @@
 #pragma once
 
 // The packet loop of lobe_shape_packets (fitting/lobe_shape_packets.h) for one instruction set;
-// each lobe_shape_packets*.cpp instantiates it with its own compile flags.
+// each copy of isa/lobe_shape.cpp instantiates it with its own compile flags.
 
 #include <algorithm>
 #include <cstddef>
@@ -118,18 +118,5 @@ void lobe_shape_kernel(const LobeShapeKind& kind,
         std::copy(dso, dso + m, dS + i);
     }
 }
-
-void lobe_shape_avx512(const LobeShapeKind& kind,
-                       double alpha,
-                       const LobeShapeInputs& in,
-                       std::size_t n,
-                       double* S,
-                       double* dS);
-void lobe_shape_avx2(const LobeShapeKind& kind,
-                     double alpha,
-                     const LobeShapeInputs& in,
-                     std::size_t n,
-                     double* S,
-                     double* dS);
 
 }  // namespace gonio::fitting::detail

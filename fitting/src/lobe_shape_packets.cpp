@@ -1,22 +1,46 @@
-// lobe_shape_packets: the instruction set of log1p_packets, chosen once; SSE2 (every x86-64) here.
+// lobe_shape_packets: the copy of the kernel for gonio::packet_isa(), else the same shape body on
+// double, sample by sample.
 
 #include "gonio/fitting/lobe_shape_packets.h"
 
-#include <cstring>
-
-#include "gonio/fitting/vector_log.h"
+#include "gonio/base/instruction_set.h"
 #include "lobe_shape_kernel.h"
 
 namespace gonio::fitting {
 
+namespace detail {
+// One copy per instruction set: isa/lobe_shape.cpp.
+GONIO_ISA_DECLARE(void lobe_shape(const LobeShapeKind& kind,
+                                  double alpha,
+                                  const LobeShapeInputs& in,
+                                  std::size_t n,
+                                  double* S,
+                                  double* dS);)
+}  // namespace detail
+
 namespace {
 
-/// 2: AVX-512, 1: AVX2 + FMA, 0: SSE2; the CPU test of vector_log.cpp.
-int width_class() {
-    static const int w = std::strcmp(log1p_packets_arch(), "avx512") == 0 ? 2
-                         : std::strcmp(log1p_packets_arch(), "avx2") == 0 ? 1
-                                                                          : 0;
-    return w;
+using LobeShape =
+    void (*)(const LobeShapeKind&, double, const LobeShapeInputs&, std::size_t, double*, double*);
+
+void lobe_shape_scalar(const LobeShapeKind& kind,
+                       double alpha,
+                       const LobeShapeInputs& in,
+                       std::size_t n,
+                       double* S,
+                       double* dS) {
+    const bool smith = kind.smith != 0;
+    for (std::size_t i = 0; i < n; ++i) {
+        detail::lobe_shape_packet(kind,
+                                  alpha,
+                                  in.hxy2[i],
+                                  in.hz2[i],
+                                  smith ? in.tan2_i[i] : 0.0,
+                                  smith ? in.tan2_o[i] : 0.0,
+                                  in.inv_4cc[i],
+                                  S[i],
+                                  dS[i]);
+    }
 }
 
 }  // namespace
@@ -27,17 +51,9 @@ void lobe_shape_packets(const LobeShapeKind& kind,
                         std::size_t n,
                         double* S,
                         double* dS) {
-    switch (width_class()) {
-        case 2:
-            detail::lobe_shape_avx512(kind, alpha, in, n, S, dS);
-            return;
-        case 1:
-            detail::lobe_shape_avx2(kind, alpha, in, n, S, dS);
-            return;
-        default:
-            break;
-    }
-    detail::lobe_shape_kernel<xsimd::sse2>(kind, alpha, in, n, S, dS);
+    static const LobeShape f =
+        isa_kernel<LobeShape>(&lobe_shape_scalar, GONIO_ISA_KERNELS(detail, lobe_shape));
+    f(kind, alpha, in, n, S, dS);
 }
 
 }  // namespace gonio::fitting

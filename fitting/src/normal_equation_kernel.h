@@ -1,7 +1,7 @@
 #pragma once
 
 // The packet loop of normal_equation_packets and cost_packets (fitting/normal_equation_packets.h)
-// for one instruction set; each normal_equation_packets*.cpp instantiates it with its own compile
+// for one instruction set; each copy of isa/normal_equation.cpp instantiates it with its own compile
 // flags.
 
 #include <algorithm>
@@ -278,27 +278,5 @@ double cost_kernel(const PacketModel& m,
     fused_range<B, 1, false>(m, in, begin, end, sums);
     return lane_sum(sums.cost);
 }
-
-void normal_equation_avx512(const PacketModel& m,
-                            const PacketInputs& in,
-                            std::size_t begin,
-                            std::size_t end,
-                            int stride,
-                            double* a,
-                            double* b,
-                            double* cost);
-void normal_equation_avx2(const PacketModel& m,
-                          const PacketInputs& in,
-                          std::size_t begin,
-                          std::size_t end,
-                          int stride,
-                          double* a,
-                          double* b,
-                          double* cost);
-double cost_avx512(const PacketModel& m,
-                   const PacketInputs& in,
-                   std::size_t begin,
-                   std::size_t end);
-double cost_avx2(const PacketModel& m, const PacketInputs& in, std::size_t begin, std::size_t end);
 
 }  // namespace gonio::fitting::detail

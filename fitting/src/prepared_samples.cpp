@@ -9,6 +9,7 @@
 
 #include "gonio/base/check.h"
 #include "gonio/base/huge_pages.h"
+#include "gonio/base/instruction_set.h"
 #include "gonio/base/thread_pool.h"
 #include "gonio/brdf/blinn_phong.h"
 #include "gonio/brdf/fresnel.h"
@@ -138,9 +139,9 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
     // The fused packet passes (normal_equation_packets.h) take the log residual of isotropic GGX
     // and Beckmann lobes with no or Smith shadowing, in the closed form. They read each sample's
     // lobe geometry, which a model without lobes (Lambert only) does not prepare: it takes the
-    // per-sample path.
-    packets_ = analytic_ && !base.lobes.empty() && form_ == ResidualForm::kLog && !anisotropic_ &&
-               slots_ <= 16 &&
+    // per-sample path, as does a build without packet kernels (gonio/base/instruction_set.h).
+    packets_ = packet_isa() != Isa::kScalar && analytic_ && !base.lobes.empty() &&
+               form_ == ResidualForm::kLog && !anisotropic_ && slots_ <= 16 &&
                base.lobes.size() <= static_cast<std::size_t>(PacketModel::kMaxLobes);
     for (const brdf::Lobe<double>& l : base.lobes) {
         packets_ = packets_ &&

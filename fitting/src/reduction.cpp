@@ -6,15 +6,19 @@
 #include <cmath>
 #include <numeric>
 #include <random>
-#include <string>
 
 #include "gonio/base/check.h"
 #include "gonio/base/huge_pages.h"
+#include "gonio/base/instruction_set.h"
 #include "gonio/base/thread_pool.h"
-#include "gonio/fitting/vector_log.h"
 #include "stratum_kernel.h"
 
 namespace gonio::fitting {
+
+namespace detail {
+// One copy per instruction set: isa/stratum.cpp.
+GONIO_ISA_DECLARE(void stratum(const StratumArrays& a, std::size_t n);)
+}  // namespace detail
 
 namespace {
 
@@ -25,17 +29,13 @@ StratumCoords stratum_coords_of(const brdf::Sample& s) {
     return c;
 }
 
-/// The instruction set of the packet kernel: the logarithm's choice (vector_log.h), made once.
-enum class StratumArch { kScalar, kAvx2, kAvx512 };
+using StratumPackets = void (*)(const detail::StratumArrays&, std::size_t);
 
-StratumArch stratum_arch() {
-    static const StratumArch a = [] {
-        const std::string name = log1p_packets_arch();
-        return name == "avx512" ? StratumArch::kAvx512
-               : name == "avx2" ? StratumArch::kAvx2
-                                : StratumArch::kScalar;
-    }();
-    return a;
+/// The copy of the packet kernel for gonio::packet_isa(), nullptr for the scalar path.
+StratumPackets stratum_packets() {
+    static const StratumPackets f =
+        isa_kernel<StratumPackets>(nullptr, GONIO_ISA_KERNELS(detail, stratum));
+    return f;
 }
 
 /// The coordinates of samples [b, e) into out[b, e).
@@ -43,8 +43,8 @@ void stratum_range(const std::vector<brdf::Sample>& samples,
                    std::size_t b,
                    std::size_t e,
                    StratumCoords* out) {
-    const StratumArch arch = stratum_arch();
-    if (arch == StratumArch::kScalar) {
+    const StratumPackets packets = stratum_packets();
+    if (packets == nullptr) {
         for (std::size_t i = b; i < e; ++i) {
             out[i] = stratum_coords_of(samples[i]);
         }
@@ -64,11 +64,7 @@ void stratum_range(const std::vector<brdf::Sample>& samples,
             in[3][j] = s.phi_o;
         }
         const detail::StratumArrays a{in[0], in[1], in[2], in[3], res[0], res[1], res[2]};
-        if (arch == StratumArch::kAvx512) {
-            detail::stratum_avx512(a, m);
-        } else {
-            detail::stratum_avx2(a, m);
-        }
+        packets(a, m);
         for (std::size_t j = 0; j < m; ++j) {
             out[r + j] = {res[0][j], res[1][j], res[2][j]};
         }

@@ -1,7 +1,7 @@
 #pragma once
 
 // The stratum coordinates of stratified_reduce (fitting/reduction.h): one body for double (the
-// scalar path, reduction.cpp) and for packets (each stratum_packets*.cpp instantiates the kernel
+// scalar path, reduction.cpp) and for packets (each copy of isa/stratum.cpp instantiates the kernel
 // with its own compile flags).
 //
 // Rusinkiewicz's half/difference angles (brdf/coords.h to_half_diff, the same definitions:
@@ -125,8 +125,5 @@ void stratum_kernel(const StratumArrays& a, std::size_t n) {
         }
     }
 }
-
-void stratum_avx512(const StratumArrays& a, std::size_t n);
-void stratum_avx2(const StratumArrays& a, std::size_t n);
 
 }  // namespace gonio::fitting::detail

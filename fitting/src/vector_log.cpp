@@ -1,62 +1,34 @@
-// log1p_packets: the widest instruction set of this CPU, chosen once; SSE2 (every x86-64) here.
+// log1p_packets: the copy of the kernel for gonio::packet_isa(), else std::log1p element by
+// element.
 
 #include "gonio/fitting/vector_log.h"
 
-#include "vector_log_kernel.h"
+#include <cmath>
+
+#include "gonio/base/instruction_set.h"
 
 namespace gonio::fitting {
 
+namespace detail {
+// One copy per instruction set: isa/vector_log.cpp.
+GONIO_ISA_DECLARE(void log1p(const double* x, double* y, std::size_t n);)
+}  // namespace detail
+
 namespace {
 
-enum class LogArch {
-    kSse2,    ///< Baseline x86-64: 2 doubles per packet.
-    kAvx2,    ///< AVX2 + FMA: 4 doubles per packet.
-    kAvx512,  ///< AVX-512 F + DQ: 8 doubles per packet.
-};
+using Log1p = void (*)(const double*, double*, std::size_t);
 
-/// The compiler's CPU test (it also checks that the operating system saves the wide registers).
-LogArch detect() {
-    __builtin_cpu_init();
-    if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq")) {
-        return LogArch::kAvx512;
+void log1p_scalar(const double* x, double* y, std::size_t n) {
+    for (std::size_t i = 0; i < n; ++i) {
+        y[i] = std::log1p(x[i]);
     }
-    if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) {
-        return LogArch::kAvx2;
-    }
-    return LogArch::kSse2;
-}
-
-LogArch arch() {
-    static const LogArch a = detect();
-    return a;
 }
 
 }  // namespace
 
 void log1p_packets(const double* x, double* y, std::size_t n) {
-    switch (arch()) {
-        case LogArch::kAvx512:
-            detail::log1p_avx512(x, y, n);
-            return;
-        case LogArch::kAvx2:
-            detail::log1p_avx2(x, y, n);
-            return;
-        case LogArch::kSse2:
-            break;
-    }
-    detail::log1p_kernel<xsimd::sse2>(x, y, n);
-}
-
-const char* log1p_packets_arch() {
-    switch (arch()) {
-        case LogArch::kAvx512:
-            return "avx512";
-        case LogArch::kAvx2:
-            return "avx2";
-        case LogArch::kSse2:
-            break;
-    }
-    return "sse2";
+    static const Log1p f = isa_kernel<Log1p>(&log1p_scalar, GONIO_ISA_KERNELS(detail, log1p));
+    f(x, y, n);
 }
 
 }  // namespace gonio::fitting

@@ -1,7 +1,7 @@
 #pragma once
 
 // The packet loop of log1p_packets (fitting/vector_log.h) for one instruction set; each
-// vector_log*.cpp instantiates it with its own compile flags.
+// copy of isa/vector_log.cpp instantiates it with its own compile flags.
 
 #include <algorithm>
 #include <cstddef>
@@ -25,8 +25,5 @@ void log1p_kernel(const double* x, double* y, std::size_t n) {
         std::copy(tail, tail + (n - i), y + i);
     }
 }
-
-void log1p_avx512(const double* x, double* y, std::size_t n);
-void log1p_avx2(const double* x, double* y, std::size_t n);
 
 }  // namespace gonio::fitting::detail

@@ -279,14 +279,14 @@ TEST(Reduction, StratumCoordinatesAreTheHalfDifferenceAngles) {
 }
 
 TEST(Reduction, StratumCoordinatesOfDoubleAndOfPacketsAgree) {
-    // One body (stratum_kernel.h) for double, the path of a processor without AVX2, and for the
+    // One body (stratum_kernel.h) for double, the path of a build without packet kernels, and for the
     // packets that stratum_coordinates uses here: on a seeded grid with the edges (normal
     // incidence, grazing, wi = wo, mirror, azimuths at and beyond +-pi) the two agree to 1e-10.
     // xsimd's sincos and atan2 are within a few ulp of the C library's; next to the mirror
     // direction h = wi + wo cancels to about 1e-11 and those ulp become absolute errors of a few
     // 1e-11 in theta_h and theta_d (the largest seen here: 2.9e-11); away from it they agree to
-    // 3e-16 (checked below, to 1e-14). Where the processor has neither AVX2 nor AVX-512 both sides
-    // are the double path.
+    // 3e-16 (checked below, to 1e-14). In a build without packet kernels (instruction_set.h) both
+    // sides are the double path.
     constexpr double kHalfPi = brdf::kPi / 2;
     std::vector<Sample> all;
     for (double t : {0.0, 1e-9, 0.3, 1.2, kHalfPi - 1e-6}) {

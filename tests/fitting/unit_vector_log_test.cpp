@@ -9,6 +9,7 @@
 #include <random>
 #include <vector>
 
+#include "gonio/base/instruction_set.h"
 #include "gonio/fitting/vector_log.h"
 
 namespace gonio::fitting {
@@ -49,7 +50,7 @@ TEST(VectorLog, Log1pWithinOneUlpOverTheRangeOfTheResidual) {
         }
     }
     EXPECT_LE(worst, 1.0) << "x = " << x[at] << ", seed " << seed << ", packets "
-                          << log1p_packets_arch();
+                          << isa_name(packet_isa());
 }
 
 TEST(VectorLog, EdgesFollowLog1p) {
