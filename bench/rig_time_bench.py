@@ -633,23 +633,6 @@ def format_time(t, how, pts):
     return ("<= %.0f" if how == "first" else "%.0f") % t
 
 
-def print_mission_summary(tname, curves, key):
-    level, times = mission_summary(tname, curves, key)
-    fit = aim_plan(curves)
-    t_fit = times.get(fit, (None, None))[0]
-    print("\n%s: rig time to %.4f (%s; %s is the aim's fit-driven plan)" % (
-        tname, level, key, "fit " + fit[1]))
-    for c, (t, how) in sorted(times.items()):
-        extra = ""
-        if t_fit and t and c != fit:
-            extra = " (this / fit %s: %.2f%s)" % (fit[1], t / t_fit, "" if how != "first" else
-                                                 ", at most")
-        elif t_fit and t is None:
-            extra = " (this / fit %s: > %.2f)" % (fit[1], max(p["rig_s"] for p in curves[c]) / t_fit)
-        print("  %s %s: %s s%s" % (c[0], c[1], format_time(t, how, curves[c]), extra))
-    sys.stdout.flush()
-
-
 def curves_of(saved):
     """{(family, mode): points} of one truth's saved results."""
     return {tuple(c.rsplit(" ", 1)): pts for c, pts in saved.items()}
@@ -666,21 +649,20 @@ def mission_tables(results, key="fit_dense"):
         curves = curves_of(saved)
         level, times = mission_summary(tname, curves, key)
         fit = aim_plan(curves)
-        t_fit = times.get(fit, (None, None))[0]
         for fam in MISSION_PLANS:
             cells, ratios = [], []
             for mode in MODES:
                 pts = curves.get((fam, mode)) or []
                 t, how = times.get((fam, mode), (None, None))
                 cells.append(format_time(t, how, pts) if pts else "-")
-                ratios.append(ratio_text(t, how, pts, t_fit))
+                ratios.append(ratio_text(t, how, pts, times.get(fit, (None, None))))
             if cells != ["-", "-"]:
                 rows.append("| %s | %.4f | %s | %s | %s | %s |" % (
                     tname, level, fam, cells[0], cells[1], ", ".join(ratios)))
         u = times.get(("uniform", "stop"), (None, None))
         v = times.get(("vndf", "stop"), (None, None))
-        ru = ratio_text(u[0], u[1], curves.get(("uniform", "stop")) or [], t_fit)
-        rv = ratio_text(v[0], v[1], curves.get(("vndf", "stop")) or [], t_fit)
+        ru = ratio_text(u[0], u[1], curves.get(("uniform", "stop")) or [], times.get(fit))
+        rv = ratio_text(v[0], v[1], curves.get(("vndf", "stop")) or [], times.get(fit))
         aims.append("| %s | fit, %s | %s | %s | %s | %s | %s |" % (
             tname, "fly" if fit[1] == "fly" else "stop-and-go",
             format_time(*times.get(fit, (None, None)), curves.get(fit) or [{"rig_s": 0}]),
@@ -688,23 +670,31 @@ def mission_tables(results, key="fit_dense"):
     return rows + [""] + aims
 
 
-def ratio_text(t, how, pts, t_fit):
-    """The ratio of a plan's time to the fit-driven plan's, with its sense when only bounded."""
+def ratio_text(t, how, pts, fit_time):
+    """A plan's time over the fit-driven plan's (fit_time: (seconds, how)), with its sense where a
+    time is only bounded: "> r" (the plan did not reach the level in its longest campaign),
+    "<= r" (the plan reached it at its smallest budget), ">= r" (the fit-driven plan did), "~ r"
+    (both did: neither bound holds)."""
+    t_fit, how_fit = fit_time
     if not pts or not t_fit:
         return "-"
     if t is None:
         return "> %.2f" % (max(p["rig_s"] for p in pts) / t_fit)
-    return ("<= %.2f" if how == "first" else "%.2f") % (t / t_fit)
+    sense = {(False, False): "", (True, False): "<= ", (False, True): ">= ", (True, True): "~ "}
+    return "%s%.2f" % (sense[(how == "first", how_fit == "first")], t / t_fit)
 
 
 def met(ratio, aim):
+    """Whether a ratio (ratio_text) meets the aim: yes, no or open (a bound on the wrong side)."""
     if ratio == "-":
         return "-"
     value = float(ratio.split()[-1])
     if ratio.startswith(">"):
-        return "yes" if value >= aim else "open (not reached)"
+        return "yes" if value >= aim else "open (bound below the aim)"
     if ratio.startswith("<="):
-        return "no" if value < aim else "open (at most)"
+        return "no" if value < aim else "open (bound above the aim)"
+    if ratio.startswith("~"):
+        return "open (both at their smallest budget)"
     return "yes" if value >= aim else "no"
 
 
@@ -723,8 +713,8 @@ def mission(a, work):
             for mode in MODES:
                 curves[(fam, mode)] = mission_family(truth, fam, mode, a, work)
         results[tname] = {"%s %s" % c: pts for c, pts in curves.items()}
-        for key in ("fit_dense", "data"):
-            print_mission_summary(tname, curves, key)
+        print()
+        print("\n".join(mission_tables({tname: results[tname]})))
         print()
         if a.json:
             with open(a.json, "w") as f:

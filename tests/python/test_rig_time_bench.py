@@ -59,3 +59,16 @@ def test_a_truths_own_values_scaled_by_two_percent_are_two_percent_off(tmp_path)
     assert e["alpha"] < 1e-4
     # The data alone, interpolated, at the grid's own configurations: the values themselves.
     assert truth.data_error(data) == pytest.approx(0.02, rel=1e-3)
+
+
+def test_ratios_to_the_fit_driven_plan_say_which_side_a_bound_is_on():
+    pts = [{"rig_s": 300.0}, {"rig_s": 600.0}]
+    assert rtb.ratio_text(100.0, "interpolated", pts, (20.0, "interpolated")) == "5.00"
+    # Not reached in its longest campaign (600 s): more than 600 / 20.
+    assert rtb.ratio_text(None, None, pts, (20.0, "interpolated")) == "> 30.00"
+    # Reached at its smallest budget: at most; the fit-driven plan at its first: at least.
+    assert rtb.ratio_text(100.0, "first", pts, (20.0, "interpolated")) == "<= 5.00"
+    assert rtb.ratio_text(100.0, "interpolated", pts, (20.0, "first")) == ">= 5.00"
+    assert rtb.met("5.00", 5) == "yes" and rtb.met("4.99", 5) == "no"
+    assert rtb.met("> 30.00", 5) == "yes" and rtb.met("<= 4.00", 5) == "no"
+    assert rtb.met(">= 3.69", 5).startswith("open")
