@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Set-up (packages, configure, build), then the main job on the embedded simulated rig:
 #   1. a point-mode campaign of a real material (Modbus drives + GigE Vision camera, simulated),
-#   2. the fit of its dataset by automatic model choice (--model auto: the demo material is Beckmann
-#      with V-groove shadowing, which the default GGX fit misses in its dark blue channel),
+#   2. the fit of its dataset by automatic model choice (gonio fit's default, --model auto: the demo
+#      material is Beckmann with V-groove shadowing, which a GGX fit misses in its dark blue channel),
 #   3. plots, a ground-truth-versus-fit preview and the HTML report,
 #   4. an image-mode campaign (a sphere of the same material, imaged by the simulated GigE Vision
 #      camera through the same device path) straight into a half/difference table, the fit of that
@@ -24,7 +24,7 @@ step "1/4 point-mode campaign of $material on the embedded simulated rig"
 "$gonio" acquire --material "$material" --out "$dir"
 
 step "2/4 fit (automatic model choice)"
-"$gonio" fit "$dir/dataset.csv" --model auto --out "$dir/fit.json"
+"$gonio" fit "$dir/dataset.csv" --out "$dir/fit.json"
 
 step "3/4 plots, preview, report"
 "$gonio" plot "$dir/dataset.csv" --fit "$dir/fit.json" --out "$dir/plots"

@@ -1,6 +1,6 @@
-// gonio fit DATA [--model ggx] [--out fit.json]      fit an analytic model to measured samples
+// gonio fit DATA [--out fit.json]                    candidates ranked by BIC, the winner polished
+// gonio fit DATA --model ggx [--out fit.json]        fit one analytic model to measured samples
 // gonio fit --compare ggx,beckmann,blinn-phong DATA  fit several models, table ranked by error
-// gonio fit --model auto DATA                        candidates ranked by BIC, the winner polished
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
@@ -30,7 +30,7 @@ namespace fitting = gonio::fitting;
 
 struct FitCliOptions {
     std::string data;
-    std::string model = gonio::batch::default_distribution();
+    std::string model = gonio::batch::kAutoModel;
     std::string template_path;
     bool no_diffuse = false;
     std::string fresnel = gonio::batch::default_fresnel();
@@ -100,6 +100,21 @@ std::vector<GivenOption> given_options(const FitCliOptions& o, const CLI::App& c
     add("--max-iterations", "max_iterations", std::to_string(o.max_iterations));
     add("--threads", "threads", std::to_string(o.threads));
     return out;
+}
+
+/// The model of a fit that names none (no --model, no --template): auto, unless an option of the
+/// model's structure is given (--lobes, --fresnel, ...), which describes one family: then the
+/// fitting library's default distribution (ggx), with that structure.
+std::string default_model(const std::vector<GivenOption>& given) {
+    for (const GivenOption& g : given) {
+        for (const char* key :
+             {"fresnel", "shadowing", "diffuse", "anisotropic", "lobes", "roughness"}) {
+            if (std::string(key) == g.key) {
+                return gonio::batch::default_distribution();
+            }
+        }
+    }
+    return gonio::batch::kAutoModel;
 }
 
 /// The option as typed for a request key (for messages).
@@ -183,12 +198,15 @@ GONIO_COMMAND(fit) {
                     o->data,
                     "samples: dataset CSV, table (MERL .binary, .gtab) or RGL material (.bsdf)")
         ->check(gonio::tools::readable_input());
-    cmd->add_option("--model",
-                    o->model,
-                    "lobe distribution: ggx, beckmann, blinn-phong, student-t, tabulated (D "
-                    "extracted from the data by power iteration), or auto (each candidate fitted "
-                    "on a reduction and ranked by BIC on all samples, the winner fitted on all "
-                    "samples)")
+    cmd->add_option(
+           "--model",
+           o->model,
+           "lobe distribution: auto (the default: each candidate fitted on a reduction "
+           "and ranked by BIC on all samples, the winner fitted on all samples and named), "
+           "ggx, beckmann, blinn-phong, student-t, or tabulated (D extracted from the data "
+           "by power iteration). Without --model, an option of the structure (--lobes, "
+           "--fresnel, --shadowing, --no-diffuse, --anisotropic, --roughness) fits ggx "
+           "with it")
         ->capture_default_str();
     cmd->add_option("--template",
                     o->template_path,
@@ -305,6 +323,9 @@ GONIO_COMMAND(fit) {
             batch::FitRequest request;
             if (model_given && template_given) {
                 return usage_error("fit", "--model and --template: give one of them");
+            }
+            if (!model_given) {
+                o->model = default_model(given);
             }
             const std::string model_flag = template_given ? "--template" : "--model " + o->model;
             if (auto s = batch::set_option(

@@ -72,12 +72,15 @@ def test_bad_shard_and_manifest_errors(workdir):
 
 
 def test_entry_without_options_fits_as_gonio_fit_does(workdir):
-    # The defaults of a manifest entry are the fitting library's, like those of `gonio fit DATA`.
+    # The defaults of a manifest entry are the fitting library's (GGX), like those of
+    # `gonio fit DATA --model ggx` (`gonio fit`'s own default model is auto).
     gonio.save(workdir / "plain.csv", synthetic_samples(TRUTH, n_theta=7, n_phi=9))
     (workdir / "m.csv").write_text("input,model,options\nplain.csv,,\n")
     r = run_gonio("fit", "--manifest", workdir / "m.csv", "--out", workdir / "out")
     assert r.returncode in (0, 1), r.stderr
-    r2 = run_gonio("fit", workdir / "plain.csv", "--out", workdir / "direct.json")
+    r2 = run_gonio(
+        "fit", workdir / "plain.csv", "--model", "ggx", "--out", workdir / "direct.json"
+    )
     assert r2.returncode == r.returncode, r2.stdout + r2.stderr
     a = json.loads((workdir / "out" / "plain.report.json").read_text())
     b = json.loads((workdir / "direct.report.json").read_text())

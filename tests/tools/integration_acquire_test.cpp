@@ -80,7 +80,7 @@ TEST(AcquireCli, AcquireThenFitRecoversTheGroundTruth) {
                                           " --n-theta 6 --n-dphi 5 --adaptive 0 --time-scale 500",
                                       &st);
     ASSERT_EQ(st, 0) << acq;
-    const std::string fit = run_gonio("fit " + dir + "/dataset.csv", &st);
+    const std::string fit = run_gonio("fit " + dir + "/dataset.csv --model ggx", &st);
     ASSERT_EQ(st, 0) << fit;
     // The measurement noise is about 1e-5 relative (the fit reports ~2e-6 standard errors); 1e-3
     // leaves room for the stages' step quantisation.

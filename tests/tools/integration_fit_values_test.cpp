@@ -59,7 +59,7 @@ CliRun fit(const gonio::brdf::Dataset& d, const std::string& name, nlohmann::jso
     const std::string data = values_dir() + "/" + name + ".csv";
     EXPECT_TRUE(gonio::brdf::write_dataset_csv(data, d));
     const std::string out = values_dir() + "/" + name + ".fit.json";
-    CliRun r = run_gonio("fit " + data + " --out " + out);
+    CliRun r = run_gonio("fit " + data + " --model ggx --out " + out);
     std::ifstream in(values_dir() + "/" + name + ".fit.report.json");
     if (in && report != nullptr) {
         *report = nlohmann::json::parse(in);

@@ -103,16 +103,16 @@ TEST(GonioFit, AVisibleMisfitOfADarkChannelIsTheHeadlineNotUsableAndRepresents) 
 TEST(GonioFit, AMisfitIsPrintedOnceAndStrictFailsIt) {
     const std::string data = retro();
     const std::string err = verdict_dir() + "/once.stderr";
-    CliRun r = run_gonio("fit " + data, err);
+    CliRun r = run_gonio("fit " + data + " --model ggx", err);
     ASSERT_EQ(r.status, 0) << r.out;
     EXPECT_EQ(count(r.out, "MISFIT"), 1u) << r.out;
     EXPECT_EQ(count(r.out, "verdict:"), 1u) << r.out;
     // No request line unless asked for; a fit without --out says nothing was written and how.
     EXPECT_EQ(r.out.find("request:"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("nothing written: give --out FILE.json"), std::string::npos) << r.out;
-    CliRun v = run_gonio("fit " + data + " --verbose");
+    CliRun v = run_gonio("fit " + data + " --model ggx --verbose");
     EXPECT_NE(v.out.find("request: model=ggx;"), std::string::npos) << v.out;
-    CliRun strict = run_gonio("fit " + data + " --strict", err);
+    CliRun strict = run_gonio("fit " + data + " --model ggx --strict", err);
     EXPECT_EQ(strict.status, 1) << strict.out;
     EXPECT_NE(strict.out.find("--strict: the model does not represent these data"),
               std::string::npos)
@@ -167,7 +167,7 @@ TEST(GonioFit, AfterModelAutoTheSuggestionIsTheMeasurementAsATableWithItsError) 
 TEST(GonioFit, AnExportOfAMisfitCarriesItsVerdictAndWarns) {
     const std::string data = retro();
     const std::string model = verdict_dir() + "/misfit.json";
-    ASSERT_EQ(run_gonio("fit " + data + " --out " + model).status, 0);
+    ASSERT_EQ(run_gonio("fit " + data + " --model ggx --out " + model).status, 0);
     for (const std::string to : {"mitsuba", "pbrt"}) {
         const std::string out = verdict_dir() + "/misfit." + (to == "mitsuba" ? "xml" : "pbrt");
         const std::string err = verdict_dir() + "/export.stderr";
