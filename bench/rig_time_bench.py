@@ -641,8 +641,8 @@ def curves_of(saved):
 def mission_tables(results, key="fit_dense"):
     """Markdown: per truth, the rig time each plan and mode needs to reach the common level and
     its ratio to the aim's fit-driven plan; then the aim, truth by truth."""
-    rows = ["| truth | error level | plan | stop-and-go (s) | fly (s) | / fit-driven (stop, fly) |",
-            "| --- | --- | --- | --- | --- | --- |"]
+    rows = ["| truth | error level | plan | stop-and-go (s) | fly (s) | / fit-driven (stop, fly) "
+            "| best error (stop, fly) |", "| --- | --- | --- | --- | --- | --- | --- |"]
     aims = ["| truth | fit-driven plan | its rig time (s) | uniform / it | >= 5x | vndf / it "
             "| >= 2x (glossy) |", "| --- | --- | --- | --- | --- | --- | --- |"]
     for tname, saved in results.items():
@@ -650,15 +650,17 @@ def mission_tables(results, key="fit_dense"):
         level, times = mission_summary(tname, curves, key)
         fit = aim_plan(curves)
         for fam in MISSION_PLANS:
-            cells, ratios = [], []
+            cells, ratios, bests = [], [], []
             for mode in MODES:
                 pts = curves.get((fam, mode)) or []
                 t, how = times.get((fam, mode), (None, None))
                 cells.append(format_time(t, how, pts) if pts else "-")
                 ratios.append(ratio_text(t, how, pts, times.get(fit, (None, None))))
+                best = min(pts, key=lambda p: p[key]) if pts else None
+                bests.append("%.4f at %.0f s" % (best[key], best["rig_s"]) if best else "-")
             if cells != ["-", "-"]:
-                rows.append("| %s | %.4f | %s | %s | %s | %s |" % (
-                    tname, level, fam, cells[0], cells[1], ", ".join(ratios)))
+                rows.append("| %s | %.4f | %s | %s | %s | %s | %s |" % (
+                    tname, level, fam, cells[0], cells[1], ", ".join(ratios), ", ".join(bests)))
         u = times.get(("uniform", "stop"), (None, None))
         v = times.get(("vndf", "stop"), (None, None))
         ru = ratio_text(u[0], u[1], curves.get(("uniform", "stop")) or [], times.get(fit))
