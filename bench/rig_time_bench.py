@@ -186,7 +186,9 @@ class Truth:
 
     def __init__(self, gonio, name, path, aniso, work, grey=False):
         self.gonio, self.name, self.path, self.aniso = gonio, name, path, aniso
-        self.fit_args = ["--anisotropic"] if aniso else []
+        # The GGX model (one lobe and a diffuse term), named: `gonio fit` without --model ranks
+        # several models, and the benchmark compares plans on one model.
+        self.fit_args = ["--model", "ggx"] + (["--anisotropic"] if aniso else [])
         self.grid = direction_grid(aniso)
         self.grid_csv = os.path.join(work, name + "_grid.csv")
         with open(self.grid_csv, "w") as f:
