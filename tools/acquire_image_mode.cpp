@@ -164,140 +164,9 @@ void print_memory_estimate(const acquisition::CampaignRequest& request) {
                 human_bytes(static_cast<double>(max_memory_bytes())).c_str());
 }
 
-}  // namespace
-
-int run_acquire_image_mode(const acquisition::CampaignRequest& request,
-                           const std::string& serve_host,
-                           int serve_port) {
-    std::unique_ptr<report::LiveServer> live;
-    std::string dir;
-    std::size_t max_frames = 0;
-    double target = 0;
-    acquisition::ImageRunHooks hooks;
-    hooks.started = [&](const acquisition::ImageCampaignRun& run) -> Expected<void> {
-        max_frames = static_cast<std::size_t>(std::max(run.config.max_frames, 0));
-        target = run.config.coverage_target;
-        if (serve_port >= 0) {
-            // Before anything is written: an address that cannot be served leaves no folder
-            // behind.
-            auto srv = start_live_page(
-                serve_host,
-                serve_port,
-                "image campaign " + std::filesystem::path(run.dir).filename().string(),
-                "no camera frame yet (the first comes with the white reference)");
-            if (!srv) {
-                return tl::unexpected(srv.error());
-            }
-            live = std::move(*srv);
-            dir = run.dir;
-        }
-        std::printf(
-            "image mode: %s sphere on %s (motors %s, camera %s), %dx%dx%d table, target %.0f%%\n",
-            run.sample.c_str(),
-            run.embedded ? "the virtual rig" : run.rig_name.c_str(),
-            run.motor_address.c_str(),
-            run.camera_address.c_str(),
-            run.config.layout.n_theta_h,
-            run.config.layout.n_theta_d,
-            run.config.layout.n_phi_d,
-            100 * run.config.coverage_target);
-        if (live) {
-            live->publish_image_progress(0, max_frames, 0, target, "running");
-        }
-        std::fflush(stdout);
-        return {};
-    };
-    const bool aniso = request.anisotropic;
-    hooks.progress = [aniso](std::size_t i, const acquisition::FrameRecord& r) {
-        char spin[40] = "";
-        if (aniso) {
-            std::snprintf(spin, sizeof spin, ", spin %.1f deg", r.spin_rad * 180 / brdf::kPi);
-        } else if (r.placement > 0) {
-            std::snprintf(spin, sizeof spin, ", zoomed placement %d", r.placement);
-        }
-        std::printf("frame %zu: light %.1f deg%s, %llu samples, coverage %.1f%%\n",
-                    i + 1,
-                    r.light_arm_rad * 180 / brdf::kPi,
-                    spin,
-                    static_cast<unsigned long long>(r.counts.used),
-                    100 * r.coverage_after);
-        std::fflush(stdout);
-    };
-    // The campaign thread hands the live page a small picture of a frame (at most four a second)
-    // and the coverage per (theta_h, theta_d) cell; the server draws them on its own thread.
-    hooks.wrap_capture = [&live](acquisition::CaptureFn inner) -> acquisition::CaptureFn {
-        report::LiveServer* l = live.get();
-        if (l == nullptr) {
-            return inner;
-        }
-        using Clock = std::chrono::steady_clock;
-        return [inner = std::move(inner), l, last = Clock::time_point()](
-                   const acquisition::CaptureRequest& q) mutable -> Expected<devices::Frame> {
-            auto f = inner(q);
-            const Clock::time_point now = Clock::now();
-            if (f && q.shutter_open && now - last >= std::chrono::milliseconds(250)) {
-                last = now;
-                static const char* const kFilters[] = {"red", "green", "blue"};
-                char what[160];
-                std::snprintf(what,
-                              sizeof what,
-                              "%s, light arm at %.1f deg, %s filter",
-                              q.reference ? "white reference sphere" : "sample sphere",
-                              q.light_arm_rad * 180 / brdf::kPi,
-                              kFilters[std::clamp(q.channel, 0, 2)]);
-                report::Image picture = live_frame_picture(*f, kLiveFrameWidth);
-                std::string caption = live_frame_description(*f, picture, what);
-                l->publish_frame(std::move(picture), std::move(caption));
-            }
-            return f;
-        };
-    };
-    hooks.state = [&](const acquisition::ImageCampaignResult& so_far) {
-        if (live) {
-            live->publish_coverage(live_coverage_cells(so_far.coverage));
-            live->publish_image_progress(
-                so_far.frames.size(), max_frames, so_far.coverage_fraction(), target, "running");
-        }
-    };
-    auto run = acquisition::run_image_request(request, embedded_rig_starter(), hooks);
-    const acquisition::ImageCampaignResult* r = run ? &*run->result : nullptr;
-    const std::string state = r == nullptr ? "failed: " + run.error().message
-                              : r->target_met
-                                  ? "completed"
-                                  : "ended without reaching the target (" + r->stop_reason + ")";
-    if (live) {
-        live->publish_image_progress(
-            r ? r->frames.size() : 0, max_frames, r ? r->coverage_fraction() : 0, target, state);
-    }
-    int status = 0;
-    if (!run) {
-        std::fprintf(stderr, "gonio acquire: %s\n", run.error().message.c_str());
-        status = 1;
-    } else {
-        print_summary(*run);
-        std::printf("next: gonio fit %s/dataset.csv --out %s/fit.json\n      gonio report %s\n",
-                    run->dir.c_str(),
-                    run->dir.c_str(),
-                    run->dir.c_str());
-        std::fflush(stdout);
-        if (!run->result->target_met) {
-            std::fprintf(stderr,
-                         "gonio acquire: coverage target %.1f%% not met (%.1f%%)\n",
-                         100 * run->config.coverage_target,
-                         100 * run->result->coverage_fraction());
-            status = 1;
-        }
-    }
-    keep_live_page(live.get(), dir, state);
-    return status;
-}
-
-int print_image_plan(const acquisition::CampaignRequest& request) {
-    auto plan = acquisition::plan_image_campaign(request);
-    if (!plan) {
-        std::fprintf(stderr, "gonio acquire: %s\n", plan.error().message.c_str());
-        return 1;
-    }
+/// The plan's table, lights, camera and limits (and the spins of an anisotropic plan).
+void print_plan_settings(const acquisition::ImagePlan& planned) {
+    const acquisition::ImagePlan* plan = &planned;
     const acquisition::ImageCampaignConfig& c = plan->config;
     std::printf(
         "image mode plan on %s: %s table, coverage target %.0f%%, at most %d light "
@@ -333,13 +202,11 @@ int print_image_plan(const acquisition::CampaignRequest& request) {
             c.spins.step_rad * 180 / brdf::kPi,
             c.pole_rad * 180 / brdf::kPi);
     }
-    print_memory_estimate(request);
-    std::fflush(stdout);
-    auto p = acquisition::predict_image_coverage(c);
-    if (!p) {
-        std::fprintf(stderr, "gonio acquire: %s\n", p.error().message.c_str());
-        return 1;
-    }
+}
+
+/// The predicted frames, travel and coverage.
+void print_predicted_coverage(const acquisition::ImageCampaignConfig& c,
+                              const acquisition::ImageCoveragePrediction* p) {
     const double valid = static_cast<double>(std::max<std::size_t>(p->valid_bins, 1));
     char spin_buf[64] = "";
     if (c.anisotropic) {
@@ -362,6 +229,11 @@ int print_image_plan(const acquisition::CampaignRequest& request) {
         p->valid_bins,
         100.0 * static_cast<double>(p->reachable_bins) / valid,
         p->stop_reason.c_str());
+}
+
+/// The zoomed camera placements and how many frames use them.
+void print_zoomed_placements(const acquisition::ImageCampaignConfig& c,
+                             const acquisition::ImageCoveragePrediction* p) {
     if (!c.placements.empty()) {
         std::string names;
         for (const acquisition::Placement& z : c.placements) {
@@ -385,6 +257,12 @@ int print_image_plan(const acquisition::CampaignRequest& request) {
             p->zoomed_frames,
             p->light_arm_rad.size());
     }
+}
+
+/// The valid bins the prediction leaves empty, by reason.
+void print_coverage_holes(const acquisition::ImageCampaignConfig& c,
+                          const acquisition::ImageCoveragePrediction* p) {
+    const double valid = static_cast<double>(std::max<std::size_t>(p->valid_bins, 1));
     std::map<std::string, std::size_t> by_reason;
     for (const acquisition::CoverageHole& h : p->holes) {
         by_reason[h.reason] += h.bins;
@@ -401,6 +279,187 @@ int print_image_plan(const acquisition::CampaignRequest& request) {
                     n,
                     100.0 * static_cast<double>(n) / hole_of);
     }
+}
+
+/// The live page of an image campaign and what its progress is measured against.
+struct ImageLivePage {
+    std::unique_ptr<report::LiveServer> live;
+    std::string dir;
+    std::size_t max_frames = 0;
+    double target = 0;
+};
+
+/// The campaign has started: the live page served (before anything is written, so that an
+/// address that cannot be served leaves no folder behind) and the campaign announced.
+Expected<void> announce_image_run(const acquisition::ImageCampaignRun& run,
+                                  const std::string& serve_host,
+                                  int serve_port,
+                                  ImageLivePage* page) {
+    page->max_frames = static_cast<std::size_t>(std::max(run.config.max_frames, 0));
+    page->target = run.config.coverage_target;
+    if (serve_port >= 0) {
+        auto srv =
+            start_live_page(serve_host,
+                            serve_port,
+                            "image campaign " + std::filesystem::path(run.dir).filename().string(),
+                            "no camera frame yet (the first comes with the white reference)");
+        if (!srv) {
+            return tl::unexpected(srv.error());
+        }
+        page->live = std::move(*srv);
+        page->dir = run.dir;
+    }
+    std::printf(
+        "image mode: %s sphere on %s (motors %s, camera %s), %dx%dx%d table, target %.0f%%\n",
+        run.sample.c_str(),
+        run.embedded ? "the virtual rig" : run.rig_name.c_str(),
+        run.motor_address.c_str(),
+        run.camera_address.c_str(),
+        run.config.layout.n_theta_h,
+        run.config.layout.n_theta_d,
+        run.config.layout.n_phi_d,
+        100 * run.config.coverage_target);
+    if (page->live) {
+        page->live->publish_image_progress(0, page->max_frames, 0, page->target, "running");
+    }
+    std::fflush(stdout);
+    return {};
+}
+
+/// One frame's line: its light (and spin or zoomed placement), samples and coverage.
+void print_frame_progress(bool aniso, std::size_t i, const acquisition::FrameRecord& r) {
+    char spin[40] = "";
+    if (aniso) {
+        std::snprintf(spin, sizeof spin, ", spin %.1f deg", r.spin_rad * 180 / brdf::kPi);
+    } else if (r.placement > 0) {
+        std::snprintf(spin, sizeof spin, ", zoomed placement %d", r.placement);
+    }
+    std::printf("frame %zu: light %.1f deg%s, %llu samples, coverage %.1f%%\n",
+                i + 1,
+                r.light_arm_rad * 180 / brdf::kPi,
+                spin,
+                static_cast<unsigned long long>(r.counts.used),
+                100 * r.coverage_after);
+    std::fflush(stdout);
+}
+
+/// The capture with a small picture of a frame (at most four a second) handed to the live page.
+acquisition::CaptureFn with_live_frames(acquisition::CaptureFn inner, report::LiveServer* l) {
+    if (l == nullptr) {
+        return inner;
+    }
+    using Clock = std::chrono::steady_clock;
+    return [inner = std::move(inner), l, last = Clock::time_point()](
+               const acquisition::CaptureRequest& q) mutable -> Expected<devices::Frame> {
+        auto f = inner(q);
+        const Clock::time_point now = Clock::now();
+        if (f && q.shutter_open && now - last >= std::chrono::milliseconds(250)) {
+            last = now;
+            static const char* const kFilters[] = {"red", "green", "blue"};
+            char what[160];
+            std::snprintf(what,
+                          sizeof what,
+                          "%s, light arm at %.1f deg, %s filter",
+                          q.reference ? "white reference sphere" : "sample sphere",
+                          q.light_arm_rad * 180 / brdf::kPi,
+                          kFilters[std::clamp(q.channel, 0, 2)]);
+            report::Image picture = live_frame_picture(*f, kLiveFrameWidth);
+            std::string caption = live_frame_description(*f, picture, what);
+            l->publish_frame(std::move(picture), std::move(caption));
+        }
+        return f;
+    };
+}
+
+/// The run's summary and next commands, or its error; the exit status.
+int report_image_run(const Expected<acquisition::ImageCampaignRun>& run) {
+    int status = 0;
+    if (!run) {
+        std::fprintf(stderr, "gonio acquire: %s\n", run.error().message.c_str());
+        status = 1;
+    } else {
+        print_summary(*run);
+        std::printf("next: gonio fit %s/dataset.csv --out %s/fit.json\n      gonio report %s\n",
+                    run->dir.c_str(),
+                    run->dir.c_str(),
+                    run->dir.c_str());
+        std::fflush(stdout);
+        if (!run->result->target_met) {
+            std::fprintf(stderr,
+                         "gonio acquire: coverage target %.1f%% not met (%.1f%%)\n",
+                         100 * run->config.coverage_target,
+                         100 * run->result->coverage_fraction());
+            status = 1;
+        }
+    }
+    return status;
+}
+
+}  // namespace
+
+int run_acquire_image_mode(const acquisition::CampaignRequest& request,
+                           const std::string& serve_host,
+                           int serve_port) {
+    ImageLivePage page;
+    acquisition::ImageRunHooks hooks;
+    hooks.started = [&](const acquisition::ImageCampaignRun& run) {
+        return announce_image_run(run, serve_host, serve_port, &page);
+    };
+    const bool aniso = request.anisotropic;
+    hooks.progress = [aniso](std::size_t i, const acquisition::FrameRecord& r) {
+        print_frame_progress(aniso, i, r);
+    };
+    // The campaign thread hands the live page a small picture of a frame and the coverage per
+    // (theta_h, theta_d) cell; the server draws them on its own thread.
+    hooks.wrap_capture = [&page](acquisition::CaptureFn inner) {
+        return with_live_frames(std::move(inner), page.live.get());
+    };
+    hooks.state = [&](const acquisition::ImageCampaignResult& so_far) {
+        if (page.live) {
+            page.live->publish_coverage(live_coverage_cells(so_far.coverage));
+            page.live->publish_image_progress(so_far.frames.size(),
+                                              page.max_frames,
+                                              so_far.coverage_fraction(),
+                                              page.target,
+                                              "running");
+        }
+    };
+    auto run = acquisition::run_image_request(request, embedded_rig_starter(), hooks);
+    const acquisition::ImageCampaignResult* r = run ? &*run->result : nullptr;
+    const std::string state = r == nullptr ? "failed: " + run.error().message
+                              : r->target_met
+                                  ? "completed"
+                                  : "ended without reaching the target (" + r->stop_reason + ")";
+    if (page.live) {
+        page.live->publish_image_progress(r ? r->frames.size() : 0,
+                                          page.max_frames,
+                                          r ? r->coverage_fraction() : 0,
+                                          page.target,
+                                          state);
+    }
+    const int status = report_image_run(run);
+    keep_live_page(page.live.get(), page.dir, state);
+    return status;
+}
+
+int print_image_plan(const acquisition::CampaignRequest& request) {
+    auto plan = acquisition::plan_image_campaign(request);
+    if (!plan) {
+        std::fprintf(stderr, "gonio acquire: %s\n", plan.error().message.c_str());
+        return 1;
+    }
+    const acquisition::ImageCampaignConfig& c = plan->config;
+    print_plan_settings(*plan);
+    print_memory_estimate(request);
+    std::fflush(stdout);
+    auto p = acquisition::predict_image_coverage(c);
+    if (!p) {
+        std::fprintf(stderr, "gonio acquire: %s\n", p.error().message.c_str());
+        return 1;
+    }
+    print_predicted_coverage(c, &*p);
+    print_zoomed_placements(c, &*p);
+    print_coverage_holes(c, &*p);
     return 0;
 }
 

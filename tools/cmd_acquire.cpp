@@ -309,14 +309,8 @@ int run(const acq::CampaignRequest& r) {
     return status;
 }
 
-}  // namespace
-
-GONIO_COMMAND(acquire) {
-    auto* cmd = app.add_subcommand("acquire",
-                                   "run a measurement campaign (no arguments: a default material "
-                                   "on the embedded virtual rig)");
-    auto o = std::make_shared<AcquireOptions>();
-    acq::CampaignRequest& r = o->request;
+/// The campaign's description, folder and sample (and the virtual rig's truth).
+void add_campaign_options(CLI::App* cmd, acq::CampaignRequest& r) {
     cmd->add_option("campaign", r.campaign_file, "campaign description (campaign.json)")
         ->check(gonio::tools::readable_input());
     cmd->add_option("--rig",
@@ -337,6 +331,10 @@ GONIO_COMMAND(acquire) {
         ->check(gonio::tools::readable_input());
     cmd->add_option("--sample", r.sample, "sample name");
     cmd->add_option("--operator", r.operator_name, "operator name");
+}
+
+/// The point-mode plan and its settings.
+void add_plan_options(CLI::App* cmd, acq::CampaignRequest& r) {
     cmd->add_option("--plan",
                     r.plan_kind,
                     "uniform, half-diff, vndf (retro-reflection, then the VNDF-warped domain; "
@@ -375,19 +373,28 @@ GONIO_COMMAND(acquire) {
                     r.vndf_phi_i,
                     "anisotropic vndf plan: incident azimuths of its RGL file (default 8)")
         ->check(gonio::tools::integer_in(2, 64));
+}
+
+/// The virtual rig's time scale and the resume's drift rule.
+void add_rig_options(CLI::App* cmd, acq::CampaignRequest& r) {
     cmd->add_option("--time-scale", r.time_scale, "virtual rig: motion time scale")
         ->check(gonio::tools::finite_in(0.001, 1e6));
     cmd->add_flag("--accept-drift",
                   r.accept_drift,
                   "resume: take the lamp's current level as the new baseline");
+}
+
+/// The mode and image mode's settings.
+void add_image_options(CLI::App* cmd, AcquireOptions& o) {
+    acq::CampaignRequest& r = o.request;
     cmd->add_option(
-           "--mode", o->mode, "point (one configuration per frame) or image (curved sample)")
+           "--mode", o.mode, "point (one configuration per frame) or image (curved sample)")
         ->check(CLI::IsMember({"point", "image"}));
     cmd->add_option(
            "--coverage-target", r.coverage_target, "image mode: fraction of valid table bins")
         ->check(gonio::tools::finite_in(0.001, 1));
     cmd->add_option(
-        "--grid", o->grid, "image mode: table bins N_THETA_HxN_THETA_DxN_PHI_D (90x90x180 = MERL)");
+        "--grid", o.grid, "image mode: table bins N_THETA_HxN_THETA_DxN_PHI_D (90x90x180 = MERL)");
     cmd->add_option("--max-frames", r.max_frames, "image mode: most light positions")
         ->check(gonio::tools::integer_in(1, 1000000));
     cmd->add_option("--camera-px",
@@ -404,6 +411,10 @@ GONIO_COMMAND(acquire) {
                   r.no_zoom,
                   "image mode: every frame in the wide view, none through the rig's zoomed "
                   "camera placements");
+}
+
+/// What the run does besides measuring: print the plan only, stop by a rule, fly, serve a page.
+void add_run_options(CLI::App* cmd, acq::CampaignRequest& r) {
     cmd->add_flag(
         "--plan-only",
         r.plan_only,
@@ -413,12 +424,13 @@ GONIO_COMMAND(acquire) {
                     "point mode: fit between batches and stop when every fitted parameter's "
                     "relative sigma <= TARGET and the held-out values are predicted within the "
                     "noise (sigma=0.01[,holdout=2][,every=N]; kept by --resume)");
-    cmd->add_flag("--fly",
-                  r.fly,
-                  "point mode: fly scans: the arms measure while moving, one arm sweeping at "
-                  "constant speed through each run of configurations it reaches alone, each value "
-                  "the mean over its exposure's path (kept by --resume; not with --plan fit, image "
-                  "mode or a colour filter changer)");
+    cmd->add_flag(
+        "--fly",
+        r.fly,
+        "point mode: fly scans: the arms measure while moving, one arm sweeping at "
+        "constant speed through each run of configurations it reaches alone, each value "
+        "the mean over its exposure's path (kept by --resume; not with --plan fit --anisotropic, "
+        "image mode or a colour filter changer)");
     cmd->add_option("--fly-smear",
                     r.fly_smear_deg,
                     "fly scans: the largest arc one exposure may span, degrees (default 1); the "
@@ -428,6 +440,21 @@ GONIO_COMMAND(acquire) {
                     r.serve,
                     "serve a live page of the campaign at [ADDR:]PORT (ADDR default 127.0.0.1, "
                     "PORT 0 = any free port; the URL is printed)");
+}
+
+}  // namespace
+
+GONIO_COMMAND(acquire) {
+    auto* cmd = app.add_subcommand("acquire",
+                                   "run a measurement campaign (no arguments: a default material "
+                                   "on the embedded virtual rig)");
+    auto o = std::make_shared<AcquireOptions>();
+    acq::CampaignRequest& r = o->request;
+    add_campaign_options(cmd, r);
+    add_plan_options(cmd, r);
+    add_rig_options(cmd, r);
+    add_image_options(cmd, *o);
+    add_run_options(cmd, r);
     return [o]() {
         acq::CampaignRequest& req = o->request;
         // A resume of an image campaign is recognised by its folder (its settings file).

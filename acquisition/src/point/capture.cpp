@@ -107,10 +107,12 @@ Expected<RoiStats> roi_stats(const devices::Frame& f,
     return st;
 }
 
-Expected<SignalRate> merge_hdr(const std::vector<devices::Frame>& frames,
-                               const std::vector<cv::Mat>& darks,
-                               const PixelRoi& roi,
-                               const NoiseModel& noise) {
+namespace {
+
+/// The frames, their dark frames and the ROI fit together (sizes, types, exposures).
+Expected<void> check_hdr_inputs(const std::vector<devices::Frame>& frames,
+                                const std::vector<cv::Mat>& darks,
+                                const PixelRoi& roi) {
     if (frames.empty() || frames.size() != darks.size()) {
         return make_error("HDR merge: " + std::to_string(frames.size()) + " frames and " +
                           std::to_string(darks.size()) + " dark frames");
@@ -136,8 +138,13 @@ Expected<SignalRate> merge_hdr(const std::vector<devices::Frame>& frames,
         roi.x + roi.width > first.cols || roi.y + roi.height > first.rows) {
         return make_error("HDR merge: ROI outside the frame");
     }
-    SignalRate out;
-    out.hdr = frames.size() > 1;
+    return {};
+}
+
+/// The frames of the longest and the shortest exposure x gain.
+void extreme_exposures(const std::vector<devices::Frame>& frames,
+                       std::size_t* longest_out,
+                       std::size_t* shortest_out) {
     std::size_t longest = 0;
     std::size_t shortest = 0;
     for (std::size_t k = 0; k < frames.size(); ++k) {
@@ -149,54 +156,64 @@ Expected<SignalRate> merge_hdr(const std::vector<devices::Frame>& frames,
             shortest = k;
         }
     }
-    double sum[3] = {0, 0, 0};
-    double sum2[3] = {0, 0, 0};
-    std::size_t n = 0;
-    std::size_t clipped = 0;
-    for (int y = roi.y; y < roi.y + roi.height; ++y) {
-        for (int x = roi.x; x < roi.x + roi.width; ++x) {
-            for (int c = 0; c < ch; ++c) {
-                double wsum = 0;
-                double acc = 0;
-                double fallback = 0;
-                for (std::size_t k = 0; k < frames.size(); ++k) {
-                    const cv::Mat& im = frames[k].image;
-                    const double raw =
-                        im.depth() == CV_16U
-                            ? static_cast<double>(im.ptr<std::uint16_t>(y)[x * ch + c])
-                            : static_cast<double>(im.ptr<float>(y)[x * ch + c]);
-                    if (!std::isfinite(raw)) {
-                        return make_error("HDR merge: non-finite pixel at (" + std::to_string(x) +
-                                          ", " + std::to_string(y) + ")");
-                    }
-                    const double tg = frames[k].exposure_us * frames[k].gain;
-                    const double r = (raw - darks[k].ptr<float>(y)[x * ch + c]) / tg;
-                    if (k == shortest) {
-                        fallback = r;
-                    }
-                    if (raw >= frames[k].saturation_level) {
-                        // Clipped in this frame: no information beyond a lower bound.
-                        continue;
-                    }
-                    wsum += tg;
-                    acc += tg * r;
-                }
-                double r = 0;
-                if (wsum > 0) {
-                    r = acc / wsum;
-                } else {
-                    // Clipped at every exposure: keep the shortest frame's lower bound.
-                    r = fallback;
-                    ++clipped;
-                }
-                sum[c] += r;
-                sum2[c] += r * r;
-            }
-            ++n;
+    *longest_out = longest;
+    *shortest_out = shortest;
+}
+
+/// One pixel's channel c merged over the frames: the exposure-weighted mean of the rates of the
+/// frames where it is not clipped; clipped in every frame, the shortest frame's lower bound
+/// (counted in *clipped).
+Expected<double> merged_rate(const std::vector<devices::Frame>& frames,
+                             const std::vector<cv::Mat>& darks,
+                             int x,
+                             int y,
+                             int c,
+                             std::size_t shortest,
+                             std::size_t* clipped) {
+    const int ch = frames[0].image.channels();
+    double wsum = 0;
+    double acc = 0;
+    double fallback = 0;
+    for (std::size_t k = 0; k < frames.size(); ++k) {
+        const cv::Mat& im = frames[k].image;
+        const double raw = im.depth() == CV_16U
+                               ? static_cast<double>(im.ptr<std::uint16_t>(y)[x * ch + c])
+                               : static_cast<double>(im.ptr<float>(y)[x * ch + c]);
+        if (!std::isfinite(raw)) {
+            return make_error("HDR merge: non-finite pixel at (" + std::to_string(x) + ", " +
+                              std::to_string(y) + ")");
         }
+        const double tg = frames[k].exposure_us * frames[k].gain;
+        const double r = (raw - darks[k].ptr<float>(y)[x * ch + c]) / tg;
+        if (k == shortest) {
+            fallback = r;
+        }
+        if (raw >= frames[k].saturation_level) {
+            // Clipped in this frame: no information beyond a lower bound.
+            continue;
+        }
+        wsum += tg;
+        acc += tg * r;
     }
+    if (wsum > 0) {
+        return acc / wsum;
+    }
+    // Clipped at every exposure: keep the shortest frame's lower bound.
+    ++*clipped;
+    return fallback;
+}
+
+/// The ROI's mean rate per channel and its standard error: the larger of the pixels' scatter and
+/// the noise model of the longest frame.
+void rate_statistics(const double* sum,
+                     const double* sum2,
+                     std::size_t n,
+                     int ch,
+                     const devices::Frame& fl,
+                     const NoiseModel& noise,
+                     SignalRate* out_rate) {
+    SignalRate& out = *out_rate;
     const double dn = static_cast<double>(n);
-    const devices::Frame& fl = frames[longest];
     const double tg_long = fl.exposure_us * fl.gain;
     for (int c = 0; c < 3; ++c) {
         const int src = ch == 1 ? 0 : c;
@@ -211,6 +228,41 @@ Expected<SignalRate> merge_hdr(const std::vector<devices::Frame>& frames,
         out.rate[c] = mean;
         out.sigma[c] = std::sqrt(std::max(var_pix, var_model) / dn);
     }
+}
+
+}  // namespace
+
+Expected<SignalRate> merge_hdr(const std::vector<devices::Frame>& frames,
+                               const std::vector<cv::Mat>& darks,
+                               const PixelRoi& roi,
+                               const NoiseModel& noise) {
+    if (auto ok = check_hdr_inputs(frames, darks, roi); !ok) {
+        return tl::unexpected(ok.error());
+    }
+    const int ch = frames[0].image.channels();
+    SignalRate out;
+    out.hdr = frames.size() > 1;
+    std::size_t longest = 0, shortest = 0;
+    extreme_exposures(frames, &longest, &shortest);
+    double sum[3] = {0, 0, 0};
+    double sum2[3] = {0, 0, 0};
+    std::size_t n = 0;
+    std::size_t clipped = 0;
+    for (int y = roi.y; y < roi.y + roi.height; ++y) {
+        for (int x = roi.x; x < roi.x + roi.width; ++x) {
+            for (int c = 0; c < ch; ++c) {
+                auto r = merged_rate(frames, darks, x, y, c, shortest, &clipped);
+                if (!r) {
+                    return tl::unexpected(r.error());
+                }
+                sum[c] += *r;
+                sum2[c] += *r * *r;
+            }
+            ++n;
+        }
+    }
+    const devices::Frame& fl = frames[longest];
+    rate_statistics(sum, sum2, n, ch, fl, noise, &out);
     out.saturated = clipped > 0;
     out.exposure_us = fl.exposure_us;
     out.pixels = n;

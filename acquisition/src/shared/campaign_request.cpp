@@ -324,7 +324,11 @@ std::string ground_truth_name(const std::string& brdf) {
 
 /// The campaign description of a new campaign with the request's overrides, its paths resolved.
 /// `embedded` tells whether the embedded virtual rig serves it (no description given).
-Expected<CampaignSpec> new_campaign_spec(const CampaignRequest& r, bool* embedded) {
+namespace {
+
+/// The description a new campaign starts from: its campaign file (paths beside it), or the
+/// default one named after the virtual rig's material. `embedded` says which.
+Expected<CampaignSpec> base_campaign_spec(const CampaignRequest& r, bool* embedded) {
     CampaignSpec spec;
     *embedded = r.campaign_file.empty();
     if (!r.campaign_file.empty()) {
@@ -345,110 +349,146 @@ Expected<CampaignSpec> new_campaign_spec(const CampaignRequest& r, bool* embedde
                                      : !r.material.empty() ? r.material
                                                            : "red-plastic");
     }
+    return spec;
+}
+
+/// The rig, scene, names and plan kind the request gives.
+Expected<void> apply_names(const CampaignRequest& r, CampaignSpec* spec) {
     if (!r.rig_path.empty()) {
-        spec.rig = r.rig_path;
+        spec->rig = r.rig_path;
     }
-    if (spec.rig.empty()) {
+    if (spec->rig.empty()) {
         auto p = find_data_file("rigs/sim4.json");
         if (!p) {
             return tl::unexpected(p.error());
         }
-        spec.rig = *p;
+        spec->rig = *p;
     }
     if (!r.scene.empty()) {
-        spec.scene = r.scene;
+        spec->scene = r.scene;
     }
     if (!r.sample.empty()) {
-        spec.sample = r.sample;
+        spec->sample = r.sample;
     }
     if (!r.operator_name.empty()) {
-        spec.operator_name = r.operator_name;
+        spec->operator_name = r.operator_name;
     }
     if (!r.plan_kind.empty()) {
-        spec.plan_kind = r.plan_kind;
+        spec->plan_kind = r.plan_kind;
         if (r.plan_kind == "vndf" || r.plan_kind == "fit") {
             // The vndf plan's second pass is the VNDF-warped domain, the fit plan's batches are
             // chosen by the fit: no adaptive pass.
-            spec.adaptive = false;
+            spec->adaptive = false;
         }
     }
-    if (r.anisotropic && spec.plan_kind == "vndf") {
+    return {};
+}
+
+/// The vndf plan's settings the request gives (azimuths over the full turn when anisotropic).
+Expected<void> apply_vndf(const CampaignRequest& r, CampaignSpec* spec) {
+    if (r.anisotropic && spec->plan_kind == "vndf") {
         // The anisotropic vndf plan: azimuths over the full turn, a coarser NDF grid unless the
         // description gives one (its power iteration costs ndf_resolution^4 per step).
-        if (spec.vndf.phi_i_count < 2) {
-            spec.vndf.phi_i_count = kVndfAnisotropicPhiCount;
-            spec.vndf.ndf_resolution =
-                std::min(spec.vndf.ndf_resolution, kVndfAnisotropicNdfResolution);
+        if (spec->vndf.phi_i_count < 2) {
+            spec->vndf.phi_i_count = kVndfAnisotropicPhiCount;
+            spec->vndf.ndf_resolution =
+                std::min(spec->vndf.ndf_resolution, kVndfAnisotropicNdfResolution);
         }
     }
     if (r.vndf_theta_i > 0) {
-        spec.vndf.theta_i_count = r.vndf_theta_i;
+        spec->vndf.theta_i_count = r.vndf_theta_i;
     }
     if (r.vndf_resolution > 0) {
-        spec.vndf.resolution = r.vndf_resolution;
+        spec->vndf.resolution = r.vndf_resolution;
     }
     if (r.vndf_phi_i > 0) {
-        spec.vndf.phi_i_count = r.vndf_phi_i;
+        spec->vndf.phi_i_count = r.vndf_phi_i;
     }
-    if (spec.plan_kind == "vndf") {
-        if (auto ok = check_vndf_spec(spec.vndf); !ok) {
+    if (spec->plan_kind == "vndf") {
+        if (auto ok = check_vndf_spec(spec->vndf); !ok) {
             return tl::unexpected(ok.error());
         }
     }
-    if (spec.plan_kind == "fit" && (r.anisotropic || !r.symmetry.empty())) {
-        spec.fit.anisotropic = spec.fit.anisotropic || r.anisotropic;
+    return {};
+}
+
+/// Anisotropy: the fit plan's pool over every azimuth, or the anisotropic plan at the uniform
+/// grid's step; the grid's counts and the declared symmetry.
+Expected<void> apply_anisotropy(const CampaignRequest& r, CampaignSpec* spec) {
+    if (spec->plan_kind == "fit" && (r.anisotropic || !r.symmetry.empty())) {
+        spec->fit.anisotropic = spec->fit.anisotropic || r.anisotropic;
         if (!r.symmetry.empty()) {
             auto sym = parse_symmetry(r.symmetry);
             if (!sym) {
                 return tl::unexpected(sym.error());
             }
-            spec.fit.symmetry = *sym;
+            spec->fit.symmetry = *sym;
         }
     }
-    if (r.anisotropic && spec.plan_kind != "anisotropic" && spec.plan_kind != "vndf" &&
-        spec.plan_kind != "fit") {
+    if (r.anisotropic && spec->plan_kind != "anisotropic" && spec->plan_kind != "vndf" &&
+        spec->plan_kind != "fit") {
         // The anisotropic plan at the step of the description's uniform grid.
-        spec.plan_kind = "anisotropic";
-        spec.anisotropic.n_theta = spec.uniform.n_theta;
-        spec.anisotropic.n_dphi = spec.uniform.n_dphi;
-        spec.anisotropic.theta_max = spec.uniform.theta_max;
+        spec->plan_kind = "anisotropic";
+        spec->anisotropic.n_theta = spec->uniform.n_theta;
+        spec->anisotropic.n_dphi = spec->uniform.n_dphi;
+        spec->anisotropic.theta_max = spec->uniform.theta_max;
     }
-    const bool aniso = spec.plan_kind == "anisotropic";
+    const bool aniso = spec->plan_kind == "anisotropic";
     if (r.n_theta > 0) {
-        (aniso ? spec.anisotropic.n_theta : spec.uniform.n_theta) = r.n_theta;
+        (aniso ? spec->anisotropic.n_theta : spec->uniform.n_theta) = r.n_theta;
     }
     if (r.n_dphi > 0) {
-        (aniso ? spec.anisotropic.n_dphi : spec.uniform.n_dphi) = r.n_dphi;
+        (aniso ? spec->anisotropic.n_dphi : spec->uniform.n_dphi) = r.n_dphi;
     }
     if (!r.symmetry.empty()) {
         auto sym = parse_symmetry(r.symmetry);
         if (!sym) {
             return tl::unexpected(sym.error());
         }
-        spec.anisotropic.symmetry = *sym;
+        spec->anisotropic.symmetry = *sym;
     }
     if (aniso) {
         // Adaptive refinement links neighbours in the isotropic canonical space.
-        spec.adaptive = false;
+        spec->adaptive = false;
     }
+    return {};
+}
+
+/// What the run follows: adaptive passes, the stop rule, fly scans.
+Expected<void> apply_run_options(const CampaignRequest& r, CampaignSpec* spec) {
     if (r.adaptive >= 0) {
-        spec.adaptive = r.adaptive > 0;
-        spec.adaptive_passes = r.adaptive;
+        spec->adaptive = r.adaptive > 0;
+        spec->adaptive_passes = r.adaptive;
     }
     if (!r.until.empty()) {
         auto rule = parse_stop_rule(r.until);
         if (!rule) {
             return tl::unexpected(rule.error());
         }
-        spec.until = format_stop_rule(*rule);
+        spec->until = format_stop_rule(*rule);
     }
     if (r.fly) {
-        spec.fly.enabled = true;
+        spec->fly.enabled = true;
         if (r.fly_smear_deg > 0) {
-            spec.fly.max_smear_deg = r.fly_smear_deg;
+            spec->fly.max_smear_deg = r.fly_smear_deg;
         }
-        if (auto bad = fly_spec_problem(spec.fly); !bad.empty()) {
+        if (auto bad = fly_spec_problem(spec->fly); !bad.empty()) {
             return make_error("--fly-smear: " + bad);
+        }
+    }
+    return {};
+}
+
+}  // namespace
+
+Expected<CampaignSpec> new_campaign_spec(const CampaignRequest& r, bool* embedded) {
+    auto spec = base_campaign_spec(r, embedded);
+    if (!spec) {
+        return spec;
+    }
+    for (auto* stage : {apply_names, apply_vndf, apply_anisotropy, apply_run_options}) {
+        if (auto ok = stage(r, &*spec); !ok) {
+            return tl::unexpected(ok.error());
         }
     }
     return spec;
