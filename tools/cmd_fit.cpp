@@ -27,6 +27,7 @@
 namespace {
 
 namespace fitting = gonio::fitting;
+namespace batch = gonio::batch;
 
 struct FitCliOptions {
     std::string data;
@@ -189,11 +190,9 @@ int run_compare(const std::vector<gonio::batch::FitRequest>& requests,
     return status;
 }
 
-}  // namespace
-
-GONIO_COMMAND(fit) {
-    auto* cmd = app.add_subcommand("fit", "fit an analytic BRDF model to measured samples (Ceres)");
-    auto o = std::make_shared<FitCliOptions>();
+/// The options of `gonio fit`, each stored in `o`.
+void add_fit_options(CLI::App* cmd, FitCliOptions& o_ref) {
+    FitCliOptions* o = &o_ref;
     cmd->add_option("data",
                     o->data,
                     "samples: dataset CSV, table (MERL .binary, .gtab) or RGL material (.bsdf)")
@@ -263,182 +262,214 @@ GONIO_COMMAND(fit) {
                     "applies to every entry)")
         ->needs("--manifest");
     cmd->get_option("--loss-scale")->check(gonio::tools::finite_above(0));
-    return [o, cmd]() -> int {
-        namespace batch = gonio::batch;
-        using gonio::tools::usage_error;
-        const std::vector<GivenOption> given = given_options(*o, *cmd);
-        const bool model_given = cmd->count("--model") > 0;
-        const bool template_given = cmd->count("--template") > 0;
-        if (!o->manifest.empty()) {
-            // Each entry names its input and model; the other options apply to every entry.
-            for (const char* flag : {"--model", "--template", "--compare", "--truth"}) {
-                if (cmd->count(flag) > 0) {
-                    return usage_error("fit",
-                                       std::string(flag) +
-                                           " cannot be combined with --manifest (each entry names "
-                                           "its input and model; the other options apply to "
-                                           "every entry)");
-                }
-            }
-            std::vector<std::pair<std::string, std::string>> overrides;
-            for (const GivenOption& g : given) {
-                overrides.emplace_back(g.key, g.value);
-            }
-            return gonio::tools::run_fit_manifest(
-                o->manifest, o->shard, o->out, overrides, o->strict);
+}
+
+/// The run of `--manifest M`: each entry names its input and model; the other options apply to
+/// every entry.
+int run_manifest(const FitCliOptions& o,
+                 const CLI::App& cmd,
+                 const std::vector<GivenOption>& given) {
+    for (const char* flag : {"--model", "--template", "--compare", "--truth"}) {
+        if (cmd.count(flag) > 0) {
+            return gonio::tools::usage_error("fit",
+                                             std::string(flag) +
+                                                 " cannot be combined with --manifest (each entry "
+                                                 "names its input and model; the other options "
+                                                 "apply to every entry)");
         }
-        if (o->data.empty()) {
-            return usage_error("fit", "give DATA (or --manifest M --out DIR)");
+    }
+    std::vector<std::pair<std::string, std::string>> overrides;
+    for (const GivenOption& g : given) {
+        overrides.emplace_back(g.key, g.value);
+    }
+    return gonio::tools::run_fit_manifest(o.manifest, o.shard, o.out, overrides, o.strict);
+}
+
+/// The requests of `--compare a,b,...`, or the exit status of a usage error.
+std::optional<int> compare_requests(const FitCliOptions& o,
+                                    const CLI::App& cmd,
+                                    const std::vector<GivenOption>& given,
+                                    std::vector<batch::FitRequest>& requests) {
+    using gonio::tools::usage_error;
+    for (const char* flag : {"--model", "--template", "--out", "--truth"}) {
+        if (cmd.count(flag) > 0) {
+            return usage_error("fit",
+                               std::string(flag) +
+                                   " cannot be combined with --compare (it fits and ranks each "
+                                   "listed model or *.json template; nothing is written)");
         }
-        std::vector<batch::FitRequest> requests;
-        if (!o->compare.empty()) {
-            for (const char* flag : {"--model", "--template", "--out", "--truth"}) {
-                if (cmd->count(flag) > 0) {
-                    return usage_error("fit",
-                                       std::string(flag) +
-                                           " cannot be combined with --compare (it fits and ranks "
-                                           "each listed model or *.json template; nothing is "
-                                           "written)");
-                }
-            }
-            for (const std::string& name : split(o->compare)) {
-                batch::FitRequest request;
-                if (name == batch::kAutoModel) {
-                    return usage_error("fit",
-                                       "--compare " + o->compare +
-                                           ": auto is no model to compare; use --model auto");
-                }
-                if (auto s = batch::set_option(request, "model", name); !s) {
-                    return usage_error("fit", "--compare: " + s.error().message);
-                }
-                if (auto a = apply(request, given, "--compare " + name); !a) {
-                    return usage_error("fit", a.error().message);
-                }
-                requests.push_back(std::move(request));
-            }
-            if (requests.empty()) {
-                return usage_error("fit", "--compare: no model named");
-            }
-        } else {
-            batch::FitRequest request;
-            if (model_given && template_given) {
-                return usage_error("fit", "--model and --template: give one of them");
-            }
-            if (!model_given) {
-                o->model = default_model(given);
-            }
-            const std::string model_flag = template_given ? "--template" : "--model " + o->model;
-            if (auto s = batch::set_option(
-                    request, "model", template_given ? o->template_path : o->model);
-                !s) {
-                return usage_error("fit",
-                                   std::string(template_given ? "--template" : "--model") + ": " +
-                                       s.error().message);
-            }
-            if (template_given && !gonio::ends_with(o->template_path, ".json")) {
-                return usage_error(
-                    "fit", "--template " + o->template_path + ": expected a *.json fit template");
-            }
-            if (auto a = apply(request, given, model_flag); !a) {
-                return usage_error("fit", a.error().message);
-            }
-            requests.push_back(std::move(request));
+    }
+    for (const std::string& name : split(o.compare)) {
+        batch::FitRequest request;
+        if (name == batch::kAutoModel) {
+            return usage_error(
+                "fit",
+                "--compare " + o.compare + ": auto is no model to compare; use --model auto");
         }
-        // Every request is built before anything is read: an option the structure cannot take is
-        // a usage error before any work.
+        if (auto s = batch::set_option(request, "model", name); !s) {
+            return usage_error("fit", "--compare: " + s.error().message);
+        }
+        if (auto a = apply(request, given, "--compare " + name); !a) {
+            return usage_error("fit", a.error().message);
+        }
+        requests.push_back(std::move(request));
+    }
+    if (requests.empty()) {
+        return usage_error("fit", "--compare: no model named");
+    }
+    return std::nullopt;
+}
+
+/// The one request of a fit (--model, --template, or neither: default_model), or the exit status
+/// of a usage error.
+std::optional<int> single_request(FitCliOptions& o,
+                                  const CLI::App& cmd,
+                                  const std::vector<GivenOption>& given,
+                                  std::vector<batch::FitRequest>& requests) {
+    using gonio::tools::usage_error;
+    const bool model_given = cmd.count("--model") > 0;
+    const bool template_given = cmd.count("--template") > 0;
+    batch::FitRequest request;
+    if (model_given && template_given) {
+        return usage_error("fit", "--model and --template: give one of them");
+    }
+    if (!model_given) {
+        o.model = default_model(given);
+    }
+    const std::string model_flag = template_given ? "--template" : "--model " + o.model;
+    if (auto s = batch::set_option(request, "model", template_given ? o.template_path : o.model);
+        !s) {
+        return usage_error(
+            "fit",
+            std::string(template_given ? "--template" : "--model") + ": " + s.error().message);
+    }
+    if (template_given && !gonio::ends_with(o.template_path, ".json")) {
+        return usage_error("fit",
+                           "--template " + o.template_path + ": expected a *.json fit template");
+    }
+    if (auto a = apply(request, given, model_flag); !a) {
+        return usage_error("fit", a.error().message);
+    }
+    requests.push_back(std::move(request));
+    return std::nullopt;
+}
+
+/// Everything named on the command line, built, read or checked before any work: each request's
+/// spec (an option the structure cannot take is a usage error), the --truth model and the --out
+/// paths. The exit status of a refusal, else empty (`truth` filled when given).
+std::optional<int> check_before_work(const FitCliOptions& o,
+                                     const std::vector<batch::FitRequest>& requests,
+                                     std::optional<gonio::brdf::ModelD>& truth) {
+    using gonio::tools::usage_error;
+    for (const batch::FitRequest& request : requests) {
+        if (auto spec = batch::make_fit_spec(request); !spec) {
+            return usage_error("fit", spec.error().message);
+        }
+    }
+    if (o.verbose) {
+        // The request as run (every option, defaults included).
         for (const batch::FitRequest& request : requests) {
-            if (auto spec = batch::make_fit_spec(request); !spec) {
-                return usage_error("fit", spec.error().message);
-            }
+            std::printf("request: %s\n", batch::format_options(request).c_str());
         }
-        if (o->verbose) {
-            // The request as run (every option, defaults included).
-            for (const batch::FitRequest& request : requests) {
-                std::printf("request: %s\n", batch::format_options(request).c_str());
-            }
-            std::fflush(stdout);
+        std::fflush(stdout);
+    }
+    if (!o.truth.empty()) {
+        auto t = gonio::brdf::load_model_json(o.truth);
+        if (!t) {
+            return usage_error("fit", "--truth: " + t.error().message);
         }
-        // Everything named on the command line is read or checked before the fit runs.
-        std::optional<gonio::brdf::ModelD> truth;
-        if (!o->truth.empty()) {
-            auto t = gonio::brdf::load_model_json(o->truth);
-            if (!t) {
-                return usage_error("fit", "--truth: " + t.error().message);
-            }
-            truth = *t;
-        }
-        if (!o->out.empty()) {
-            // Refused before the fit runs: an output that is a folder, a device, a missing folder.
-            for (const std::string& p : {o->out, fitting::report_path_for(o->out)}) {
-                if (auto ok = gonio::check_output_path(p); !ok) {
-                    std::fprintf(stderr, "gonio fit: %s\n", ok.error().message.c_str());
-                    return 1;
-                }
-            }
-        }
-        auto data = gonio::brdf::load_samples(o->data);
-        if (!data) {
-            std::fprintf(stderr, "gonio fit: %s\n", data.error().message.c_str());
-            return 1;
-        }
-        if (!o->compare.empty()) {
-            return run_compare(requests, *data, o->strict);
-        }
-        const batch::FitRequest& request = requests.front();
-        auto run = batch::run_fit(*data, request);
-        if (!run) {
-            std::fprintf(stderr, "gonio fit: %s\n", run.error().message.c_str());
-            return 1;
-        }
-        if (request.is_auto()) {
-            std::printf("model auto: %s\n", run->criterion.c_str());
-            std::printf("%-4s %-26s %6s %12s %16s\n", "rank", "model", "params", "log_rmse", "BIC");
-            for (std::size_t i = 0; i < run->ranking.size(); ++i) {
-                const fitting::RankedModel& m = run->ranking[i];
-                std::printf("%-4zu %-26s %6d %12.6g %16.8g%s\n",
-                            i + 1,
-                            m.name.c_str(),
-                            m.parameters,
-                            m.log_rmse,
-                            m.criterion,
-                            m.converged ? "" : "  (did not converge)");
-            }
-            if (run->result.automatic && !run->result.automatic->rejected.empty()) {
-                std::printf("not fitted (a second lobe did not pay for ggx):");
-                for (const std::string& r : run->result.automatic->rejected) {
-                    std::printf(" %s", r.c_str());
-                }
-                std::printf("\n");
-            }
-            std::printf("chosen: %s\n", run->chosen.c_str());
-        }
-        fitting::FitResult* result = &run->result;
-        result->ground_truth = truth;
-        std::fputs(fitting::format_summary(*result).c_str(), stdout);
-        if (!o->out.empty()) {
-            auto w = fitting::write_fit_report(o->out, *result);
-            if (!w) {
-                std::fprintf(stderr, "gonio fit: %s\n", w.error().message.c_str());
+        truth = *t;
+    }
+    if (!o.out.empty()) {
+        // Refused before the fit runs: an output that is a folder, a device, a missing folder.
+        for (const std::string& p : {o.out, fitting::report_path_for(o.out)}) {
+            if (auto ok = gonio::check_output_path(p); !ok) {
+                std::fprintf(stderr, "gonio fit: %s\n", ok.error().message.c_str());
                 return 1;
             }
-            std::printf(
-                "wrote %s and %s\n", o->out.c_str(), fitting::report_path_for(o->out).c_str());
-        } else {
-            std::printf(
-                "nothing written: give --out FILE.json to write the model (with its "
-                "verdict) and FILE.report.json\n");
         }
-        if (!result->solver.converged) {
-            std::fprintf(stderr,
-                         "gonio fit: the fit did not converge (%s): %s\n",
-                         result->solver.termination.c_str(),
-                         result->solver.message.c_str());
+    }
+    return std::nullopt;
+}
+
+/// The fit of one request: the ranking of an automatic choice, the summary, the files, the exit
+/// status (batch::exit_status).
+int run_single(const FitCliOptions& o,
+               const batch::FitRequest& request,
+               const gonio::brdf::Dataset& data,
+               const std::optional<gonio::brdf::ModelD>& truth) {
+    auto run = batch::run_fit(data, request);
+    if (!run) {
+        std::fprintf(stderr, "gonio fit: %s\n", run.error().message.c_str());
+        return 1;
+    }
+    fitting::FitResult& result = run->result;
+    if (result.automatic) {
+        std::fputs(fitting::format_auto_choice(*result.automatic).c_str(), stdout);
+    }
+    result.ground_truth = truth;
+    std::fputs(fitting::format_summary(result).c_str(), stdout);
+    if (!o.out.empty()) {
+        auto w = fitting::write_fit_report(o.out, result);
+        if (!w) {
+            std::fprintf(stderr, "gonio fit: %s\n", w.error().message.c_str());
+            return 1;
         }
-        const int status = batch::exit_status(*result, o->strict);
-        if (status != 0 && result->solver.converged) {
-            // The verdict itself is in the summary above (printed once); --strict makes it fail.
-            std::fprintf(stderr, "gonio fit: --strict: the model does not represent these data\n");
-        }
-        return status;
-    };
+        std::printf("wrote %s and %s\n", o.out.c_str(), fitting::report_path_for(o.out).c_str());
+    } else {
+        std::printf(
+            "nothing written: give --out FILE.json to write the model (with its "
+            "verdict) and FILE.report.json\n");
+    }
+    if (!result.solver.converged) {
+        std::fprintf(stderr,
+                     "gonio fit: the fit did not converge (%s): %s\n",
+                     result.solver.termination.c_str(),
+                     result.solver.message.c_str());
+    }
+    const int status = batch::exit_status(result, o.strict);
+    if (status != 0 && result.solver.converged) {
+        // The verdict itself is in the summary above (printed once); --strict makes it fail.
+        std::fprintf(stderr, "gonio fit: --strict: the model does not represent these data\n");
+    }
+    return status;
+}
+
+/// `gonio fit` as the command line asked: a manifest, a comparison or one fit.
+int run_fit_command(FitCliOptions& o, const CLI::App& cmd) {
+    const std::vector<GivenOption> given = given_options(o, cmd);
+    if (!o.manifest.empty()) {
+        return run_manifest(o, cmd, given);
+    }
+    if (o.data.empty()) {
+        return gonio::tools::usage_error("fit", "give DATA (or --manifest M --out DIR)");
+    }
+    std::vector<batch::FitRequest> requests;
+    if (std::optional<int> refused = o.compare.empty()
+                                         ? single_request(o, cmd, given, requests)
+                                         : compare_requests(o, cmd, given, requests)) {
+        return *refused;
+    }
+    std::optional<gonio::brdf::ModelD> truth;
+    if (std::optional<int> refused = check_before_work(o, requests, truth)) {
+        return *refused;
+    }
+    auto data = gonio::brdf::load_samples(o.data);
+    if (!data) {
+        std::fprintf(stderr, "gonio fit: %s\n", data.error().message.c_str());
+        return 1;
+    }
+    if (!o.compare.empty()) {
+        return run_compare(requests, *data, o.strict);
+    }
+    return run_single(o, requests.front(), *data, truth);
+}
+
+}  // namespace
+
+GONIO_COMMAND(fit) {
+    auto* cmd = app.add_subcommand("fit", "fit an analytic BRDF model to measured samples (Ceres)");
+    auto o = std::make_shared<FitCliOptions>();
+    add_fit_options(cmd, *o);
+    return [o, cmd]() -> int { return run_fit_command(*o, *cmd); };
 }

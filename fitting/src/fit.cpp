@@ -246,6 +246,162 @@ std::vector<std::string> parameter_names(const FitSpec& spec) {
     return out;
 }
 
+namespace {
+
+/// The samples of a fit: the valid ones (the dataset's own when every one is, else `valid_copy`),
+/// the solve's (`used`: an optional stratified reduction to max_samples; without one `valid`
+/// itself, no copy of a million samples) and the working set of the starts and the main solve
+/// (`work`: coarse to fine, on a large input a stratified reduction of `used` to coarse_samples
+/// whose weights keep each stratum's sum; the result is then polished on `used`). Neither copied
+/// nor moved: its pointers point into itself.
+struct FitSamples {
+    std::vector<Sample> valid_copy;
+    const std::vector<Sample>* valid = nullptr;
+    std::vector<Sample> reduced;
+    const std::vector<Sample>* used = nullptr;
+    std::vector<Sample> coarse;
+    const std::vector<Sample>* work = nullptr;
+
+    FitSamples() = default;
+    FitSamples(const FitSamples&) = delete;
+    FitSamples& operator=(const FitSamples&) = delete;
+};
+
+/// The error of an input without a valid sample, with the first sample's own reason, so that a
+/// whole input in degrees says so.
+std::string no_valid_sample(const brdf::Dataset& data, const SampleCounts& counts) {
+    std::string first;
+    for (std::size_t i = 0; i < data.samples.size() && first.empty(); ++i) {
+        if (const std::string r = brdf::validate_sample(data.samples[i]); !r.empty()) {
+            first = "; sample " + std::to_string(i + 1) + ": " + r;
+        }
+    }
+    return data.source + ": no valid sample to fit (" + std::to_string(counts.rejected) +
+           " rejected, " + std::to_string(counts.reference) + " reference, " +
+           std::to_string(counts.saturated) + " saturated)" + first;
+}
+
+/// Fills `s` (FitSamples) and result.samples; the working set's stratum coordinates are kept in
+/// `ctx` (those of its samples in `used`: the scoring set's reduction of the working set needs no
+/// transform of its own). Error when no sample is valid.
+Expected<void> select_fit_samples(const brdf::Dataset& data,
+                                  FitContext& ctx,
+                                  FitSamples& s,
+                                  FitResult& result) {
+    const FitOptions& o = ctx.options;
+    s.valid = &select_samples(data, o, ctx.threads, result.samples, s.valid_copy);
+    if (s.valid->empty()) {
+        return make_error(no_valid_sample(data, result.samples));
+    }
+    if (o.max_samples > 0 && o.max_samples < s.valid->size()) {
+        s.reduced = stratified_reduce(*s.valid, o.max_samples, o.seed);
+    }
+    s.used = s.reduced.empty() ? s.valid : &s.reduced;
+    result.samples.used = s.used->size();
+    s.work = s.used;
+    if (o.coarse_samples == 0 || s.used->size() <= 2 * o.coarse_samples) {
+        return {};
+    }
+    const std::vector<StratumCoords> coords = stratum_coordinates(*s.used);
+    std::vector<std::size_t> coarse_of;
+    s.coarse = stratified_reduce(*s.used, o.coarse_samples, o.seed + 1, coords, &coarse_of);
+    ctx.work_coords.resize(coarse_of.size());
+    for (std::size_t i = 0; i < coarse_of.size(); ++i) {
+        ctx.work_coords[i] = coords[coarse_of[i]];
+    }
+    ctx.coords_of = &s.coarse;
+    s.work = &s.coarse;
+    return {};
+}
+
+/// Starts, screening, main solve and refinement on all samples; fills the solver record.
+/// `ps_work`: the working set prepared; `ps_used`: the solve's samples prepared, when they were.
+Expected<SolveOutcome> run_solves(const FitContext& ctx,
+                                  const FitSpec& spec,
+                                  const FitSamples& s,
+                                  std::shared_ptr<PreparedSamples>& ps_work,
+                                  std::shared_ptr<PreparedSamples>& ps_used,
+                                  SolverInfo& solver) {
+    Expected<std::vector<Candidate>> candidates = detail::starting_points(ctx, spec, *s.work);
+    if (!candidates) {
+        return make_error(candidates.error().message);
+    }
+    solver.starts = static_cast<int>(candidates->size());
+    const auto t_solve = detail::Clock::now();
+    detail::screen_starts(ctx, *candidates, solver);
+    ps_work = detail::prepare_work(ctx, *s.work);
+    const bool coarse = !s.coarse.empty();
+    SolveOutcome best = detail::main_solve(
+        ctx, ps_work, *s.work, *candidates, coarse ? "reduced" : "solve", solver);
+    const bool converged = best.summary.termination_type == ceres::CONVERGENCE;
+    solver.initial_cost = best.summary.initial_cost;
+    solver.termination = ceres::TerminationTypeToString(best.summary.termination_type);
+    solver.message = best.summary.message;
+    ps_used = coarse ? nullptr : ps_work;
+    if (converged) {
+        detail::refine(ctx, *s.used, coarse, ps_used, best, solver);
+    }
+    solver.solve_time_s = std::chrono::duration<double>(detail::Clock::now() - t_solve).count();
+    solver.final_cost = best.summary.final_cost;
+    const bool finite = detail::all_finite(best.x);
+    solver.converged = converged && finite;
+    if (!finite) {
+        solver.message += " (non-finite parameter values)";
+    }
+    return best;
+}
+
+/// Parameters (on a bound or not), lobes the fit has dropped, uncertainties, metrics on all valid
+/// samples and the goodness of fit of the solution `best`.
+void judge_solution(const FitContext& ctx,
+                    const FitSamples& s,
+                    SolveOutcome& best,
+                    const std::shared_ptr<PreparedSamples>& ps_work,
+                    std::shared_ptr<PreparedSamples>& ps_used,
+                    FitResult& result) {
+    const FitOptions& o = ctx.options;
+    std::vector<bool> on_bound;
+    canonical_orientations(*ctx.map, best.x);
+    collect_parameters(*ctx.map, best.x, result, on_bound);
+    result.vanished_lobes = detail::vanished_lobes(result.model, *s.work, ps_work.get());
+    std::optional<double> chi2;
+    if (result.solver.converged && o.covariance) {
+        if (!ps_used) {
+            ps_used = detail::prepare(ctx, *s.used);
+        }
+        detail::uncertainties(*ps_used,
+                              ctx.threads,
+                              best.x,
+                              ctx.cost.use_sigma,
+                              on_bound,
+                              result.parameters,
+                              result.not_identifiable,
+                              &chi2,
+                              &result.covariance);
+        result.covariance_method =
+            ctx.cost.use_sigma
+                ? "inverse J^T J of the residuals normalised by relative sigmas reweighted at the "
+                  "model (IRLS), scaled by max(1, reduced chi-square)"
+                : "sandwich H^-1 M H^-1 (heteroscedasticity-consistent, HC0; no sigma columns)";
+    }
+    // On all valid samples: from the prepared ones when they are those (no reduction).
+    const std::vector<Sample>& valid = *s.valid;
+    result.metrics =
+        ps_used && s.reduced.empty()
+            ? detail::evaluate_metrics(result.model, valid, o.relative_floor, *ps_used, ctx.threads)
+            : evaluate_metrics(result.model, valid, o.relative_floor);
+    // (An f0 fitted per channel: its parameters are named lobes[i].fresnel.f0[c].)
+    const bool f0_per_channel =
+        std::any_of(result.parameters.begin(), result.parameters.end(), [](const auto& p) {
+            return p.free && p.name.find(".fresnel.f0[") != std::string::npos;
+        });
+    result.goodness =
+        detail::judge(result.metrics, chi2, valid.size(), result.model, f0_per_channel);
+    result.solver.usable = result.solver.converged && result.goodness.represents;
+}
+
+}  // namespace
+
 Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
     const auto t0 = detail::Clock::now();
     const FitOptions& o = spec.options;
@@ -268,121 +424,54 @@ Expected<FitResult> fit(const brdf::Dataset& data, const FitSpec& spec) {
     result.data = data.source;
     result.residual = o.residual;
     result.loss = o.loss;
-
-    // Samples: the valid ones; the solve's (an optional stratified reduction to max_samples;
-    // without one the solve works on `valid` itself, no copy of a million samples); and the working
-    // set of the starts and the main solve: coarse to fine, on a large input a stratified reduction
-    // to coarse_samples (weights keep each stratum's sum), the result then polished on all samples.
-    std::vector<Sample> valid_copy;
-    const std::vector<Sample>& valid =
-        select_samples(data, o, ctx.threads, result.samples, valid_copy);
-    if (valid.empty()) {
-        // The first sample's own reason, so that a whole input in degrees says so.
-        std::string first;
-        for (std::size_t i = 0; i < data.samples.size() && first.empty(); ++i) {
-            if (const std::string r = brdf::validate_sample(data.samples[i]); !r.empty()) {
-                first = "; sample " + std::to_string(i + 1) + ": " + r;
-            }
-        }
-        return make_error(data.source + ": no valid sample to fit (" +
-                          std::to_string(result.samples.rejected) + " rejected, " +
-                          std::to_string(result.samples.reference) + " reference, " +
-                          std::to_string(result.samples.saturated) + " saturated)" + first);
+    FitSamples samples;
+    if (auto selected = select_fit_samples(data, ctx, samples, result); !selected) {
+        return make_error(selected.error().message);
     }
-    const std::vector<Sample> reduced = o.max_samples > 0 && o.max_samples < valid.size()
-                                            ? stratified_reduce(valid, o.max_samples, o.seed)
-                                            : std::vector<Sample>{};
-    const std::vector<Sample>& used = reduced.empty() ? valid : reduced;
-    result.samples.used = used.size();
-    // The coarse set's stratum coordinates are those of its samples in `used`: the scoring set's
-    // reduction of the working set needs no transform of its own.
-    std::vector<std::size_t> coarse_of;
-    const std::vector<Sample> coarse = [&] {
-        if (o.coarse_samples == 0 || used.size() <= 2 * o.coarse_samples) {
-            return std::vector<Sample>{};
-        }
-        const std::vector<StratumCoords> coords = stratum_coordinates(used);
-        std::vector<Sample> out =
-            stratified_reduce(used, o.coarse_samples, o.seed + 1, coords, &coarse_of);
-        ctx.work_coords.resize(coarse_of.size());
-        for (std::size_t i = 0; i < coarse_of.size(); ++i) {
-            ctx.work_coords[i] = coords[coarse_of[i]];
-        }
-        return out;
-    }();
-    if (!coarse.empty()) {
-        ctx.coords_of = &coarse;
+    std::shared_ptr<PreparedSamples> ps_work;
+    std::shared_ptr<PreparedSamples> ps_used;
+    Expected<SolveOutcome> best = run_solves(ctx, spec, samples, ps_work, ps_used, result.solver);
+    if (!best) {
+        return make_error(best.error().message);
     }
-    const std::vector<Sample>& work = coarse.empty() ? used : coarse;
-
-    // Starts, screening, main solve, refinement on all samples.
-    Expected<std::vector<Candidate>> candidates = detail::starting_points(ctx, spec, work);
-    if (!candidates) {
-        return make_error(candidates.error().message);
-    }
-    result.solver.starts = static_cast<int>(candidates->size());
-    const auto t_solve = detail::Clock::now();
-    detail::screen_starts(ctx, *candidates, result.solver);
-    const auto ps_work = detail::prepare_work(ctx, work);
-    SolveOutcome best = detail::main_solve(
-        ctx, ps_work, work, *candidates, coarse.empty() ? "solve" : "reduced", result.solver);
-    const bool converged = best.summary.termination_type == ceres::CONVERGENCE;
-    result.solver.initial_cost = best.summary.initial_cost;
-    result.solver.termination = ceres::TerminationTypeToString(best.summary.termination_type);
-    result.solver.message = best.summary.message;
-    std::shared_ptr<PreparedSamples> ps_used = coarse.empty() ? ps_work : nullptr;
-    if (converged) {
-        detail::refine(ctx, used, !coarse.empty(), ps_used, best, result.solver);
-    }
-    result.solver.solve_time_s =
-        std::chrono::duration<double>(detail::Clock::now() - t_solve).count();
-    result.solver.final_cost = best.summary.final_cost;
-    const bool finite = detail::all_finite(best.x);
-    result.solver.converged = converged && finite;
-    if (!finite) {
-        result.solver.message += " (non-finite parameter values)";
-    }
-
-    // Parameters (on a bound or not), lobes the fit has dropped, uncertainties, goodness of fit.
-    std::vector<bool> on_bound;
-    canonical_orientations(*ctx.map, best.x);
-    collect_parameters(*ctx.map, best.x, result, on_bound);
-    result.vanished_lobes = detail::vanished_lobes(result.model, work, ps_work.get());
-    std::optional<double> chi2;
-    if (result.solver.converged && o.covariance) {
-        if (!ps_used) {
-            ps_used = detail::prepare(ctx, used);
-        }
-        detail::uncertainties(*ps_used,
-                              ctx.threads,
-                              best.x,
-                              ctx.cost.use_sigma,
-                              on_bound,
-                              result.parameters,
-                              result.not_identifiable,
-                              &chi2,
-                              &result.covariance);
-        result.covariance_method =
-            ctx.cost.use_sigma
-                ? "inverse J^T J of the residuals normalised by relative sigmas reweighted at the "
-                  "model (IRLS), scaled by max(1, reduced chi-square)"
-                : "sandwich H^-1 M H^-1 (heteroscedasticity-consistent, HC0; no sigma columns)";
-    }
-    // On all valid samples: from the prepared ones when they are those (no reduction).
-    result.metrics =
-        ps_used && reduced.empty()
-            ? detail::evaluate_metrics(result.model, valid, o.relative_floor, *ps_used, ctx.threads)
-            : evaluate_metrics(result.model, valid, o.relative_floor);
-    // (An f0 fitted per channel: its parameters are named lobes[i].fresnel.f0[c].)
-    const bool f0_per_channel =
-        std::any_of(result.parameters.begin(), result.parameters.end(), [](const auto& p) {
-            return p.free && p.name.find(".fresnel.f0[") != std::string::npos;
-        });
-    result.goodness =
-        detail::judge(result.metrics, chi2, valid.size(), result.model, f0_per_channel);
-    result.solver.usable = result.solver.converged && result.goodness.represents;
+    judge_solution(ctx, samples, *best, ps_work, ps_used, result);
     result.solver.wall_time_s = std::chrono::duration<double>(detail::Clock::now() - t0).count();
     return result;
+}
+
+std::string format_auto_choice(const AutoChoice& choice) {
+    std::string out = "model auto: " + choice.criterion + "\n";
+    char line[256];
+    std::snprintf(line,
+                  sizeof line,
+                  "%-4s %-26s %6s %12s %16s\n",
+                  "rank",
+                  "model",
+                  "params",
+                  "log_rmse",
+                  "BIC");
+    out += line;
+    for (std::size_t i = 0; i < choice.ranking.size(); ++i) {
+        const RankedModel& m = choice.ranking[i];
+        std::snprintf(line,
+                      sizeof line,
+                      "%-4zu %-26s %6d %12.6g %16.8g%s\n",
+                      i + 1,
+                      m.name.c_str(),
+                      m.parameters,
+                      m.log_rmse,
+                      m.criterion,
+                      m.converged ? "" : "  (did not converge)");
+        out += line;
+    }
+    if (!choice.rejected.empty()) {
+        out += "not fitted (a second lobe did not pay for ggx):";
+        for (const std::string& r : choice.rejected) {
+            out += " " + r;
+        }
+        out += "\n";
+    }
+    return out + "chosen: " + choice.chosen + "\n";
 }
 
 std::vector<std::pair<std::string, FitSpec>> auto_candidates(const FitOptions& options) {

@@ -228,6 +228,11 @@ Expected<AutoFitResult> fit_auto(const brdf::Dataset& data,
 /// count as parameters of the criterion).
 std::vector<std::pair<std::string, FitSpec>> auto_candidates(const FitOptions& options);
 
+/// An automatic choice as `gonio fit` prints it: "model auto: " and the criterion, the candidates
+/// ranked (rank, model, parameters, log RMSE, BIC; "(did not converge)" after one that did not),
+/// the candidates rejected early, and "chosen: NAME"; one line each.
+std::string format_auto_choice(const AutoChoice& choice);
+
 /// What to try after a misfit of `fitted`: the families, lobes and options it did not use (never
 /// one it used). Empty after `--model auto` (`auto_tried`), which ranked every family: what is
 /// left then is the measurement itself as a table (batch::table_alternative).
