@@ -17,27 +17,19 @@
 #include "command.h"
 #include "exit_rule.h"
 #include "gonio/base/atomic_file.h"
-#include "gonio/brdf/analytic_brdf.h"
+#include "gonio/base/strings.h"
 #include "gonio/brdf/brdf.h"
-#include "gonio/brdf/model_eval_packets.h"
 #include "option_checks.h"
 
 namespace {
+
+using gonio::trim;
 
 struct EvalOptions {
     std::string brdf_path;
     std::string input = "-";
     std::string output = "-";
 };
-
-std::string trim(const std::string& s) {
-    const auto b = s.find_first_not_of(" \t\r");
-    if (b == std::string::npos) {
-        return {};
-    }
-    const auto e = s.find_last_not_of(" \t\r");
-    return s.substr(b, e - b + 1);
-}
 
 std::vector<std::string> split_commas(const std::string& line) {
     std::vector<std::string> out;
@@ -107,9 +99,8 @@ std::string parse_row(const std::vector<std::string>& fields,
 /// its place, so that output row k answers input row k.
 constexpr const char* kNanRow = "nan,nan,nan\n";
 
-/// Rows evaluated together: directions as structure of arrays, an analytic model through
-/// eval_model_packets, any other BRDF one row at a time; values (or the NaN row of a refused
-/// row) printed in input order.
+/// Rows evaluated together: directions as structure of arrays through Brdf::eval_many (an analytic
+/// model on packets); values (or the NaN row of a refused row) printed in input order.
 class Block {
   public:
     static constexpr std::size_t kRows = 4096;
@@ -175,28 +166,15 @@ class Block {
         for (std::vector<double>& v : value_) {
             v.resize(n);
         }
-        const auto* analytic = dynamic_cast<const gonio::brdf::AnalyticBrdf*>(&brdf);
-        if (analytic != nullptr) {
-            double* const values[3] = {value_[0].data(), value_[1].data(), value_[2].data()};
-            gonio::brdf::eval_model_packets(analytic->model(),
-                                            n,
-                                            {dir_[0].data(),
-                                             dir_[1].data(),
-                                             dir_[2].data(),
-                                             dir_[3].data(),
-                                             dir_[4].data(),
-                                             dir_[5].data()},
-                                            values);
-            return;
-        }
-        for (std::size_t k = 0; k < n; ++k) {
-            const gonio::brdf::Rgbd f =
-                brdf.eval(gonio::brdf::Vec3d(dir_[0][k], dir_[1][k], dir_[2][k]),
-                          gonio::brdf::Vec3d(dir_[3][k], dir_[4][k], dir_[5][k]));
-            for (int c = 0; c < 3; ++c) {
-                value_[c][k] = f[c];
-            }
-        }
+        double* const values[3] = {value_[0].data(), value_[1].data(), value_[2].data()};
+        brdf.eval_many(n,
+                       {dir_[0].data(),
+                        dir_[1].data(),
+                        dir_[2].data(),
+                        dir_[3].data(),
+                        dir_[4].data(),
+                        dir_[5].data()},
+                       values);
     }
 
     /// %.17g, formatted by to_chars (the same digits as printf's, without its locale).

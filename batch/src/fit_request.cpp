@@ -15,15 +15,6 @@ namespace gonio::batch {
 
 namespace {
 
-std::string trim(const std::string& s) {
-    const auto b = s.find_first_not_of(" \t\r\n");
-    if (b == std::string::npos) {
-        return {};
-    }
-    const auto e = s.find_last_not_of(" \t\r\n");
-    return s.substr(b, e - b + 1);
-}
-
 Expected<bool> parse_bool(const std::string& key, const std::string& v) {
     if (v == "true" || v == "1" || v == "yes") {
         return true;

@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "gonio/brdf/model_eval.h"
+#include "gonio/brdf/model_eval_packets.h"
 #include "gonio/brdf/model_json.h"
 
 namespace gonio::brdf {
@@ -14,6 +15,12 @@ AnalyticBrdf::AnalyticBrdf(ModelD model, std::string source)
 
 Rgbd AnalyticBrdf::eval(const Vec3d& wi, const Vec3d& wo) const {
     return eval_model(model_, wi, wo);
+}
+
+void AnalyticBrdf::eval_many(std::size_t n,
+                             const DirectionPairs& dirs,
+                             double* const out[3]) const {
+    eval_model_packets(model_, n, dirs, out);
 }
 
 bool AnalyticBrdf::isotropic() const {

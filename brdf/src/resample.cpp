@@ -8,8 +8,7 @@
 #include "gonio/base/huge_pages.h"
 #include "gonio/base/limits.h"
 #include "gonio/base/thread_pool.h"
-#include "gonio/brdf/analytic_brdf.h"
-#include "gonio/brdf/model_eval_packets.h"
+#include "gonio/brdf/brdf.h"
 
 namespace gonio::brdf {
 namespace {
@@ -93,14 +92,15 @@ void line_directions(std::size_t np,
     }
 }
 
-/// An analytic model: the directions of a (theta_h, theta_d) line of phi_d bins as structure of
-/// arrays, evaluated a packet at a time (eval_model_packets) over the bins of the line that are
-/// reflection configurations, and stored with one set_line(). The centre directions are those of
+/// A BRDF that evaluates on packets (Brdf::evaluates_packets, an analytic model): the directions of
+/// a (theta_h, theta_d) line of phi_d bins as structure of arrays, evaluated together
+/// (Brdf::eval_many) over the bins of the line that are reflection configurations, and stored
+/// with one set_line(). The centre directions are those of
 /// TableGrid::centre_directions (from_half_diff with phi_h = 0), with the sines and cosines of the
 /// centre angles computed once per axis.
-class ModelRows {
+class PacketRows {
   public:
-    ModelRows(const ModelD& model, const TableGrid& grid) : model_(model), grid_(grid) {
+    PacketRows(const Brdf& brdf, const TableGrid& grid) : brdf_(brdf), grid_(grid) {
         auto sincos = [](int n, auto centre, std::vector<double>& s, std::vector<double>& c) {
             s.resize(n);
             c.resize(n);
@@ -163,7 +163,7 @@ class ModelRows {
                     const DirectionPairs dirs{
                         w[0] + lo, w[1] + lo, w[2] + lo, w[3] + lo, w[4] + lo, w[5] + lo};
                     double* const part[3] = {out[0] + lo, out[1] + lo, out[2] + lo};
-                    eval_model_packets(model_, hi - lo, dirs, part);
+                    brdf_.eval_many(hi - lo, dirs, part);
                 }
                 count_line(table.set_line(grid_.index(ih, id, 0), np, out, reflects.data()), np, r);
             }
@@ -171,7 +171,7 @@ class ModelRows {
     }
 
   private:
-    const ModelD& model_;
+    const Brdf& brdf_;
     const TableGrid& grid_;
     std::vector<double> sin_h_, cos_h_, sin_d_, cos_d_, sin_p_, cos_p_;
 };
@@ -186,14 +186,13 @@ TabulatedBrdf tabulate(const Brdf& brdf, const TabulateOptions& options, Tabulat
     const Chunking chunks = chunking(rows, kRowGrain);
     // One report per chunk, added in chunk order: the counts do not depend on the thread count.
     std::vector<TabulateReport> partial(chunks.count);
-    const auto* analytic = dynamic_cast<const AnalyticBrdf*>(&brdf);
-    if (analytic != nullptr) {
-        const ModelRows model_rows(analytic->model(), grid);
+    if (brdf.evaluates_packets()) {
+        const PacketRows packet_rows(brdf, grid);
         parallel_for(rows,
                      kRowGrain,
                      static_cast<int>(options.threads),
                      [&](std::size_t chunk, std::size_t b, std::size_t e) {
-                         model_rows.run(table, b, e, partial[chunk]);
+                         packet_rows.run(table, b, e, partial[chunk]);
                      });
     } else {
         parallel_for(rows,

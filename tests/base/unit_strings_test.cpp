@@ -14,6 +14,15 @@ TEST(Strings, EndsWithMatchesOnlyTheTail) {
     EXPECT_FALSE(ends_with("", "x"));
 }
 
+TEST(Strings, TrimTakesOffBlanksAtBothEndsOnly) {
+    EXPECT_EQ(trim("  theta_i\t"), "theta_i");
+    EXPECT_EQ(trim("\r\n a b \r\n"), "a b");
+    EXPECT_EQ(trim("x"), "x");
+    EXPECT_EQ(trim(" \t\r\n"), "");
+    EXPECT_EQ(trim(""), "");
+    EXPECT_EQ(trim("\va\f"), "\va\f");  // only space, tab, CR and LF are blanks
+}
+
 TEST(Strings, StartsWithMatchesOnlyTheHead) {
     EXPECT_TRUE(starts_with("gige://127.0.0.1", "gige://"));
     EXPECT_TRUE(starts_with("x", ""));

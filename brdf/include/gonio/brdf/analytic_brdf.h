@@ -15,6 +15,9 @@ class AnalyticBrdf : public Brdf {
     explicit AnalyticBrdf(ModelD model, std::string source = {});
     /// eval_model() of the wrapped model.
     Rgbd eval(const Vec3d& wi, const Vec3d& wo) const override;
+    /// eval_model_packets() of the wrapped model.
+    void eval_many(std::size_t n, const DirectionPairs& dirs, double* const out[3]) const override;
+    bool evaluates_packets() const override { return true; }
     /// True when no lobe is anisotropic with alpha_x != alpha_y.
     bool isotropic() const override;
     std::string describe() const override;

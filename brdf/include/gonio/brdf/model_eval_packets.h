@@ -13,20 +13,10 @@
 
 #include <cstddef>
 
+#include "gonio/brdf/brdf.h"
 #include "gonio/brdf/model.h"
 
 namespace gonio::brdf {
-
-/// n direction pairs as structure of arrays: wi = (wi_x[k], wi_y[k], wi_z[k]), likewise wo. Unit
-/// vectors in the local frame (z = normal).
-struct DirectionPairs {
-    const double* wi_x = nullptr;
-    const double* wi_y = nullptr;
-    const double* wi_z = nullptr;
-    const double* wo_x = nullptr;
-    const double* wo_y = nullptr;
-    const double* wo_z = nullptr;
-};
 
 /// f(wi_k, wo_k) of the model for k in [0, n): out[c][k] is channel c in 1/sr, 0 where either
 /// direction is at or below the horizon (the same values as eval_model up to the stated agreement
