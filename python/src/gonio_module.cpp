@@ -167,6 +167,127 @@ std::unique_ptr<Brdf> brdf_from(const py::handle& obj) {
 
 // ---- eval ------------------------------------------------------------------------------------
 
+/// The rows of one eval() call as structure of arrays, evaluated together through
+/// Brdf::eval_many (an analytic model on SIMD packets). A row that cannot be evaluated keeps its
+/// place, as a refused line of `gonio eval` does: a NaN row in the output and a warning naming the
+/// row; only an input without a usable row raises.
+class EvalRows {
+  public:
+    explicit EvalRows(std::size_t n) : n_(n) {
+        for (std::vector<double>& d : dir_) {
+            d.reserve(n);
+        }
+        refused_.reserve(n);
+    }
+
+    void add(const gonio::brdf::Vec3d& wi, const gonio::brdf::Vec3d& wo) {
+        for (int k = 0; k < 3; ++k) {
+            dir_[k].push_back(wi[k]);
+            dir_[3 + k].push_back(wo[k]);
+        }
+        refused_.push_back(0);
+    }
+
+    /// The next row cannot be evaluated, for `reason`: evaluated at the normal, written as NaN.
+    void refuse(std::string reason) {
+        const gonio::brdf::Vec3d normal(0, 0, 1);
+        note(refused_.size(), std::move(reason));
+        add(normal, normal);
+        refused_.back() = 1;
+        ++refused_count_;
+    }
+
+    /// Raises gonio.Error when rows were given and none can be evaluated.
+    void require_a_usable_row() const {
+        if (n_ == 0 || refused_count_ < n_) {
+            return;
+        }
+        const std::string& first = notes_.front().second;
+        throw GonioError(n_ == 1 ? first
+                                 : "none of the " + std::to_string(n_) +
+                                       " rows can be evaluated (row 0: " + first + ")");
+    }
+
+    /// The n x 3 values, NaN rows for the refused rows and for non-finite values; then one warning
+    /// per such row (the first kNamedRows named, the rest counted in one more).
+    py::array_t<double> evaluate(const Brdf& brdf) {
+        py::array_t<double> out({static_cast<py::ssize_t>(n_), py::ssize_t{3}});
+        double* pout = out.mutable_data();
+        {
+            py::gil_scoped_release release;
+            std::vector<double> values(3 * n_);
+            double* const channels[3] = {values.data(), values.data() + n_, values.data() + 2 * n_};
+            brdf.eval_many(n_,
+                           {dir_[0].data(),
+                            dir_[1].data(),
+                            dir_[2].data(),
+                            dir_[3].data(),
+                            dir_[4].data(),
+                            dir_[5].data()},
+                           channels);
+            for (std::size_t k = 0; k < n_; ++k) {
+                const double f[3] = {channels[0][k], channels[1][k], channels[2][k]};
+                const bool finite =
+                    std::isfinite(f[0]) && std::isfinite(f[1]) && std::isfinite(f[2]);
+                if (refused_[k] == 0 && !finite) {
+                    note(k, "non-finite BRDF value");
+                }
+                for (int c = 0; c < 3; ++c) {
+                    pout[3 * k + c] = refused_[k] == 0 && finite ? f[c] : std::nan("");
+                }
+            }
+        }
+        warn();
+        return out;
+    }
+
+  private:
+    static constexpr std::size_t kNamedRows = 20;
+
+    void note(std::size_t row, std::string reason) {
+        if (notes_.size() < kNamedRows) {
+            notes_.emplace_back(row, std::move(reason));
+        }
+        ++noted_;
+    }
+
+    void warn() const {
+        std::vector<std::string> messages;
+        for (const auto& [row, reason] : notes_) {
+            messages.push_back("gonio.eval: row " + std::to_string(row) + ": " + reason +
+                               " (NaN row written)");
+        }
+        if (noted_ > notes_.size()) {
+            messages.push_back("gonio.eval: " + std::to_string(noted_ - notes_.size()) +
+                               " more row(s) written as NaN");
+        }
+        for (const std::string& m : messages) {
+            if (PyErr_WarnEx(PyExc_UserWarning, m.c_str(), 1) != 0) {
+                throw py::error_already_set();
+            }
+        }
+    }
+
+    std::size_t n_;
+    std::vector<double> dir_[6];
+    std::vector<std::uint8_t> refused_;
+    std::size_t refused_count_ = 0;
+    std::vector<std::pair<std::size_t, std::string>> notes_;
+    std::size_t noted_ = 0;
+};
+
+/// Why direction v (named `name`, row k) cannot be evaluated; empty when it can.
+std::string direction_problem(const char* name, std::size_t k, const gonio::brdf::Vec3d& v) {
+    if (v.allFinite() && std::abs(v.norm() - 1.0) <= 1e-6) {
+        return {};
+    }
+    std::ostringstream s;
+    s.precision(17);
+    s << name << "[" << k << "] = (" << v[0] << ", " << v[1] << ", " << v[2]
+      << "): must be a finite unit vector (|norm - 1| <= 1e-6)";
+    return s.str();
+}
+
 py::array_t<double> eval_dirs(const py::handle& model,
                               const DoubleArray& wi,
                               const DoubleArray& wo) {
@@ -182,43 +303,36 @@ py::array_t<double> eval_dirs(const py::handle& model,
                          std::to_string(wo.shape(0)));
     }
     const std::size_t n = static_cast<std::size_t>(wi.shape(0));
-    py::array_t<double> out({static_cast<py::ssize_t>(n), py::ssize_t{3}});
     const double* pi = wi.data();
     const double* po = wo.data();
-    double* pout = out.mutable_data();
-    std::string error;
-    {
-        py::gil_scoped_release release;
-        for (std::size_t k = 0; k < n && error.empty(); ++k) {
-            const gonio::brdf::Vec3d a(pi[3 * k], pi[3 * k + 1], pi[3 * k + 2]);
-            const gonio::brdf::Vec3d b(po[3 * k], po[3 * k + 1], po[3 * k + 2]);
-            for (const auto& [name, v] :
-                 {std::pair<const char*, const gonio::brdf::Vec3d*>{"wi", &a}, {"wo", &b}}) {
-                if (!v->allFinite() || std::abs(v->norm() - 1.0) > 1e-6) {
-                    std::ostringstream s;
-                    s.precision(17);
-                    s << name << "[" << k << "] = (" << (*v)[0] << ", " << (*v)[1] << ", "
-                      << (*v)[2] << "): must be a finite unit vector (|norm - 1| <= 1e-6)";
-                    error = s.str();
-                }
-            }
-            if (!error.empty()) {
-                break;
-            }
-            const gonio::brdf::Rgbd f = brdf->eval(a, b);
-            if (!f.allFinite()) {
-                error = "row " + std::to_string(k) + ": non-finite BRDF value";
-                break;
-            }
-            for (int c = 0; c < 3; ++c) {
-                pout[3 * k + c] = f[c];
-            }
+    EvalRows rows(n);
+    for (std::size_t k = 0; k < n; ++k) {
+        const gonio::brdf::Vec3d a(pi[3 * k], pi[3 * k + 1], pi[3 * k + 2]);
+        const gonio::brdf::Vec3d b(po[3 * k], po[3 * k + 1], po[3 * k + 2]);
+        std::string problem = direction_problem("wi", k, a);
+        if (problem.empty()) {
+            problem = direction_problem("wo", k, b);
+        }
+        if (problem.empty()) {
+            rows.add(a, b);
+        } else {
+            rows.refuse(std::move(problem));
         }
     }
-    if (!error.empty()) {
-        throw GonioError(error);
+    rows.require_a_usable_row();
+    return rows.evaluate(*brdf);
+}
+
+/// Why angle j of row k (theta_i, phi_i, theta_o, phi_o) cannot be evaluated; empty when it can.
+std::string angle_problem(const char* name, int j, std::size_t k, double v) {
+    std::ostringstream s;
+    s.precision(17);
+    if (!std::isfinite(v)) {
+        s << name << "[" << k << "] = " << v << ": must be finite";
+    } else if ((j == 0 || j == 2) && (v < 0 || v > gonio::brdf::kPi)) {
+        s << name << "[" << k << "] = " << v << ": outside [0, pi]";
     }
-    return out;
+    return s.str();
 }
 
 py::array_t<double> eval_angles(const py::handle& model,
@@ -236,48 +350,22 @@ py::array_t<double> eval_angles(const py::handle& model,
                              std::to_string(n) + " angles (radians), like theta_i");
         }
     }
-    py::array_t<double> out({n, py::ssize_t{3}});
     const double* p[4] = {theta_i.data(), phi_i.data(), theta_o.data(), phi_o.data()};
-    double* pout = out.mutable_data();
-    std::string error;
-    {
-        py::gil_scoped_release release;
-        for (py::ssize_t k = 0; k < n && error.empty(); ++k) {
-            double a[4];
-            for (int j = 0; j < 4; ++j) {
-                a[j] = p[j][k];
-                std::ostringstream s;
-                s.precision(17);
-                if (!std::isfinite(a[j])) {
-                    s << names[j] << "[" << k << "] = " << a[j] << ": must be finite";
-                    error = s.str();
-                    break;
-                }
-                if ((j == 0 || j == 2) && (a[j] < 0 || a[j] > gonio::brdf::kPi)) {
-                    s << names[j] << "[" << k << "] = " << a[j] << ": outside [0, pi]";
-                    error = s.str();
-                    break;
-                }
-            }
-            if (!error.empty()) {
-                break;
-            }
-            const gonio::brdf::Vec3d wi = gonio::brdf::spherical_to_cartesian(a[0], a[1]);
-            const gonio::brdf::Vec3d wo = gonio::brdf::spherical_to_cartesian(a[2], a[3]);
-            const gonio::brdf::Rgbd f = brdf->eval(wi, wo);
-            if (!f.allFinite()) {
-                error = "row " + std::to_string(k) + ": non-finite BRDF value";
-                break;
-            }
-            for (int c = 0; c < 3; ++c) {
-                pout[3 * k + c] = f[c];
-            }
+    EvalRows rows(static_cast<std::size_t>(n));
+    for (std::size_t k = 0; k < static_cast<std::size_t>(n); ++k) {
+        std::string problem;
+        for (int j = 0; j < 4 && problem.empty(); ++j) {
+            problem = angle_problem(names[j], j, k, p[j][k]);
         }
+        if (!problem.empty()) {
+            rows.refuse(std::move(problem));
+            continue;
+        }
+        rows.add(gonio::brdf::spherical_to_cartesian(p[0][k], p[1][k]),
+                 gonio::brdf::spherical_to_cartesian(p[2][k], p[3][k]));
     }
-    if (!error.empty()) {
-        throw GonioError(error);
-    }
-    return out;
+    rows.require_a_usable_row();
+    return rows.evaluate(*brdf);
 }
 
 // ---- datasets and tables as numpy --------------------------------------------------------------
@@ -778,7 +866,9 @@ model: a dict in the model schema (docs/model-schema.md), a table dict from goni
        a path (*.json model, *.binary/*.merl/*.gtab table) or "material:NAME".
 wi, wo: N x 3 arrays of unit vectors in the local frame (z = normal); wi toward the light,
         wo toward the camera. A direction at or below the horizon gives 0.
-Raises gonio.Error naming the row for a non-unit or non-finite direction.)doc");
+A row with a non-unit or non-finite direction (or a non-finite BRDF value) gives a row of NaN
+in its place, so that output row k answers input row k, and a UserWarning naming the row;
+gonio.Error is raised only when no row can be evaluated.)doc");
     m.def("eval",
           &eval_angles,
           py::arg("model"),
@@ -789,7 +879,8 @@ Raises gonio.Error naming the row for a non-unit or non-finite direction.)doc");
           R"doc(eval(model, theta_i, phi_i, theta_o, phi_o) -> numpy.ndarray (N x 3)
 
 The same from spherical angles in radians (1-D arrays of equal length N), exactly as
-`gonio eval` computes them: theta in [0, pi], phi any finite value.)doc");
+`gonio eval` computes them: theta in [0, pi], phi any finite value. A row outside those gives
+a NaN row and a warning, as above.)doc");
     m.def("load",
           &load,
           py::arg("path"),

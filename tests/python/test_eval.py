@@ -105,3 +105,60 @@ def test_eval_takes_lists_and_any_float_dtype():
     v64 = gonio.eval(TRUTH, np.array([np.float32(0.3)], dtype=np.float64), [0.0], [0.4], [3.0])
     assert v32.dtype == np.float64
     np.testing.assert_array_equal(v32, v64)
+
+
+def test_refused_rows_keep_their_place_as_the_cli_writes_them():
+    # Rows 1 (theta_o in degrees) and 3 (phi_i not finite) cannot be evaluated: NaN rows in their
+    # places, a warning naming each, and the other rows the values they have alone.
+    ti = np.array([0.3, 0.2, 0.5, 0.4, 0.1])
+    pi_ = np.array([0.0, 0.1, 1.0, np.nan, -2.0])
+    to = np.array([0.4, 45.0, 0.2, 0.3, 0.6])
+    po = np.array([3.0, 0.0, 0.5, 1.0, 2.0])
+    with pytest.warns(UserWarning) as caught:
+        ours = gonio.eval(TRUTH, ti, pi_, to, po)
+    messages = [str(w.message) for w in caught]
+    assert messages == [
+        "gonio.eval: row 1: theta_o[1] = 45: outside [0, pi] (NaN row written)",
+        "gonio.eval: row 3: phi_i[3] = nan: must be finite (NaN row written)",
+    ]
+    assert ours.shape == (5, 3)
+    assert np.all(np.isnan(ours[[1, 3]]))
+    good = [0, 2, 4]
+    alone = gonio.eval(TRUTH, ti[good], pi_[good], to[good], po[good])
+    np.testing.assert_array_equal(ours[good], alone)
+    assert np.all(ours[good] > 0)
+    # The command line writes the same rows (NaN where it refuses a line).
+    r = run_gonio(
+        "eval",
+        "material:gold-metallic-paint",
+        stdin="theta_i,phi_i,theta_o,phi_o\n"
+        + "\n".join(f"{a!r},{b!r},{c!r},{d!r}" for a, b, c, d in zip(ti, pi_, to, po))
+        + "\n",
+    )
+    assert r.returncode == 0, r.stderr
+    cli = np.array([[float(x) for x in line.split(",")] for line in r.stdout.strip().splitlines()[1:]])
+    with pytest.warns(UserWarning):
+        gold = gonio.eval("material:gold-metallic-paint", ti, pi_, to, po)
+    np.testing.assert_allclose(gold, cli, rtol=1e-12, atol=0)
+    assert np.array_equal(np.isnan(gold), np.isnan(cli))
+
+
+def test_refused_direction_rows_keep_their_place():
+    wi = np.array([[0, 0, 1.0], [0, 0, 2.0], [0.6, 0, 0.8]])
+    wo = np.array([[0, 0.6, 0.8], [0, 0, 1.0], [0, 0, np.inf]])
+    with pytest.warns(UserWarning) as caught:
+        v = gonio.eval(TRUTH, wi, wo)
+    assert [str(w.message) for w in caught] == [
+        "gonio.eval: row 1: wi[1] = (0, 0, 2): must be a finite unit vector (|norm - 1| <= 1e-6)"
+        " (NaN row written)",
+        "gonio.eval: row 2: wo[2] = (0, 0, inf): must be a finite unit vector (|norm - 1| <= 1e-6)"
+        " (NaN row written)",
+    ]
+    assert np.all(np.isnan(v[1:]))
+    np.testing.assert_array_equal(v[0], gonio.eval(TRUTH, wi[:1], wo[:1])[0])
+
+
+def test_no_usable_row_raises_naming_the_first():
+    with pytest.raises(gonio.Error, match=r"none of the 2 rows can be evaluated \(row 0: theta_i\[0\] = -1"):
+        gonio.eval(TRUTH, [-1.0, 0.2], [0, 0], [0.1, 4.0], [0, 0])
+    assert gonio.eval(TRUTH, [], [], [], []).shape == (0, 3)
