@@ -248,9 +248,11 @@ Dataset table_to_dataset(const TabulatedBrdf& table) {
     return data;
 }
 
-Expected<TabulatedBrdf> resample_dataset(const Dataset& data,
-                                         const ResampleOptions& options,
-                                         ResampleReport* report) {
+namespace {
+
+/// What resample_dataset refuses before any work: the radius, no samples, a
+/// table beyond the memory budget, a value above what a table stores.
+Expected<void> check_resample_input(const Dataset& data, const ResampleOptions& options) {
     const double r = options.radius_bins;
     if (!(r > 0 && r <= 16)) {
         return make_error("resample: radius = " + std::to_string(r) + " bins, must be in (0, 16]");
@@ -259,9 +261,8 @@ Expected<TabulatedBrdf> resample_dataset(const Dataset& data,
         return make_error(data.source + ": no valid samples to resample");
     }
     const TableGrid& grid = options.grid;
-    const std::size_t n = grid.size();
     // sum and weight here, raw values and validity flags in the table.
-    if (auto ok = check_memory(static_cast<double>(n) * (4 * 8 + 3 * 8 + 1),
+    if (auto ok = check_memory(static_cast<double>(grid.size()) * (4 * 8 + 3 * 8 + 1),
                                "resampling onto a " + std::to_string(grid.n_theta_h) + "x" +
                                    std::to_string(grid.n_theta_d) + "x" +
                                    std::to_string(grid.n_phi_d) + " table");
@@ -277,101 +278,143 @@ Expected<TabulatedBrdf> resample_dataset(const Dataset& data,
                               show_number(kMaxTableValue) + " 1/sr)");
         }
     }
-    std::vector<double> sum(3 * n, 0.0);
-    std::vector<double> weight(n, 0.0);
-    const double r2 = r * r;
-    const int np = grid.n_phi_d;
-    const int nh = grid.n_theta_h;
-    ResampleReport rep;
-    // Pass 1, over the samples: continuous index coordinates and the first theta_h row each one
-    // reaches (or -1 for a sample that is not used).
+    return {};
+}
+
+/// Where each sample falls on the grid: its continuous index coordinates u, the
+/// first theta_h row its kernel reaches (-1 for a sample that is not used), and
+/// the used samples ordered by that row (stable: file order within a row), so
+/// that the samples reaching a band of rows are one contiguous run.
+struct SamplePlaces {
+    std::vector<std::array<double, 3>> u;
+    std::vector<int> first_row;
+    std::vector<std::size_t> order;
+};
+
+/// Pass 1, over the samples.
+SamplePlaces place_samples(const Dataset& data, const TableGrid& grid, double r) {
     const std::size_t ns = data.samples.size();
-    std::vector<std::array<double, 3>> u(ns);
-    std::vector<int> first_row(ns, -1);
+    SamplePlaces p;
+    p.u.resize(ns);
+    p.first_row.assign(ns, -1);
     parallel_for(ns, 4096, 0, [&](std::size_t, std::size_t b, std::size_t e) {
         for (std::size_t k = b; k < e; ++k) {
             const Sample& s = data.samples[k];
             const Vec3d wi = s.wi();
             const Vec3d wo = s.wo();
             if (!(wi.z() > 0) || !(wo.z() > 0) || !s.value.isFinite().all()) {
-                // read_dataset_csv already rejects these; a hand-made dataset might not.
+                // read_dataset_csv already rejects these; a hand-made dataset might
+                // not.
                 continue;
             }
             const HalfDiff<double> hd = to_half_diff(wi, wo);
-            u[k] = grid.continuous_index(hd.theta_h, hd.theta_d, hd.phi_d);
-            first_row[k] = std::max(0, static_cast<int>(std::ceil(u[k][0] - r)));
+            p.u[k] = grid.continuous_index(hd.theta_h, hd.theta_d, hd.phi_d);
+            p.first_row[k] = std::max(0, static_cast<int>(std::ceil(p.u[k][0] - r)));
         }
     });
-    // The used samples ordered by their first row (stable: file order within a row), so that the
-    // samples reaching a band of rows are one contiguous run.
-    std::vector<std::size_t> order;
-    order.reserve(ns);
+    p.order.reserve(ns);
     for (std::size_t k = 0; k < ns; ++k) {
-        if (first_row[k] >= 0) {
-            order.push_back(k);
+        if (p.first_row[k] >= 0) {
+            p.order.push_back(k);
         }
     }
-    rep.samples_used = order.size();
-    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-        return first_row[a] < first_row[b];
+    std::stable_sort(p.order.begin(), p.order.end(), [&](std::size_t a, std::size_t b) {
+        return p.first_row[a] < p.first_row[b];
     });
-    // Pass 2, over bands of theta_h rows: each band gathers the samples whose kernel reaches it and
-    // adds them to its own bins only, in the order above, so that every bin's sum is the same for
-    // any number of threads.
-    const int reach = static_cast<int>(std::ceil(2 * r)) + 1;
-    parallel_for(
-        static_cast<std::size_t>(nh), 1, 0, [&](std::size_t, std::size_t rb, std::size_t re) {
-            const int row_b = static_cast<int>(rb);
-            const int row_e = static_cast<int>(re);
-            // Samples starting at rows in [row_b - reach, row_e) can reach [row_b, row_e).
-            const auto lo = std::lower_bound(
-                order.begin(), order.end(), row_b - reach, [&](std::size_t k, int row) {
-                    return first_row[k] < row;
-                });
-            const auto hi = std::lower_bound(
-                lo, order.end(), row_e, [&](std::size_t k, int row) { return first_row[k] < row; });
-            for (auto it = lo; it != hi; ++it) {
-                const Sample& s = data.samples[*it];
-                const std::array<double, 3>& uk = u[*it];
-                const int h0 = std::max(row_b, static_cast<int>(std::ceil(uk[0] - r)));
-                const int h1 =
-                    std::min({nh - 1, row_e - 1, static_cast<int>(std::floor(uk[0] + r))});
-                const int d0 = std::max(0, static_cast<int>(std::ceil(uk[1] - r)));
-                const int d1 =
-                    std::min(grid.n_theta_d - 1, static_cast<int>(std::floor(uk[1] + r)));
-                // phi_d is periodic: visit each bin once, at its nearest periodic image.
-                int p0 = static_cast<int>(std::ceil(uk[2] - r));
-                int p1 = static_cast<int>(std::floor(uk[2] + r));
-                if (p1 - p0 + 1 >= np) {
-                    p0 = 0;
-                    p1 = np - 1;
+    return p;
+}
+
+/// The weighted sums of the bins: value sums per channel (c * n + flat) and
+/// kernel weights.
+struct BinSums {
+    std::vector<double> sum;
+    std::vector<double> weight;
+};
+
+/// Adds one sample's kernel (weight (1 - d^2 / r^2)^2 within radius r, d in
+/// bins) to the bins of theta_h rows [row_b, row_e).
+void add_kernel(const Sample& s,
+                const std::array<double, 3>& uk,
+                const TableGrid& grid,
+                double r,
+                int row_b,
+                int row_e,
+                BinSums& bins) {
+    const std::size_t n = grid.size();
+    const double r2 = r * r;
+    const int np = grid.n_phi_d;
+    const int h0 = std::max(row_b, static_cast<int>(std::ceil(uk[0] - r)));
+    const int h1 =
+        std::min({grid.n_theta_h - 1, row_e - 1, static_cast<int>(std::floor(uk[0] + r))});
+    const int d0 = std::max(0, static_cast<int>(std::ceil(uk[1] - r)));
+    const int d1 = std::min(grid.n_theta_d - 1, static_cast<int>(std::floor(uk[1] + r)));
+    // phi_d is periodic: visit each bin once, at its nearest periodic image.
+    int p0 = static_cast<int>(std::ceil(uk[2] - r));
+    int p1 = static_cast<int>(std::floor(uk[2] + r));
+    if (p1 - p0 + 1 >= np) {
+        p0 = 0;
+        p1 = np - 1;
+    }
+    for (int ih = h0; ih <= h1; ++ih) {
+        const double dh = uk[0] - ih;
+        for (int id = d0; id <= d1; ++id) {
+            const double dd = uk[1] - id;
+            for (int k = p0; k <= p1; ++k) {
+                const int ip = ((k % np) + np) % np;
+                double dp = uk[2] - ip;
+                dp -= np * std::round(dp / np);
+                const double dist2 = dh * dh + dd * dd + dp * dp;
+                if (dist2 >= r2) {
+                    continue;
                 }
-                for (int ih = h0; ih <= h1; ++ih) {
-                    const double dh = uk[0] - ih;
-                    for (int id = d0; id <= d1; ++id) {
-                        const double dd = uk[1] - id;
-                        for (int k = p0; k <= p1; ++k) {
-                            const int ip = ((k % np) + np) % np;
-                            double dp = uk[2] - ip;
-                            dp -= np * std::round(dp / np);
-                            const double dist2 = dh * dh + dd * dd + dp * dp;
-                            if (dist2 >= r2) {
-                                continue;
-                            }
-                            const double q = 1 - dist2 / r2;
-                            const double w = q * q;
-                            const std::size_t flat = grid.index(ih, id, ip);
-                            weight[flat] += w;
-                            for (int c = 0; c < 3; ++c) {
-                                sum[c * n + flat] += w * s.value[c];
-                            }
-                        }
-                    }
+                const double q = 1 - dist2 / r2;
+                const double w = q * q;
+                const std::size_t flat = grid.index(ih, id, ip);
+                bins.weight[flat] += w;
+                for (int c = 0; c < 3; ++c) {
+                    bins.sum[c * n + flat] += w * s.value[c];
                 }
             }
-        });
-    // Pass 3, over the bins: the weighted means, counts per chunk added in chunk order.
-    TabulatedBrdf table = TabulatedBrdf::empty(grid, options.scale, data.source);
+        }
+    }
+}
+
+/// Pass 2, over bands of theta_h rows: each band gathers the samples whose
+/// kernel reaches it and adds them to its own bins only, in the order of the
+/// places, so that every bin's sum is the same for any number of threads.
+BinSums sum_kernels(const Dataset& data, const TableGrid& grid, double r, const SamplePlaces& p) {
+    BinSums bins{std::vector<double>(3 * grid.size(), 0.0), std::vector<double>(grid.size(), 0.0)};
+    const int reach = static_cast<int>(std::ceil(2 * r)) + 1;
+    const auto& order = p.order;
+    const auto& first_row = p.first_row;
+    parallel_for(static_cast<std::size_t>(grid.n_theta_h),
+                 1,
+                 0,
+                 [&](std::size_t, std::size_t rb, std::size_t re) {
+                     const int row_b = static_cast<int>(rb);
+                     const int row_e = static_cast<int>(re);
+                     // Samples starting at rows in [row_b - reach, row_e) can reach [row_b,
+                     // row_e).
+                     const auto before = [&](std::size_t k, int row) { return first_row[k] < row; };
+                     const auto lo =
+                         std::lower_bound(order.begin(), order.end(), row_b - reach, before);
+                     const auto hi = std::lower_bound(lo, order.end(), row_e, before);
+                     for (auto it = lo; it != hi; ++it) {
+                         add_kernel(data.samples[*it], p.u[*it], grid, r, row_b, row_e, bins);
+                     }
+                 });
+    return bins;
+}
+
+/// Pass 3, over the bins: the weighted means into a table, counts per chunk
+/// added in chunk order.
+TabulatedBrdf weighted_means(const BinSums& bins,
+                             const ResampleOptions& options,
+                             const std::string& source,
+                             ResampleReport& rep) {
+    const TableGrid& grid = options.grid;
+    const std::size_t n = grid.size();
+    TabulatedBrdf table = TabulatedBrdf::empty(grid, options.scale, source);
     rep.bins = n;
     const Chunking bin_chunks = chunking(n, 16384);
     std::vector<ResampleReport> partial(bin_chunks.count);
@@ -381,18 +424,18 @@ Expected<TabulatedBrdf> resample_dataset(const Dataset& data,
             const std::array<int, 3> bin = grid.unflatten(flat);
             const auto [wi, wo] = grid.centre_directions(bin[0], bin[1], bin[2]);
             if (!(wi.z() > 0) || !(wo.z() > 0)) {
-                // Not a reflection configuration: stays invalid whatever the samples near it.
+                // Not a reflection configuration: stays invalid whatever the
+                // samples near it.
                 ++pr.below_horizon;
                 continue;
             }
-            if (!(weight[flat] > 0)) {
+            const double w = bins.weight[flat];
+            if (!(w > 0)) {
                 // No sample within the radius: no data, left invalid and counted.
                 ++pr.empty_bins;
                 continue;
             }
-            const Rgbd v(sum[flat] / weight[flat],
-                         sum[n + flat] / weight[flat],
-                         sum[2 * n + flat] / weight[flat]);
+            const Rgbd v(bins.sum[flat] / w, bins.sum[n + flat] / w, bins.sum[2 * n + flat] / w);
             table.set_bin(flat, v.max(0.0));
             ++pr.filled_bins;
         }
@@ -402,6 +445,22 @@ Expected<TabulatedBrdf> resample_dataset(const Dataset& data,
         rep.empty_bins += pr.empty_bins;
         rep.filled_bins += pr.filled_bins;
     }
+    return table;
+}
+
+}  // namespace
+
+Expected<TabulatedBrdf> resample_dataset(const Dataset& data,
+                                         const ResampleOptions& options,
+                                         ResampleReport* report) {
+    if (auto ok = check_resample_input(data, options); !ok) {
+        return tl::unexpected(ok.error());
+    }
+    const SamplePlaces places = place_samples(data, options.grid, options.radius_bins);
+    ResampleReport rep;
+    rep.samples_used = places.order.size();
+    const BinSums bins = sum_kernels(data, options.grid, options.radius_bins, places);
+    TabulatedBrdf table = weighted_means(bins, options, data.source, rep);
     if (report != nullptr) {
         *report = rep;
     }

@@ -846,13 +846,8 @@ py::dict run_entry(const std::string& id,
     return outcome_to_dict(o);
 }
 
-}  // namespace
-
-PYBIND11_MODULE(_gonio, m) {
-    m.doc() = "gonio: BRDF evaluation, tables, datasets and Ceres fits (compiled core).";
-    m.attr("__version__") = GONIO_VERSION_STRING;
-    py::register_exception<GonioError>(m, "Error", PyExc_ValueError);
-
+/// eval: from directions and from angles.
+void def_eval(py::module_& m) {
     m.def("eval",
           &eval_dirs,
           py::arg("model"),
@@ -881,6 +876,10 @@ gonio.Error is raised only when no row can be evaluated.)doc");
 The same from spherical angles in radians (1-D arrays of equal length N), exactly as
 `gonio eval` computes them: theta in [0, pi], phi any finite value. A row outside those gives
 a NaN row and a warning, as above.)doc");
+}
+
+/// load, save and tabulate: datasets, tables and models in files and as dicts.
+void def_files(py::module_& m) {
     m.def("load",
           &load,
           py::arg("path"),
@@ -920,6 +919,10 @@ and a rename.)doc");
           R"doc(tabulate(model, grid=(90, 90, 180)) -> table dict
 
 Evaluates a BRDF at the bin centres of a half/difference grid (MERL's by default).)doc");
+}
+
+/// _fit (wrapped by gonio.fit) and check.
+void def_fit_and_check(py::module_& m) {
     m.def("_fit",
           &fit,
           py::arg("samples"),
@@ -942,6 +945,10 @@ Evaluates a BRDF at the bin centres of a half/difference grid (MERL's by default
 The checks of `gonio check`: non-negativity, reciprocity, isotropy, energy conservation.
 Returns {"passed", "describe", "isotropic", "checks": [{"name", "violation", "tolerance",
 "measure", "where", "detail", "applicable", "passed", "evaluations"}], "table"}.)doc");
+}
+
+/// The shipped material library.
+void def_materials(py::module_& m) {
     m.def("materials",
           &materials,
           py::arg("library") = py::none(),
@@ -950,6 +957,10 @@ Returns {"passed", "describe", "isotropic", "checks": [{"name", "violation", "to
           &material,
           py::arg("name"),
           "material(name) -> dict: one shipped material's model (model schema).");
+}
+
+/// The batch runner's entry points (gonio.batch).
+void def_batch(py::module_& m) {
     m.def("read_manifest",
           &read_manifest,
           py::arg("path"),
@@ -970,4 +981,17 @@ Returns {"passed", "describe", "isotropic", "checks": [{"name", "violation", "to
           py::arg("path"),
           py::arg("text"),
           "Writes a text file through a temporary file and a rename, never following a link.");
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_gonio, m) {
+    m.doc() = "gonio: BRDF evaluation, tables, datasets and Ceres fits (compiled core).";
+    m.attr("__version__") = GONIO_VERSION_STRING;
+    py::register_exception<GonioError>(m, "Error", PyExc_ValueError);
+    def_eval(m);
+    def_files(m);
+    def_fit_and_check(m);
+    def_materials(m);
+    def_batch(m);
 }
