@@ -93,108 +93,140 @@ double poll_budget_per_s(const BusAddress& a) {
     return 200;
 }
 
-Expected<BusAddress> parse_bus_address(const std::string& text) {
-    const std::string where = "address \"" + text + "\"";
+namespace {
+
+/// Calls `apply(key, value)` for each non-empty "key=value" of an '&'-separated query, stopping
+/// at the first error.
+template <class Apply>
+Expected<void> for_each_query_pair(const std::string& where,
+                                   const std::string& query,
+                                   Apply apply) {
+    size_t start = 0;
+    while (start <= query.size()) {
+        const auto amp = query.find('&', start);
+        const std::string kv =
+            query.substr(start, amp == std::string::npos ? std::string::npos : amp - start);
+        start = amp == std::string::npos ? query.size() + 1 : amp + 1;
+        if (kv.empty()) {
+            continue;
+        }
+        const auto eq = kv.find('=');
+        if (eq == std::string::npos) {
+            return make_error(where + ": \"" + kv + "\" is not key=value");
+        }
+        if (auto r = apply(kv.substr(0, eq), kv.substr(eq + 1)); !r) {
+            return r;
+        }
+    }
+    return {};
+}
+
+/// tcp://HOST[:PORT][?poll_rate=..&outage_ms=..]
+Expected<BusAddress> parse_tcp_address(const std::string& text, const std::string& where) {
     BusAddress a;
-    if (text.rfind("tcp://", 0) == 0) {
-        a.kind = BusKind::kTcp;
-        std::string rest = text.substr(6);
-        const auto qm = rest.find('?');
-        if (qm != std::string::npos) {
-            const std::string query = rest.substr(qm + 1);
-            rest = rest.substr(0, qm);
-            size_t start = 0;
-            while (start <= query.size()) {
-                const auto amp = query.find('&', start);
-                const std::string kv =
-                    query.substr(start, amp == std::string::npos ? std::string::npos : amp - start);
-                start = amp == std::string::npos ? query.size() + 1 : amp + 1;
-                if (kv.empty()) {
-                    continue;
-                }
-                const auto eq = kv.find('=');
-                if (eq == std::string::npos) {
-                    return make_error(where + ": \"" + kv + "\" is not key=value");
-                }
+    a.kind = BusKind::kTcp;
+    std::string rest = text.substr(6);
+    const auto qm = rest.find('?');
+    if (qm != std::string::npos) {
+        const std::string query = rest.substr(qm + 1);
+        rest = rest.substr(0, qm);
+        auto r = for_each_query_pair(
+            where, query, [&](const std::string& key, const std::string& value) -> Expected<void> {
                 std::string err;
-                if (!common_key(where, kv.substr(0, eq), kv.substr(eq + 1), &a, &err)) {
-                    return make_error(where + ": unknown key \"" + kv.substr(0, eq) +
+                if (!common_key(where, key, value, &a, &err)) {
+                    return make_error(where + ": unknown key \"" + key +
                                       "\" (known: poll_rate, outage_ms)");
                 }
                 if (!err.empty()) {
                     return make_error(err);
                 }
-            }
+                return {};
+            });
+        if (!r) {
+            return tl::unexpected(r.error());
         }
-        const auto colon = rest.rfind(':');
-        a.host = colon == std::string::npos ? rest : rest.substr(0, colon);
-        if (a.host.empty()) {
-            return make_error(where + ": missing host (expected tcp://HOST:PORT)");
+    }
+    const auto colon = rest.rfind(':');
+    a.host = colon == std::string::npos ? rest : rest.substr(0, colon);
+    if (a.host.empty()) {
+        return make_error(where + ": missing host (expected tcp://HOST:PORT)");
+    }
+    if (colon != std::string::npos && !parse_int(rest.substr(colon + 1), 1, 65535, &a.port)) {
+        return make_error(where + ": port \"" + rest.substr(colon + 1) +
+                          "\" is not an integer in [1, 65535]");
+    }
+    return a;
+}
+
+/// One key of an RTU address's query: the serial line's settings or a common key.
+Expected<void> apply_rtu_key(const std::string& where,
+                             const std::string& key,
+                             const std::string& value,
+                             BusAddress* a) {
+    if (key == "baud") {
+        if (!parse_int(value, 50, 4000000, &a->baud)) {
+            return make_error(where + ": baud \"" + value + "\" not in [50, 4000000]");
         }
-        if (colon != std::string::npos && !parse_int(rest.substr(colon + 1), 1, 65535, &a.port)) {
-            return make_error(where + ": port \"" + rest.substr(colon + 1) +
-                              "\" is not an integer in [1, 65535]");
+    } else if (key == "parity") {
+        if (value != "N" && value != "E" && value != "O") {
+            return make_error(where + ": parity \"" + value + "\" not one of N, E, O");
         }
+        a->parity = value[0];
+    } else if (key == "data_bits") {
+        if (!parse_int(value, 7, 8, &a->data_bits)) {
+            return make_error(where + ": data_bits \"" + value + "\" not 7 or 8");
+        }
+    } else if (key == "stop_bits") {
+        if (!parse_int(value, 1, 2, &a->stop_bits)) {
+            return make_error(where + ": stop_bits \"" + value + "\" not 1 or 2");
+        }
+    } else {
+        std::string err;
+        if (!common_key(where, key, value, a, &err)) {
+            return make_error(where + ": unknown key \"" + key +
+                              "\" (known: baud, parity, data_bits, stop_bits, poll_rate, "
+                              "line_share, outage_ms)");
+        }
+        if (!err.empty()) {
+            return make_error(err);
+        }
+    }
+    return {};
+}
+
+/// rtu:DEVICE[?baud=..&parity=..&...]
+Expected<BusAddress> parse_rtu_address(const std::string& text, const std::string& where) {
+    BusAddress a;
+    a.kind = BusKind::kRtu;
+    std::string rest = text.substr(4);
+    const auto q = rest.find('?');
+    a.device = rest.substr(0, q);
+    if (a.device.empty()) {
+        return make_error(where +
+                          ": missing serial device (expected rtu:/dev/ttyUSB0?baud=115200)");
+    }
+    if (q == std::string::npos) {
         return a;
     }
+    auto r = for_each_query_pair(
+        where, rest.substr(q + 1), [&](const std::string& key, const std::string& value) {
+            return apply_rtu_key(where, key, value, &a);
+        });
+    if (!r) {
+        return tl::unexpected(r.error());
+    }
+    return a;
+}
+
+}  // namespace
+
+Expected<BusAddress> parse_bus_address(const std::string& text) {
+    const std::string where = "address \"" + text + "\"";
+    if (text.rfind("tcp://", 0) == 0) {
+        return parse_tcp_address(text, where);
+    }
     if (text.rfind("rtu:", 0) == 0) {
-        a.kind = BusKind::kRtu;
-        std::string rest = text.substr(4);
-        const auto q = rest.find('?');
-        a.device = rest.substr(0, q);
-        if (a.device.empty()) {
-            return make_error(where +
-                              ": missing serial device (expected rtu:/dev/ttyUSB0?baud=115200)");
-        }
-        if (q == std::string::npos) {
-            return a;
-        }
-        std::string query = rest.substr(q + 1);
-        size_t start = 0;
-        while (start <= query.size()) {
-            const auto amp = query.find('&', start);
-            const std::string kv =
-                query.substr(start, amp == std::string::npos ? std::string::npos : amp - start);
-            start = amp == std::string::npos ? query.size() + 1 : amp + 1;
-            if (kv.empty()) {
-                continue;
-            }
-            const auto eq = kv.find('=');
-            if (eq == std::string::npos) {
-                return make_error(where + ": \"" + kv + "\" is not key=value");
-            }
-            const std::string key = kv.substr(0, eq);
-            const std::string value = kv.substr(eq + 1);
-            if (key == "baud") {
-                if (!parse_int(value, 50, 4000000, &a.baud)) {
-                    return make_error(where + ": baud \"" + value + "\" not in [50, 4000000]");
-                }
-            } else if (key == "parity") {
-                if (value != "N" && value != "E" && value != "O") {
-                    return make_error(where + ": parity \"" + value + "\" not one of N, E, O");
-                }
-                a.parity = value[0];
-            } else if (key == "data_bits") {
-                if (!parse_int(value, 7, 8, &a.data_bits)) {
-                    return make_error(where + ": data_bits \"" + value + "\" not 7 or 8");
-                }
-            } else if (key == "stop_bits") {
-                if (!parse_int(value, 1, 2, &a.stop_bits)) {
-                    return make_error(where + ": stop_bits \"" + value + "\" not 1 or 2");
-                }
-            } else {
-                std::string err;
-                if (!common_key(where, key, value, &a, &err)) {
-                    return make_error(where + ": unknown key \"" + key +
-                                      "\" (known: baud, parity, data_bits, stop_bits, poll_rate, "
-                                      "line_share, outage_ms)");
-                }
-                if (!err.empty()) {
-                    return make_error(err);
-                }
-            }
-        }
-        return a;
+        return parse_rtu_address(text, where);
     }
     return make_error(where + ": expected tcp://HOST:PORT or rtu:DEVICE?baud=N&parity=N");
 }

@@ -108,121 +108,143 @@ Expected<Quantity> get_quantity(const std::string& s, const std::string& path) {
     return make_error(path + ": \"" + s + "\" not one of target, speed, accel, decel");
 }
 
+Expected<BlockSlot> get_block_slot(const json& s, const std::string& sp) {
+    BlockSlot slot;
+    if (!s.is_object()) {
+        return make_error(sp + ": expected an object");
+    }
+    if (s.contains("quantity") == s.contains("value")) {
+        return make_error(sp + ": exactly one of \"quantity\" and \"value\" is required");
+    }
+    if (s.contains("quantity")) {
+        if (!s["quantity"].is_string()) {
+            return make_error(sp + ".quantity: expected a string");
+        }
+        auto q = get_quantity(s["quantity"].get<std::string>(), sp + ".quantity");
+        if (!q) {
+            return tl::unexpected(q.error());
+        }
+        slot.quantity = *q;
+    } else {
+        auto v = get_int(s["value"], sp + ".value");
+        if (!v) {
+            return tl::unexpected(v.error());
+        }
+        slot.constant = static_cast<double>(*v);
+    }
+    if (s.contains("width")) {
+        auto w = get_int(s["width"], sp + ".width");
+        if (!w) {
+            return tl::unexpected(w.error());
+        }
+        if (*w != 16 && *w != 32) {
+            return make_error(sp + ".width: " + std::to_string(*w) + " not in {16, 32}");
+        }
+        slot.width = static_cast<int>(*w);
+    }
+    if (s.contains("scale")) {
+        auto sc = get_number(s["scale"], sp + ".scale");
+        if (!sc) {
+            return tl::unexpected(sc.error());
+        }
+        if (!(*sc > 0)) {
+            return make_error(sp + ".scale: must be > 0");
+        }
+        slot.scale = *sc;
+    }
+    if (s.contains("inverse")) {
+        if (!s["inverse"].is_boolean()) {
+            return make_error(sp + ".inverse: expected true or false");
+        }
+        slot.inverse = s["inverse"].get<bool>();
+    }
+    return slot;
+}
+
+Expected<CommandBlock> get_block(const json& b, const std::string& bp) {
+    if (!b.is_object() || !b.contains("address") || !b.contains("slots") ||
+        !b["slots"].is_array() || b["slots"].empty()) {
+        return make_error(bp + ": expected {\"address\": ..., \"slots\": [...]} with slots");
+    }
+    CommandBlock block;
+    auto a = get_int(b["address"], bp + ".address");
+    if (!a) {
+        return tl::unexpected(a.error());
+    }
+    block.address = static_cast<int>(*a);
+    auto sec = get_section(b, bp);
+    if (!sec) {
+        return tl::unexpected(sec.error());
+    }
+    block.section = *sec;
+    for (size_t i = 0; i < b["slots"].size(); ++i) {
+        auto slot = get_block_slot(b["slots"][i], bp + ".slots[" + std::to_string(i) + "]");
+        if (!slot) {
+            return tl::unexpected(slot.error());
+        }
+        block.slots.push_back(*slot);
+    }
+    return block;
+}
+
+Expected<Trigger> get_trigger(const json& t, const std::string& tp) {
+    if (!t.is_object() || !t.contains("kind") || !t["kind"].is_string()) {
+        return make_error(tp + ": expected {\"kind\": \"write_value\"|\"pulse_bit\", ...}");
+    }
+    Trigger trigger;
+    auto reg = get_field(t, tp);
+    if (!reg) {
+        return tl::unexpected(reg.error());
+    }
+    trigger.reg = *reg;
+    const std::string kind = t["kind"].get<std::string>();
+    if (kind == "write_value") {
+        trigger.kind = TriggerKind::kWriteValue;
+        if (!t.contains("value")) {
+            return make_error(tp + ".value: missing");
+        }
+        auto v = get_int(t["value"], tp + ".value");
+        if (!v) {
+            return tl::unexpected(v.error());
+        }
+        trigger.value = static_cast<std::uint32_t>(*v);
+    } else if (kind == "pulse_bit") {
+        trigger.kind = TriggerKind::kPulseBit;
+        if (!t.contains("bit")) {
+            return make_error(tp + ".bit: missing");
+        }
+        auto b = get_int(t["bit"], tp + ".bit");
+        if (!b) {
+            return tl::unexpected(b.error());
+        }
+        if (*b < 0 || *b >= trigger.reg.width) {
+            return make_error(tp + ".bit: " + std::to_string(*b) + " outside the register");
+        }
+        trigger.bit = static_cast<int>(*b);
+    } else {
+        return make_error(tp + ".kind: \"" + kind + "\" not one of write_value, pulse_bit");
+    }
+    return trigger;
+}
+
 Expected<Action> get_action(const json& j, const std::string& path) {
     Action act;
     if (!j.is_object()) {
         return make_error(path + ": expected an object with \"block\" and/or \"trigger\"");
     }
     if (j.contains("block")) {
-        const json& b = j["block"];
-        const std::string bp = path + ".block";
-        if (!b.is_object() || !b.contains("address") || !b.contains("slots") ||
-            !b["slots"].is_array() || b["slots"].empty()) {
-            return make_error(bp + ": expected {\"address\": ..., \"slots\": [...]} with slots");
+        auto block = get_block(j["block"], path + ".block");
+        if (!block) {
+            return tl::unexpected(block.error());
         }
-        auto a = get_int(b["address"], bp + ".address");
-        if (!a) {
-            return tl::unexpected(a.error());
-        }
-        act.block.address = static_cast<int>(*a);
-        auto sec = get_section(b, bp);
-        if (!sec) {
-            return tl::unexpected(sec.error());
-        }
-        act.block.section = *sec;
-        for (size_t i = 0; i < b["slots"].size(); ++i) {
-            const json& s = b["slots"][i];
-            const std::string sp = bp + ".slots[" + std::to_string(i) + "]";
-            BlockSlot slot;
-            if (!s.is_object()) {
-                return make_error(sp + ": expected an object");
-            }
-            if (s.contains("quantity") == s.contains("value")) {
-                return make_error(sp + ": exactly one of \"quantity\" and \"value\" is required");
-            }
-            if (s.contains("quantity")) {
-                if (!s["quantity"].is_string()) {
-                    return make_error(sp + ".quantity: expected a string");
-                }
-                auto q = get_quantity(s["quantity"].get<std::string>(), sp + ".quantity");
-                if (!q) {
-                    return tl::unexpected(q.error());
-                }
-                slot.quantity = *q;
-            } else {
-                auto v = get_int(s["value"], sp + ".value");
-                if (!v) {
-                    return tl::unexpected(v.error());
-                }
-                slot.constant = static_cast<double>(*v);
-            }
-            if (s.contains("width")) {
-                auto w = get_int(s["width"], sp + ".width");
-                if (!w) {
-                    return tl::unexpected(w.error());
-                }
-                if (*w != 16 && *w != 32) {
-                    return make_error(sp + ".width: " + std::to_string(*w) + " not in {16, 32}");
-                }
-                slot.width = static_cast<int>(*w);
-            }
-            if (s.contains("scale")) {
-                auto sc = get_number(s["scale"], sp + ".scale");
-                if (!sc) {
-                    return tl::unexpected(sc.error());
-                }
-                if (!(*sc > 0)) {
-                    return make_error(sp + ".scale: must be > 0");
-                }
-                slot.scale = *sc;
-            }
-            if (s.contains("inverse")) {
-                if (!s["inverse"].is_boolean()) {
-                    return make_error(sp + ".inverse: expected true or false");
-                }
-                slot.inverse = s["inverse"].get<bool>();
-            }
-            act.block.slots.push_back(slot);
-        }
+        act.block = *block;
     }
     if (j.contains("trigger")) {
-        const json& t = j["trigger"];
-        const std::string tp = path + ".trigger";
-        if (!t.is_object() || !t.contains("kind") || !t["kind"].is_string()) {
-            return make_error(tp + ": expected {\"kind\": \"write_value\"|\"pulse_bit\", ...}");
+        auto trigger = get_trigger(j["trigger"], path + ".trigger");
+        if (!trigger) {
+            return tl::unexpected(trigger.error());
         }
-        auto reg = get_field(t, tp);
-        if (!reg) {
-            return tl::unexpected(reg.error());
-        }
-        act.trigger.reg = *reg;
-        const std::string kind = t["kind"].get<std::string>();
-        if (kind == "write_value") {
-            act.trigger.kind = TriggerKind::kWriteValue;
-            if (!t.contains("value")) {
-                return make_error(tp + ".value: missing");
-            }
-            auto v = get_int(t["value"], tp + ".value");
-            if (!v) {
-                return tl::unexpected(v.error());
-            }
-            act.trigger.value = static_cast<std::uint32_t>(*v);
-        } else if (kind == "pulse_bit") {
-            act.trigger.kind = TriggerKind::kPulseBit;
-            if (!t.contains("bit")) {
-                return make_error(tp + ".bit: missing");
-            }
-            auto b = get_int(t["bit"], tp + ".bit");
-            if (!b) {
-                return tl::unexpected(b.error());
-            }
-            if (*b < 0 || *b >= act.trigger.reg.width) {
-                return make_error(tp + ".bit: " + std::to_string(*b) + " outside the register");
-            }
-            act.trigger.bit = static_cast<int>(*b);
-        } else {
-            return make_error(tp + ".kind: \"" + kind + "\" not one of write_value, pulse_bit");
-        }
+        act.trigger = *trigger;
     }
     return act;
 }
@@ -250,8 +272,11 @@ int CommandBlock::register_count() const {
     return n;
 }
 
-Expected<AxisProfile> parse_axis_profile(const std::string& json_text,
-                                         const std::string& source_name) {
+namespace {
+
+/// The text as a JSON object whose every key is known (docs/profiles.md): a misspelt optional
+/// key is an error, not a default silently kept.
+Expected<json> parse_profile_json(const std::string& json_text, const std::string& source_name) {
     json j;
     try {
         j = json::parse(json_text);
@@ -262,8 +287,6 @@ Expected<AxisProfile> parse_axis_profile(const std::string& json_text,
     if (!j.is_object()) {
         return make_error(source_name + ": expected a JSON object");
     }
-    // Every key known (docs/profiles.md): a misspelt optional key is an error, not a
-    // default silently kept.
     auto known = read_strict_json(source_name, [&] {
         check_json_keys(j,
                         "",
@@ -296,8 +319,11 @@ Expected<AxisProfile> parse_axis_profile(const std::string& json_text,
     if (!known) {
         return tl::unexpected(known.error());
     }
-    AxisProfile p;
-    const std::string& s = source_name;
+    return j;
+}
+
+/// name, description, source, address_base and word_order.
+Expected<void> read_identity(const json& j, const std::string& s, AxisProfile* p) {
     auto str = [&](const char* key, std::string* out) -> Expected<void> {
         if (j.contains(key)) {
             if (!j[key].is_string()) {
@@ -308,33 +334,38 @@ Expected<AxisProfile> parse_axis_profile(const std::string& json_text,
         return {};
     };
     for (auto r :
-         {str("name", &p.name), str("description", &p.description), str("source", &p.source)}) {
+         {str("name", &p->name), str("description", &p->description), str("source", &p->source)}) {
         if (!r) {
-            return tl::unexpected(r.error());
+            return r;
         }
     }
-    if (p.name.empty()) {
+    if (p->name.empty()) {
         return make_error(s + ": name: missing");
     }
-    if (auto r = get_opt_int(j, "address_base", s, &p.address_base); !r) {
-        return tl::unexpected(r.error());
+    if (auto r = get_opt_int(j, "address_base", s, &p->address_base); !r) {
+        return r;
     }
-    if (p.address_base != 0 && p.address_base != 1 && p.address_base != 40001) {
-        return make_error(s + ": address_base: " + std::to_string(p.address_base) +
+    if (p->address_base != 0 && p->address_base != 1 && p->address_base != 40001) {
+        return make_error(s + ": address_base: " + std::to_string(p->address_base) +
                           " not in {0, 1, 40001}");
     }
     if (j.contains("word_order")) {
         const std::string wo =
             j["word_order"].is_string() ? j["word_order"].get<std::string>() : "";
         if (wo == "high_first") {
-            p.word_order = WordOrder::kHighFirst;
+            p->word_order = WordOrder::kHighFirst;
         } else if (wo == "low_first") {
-            p.word_order = WordOrder::kLowFirst;
+            p->word_order = WordOrder::kLowFirst;
         } else {
             return make_error(s + ": word_order: " + j["word_order"].dump() +
                               " not one of \"high_first\", \"low_first\"");
         }
     }
+    return {};
+}
+
+/// steps_per_degree, the two speeds and the direction.
+Expected<void> read_motion(const json& j, const std::string& s, AxisProfile* p) {
     auto num = [&](const char* key, double* out) -> Expected<void> {
         if (!j.contains(key)) {
             return {};
@@ -349,27 +380,31 @@ Expected<AxisProfile> parse_axis_profile(const std::string& json_text,
         *out = *v;
         return {};
     };
-    for (auto r : {num("steps_per_degree", &p.steps_per_degree),
-                   num("max_speed_deg_per_s", &p.max_speed_deg_per_s),
-                   num("home_speed_deg_per_s", &p.home_speed_deg_per_s)}) {
+    for (auto r : {num("steps_per_degree", &p->steps_per_degree),
+                   num("max_speed_deg_per_s", &p->max_speed_deg_per_s),
+                   num("home_speed_deg_per_s", &p->home_speed_deg_per_s)}) {
         if (!r) {
-            return tl::unexpected(r.error());
+            return r;
         }
     }
-    if (auto r = get_opt_int(j, "direction", s, &p.direction); !r) {
-        return tl::unexpected(r.error());
+    if (auto r = get_opt_int(j, "direction", s, &p->direction); !r) {
+        return r;
     }
-    if (p.direction != 1 && p.direction != -1) {
-        return make_error(s + ": direction: " + std::to_string(p.direction) + " not 1 or -1");
+    if (p->direction != 1 && p->direction != -1) {
+        return make_error(s + ": direction: " + std::to_string(p->direction) + " not 1 or -1");
     }
+    return {};
+}
 
+/// The required registers: position, status and alarm_code.
+Expected<void> read_registers(const json& j, const std::string& s, AxisProfile* p) {
     if (!j.contains("registers") || !j["registers"].is_object()) {
         return make_error(s + ": registers: missing object");
     }
     const json& regs = j["registers"];
-    for (auto [key, field] : {std::pair<const char*, RegisterField*>{"position", &p.position},
-                              {"status", &p.status.reg},
-                              {"alarm_code", &p.alarm_code}}) {
+    for (auto [key, field] : {std::pair<const char*, RegisterField*>{"position", &p->position},
+                              {"status", &p->status.reg},
+                              {"alarm_code", &p->alarm_code}}) {
         if (!regs.contains(key)) {
             return make_error(s + ": registers." + key + ": missing");
         }
@@ -379,38 +414,46 @@ Expected<AxisProfile> parse_axis_profile(const std::string& json_text,
         }
         *field = *f;
     }
+    return {};
+}
+
+Expected<void> read_status_bits(const json& j, const std::string& s, AxisProfile* p) {
     if (!j.contains("status_bits") || !j["status_bits"].is_object()) {
         return make_error(s + ": status_bits: missing object");
     }
     const json& sb = j["status_bits"];
-    for (auto [key, bit] : {std::pair<const char*, int*>{"moving", &p.status.moving},
-                            {"in_position", &p.status.in_position},
-                            {"homed", &p.status.homed},
-                            {"alarm", &p.status.alarm},
-                            {"homing", &p.status.homing},
-                            {"ready", &p.status.ready}}) {
+    for (auto [key, bit] : {std::pair<const char*, int*>{"moving", &p->status.moving},
+                            {"in_position", &p->status.in_position},
+                            {"homed", &p->status.homed},
+                            {"alarm", &p->status.alarm},
+                            {"homing", &p->status.homing},
+                            {"ready", &p->status.ready}}) {
         if (auto r = get_opt_int(sb, key, s + ": status_bits", bit); !r) {
-            return tl::unexpected(r.error());
+            return r;
         }
-        if (*bit >= p.status.reg.width) {
+        if (*bit >= p->status.reg.width) {
             return make_error(s + ": status_bits." + key + ": bit " + std::to_string(*bit) +
-                              " outside the " + std::to_string(p.status.reg.width) +
+                              " outside the " + std::to_string(p->status.reg.width) +
                               "-bit status register");
         }
     }
-    if (p.status.in_position < 0 && p.status.moving < 0) {
+    if (p->status.in_position < 0 && p->status.moving < 0) {
         return make_error(s +
                           ": status_bits: needs in_position or moving to know when a move ends");
     }
+    return {};
+}
 
+/// move and stop (required), home and reset_alarm (optional), and what they need.
+Expected<void> read_actions(const json& j, const std::string& s, AxisProfile* p) {
     if (!j.contains("actions") || !j["actions"].is_object()) {
         return make_error(s + ": actions: missing object");
     }
     const json& acts = j["actions"];
-    for (auto [key, act] : {std::pair<const char*, Action*>{"move", &p.move},
-                            {"home", &p.home},
-                            {"stop", &p.stop},
-                            {"reset_alarm", &p.reset_alarm}}) {
+    for (auto [key, act] : {std::pair<const char*, Action*>{"move", &p->move},
+                            {"home", &p->home},
+                            {"stop", &p->stop},
+                            {"reset_alarm", &p->reset_alarm}}) {
         if (!acts.contains(key)) {
             if (std::string(key) == "move" || std::string(key) == "stop") {
                 return make_error(s + ": actions." + key + ": missing");
@@ -423,52 +466,66 @@ Expected<AxisProfile> parse_axis_profile(const std::string& json_text,
         }
         *act = *a;
     }
-    if (p.home.supported() && p.status.homed < 0) {
+    if (p->home.supported() && p->status.homed < 0) {
         return make_error(s +
                           ": status_bits.homed: required when actions.home is given (homing "
                           "ends on the drive's homed flag)");
     }
     bool has_target = false;
-    for (const BlockSlot& slot : p.move.block.slots) {
+    for (const BlockSlot& slot : p->move.block.slots) {
         has_target = has_target || slot.quantity == Quantity::kTarget;
     }
     if (!has_target) {
         return make_error(s + ": actions.move.block: needs a slot with quantity \"target\"");
     }
+    return {};
+}
 
-    if (j.contains("timeouts")) {
-        const json& t = j["timeouts"];
-        const std::string tp = s + ": timeouts";
-        for (auto [key, v] : {std::pair<const char*, int*>{"response_ms", &p.timeouts.response_ms},
-                              {"retries", &p.timeouts.retries},
-                              {"backoff_ms", &p.timeouts.backoff_ms},
-                              {"poll_ms", &p.timeouts.poll_ms},
-                              {"stall_ms", &p.timeouts.stall_ms}}) {
-            if (auto r = get_opt_int(t, key, tp, v); !r) {
-                return tl::unexpected(r.error());
-            }
-            if (*v < 0 || *v > 600000) {
-                return make_error(tp + "." + key + ": " + std::to_string(*v) +
-                                  " not in [0, 600000]");
-            }
+Expected<void> read_timeouts(const json& j, const std::string& s, AxisProfile* p) {
+    if (!j.contains("timeouts")) {
+        return {};
+    }
+    const json& t = j["timeouts"];
+    const std::string tp = s + ": timeouts";
+    for (auto [key, v] : {std::pair<const char*, int*>{"response_ms", &p->timeouts.response_ms},
+                          {"retries", &p->timeouts.retries},
+                          {"backoff_ms", &p->timeouts.backoff_ms},
+                          {"poll_ms", &p->timeouts.poll_ms},
+                          {"stall_ms", &p->timeouts.stall_ms}}) {
+        if (auto r = get_opt_int(t, key, tp, v); !r) {
+            return r;
         }
-        if (p.timeouts.response_ms == 0) {
-            return make_error(tp + ".response_ms: must be > 0");
+        if (*v < 0 || *v > 600000) {
+            return make_error(tp + "." + key + ": " + std::to_string(*v) + " not in [0, 600000]");
         }
     }
-    if (j.contains("alarm_codes")) {
-        const json& a = j["alarm_codes"];
-        for (auto [key, v] : {std::pair<const char*, int*>{"overtravel", &p.alarm_codes.overtravel},
-                              {"overload", &p.alarm_codes.overload},
-                              {"deviation", &p.alarm_codes.deviation}}) {
-            if (auto r = get_opt_int(a, key, s + ": alarm_codes", v); !r) {
-                return tl::unexpected(r.error());
-            }
+    if (p->timeouts.response_ms == 0) {
+        return make_error(tp + ".response_ms: must be > 0");
+    }
+    return {};
+}
+
+Expected<void> read_alarm_codes(const json& j, const std::string& s, AxisProfile* p) {
+    if (!j.contains("alarm_codes")) {
+        return {};
+    }
+    const json& a = j["alarm_codes"];
+    for (auto [key, v] : {std::pair<const char*, int*>{"overtravel", &p->alarm_codes.overtravel},
+                          {"overload", &p->alarm_codes.overload},
+                          {"deviation", &p->alarm_codes.deviation}}) {
+        if (auto r = get_opt_int(a, key, s + ": alarm_codes", v); !r) {
+            return r;
         }
     }
-    // The touch probe's two latches come together or not at all.
-    for (auto [key, field] : {std::pair<const char*, RegisterField*>{"probe_start", &p.probe_start},
-                              {"probe_end", &p.probe_end}}) {
+    return {};
+}
+
+/// The touch probe's two latches come together or not at all.
+Expected<void> read_probe_registers(const json& j, const std::string& s, AxisProfile* p) {
+    const json& regs = j["registers"];
+    for (auto [key, field] :
+         {std::pair<const char*, RegisterField*>{"probe_start", &p->probe_start},
+          {"probe_end", &p->probe_end}}) {
         if (!regs.contains(key)) {
             continue;
         }
@@ -478,10 +535,14 @@ Expected<AxisProfile> parse_axis_profile(const std::string& json_text,
         }
         *field = *f;
     }
-    if (p.probe_start.present() != p.probe_end.present()) {
+    if (p->probe_start.present() != p->probe_end.present()) {
         return make_error(s + ": registers: probe_start and probe_end come together");
     }
-    // Every documented address must map to a wire address.
+    return {};
+}
+
+/// Every documented address must map to a wire address.
+Expected<void> check_wire_addresses(const AxisProfile& p, const std::string& s) {
     std::vector<std::pair<std::string, int>> addrs = {
         {"registers.position", p.position.address},
         {"registers.status", p.status.reg.address},
@@ -503,6 +564,33 @@ Expected<AxisProfile> parse_axis_profile(const std::string& json_text,
         if (auto w = wire_address(p, addr); !w) {
             return make_error(s + ": " + what + ": " + w.error().message);
         }
+    }
+    return {};
+}
+
+}  // namespace
+
+Expected<AxisProfile> parse_axis_profile(const std::string& json_text,
+                                         const std::string& source_name) {
+    auto j = parse_profile_json(json_text, source_name);
+    if (!j) {
+        return tl::unexpected(j.error());
+    }
+    AxisProfile p;
+    for (auto stage : {read_identity,
+                       read_motion,
+                       read_registers,
+                       read_status_bits,
+                       read_actions,
+                       read_timeouts,
+                       read_alarm_codes,
+                       read_probe_registers}) {
+        if (auto r = stage(*j, source_name, &p); !r) {
+            return tl::unexpected(r.error());
+        }
+    }
+    if (auto r = check_wire_addresses(p, source_name); !r) {
+        return tl::unexpected(r.error());
     }
     return p;
 }

@@ -26,6 +26,62 @@ bool inside(const CommandBlock& block, const RegisterField& reg) {
            reg.address + reg.count() <= block.address + block.register_count();
 }
 
+/// What a wait remembers between polls: whether motion was seen, when the position last changed
+/// (for the stall check) and the previous reading (for the observed speed).
+struct PollHistory {
+    using Clock = std::chrono::steady_clock;
+    std::int64_t last_steps = 0;
+    bool have_last = false;
+    bool seen_moving = false;
+    Clock::time_point last_change = Clock::now();
+    double prev_deg = 0;
+    Clock::time_point prev_t = Clock::now();
+    bool have_prev = false;
+
+    /// After a link recovery the drive's state is re-read: what was seen before no longer counts.
+    void forget() {
+        seen_moving = false;
+        have_last = false;
+        have_prev = false;
+    }
+    /// Records the position; true when it has not changed for longer than `stall` while the
+    /// drive reports motion.
+    bool stalled(std::int64_t steps, Clock::time_point now, bool moving, Clock::duration stall) {
+        if (!have_last || steps != last_steps) {
+            last_steps = steps;
+            last_change = now;
+            have_last = true;
+            return false;
+        }
+        return moving && now - last_change > stall;
+    }
+    /// The stage's speed between the previous reading and this one in deg/s; -1 when unknown.
+    double observed_speed(double at_deg, Clock::time_point now) {
+        double observed = -1;
+        if (have_prev) {
+            const double dt = std::chrono::duration<double>(now - prev_t).count();
+            if (dt > 0) {
+                observed = std::fabs(at_deg - prev_deg) / dt;
+            }
+        }
+        prev_deg = at_deg;
+        prev_t = now;
+        have_prev = true;
+        return observed;
+    }
+};
+
+std::string wait_alarm_message(const Expected<int>& code,
+                               bool homing,
+                               double commanded_deg,
+                               double at_deg) {
+    return std::string("drive alarm code ") +
+           (code ? std::to_string(*code) + " (" + hex(*code, 2) + ")"
+                 : std::string("unreadable: ") + code.error().message) +
+           (homing ? " during homing" : " during move to " + fmt_deg(commanded_deg) + " deg") +
+           ", at " + fmt_deg(at_deg) + " deg";
+}
+
 }  // namespace
 
 ModbusAxis::ModbusAxis(std::shared_ptr<ModbusBus> bus,
@@ -232,15 +288,9 @@ Expected<void> ModbusAxis::start_move(double position_deg) {
 
 Expected<void> ModbusAxis::wait_flag(bool homing, std::chrono::steady_clock::time_point deadline) {
     const StatusBits& sb = profile_.status;
-    std::int64_t last_steps = 0;
-    bool have_last = false;
-    bool seen_moving = false;
-    auto last_change = std::chrono::steady_clock::now();
+    PollHistory history;
     const auto stall = std::chrono::milliseconds(profile_.timeouts.stall_ms);
     std::uint64_t generation = bus_->link_generation();
-    double prev_deg = 0;
-    auto prev_t = std::chrono::steady_clock::now();
-    bool have_prev = false;
     for (;;) {
         auto raw = read_raw(poll_policy_);
         if (!raw) {
@@ -254,12 +304,7 @@ Expected<void> ModbusAxis::wait_flag(bool homing, std::chrono::steady_clock::tim
             auto code = read_alarm_code();
             approach_pending_ = false;
             return tl::unexpected(
-                axis_error(std::string("drive alarm code ") +
-                           (code ? std::to_string(*code) + " (" + hex(*code, 2) + ")"
-                                 : std::string("unreadable: ") + code.error().message) +
-                           (homing ? " during homing"
-                                   : " during move to " + fmt_deg(commanded_deg_) + " deg") +
-                           ", at " + fmt_deg(at_deg) + " deg"));
+                axis_error(wait_alarm_message(code, homing, commanded_deg_, at_deg)));
         }
         const bool moving = sb.moving >= 0 ? bit(w, sb.moving) : !bit(w, sb.in_position);
         const bool in_pos = sb.in_position >= 0 ? bit(w, sb.in_position) : !moving;
@@ -271,34 +316,26 @@ Expected<void> ModbusAxis::wait_flag(bool homing, std::chrono::steady_clock::tim
             // still away from the target lost the move (power blip): send it again.
             generation = g;
             ++recovery_.link_recoveries;
-            seen_moving = false;
-            have_last = false;
-            have_prev = false;
+            history.forget();
             if (!moving && !at_target) {
-                if (homing) {
-                    if (auto r = run_action(profile_.home, {}, "home"); !r) {
-                        return r;
-                    }
-                } else if (auto r = send_move(commanded_deg_); !r) {
+                if (auto r =
+                        homing ? run_action(profile_.home, {}, "home") : send_move(commanded_deg_);
+                    !r) {
                     return r;
                 }
                 ++recovery_.reissued_moves;
                 continue;
             }
         }
-        seen_moving = seen_moving || moving;
+        history.seen_moving = history.seen_moving || moving;
         // A drive may still show the previous move's in-position flag for a moment after a new
         // command: accept "done" only once motion was seen or the stage is at the target.
         const bool done = homing ? (!moving && bit(w, sb.homed))
-                                 : (!moving && in_pos && (seen_moving || at_target));
+                                 : (!moving && in_pos && (history.seen_moving || at_target));
         if (done) {
             return {};
         }
-        if (!have_last || raw->position_steps != last_steps) {
-            last_steps = raw->position_steps;
-            last_change = now;
-            have_last = true;
-        } else if (moving && now - last_change > stall) {
+        if (history.stalled(raw->position_steps, now, moving, stall)) {
             (void)run_action(profile_.stop, {}, "stop");
             approach_pending_ = false;
             return tl::unexpected(axis_error(
@@ -315,18 +352,9 @@ Expected<void> ModbusAxis::wait_flag(bool homing, std::chrono::steady_clock::tim
                 hex(w, 4) + "); stop sent"));
         }
         // Back off while far from the target; homing has no known distance: poll at poll_ms.
-        double observed = -1;
-        if (have_prev) {
-            const double dt = std::chrono::duration<double>(now - prev_t).count();
-            if (dt > 0) {
-                observed = std::fabs(at_deg - prev_deg) / dt;
-            }
-        }
-        prev_deg = at_deg;
-        prev_t = now;
-        have_prev = true;
         // The first wait is short: two readings give the stage's observed speed (a simulator
         // running faster than real time, a drive slower than its profile).
+        const double observed = history.observed_speed(at_deg, now);
         const double remaining = homing || observed < 0 ? 0 : at_deg - commanded_deg_;
         std::this_thread::sleep_for(std::min<std::chrono::microseconds>(
             poll_wait(remaining, observed),

@@ -618,6 +618,63 @@ Status GigeCamera::write_mem_locked(const gvcp::MemWrite& w,
     return Status::kSuccess;
 }
 
+Status GigeCamera::read_regs_locked(const std::vector<std::uint32_t>& addresses,
+                                    bool is_controller,
+                                    std::vector<std::uint32_t>* values) const {
+    for (std::uint32_t a : addresses) {
+        std::uint32_t v = 0;
+        Status st = read_reg_locked(a, &v);
+        if (a == gvbs::kControlChannelPrivilege && !is_controller) {
+            v = 0;  // another application reads that it holds no privilege
+        }
+        if (st != Status::kSuccess) {
+            return st;
+        }
+        values->push_back(v);
+    }
+    return Status::kSuccess;
+}
+
+Status GigeCamera::write_regs_locked(
+    const std::vector<std::pair<std::uint32_t, std::uint32_t>>& pairs,
+    bool others_read_only,
+    const HostId& from,
+    Clock::time_point now,
+    std::uint16_t* index) {
+    *index = 0;
+    for (const auto& [a, v] : pairs) {
+        Status st;
+        if (others_read_only && a != gvbs::kControlChannelPrivilege) {
+            st = Status::kAccessDenied;
+        } else {
+            st = write_reg_locked(a, v, from, now);
+        }
+        if (st != Status::kSuccess) {
+            return st;
+        }
+        ++*index;
+    }
+    return Status::kSuccess;
+}
+
+namespace {
+
+/// The answer to a datagram that is no command: one with a valid key but an inconsistent length
+/// gets INVALID_HEADER (when it asks for an acknowledge), anything else nothing.
+std::optional<gvcp::Bytes> invalid_header_ack(const std::uint8_t* bytes, std::size_t size) {
+    if (size >= gvcp::kHeaderSize && bytes[0] == gvcp::kKey &&
+        (bytes[1] & gvcp::kFlagAckRequired) != 0) {
+        gvcp::AckPacket a;
+        a.status = Status::kInvalidHeader;
+        a.answer = static_cast<gvcp::Command>(gvcp::get_u16(bytes + 2) + 1);
+        a.ack_id = gvcp::get_u16(bytes + 6);
+        return gvcp::encode(a);
+    }
+    return std::nullopt;
+}
+
+}  // namespace
+
 std::optional<gvcp::Bytes> GigeCamera::handle_gvcp(const std::uint8_t* bytes,
                                                    std::size_t size,
                                                    const HostId& from,
@@ -630,16 +687,7 @@ std::optional<gvcp::Bytes> GigeCamera::handle_gvcp(const std::uint8_t* bytes,
     State& s = *state_;
     auto cmd = gvcp::parse_command(bytes, size);
     if (!cmd) {
-        // A datagram with a valid key but an inconsistent length gets INVALID_HEADER.
-        if (size >= gvcp::kHeaderSize && bytes[0] == gvcp::kKey &&
-            (bytes[1] & gvcp::kFlagAckRequired) != 0) {
-            gvcp::AckPacket a;
-            a.status = Status::kInvalidHeader;
-            a.answer = static_cast<gvcp::Command>(gvcp::get_u16(bytes + 2) + 1);
-            a.ack_id = gvcp::get_u16(bytes + 6);
-            return gvcp::encode(a);
-        }
-        return std::nullopt;
+        return invalid_header_ack(bytes, size);
     }
     const bool is_controller = s.controller && *s.controller == from;
     if (is_controller) {
@@ -673,18 +721,8 @@ std::optional<gvcp::Bytes> GigeCamera::handle_gvcp(const std::uint8_t* bytes,
                 return error_ack(Status::kAccessDenied);
             }
             std::vector<std::uint32_t> values;
-            for (std::uint32_t a : *addrs) {
-                std::uint32_t v = 0;
-                Status st = read_reg_locked(a, &v);
-                if (a == gvbs::kControlChannelPrivilege && !is_controller) {
-                    v = 0;  // another application reads that it holds no privilege
-                }
-                if (st != Status::kSuccess) {
-                    return reply(gvcp::make_read_reg_ack(cmd->req_id, st, values));
-                }
-                values.push_back(v);
-            }
-            return reply(gvcp::make_read_reg_ack(cmd->req_id, Status::kSuccess, values));
+            const Status st = read_regs_locked(*addrs, is_controller, &values);
+            return reply(gvcp::make_read_reg_ack(cmd->req_id, st, values));
         }
         case gvcp::Command::kWriteRegCmd: {
             auto pairs = gvcp::parse_write_reg(*cmd);
@@ -692,19 +730,8 @@ std::optional<gvcp::Bytes> GigeCamera::handle_gvcp(const std::uint8_t* bytes,
                 return error_ack(Status::kInvalidParameter);
             }
             std::uint16_t index = 0;
-            for (const auto& [a, v] : *pairs) {
-                Status st;
-                if (others_read_only && a != gvbs::kControlChannelPrivilege) {
-                    st = Status::kAccessDenied;
-                } else {
-                    st = write_reg_locked(a, v, from, now);
-                }
-                if (st != Status::kSuccess) {
-                    return reply(gvcp::make_write_reg_ack(cmd->req_id, st, index));
-                }
-                ++index;
-            }
-            return reply(gvcp::make_write_reg_ack(cmd->req_id, Status::kSuccess, index));
+            const Status st = write_regs_locked(*pairs, others_read_only, from, now, &index);
+            return reply(gvcp::make_write_reg_ack(cmd->req_id, st, index));
         }
         case gvcp::Command::kReadMemCmd: {
             auto r = gvcp::parse_read_mem(*cmd);

@@ -180,6 +180,17 @@ class GigeCamera {
                                            const HostId& from,
                                            Clock::time_point now,
                                            std::uint16_t* written);
+    /// READREG's registers in order into *values, up to the first failure (its status).
+    devices::gvcp::Status read_regs_locked(const std::vector<std::uint32_t>& addresses,
+                                           bool is_controller,
+                                           std::vector<std::uint32_t>* values) const;
+    /// WRITEREG's pairs in order, up to the first failure (its status); *index: those written.
+    devices::gvcp::Status write_regs_locked(
+        const std::vector<std::pair<std::uint32_t, std::uint32_t>>& pairs,
+        bool others_read_only,
+        const HostId& from,
+        Clock::time_point now,
+        std::uint16_t* index);
     void release_control_locked();
     std::uint64_t ticks_locked(Clock::time_point now) const;
 
