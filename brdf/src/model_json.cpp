@@ -167,6 +167,159 @@ Fresnel<double> parse_fresnel(const Json& j, const std::string& path) {
     return f;
 }
 
+Distribution parse_distribution(const Json& j, const std::string& path) {
+    const std::string dist =
+        json_string_at(json_member(j, path, "distribution"), path + ".distribution");
+    if (dist == "ggx") {
+        return Distribution::kGgx;
+    }
+    if (dist == "beckmann") {
+        return Distribution::kBeckmann;
+    }
+    if (dist == "blinn-phong") {
+        return Distribution::kBlinnPhong;
+    }
+    if (dist == "student-t") {
+        return Distribution::kStudentT;
+    }
+    if (dist == "tabulated") {
+        return Distribution::kTabulated;
+    }
+    json_fail(path + ".distribution = \"" + excerpt(dist) +
+              "\": must be one of ggx, beckmann, blinn-phong, student-t, tabulated");
+}
+
+/// The tail parameter of a Student-t lobe: Smith's Lambda is finite above 3/2 only (student_t.h).
+void parse_student_t_gamma(const Json& j, const std::string& path, Lobe<double>* lobe) {
+    if (lobe->distribution == Distribution::kStudentT) {
+        lobe->gamma = get_scalar(
+            json_member(j, path, "gamma"), path + ".gamma", Rule::kPositive, kStudentTGammaMax);
+        if (!(lobe->gamma >= kStudentTGammaMin)) {
+            json_fail(path + ".gamma = " + show_number(lobe->gamma) + ": must be in [" +
+                      show_number(kStudentTGammaMin) + ", " + show_number(kStudentTGammaMax) +
+                      "] (Smith masking is infinite below 3/2)");
+        }
+    } else if (j.contains("gamma")) {
+        json_fail(path + ".gamma: only for student-t lobes");
+    }
+}
+
+/// A tabulated lobe's D: "ndf", and none of the analytic shape keys.
+void parse_tabulated_ndf(const Json& j, const std::string& path, Lobe<double>* lobe) {
+    for (const char* key : {"alpha", "alpha_x", "alpha_y", "exponent"}) {
+        if (j.contains(key)) {
+            json_fail(json_key_path(path, key) +
+                      ": not used by tabulated lobes (their D is \"ndf\")");
+        }
+    }
+    const Json& nd = json_member(j, path, "ndf");
+    const std::string at = path + ".ndf";
+    if (!nd.is_array()) {
+        json_fail(at + ": expected an array of D values at theta_h = (pi/2) (k / (n - 1))^2, got " +
+                  json_type(nd));
+    }
+    std::vector<double> d;
+    for (std::size_t k = 0; k < nd.size() && k <= kTabulatedNdfMaxNodes; ++k) {
+        d.push_back(
+            get_scalar(nd[k], at + "[" + std::to_string(k) + "]", Rule::kNonNegative, kMaxTableD));
+    }
+    Expected<TabulatedNdf> table = make_tabulated_ndf(std::move(d), at);
+    if (!table) {
+        json_fail(table.error().message);
+    }
+    lobe->table = std::make_shared<const TabulatedNdf>(std::move(*table));
+}
+
+/// RGB-varying roughness: one alpha per channel (model.h, Lobe::rgb_roughness).
+void parse_rgb_alpha(const Json& alpha, const std::string& at, Lobe<double>* lobe) {
+    if (alpha.size() != 3) {
+        json_fail(at + ": expected a number or an array of 3 numbers (one per channel), " +
+                  "got an array of " + std::to_string(alpha.size()));
+    }
+    lobe->anisotropic = false;
+    lobe->rgb_roughness = true;
+    for (int c = 0; c < 3; ++c) {
+        lobe->alpha_rgb[c] = get_alpha(alpha[c], at + "[" + std::to_string(c) + "]");
+    }
+    lobe->alpha_x = lobe->alpha_y = lobe->alpha_rgb[1];
+}
+
+/// The angle of the lobe's x axis from the sample's x axis (model.h), degrees.
+double parse_orientation_deg(const Json& j, const std::string& at) {
+    const double deg = json_number_at(j, at);
+    if (!(std::abs(deg) <= kMaxOrientationDeg)) {
+        json_fail(at + " = " + show_number(deg) + ": must be in [-" +
+                  show_number(kMaxOrientationDeg) + ", " + show_number(kMaxOrientationDeg) +
+                  "] degrees");
+    }
+    return deg;
+}
+
+/// A microfacet lobe's slope: "alpha" (one number or one per channel) or "alpha_x" and
+/// "alpha_y" (anisotropic, with an optional orientation).
+void parse_microfacet_alpha(const Json& j,
+                            const std::string& path,
+                            const std::string& dist,
+                            Lobe<double>* lobe) {
+    if (j.contains("exponent")) {
+        json_fail(path + ".exponent: only for blinn-phong lobes (" + dist + " uses alpha)");
+    }
+    const bool has_alpha = j.contains("alpha");
+    const bool has_x = j.contains("alpha_x");
+    const bool has_y = j.contains("alpha_y");
+    if (has_alpha && (has_x || has_y)) {
+        json_fail(path + ": give either \"alpha\" or \"alpha_x\" and \"alpha_y\", not both");
+    }
+    if (has_alpha && j["alpha"].is_array()) {
+        parse_rgb_alpha(j["alpha"], path + ".alpha", lobe);
+    } else if (has_alpha) {
+        lobe->anisotropic = false;
+        lobe->alpha_x = get_alpha(j["alpha"], path + ".alpha");
+        lobe->alpha_y = lobe->alpha_x;
+        lobe->alpha_rgb = Rgbd::Constant(lobe->alpha_x);
+    } else if (has_x || has_y) {
+        lobe->anisotropic = true;
+        lobe->alpha_x = get_alpha(json_member(j, path, "alpha_x"), path + ".alpha_x");
+        lobe->alpha_y = get_alpha(json_member(j, path, "alpha_y"), path + ".alpha_y");
+        if (j.contains("orientation_deg")) {
+            lobe->orientation_deg =
+                parse_orientation_deg(j["orientation_deg"], path + ".orientation_deg");
+        }
+    } else {
+        json_fail(path + ": missing key \"alpha\" (or \"alpha_x\" and \"alpha_y\")");
+    }
+}
+
+/// A Blinn-Phong lobe's shape: "exponent", and none of the alpha keys.
+void parse_blinn_phong_exponent(const Json& j, const std::string& path, Lobe<double>* lobe) {
+    for (const char* key : {"alpha", "alpha_x", "alpha_y"}) {
+        if (j.contains(key)) {
+            json_fail(json_key_path(path, key) +
+                      ": not used by blinn-phong lobes (they take \"exponent\")");
+        }
+    }
+    lobe->exponent = get_scalar(
+        json_member(j, path, "exponent"), path + ".exponent", Rule::kPositive, kMaxExponent);
+}
+
+Shadowing parse_shadowing(const Json& j, const std::string& path) {
+    const std::string s = json_string_at(json_member(j, path, "shadowing"), path + ".shadowing");
+    if (s == "smith-correlated") {
+        return Shadowing::kSmithCorrelated;
+    }
+    if (s == "smith-separable") {
+        return Shadowing::kSmithSeparable;
+    }
+    if (s == "v-groove") {
+        return Shadowing::kVGroove;
+    }
+    if (s == "none") {
+        return Shadowing::kNone;
+    }
+    json_fail(path + ".shadowing = \"" + excerpt(s) +
+              "\": must be one of smith-correlated, smith-separable, v-groove, none");
+}
+
 Lobe<double> parse_lobe(const Json& j, const std::string& path) {
     require_json_object(j, path);
     check_json_keys(j,
@@ -183,142 +336,27 @@ Lobe<double> parse_lobe(const Json& j, const std::string& path) {
                      "fresnel",
                      "scale"});
     Lobe<double> lobe;
-    const std::string dist =
-        json_string_at(json_member(j, path, "distribution"), path + ".distribution");
-    if (dist == "ggx") {
-        lobe.distribution = Distribution::kGgx;
-    } else if (dist == "beckmann") {
-        lobe.distribution = Distribution::kBeckmann;
-    } else if (dist == "blinn-phong") {
-        lobe.distribution = Distribution::kBlinnPhong;
-    } else if (dist == "student-t") {
-        lobe.distribution = Distribution::kStudentT;
-    } else if (dist == "tabulated") {
-        lobe.distribution = Distribution::kTabulated;
-    } else {
-        json_fail(path + ".distribution = \"" + excerpt(dist) +
-                  "\": must be one of ggx, beckmann, blinn-phong, student-t, tabulated");
-    }
-    if (lobe.distribution == Distribution::kStudentT) {
-        // The tail parameter: Smith's Lambda is finite above 3/2 only (student_t.h).
-        lobe.gamma = get_scalar(
-            json_member(j, path, "gamma"), path + ".gamma", Rule::kPositive, kStudentTGammaMax);
-        if (!(lobe.gamma >= kStudentTGammaMin)) {
-            json_fail(path + ".gamma = " + show_number(lobe.gamma) + ": must be in [" +
-                      show_number(kStudentTGammaMin) + ", " + show_number(kStudentTGammaMax) +
-                      "] (Smith masking is infinite below 3/2)");
-        }
-    } else if (j.contains("gamma")) {
-        json_fail(path + ".gamma: only for student-t lobes");
-    }
+    lobe.distribution = parse_distribution(j, path);
+    parse_student_t_gamma(j, path, &lobe);
     const bool microfacet = lobe.distribution != Distribution::kBlinnPhong;
     if (lobe.distribution == Distribution::kTabulated) {
-        for (const char* key : {"alpha", "alpha_x", "alpha_y", "exponent"}) {
-            if (j.contains(key)) {
-                json_fail(json_key_path(path, key) +
-                          ": not used by tabulated lobes (their D is \"ndf\")");
-            }
-        }
-        const Json& nd = json_member(j, path, "ndf");
-        const std::string at = path + ".ndf";
-        if (!nd.is_array()) {
-            json_fail(at +
-                      ": expected an array of D values at theta_h = (pi/2) (k / (n - 1))^2, got " +
-                      json_type(nd));
-        }
-        std::vector<double> d;
-        for (std::size_t k = 0; k < nd.size() && k <= kTabulatedNdfMaxNodes; ++k) {
-            d.push_back(get_scalar(
-                nd[k], at + "[" + std::to_string(k) + "]", Rule::kNonNegative, kMaxTableD));
-        }
-        Expected<TabulatedNdf> table = make_tabulated_ndf(std::move(d), at);
-        if (!table) {
-            json_fail(table.error().message);
-        }
-        lobe.table = std::make_shared<const TabulatedNdf>(std::move(*table));
+        parse_tabulated_ndf(j, path, &lobe);
     } else if (j.contains("ndf")) {
         json_fail(path + ".ndf: only for tabulated lobes");
     } else if (microfacet) {
-        if (j.contains("exponent")) {
-            json_fail(path + ".exponent: only for blinn-phong lobes (" + dist + " uses alpha)");
-        }
-        const bool has_alpha = j.contains("alpha");
-        const bool has_x = j.contains("alpha_x");
-        const bool has_y = j.contains("alpha_y");
-        if (has_alpha && (has_x || has_y)) {
-            json_fail(path + ": give either \"alpha\" or \"alpha_x\" and \"alpha_y\", not both");
-        }
-        if (has_alpha && j["alpha"].is_array()) {
-            // RGB-varying roughness: one alpha per channel (model.h, Lobe::rgb_roughness).
-            const std::string at = path + ".alpha";
-            if (j["alpha"].size() != 3) {
-                json_fail(at + ": expected a number or an array of 3 numbers (one per channel), " +
-                          "got an array of " + std::to_string(j["alpha"].size()));
-            }
-            lobe.anisotropic = false;
-            lobe.rgb_roughness = true;
-            for (int c = 0; c < 3; ++c) {
-                lobe.alpha_rgb[c] = get_alpha(j["alpha"][c], at + "[" + std::to_string(c) + "]");
-            }
-            lobe.alpha_x = lobe.alpha_y = lobe.alpha_rgb[1];
-        } else if (has_alpha) {
-            lobe.anisotropic = false;
-            lobe.alpha_x = get_alpha(j["alpha"], path + ".alpha");
-            lobe.alpha_y = lobe.alpha_x;
-            lobe.alpha_rgb = Rgbd::Constant(lobe.alpha_x);
-        } else if (has_x || has_y) {
-            lobe.anisotropic = true;
-            lobe.alpha_x = get_alpha(json_member(j, path, "alpha_x"), path + ".alpha_x");
-            lobe.alpha_y = get_alpha(json_member(j, path, "alpha_y"), path + ".alpha_y");
-            if (j.contains("orientation_deg")) {
-                // The angle of the lobe's x axis from the sample's x axis (model.h).
-                const std::string at = path + ".orientation_deg";
-                const double deg = json_number_at(j["orientation_deg"], at);
-                if (!(std::abs(deg) <= kMaxOrientationDeg)) {
-                    json_fail(at + " = " + show_number(deg) + ": must be in [-" +
-                              show_number(kMaxOrientationDeg) + ", " +
-                              show_number(kMaxOrientationDeg) + "] degrees");
-                }
-                lobe.orientation_deg = deg;
-            }
-        } else {
-            json_fail(path + ": missing key \"alpha\" (or \"alpha_x\" and \"alpha_y\")");
-        }
+        parse_microfacet_alpha(j, path, j["distribution"].get<std::string>(), &lobe);
     } else {
-        for (const char* key : {"alpha", "alpha_x", "alpha_y"}) {
-            if (j.contains(key)) {
-                json_fail(json_key_path(path, key) +
-                          ": not used by blinn-phong lobes (they take \"exponent\")");
-            }
-        }
-        lobe.exponent = get_scalar(
-            json_member(j, path, "exponent"), path + ".exponent", Rule::kPositive, kMaxExponent);
+        parse_blinn_phong_exponent(j, path, &lobe);
     }
-    // Shadowing and Fresnel: required for microfacet lobes; a Blinn-Phong lobe has neither unless
-    // it asks for them.
     if (j.contains("orientation_deg") && !lobe.anisotropic) {
         json_fail(path +
                   ".orientation_deg: only for anisotropic lobes (\"alpha_x\" and \"alpha_y\"); "
                   "an isotropic lobe does not depend on it");
     }
-    if (microfacet || j.contains("shadowing")) {
-        const std::string s =
-            json_string_at(json_member(j, path, "shadowing"), path + ".shadowing");
-        if (s == "smith-correlated") {
-            lobe.shadowing = Shadowing::kSmithCorrelated;
-        } else if (s == "smith-separable") {
-            lobe.shadowing = Shadowing::kSmithSeparable;
-        } else if (s == "v-groove") {
-            lobe.shadowing = Shadowing::kVGroove;
-        } else if (s == "none") {
-            lobe.shadowing = Shadowing::kNone;
-        } else {
-            json_fail(path + ".shadowing = \"" + excerpt(s) +
-                      "\": must be one of smith-correlated, smith-separable, v-groove, none");
-        }
-    } else {
-        lobe.shadowing = Shadowing::kNone;
-    }
+    // Shadowing and Fresnel: required for microfacet lobes; a Blinn-Phong lobe has neither unless
+    // it asks for them.
+    lobe.shadowing =
+        microfacet || j.contains("shadowing") ? parse_shadowing(j, path) : Shadowing::kNone;
     if (microfacet || j.contains("fresnel")) {
         lobe.fresnel = parse_fresnel(json_member(j, path, "fresnel"), path + ".fresnel");
     } else {

@@ -96,18 +96,16 @@ double rgl_u_to_phi(double u) {
     return (2.0 * u - 1.0) * kPi;
 }
 
-Expected<RglBsdf> RglBsdf::from_tensor(const TensorFile& file, const std::string& label) {
-    // What the file is, before its fields are checked: spectral-only files are refused with what
-    // is supported.
-    const std::string supported =
-        "gonio reads RGB files (an \"rgb\" field): isotropic (one phi_i node), as the RGL "
-        "database publishes for every material, and anisotropic (phi_i nodes over a full turn)";
-    if (file.find("rgb") == nullptr && (file.find("spectra") || file.find("wavelengths"))) {
-        return make_error(label +
-                          ": a spectral RGL file (fields \"spectra\" and \"wavelengths\", "
-                          "no \"rgb\"); " +
-                          supported);
-    }
+namespace {
+
+const char* const kSupportedRgl =
+    "gonio reads RGB files (an \"rgb\" field): isotropic (one phi_i node), as the RGL "
+    "database publishes for every material, and anisotropic (phi_i nodes over a full turn)";
+
+/// The phi_i nodes: one (isotropic) or at least 3 increasing over a full turn (anisotropic,
+/// unreduced: the readers, RGL's and Mitsuba 3's, evaluate only unreduced files).
+Expected<std::vector<float>> read_phi_nodes(const TensorFile& file, const std::string& label) {
+    const std::string supported = kSupportedRgl;
     auto phi_i = float_field(file, label, "phi_i", 1);
     if (!phi_i) {
         return tl::unexpected(phi_i.error());
@@ -128,8 +126,7 @@ Expected<RglBsdf> RglBsdf::from_tensor(const TensorFile& file, const std::string
         }
     }
     if (phi_nodes.size() > 2) {
-        // The span of the nodes is a full turn divided by the symmetry the file was reduced by;
-        // the readers (RGL's, Mitsuba 3's) evaluate only unreduced files.
+        // The span of the nodes is a full turn divided by the symmetry the file was reduced by.
         const double span = static_cast<double>(phi_nodes.back()) - phi_nodes.front();
         const long reduction = std::lround(2.0 * kPi / span);
         if (reduction != 1) {
@@ -140,7 +137,21 @@ Expected<RglBsdf> RglBsdf::from_tensor(const TensorFile& file, const std::string
                               "-fold symmetry; " + supported + " (reduction 1)");
         }
     }
-    const std::uint64_t n_phi = phi_nodes.size();
+    return phi_nodes;
+}
+
+/// The fields of an RGL material file besides phi_i, each of its dtype and rank.
+struct RglFields {
+    const TensorField* theta_i = nullptr;
+    const TensorField* ndf = nullptr;
+    const TensorField* sigma = nullptr;
+    const TensorField* vndf = nullptr;
+    const TensorField* luminance = nullptr;
+    const TensorField* rgb = nullptr;
+    const TensorField* jacobian = nullptr;
+};
+
+Expected<RglFields> read_fields(const TensorFile& file, const std::string& label) {
     auto theta_i = float_field(file, label, "theta_i", 1);
     auto ndf = float_field(file, label, "ndf", 2);
     auto sigma = float_field(file, label, "sigma", 2);
@@ -159,13 +170,18 @@ Expected<RglBsdf> RglBsdf::from_tensor(const TensorFile& file, const std::string
                           (jac ? "is " + jac->describe() : std::string("missing")) +
                           ", expected uint8 [1]");
     }
-    const std::uint64_t n_theta = (*theta_i)->shape[0];
-    const auto& vs = (*vndf)->shape;
-    const auto& ls = (*luminance)->shape;
-    const auto& rs = (*rgb)->shape;
-    const auto& ns = (*ndf)->shape;
-    const auto& ss = (*sigma)->shape;
-    auto disagree = [&](const std::string& what) -> Expected<RglBsdf> {
+    return RglFields{*theta_i, *ndf, *sigma, *vndf, *luminance, *rgb, jac};
+}
+
+/// The fields' shapes agree with each other and with the n_phi phi_i nodes.
+Expected<void> check_shapes(const RglFields& f, std::uint64_t n_phi, const std::string& label) {
+    const std::uint64_t n_theta = f.theta_i->shape[0];
+    const auto& vs = f.vndf->shape;
+    const auto& ls = f.luminance->shape;
+    const auto& rs = f.rgb->shape;
+    const auto& ns = f.ndf->shape;
+    const auto& ss = f.sigma->shape;
+    auto disagree = [&](const std::string& what) -> Expected<void> {
         return make_error(label + ": field shapes disagree: " + what + " (theta_i " +
                           shape_text({n_theta}) + ", ndf " + shape_text(ns) + ", sigma " +
                           shape_text(ss) + ", vndf " + shape_text(vs) + ", luminance " +
@@ -189,34 +205,34 @@ Expected<RglBsdf> RglBsdf::from_tensor(const TensorFile& file, const std::string
     if (ls[0] != n_phi || ls[1] != n_theta || ls[2] != rs[3] || ls[3] != rs[4]) {
         return disagree("luminance must be [phi_i, theta_i, N, N] like rgb");
     }
-    // Sizes are bounded by the file size (the codec checked every field against it), so the
-    // products below fit.
-    RglBsdf b;
-    b.label_ = label;
-    b.n_ = static_cast<std::size_t>(rs[3]);
-    b.jacobian_ = jac->data[0] != 0;
-    b.isotropic_ = n_phi == 1;
-    b.phi_i_ = std::move(phi_nodes);
-    b.theta_i_ = (*theta_i)->as_float32();
-    for (std::size_t k = 0; k < b.theta_i_.size(); ++k) {
-        const float t = b.theta_i_[k];
-        if (!(t >= 0.0f && t <= 1.5708f) || (k > 0 && !(t > b.theta_i_[k - 1]))) {
+    return {};
+}
+
+Expected<void> check_theta_nodes(const std::vector<float>& theta_i, const std::string& label) {
+    for (std::size_t k = 0; k < theta_i.size(); ++k) {
+        const float t = theta_i[k];
+        if (!(t >= 0.0f && t <= 1.5708f) || (k > 0 && !(t > theta_i[k - 1]))) {
             return make_error(label + ": field \"theta_i\" node " + std::to_string(k) + " = " +
                               std::to_string(t) +
                               " (nodes must increase strictly within [0, pi/2])");
         }
     }
-    std::vector<float> ndf_v = (*ndf)->as_float32();
-    std::vector<float> sigma_v = (*sigma)->as_float32();
-    std::vector<float> rgb_v = (*rgb)->as_float32();
+    return {};
+}
+
+/// ndf and sigma finite and >= 0 (sigma > 0: the evaluation divides by it), rgb finite.
+Expected<void> check_tables(const std::vector<float>& ndf_v,
+                            const std::vector<float>& sigma_v,
+                            const std::vector<float>& rgb_v,
+                            const std::string& label) {
     if (auto ok = all_finite(ndf_v, label, "ndf", true); !ok) {
-        return tl::unexpected(ok.error());
+        return ok;
     }
     if (auto ok = all_finite(sigma_v, label, "sigma", true); !ok) {
-        return tl::unexpected(ok.error());
+        return ok;
     }
     if (auto ok = all_finite(rgb_v, label, "rgb", false); !ok) {
-        return tl::unexpected(ok.error());
+        return ok;
     }
     for (std::size_t k = 0; k < sigma_v.size(); ++k) {
         if (!(sigma_v[k] > 0.0f)) {
@@ -225,27 +241,82 @@ Expected<RglBsdf> RglBsdf::from_tensor(const TensorFile& file, const std::string
                               " (a projected area is > 0; the evaluation divides by it)");
         }
     }
-    b.ndf_ = BilinearGrid(ns[1], ns[0], 1, std::move(ndf_v));
-    b.sigma_ = BilinearGrid(ss[1], ss[0], 1, std::move(sigma_v));
-    b.rgb_ = BilinearGrid(rs[4], rs[3], n_phi * n_theta * 3, std::move(rgb_v));
-    Expected<Warp2D> warp = Warp2D::build(
-        vs[3], vs[2], (*vndf)->as_float32(), b.phi_i_, b.theta_i_, label + ": field \"vndf\"");
-    if (!warp) {
-        return tl::unexpected(warp.error());
-    }
-    b.vndf_ = std::move(*warp);
+    return {};
+}
+
+/// The optional "description" as text: trailing NULs dropped, control characters as spaces.
+std::string read_description(const TensorFile& file) {
+    std::string text;
     if (const TensorField* d = file.find("description"); d && d->dtype == TensorDtype::kUInt8) {
-        b.description_.assign(d->data.begin(), d->data.end());
-        while (!b.description_.empty() && b.description_.back() == '\0') {
-            b.description_.pop_back();
+        text.assign(d->data.begin(), d->data.end());
+        while (!text.empty() && text.back() == '\0') {
+            text.pop_back();
         }
-        for (char& c : b.description_) {
+        for (char& c : text) {
             const auto u = static_cast<unsigned char>(c);
             if (u < 0x20 || u == 0x7f) {
                 c = ' ';
             }
         }
     }
+    return text;
+}
+
+}  // namespace
+
+Expected<RglBsdf> RglBsdf::from_tensor(const TensorFile& file, const std::string& label) {
+    // What the file is, before its fields are checked: spectral-only files are refused with what
+    // is supported.
+    if (file.find("rgb") == nullptr && (file.find("spectra") || file.find("wavelengths"))) {
+        return make_error(label +
+                          ": a spectral RGL file (fields \"spectra\" and \"wavelengths\", "
+                          "no \"rgb\"); " +
+                          kSupportedRgl);
+    }
+    auto phi_nodes = read_phi_nodes(file, label);
+    if (!phi_nodes) {
+        return tl::unexpected(phi_nodes.error());
+    }
+    const std::uint64_t n_phi = phi_nodes->size();
+    auto fields = read_fields(file, label);
+    if (!fields) {
+        return tl::unexpected(fields.error());
+    }
+    if (auto ok = check_shapes(*fields, n_phi, label); !ok) {
+        return tl::unexpected(ok.error());
+    }
+    const std::uint64_t n_theta = fields->theta_i->shape[0];
+    const auto& vs = fields->vndf->shape;
+    const auto& rs = fields->rgb->shape;
+    // Sizes are bounded by the file size (the codec checked every field against it), so the
+    // products below fit.
+    RglBsdf b;
+    b.label_ = label;
+    b.n_ = static_cast<std::size_t>(rs[3]);
+    b.jacobian_ = fields->jacobian->data[0] != 0;
+    b.isotropic_ = n_phi == 1;
+    b.phi_i_ = std::move(*phi_nodes);
+    b.theta_i_ = fields->theta_i->as_float32();
+    if (auto ok = check_theta_nodes(b.theta_i_, label); !ok) {
+        return tl::unexpected(ok.error());
+    }
+    std::vector<float> ndf_v = fields->ndf->as_float32();
+    std::vector<float> sigma_v = fields->sigma->as_float32();
+    std::vector<float> rgb_v = fields->rgb->as_float32();
+    if (auto ok = check_tables(ndf_v, sigma_v, rgb_v, label); !ok) {
+        return tl::unexpected(ok.error());
+    }
+    b.ndf_ = BilinearGrid(fields->ndf->shape[1], fields->ndf->shape[0], 1, std::move(ndf_v));
+    b.sigma_ =
+        BilinearGrid(fields->sigma->shape[1], fields->sigma->shape[0], 1, std::move(sigma_v));
+    b.rgb_ = BilinearGrid(rs[4], rs[3], n_phi * n_theta * 3, std::move(rgb_v));
+    Expected<Warp2D> warp = Warp2D::build(
+        vs[3], vs[2], fields->vndf->as_float32(), b.phi_i_, b.theta_i_, label + ": field \"vndf\"");
+    if (!warp) {
+        return tl::unexpected(warp.error());
+    }
+    b.vndf_ = std::move(*warp);
+    b.description_ = read_description(file);
     if (const TensorField* v = file.find("valid")) {
         const std::uint64_t bits = n_phi * n_theta * rs[3] * rs[4];
         if (tensor_dtype_size(v->dtype) != 1 || v->data.size() != (bits + 7) / 8) {

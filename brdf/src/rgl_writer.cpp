@@ -255,13 +255,112 @@ Expected<RglNdf> rgl_ndf_from_retro(const std::vector<double>& retro,
     return out;
 }
 
+namespace {
+
+/// The incidence nodes: T elevations over [0, pi/2]; azimuths one node (0) for an isotropic file,
+/// P + 1 over [-pi, pi] for an anisotropic one (the last the first a full turn on, as the
+/// format's readers interpolate between nodes).
+void set_incidence_nodes(const RglWriteOptions& options, RglLayout* L) {
+    const std::size_t T = options.theta_i_count;
+    for (std::size_t k = 0; k < T; ++k) {
+        L->theta_i.push_back(
+            static_cast<float>(static_cast<double>(k) / static_cast<double>(T - 1) * kPi / 2));
+    }
+    if (anisotropic(options)) {
+        const std::size_t P = options.phi_i_count;
+        for (std::size_t p = 0; p <= P; ++p) {
+            L->phi_i.push_back(static_cast<float>(
+                (2.0 * static_cast<double>(p) / static_cast<double>(P) - 1.0) * kPi));
+        }
+    } else {
+        L->phi_i.push_back(0.0f);
+    }
+}
+
+/// Node values (`rows` rows of n) as a grid over the unit square: an isotropic file (one row)
+/// repeats its row.
+BilinearGrid unit_square_grid(const std::vector<float>& values, std::size_t n, std::size_t rows) {
+    std::vector<float> grid_rows(values);
+    if (rows == 1) {
+        grid_rows.insert(grid_rows.end(), values.begin(), values.end());
+    }
+    return BilinearGrid(n, std::max<std::size_t>(rows, 2), 1, std::move(grid_rows));
+}
+
+/// The VNDF of every (phi_i, theta_i) node over u_m, times the Jacobian of the unit coordinates.
+/// The half vector's azimuth is relative to phi_i (0) in an isotropic file and absolute in an
+/// anisotropic one; the NDF is read at the node's own u_m either way.
+void fill_vndf(const BilinearGrid& ndf_grid, std::size_t n, std::size_t rows, RglLayout* L) {
+    const std::size_t T = L->theta_i.size();
+    const double h = 1.0 / static_cast<double>(n - 1);
+    const std::size_t n_phi = L->phi_i.size();
+    L->vndf.resize(n_phi * T * n * n);
+    for (std::size_t p = 0; p < n_phi; ++p) {
+        for (std::size_t k = 0; k < T; ++k) {
+            const Vec3d wi = direction(L->theta_i[k], L->phi_i[p]);
+            float* slice = L->vndf.data() + (p * T + k) * n * n;
+            for (std::size_t row = 0; row < n; ++row) {
+                const double phi_m = rgl_u_to_phi(static_cast<double>(row) * h);
+                for (std::size_t col = 0; col < n; ++col) {
+                    const double u = static_cast<double>(col) * h;
+                    const double theta_m = rgl_u_to_theta(u);
+                    const Vec3d m = direction(theta_m, phi_m);
+                    const double jacobian = 2.0 * kPi * kPi * u * std::sin(theta_m);
+                    const double d = ndf_grid.values()[(rows == 1 ? 0 : row * n) + col];
+                    slice[row * n + col] =
+                        static_cast<float>(d * std::max(0.0, wi.dot(m)) * jacobian);
+                }
+            }
+        }
+    }
+}
+
+/// The rgb nodes: the sample square's grid, warped onto half vectors.
+void add_rgb_nodes(const BilinearGrid& ndf_grid,
+                   const BilinearGrid& sigma_grid,
+                   std::size_t rows,
+                   RglLayout* L) {
+    const std::size_t N = L->options.rgb_resolution;
+    const double step = 1.0 / static_cast<double>(N - 1);
+    for (std::size_t p = 0; p < L->phi_i.size(); ++p) {
+        const double phi_i = L->phi_i[p];
+        for (std::size_t k = 0; k < L->theta_i.size(); ++k) {
+            const double theta_node = L->theta_i[k];
+            const double theta_i = std::min(theta_node, L->options.max_theta_i);
+            const Vec3d wi = direction(theta_i, phi_i);
+            const double sigma = sigma_grid.eval(
+                {rgl_theta_to_u(theta_node), rows == 1 ? 0.5 : rgl_phi_to_u(phi_i)}, 0);
+            for (std::size_t row = 0; row < N; ++row) {
+                for (std::size_t col = 0; col < N; ++col) {
+                    RglNode node;
+                    node.phi_index = p;
+                    node.theta_index = k;
+                    node.row = row;
+                    node.column = col;
+                    node.wi = wi;
+                    node.u_m = L->vndf_warp.sample(
+                        {static_cast<double>(col) * step, static_cast<double>(row) * step},
+                        phi_i,
+                        theta_node);
+                    const double theta_m = rgl_u_to_theta(node.u_m[0]);
+                    const double phi_m = rgl_u_to_phi(node.u_m[1]) + (rows == 1 ? phi_i : 0.0);
+                    const Vec3d m = direction(theta_m, phi_m);
+                    node.wo = 2.0 * wi.dot(m) * m - wi;
+                    node.factor = ndf_grid.eval(node.u_m, 0) / (4.0 * sigma);
+                    L->nodes.push_back(node);
+                }
+            }
+        }
+    }
+}
+
+}  // namespace
+
 Expected<RglLayout> rgl_layout(const RglNdf& ndf, const RglWriteOptions& options) {
     if (auto ok = check_options(options); !ok) {
         return tl::unexpected(ok.error());
     }
     const std::size_t n = options.ndf_resolution;
-    const std::size_t N = options.rgb_resolution;
-    const std::size_t T = options.theta_i_count;
     const std::size_t rows = anisotropic(options) ? n : 1;
     if (ndf.d.size() != rows * n || ndf.sigma.size() != rows * n) {
         return make_error("RGL layout: the NDF has " + std::to_string(ndf.d.size()) +
@@ -279,90 +378,16 @@ Expected<RglLayout> rgl_layout(const RglNdf& ndf, const RglWriteOptions& options
         L.ndf.push_back(static_cast<float>(ndf.d[k]));
         L.sigma.push_back(static_cast<float>(ndf.sigma[k]));
     }
-    for (std::size_t k = 0; k < T; ++k) {
-        L.theta_i.push_back(
-            static_cast<float>(static_cast<double>(k) / static_cast<double>(T - 1) * kPi / 2));
-    }
-    // Azimuths: one node (0) for an isotropic file, P + 1 over [-pi, pi] for an anisotropic one
-    // (the last the first a full turn on, as the format's readers interpolate between nodes).
-    if (anisotropic(options)) {
-        const std::size_t P = options.phi_i_count;
-        for (std::size_t p = 0; p <= P; ++p) {
-            L.phi_i.push_back(static_cast<float>(
-                (2.0 * static_cast<double>(p) / static_cast<double>(P) - 1.0) * kPi));
-        }
-    } else {
-        L.phi_i.push_back(0.0f);
-    }
-    // The NDF and sigma as grids over the unit square: an isotropic file repeats its row.
-    std::vector<float> ndf_rows(L.ndf), sigma_rows(L.sigma);
-    if (rows == 1) {
-        ndf_rows.insert(ndf_rows.end(), L.ndf.begin(), L.ndf.end());
-        sigma_rows.insert(sigma_rows.end(), L.sigma.begin(), L.sigma.end());
-    }
-    const BilinearGrid ndf_grid(n, std::max<std::size_t>(rows, 2), 1, std::move(ndf_rows));
-    const BilinearGrid sigma_grid(n, std::max<std::size_t>(rows, 2), 1, std::move(sigma_rows));
-    // The VNDF of every (phi_i, theta_i) node over u_m, times the Jacobian of the unit
-    // coordinates. The half vector's azimuth is relative to phi_i (0) in an isotropic file and
-    // absolute in an anisotropic one; the NDF is read at the node's own u_m either way.
-    const double h = 1.0 / static_cast<double>(n - 1);
-    const std::size_t n_phi = L.phi_i.size();
-    L.vndf.resize(n_phi * T * n * n);
-    for (std::size_t p = 0; p < n_phi; ++p) {
-        for (std::size_t k = 0; k < T; ++k) {
-            const Vec3d wi = direction(L.theta_i[k], L.phi_i[p]);
-            float* slice = L.vndf.data() + (p * T + k) * n * n;
-            for (std::size_t row = 0; row < n; ++row) {
-                const double phi_m = rgl_u_to_phi(static_cast<double>(row) * h);
-                for (std::size_t col = 0; col < n; ++col) {
-                    const double u = static_cast<double>(col) * h;
-                    const double theta_m = rgl_u_to_theta(u);
-                    const Vec3d m = direction(theta_m, phi_m);
-                    const double jacobian = 2.0 * kPi * kPi * u * std::sin(theta_m);
-                    const double d = ndf_grid.values()[(rows == 1 ? 0 : row * n) + col];
-                    slice[row * n + col] =
-                        static_cast<float>(d * std::max(0.0, wi.dot(m)) * jacobian);
-                }
-            }
-        }
-    }
+    set_incidence_nodes(options, &L);
+    const BilinearGrid ndf_grid = unit_square_grid(L.ndf, n, rows);
+    const BilinearGrid sigma_grid = unit_square_grid(L.sigma, n, rows);
+    fill_vndf(ndf_grid, n, rows, &L);
     Expected<Warp2D> warp = Warp2D::build(n, n, L.vndf, L.phi_i, L.theta_i, "RGL layout: vndf");
     if (!warp) {
         return tl::unexpected(warp.error());
     }
     L.vndf_warp = std::move(*warp);
-    // The rgb nodes: the sample square's grid, warped onto half vectors.
-    const double step = 1.0 / static_cast<double>(N - 1);
-    for (std::size_t p = 0; p < n_phi; ++p) {
-        const double phi_i = L.phi_i[p];
-        for (std::size_t k = 0; k < T; ++k) {
-            const double theta_node = L.theta_i[k];
-            const double theta_i = std::min(theta_node, options.max_theta_i);
-            const Vec3d wi = direction(theta_i, phi_i);
-            const double sigma = sigma_grid.eval(
-                {rgl_theta_to_u(theta_node), rows == 1 ? 0.5 : rgl_phi_to_u(phi_i)}, 0);
-            for (std::size_t row = 0; row < N; ++row) {
-                for (std::size_t col = 0; col < N; ++col) {
-                    RglNode node;
-                    node.phi_index = p;
-                    node.theta_index = k;
-                    node.row = row;
-                    node.column = col;
-                    node.wi = wi;
-                    node.u_m = L.vndf_warp.sample(
-                        {static_cast<double>(col) * step, static_cast<double>(row) * step},
-                        phi_i,
-                        theta_node);
-                    const double theta_m = rgl_u_to_theta(node.u_m[0]);
-                    const double phi_m = rgl_u_to_phi(node.u_m[1]) + (rows == 1 ? phi_i : 0.0);
-                    const Vec3d m = direction(theta_m, phi_m);
-                    node.wo = 2.0 * wi.dot(m) * m - wi;
-                    node.factor = ndf_grid.eval(node.u_m, 0) / (4.0 * sigma);
-                    L.nodes.push_back(node);
-                }
-            }
-        }
-    }
+    add_rgb_nodes(ndf_grid, sigma_grid, rows, &L);
     return L;
 }
 

@@ -129,6 +129,132 @@ struct ChunkResult {
     std::vector<RejectedRow> rejected;
 };
 
+/// Why a value x of column c is outside the column's range r, with a hint when the value looks
+/// like degrees.
+std::string out_of_range_reason(int c, double x, const Range& r) {
+    std::string reason = std::string(kColNames[c]) + " = " + fmt_value(x) + " outside " + r.text;
+    const int base = path_base_column(c);
+    if ((base == kTi || base == kTo) && x >= r.hi) {
+        // A polar angle in (pi/2, 90] is most likely written in degrees.
+        reason += x > r.hi && x <= 90 ? " (at or below the horizon; it looks like degrees: "
+                                        "angles are radians, 90 deg = 1.5708)"
+                                      : " (at or below the horizon)";
+    }
+    if ((base == kPhiI || base == kPo) && std::abs(x) <= 360) {
+        // An azimuth in (2 pi, 360] is most likely written in degrees.
+        reason += " (it looks like degrees: angles are radians, 180 deg = 3.1416)";
+    }
+    return reason;
+}
+
+/// Reads the field [b, e) (already trimmed) as column c into *x; returns why it cannot be one
+/// (empty when it can).
+std::string read_field(const char* b, const char* e, int c, double* x) {
+    const Range r = column_range(c);
+    if (!parse_number(b, e, x)) {
+        return std::string(kColNames[c]) + " = \"" + shown(b, e) + "\" is not a number";
+    }
+    if (!std::isfinite(*x)) {
+        return std::string(kColNames[c]) + " = " + shown(b, e) + " is not finite (allowed " +
+               r.text + ")";
+    }
+    if (*x < r.lo || *x > r.hi || (r.hi_open && *x >= r.hi) || (c == kF && *x != std::floor(*x))) {
+        return out_of_range_reason(c, *x, r);
+    }
+    return {};
+}
+
+/// A row's first problem: where (FILE:LINE[:COLUMN]: ) and why.
+struct RowProblem {
+    std::string where;
+    std::string reason;
+};
+
+/// Reads the data line [p, le) into v (columns absent from the header keep their defaults).
+/// False with *problem set at the row's first problem: its other fields are not read.
+bool read_row(const char* p,
+              const char* le,
+              std::size_t line_no,
+              const Layout& layout,
+              const std::string& path,
+              double* v,
+              RowProblem* problem) {
+    v[kSr] = v[kSg] = v[kSb] = 0;
+    v[kW] = 1;
+    v[kF] = 0;
+    std::size_t field = 0;
+    const char* fb = p;
+    for (;;) {
+        const char* fe = static_cast<const char*>(std::memchr(fb, ',', le - fb));
+        const bool last = fe == nullptr;
+        if (last) {
+            fe = le;
+        }
+        if (field < layout.num_fields) {
+            const char* b = fb;
+            const char* e = fe;
+            while (b < e && is_space(*b)) {
+                ++b;
+            }
+            while (e > b && is_space(e[-1])) {
+                --e;
+            }
+            const int c = layout.column_of[field];
+            double x;
+            std::string reason = read_field(b, e, c, &x);
+            if (!reason.empty()) {
+                // FILE:LINE:COLUMN, built only for an error (not for each of millions of fields).
+                problem->where =
+                    path + ":" + std::to_string(line_no) + ":" + std::to_string(field + 1) + ": ";
+                problem->reason = std::move(reason);
+                return false;
+            }
+            v[c] = x;
+        }
+        ++field;
+        if (last) {
+            break;
+        }
+        fb = fe + 1;
+    }
+    if (field != layout.num_fields) {
+        problem->where = path + ":" + std::to_string(line_no) + ": ";
+        problem->reason =
+            std::to_string(field) + " fields, the header has " + std::to_string(layout.num_fields);
+        return false;
+    }
+    return true;
+}
+
+/// The sample of a row read by read_row.
+void store_sample(const double* v, const Layout& layout, std::size_t line_no, Sample& s) {
+    s.theta_i = v[kTi];
+    s.phi_i = v[kPhiI];
+    s.theta_o = v[kTo];
+    s.phi_o = v[kPo];
+    s.value = Rgbd(v[kR], v[kG], v[kB]);
+    s.sigma = Rgbd(v[kSr], v[kSg], v[kSb]);
+    s.weight = v[kW];
+    s.flags = static_cast<std::uint32_t>(v[kF]);
+    s.line = line_no;
+    if (layout.index[kTi0] >= 0) {
+        for (int k = 0; k < 4; ++k) {
+            s.path_start[k] = v[kTi0 + k];
+            s.path_end[k] = v[kTi1 + k];
+        }
+        // A path that starts and ends where it is measured is a standing exposure.
+        s.has_path = s.path_start != s.path_end;
+    }
+}
+
+/// Blank lines (spaces, CR) and comment lines carry no data.
+bool is_blank_or_comment(const char* p, const char* le) {
+    while (p < le && is_space(*p)) {
+        ++p;
+    }
+    return p == le || *p == '#';
+}
+
 void parse_chunk(const char* p,
                  const char* end,
                  std::size_t first_line,
@@ -136,136 +262,28 @@ void parse_chunk(const char* p,
                  const std::string& path,
                  const DatasetReadOptions& options,
                  ChunkResult& out) {
-    std::size_t line_no = first_line;
-    // A refused row: the first error of the chunk, or (keep_going) a row recorded with its reason
-    // and skipped. Returns whether parsing goes on.
-    const auto refuse = [&](const std::string& where, const std::string& reason) {
-        if (!options.keep_going || out.rejected.size() > options.max_rejected) {
-            out.error_line = line_no;
-            out.error = where + reason;
-            return false;
-        }
-        out.rejected.push_back(RejectedRow{line_no, reason});
-        return true;
-    };
     double v[kNumCols];
-    while (p < end) {
+    RowProblem problem;
+    for (std::size_t line_no = first_line; p < end; ++line_no) {
         const char* nl = static_cast<const char*>(std::memchr(p, '\n', end - p));
         const char* le = nl == nullptr ? end : nl;
-        const char* next = nl == nullptr ? end : nl + 1;
-        // Blank lines (spaces, CR) and comment lines carry no data.
-        const char* q = p;
-        while (q < le && is_space(*q)) {
-            ++q;
-        }
-        if (q == le || *q == '#') {
-            p = next;
-            ++line_no;
+        const char* line = p;
+        p = nl == nullptr ? end : nl + 1;
+        if (is_blank_or_comment(line, le)) {
             continue;
         }
-        v[kSr] = v[kSg] = v[kSb] = 0;
-        v[kW] = 1;
-        v[kF] = 0;
-        std::size_t field = 0;
-        const char* fb = p;
-        bool row_ok = true;
-        for (;;) {
-            const char* fe = static_cast<const char*>(std::memchr(fb, ',', le - fb));
-            const bool last = fe == nullptr;
-            if (last) {
-                fe = le;
-            }
-            if (field < layout.num_fields) {
-                const char* b = fb;
-                const char* e = fe;
-                while (b < e && is_space(*b)) {
-                    ++b;
-                }
-                while (e > b && is_space(e[-1])) {
-                    --e;
-                }
-                const int c = layout.column_of[field];
-                double x;
-                // FILE:LINE:COLUMN, built only for an error (not for each of millions of fields).
-                const auto where = [&] {
-                    return path + ":" + std::to_string(line_no) + ":" + std::to_string(field + 1) +
-                           ": ";
-                };
-                const Range r = column_range(c);
-                std::string reason;
-                if (!parse_number(b, e, &x)) {
-                    reason =
-                        std::string(kColNames[c]) + " = \"" + shown(b, e) + "\" is not a number";
-                } else if (!std::isfinite(x)) {
-                    reason = std::string(kColNames[c]) + " = " + shown(b, e) +
-                             " is not finite (allowed " + r.text + ")";
-                } else if (x < r.lo || x > r.hi || (r.hi_open && x >= r.hi) ||
-                           (c == kF && x != std::floor(x))) {
-                    reason =
-                        std::string(kColNames[c]) + " = " + fmt_value(x) + " outside " + r.text;
-                    const int base = path_base_column(c);
-                    if ((base == kTi || base == kTo) && x >= r.hi) {
-                        // A polar angle in (pi/2, 90] is most likely written in degrees.
-                        reason += x > r.hi && x <= 90
-                                      ? " (at or below the horizon; it looks like degrees: "
-                                        "angles are radians, 90 deg = 1.5708)"
-                                      : " (at or below the horizon)";
-                    }
-                    if ((base == kPhiI || base == kPo) && std::abs(x) <= 360) {
-                        // An azimuth in (2 pi, 360] is most likely written in degrees.
-                        reason += " (it looks like degrees: angles are radians, 180 deg = 3.1416)";
-                    }
-                }
-                if (!reason.empty()) {
-                    // The first problem of a row is its reason; the row's other fields are not
-                    // read.
-                    if (!refuse(where(), reason)) {
-                        return;
-                    }
-                    row_ok = false;
-                    break;
-                }
-                v[c] = x;
-            }
-            ++field;
-            if (last) {
-                break;
-            }
-            fb = fe + 1;
-        }
-        if (row_ok && field != layout.num_fields) {
-            if (!refuse(path + ":" + std::to_string(line_no) + ": ",
-                        std::to_string(field) + " fields, the header has " +
-                            std::to_string(layout.num_fields))) {
-                return;
-            }
-            row_ok = false;
-        }
-        if (!row_ok) {
-            p = next;
-            ++line_no;
+        if (read_row(line, le, line_no, layout, path, v, &problem)) {
+            store_sample(v, layout, line_no, out.samples[out.count++]);
             continue;
         }
-        Sample& s = out.samples[out.count++];
-        s.theta_i = v[kTi];
-        s.phi_i = v[kPhiI];
-        s.theta_o = v[kTo];
-        s.phi_o = v[kPo];
-        s.value = Rgbd(v[kR], v[kG], v[kB]);
-        s.sigma = Rgbd(v[kSr], v[kSg], v[kSb]);
-        s.weight = v[kW];
-        s.flags = static_cast<std::uint32_t>(v[kF]);
-        s.line = line_no;
-        if (layout.index[kTi0] >= 0) {
-            for (int k = 0; k < 4; ++k) {
-                s.path_start[k] = v[kTi0 + k];
-                s.path_end[k] = v[kTi1 + k];
-            }
-            // A path that starts and ends where it is measured is a standing exposure.
-            s.has_path = s.path_start != s.path_end;
+        // A refused row: the first error of the chunk, or (keep_going) a row recorded with its
+        // reason and skipped.
+        if (!options.keep_going || out.rejected.size() > options.max_rejected) {
+            out.error_line = line_no;
+            out.error = problem.where + problem.reason;
+            return;
         }
-        p = next;
-        ++line_no;
+        out.rejected.push_back(RejectedRow{line_no, problem.reason});
     }
 }
 
@@ -457,45 +475,35 @@ Expected<void> refuse_values_below_noise(Dataset& data,
     return {};
 }
 
-}  // namespace
-
-Expected<Dataset> read_dataset_csv(const std::string& path, const DatasetReadOptions& options) {
-    auto text = FileBytes::read(path);
-    if (!text) {
-        return tl::unexpected(text.error());
-    }
-    Dataset data;
-    data.source = path;
-    const char* p = text->data();
-    const char* end = p + text->size();
-    // Header: the first line that is neither blank nor a comment.
-    std::size_t line_no = 1;
-    Layout layout;
-    bool have_header = false;
-    while (p < end && !have_header) {
-        const char* nl = static_cast<const char*>(std::memchr(p, '\n', end - p));
+/// Reads the header: the first line from *p that is neither blank nor a comment; *p and *line_no
+/// move past it.
+Expected<void> read_header(const char** p,
+                           const char* end,
+                           std::size_t* line_no,
+                           const std::string& path,
+                           Layout& layout,
+                           Dataset& data) {
+    while (*p < end) {
+        const char* nl = static_cast<const char*>(std::memchr(*p, '\n', end - *p));
         const char* le = nl == nullptr ? end : nl;
-        const char* q = p;
-        while (q < le && is_space(*q)) {
-            ++q;
-        }
-        if (q != le && *q != '#') {
+        const char* line = *p;
+        *p = nl == nullptr ? end : nl + 1;
+        const std::size_t at = (*line_no)++;
+        if (!is_blank_or_comment(line, le)) {
             Expected<void> h =
-                parse_header(p, le, path + ":" + std::to_string(line_no), layout, data);
+                parse_header(line, le, path + ":" + std::to_string(at), layout, data);
             if (!h) {
                 return make_error(h.error().message);
             }
-            have_header = true;
+            return {};
         }
-        p = nl == nullptr ? end : nl + 1;
-        ++line_no;
     }
-    if (!have_header) {
-        return make_error(path +
-                          ": empty file, expected a header theta_i,phi_i,theta_o,phi_o,r,g,b");
-    }
-    // Chunks at line boundaries, one per thread of the pool for a large file (the cut depends on
-    // the pool's size only, and the chunks are joined in file order).
+    return make_error(path + ": empty file, expected a header theta_i,phi_i,theta_o,phi_o,r,g,b");
+}
+
+/// [p, end) cut at line boundaries, one chunk per thread of the pool for a large file (the cut
+/// depends on the pool's size only): chunk k is [cut[k], cut[k + 1]).
+std::vector<const char*> cut_chunks(const char* p, const char* end) {
     const std::size_t bytes = static_cast<std::size_t>(end - p);
     const unsigned chunks =
         bytes < (1u << 20) ? 1u : static_cast<unsigned>(std::min(thread_pool_size(), 16));
@@ -507,43 +515,46 @@ Expected<Dataset> read_dataset_csv(const std::string& path, const DatasetReadOpt
         cut.push_back(nl == nullptr ? end : nl + 1);
     }
     cut.push_back(end);
-    // Lines per chunk (in parallel), hence each chunk's first line number and an upper bound of
-    // its rows (its newlines, plus a last line without one): the rows are parsed straight into
-    // their place in data.samples, one buffer for the whole file, no copy of the rows afterwards.
+    return cut;
+}
+
+/// Where each chunk starts: its first line number and its first row in the samples buffer.
+struct ChunkPlaces {
+    std::vector<std::size_t> first_line;
+    std::vector<std::size_t> first_row;  ///< one more than chunks: the last is the rows' bound
+};
+
+/// Lines per chunk (in parallel), hence each chunk's first line number and an upper bound of its
+/// rows (its newlines, plus a last line without one): the rows are parsed straight into their
+/// place in data.samples, one buffer for the whole file, no copy of the rows afterwards.
+ChunkPlaces place_chunks(const std::vector<const char*>& cut, std::size_t line_no) {
+    const std::size_t chunks = cut.size() - 1;
     std::vector<std::size_t> lines(chunks);
     parallel_for(chunks, 1, 0, [&](std::size_t, std::size_t b, std::size_t e) {
         for (std::size_t k = b; k < e; ++k) {
             lines[k] = static_cast<std::size_t>(std::count(cut[k], cut[k + 1], '\n'));
         }
     });
-    std::vector<std::size_t> first_line(chunks);
-    std::vector<std::size_t> first_row(chunks + 1);
-    first_line[0] = line_no;
-    first_row[0] = 0;
-    for (unsigned k = 0; k < chunks; ++k) {
+    ChunkPlaces places;
+    places.first_line.resize(chunks);
+    places.first_row.resize(chunks + 1);
+    places.first_line[0] = line_no;
+    places.first_row[0] = 0;
+    for (std::size_t k = 0; k < chunks; ++k) {
         if (k > 0) {
-            first_line[k] = first_line[k - 1] + lines[k - 1];
+            places.first_line[k] = places.first_line[k - 1] + lines[k - 1];
         }
-        first_row[k + 1] = first_row[k] + lines[k] + 1;
+        places.first_row[k + 1] = places.first_row[k] + lines[k] + 1;
     }
-    // (At most one row per line: a file of blank lines would ask for far more than it holds, so
-    // the buffer is checked against the memory budget before it is made.)
-    if (auto room = check_memory(static_cast<double>(first_row[chunks]) * sizeof(Sample),
-                                 path + ": " + std::to_string(first_row[chunks]) + " lines");
-        !room) {
-        return make_error(room.error().message);
-    }
-    resize_huge(data.samples, first_row[chunks]);
-    std::vector<ChunkResult> results(chunks);
-    for (unsigned k = 0; k < chunks; ++k) {
-        results[k].samples = data.samples.data() + first_row[k];
-    }
-    // One chunk of the pool per cut (grain 1).
-    parallel_for(chunks, 1, 0, [&](std::size_t, std::size_t b, std::size_t e) {
-        for (std::size_t k = b; k < e; ++k) {
-            parse_chunk(cut[k], cut[k + 1], first_line[k], layout, path, options, results[k]);
-        }
-    });
+    return places;
+}
+
+/// The chunks' refused rows and rows joined in file order into `data` (rows move only where an
+/// earlier chunk had blank, comment or refused lines); the first chunk's error, if any.
+Expected<void> join_chunks(std::vector<ChunkResult>& results,
+                           const std::string& path,
+                           const DatasetReadOptions& options,
+                           Dataset& data) {
     std::size_t total = 0;
     for (ChunkResult& r : results) {
         // Rows refused before a chunk's error come first in the file: they count toward the limit.
@@ -559,14 +570,57 @@ Expected<Dataset> read_dataset_csv(const std::string& path, const DatasetReadOpt
         if (r.error_line != 0) {
             return make_error(r.error);
         }
-        // The chunks' rows joined in file order (they move only where an earlier chunk had
-        // blank, comment or refused lines).
         if (r.samples != data.samples.data() + total) {
             std::move(r.samples, r.samples + r.count, data.samples.data() + total);
         }
         total += r.count;
     }
     data.samples.resize(total);
+    return {};
+}
+
+}  // namespace
+
+Expected<Dataset> read_dataset_csv(const std::string& path, const DatasetReadOptions& options) {
+    auto text = FileBytes::read(path);
+    if (!text) {
+        return tl::unexpected(text.error());
+    }
+    Dataset data;
+    data.source = path;
+    const char* p = text->data();
+    const char* end = p + text->size();
+    std::size_t line_no = 1;
+    Layout layout;
+    if (auto h = read_header(&p, end, &line_no, path, layout, data); !h) {
+        return tl::unexpected(h.error());
+    }
+    const std::vector<const char*> cut = cut_chunks(p, end);
+    const std::size_t chunks = cut.size() - 1;
+    const ChunkPlaces places = place_chunks(cut, line_no);
+    const std::size_t rows = places.first_row[chunks];
+    // (At most one row per line: a file of blank lines would ask for far more than it holds, so
+    // the buffer is checked against the memory budget before it is made.)
+    if (auto room = check_memory(static_cast<double>(rows) * sizeof(Sample),
+                                 path + ": " + std::to_string(rows) + " lines");
+        !room) {
+        return make_error(room.error().message);
+    }
+    resize_huge(data.samples, rows);
+    std::vector<ChunkResult> results(chunks);
+    for (std::size_t k = 0; k < chunks; ++k) {
+        results[k].samples = data.samples.data() + places.first_row[k];
+    }
+    // One chunk of the pool per cut (grain 1).
+    parallel_for(chunks, 1, 0, [&](std::size_t, std::size_t b, std::size_t e) {
+        for (std::size_t k = b; k < e; ++k) {
+            parse_chunk(
+                cut[k], cut[k + 1], places.first_line[k], layout, path, options, results[k]);
+        }
+    });
+    if (auto joined = join_chunks(results, path, options, data); !joined) {
+        return tl::unexpected(joined.error());
+    }
     if (auto below = refuse_values_below_noise(data, layout, path, options); !below) {
         return make_error(below.error().message);
     }

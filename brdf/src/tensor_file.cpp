@@ -180,9 +180,12 @@ const TensorField* TensorFile::find(const std::string& name) const {
     return nullptr;
 }
 
-Expected<TensorFile> parse_tensor_file(const std::uint8_t* bytes,
-                                       std::size_t size,
-                                       const std::string& label) {
+namespace {
+
+/// The size, the magic and the version (1.0) of the file.
+Expected<void> check_preamble(const std::uint8_t* bytes,
+                              std::size_t size,
+                              const std::string& label) {
     if (size < kPreambleBytes) {
         return make_error(label + ": " + std::to_string(size) +
                           " bytes, too short for a tensor file (the magic, version and field "
@@ -196,6 +199,103 @@ Expected<TensorFile> parse_tensor_file(const std::uint8_t* bytes,
     if (std::memcmp(bytes, kMagic, sizeof kMagic) != 0) {
         return make_error(label +
                           ": not a tensor file (the first 12 bytes are not \"tensor_file\\0\")");
+    }
+    return {};
+}
+
+/// The byte count of a field's data, with every product checked against the file size (no
+/// overflow). A dimension of size 0 makes the field empty whatever the others are: the check then
+/// does not apply, so that its verdict cannot depend on the order of the dimensions.
+Expected<std::uint64_t> field_bytes(const TensorField& f, std::size_t size, const std::string& at) {
+    const bool empty = std::find(f.shape.begin(), f.shape.end(), 0) != f.shape.end();
+    std::uint64_t nbytes = empty ? 0 : tensor_dtype_size(f.dtype);
+    for (std::size_t d = 0; d < f.shape.size() && !empty; ++d) {
+        const std::uint64_t n = f.shape[d];
+        if (nbytes > size / n) {
+            return make_error(at + ": dimension " + std::to_string(d) + " of size " +
+                              std::to_string(n) + " makes the data larger than the file (" +
+                              std::to_string(size) + " bytes)");
+        }
+        nbytes *= n;
+    }
+    return nbytes;
+}
+
+/// The header of a field after its name: dimensions, data type, offset and shape.
+Expected<void> read_field_type(Cursor& in, const std::string& at, TensorField* f) {
+    if (!in.has(2 + 1 + 8)) {
+        return make_error(at + ": header truncated before its type and offset");
+    }
+    const auto ndim = static_cast<std::uint16_t>(in.uint(2));
+    const auto dtype = static_cast<std::uint8_t>(in.uint(1));
+    f->offset = in.uint(8);
+    if (dtype < 1 || dtype > 11) {
+        return make_error(at + ": unknown data type " + std::to_string(dtype) +
+                          " (1-11: uint8, int8, uint16, int16, uint32, int32, uint64, int64, "
+                          "float16, float32, float64)");
+    }
+    f->dtype = static_cast<TensorDtype>(dtype);
+    if (ndim > kMaxTensorDims) {
+        return make_error(at + ": " + std::to_string(ndim) + " dimensions (at most " +
+                          std::to_string(kMaxTensorDims) + ")");
+    }
+    if (!in.has(std::size_t{8} * ndim)) {
+        return make_error(at + ": header truncated in the shape");
+    }
+    for (std::uint16_t d = 0; d < ndim; ++d) {
+        f->shape.push_back(in.uint(8));
+    }
+    return {};
+}
+
+/// One field: its header from the cursor, its data from the file (`where` names the field by
+/// its number until its name is known; `names` holds the names seen so far).
+Expected<TensorField> read_field(Cursor& in,
+                                 const std::uint8_t* bytes,
+                                 std::size_t size,
+                                 const std::string& label,
+                                 const std::string& where,
+                                 std::set<std::string>& names) {
+    if (!in.has(2)) {
+        return make_error(where + ": header truncated at byte " + std::to_string(in.pos()));
+    }
+    const auto name_length = static_cast<std::uint16_t>(in.uint(2));
+    if (name_length > kMaxTensorNameLength) {
+        return make_error(where + ": name of " + std::to_string(name_length) + " bytes (at most " +
+                          std::to_string(kMaxTensorNameLength) + ")");
+    }
+    if (!in.has(name_length)) {
+        return make_error(where + ": header truncated in the name");
+    }
+    TensorField f;
+    f.name = in.text(name_length);
+    const std::string at = label + ": field \"" + printable(f.name) + "\"";
+    if (!names.insert(f.name).second) {
+        return make_error(at + ": the name appears twice");
+    }
+    if (auto ok = read_field_type(in, at, &f); !ok) {
+        return tl::unexpected(ok.error());
+    }
+    auto nbytes = field_bytes(f, size, at);
+    if (!nbytes) {
+        return tl::unexpected(nbytes.error());
+    }
+    if (f.offset > size || *nbytes > size - f.offset) {
+        return make_error(at + ": data of " + std::to_string(*nbytes) + " bytes at offset " +
+                          std::to_string(f.offset) + " runs past the end of the file (" +
+                          std::to_string(size) + " bytes)");
+    }
+    f.data.assign(bytes + f.offset, bytes + f.offset + *nbytes);
+    return f;
+}
+
+}  // namespace
+
+Expected<TensorFile> parse_tensor_file(const std::uint8_t* bytes,
+                                       std::size_t size,
+                                       const std::string& label) {
+    if (auto ok = check_preamble(bytes, size, label); !ok) {
+        return tl::unexpected(ok.error());
     }
     Cursor in(bytes, size);
     in.skip(sizeof kMagic);
@@ -215,67 +315,11 @@ Expected<TensorFile> parse_tensor_file(const std::uint8_t* bytes,
     for (std::uint32_t i = 0; i < n_fields; ++i) {
         const std::string where =
             label + ": field " + std::to_string(i + 1) + " of " + std::to_string(n_fields);
-        if (!in.has(2)) {
-            return make_error(where + ": header truncated at byte " + std::to_string(in.pos()));
+        auto f = read_field(in, bytes, size, label, where, names);
+        if (!f) {
+            return tl::unexpected(f.error());
         }
-        const auto name_length = static_cast<std::uint16_t>(in.uint(2));
-        if (name_length > kMaxTensorNameLength) {
-            return make_error(where + ": name of " + std::to_string(name_length) +
-                              " bytes (at most " + std::to_string(kMaxTensorNameLength) + ")");
-        }
-        if (!in.has(name_length)) {
-            return make_error(where + ": header truncated in the name");
-        }
-        TensorField f;
-        f.name = in.text(name_length);
-        const std::string at = label + ": field \"" + printable(f.name) + "\"";
-        if (!names.insert(f.name).second) {
-            return make_error(at + ": the name appears twice");
-        }
-        if (!in.has(2 + 1 + 8)) {
-            return make_error(at + ": header truncated before its type and offset");
-        }
-        const auto ndim = static_cast<std::uint16_t>(in.uint(2));
-        const auto dtype = static_cast<std::uint8_t>(in.uint(1));
-        f.offset = in.uint(8);
-        if (dtype < 1 || dtype > 11) {
-            return make_error(at + ": unknown data type " + std::to_string(dtype) +
-                              " (1-11: uint8, int8, uint16, int16, uint32, int32, uint64, int64, "
-                              "float16, float32, float64)");
-        }
-        f.dtype = static_cast<TensorDtype>(dtype);
-        if (ndim > kMaxTensorDims) {
-            return make_error(at + ": " + std::to_string(ndim) + " dimensions (at most " +
-                              std::to_string(kMaxTensorDims) + ")");
-        }
-        if (!in.has(std::size_t{8} * ndim)) {
-            return make_error(at + ": header truncated in the shape");
-        }
-        // The byte count, with every product checked against the file size (no overflow). A
-        // dimension of size 0 makes the field empty whatever the others are: the check then does
-        // not apply, so that its verdict cannot depend on the order of the dimensions.
-        for (std::uint16_t d = 0; d < ndim; ++d) {
-            f.shape.push_back(in.uint(8));
-        }
-        const bool empty = std::find(f.shape.begin(), f.shape.end(), 0) != f.shape.end();
-        std::uint64_t nbytes = empty ? 0 : tensor_dtype_size(f.dtype);
-        for (std::uint16_t d = 0; d < ndim && !empty; ++d) {
-            const std::uint64_t n = f.shape[d];
-            if (nbytes > size / n) {
-                return make_error(at + ": dimension " + std::to_string(d) + " of size " +
-                                  std::to_string(n) + " makes the data larger than the file (" +
-                                  std::to_string(size) + " bytes)");
-            }
-            nbytes *= n;
-        }
-        f.data.clear();
-        if (f.offset > size || nbytes > size - f.offset) {
-            return make_error(at + ": data of " + std::to_string(nbytes) + " bytes at offset " +
-                              std::to_string(f.offset) + " runs past the end of the file (" +
-                              std::to_string(size) + " bytes)");
-        }
-        f.data.assign(bytes + f.offset, bytes + f.offset + nbytes);
-        file.fields.push_back(std::move(f));
+        file.fields.push_back(std::move(*f));
     }
     // Data may not overlap the header (every offset is checked now that the header's end is known).
     for (const TensorField& f : file.fields) {
