@@ -122,112 +122,115 @@ Expected<void> set_option(FitRequest& r, const std::string& key_in, const std::s
 
 namespace {
 
+/// A name that fitting's `parse` accepts, kept as written.
+template <class Parse>
+Expected<void> set_name(const std::string& key,
+                        const std::string& v,
+                        Parse parse,
+                        std::string* out) {
+    auto parsed = parse(v);
+    if (!parsed) {
+        return make_error("option " + key + ": " + parsed.error().message);
+    }
+    *out = v;
+    return {};
+}
+
+/// A whole number in [lo, hi].
+template <class T>
+Expected<void> set_integer(
+    const std::string& key, const std::string& v, long long lo, long long hi, T* out) {
+    auto n = parse_int(key, v, lo, hi);
+    if (!n) {
+        return tl::unexpected(n.error());
+    }
+    *out = static_cast<T>(*n);
+    return {};
+}
+
+Expected<void> set_flag(const std::string& key, const std::string& v, bool* out) {
+    auto b = parse_bool(key, v);
+    if (!b) {
+        return tl::unexpected(b.error());
+    }
+    *out = *b;
+    return {};
+}
+
+/// "model": a distribution, auto or a *.json fit template.
+Expected<void> set_model(FitRequest& r, const std::string& v) {
+    if (v.empty()) {
+        return make_error("option model is empty");
+    }
+    if (v != kAutoModel && !ends_with(v, ".json")) {
+        auto d = fitting::parse_distribution(v);
+        if (!d) {
+            return make_error("option model: " + d.error().message +
+                              ", auto or a *.json fit "
+                              "template");
+        }
+    }
+    r.model = v;
+    return {};
+}
+
 Expected<void> set_option_value(FitRequest& r, const std::string& key, const std::string& v) {
     constexpr long long kIntMax = std::numeric_limits<int>::max();
+    constexpr long long kLongMax = std::numeric_limits<long long>::max();
     if (key == "model") {
-        if (v.empty()) {
-            return make_error("option model is empty");
-        }
-        if (v != kAutoModel && !ends_with(v, ".json")) {
-            auto d = fitting::parse_distribution(v);
-            if (!d) {
-                return make_error("option model: " + d.error().message +
-                                  ", auto or a *.json fit "
-                                  "template");
-            }
-        }
-        r.model = v;
-    } else if (key == "fresnel") {
-        auto f = fitting::parse_fresnel(v);
-        if (!f) {
-            return make_error("option fresnel: " + f.error().message);
-        }
-        r.fresnel = v;
-    } else if (key == "shadowing") {
-        auto s = fitting::parse_shadowing(v);
-        if (!s) {
-            return make_error("option shadowing: " + s.error().message);
-        }
-        r.shadowing = v;
-    } else if (key == "diffuse") {
-        auto b = parse_bool(key, v);
-        if (!b) {
-            return tl::unexpected(b.error());
-        }
-        r.diffuse = *b;
-    } else if (key == "anisotropic") {
-        auto b = parse_bool(key, v);
-        if (!b) {
-            return tl::unexpected(b.error());
-        }
-        r.anisotropic = *b;
-    } else if (key == "lobes") {
-        auto n = parse_int(key, v, 0, 4);
-        if (!n) {
-            return tl::unexpected(n.error());
-        }
-        r.lobes = static_cast<int>(*n);
-    } else if (key == "roughness") {
-        auto g = fitting::parse_roughness(v);
-        if (!g) {
-            return make_error("option roughness: " + g.error().message);
-        }
-        r.roughness = v;
-    } else if (key == "residual") {
-        auto f = fitting::parse_residual(v);
-        if (!f) {
-            return make_error("option residual: " + f.error().message);
-        }
-        r.residual = v;
-    } else if (key == "loss") {
-        auto l = fitting::parse_loss(v);
-        if (!l) {
-            return make_error("option loss: " + l.error().message);
-        }
-        r.loss = v;
-    } else if (key == "loss_scale") {
+        return set_model(r, v);
+    }
+    if (key == "fresnel") {
+        return set_name(key, v, fitting::parse_fresnel, &r.fresnel);
+    }
+    if (key == "shadowing") {
+        return set_name(key, v, fitting::parse_shadowing, &r.shadowing);
+    }
+    if (key == "diffuse") {
+        return set_flag(key, v, &r.diffuse);
+    }
+    if (key == "anisotropic") {
+        return set_flag(key, v, &r.anisotropic);
+    }
+    if (key == "lobes") {
+        return set_integer(key, v, 0, 4, &r.lobes);
+    }
+    if (key == "roughness") {
+        return set_name(key, v, fitting::parse_roughness, &r.roughness);
+    }
+    if (key == "residual") {
+        return set_name(key, v, fitting::parse_residual, &r.residual);
+    }
+    if (key == "loss") {
+        return set_name(key, v, fitting::parse_loss, &r.loss);
+    }
+    if (key == "loss_scale") {
         auto x = parse_positive(key, v);
         if (!x) {
             return tl::unexpected(x.error());
         }
         r.loss_scale = *x;
-    } else if (key == "max_samples") {
-        auto n = parse_int(key, v, 0, std::numeric_limits<long long>::max());
-        if (!n) {
-            return tl::unexpected(n.error());
-        }
-        r.max_samples = static_cast<std::size_t>(*n);
-    } else if (key == "starts") {
-        auto n = parse_int(key, v, 1, 1000);
-        if (!n) {
-            return tl::unexpected(n.error());
-        }
-        r.starts = static_cast<int>(*n);
-    } else if (key == "seed") {
-        auto n = parse_int(key, v, 0, std::numeric_limits<long long>::max());
-        if (!n) {
-            return tl::unexpected(n.error());
-        }
-        r.seed = static_cast<std::uint64_t>(*n);
-    } else if (key == "max_iterations") {
-        auto n = parse_int(key, v, 1, kIntMax);
-        if (!n) {
-            return tl::unexpected(n.error());
-        }
-        r.max_iterations = static_cast<int>(*n);
-    } else if (key == "threads") {
-        auto n = parse_int(key, v, 0, 4096);
-        if (!n) {
-            return tl::unexpected(n.error());
-        }
-        r.threads = static_cast<int>(*n);
-    } else {
-        return make_error("unknown option \"" + key +
-                          "\" (known: model, fresnel, shadowing, diffuse, anisotropic, lobes, "
-                          "roughness, residual, loss, loss_scale, max_samples, starts, seed, "
-                          "max_iterations, threads)");
+        return {};
     }
-    return {};
+    if (key == "max_samples") {
+        return set_integer(key, v, 0, kLongMax, &r.max_samples);
+    }
+    if (key == "starts") {
+        return set_integer(key, v, 1, 1000, &r.starts);
+    }
+    if (key == "seed") {
+        return set_integer(key, v, 0, kLongMax, &r.seed);
+    }
+    if (key == "max_iterations") {
+        return set_integer(key, v, 1, kIntMax, &r.max_iterations);
+    }
+    if (key == "threads") {
+        return set_integer(key, v, 0, 4096, &r.threads);
+    }
+    return make_error("unknown option \"" + key +
+                      "\" (known: model, fresnel, shadowing, diffuse, anisotropic, lobes, "
+                      "roughness, residual, loss, loss_scale, max_samples, starts, seed, "
+                      "max_iterations, threads)");
 }
 
 }  // namespace

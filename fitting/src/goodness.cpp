@@ -30,6 +30,85 @@ constexpr double kSignalSigmas = 2;
 /// From this many samples on the medians of the three channels run on the pool.
 constexpr std::size_t kParallelMedianSamples = 65536;
 
+constexpr int kBands = static_cast<int>(sizeof kBandEdgesDeg / sizeof kBandEdgesDeg[0]) - 1;
+
+/// Sums of squared residuals (rows: absolute, relative, log; columns: channels) and of the log
+/// residuals per theta_h band.
+struct MetricSums {
+    Eigen::Array<double, 3, 3> sq = Eigen::Array<double, 3, 3>::Zero();
+    Eigen::Array<double, kBands, 3> band_sum = Eigen::Array<double, kBands, 3>::Zero();
+    Eigen::Array<double, kBands, 3> band_sq = Eigen::Array<double, kBands, 3>::Zero();
+    std::array<std::size_t, kBands> band_n{};
+
+    MetricSums& operator+=(const MetricSums& p) {
+        sq += p.sq;
+        band_sum += p.band_sum;
+        band_sq += p.band_sq;
+        for (int k = 0; k < kBands; ++k) {
+            band_n[k] += p.band_n[k];
+        }
+        return *this;
+    }
+};
+
+/// cos of each band edge, in kBandEdgesDeg's order.
+std::array<double, kBands + 1> band_cosines() {
+    std::array<double, kBands + 1> band_cos;
+    for (int b = 0; b <= kBands; ++b) {
+        band_cos[b] = std::cos(kBandEdgesDeg[b] * brdf::kPi / 180);
+    }
+    return band_cos;
+}
+
+/// The theta_h band of cos_h (the last one beyond every edge).
+int band_of(double cos_h, const std::array<double, kBands + 1>& band_cos) {
+    for (int k = 0; k < kBands; ++k) {
+        if (cos_h > band_cos[k + 1]) {
+            return k;
+        }
+    }
+    return kBands - 1;
+}
+
+/// Median of the relative errors (the lower median for an even count; NaN entries are not
+/// errors), the three channels on the pool for a large set (a selection over a million values
+/// takes about 15 ms).
+void median_relative(std::vector<double> (&rel)[3], int threads, Rgbd* median_rel) {
+    gonio::parallel_for(3, 1, threads, [&](std::size_t, std::size_t b, std::size_t e) {
+        for (std::size_t c = b; c < e; ++c) {
+            std::vector<double>& v = rel[c];
+            v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return std::isnan(x); }),
+                    v.end());
+            if (!v.empty()) {
+                const std::size_t k = (v.size() - 1) / 2;
+                std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
+                (*median_rel)[static_cast<int>(c)] = v[k];
+            }
+        }
+    });
+}
+
+/// The mean and rms log residual of each band that holds samples.
+std::vector<BandResidual> band_residuals(const MetricSums& total) {
+    std::vector<BandResidual> bands;
+    for (int k = 0; k < kBands; ++k) {
+        if (total.band_n[k] == 0) {
+            continue;
+        }
+        BandResidual b;
+        b.theta_h_lo_deg = kBandEdgesDeg[k];
+        b.theta_h_hi_deg = kBandEdgesDeg[k + 1];
+        b.count = total.band_n[k];
+        const double bn = static_cast<double>(b.count);
+        for (int c = 0; c < 3; ++c) {
+            b.mean_log[c] = total.band_sum(k, c) / bn;
+            b.log_rmse[c] = std::sqrt(total.band_sq(k, c) / bn);
+        }
+        bands.push_back(b);
+    }
+    return bands;
+}
+
 /// The metrics of model values against `samples`: at(i, f, cos_i, cos_h, log_r) gives sample i's
 /// model value (RGB, 1/sr), cos theta_i and cos theta_h, and returns true when it also gave the
 /// log residuals log(1 + f cos_i) - log(1 + d cos_i) of the three channels in log_r.
@@ -39,40 +118,24 @@ Metrics metrics_of(const std::vector<Sample>& samples, double relative_floor, co
     if (samples.empty()) {
         return m;
     }
-    constexpr int kBands = static_cast<int>(sizeof kBandEdgesDeg / sizeof kBandEdgesDeg[0]) - 1;
     const int threads = detail::thread_count(0);
-    struct Acc {
-        Eigen::Array<double, 3, 3> sq = Eigen::Array<double, 3, 3>::Zero();
-        Eigen::Array<double, kBands, 3> band_sum = Eigen::Array<double, kBands, 3>::Zero();
-        Eigen::Array<double, kBands, 3> band_sq = Eigen::Array<double, kBands, 3>::Zero();
-        std::array<std::size_t, kBands> band_n{};
-    };
     // Per block, added in block order (the same metrics for every thread count).
-    std::vector<Acc> partial(block_count(samples.size()));
+    std::vector<MetricSums> partial(block_count(samples.size()));
     // |m - d| / d per sample and channel (NaN where d <= 0: no relative error), for the medians.
     std::vector<double> rel[3];
     for (int c = 0; c < 3; ++c) {
         resize_huge(rel[c], samples.size(), std::numeric_limits<double>::quiet_NaN());
     }
     const double implied = brdf::implied_noise(samples);
-    double band_cos[kBands + 1];
-    for (int b = 0; b <= kBands; ++b) {
-        band_cos[b] = std::cos(kBandEdgesDeg[b] * brdf::kPi / 180);
-    }
+    const std::array<double, kBands + 1> band_cos = band_cosines();
     auto body = [&](std::size_t blk, std::size_t b, std::size_t e) {
-        Acc acc;
+        MetricSums acc;
         for (std::size_t i = b; i < e; ++i) {
             Rgbd f;
             double cos_i = 0, cos_h = 0;
             double logs[3];
             const bool have_logs = at(i, f, cos_i, cos_h, logs);
-            int band = kBands - 1;
-            for (int k = 0; k < kBands; ++k) {
-                if (cos_h > band_cos[k + 1]) {
-                    band = k;
-                    break;
-                }
-            }
+            const int band = band_of(cos_h, band_cos);
             ++acc.band_n[band];
             for (int c = 0; c < 3; ++c) {
                 const double d = samples[i].value[c];
@@ -96,14 +159,9 @@ Metrics metrics_of(const std::vector<Sample>& samples, double relative_floor, co
         partial[blk] = acc;
     };
     parallel_blocks(samples.size(), threads, body);
-    Acc total;
-    for (const Acc& p : partial) {
-        total.sq += p.sq;
-        total.band_sum += p.band_sum;
-        total.band_sq += p.band_sq;
-        for (int k = 0; k < kBands; ++k) {
-            total.band_n[k] += p.band_n[k];
-        }
+    MetricSums total;
+    for (const MetricSums& p : partial) {
+        total += p;
     }
     const double n = static_cast<double>(samples.size());
     for (int c = 0; c < 3; ++c) {
@@ -111,39 +169,8 @@ Metrics metrics_of(const std::vector<Sample>& samples, double relative_floor, co
         m.rel_rmse[c] = std::sqrt(total.sq(1, c) / n);
         m.log_rmse[c] = std::sqrt(total.sq(2, c) / n);
     }
-    // Median of the relative errors (the lower median for an even count), the three channels on
-    // the pool for a large set (a selection over a million values takes about 15 ms).
-    gonio::parallel_for(
-        3,
-        1,
-        samples.size() > kParallelMedianSamples ? threads : 1,
-        [&](std::size_t, std::size_t b, std::size_t e) {
-            for (std::size_t c = b; c < e; ++c) {
-                std::vector<double>& v = rel[c];
-                v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return std::isnan(x); }),
-                        v.end());
-                if (!v.empty()) {
-                    const std::size_t k = (v.size() - 1) / 2;
-                    std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
-                    m.median_rel[static_cast<int>(c)] = v[k];
-                }
-            }
-        });
-    for (int k = 0; k < kBands; ++k) {
-        if (total.band_n[k] == 0) {
-            continue;
-        }
-        BandResidual b;
-        b.theta_h_lo_deg = kBandEdgesDeg[k];
-        b.theta_h_hi_deg = kBandEdgesDeg[k + 1];
-        b.count = total.band_n[k];
-        const double bn = static_cast<double>(b.count);
-        for (int c = 0; c < 3; ++c) {
-            b.mean_log[c] = total.band_sum(k, c) / bn;
-            b.log_rmse[c] = std::sqrt(total.band_sq(k, c) / bn);
-        }
-        m.bands.push_back(b);
-    }
+    median_relative(rel, samples.size() > kParallelMedianSamples ? threads : 1, &m.median_rel);
+    m.bands = band_residuals(total);
     return m;
 }
 

@@ -152,29 +152,40 @@ struct LinearWeights {
     }
 };
 
-/// Linear least squares of the terms that enter the model linearly, per channel, given the
-/// shapes: the diffuse albedo and lobe 0's amplitude (its scale, or Schlick's f0 when the scale is
-/// fixed: F = x^5 + f0 (1 - x^5) is linear in f0). Relative weights 1 / (d + floor)^2 so that the
-/// peak does not decide alone. A negative solution puts that term at its lower bound and solves
-/// for the other; results are brought inside the bounds (these are start values, not results).
-void linear_init(ModelD& m,
-                 const ParameterMap& map,
-                 const std::vector<Sample>& samples,
-                 const PreparedSamples& prepared,
-                 const LinearWeights& lw,
-                 int threads) {
-    const ScalarParam* rho[3];
-    const ScalarParam* amp[3];
+/// The free parameters that enter the model linearly, per channel: the diffuse albedo and lobe
+/// 0's amplitude (its scale, or Schlick's f0 when the scale is fixed). nullptr when not free.
+struct LinearTerms {
+    const ScalarParam* rho[3] = {nullptr, nullptr, nullptr};
+    const ScalarParam* amp[3] = {nullptr, nullptr, nullptr};
     bool amp_is_f0 = false;
+};
+
+LinearTerms find_linear_terms(const ModelD& m, const ParameterMap& map) {
+    LinearTerms t;
     for (int c = 0; c < 3; ++c) {
-        rho[c] = find_free(map, Field::kDiffuse, -1, c);
-        amp[c] = m.lobes.empty() ? nullptr : find_free(map, Field::kScale, 0, c);
-        if (amp[c] == nullptr && !m.lobes.empty() &&
+        t.rho[c] = find_free(map, Field::kDiffuse, -1, c);
+        t.amp[c] = m.lobes.empty() ? nullptr : find_free(map, Field::kScale, 0, c);
+        if (t.amp[c] == nullptr && !m.lobes.empty() &&
             m.lobes[0].fresnel.type == brdf::FresnelType::kSchlick) {
-            amp[c] = find_free(map, Field::kF0, 0, c);
-            amp_is_f0 = amp[c] != nullptr;
+            t.amp[c] = find_free(map, Field::kF0, 0, c);
+            t.amp_is_f0 = t.amp[c] != nullptr;
         }
     }
+    return t;
+}
+
+/// The weighted normal equations a u = b of u = (albedo, amplitude), per channel.
+struct LinearSystem {
+    Eigen::Matrix2d a[3];
+    Eigen::Vector2d b[3];
+};
+
+LinearSystem linear_normal_equations(const ModelD& m,
+                                     bool amp_is_f0,
+                                     const std::vector<Sample>& samples,
+                                     const PreparedSamples& prepared,
+                                     const LinearWeights& lw,
+                                     int threads) {
     // Basis values: the model without diffuse and with lobe 0's amplitude at 0 and at 1.
     ModelD m0 = m;
     m0.has_diffuse = false;
@@ -188,8 +199,6 @@ void linear_init(ModelD& m,
             m1.lobes[0].scale = Rgbd::Ones();
         }
     }
-    Eigen::Matrix2d a[3];
-    Eigen::Vector2d b[3];
     // The basis on the prepared samples (the geometry is computed once for every start). With a
     // single lobe whose scale is the amplitude, m0 is the zero model: its values are not needed.
     const bool zero_m0 = m0.lobes.size() == 1 && !amp_is_f0;
@@ -199,6 +208,7 @@ void linear_init(ModelD& m,
     }
     prepared.model_values(m1, v1, threads);
     constexpr double b0 = brdf::kInvPi;
+    LinearSystem sys;
     for (int c = 0; c < 3; ++c) {
         // Sums of w basis basis^T and w basis (d - f0), basis = (1/pi, f1 - f0), in sample order.
         double a00 = 0, a01 = 0, a11 = 0, r0 = 0, r1 = 0;
@@ -215,60 +225,94 @@ void linear_init(ModelD& m,
             r0 += wb0 * res;
             r1 += wb1 * res;
         }
-        a[c] << a00, a01, a01, a11;
-        b[c] << r0, r1;
+        sys.a[c] << a00, a01, a01, a11;
+        sys.b[c] << r0, r1;
     }
+    return sys;
+}
+
+/// Channel c's albedo and amplitude from the system: both when both are free (a negative one at
+/// its lower bound, 0, and the other solved alone), else the free one with the other as it is in
+/// the model. Terms that are not free keep their current values.
+void solve_channel(const ModelD& m,
+                   const ParameterMap& map,
+                   const LinearTerms& t,
+                   const LinearSystem& sys,
+                   int c,
+                   double* u_rho,
+                   double* u_amp) {
+    const Eigen::Matrix2d& a = sys.a[c];
+    const Eigen::Vector2d& b = sys.b[c];
+    const bool use_rho = t.rho[c] != nullptr;
+    const bool use_amp = t.amp[c] != nullptr;
+    *u_rho = use_rho ? map.value_of(m, *t.rho[c]) : 0;
+    *u_amp = use_amp ? map.value_of(m, *t.amp[c]) : 0;
+    auto solve1 = [&](int k, double fixed_other) {
+        const int o = 1 - k;
+        const double rhs = b[k] - a(k, o) * fixed_other;
+        return a(k, k) > 0 ? rhs / a(k, k) : 0.0;
+    };
+    if (use_rho && use_amp) {
+        const double det = a.determinant();
+        if (std::abs(det) > 1e-300) {
+            const Eigen::Vector2d u = a.inverse() * b;
+            *u_rho = u[0];
+            *u_amp = u[1];
+        }
+        if (*u_rho < 0) {
+            *u_rho = 0;
+            *u_amp = solve1(1, 0);
+        } else if (*u_amp < 0) {
+            *u_amp = 0;
+            *u_rho = solve1(0, 0);
+        }
+    } else if (use_rho) {
+        // The lobe as it is (amplitude fixed) is part of the prediction.
+        double fixed_amp = 0;
+        if (!m.lobes.empty()) {
+            fixed_amp = t.amp_is_f0 ? m.lobes[0].fresnel.f0[c] : m.lobes[0].scale[c];
+        }
+        *u_rho = solve1(0, fixed_amp);
+    } else if (use_amp) {
+        *u_amp = solve1(1, m.has_diffuse ? m.diffuse[c] : 0.0);
+    }
+}
+
+/// Stores the channels' values u of the parameters p inside their bounds; a shared parameter (one
+/// value for the three channels) starts at the channels' mean.
+void store_linear(ModelD& m, const ScalarParam* const* p, const double* u) {
+    if (p[0] == nullptr) {
+        return;
+    }
+    for (int c = 0; c < 3; ++c) {
+        const double v = p[c]->channel < 0 ? (u[0] + u[1] + u[2]) / 3 : u[c];
+        if (std::isfinite(v)) {
+            ParameterMap::set(m, *p[c], std::clamp(v, p[c]->lower, p[c]->upper));
+        }
+    }
+}
+
+/// Linear least squares of the terms that enter the model linearly, per channel, given the
+/// shapes: the diffuse albedo and lobe 0's amplitude (its scale, or Schlick's f0 when the scale is
+/// fixed: F = x^5 + f0 (1 - x^5) is linear in f0). Relative weights 1 / (d + floor)^2 so that the
+/// peak does not decide alone. A negative solution puts that term at its lower bound and solves
+/// for the other; results are brought inside the bounds (these are start values, not results).
+void linear_init(ModelD& m,
+                 const ParameterMap& map,
+                 const std::vector<Sample>& samples,
+                 const PreparedSamples& prepared,
+                 const LinearWeights& lw,
+                 int threads) {
+    const LinearTerms t = find_linear_terms(m, map);
+    const LinearSystem sys =
+        linear_normal_equations(m, t.amp_is_f0, samples, prepared, lw, threads);
     double u_rho[3] = {0, 0, 0};
     double u_amp[3] = {0, 0, 0};
     for (int c = 0; c < 3; ++c) {
-        const bool use_rho = rho[c] != nullptr;
-        const bool use_amp = amp[c] != nullptr;
-        u_rho[c] = use_rho ? map.value_of(m, *rho[c]) : 0;
-        u_amp[c] = use_amp ? map.value_of(m, *amp[c]) : 0;
-        auto solve1 = [&](int k, double fixed_other) {
-            const int o = 1 - k;
-            const double rhs = b[c][k] - a[c](k, o) * fixed_other;
-            return a[c](k, k) > 0 ? rhs / a[c](k, k) : 0.0;
-        };
-        if (use_rho && use_amp) {
-            const double det = a[c].determinant();
-            if (std::abs(det) > 1e-300) {
-                const Eigen::Vector2d u = a[c].inverse() * b[c];
-                u_rho[c] = u[0];
-                u_amp[c] = u[1];
-            }
-            if (u_rho[c] < 0) {
-                u_rho[c] = 0;
-                u_amp[c] = solve1(1, 0);
-            } else if (u_amp[c] < 0) {
-                u_amp[c] = 0;
-                u_rho[c] = solve1(0, 0);
-            }
-        } else if (use_rho) {
-            // The lobe as it is (amplitude fixed) is part of the prediction.
-            double fixed_amp = 0;
-            if (!m.lobes.empty()) {
-                fixed_amp = amp_is_f0 ? m.lobes[0].fresnel.f0[c] : m.lobes[0].scale[c];
-            }
-            u_rho[c] = solve1(0, fixed_amp);
-        } else if (use_amp) {
-            u_amp[c] = solve1(1, m.has_diffuse ? m.diffuse[c] : 0.0);
-        }
+        solve_channel(m, map, t, sys, c, &u_rho[c], &u_amp[c]);
     }
-    // A shared parameter (one value for the three channels) starts at the channels' mean.
-    auto store = [&](const ScalarParam* const* p, const double* u) {
-        if (p[0] == nullptr) {
-            return;
-        }
-        for (int c = 0; c < 3; ++c) {
-            const double v = p[c]->channel < 0 ? (u[0] + u[1] + u[2]) / 3 : u[c];
-            if (std::isfinite(v)) {
-                ParameterMap::set(m, *p[c], std::clamp(v, p[c]->lower, p[c]->upper));
-            }
-        }
-    };
-    store(rho, u_rho);
-    store(amp, u_amp);
+    store_linear(m, t.rho, u_rho);
+    store_linear(m, t.amp, u_amp);
 }
 
 /// Every free scalar brought inside its bounds (start values only).
@@ -280,24 +324,9 @@ std::vector<double> clamp_start(const ParameterMap& map, std::vector<double> x) 
     return x;
 }
 
-/// Data-driven starts scored by the objective, best first.
-std::vector<Candidate> initial_candidates(const ParameterMap& map,
-                                          const std::vector<Sample>& score_set,
-                                          const PreparedSamples& scorer,
-                                          const FitOptions& o) {
-    const int threads = thread_count(o.num_threads);
-    const LinearWeights lw(score_set, o.relative_floor);
-    ModelD m = map.base();
-    std::vector<Candidate> out;
-    if (m.lobes.empty()) {
-        linear_init(m, map, score_set, scorer, lw, threads);
-        Candidate c{clamp_start(map, map.values_of(m)), 0};
-        c.cost = objective(scorer, c.x, threads);
-        out.push_back(c);
-        return out;
-    }
-    // Off-specular floor: a low percentile of each channel among samples far from the mirror
-    // direction (theta_h > 45 degrees), or of all samples when there are none.
+/// Off-specular floor: a low percentile of each channel among samples far from the mirror
+/// direction (theta_h > 45 degrees), or of all samples when there are none.
+Rgbd off_specular_floor(const std::vector<Sample>& score_set, const PreparedSamples& scorer) {
     std::vector<char> is_far(score_set.size());
     std::size_t n_far = 0;
     const bool prepared_h = scorer.has_cos_h() && scorer.size() == score_set.size();
@@ -319,7 +348,12 @@ std::vector<Candidate> initial_candidates(const ParameterMap& map,
         }
         floor[c] = brdf::kPi * percentile(std::move(v), 0.2);
     }
-    double alpha = estimate_alpha(score_set, scorer, floor, m.lobes[0].distribution);
+    return floor;
+}
+
+/// The slopes of the starts: the estimate, half and twice it, random log-uniform ones up to
+/// o.starts, and (with several starts) a fixed log-spaced ladder.
+std::vector<double> start_alphas(double alpha, const FitOptions& o) {
     if (!(alpha > 0) || !std::isfinite(alpha)) {
         alpha = 0.3;
     }
@@ -339,16 +373,60 @@ std::vector<Candidate> initial_candidates(const ParameterMap& map,
             alphas.push_back(a);
         }
     }
+    return alphas;
+}
+
+/// Turns every anisotropic lobe with a free orientation to phi_deg with its slopes 4:1 apart
+/// around a * 3^i (lobe i); false when the model has no such lobe.
+bool turn_lobes(ModelD& mc, const ParameterMap& map, double a, double phi_deg) {
+    bool turned = false;
+    for (int i = 0; i < static_cast<int>(mc.lobes.size()); ++i) {
+        const double ai = a * std::pow(3.0, i);
+        set_shape(mc, map, i, ai);
+        const ScalarParam* ax = find_free(map, Field::kAlphaX, i, -1);
+        const ScalarParam* ay = find_free(map, Field::kAlphaY, i, -1);
+        const ScalarParam* phi = find_free(map, Field::kOrientation, i, -1);
+        if (ax == nullptr || ay == nullptr || phi == nullptr) {
+            continue;
+        }
+        ParameterMap::set(mc, *ax, std::clamp(0.5 * ai, ax->lower, ax->upper));
+        ParameterMap::set(mc, *ay, std::clamp(2.0 * ai, ay->lower, ay->upper));
+        ParameterMap::set(mc, *phi, std::clamp(phi_deg, phi->lower, phi->upper));
+        turned = true;
+    }
+    return turned;
+}
+
+/// Data-driven starts scored by the objective, best first.
+std::vector<Candidate> initial_candidates(const ParameterMap& map,
+                                          const std::vector<Sample>& score_set,
+                                          const PreparedSamples& scorer,
+                                          const FitOptions& o) {
+    const int threads = thread_count(o.num_threads);
+    const LinearWeights lw(score_set, o.relative_floor);
+    // A start: the shapes as given, the linear terms solved, scored by the objective.
+    auto scored = [&](ModelD mc) {
+        linear_init(mc, map, score_set, scorer, lw, threads);
+        Candidate c{clamp_start(map, map.values_of(mc)), 0};
+        c.cost = objective(scorer, c.x, threads);
+        return c;
+    };
+    ModelD m = map.base();
+    std::vector<Candidate> out;
+    if (m.lobes.empty()) {
+        out.push_back(scored(m));
+        return out;
+    }
+    const Rgbd floor = off_specular_floor(score_set, scorer);
+    const std::vector<double> alphas =
+        start_alphas(estimate_alpha(score_set, scorer, floor, m.lobes[0].distribution), o);
     for (double a : alphas) {
         ModelD mc = m;
         for (int i = 0; i < static_cast<int>(mc.lobes.size()); ++i) {
             // Further lobes start wider, by a factor of 3 each.
             set_shape(mc, map, i, a * std::pow(3.0, i));
         }
-        linear_init(mc, map, score_set, scorer, lw, threads);
-        Candidate c{clamp_start(map, map.values_of(mc)), 0};
-        c.cost = objective(scorer, c.x, threads);
-        out.push_back(c);
+        out.push_back(scored(mc));
     }
     // Anisotropic lobes with a free orientation: starts with the slopes 4:1 apart at four
     // orientations 45 degrees apart, which cover every class of the lobe's symmetries (period
@@ -358,28 +436,10 @@ std::vector<Candidate> initial_candidates(const ParameterMap& map,
     for (double a : alphas) {
         for (double phi_deg : {0.0, 45.0, 90.0, 135.0}) {
             ModelD mc = m;
-            bool turned = false;
-            for (int i = 0; i < static_cast<int>(mc.lobes.size()); ++i) {
-                const double ai = a * std::pow(3.0, i);
-                set_shape(mc, map, i, ai);
-                const ScalarParam* ax = find_free(map, Field::kAlphaX, i, -1);
-                const ScalarParam* ay = find_free(map, Field::kAlphaY, i, -1);
-                const ScalarParam* phi = find_free(map, Field::kOrientation, i, -1);
-                if (ax == nullptr || ay == nullptr || phi == nullptr) {
-                    continue;
-                }
-                ParameterMap::set(mc, *ax, std::clamp(0.5 * ai, ax->lower, ax->upper));
-                ParameterMap::set(mc, *ay, std::clamp(2.0 * ai, ay->lower, ay->upper));
-                ParameterMap::set(mc, *phi, std::clamp(phi_deg, phi->lower, phi->upper));
-                turned = true;
-            }
-            if (!turned) {
+            if (!turn_lobes(mc, map, a, phi_deg)) {
                 break;
             }
-            linear_init(mc, map, score_set, scorer, lw, threads);
-            Candidate c{clamp_start(map, map.values_of(mc)), 0};
-            c.cost = objective(scorer, c.x, threads);
-            out.push_back(c);
+            out.push_back(scored(mc));
         }
     }
     std::stable_sort(out.begin(), out.end(), [](const Candidate& a, const Candidate& b) {

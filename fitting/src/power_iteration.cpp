@@ -132,28 +132,19 @@ double shadowing_of(brdf::Shadowing s,
     return 1.0;
 }
 
-}  // namespace
+/// A sample with the factors removed: the diffuse term and scale * F of the lobe.
+struct Pre {
+    double cos_d;
+    Retro r;
+    double g_vgroove;
+};
 
-Expected<NdfExtraction> extract_ndf(const std::vector<Sample>& samples,
-                                    const brdf::ModelD& factors,
-                                    const PowerIterationOptions& o) {
-    const std::size_t n = o.nodes;
-    if (n < brdf::kTabulatedNdfMinNodes || n > brdf::kTabulatedNdfMaxNodes || o.iterations < 1 ||
-        !(o.theta_d_max_deg > 0 && o.theta_d_max_deg <= kMaxThetaDDeg)) {
-        return make_error(
-            "power iteration: 2 to 1024 nodes, iterations >= 1 and a "
-            "theta_d threshold in (0, 90] degrees are required");
-    }
-    if (factors.lobes.empty() || factors.lobes[0].distribution != brdf::Distribution::kTabulated) {
-        return make_error("power iteration: the model's first lobe must be tabulated");
-    }
+/// The samples above the horizon with a positive lobe factor, each with the model's diffuse term
+/// and the lobe's scale * F removed, located on the grid of n nodes.
+std::vector<Pre> remove_factors(const std::vector<Sample>& samples,
+                                const brdf::ModelD& factors,
+                                std::size_t n) {
     const brdf::Lobe<double>& lobe = factors.lobes[0];
-    // The factors removed from each sample: the diffuse term and scale * F of the lobe.
-    struct Pre {
-        double cos_d;
-        Retro r;
-        double g_vgroove;
-    };
     std::vector<Pre> pre;
     pre.reserve(samples.size());
     for (const Sample& s : samples) {
@@ -184,7 +175,14 @@ Expected<NdfExtraction> extract_ndf(const std::vector<Sample>& samples,
                           : 1.0;
         pre.push_back(p);
     }
-    NdfExtraction out;
+    return pre;
+}
+
+/// The samples within the theta_d threshold of backscattering, the threshold doubled (up to
+/// kMaxThetaDDeg) until they number min_samples; *threshold_deg is the one used.
+std::vector<Pre> select_backscatter(const std::vector<Pre>& pre,
+                                    const PowerIterationOptions& o,
+                                    double* threshold_deg) {
     std::vector<Pre> retro;
     for (double thr = o.theta_d_max_deg;; thr = std::min(2 * thr, kMaxThetaDDeg)) {
         const double cos_thr = std::cos(thr * brdf::kPi / 180.0);
@@ -194,11 +192,81 @@ Expected<NdfExtraction> extract_ndf(const std::vector<Sample>& samples,
                 retro.push_back(p);
             }
         }
-        out.theta_d_max_deg = thr;
+        *threshold_deg = thr;
         if (retro.size() >= o.min_samples || thr >= kMaxThetaDDeg) {
-            break;
+            return retro;
         }
     }
+}
+
+/// The piecewise-linear D closest to the y / G of the samples in weighted least squares (G from
+/// the current node values sigma), clamped at 0: the normal equations of the hat functions are
+/// tridiagonal (diag, off: A[k][k + 1]). *den receives diag (each node's weight).
+std::vector<double> least_squares_d(const std::vector<Pre>& retro,
+                                    brdf::Shadowing shadowing,
+                                    const std::vector<double>& sigma,
+                                    std::size_t n,
+                                    std::vector<double>* den) {
+    std::vector<double> diag(n, 0.0), off(n, 0.0), rhs(n, 0.0);
+    for (const Pre& p : retro) {
+        const Retro& r = p.r;
+        const double G = shadowing_of(shadowing, sigma, r.cos_i, r.cos_o, p.g_vgroove);
+        if (!(G > 0)) {
+            continue;
+        }
+        const double v = r.y / G;
+        const double a = 1 - r.t, b = r.t;
+        diag[r.k] += r.weight * a * a;
+        diag[r.k + 1] += r.weight * b * b;
+        off[r.k] += r.weight * a * b;
+        rhs[r.k] += r.weight * a * v;
+        rhs[r.k + 1] += r.weight * b * v;
+    }
+    std::vector<double> next = solve_tridiagonal(diag, off, rhs);
+    for (double& x : next) {
+        // D >= 0: noise below the diffuse floor is no negative microfacet density.
+        x = std::max(0.0, x);
+    }
+    *den = std::move(diag);
+    return next;
+}
+
+/// The largest change of a node from the previous iterate d (normalised) to the normalised
+/// iterate `next`, relative to next's peak.
+double relative_change(const std::vector<double>& K,
+                       const std::vector<double>& d,
+                       const std::vector<double>& next) {
+    double change = 0, peak = 0;
+    for (double x : next) {
+        peak = std::max(peak, x);
+    }
+    // The first iterate is measured against the normalised start.
+    const double d_norm = brdf::tabulated_ndf_sigma(K, d)[0];
+    for (std::size_t k = 0; k < next.size(); ++k) {
+        change = std::max(change, std::abs(next[k] - d[k] / d_norm));
+    }
+    return change / peak;
+}
+
+}  // namespace
+
+Expected<NdfExtraction> extract_ndf(const std::vector<Sample>& samples,
+                                    const brdf::ModelD& factors,
+                                    const PowerIterationOptions& o) {
+    const std::size_t n = o.nodes;
+    if (n < brdf::kTabulatedNdfMinNodes || n > brdf::kTabulatedNdfMaxNodes || o.iterations < 1 ||
+        !(o.theta_d_max_deg > 0 && o.theta_d_max_deg <= kMaxThetaDDeg)) {
+        return make_error(
+            "power iteration: 2 to 1024 nodes, iterations >= 1 and a "
+            "theta_d threshold in (0, 90] degrees are required");
+    }
+    if (factors.lobes.empty() || factors.lobes[0].distribution != brdf::Distribution::kTabulated) {
+        return make_error("power iteration: the model's first lobe must be tabulated");
+    }
+    const brdf::Lobe<double>& lobe = factors.lobes[0];
+    NdfExtraction out;
+    const std::vector<Pre> retro =
+        select_backscatter(remove_factors(samples, factors, n), o, &out.theta_d_max_deg);
     out.samples = retro.size();
     if (retro.size() < kMinBackscatter) {
         return make_error("power iteration: " + std::to_string(retro.size()) + " samples within " +
@@ -214,29 +282,8 @@ Expected<NdfExtraction> extract_ndf(const std::vector<Sample>& samples,
     }
     std::vector<double> sigma = brdf::tabulated_ndf_sigma(K, d);
     for (int it = 1; it <= o.iterations; ++it) {
-        // The piecewise-linear D closest to the y / G of the samples in weighted least squares:
-        // the normal equations of the hat functions are tridiagonal (diag, off: A[k][k + 1]).
-        std::vector<double> diag(n, 0.0), off(n, 0.0), rhs(n, 0.0);
-        for (const Pre& p : retro) {
-            const Retro& r = p.r;
-            const double G = shadowing_of(lobe.shadowing, sigma, r.cos_i, r.cos_o, p.g_vgroove);
-            if (!(G > 0)) {
-                continue;
-            }
-            const double v = r.y / G;
-            const double a = 1 - r.t, b = r.t;
-            diag[r.k] += r.weight * a * a;
-            diag[r.k + 1] += r.weight * b * b;
-            off[r.k] += r.weight * a * b;
-            rhs[r.k] += r.weight * a * v;
-            rhs[r.k + 1] += r.weight * b * v;
-        }
-        std::vector<double> next = solve_tridiagonal(diag, off, rhs);
-        for (double& x : next) {
-            // D >= 0: noise below the diffuse floor is no negative microfacet density.
-            x = std::max(0.0, x);
-        }
-        const std::vector<double>& den = diag;
+        std::vector<double> den;
+        std::vector<double> next = least_squares_d(retro, lobe.shadowing, sigma, n, &den);
         out.empty_nodes = fill_gaps(next, den);
         const double norm = brdf::tabulated_ndf_sigma(K, next)[0];
         if (!(norm > 0) || !std::isfinite(norm)) {
@@ -245,20 +292,13 @@ Expected<NdfExtraction> extract_ndf(const std::vector<Sample>& samples,
                 "diffuse term (int D cos = " +
                 std::to_string(norm) + "); no microfacet distribution to extract");
         }
-        double change = 0, peak = 0;
-        for (std::size_t k = 0; k < n; ++k) {
-            next[k] /= norm;
-            peak = std::max(peak, next[k]);
+        for (double& x : next) {
+            x /= norm;
         }
-        // The first iterate is measured against the normalised start.
-        const double d_norm = brdf::tabulated_ndf_sigma(K, d)[0];
-        for (std::size_t k = 0; k < n; ++k) {
-            change = std::max(change, std::abs(next[k] - d[k] / d_norm));
-        }
+        out.change = relative_change(K, d, next);
         d = std::move(next);
         sigma = brdf::tabulated_ndf_sigma(K, d);
         out.iterations = it;
-        out.change = change / peak;
         if (out.change < 1e-7) {
             break;
         }

@@ -297,6 +297,192 @@ AutoChoice read_auto_choice(const json& v) {
     return a;
 }
 
+FittedParameter read_parameter(const json& v, const std::string& at) {
+    JsonObject p(v, at);
+    p.allow({"name", "value", "sigma", "free", "identifiable", "at_bound"});
+    p.finish();
+    FittedParameter fp;
+    fp.name = text_at(p.raw("name"), p.key_path("name"));
+    fp.value = number_or_nan(p.raw("value"), p.key_path("value"));
+    if (const json& s = p.raw("sigma"); !s.is_null()) {
+        fp.sigma = json_number_at(s, p.key_path("sigma"));
+    }
+    if (!p.raw("free").is_boolean() || !p.raw("identifiable").is_boolean()) {
+        const char* bad = p.raw("free").is_boolean() ? "identifiable" : "free";
+        json_fail(p.key_path(bad) + ": expected true or false, got " + json_type(p.raw(bad)));
+    }
+    fp.free = p.raw("free").get<bool>();
+    fp.identifiable = p.raw("identifiable").get<bool>();
+    if (const json* b = p.find("at_bound"); b != nullptr && !b->is_null()) {
+        fp.at_bound = text_at(*b, p.key_path("at_bound"));
+        if (fp.at_bound != "lower" && fp.at_bound != "upper") {
+            json_fail(p.key_path("at_bound") + " = \"" + excerpt(fp.at_bound) +
+                      "\": must be \"lower\", \"upper\" or null");
+        }
+    }
+    return fp;
+}
+
+BandResidual read_band(const json& v, const std::string& at_band) {
+    JsonObject b(v, at_band);
+    b.allow({"theta_h_deg", "count", "mean_log", "log_rmse"});
+    b.finish();
+    BandResidual br;
+    const json& range = b.raw("theta_h_deg");
+    const std::string at = b.key_path("theta_h_deg");
+    if (!range.is_array() || range.size() != 2) {
+        json_fail(at + ": expected [lo, hi] in degrees, got " + json_type(range));
+    }
+    br.theta_h_lo_deg = json_number_at(range[0], at + "[0]");
+    br.theta_h_hi_deg = json_number_at(range[1], at + "[1]");
+    br.count = count_key(b, "count");
+    br.mean_log = rgb_key(b, "mean_log");
+    br.log_rmse = rgb_key(b, "log_rmse");
+    return br;
+}
+
+Metrics read_metrics(const json& v) {
+    JsonObject m(v, "metrics");
+    m.allow({"rmse", "rel_rmse", "log_rmse", "median_rel", "bands"});
+    m.finish();
+    Metrics out;
+    out.rmse = rgb_key(m, "rmse");
+    out.rel_rmse = rgb_key(m, "rel_rmse");
+    out.log_rmse = rgb_key(m, "log_rmse");
+    if (m.has("median_rel")) {
+        out.median_rel = rgb_key(m, "median_rel");
+    }
+    if (m.has("bands")) {
+        const json& bands = array_key(m, "bands");
+        for (std::size_t i = 0; i < bands.size(); ++i) {
+            out.bands.push_back(read_band(bands[i], item_path("metrics.bands", i)));
+        }
+    }
+    return out;
+}
+
+GoodnessOfFit read_goodness(const json& v) {
+    JsonObject g(v, "goodness");
+    g.allow({"verdict", "headline", "represents", "reduced_chi_square", "warnings", "suggestion"});
+    g.finish();
+    GoodnessOfFit out;
+    out.represents = g.boolean("represents", true);
+    // A report without a verdict (written before it existed): the two states it knew.
+    out.verdict = out.represents ? Verdict::kRepresents : Verdict::kDoesNotRepresent;
+    if (const json* verdict = g.find("verdict")) {
+        auto parsed = parse_verdict(text_at(*verdict, g.key_path("verdict")));
+        if (!parsed) {
+            json_fail(g.key_path("verdict") + ": " + parsed.error().message);
+        }
+        out.verdict = *parsed;
+    }
+    out.headline = headline_of(out.verdict, "see the warnings");
+    if (const json* h = g.find("headline")) {
+        out.headline = text_at(*h, g.key_path("headline"));
+    }
+    if (const json* chi = g.find("reduced_chi_square"); chi != nullptr && !chi->is_null()) {
+        out.reduced_chi_square = json_number_at(*chi, g.key_path("reduced_chi_square"));
+    }
+    out.warnings = string_list(g, "warnings");
+    if (const json* s = g.find("suggestion")) {
+        out.suggestion = text_at(*s, g.key_path("suggestion"));
+    }
+    return out;
+}
+
+SampleCounts read_sample_counts(const json& v) {
+    JsonObject s(v, "samples");
+    s.allow({"input", "valid", "used", "rejected", "reference", "saturated", "rejected_lines"});
+    s.finish();
+    SampleCounts out;
+    out.input = count_key(s, "input");
+    out.valid = count_key(s, "valid");
+    out.used = count_key(s, "used");
+    out.rejected = count_key(s, "rejected");
+    if (s.has("reference")) {
+        out.reference = count_key(s, "reference");
+    }
+    if (s.has("saturated")) {
+        out.saturated = count_key(s, "saturated");
+    }
+    const json& lines = array_key(s, "rejected_lines");
+    for (std::size_t i = 0; i < lines.size(); ++i) {
+        out.rejected_lines.push_back(read_count(lines[i], item_path("samples.rejected_lines", i)));
+    }
+    return out;
+}
+
+/// The top level's "residual" and "loss" (defaults: log, none).
+void read_residual_and_loss(JsonObject& top, FitResult* r) {
+    const std::string residual = top.string("residual", "log", kMaxJsonString);
+    const std::string loss = top.string("loss", "none", kMaxJsonString);
+    Expected<ResidualForm> form = parse_residual(residual);
+    if (!form) {
+        json_fail("residual: " + form.error().message);
+    }
+    Expected<LossKind> loss_kind = parse_loss(loss);
+    if (!loss_kind) {
+        json_fail("loss: " + loss_kind.error().message);
+    }
+    r->residual = *form;
+    r->loss = *loss_kind;
+}
+
+constexpr int kMaxIterations = 1 << 30;
+
+StageInfo read_stage(const json& v, const std::string& at) {
+    JsonObject st(v, at);
+    st.allow({"name", "samples", "iterations", "termination", "time_s", "final_cost"});
+    st.finish();
+    StageInfo si;
+    si.name = text_at(st.raw("name"), st.key_path("name"));
+    si.samples = count_key(st, "samples");
+    st.raw("iterations");  // required
+    si.iterations = st.integer("iterations", 0, 0, kMaxIterations);
+    si.termination = text_at(st.raw("termination"), st.key_path("termination"));
+    si.time_s = json_number_at(st.raw("time_s"), st.key_path("time_s"));
+    si.final_cost = optional_cost(st, "final_cost");
+    return si;
+}
+
+SolverInfo read_solver(const json& v) {
+    JsonObject sv(v, "solver");
+    sv.allow({"iterations",
+              "stages",
+              "termination",
+              "message",
+              "converged",
+              "usable",
+              "wall_time_s",
+              "solve_time_s",
+              "initial_cost",
+              "final_cost",
+              "starts"});
+    sv.finish();
+    SolverInfo out;
+    sv.raw("iterations");  // required
+    out.iterations = sv.integer("iterations", 0, 0, kMaxIterations);
+    out.termination = text_at(sv.raw("termination"), "solver.termination");
+    out.message = text_at(sv.raw("message"), "solver.message");
+    if (!sv.raw("usable").is_boolean()) {
+        json_fail("solver.usable: expected true or false, got " + json_type(sv.raw("usable")));
+    }
+    out.usable = sv.raw("usable").get<bool>();
+    out.converged = sv.boolean("converged", out.usable);
+    if (sv.has("stages")) {
+        const json& stages = array_key(sv, "stages");
+        for (std::size_t i = 0; i < stages.size(); ++i) {
+            out.stages.push_back(read_stage(stages[i], item_path("solver.stages", i)));
+        }
+    }
+    out.wall_time_s = json_number_at(sv.raw("wall_time_s"), "solver.wall_time_s");
+    out.initial_cost = optional_cost(sv, "initial_cost");
+    out.final_cost = optional_cost(sv, "final_cost");
+    out.starts = sv.integer("starts", 0, 0, kMaxIterations);
+    out.solve_time_s = sv.number("solve_time_s", 0.0, 0.0, 1e12, "s");
+    return out;
+}
+
 FitResult read_report_document(const json& j) {
     JsonObject top(j, "");
     top.allow({"model",
@@ -325,173 +511,21 @@ FitResult read_report_document(const json& j) {
     }
     const json& params = array_key(top, "parameters");
     for (std::size_t i = 0; i < params.size(); ++i) {
-        JsonObject p(params[i], item_path("parameters", i));
-        p.allow({"name", "value", "sigma", "free", "identifiable", "at_bound"});
-        p.finish();
-        FittedParameter fp;
-        fp.name = text_at(p.raw("name"), p.key_path("name"));
-        fp.value = number_or_nan(p.raw("value"), p.key_path("value"));
-        if (const json& s = p.raw("sigma"); !s.is_null()) {
-            fp.sigma = json_number_at(s, p.key_path("sigma"));
-        }
-        if (!p.raw("free").is_boolean() || !p.raw("identifiable").is_boolean()) {
-            const char* bad = p.raw("free").is_boolean() ? "identifiable" : "free";
-            json_fail(p.key_path(bad) + ": expected true or false, got " + json_type(p.raw(bad)));
-        }
-        fp.free = p.raw("free").get<bool>();
-        fp.identifiable = p.raw("identifiable").get<bool>();
-        if (const json* b = p.find("at_bound"); b != nullptr && !b->is_null()) {
-            fp.at_bound = text_at(*b, p.key_path("at_bound"));
-            if (fp.at_bound != "lower" && fp.at_bound != "upper") {
-                json_fail(p.key_path("at_bound") + " = \"" + excerpt(fp.at_bound) +
-                          "\": must be \"lower\", \"upper\" or null");
-            }
-        }
-        r.parameters.push_back(fp);
+        r.parameters.push_back(read_parameter(params[i], item_path("parameters", i)));
     }
     r.not_identifiable = string_list(top, "not_identifiable");
     r.at_bounds = string_list(top, "at_bounds");
     r.vanished_lobes = string_list(top, "vanished_lobes");
-
-    JsonObject m(top.raw("metrics"), "metrics");
-    m.allow({"rmse", "rel_rmse", "log_rmse", "median_rel", "bands"});
-    m.finish();
-    r.metrics.rmse = rgb_key(m, "rmse");
-    r.metrics.rel_rmse = rgb_key(m, "rel_rmse");
-    r.metrics.log_rmse = rgb_key(m, "log_rmse");
-    if (m.has("median_rel")) {
-        r.metrics.median_rel = rgb_key(m, "median_rel");
-    }
-    if (m.has("bands")) {
-        const json& bands = array_key(m, "bands");
-        for (std::size_t i = 0; i < bands.size(); ++i) {
-            JsonObject b(bands[i], item_path("metrics.bands", i));
-            b.allow({"theta_h_deg", "count", "mean_log", "log_rmse"});
-            b.finish();
-            BandResidual br;
-            const json& range = b.raw("theta_h_deg");
-            const std::string at = b.key_path("theta_h_deg");
-            if (!range.is_array() || range.size() != 2) {
-                json_fail(at + ": expected [lo, hi] in degrees, got " + json_type(range));
-            }
-            br.theta_h_lo_deg = json_number_at(range[0], at + "[0]");
-            br.theta_h_hi_deg = json_number_at(range[1], at + "[1]");
-            br.count = count_key(b, "count");
-            br.mean_log = rgb_key(b, "mean_log");
-            br.log_rmse = rgb_key(b, "log_rmse");
-            r.metrics.bands.push_back(br);
-        }
-    }
-
+    r.metrics = read_metrics(top.raw("metrics"));
     if (const json* gj = top.find("goodness")) {
-        JsonObject g(*gj, "goodness");
-        g.allow(
-            {"verdict", "headline", "represents", "reduced_chi_square", "warnings", "suggestion"});
-        g.finish();
-        r.goodness.represents = g.boolean("represents", true);
-        // A report without a verdict (written before it existed): the two states it knew.
-        r.goodness.verdict =
-            r.goodness.represents ? Verdict::kRepresents : Verdict::kDoesNotRepresent;
-        if (const json* v = g.find("verdict")) {
-            auto parsed = parse_verdict(text_at(*v, g.key_path("verdict")));
-            if (!parsed) {
-                json_fail(g.key_path("verdict") + ": " + parsed.error().message);
-            }
-            r.goodness.verdict = *parsed;
-        }
-        r.goodness.headline = headline_of(r.goodness.verdict, "see the warnings");
-        if (const json* h = g.find("headline")) {
-            r.goodness.headline = text_at(*h, g.key_path("headline"));
-        }
-        if (const json* chi = g.find("reduced_chi_square"); chi != nullptr && !chi->is_null()) {
-            r.goodness.reduced_chi_square = json_number_at(*chi, g.key_path("reduced_chi_square"));
-        }
-        r.goodness.warnings = string_list(g, "warnings");
-        if (const json* s = g.find("suggestion")) {
-            r.goodness.suggestion = text_at(*s, g.key_path("suggestion"));
-        }
+        r.goodness = read_goodness(*gj);
     }
     if (const json* c = top.find("covariance")) {
         r.covariance_method = text_at(*c, "covariance");
     }
-
-    JsonObject s(top.raw("samples"), "samples");
-    s.allow({"input", "valid", "used", "rejected", "reference", "saturated", "rejected_lines"});
-    s.finish();
-    r.samples.input = count_key(s, "input");
-    r.samples.valid = count_key(s, "valid");
-    r.samples.used = count_key(s, "used");
-    r.samples.rejected = count_key(s, "rejected");
-    if (s.has("reference")) {
-        r.samples.reference = count_key(s, "reference");
-    }
-    if (s.has("saturated")) {
-        r.samples.saturated = count_key(s, "saturated");
-    }
-    const json& lines = array_key(s, "rejected_lines");
-    for (std::size_t i = 0; i < lines.size(); ++i) {
-        r.samples.rejected_lines.push_back(
-            read_count(lines[i], item_path("samples.rejected_lines", i)));
-    }
-
-    const std::string residual = top.string("residual", "log", kMaxJsonString);
-    const std::string loss = top.string("loss", "none", kMaxJsonString);
-    Expected<ResidualForm> form = parse_residual(residual);
-    if (!form) {
-        json_fail("residual: " + form.error().message);
-    }
-    Expected<LossKind> loss_kind = parse_loss(loss);
-    if (!loss_kind) {
-        json_fail("loss: " + loss_kind.error().message);
-    }
-    r.residual = *form;
-    r.loss = *loss_kind;
-
-    JsonObject sv(top.raw("solver"), "solver");
-    sv.allow({"iterations",
-              "stages",
-              "termination",
-              "message",
-              "converged",
-              "usable",
-              "wall_time_s",
-              "solve_time_s",
-              "initial_cost",
-              "final_cost",
-              "starts"});
-    sv.finish();
-    constexpr int kMaxIterations = 1 << 30;
-    sv.raw("iterations");  // required
-    r.solver.iterations = sv.integer("iterations", 0, 0, kMaxIterations);
-    r.solver.termination = text_at(sv.raw("termination"), "solver.termination");
-    r.solver.message = text_at(sv.raw("message"), "solver.message");
-    if (!sv.raw("usable").is_boolean()) {
-        json_fail("solver.usable: expected true or false, got " + json_type(sv.raw("usable")));
-    }
-    r.solver.usable = sv.raw("usable").get<bool>();
-    r.solver.converged = sv.boolean("converged", r.solver.usable);
-    if (sv.has("stages")) {
-        const json& stages = array_key(sv, "stages");
-        for (std::size_t i = 0; i < stages.size(); ++i) {
-            JsonObject st(stages[i], item_path("solver.stages", i));
-            st.allow({"name", "samples", "iterations", "termination", "time_s", "final_cost"});
-            st.finish();
-            StageInfo si;
-            si.name = text_at(st.raw("name"), st.key_path("name"));
-            si.samples = count_key(st, "samples");
-            st.raw("iterations");  // required
-            si.iterations = st.integer("iterations", 0, 0, kMaxIterations);
-            si.termination = text_at(st.raw("termination"), st.key_path("termination"));
-            si.time_s = json_number_at(st.raw("time_s"), st.key_path("time_s"));
-            si.final_cost = optional_cost(st, "final_cost");
-            r.solver.stages.push_back(si);
-        }
-    }
-    r.solver.wall_time_s = json_number_at(sv.raw("wall_time_s"), "solver.wall_time_s");
-    r.solver.initial_cost = optional_cost(sv, "initial_cost");
-    r.solver.final_cost = optional_cost(sv, "final_cost");
-    r.solver.starts = sv.integer("starts", 0, 0, kMaxIterations);
-    r.solver.solve_time_s = sv.number("solve_time_s", 0.0, 0.0, 1e12, "s");
+    r.samples = read_sample_counts(top.raw("samples"));
+    read_residual_and_loss(top, &r);
+    r.solver = read_solver(top.raw("solver"));
     r.data = top.string("data", "", kMaxJsonString);
     return r;
 }
@@ -511,9 +545,9 @@ Expected<FitResult> read_fit_report(const std::string& path) {
     return parse_fit_report(*text, path);
 }
 
-std::string format_summary(const FitResult& r) {
-    std::ostringstream o;
-    char buf[512];
+namespace {
+
+void format_samples(std::ostream& o, const FitResult& r) {
     o << "data: " << r.data << "\n";
     o << "samples: " << r.samples.input << " input, " << r.samples.valid << " valid, "
       << r.samples.used << " used, " << r.samples.reference << " reference, " << r.samples.saturated
@@ -526,6 +560,10 @@ std::string format_summary(const FitResult& r) {
         o << (r.samples.rejected_lines.size() > 10 ? " ...)" : ")");
     }
     o << "\n";
+}
+
+void format_solver(std::ostream& o, const FitResult& r) {
+    char buf[512];
     std::snprintf(buf,
                   sizeof buf,
                   "solver: %s after %d iterations, %d starts, %.3f s (residual %s, loss %s)\n",
@@ -547,12 +585,34 @@ std::string format_summary(const FitResult& r) {
                       st.time_s);
         o << buf;
     }
-    if (!r.solver.converged) {
-        o << "FIT DID NOT CONVERGE: " << r.solver.message << "\n"
-          << "its parameters are not a result and are not shown\n";
-        return o.str();
+}
+
+void format_bands(std::ostream& o, const std::vector<BandResidual>& bands) {
+    if (bands.empty()) {
+        return;
     }
-    // Goodness of fit first: whether the parameters below mean anything.
+    char buf[512];
+    o << "  log residual by theta_h band (mean, rmse; r g b):\n";
+    for (const BandResidual& b : bands) {
+        std::snprintf(buf,
+                      sizeof buf,
+                      "    [%4g, %4g) deg %9zu  %+.3f %+.3f %+.3f   %.3f %.3f %.3f\n",
+                      b.theta_h_lo_deg,
+                      b.theta_h_hi_deg,
+                      b.count,
+                      b.mean_log[0],
+                      b.mean_log[1],
+                      b.mean_log[2],
+                      b.log_rmse[0],
+                      b.log_rmse[1],
+                      b.log_rmse[2]);
+        o << buf;
+    }
+}
+
+/// The metrics, the warnings and the one headline (printed once) they amount to.
+void format_goodness(std::ostream& o, const FitResult& r) {
+    char buf[512];
     auto rgb = [&](const char* name, const brdf::Rgbd& v) {
         std::snprintf(buf, sizeof buf, "  %-9s %.6g %.6g %.6g\n", name, v[0], v[1], v[2]);
         o << buf;
@@ -567,28 +627,10 @@ std::string format_summary(const FitResult& r) {
             buf, sizeof buf, "  reduced chi-square %.4g\n", *r.goodness.reduced_chi_square);
         o << buf;
     }
-    if (!r.metrics.bands.empty()) {
-        o << "  log residual by theta_h band (mean, rmse; r g b):\n";
-        for (const BandResidual& b : r.metrics.bands) {
-            std::snprintf(buf,
-                          sizeof buf,
-                          "    [%4g, %4g) deg %9zu  %+.3f %+.3f %+.3f   %.3f %.3f %.3f\n",
-                          b.theta_h_lo_deg,
-                          b.theta_h_hi_deg,
-                          b.count,
-                          b.mean_log[0],
-                          b.mean_log[1],
-                          b.mean_log[2],
-                          b.log_rmse[0],
-                          b.log_rmse[1],
-                          b.log_rmse[2]);
-            o << buf;
-        }
-    }
+    format_bands(o, r.metrics.bands);
     for (const std::string& w : r.goodness.warnings) {
         o << "warning: " << w << "\n";
     }
-    // The one headline (printed once): what the warnings above amount to.
     o << "verdict: " << r.goodness.headline;
     if (r.goodness.verdict == Verdict::kDoesNotRepresent) {
         o << " (the parameters are this model's best fit, not a description of the material)";
@@ -597,6 +639,10 @@ std::string format_summary(const FitResult& r) {
     if (!r.goodness.suggestion.empty()) {
         o << "suggestion: " << r.goodness.suggestion << "\n";
     }
+}
+
+void format_parameters(std::ostream& o, const FitResult& r) {
+    char buf[512];
     o << "parameters";
     if (!r.covariance_method.empty()) {
         o << " (sigma: " << r.covariance_method << ")";
@@ -632,6 +678,22 @@ std::string format_summary(const FitResult& r) {
           << " vanished (below 1e-3 of the fitted reflectance): the fit describes these data "
              "without it\n";
     }
+}
+
+}  // namespace
+
+std::string format_summary(const FitResult& r) {
+    std::ostringstream o;
+    format_samples(o, r);
+    format_solver(o, r);
+    if (!r.solver.converged) {
+        o << "FIT DID NOT CONVERGE: " << r.solver.message << "\n"
+          << "its parameters are not a result and are not shown\n";
+        return o.str();
+    }
+    // Goodness of fit first: whether the parameters below mean anything.
+    format_goodness(o, r);
+    format_parameters(o, r);
     return o.str();
 }
 
