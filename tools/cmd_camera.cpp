@@ -312,21 +312,7 @@ int run_serve(const CameraOptions& o) {
     return 0;
 }
 
-}  // namespace
-
-GONIO_COMMAND(camera) {
-    auto* cmd = app.add_subcommand("camera",
-                                   "inspect a camera, capture an OpenEXR frame, or "
-                                   "serve the simulated GigE Vision camera");
-    auto o = std::make_shared<CameraOptions>();
-    cmd->add_option("--connect",
-                    o->connect,
-                    "camera address: gige://HOST, u3v://SERIAL, aravis:DEVICE-ID (GenICam "
-                    "through Aravis), uvc:INDEX (OpenCV), sim or sim:MATERIAL (the simulated "
-                    "GigE Vision camera, served in this process)");
-    cmd->require_subcommand(1);
-    auto* info = cmd->add_subcommand("info", "print vendor, model, serial, sensor size");
-    auto* capture = cmd->add_subcommand("capture", "capture one frame into an OpenEXR file");
+void add_capture_options(CLI::App* capture, CameraOptions* o) {
     capture->add_option("--exposure-us", o->exposure_us, "exposure time in microseconds")
         ->check(CLI::PositiveNumber);
     capture->add_option("--gain", o->gain, "linear gain factor (1 = unity)")
@@ -344,10 +330,9 @@ GONIO_COMMAND(camera) {
         ->expected(4);
     capture->add_option("--timeout-ms", o->timeout_ms, "frame timeout")->check(CLI::PositiveNumber);
     capture->add_option("output", o->output, "output .exr")->required();
-    auto* serve =
-        cmd->add_subcommand("serve",
-                            "serve the simulated GigE Vision camera on 127.0.0.1 and print its "
-                            "address");
+}
+
+void add_serve_options(CLI::App* serve, CameraOptions* o) {
     serve->add_flag("--exposure-abs",
                     o->exposure_abs,
                     "name the exposure feature ExposureTimeAbs instead of ExposureTime");
@@ -364,50 +349,88 @@ GONIO_COMMAND(camera) {
                      "ground-truth model JSON or table (overrides "
                      "--material)")
         ->check(gonio::tools::readable_input());
+}
+
+/// The simulated camera's sensor and scene, for capture (with sim) and serve.
+void add_simulation_options(CLI::App* sub, CameraOptions* o) {
+    sub->add_option("--width", o->width, "sensor width (simulated)")->check(CLI::Range(16, 16384));
+    sub->add_option("--height", o->height, "sensor height (simulated)")
+        ->check(CLI::Range(16, 16384));
+    sub->add_option("--seed", o->seed, "noise seed (simulated)");
+    sub->add_option("--theta-i-deg", o->theta_i_deg, "light polar angle (simulated)");
+    sub->add_option("--phi-i-deg", o->phi_i_deg, "light azimuth (simulated)");
+    sub->add_option("--theta-o-deg", o->theta_o_deg, "detector polar angle (simulated)");
+    sub->add_option("--phi-o-deg", o->phi_o_deg, "detector azimuth (simulated)");
+    sub->add_option("--irradiance", o->irradiance, "beam irradiance W/m^2 (simulated)");
+}
+
+/// Options the chosen mode would drop are usage errors naming them: the exit code (2), or 0
+/// when every option given is used.
+int refuse_unused_options(const CameraOptions& o,
+                          const CLI::App& cmd,
+                          const CLI::App& capture,
+                          const CLI::App& serve) {
+    if (serve.parsed() && cmd.count("--connect") > 0) {
+        return gonio::tools::usage_error("camera serve",
+                                         "--connect is not used: serve makes the camera it serves");
+    }
+    if (serve.parsed() && serve.count("--brdf") > 0 && serve.count("--material") > 0) {
+        return gonio::tools::usage_error(
+            "camera serve", "--brdf and --material both name the ground truth: give one");
+    }
+    if (!capture.parsed()) {
+        return 0;
+    }
+    const bool simulated = o.connect == "sim" || o.connect.rfind("sim:", 0) == 0;
+    for (const char* sim_only : {"--width",
+                                 "--height",
+                                 "--seed",
+                                 "--theta-i-deg",
+                                 "--phi-i-deg",
+                                 "--theta-o-deg",
+                                 "--phi-o-deg",
+                                 "--irradiance"}) {
+        if (!simulated && !o.connect.empty() && capture.count(sim_only) > 0) {
+            return gonio::tools::usage_error(
+                "camera capture",
+                std::string(sim_only) +
+                    " sets up the simulated camera; it is not used with --connect " + o.connect);
+        }
+    }
+    if (capture.count("--gain") > 0 && capture.count("--camera-gain") > 0) {
+        return gonio::tools::usage_error("camera capture",
+                                         "--camera-gain replaces --gain: give one of them");
+    }
+    return 0;
+}
+
+}  // namespace
+
+GONIO_COMMAND(camera) {
+    auto* cmd = app.add_subcommand("camera",
+                                   "inspect a camera, capture an OpenEXR frame, or "
+                                   "serve the simulated GigE Vision camera");
+    auto o = std::make_shared<CameraOptions>();
+    cmd->add_option("--connect",
+                    o->connect,
+                    "camera address: gige://HOST, u3v://SERIAL, aravis:DEVICE-ID (GenICam "
+                    "through Aravis), uvc:INDEX (OpenCV), sim or sim:MATERIAL (the simulated "
+                    "GigE Vision camera, served in this process)");
+    cmd->require_subcommand(1);
+    auto* info = cmd->add_subcommand("info", "print vendor, model, serial, sensor size");
+    auto* capture = cmd->add_subcommand("capture", "capture one frame into an OpenEXR file");
+    add_capture_options(capture, o.get());
+    auto* serve =
+        cmd->add_subcommand("serve",
+                            "serve the simulated GigE Vision camera on 127.0.0.1 and print its "
+                            "address");
+    add_serve_options(serve, o.get());
     for (CLI::App* sub : {capture, serve}) {
-        sub->add_option("--width", o->width, "sensor width (simulated)")
-            ->check(CLI::Range(16, 16384));
-        sub->add_option("--height", o->height, "sensor height (simulated)")
-            ->check(CLI::Range(16, 16384));
-        sub->add_option("--seed", o->seed, "noise seed (simulated)");
-        sub->add_option("--theta-i-deg", o->theta_i_deg, "light polar angle (simulated)");
-        sub->add_option("--phi-i-deg", o->phi_i_deg, "light azimuth (simulated)");
-        sub->add_option("--theta-o-deg", o->theta_o_deg, "detector polar angle (simulated)");
-        sub->add_option("--phi-o-deg", o->phi_o_deg, "detector azimuth (simulated)");
-        sub->add_option("--irradiance", o->irradiance, "beam irradiance W/m^2 (simulated)");
+        add_simulation_options(sub, o.get());
     }
     return [o, cmd, info, capture, serve]() -> int {
-        // Options the chosen mode would drop are usage errors naming them.
-        if (serve->parsed() && cmd->count("--connect") > 0) {
-            return gonio::tools::usage_error(
-                "camera serve", "--connect is not used: serve makes the camera it serves");
-        }
-        if (serve->parsed() && serve->count("--brdf") > 0 && serve->count("--material") > 0) {
-            return gonio::tools::usage_error(
-                "camera serve", "--brdf and --material both name the ground truth: give one");
-        }
-        if (capture->parsed()) {
-            const bool simulated = o->connect == "sim" || o->connect.rfind("sim:", 0) == 0;
-            for (const char* sim_only : {"--width",
-                                         "--height",
-                                         "--seed",
-                                         "--theta-i-deg",
-                                         "--phi-i-deg",
-                                         "--theta-o-deg",
-                                         "--phi-o-deg",
-                                         "--irradiance"}) {
-                if (!simulated && !o->connect.empty() && capture->count(sim_only) > 0) {
-                    return gonio::tools::usage_error(
-                        "camera capture",
-                        std::string(sim_only) +
-                            " sets up the simulated camera; it is not used with --connect " +
-                            o->connect);
-                }
-            }
-            if (capture->count("--gain") > 0 && capture->count("--camera-gain") > 0) {
-                return gonio::tools::usage_error("camera capture",
-                                                 "--camera-gain replaces --gain: give one of them");
-            }
+        if (const int refused = refuse_unused_options(*o, *cmd, *capture, *serve); refused != 0) {
+            return refused;
         }
         if (info->parsed()) {
             return run_info(*o);

@@ -252,14 +252,126 @@ int to_csv(const ConvertOptions& o, const gonio::brdf::TableGrid& grid) {
     return 0;
 }
 
-}  // namespace
+/// An RGL *.bsdf output: its own parameterisation (no grid, threads or kernel radius), written
+/// from a model or a table.
+int run_rgl_output(const ConvertOptions& o, const CLI::App& cmd) {
+    for (const char* name : {"--grid", "--threads", "--radius"}) {
+        if (cmd.count(name) > 0) {
+            return gonio::tools::usage_error(
+                "convert", std::string(name) + " does not apply to an RGL *.bsdf output");
+        }
+    }
+    if (cmd.count("--interpolation") > 0 && !gonio::brdf::is_table_path(o.input)) {
+        return gonio::tools::usage_error("convert",
+                                         "--interpolation does not apply to " + o.input + " -> " +
+                                             o.output + ": only a table input is looked up");
+    }
+    if (ends_with(o.input, ".csv")) {
+        return gonio::tools::usage_error(
+            "convert",
+            o.input + " -> " + o.output +
+                ": an RGL file is written from a model or a table (resample the CSV to "
+                "a table first)");
+    }
+    if (auto ok = gonio::check_output_path(o.output); !ok) {
+        return fail(ok.error().message);
+    }
+    return to_rgl(o);
+}
 
-GONIO_COMMAND(convert) {
-    auto* cmd = app.add_subcommand(
-        "convert",
-        "convert between models (*.json), tables (MERL *.binary/*.merl, *.gtab), RGL materials "
-        "(*.bsdf) and sample CSVs");
-    auto opts = std::make_shared<ConvertOptions>();
+/// The options each conversion to a table or a CSV honours; the first given one it does not,
+/// as "OPTION does not apply to IN -> OUT: why", or empty.
+std::string refused_option(const ConvertOptions& o, const CLI::App& cmd, bool table_out) {
+    const bool csv_in = ends_with(o.input, ".csv");
+    const bool table_in = gonio::brdf::is_table_path(o.input);
+    const bool stored_in = table_in || gonio::brdf::is_rgl_path(o.input);
+    const bool merl_out = table_out && !ends_with(o.output, ".gtab");
+    const char* refused = nullptr;
+    std::string why;
+    if (cmd.count("--grid") > 0 && merl_out) {
+        refused = "--grid";
+        why =
+            "a MERL output (*.binary, *.merl) is always 90x90x180; write a *.gtab for "
+            "another grid";
+    } else if (cmd.count("--grid") > 0 && !table_out && stored_in) {
+        refused = "--grid";
+        why = "a stored file is written to CSV at its own bins or nodes";
+    } else if (cmd.count("--interpolation") > 0 && (!table_in || !table_out)) {
+        refused = "--interpolation";
+        why = table_in ? "a table is written to CSV at its bin centres, without lookups"
+                       : "only a table input is looked up";
+    } else if (cmd.count("--threads") > 0 && (csv_in || stored_in) && !table_out) {
+        refused = "--threads";
+        why = "nothing is tabulated when a stored file is written to CSV";
+    } else if (cmd.count("--threads") > 0 && csv_in) {
+        refused = "--threads";
+        why = "resampling a CSV onto a table runs on one thread";
+    } else if (cmd.count("--radius") > 0 && !(csv_in && table_out)) {
+        refused = "--radius";
+        why = "the kernel radius is for resampling a sample CSV onto a table";
+    }
+    if (refused == nullptr) {
+        return {};
+    }
+    return std::string(refused) + " does not apply to " + o.input + " -> " + o.output + ": " + why;
+}
+
+/// Memory: the table, and for CSV outputs up to one sample (about 150 bytes with its text) per
+/// bin.
+Expected<void> check_convert_memory(const ConvertOptions& o,
+                                    const gonio::brdf::TableGrid& grid,
+                                    bool table_out) {
+    const bool csv_in = ends_with(o.input, ".csv");
+    const bool grid_used =
+        table_out || (!gonio::brdf::is_table_path(o.input) && !gonio::brdf::is_rgl_path(o.input));
+    if (!grid_used) {
+        return {};
+    }
+    // A table output is encoded into one buffer before it is written: twice the table.
+    const double bytes = table_bytes(grid) * (csv_in ? 2.3 : 1.0) +
+                         (table_out ? table_bytes(grid) : static_cast<double>(grid.size()) * 150);
+    return gonio::check_memory(bytes, "convert to a " + grid_text(grid) + " grid");
+}
+
+int run_convert(const ConvertOptions& o, const CLI::App& cmd) {
+    gonio::brdf::TableGrid grid;
+    if (!parse_grid(o.grid, &grid)) {
+        return gonio::tools::usage_error("convert",
+                                         "--grid " + o.grid.substr(0, 64) +
+                                             ": expected AxBxC with each in [1, " +
+                                             std::to_string(gonio::brdf::kMaxTableDim) + "]");
+    }
+    const bool table_out = gonio::brdf::is_table_path(o.output);
+    const bool rgl_out = gonio::brdf::is_rgl_path(o.output);
+    if (!table_out && !rgl_out && !ends_with(o.output, ".csv")) {
+        return gonio::tools::usage_error(
+            "convert",
+            o.output + ": unknown output type (expected .binary, .merl, .gtab, .bsdf or .csv)");
+    }
+    if (rgl_out) {
+        return run_rgl_output(o, cmd);
+    }
+    if (cmd.count("--phi-i") > 0) {
+        return gonio::tools::usage_error(
+            "convert", "--phi-i applies to an RGL *.bsdf output only, not " + o.output);
+    }
+    if (const std::string refused = refused_option(o, cmd, table_out); !refused.empty()) {
+        return gonio::tools::usage_error("convert", refused);
+    }
+    if (table_out && !ends_with(o.output, ".gtab")) {
+        grid = gonio::brdf::TableGrid::merl();
+    }
+    // Refused before any work: an output that is a folder or a device, a missing folder.
+    if (auto ok = gonio::check_output_path(o.output); !ok) {
+        return fail(ok.error().message);
+    }
+    if (auto ok = check_convert_memory(o, grid, table_out); !ok) {
+        return fail(ok.error().message);
+    }
+    return table_out ? to_table(o, grid) : to_csv(o, grid);
+}
+
+void add_convert_options(CLI::App* cmd, ConvertOptions* opts) {
     cmd->add_option("input", opts->input, "model JSON, table or sample CSV")
         ->required()
         ->check(gonio::tools::readable_input());
@@ -291,107 +403,16 @@ GONIO_COMMAND(convert) {
                     "= an anisotropic file with that many)")
         ->check(gonio::tools::integer_in(0, 360))
         ->capture_default_str();
-    return [opts, cmd_ptr = cmd]() -> int {
-        gonio::brdf::TableGrid grid;
-        if (!parse_grid(opts->grid, &grid)) {
-            return gonio::tools::usage_error("convert",
-                                             "--grid " + opts->grid.substr(0, 64) +
-                                                 ": expected AxBxC with each in [1, " +
-                                                 std::to_string(gonio::brdf::kMaxTableDim) + "]");
-        }
-        const bool table_out = gonio::brdf::is_table_path(opts->output);
-        const bool rgl_out = gonio::brdf::is_rgl_path(opts->output);
-        if (!table_out && !rgl_out && !ends_with(opts->output, ".csv")) {
-            return gonio::tools::usage_error(
-                "convert",
-                opts->output +
-                    ": unknown output type (expected .binary, .merl, .gtab, .bsdf or .csv)");
-        }
-        if (rgl_out) {
-            // The RGL file has its own parameterisation: no grid, threads or kernel radius.
-            for (const char* name : {"--grid", "--threads", "--radius"}) {
-                if (cmd_ptr->count(name) > 0) {
-                    return gonio::tools::usage_error(
-                        "convert", std::string(name) + " does not apply to an RGL *.bsdf output");
-                }
-            }
-            if (cmd_ptr->count("--interpolation") > 0 && !gonio::brdf::is_table_path(opts->input)) {
-                return gonio::tools::usage_error("convert",
-                                                 "--interpolation does not apply to " +
-                                                     opts->input + " -> " + opts->output +
-                                                     ": only a table input is looked up");
-            }
-            if (ends_with(opts->input, ".csv")) {
-                return gonio::tools::usage_error(
-                    "convert",
-                    opts->input + " -> " + opts->output +
-                        ": an RGL file is written from a model or a table (resample the CSV to "
-                        "a table first)");
-            }
-            if (auto ok = gonio::check_output_path(opts->output); !ok) {
-                return fail(ok.error().message);
-            }
-            return to_rgl(*opts);
-        }
-        if (cmd_ptr->count("--phi-i") > 0) {
-            return gonio::tools::usage_error(
-                "convert", "--phi-i applies to an RGL *.bsdf output only, not " + opts->output);
-        }
-        // The options each conversion honours; the others are refused, naming the conversion.
-        const bool csv_in = ends_with(opts->input, ".csv");
-        const bool table_in = gonio::brdf::is_table_path(opts->input);
-        const bool stored_in = table_in || gonio::brdf::is_rgl_path(opts->input);
-        const bool merl_out = table_out && !ends_with(opts->output, ".gtab");
-        const char* refused = nullptr;
-        std::string why;
-        if (cmd_ptr->count("--grid") > 0 && merl_out) {
-            refused = "--grid";
-            why =
-                "a MERL output (*.binary, *.merl) is always 90x90x180; write a *.gtab for "
-                "another grid";
-        } else if (cmd_ptr->count("--grid") > 0 && !table_out && stored_in) {
-            refused = "--grid";
-            why = "a stored file is written to CSV at its own bins or nodes";
-        } else if (cmd_ptr->count("--interpolation") > 0 && (!table_in || !table_out)) {
-            refused = "--interpolation";
-            why = table_in ? "a table is written to CSV at its bin centres, without lookups"
-                           : "only a table input is looked up";
-        } else if (cmd_ptr->count("--threads") > 0 && (csv_in || stored_in) && !table_out) {
-            refused = "--threads";
-            why = "nothing is tabulated when a stored file is written to CSV";
-        } else if (cmd_ptr->count("--threads") > 0 && csv_in) {
-            refused = "--threads";
-            why = "resampling a CSV onto a table runs on one thread";
-        } else if (cmd_ptr->count("--radius") > 0 && !(csv_in && table_out)) {
-            refused = "--radius";
-            why = "the kernel radius is for resampling a sample CSV onto a table";
-        }
-        if (refused != nullptr) {
-            return gonio::tools::usage_error("convert",
-                                             std::string(refused) + " does not apply to " +
-                                                 opts->input + " -> " + opts->output + ": " + why);
-        }
-        if (merl_out) {
-            grid = gonio::brdf::TableGrid::merl();
-        }
-        // Refused before any work: an output that is a folder or a device, a missing folder.
-        if (auto ok = gonio::check_output_path(opts->output); !ok) {
-            return fail(ok.error().message);
-        }
-        // Memory: the table, and for CSV outputs up to one sample (about 150 bytes with its
-        // text) per bin.
-        const bool grid_used = table_out || (!gonio::brdf::is_table_path(opts->input) &&
-                                             !gonio::brdf::is_rgl_path(opts->input));
-        if (grid_used) {
-            // A table output is encoded into one buffer before it is written: twice the table.
-            const double bytes =
-                table_bytes(grid) * (csv_in ? 2.3 : 1.0) +
-                (table_out ? table_bytes(grid) : static_cast<double>(grid.size()) * 150);
-            if (auto ok = gonio::check_memory(bytes, "convert to a " + grid_text(grid) + " grid");
-                !ok) {
-                return fail(ok.error().message);
-            }
-        }
-        return table_out ? to_table(*opts, grid) : to_csv(*opts, grid);
-    };
+}
+
+}  // namespace
+
+GONIO_COMMAND(convert) {
+    auto* cmd = app.add_subcommand(
+        "convert",
+        "convert between models (*.json), tables (MERL *.binary/*.merl, *.gtab), RGL materials "
+        "(*.bsdf) and sample CSVs");
+    auto opts = std::make_shared<ConvertOptions>();
+    add_convert_options(cmd, opts.get());
+    return [opts, cmd_ptr = cmd]() -> int { return run_convert(*opts, *cmd_ptr); };
 }

@@ -107,27 +107,12 @@ bool is_full_command(const char* name) {
 }
 #endif
 
-}  // namespace
+using Runs = std::map<std::string, gonio::tools::CommandRun>;
 
-int main(int argc, char** argv) {
+/// Every command in name order: the registered ones (set up here) and, in gonio, those run by
+/// gonio-full (listed in --help and known to the suggestions).
+Runs set_up_commands(CLI::App& app) {
     using gonio::tools::CommandEntry;
-    // Freed buffers stay with the process and its first heap pages are huge (huge_pages.h): a
-    // command allocates and frees the same large buffers many times over, and ends soon anyway.
-    gonio::keep_heap_for_batch_work();
-    CLI::App app{"gonio: gonioreflectometer control, BRDF acquisition and model fitting", "gonio"};
-    app.set_version_flag(
-        "--version", std::string("gonio ") + GONIO_VERSION_STRING + " (" + GONIO_COMMIT_TEXT + ")");
-    app.require_subcommand(1);
-    // Options of gonio itself may also follow the command (gonio convert ... --max-memory 8G).
-    app.fallthrough();
-    std::string max_memory;
-    app.add_option("--max-memory",
-                   max_memory,
-                   "memory budget of the command, e.g. 512M, 8G (default 2G); work that needs "
-                   "more is refused before it starts");
-    app.footer(gonio::tools::kExitRule);
-    // Every command in name order: the registered ones (set up here) and, in gonio, those run by
-    // gonio-full (listed in --help and known to the suggestions).
     struct Listed {
         std::string name;
         const CommandEntry* entry;
@@ -145,7 +130,7 @@ int main(int argc, char** argv) {
     std::sort(listed.begin(), listed.end(), [](const Listed& a, const Listed& b) {
         return a.name < b.name;
     });
-    std::map<std::string, gonio::tools::CommandRun> runs;
+    Runs runs;
     for (const Listed& l : listed) {
         if (l.entry != nullptr) {
             runs[l.name] = l.entry->setup(app);
@@ -154,7 +139,36 @@ int main(int argc, char** argv) {
             runs[l.name] = {};
         }
     }
-    // The first word that is not an option must name a command.
+    return runs;
+}
+
+/// An unknown command: said with the nearest known one (within 2 edits) and the list.
+int unknown_command(const char* word, const Runs& runs) {
+    std::string best;
+    std::size_t best_d = 3;
+    std::string all;
+    for (const auto& [name, run] : runs) {
+        all += all.empty() ? "" : ", ";
+        all += name;
+        const std::size_t d = gonio::edit_distance(word, name);
+        if (d < best_d) {
+            best_d = d;
+            best = name;
+        }
+    }
+    std::fprintf(stderr,
+                 "gonio: unknown command \"%.64s\"%s%s%s (commands: %s; see gonio --help)\n",
+                 word,
+                 best.empty() ? "" : "; did you mean \"",
+                 best.c_str(),
+                 best.empty() ? "" : "\"?",
+                 all.c_str());
+    return kExitUsage;
+}
+
+/// The first word that is not an option must name a command: the exit code when it does not
+/// (or, in gonio, when gonio-full ran it), -1 to go on.
+int check_first_word(int argc, char** argv, const Runs& runs) {
     for (int i = 1; i < argc; ++i) {
         if (argv[i][0] == '-') {
             if (std::strcmp(argv[i], "--max-memory") == 0) {
@@ -163,27 +177,7 @@ int main(int argc, char** argv) {
             continue;
         }
         if (runs.count(argv[i]) == 0) {
-            std::string best;
-            std::size_t best_d = 3;
-            std::string all;
-            for (const auto& [name, run] : runs) {
-                all += all.empty() ? "" : ", ";
-                all += name;
-                const std::size_t d = gonio::edit_distance(argv[i], name);
-                if (d < best_d) {
-                    best_d = d;
-                    best = name;
-                }
-            }
-            std::fprintf(
-                stderr,
-                "gonio: unknown command \"%.64s\"%s%s%s (commands: %s; see gonio --help)\n",
-                argv[i],
-                best.empty() ? "" : "; did you mean \"",
-                best.c_str(),
-                best.empty() ? "" : "\"?",
-                all.c_str());
-            return kExitUsage;
+            return unknown_command(argv[i], runs);
         }
 #if defined(GONIO_LAUNCHER)
         if (is_full_command(argv[i])) {
@@ -192,6 +186,11 @@ int main(int argc, char** argv) {
 #endif
         break;
     }
+    return -1;
+}
+
+/// CLI11's parse: the exit code for help, version and parse errors, -1 to go on.
+int parse_command_line(CLI::App& app, int argc, char** argv) {
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
@@ -203,6 +202,47 @@ int main(int argc, char** argv) {
     } catch (const CLI::ParseError& e) {
         return gonio::tools::report_parse_error(app, e);
     }
+    return -1;
+}
+
+/// Runs the command given; commands return 0, 1 or 2, anything else is a failure of the work.
+int run_command(CLI::App& app, const Runs& runs) {
+    for (CLI::App* sub : app.get_subcommands()) {
+        auto it = runs.find(sub->get_name());
+        if (it != runs.end() && it->second) {
+            const int status = it->second();
+            return status == 0 || status == kExitUsage ? status : kExitFailure;
+        }
+    }
+    std::fprintf(stderr, "gonio: no command given (see gonio --help)\n");
+    return kExitUsage;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    // Freed buffers stay with the process and its first heap pages are huge (huge_pages.h): a
+    // command allocates and frees the same large buffers many times over, and ends soon anyway.
+    gonio::keep_heap_for_batch_work();
+    CLI::App app{"gonio: gonioreflectometer control, BRDF acquisition and model fitting", "gonio"};
+    app.set_version_flag(
+        "--version", std::string("gonio ") + GONIO_VERSION_STRING + " (" + GONIO_COMMIT_TEXT + ")");
+    app.require_subcommand(1);
+    // Options of gonio itself may also follow the command (gonio convert ... --max-memory 8G).
+    app.fallthrough();
+    std::string max_memory;
+    app.add_option("--max-memory",
+                   max_memory,
+                   "memory budget of the command, e.g. 512M, 8G (default 2G); work that needs "
+                   "more is refused before it starts");
+    app.footer(gonio::tools::kExitRule);
+    const Runs runs = set_up_commands(app);
+    if (const int rc = check_first_word(argc, argv, runs); rc >= 0) {
+        return rc;
+    }
+    if (const int rc = parse_command_line(app, argc, argv); rc >= 0) {
+        return rc;
+    }
     if (!max_memory.empty()) {
         gonio::Expected<std::size_t> bytes = gonio::parse_byte_size(max_memory);
         if (!bytes) {
@@ -211,15 +251,5 @@ int main(int argc, char** argv) {
         }
         gonio::set_max_memory_bytes(*bytes);
     }
-    for (CLI::App* sub : app.get_subcommands()) {
-        auto it = runs.find(sub->get_name());
-        if (it != runs.end() && it->second) {
-            const int status = it->second();
-
-            // Commands return 0, 1 or 2; anything else is a failure of the work.
-            return status == 0 || status == kExitUsage ? status : kExitFailure;
-        }
-    }
-    std::fprintf(stderr, "gonio: no command given (see gonio --help)\n");
-    return kExitUsage;
+    return run_command(app, runs);
 }
