@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 
 #include "gonio/brdf/blinn_phong.h"
@@ -323,123 +324,105 @@ double k_from_f0(double f0) {
     return 2 * std::sqrt(f0) / std::sqrt(1 - f0);
 }
 
-Expected<RendererExport> export_mitsuba(const ModelD& model_in, const std::string& id) {
-    if (auto v = check_name(id, "material id"); !v) {
-        return make_error(v.error().message);
-    }
-    const Expected<ModelD> model_or = representable(model_in, "Mitsuba 3");
-    if (!model_or) {
-        return make_error(model_or.error().message);
-    }
-    const ModelD& model = *model_or;
-    if (auto v = validate(model); !v) {
-        return make_error(v.error().message);
-    }
-    RendererExport out;
-    std::vector<std::string>& notes = out.approximations;
-    shadowing_notes(model, Shadowing::kSmithSeparable, "Mitsuba 3", notes);
+namespace {
 
-    // Components: the diffuse term (when present and non-zero) and every lobe.
-    struct Component {
-        std::string xml_open;  // without the closing tag, indented by the caller
-        std::vector<std::string> params;
-    };
-    std::vector<Component> comps;
-    const bool diffuse = model.has_diffuse && model.diffuse.maxCoeff() > 0;
-    const int m = static_cast<int>(model.lobes.size()) + (diffuse ? 1 : 0);
-    const double factor = std::max(1, m);
-    if (m > 1) {
-        notes.push_back("the " + std::to_string(m) +
-                        " terms are combined with blendbsdf (each weighted 1/" + std::to_string(m) +
-                        ") and each term's reflectance multiplied by " + std::to_string(m) +
-                        "; reflectances above 1 need an RGB variant of Mitsuba (scalar_rgb, "
-                        "llvm_ad_rgb)");
-    }
-    if (diffuse) {
-        comps.push_back({"diffuse",
-                         {"<rgb name=\"reflectance\" value=\"" +
-                          rgb_list(model.diffuse * factor, ", ") + "\"/>"}});
-    }
-    if (m == 0) {
-        notes.push_back("the model has no term: exported as a black diffuse");
-        comps.push_back({"diffuse", {"<rgb name=\"reflectance\" value=\"0, 0, 0\"/>"}});
-    }
-    for (std::size_t i = 0; i < model.lobes.size(); ++i) {
-        const Lobe<double>& l = model.lobes[i];
-        const std::string p = "lobes[" + std::to_string(i) + "]";
-        Component c{"roughconductor", {}};
-        const char* dist = l.distribution == Distribution::kGgx ? "ggx" : "beckmann";
-        if (l.distribution == Distribution::kBlinnPhong) {
-            notes.push_back(p + ": Blinn-Phong exponent " + num(l.exponent) +
-                            " mapped to Beckmann alpha = sqrt(2 / (e + 2)) = " +
-                            num(lobe_alphas(l).first) + " (Walter et al. 2007, sec. 5.2)");
-        }
-        c.params.push_back(std::string("<string name=\"distribution\" value=\"") + dist + "\"/>");
-        const auto [ax, ay] = lobe_alphas(l);
-        if (l.anisotropic && l.distribution != Distribution::kBlinnPhong) {
-            c.params.push_back("<float name=\"alpha_u\" value=\"" + num(ax) + "\"/>");
-            c.params.push_back("<float name=\"alpha_v\" value=\"" + num(ay) + "\"/>");
-            notes.push_back(p +
-                            ": alpha_u runs along the shape's u tangent, which must follow "
-                            "the sample's x reference direction");
-        } else {
-            c.params.push_back("<float name=\"alpha\" value=\"" + num(ax) + "\"/>");
-        }
-        switch (l.fresnel.type) {
-            case FresnelType::kNone:
-                c.params.push_back("<string name=\"material\" value=\"none\"/>");
-                break;
-            case FresnelType::kConductor:
-                c.params.push_back("<rgb name=\"eta\" value=\"" +
-                                   rgb_list(l.fresnel.eta_rgb, ", ") + "\"/>");
-                c.params.push_back("<rgb name=\"k\" value=\"" + rgb_list(l.fresnel.k, ", ") +
-                                   "\"/>");
-                break;
-            case FresnelType::kDielectric:
-                c.params.push_back("<rgb name=\"eta\" value=\"" +
-                                   rgb_list(Rgbd::Constant(l.fresnel.eta), ", ") + "\"/>");
-                c.params.push_back("<rgb name=\"k\" value=\"0, 0, 0\"/>");
-                if (l.fresnel.eta < 1) {
-                    notes.push_back(p +
-                                    ": dielectric eta < 1 (total internal reflection) "
-                                    "written as a conductor with k = 0");
-                }
-                break;
-            case FresnelType::kSchlick: {
-                if ((l.fresnel.f0 >= kMirrorF0).any()) {
-                    // No dielectric reflects everything at normal incidence (eta would run to
-                    // infinity): a conductor of eta = 1 with k from f0 matches F(0) instead.
-                    Rgbd k;
-                    for (int ch = 0; ch < 3; ++ch) {
-                        k[ch] = k_from_f0(l.fresnel.f0[ch]);
-                    }
-                    c.params.push_back("<rgb name=\"eta\" value=\"1, 1, 1\"/>");
-                    c.params.push_back("<rgb name=\"k\" value=\"" + rgb_list(k, ", ") + "\"/>");
-                    notes.push_back(p + ": Schlick f0 " + rgb_list(l.fresnel.f0, " ") +
-                                    " reaches 1, which no dielectric index gives (eta would be "
-                                    "infinite): written as a conductor with eta = 1, k = 2 "
-                                    "sqrt(f0) / sqrt(1 - f0) (k = 1e4 where f0 = 1), equal at "
-                                    "normal incidence");
-                    break;
-                }
-                Rgbd eta;
+/// A Mitsuba 3 BSDF: its type and its parameters (XML elements).
+struct MitsubaComponent {
+    std::string xml_open;  // without the closing tag, indented by the caller
+    std::vector<std::string> params;
+};
+
+/// The Fresnel term of a lobe as a roughconductor's eta and k ("material" none for F = 1).
+void mitsuba_fresnel(const Lobe<double>& l,
+                     const std::string& p,
+                     MitsubaComponent& c,
+                     std::vector<std::string>& notes) {
+    switch (l.fresnel.type) {
+        case FresnelType::kNone:
+            c.params.push_back("<string name=\"material\" value=\"none\"/>");
+            break;
+        case FresnelType::kConductor:
+            c.params.push_back("<rgb name=\"eta\" value=\"" + rgb_list(l.fresnel.eta_rgb, ", ") +
+                               "\"/>");
+            c.params.push_back("<rgb name=\"k\" value=\"" + rgb_list(l.fresnel.k, ", ") + "\"/>");
+            break;
+        case FresnelType::kDielectric:
+            c.params.push_back("<rgb name=\"eta\" value=\"" +
+                               rgb_list(Rgbd::Constant(l.fresnel.eta), ", ") + "\"/>");
+            c.params.push_back("<rgb name=\"k\" value=\"0, 0, 0\"/>");
+            if (l.fresnel.eta < 1) {
+                notes.push_back(p +
+                                ": dielectric eta < 1 (total internal reflection) "
+                                "written as a conductor with k = 0");
+            }
+            break;
+        case FresnelType::kSchlick: {
+            if ((l.fresnel.f0 >= kMirrorF0).any()) {
+                // No dielectric reflects everything at normal incidence (eta would run to
+                // infinity): a conductor of eta = 1 with k from f0 matches F(0) instead.
+                Rgbd k;
                 for (int ch = 0; ch < 3; ++ch) {
-                    eta[ch] = eta_from_f0(l.fresnel.f0[ch]);
+                    k[ch] = k_from_f0(l.fresnel.f0[ch]);
                 }
-                c.params.push_back("<rgb name=\"eta\" value=\"" + rgb_list(eta, ", ") + "\"/>");
-                c.params.push_back("<rgb name=\"k\" value=\"0, 0, 0\"/>");
-                notes.push_back(p + ": Schlick Fresnel (f0 " + rgb_list(l.fresnel.f0, " ") +
-                                ") replaced by the exact dielectric Fresnel with eta = (1 + "
-                                "sqrt f0) / (1 - sqrt f0): equal at normal incidence, differs "
-                                "toward grazing angles");
+                c.params.push_back("<rgb name=\"eta\" value=\"1, 1, 1\"/>");
+                c.params.push_back("<rgb name=\"k\" value=\"" + rgb_list(k, ", ") + "\"/>");
+                notes.push_back(p + ": Schlick f0 " + rgb_list(l.fresnel.f0, " ") +
+                                " reaches 1, which no dielectric index gives (eta would be "
+                                "infinite): written as a conductor with eta = 1, k = 2 "
+                                "sqrt(f0) / sqrt(1 - f0) (k = 1e4 where f0 = 1), equal at "
+                                "normal incidence");
                 break;
             }
+            Rgbd eta;
+            for (int ch = 0; ch < 3; ++ch) {
+                eta[ch] = eta_from_f0(l.fresnel.f0[ch]);
+            }
+            c.params.push_back("<rgb name=\"eta\" value=\"" + rgb_list(eta, ", ") + "\"/>");
+            c.params.push_back("<rgb name=\"k\" value=\"0, 0, 0\"/>");
+            notes.push_back(p + ": Schlick Fresnel (f0 " + rgb_list(l.fresnel.f0, " ") +
+                            ") replaced by the exact dielectric Fresnel with eta = (1 + "
+                            "sqrt f0) / (1 - sqrt f0): equal at normal incidence, differs "
+                            "toward grazing angles");
+            break;
         }
-        c.params.push_back("<rgb name=\"specular_reflectance\" value=\"" +
-                           rgb_list(l.scale * factor, ", ") + "\"/>");
-        comps.push_back(c);
     }
+}
 
+/// Lobe i as a roughconductor whose reflectance is multiplied by `factor` (the blend's share).
+MitsubaComponent mitsuba_lobe(const Lobe<double>& l,
+                              std::size_t i,
+                              double factor,
+                              std::vector<std::string>& notes) {
+    const std::string p = "lobes[" + std::to_string(i) + "]";
+    MitsubaComponent c{"roughconductor", {}};
+    const char* dist = l.distribution == Distribution::kGgx ? "ggx" : "beckmann";
+    if (l.distribution == Distribution::kBlinnPhong) {
+        notes.push_back(p + ": Blinn-Phong exponent " + num(l.exponent) +
+                        " mapped to Beckmann alpha = sqrt(2 / (e + 2)) = " +
+                        num(lobe_alphas(l).first) + " (Walter et al. 2007, sec. 5.2)");
+    }
+    c.params.push_back(std::string("<string name=\"distribution\" value=\"") + dist + "\"/>");
+    const auto [ax, ay] = lobe_alphas(l);
+    if (l.anisotropic && l.distribution != Distribution::kBlinnPhong) {
+        c.params.push_back("<float name=\"alpha_u\" value=\"" + num(ax) + "\"/>");
+        c.params.push_back("<float name=\"alpha_v\" value=\"" + num(ay) + "\"/>");
+        notes.push_back(p +
+                        ": alpha_u runs along the shape's u tangent, which must follow "
+                        "the sample's x reference direction");
+    } else {
+        c.params.push_back("<float name=\"alpha\" value=\"" + num(ax) + "\"/>");
+    }
+    mitsuba_fresnel(l, p, c, notes);
+    c.params.push_back("<rgb name=\"specular_reflectance\" value=\"" +
+                       rgb_list(l.scale * factor, ", ") + "\"/>");
+    return c;
+}
+
+/// The scene file: a comment with the notes, the components in nested blends (blend(weight
+/// (r-1)/r, c_j, rest) gives c_j the share 1/r of what reaches it), the outermost named `id`.
+std::string mitsuba_xml(const std::string& id,
+                        const std::vector<std::string>& notes,
+                        const std::vector<MitsubaComponent>& comps) {
     std::ostringstream os;
     os << "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n";
     os << "<!--\n  gonio model exported for Mitsuba 3. Reference it with <ref id=\""
@@ -454,7 +437,6 @@ Expected<RendererExport> export_mitsuba(const ModelD& model_in, const std::strin
         }
     }
     os << "-->\n<scene version=\"3.0.0\">\n";
-    // Nested blends: blend(weight (r-1)/r, c_j, rest) gives c_j the share 1/r of what reaches it.
     std::string indent = "    ";
     const std::size_t n = comps.size();
     for (std::size_t j = 0; j < n; ++j) {
@@ -478,110 +460,113 @@ Expected<RendererExport> export_mitsuba(const ModelD& model_in, const std::strin
         os << indent << "</bsdf>\n";
     }
     os << "</scene>\n";
-    out.text = os.str();
-    return out;
+    return os.str();
 }
 
-Expected<RendererExport> export_pbrt(const ModelD& model_in, const std::string& name) {
-    if (auto v = check_name(name, "material name"); !v) {
-        return make_error(v.error().message);
-    }
-    const Expected<ModelD> model_or = representable(model_in, "pbrt-v4");
-    if (!model_or) {
-        return make_error(model_or.error().message);
-    }
-    const ModelD& model = *model_or;
-    if (auto v = validate(model); !v) {
-        return make_error(v.error().message);
-    }
-    RendererExport out;
-    std::vector<std::string>& notes = out.approximations;
-    shadowing_notes(model, Shadowing::kSmithCorrelated, "pbrt-v4", notes);
+/// A pbrt-v4 material: its name, its share of the mix, its type and its parameters.
+struct PbrtComponent {
+    std::string name;
+    double weight;
+    std::vector<std::string> params;  // after the type
+    std::string type;
+};
 
-    struct Component {
-        std::string name;
-        double weight;
-        std::vector<std::string> params;  // after the type
-        std::string type;
-    };
-    std::vector<Component> comps;
-    double lobe_weights = 0;
-    for (std::size_t i = 0; i < model.lobes.size(); ++i) {
-        const Lobe<double>& l = model.lobes[i];
-        const std::string p = "lobes[" + std::to_string(i) + "]";
-        Component c{name + ".lobe" + std::to_string(i), l.scale.maxCoeff(), {}, "conductor"};
-        if (!(c.weight > 0)) {
-            notes.push_back(p + ": scale is zero; the lobe is left out");
-            continue;
+/// The conductor's eta and k of a lobe whose scale, divided by its largest channel, is `ratio`:
+/// a coloured scale is folded into the reflectance at normal incidence.
+void pbrt_fresnel(const Lobe<double>& l,
+                  const std::string& p,
+                  const Rgbd& ratio,
+                  Rgbd* eta,
+                  Rgbd* k,
+                  std::vector<std::string>& notes) {
+    *eta = Rgbd::Ones();
+    *k = Rgbd::Zero();
+    if (!is_grey(l.scale)) {
+        const Rgbd f0 = ratio * normal_reflectance(l.fresnel);
+        for (int ch = 0; ch < 3; ++ch) {
+            (*k)[ch] = k_from_f0(f0[ch]);
         }
-        lobe_weights += c.weight;
-        if (l.distribution == Distribution::kBeckmann) {
-            notes.push_back(p +
-                            ": Beckmann distribution replaced by Trowbridge-Reitz (GGX) with "
-                            "the same alpha (pbrt-v4 has only Trowbridge-Reitz)");
-        } else if (l.distribution == Distribution::kBlinnPhong) {
-            notes.push_back(
-                p + ": Blinn-Phong exponent " + num(l.exponent) +
-                " replaced by Trowbridge-Reitz (GGX) with alpha = sqrt(2 / (e + 2)) = " +
-                num(lobe_alphas(l).first));
-        }
-        const auto [ax, ay] = lobe_alphas(l);
-        if (l.anisotropic && l.distribution != Distribution::kBlinnPhong) {
-            c.params.push_back("\"float uroughness\" [ " + num(ax) + " ]");
-            c.params.push_back("\"float vroughness\" [ " + num(ay) + " ]");
-            notes.push_back(p +
-                            ": uroughness runs along dp/du, which must follow the sample's x "
-                            "reference direction");
-        } else {
-            c.params.push_back("\"float roughness\" [ " + num(ax) + " ]");
-        }
-        c.params.push_back("\"bool remaproughness\" [ false ]");
-        Rgbd eta = Rgbd::Ones();
-        Rgbd k = Rgbd::Zero();
-        const Rgbd ratio = l.scale / c.weight;
-        if (!is_grey(l.scale)) {
-            const Rgbd f0 = ratio * normal_reflectance(l.fresnel);
-            for (int ch = 0; ch < 3; ++ch) {
-                k[ch] = k_from_f0(f0[ch]);
-            }
-            notes.push_back(p + ": the colour of scale (" + rgb_list(l.scale, " ") +
-                            ") is folded into the Fresnel reflectance at normal incidence "
-                            "(eta = 1, k from f0 = " +
-                            rgb_list(f0, " ") +
-                            "); exact at normal incidence, the colour fades toward grazing");
-        } else {
-            switch (l.fresnel.type) {
-                case FresnelType::kNone:
-                    k = Rgbd::Constant(k_from_f0(1.0));
-                    notes.push_back(p + ": F = 1 written as eta = 1, k = 1e4 (F >= 1 - 4e-8)");
-                    break;
-                case FresnelType::kConductor:
-                    eta = l.fresnel.eta_rgb;
-                    k = l.fresnel.k;
-                    break;
-                case FresnelType::kDielectric:
-                    eta = Rgbd::Constant(l.fresnel.eta);
-                    if (l.fresnel.eta < 1) {
-                        notes.push_back(p +
-                                        ": dielectric eta < 1 written as a conductor with "
-                                        "k = 0");
-                    }
-                    break;
-                case FresnelType::kSchlick:
-                    for (int ch = 0; ch < 3; ++ch) {
-                        k[ch] = k_from_f0(l.fresnel.f0[ch]);
-                    }
-                    notes.push_back(p + ": Schlick Fresnel (f0 " + rgb_list(l.fresnel.f0, " ") +
-                                    ") replaced by the conductor Fresnel with eta = 1, k = 2 "
-                                    "sqrt(f0) / sqrt(1 - f0): equal at normal incidence, differs "
-                                    "toward grazing angles");
-                    break;
-            }
-        }
-        c.params.push_back("\"rgb eta\" [ " + rgb_list(eta, " ") + " ]");
-        c.params.push_back("\"rgb k\" [ " + rgb_list(k, " ") + " ]");
-        comps.push_back(c);
+        notes.push_back(p + ": the colour of scale (" + rgb_list(l.scale, " ") +
+                        ") is folded into the Fresnel reflectance at normal incidence "
+                        "(eta = 1, k from f0 = " +
+                        rgb_list(f0, " ") +
+                        "); exact at normal incidence, the colour fades toward grazing");
+        return;
     }
+    switch (l.fresnel.type) {
+        case FresnelType::kNone:
+            *k = Rgbd::Constant(k_from_f0(1.0));
+            notes.push_back(p + ": F = 1 written as eta = 1, k = 1e4 (F >= 1 - 4e-8)");
+            break;
+        case FresnelType::kConductor:
+            *eta = l.fresnel.eta_rgb;
+            *k = l.fresnel.k;
+            break;
+        case FresnelType::kDielectric:
+            *eta = Rgbd::Constant(l.fresnel.eta);
+            if (l.fresnel.eta < 1) {
+                notes.push_back(p +
+                                ": dielectric eta < 1 written as a conductor with "
+                                "k = 0");
+            }
+            break;
+        case FresnelType::kSchlick:
+            for (int ch = 0; ch < 3; ++ch) {
+                (*k)[ch] = k_from_f0(l.fresnel.f0[ch]);
+            }
+            notes.push_back(p + ": Schlick Fresnel (f0 " + rgb_list(l.fresnel.f0, " ") +
+                            ") replaced by the conductor Fresnel with eta = 1, k = 2 "
+                            "sqrt(f0) / sqrt(1 - f0): equal at normal incidence, differs "
+                            "toward grazing angles");
+            break;
+    }
+}
+
+/// Lobe i as a conductor weighted by its scale's largest channel; nothing for a zero scale.
+std::optional<PbrtComponent> pbrt_lobe(const Lobe<double>& l,
+                                       std::size_t i,
+                                       const std::string& name,
+                                       std::vector<std::string>& notes) {
+    const std::string p = "lobes[" + std::to_string(i) + "]";
+    PbrtComponent c{name + ".lobe" + std::to_string(i), l.scale.maxCoeff(), {}, "conductor"};
+    if (!(c.weight > 0)) {
+        notes.push_back(p + ": scale is zero; the lobe is left out");
+        return std::nullopt;
+    }
+    if (l.distribution == Distribution::kBeckmann) {
+        notes.push_back(p +
+                        ": Beckmann distribution replaced by Trowbridge-Reitz (GGX) with "
+                        "the same alpha (pbrt-v4 has only Trowbridge-Reitz)");
+    } else if (l.distribution == Distribution::kBlinnPhong) {
+        notes.push_back(p + ": Blinn-Phong exponent " + num(l.exponent) +
+                        " replaced by Trowbridge-Reitz (GGX) with alpha = sqrt(2 / (e + 2)) = " +
+                        num(lobe_alphas(l).first));
+    }
+    const auto [ax, ay] = lobe_alphas(l);
+    if (l.anisotropic && l.distribution != Distribution::kBlinnPhong) {
+        c.params.push_back("\"float uroughness\" [ " + num(ax) + " ]");
+        c.params.push_back("\"float vroughness\" [ " + num(ay) + " ]");
+        notes.push_back(p +
+                        ": uroughness runs along dp/du, which must follow the sample's x "
+                        "reference direction");
+    } else {
+        c.params.push_back("\"float roughness\" [ " + num(ax) + " ]");
+    }
+    c.params.push_back("\"bool remaproughness\" [ false ]");
+    Rgbd eta, k;
+    pbrt_fresnel(l, p, l.scale / c.weight, &eta, &k, notes);
+    c.params.push_back("\"rgb eta\" [ " + rgb_list(eta, " ") + " ]");
+    c.params.push_back("\"rgb k\" [ " + rgb_list(k, " ") + " ]");
+    return c;
+}
+
+/// The mix weights: the lobes' and the diffuse albedo's, divided by their total when it exceeds
+/// 1; the diffuse term (first) takes what the lobes leave.
+void pbrt_mix_weights(const ModelD& model,
+                      const std::string& name,
+                      double lobe_weights,
+                      std::vector<PbrtComponent>& comps,
+                      std::vector<std::string>& notes) {
     const double rho_max = model.has_diffuse ? model.diffuse.maxCoeff() : 0.0;
     const double total = lobe_weights + rho_max;
     double divide = 1.0;
@@ -592,12 +577,12 @@ Expected<RendererExport> export_pbrt(const ModelD& model_in, const std::string& 
                         ", so the material reflects the model / " + num(total) +
                         " (multiply the light by " + num(total) + " to compensate)");
     }
-    for (Component& c : comps) {
+    for (PbrtComponent& c : comps) {
         c.weight /= divide;
     }
     const double w_d = 1.0 - lobe_weights / divide;
     if (w_d > 1e-12) {
-        Component d{name + ".diffuse", w_d, {}, "diffuse"};
+        PbrtComponent d{name + ".diffuse", w_d, {}, "diffuse"};
         const Rgbd refl = model.has_diffuse ? Rgbd(model.diffuse / divide / w_d) : Rgbd::Zero();
         d.params.push_back("\"rgb reflectance\" [ " + rgb_list(refl, " ") + " ]");
         comps.insert(comps.begin(), d);
@@ -608,7 +593,13 @@ Expected<RendererExport> export_pbrt(const ModelD& model_in, const std::string& 
             "shading point, equal to the sum in expectation (more noise per sample; "
             "pbrt's GPU renderer does not take mixes of mixes)");
     }
+}
 
+/// The scene fragment: a comment with the notes, each component as a named material and (for
+/// several) the chain of mixes, the outermost called `name`.
+std::string pbrt_text(const std::string& name,
+                      const std::vector<std::string>& notes,
+                      const std::vector<PbrtComponent>& comps) {
     std::ostringstream os;
     os << "# gonio model exported for pbrt-v4. Use with: NamedMaterial \"" << name << "\"\n";
     os << "# Mapping: docs/file-formats.md (renderer exports).\n";
@@ -630,26 +621,98 @@ Expected<RendererExport> export_pbrt(const ModelD& model_in, const std::string& 
     };
     if (comps.size() == 1) {
         emit(name, comps[0].type, comps[0].params);
-    } else {
-        for (const Component& c : comps) {
-            emit(c.name, c.type, c.params);
-        }
-        // Mix chain from the innermost: mix_j = mix(c_j, mix_{j+1}), amount = P(second) = 1 -
-        // w_j / (w_j + ... + w_last).
-        std::string inner = comps.back().name;
-        double remaining = comps.back().weight;
-        for (std::size_t j = comps.size() - 1; j-- > 0;) {
-            remaining += comps[j].weight;
-            const std::string nm = j == 0 ? name : name + ".mix" + std::to_string(j);
-            const double amount = 1.0 - comps[j].weight / remaining;
-            emit(nm,
-                 "mix",
-                 {"\"string materials\" [ \"" + comps[j].name + "\" \"" + inner + "\" ]",
-                  "\"float amount\" [ " + num(amount) + " ]"});
-            inner = nm;
+        return os.str();
+    }
+    for (const PbrtComponent& c : comps) {
+        emit(c.name, c.type, c.params);
+    }
+    // Mix chain from the innermost: mix_j = mix(c_j, mix_{j+1}), amount = P(second) = 1 -
+    // w_j / (w_j + ... + w_last).
+    std::string inner = comps.back().name;
+    double remaining = comps.back().weight;
+    for (std::size_t j = comps.size() - 1; j-- > 0;) {
+        remaining += comps[j].weight;
+        const std::string nm = j == 0 ? name : name + ".mix" + std::to_string(j);
+        const double amount = 1.0 - comps[j].weight / remaining;
+        emit(nm,
+             "mix",
+             {"\"string materials\" [ \"" + comps[j].name + "\" \"" + inner + "\" ]",
+              "\"float amount\" [ " + num(amount) + " ]"});
+        inner = nm;
+    }
+    return os.str();
+}
+
+}  // namespace
+
+Expected<RendererExport> export_mitsuba(const ModelD& model_in, const std::string& id) {
+    if (auto v = check_name(id, "material id"); !v) {
+        return make_error(v.error().message);
+    }
+    const Expected<ModelD> model_or = representable(model_in, "Mitsuba 3");
+    if (!model_or) {
+        return make_error(model_or.error().message);
+    }
+    const ModelD& model = *model_or;
+    if (auto v = validate(model); !v) {
+        return make_error(v.error().message);
+    }
+    RendererExport out;
+    std::vector<std::string>& notes = out.approximations;
+    shadowing_notes(model, Shadowing::kSmithSeparable, "Mitsuba 3", notes);
+    // Components: the diffuse term (when present and non-zero) and every lobe.
+    std::vector<MitsubaComponent> comps;
+    const bool diffuse = model.has_diffuse && model.diffuse.maxCoeff() > 0;
+    const int m = static_cast<int>(model.lobes.size()) + (diffuse ? 1 : 0);
+    const double factor = std::max(1, m);
+    if (m > 1) {
+        notes.push_back("the " + std::to_string(m) +
+                        " terms are combined with blendbsdf (each weighted 1/" + std::to_string(m) +
+                        ") and each term's reflectance multiplied by " + std::to_string(m) +
+                        "; reflectances above 1 need an RGB variant of Mitsuba (scalar_rgb, "
+                        "llvm_ad_rgb)");
+    }
+    if (diffuse) {
+        comps.push_back({"diffuse",
+                         {"<rgb name=\"reflectance\" value=\"" +
+                          rgb_list(model.diffuse * factor, ", ") + "\"/>"}});
+    }
+    if (m == 0) {
+        notes.push_back("the model has no term: exported as a black diffuse");
+        comps.push_back({"diffuse", {"<rgb name=\"reflectance\" value=\"0, 0, 0\"/>"}});
+    }
+    for (std::size_t i = 0; i < model.lobes.size(); ++i) {
+        comps.push_back(mitsuba_lobe(model.lobes[i], i, factor, notes));
+    }
+    out.text = mitsuba_xml(id, notes, comps);
+    return out;
+}
+
+Expected<RendererExport> export_pbrt(const ModelD& model_in, const std::string& name) {
+    if (auto v = check_name(name, "material name"); !v) {
+        return make_error(v.error().message);
+    }
+    const Expected<ModelD> model_or = representable(model_in, "pbrt-v4");
+    if (!model_or) {
+        return make_error(model_or.error().message);
+    }
+    const ModelD& model = *model_or;
+    if (auto v = validate(model); !v) {
+        return make_error(v.error().message);
+    }
+    RendererExport out;
+    std::vector<std::string>& notes = out.approximations;
+    shadowing_notes(model, Shadowing::kSmithCorrelated, "pbrt-v4", notes);
+    std::vector<PbrtComponent> comps;
+    double lobe_weights = 0;
+    for (std::size_t i = 0; i < model.lobes.size(); ++i) {
+        if (std::optional<PbrtComponent> c = pbrt_lobe(model.lobes[i], i, name, notes)) {
+            lobe_weights += c->weight;
+            comps.push_back(std::move(*c));
         }
     }
-    out.text = os.str();
+    pbrt_mix_weights(model, name, lobe_weights, comps, notes);
+    out.text = pbrt_text(name, notes, comps);
     return out;
 }
 

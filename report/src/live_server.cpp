@@ -237,136 +237,274 @@ struct LiveServer::Impl {
     std::atomic<std::uint64_t> requests{0};
     std::atomic<std::uint64_t> renders{0};
 
+    /// What the campaign thread published since the last render, besides the samples.
+    struct Incoming {
+        std::optional<Image> frame;
+        std::string frame_description;
+        std::optional<CoverageCells> cells;
+    };
+    /// When the live fit last ran, on how many samples, and what it gave.
+    struct LiveFit {
+        Clock::time_point last = Clock::now() - std::chrono::hours(1);
+        std::size_t fitted_at = 0;
+        std::unique_ptr<brdf::Brdf> brdf;
+    };
+
     void render_loop();
+    /// Waits for the next render interval; false when the server stops.
+    bool wait_render_interval();
+    /// Appends the new samples to `data` and takes the new frame and coverage cells.
+    Incoming take_new_input(brdf::Dataset& data);
+    /// Refits when enough new samples came and the fit interval passed (or the campaign ended);
+    /// the result's summary into r.fit.
+    void refit(const brdf::Dataset& data, LiveFit& live, Rendered& r);
     std::string status_json();
 };
 
-std::string LiveServer::Impl::status_json() {
-    const std::size_t d = done.load();
-    const std::size_t p = planned.load();
-    const bool image = image_mode.load();
-    std::string st;
-    Clock::time_point t0;
-    double cov = 0;
+namespace {
+
+/// What the progress line says: counts, state, rate and time left.
+struct Progress {
+    std::size_t done = 0;
+    std::size_t planned = 0;
+    bool image = false;
+    bool ended = false;
+    std::string state;
+    double coverage = 0;
     double target = 0;
-    std::vector<std::pair<std::size_t, double>> history;
-    std::string report_path_copy;
-    {
-        std::lock_guard<std::mutex> lock(in_mu);
-        st = state;
-        report_path_copy = report_path;
-        t0 = first_done_at;
-        cov = coverage;
-        target = coverage_target;
-        history = coverage_history;
-    }
-    // Rate over this run's measurements (a resumed campaign starts with some done).
-    const std::size_t d0 = first_done.load();
+    double percent = 0;
     double rate_per_s = 0;
-    if (d0 != static_cast<std::size_t>(-1) && d > d0) {
-        const double secs = std::chrono::duration<double>(Clock::now() - t0).count();
-        rate_per_s = secs > 0 ? static_cast<double>(d - d0) / secs : 0;
+    std::string eta_text;
+    std::string eta_basis;
+};
+
+/// What is left: the rest of the plan; for an image campaign the sooner of the frame limit and
+/// the frames that reach the target at the coverage gained per frame lately. Sets the basis.
+double work_left(const Progress& pr,
+                 const std::vector<std::pair<std::size_t, double>>& history,
+                 std::string* basis) {
+    double left = pr.planned >= pr.done ? static_cast<double>(pr.planned - pr.done) : 0;
+    *basis = "the plan";
+    if (!pr.image) {
+        return left;
     }
-    // What is left: the rest of the plan; for an image campaign the sooner of the frame limit
-    // and the frames that reach the target at the coverage gained per frame lately.
-    double left = p >= d ? static_cast<double>(p - d) : 0;
-    std::string basis = "the plan";
-    if (image) {
-        basis = "the frame limit";
-        if (cov >= target) {
-            left = 0;
-        } else if (history.size() >= 2) {
-            const auto& first = history.front();
-            const auto& last = history.back();
-            const double gain_per_frame =
-                last.first > first.first
-                    ? (last.second - first.second) / static_cast<double>(last.first - first.first)
-                    : 0;
-            if (gain_per_frame > 0) {
-                const double to_target = std::ceil((target - cov) / gain_per_frame);
-                if (to_target < left) {
-                    left = to_target;
-                    basis = "the coverage target at the recent gain per frame";
-                }
+    *basis = "the frame limit";
+    if (pr.coverage >= pr.target) {
+        return 0;
+    }
+    if (history.size() >= 2) {
+        const auto& first = history.front();
+        const auto& last = history.back();
+        const double gain_per_frame =
+            last.first > first.first
+                ? (last.second - first.second) / static_cast<double>(last.first - first.first)
+                : 0;
+        if (gain_per_frame > 0) {
+            const double to_target = std::ceil((pr.target - pr.coverage) / gain_per_frame);
+            if (to_target < left) {
+                left = to_target;
+                *basis = "the coverage target at the recent gain per frame";
             }
         }
     }
-    const double eta = rate_per_s > 0 ? left / rate_per_s : std::nan("");
-    const bool is_ended = ended.load();
-    const std::string eta_text = st == "running" && !is_ended ? duration_text(eta) : "-";
-    nlohmann::json j;
-    j["mode"] = image ? "image" : "point";
-    j["done"] = d;
-    j["planned"] = p;
-    const double percent = p > 0 ? 100.0 * static_cast<double>(d) / static_cast<double>(p) : 0.0;
-    j["percent"] = percent;
-    j["state"] = st;
-    j["ended"] = is_ended;
-    j["report"] = is_ended && !report_path_copy.empty() ? "/report.html" : "";
-    j["rate_per_min"] = rate_per_s * 60;
-    j["eta"] = eta_text;
-    j["eta_basis"] = basis;
-    j["elapsed_s"] = std::chrono::duration<double>(Clock::now() - started).count();
+    return left;
+}
+
+/// The bar's fill and the progress line: an ended campaign's summary, an image campaign's frames
+/// and coverage, or a point campaign's measurements.
+void put_progress(const Progress& pr, nlohmann::json& j) {
+    const double cov = pr.coverage;
+    const double target = pr.target;
+    const double coverage_bar = std::max(pr.percent, target > 0 ? 100 * cov / target : 0.0);
     char buf[400];
-    if (is_ended) {
-        j["bar_percent"] =
-            image ? std::max(percent, target > 0 ? 100 * cov / target : 0.0) : percent;
-        if (image) {
+    if (pr.ended) {
+        j["bar_percent"] = pr.image ? coverage_bar : pr.percent;
+        if (pr.image) {
             j["coverage_percent"] = 100 * cov;
             j["target_percent"] = 100 * target;
             std::snprintf(buf,
                           sizeof buf,
                           "campaign ended (%s): %zu light positions; coverage %.1f %% of the "
                           "valid bins (target %.1f %%)",
-                          st.c_str(),
-                          d,
+                          pr.state.c_str(),
+                          pr.done,
                           100 * cov,
                           100 * target);
         } else {
             std::snprintf(buf,
                           sizeof buf,
                           "campaign ended (%s): %zu of %zu measured (%.1f %%)",
-                          st.c_str(),
-                          d,
-                          p,
-                          percent);
+                          pr.state.c_str(),
+                          pr.done,
+                          pr.planned,
+                          pr.percent);
         }
-    } else if (image) {
+    } else if (pr.image) {
         j["coverage_percent"] = 100 * cov;
         j["target_percent"] = 100 * target;
         // The campaign ends at the target or at the frame limit, whichever comes first.
-        j["bar_percent"] = std::max(percent, target > 0 ? 100 * cov / target : 0.0);
+        j["bar_percent"] = coverage_bar;
         std::snprintf(buf,
                       sizeof buf,
                       "%zu of at most %zu light positions; coverage %.1f %% of the valid bins "
                       "(target %.1f %%); %s; %.1f frames per minute; ETA %s (by %s)",
-                      d,
-                      p,
+                      pr.done,
+                      pr.planned,
                       100 * cov,
                       100 * target,
-                      st.c_str(),
-                      rate_per_s * 60,
-                      eta_text.c_str(),
-                      basis.c_str());
+                      pr.state.c_str(),
+                      pr.rate_per_s * 60,
+                      pr.eta_text.c_str(),
+                      pr.eta_basis.c_str());
     } else {
-        j["bar_percent"] = percent;
+        j["bar_percent"] = pr.percent;
         std::snprintf(buf,
                       sizeof buf,
                       "%zu of %zu measured (%.1f %%), %s; %.1f per minute; ETA %s",
-                      d,
-                      p,
-                      percent,
-                      st.c_str(),
-                      rate_per_s * 60,
-                      eta_text.c_str());
+                      pr.done,
+                      pr.planned,
+                      pr.percent,
+                      pr.state.c_str(),
+                      pr.rate_per_s * 60,
+                      pr.eta_text.c_str());
     }
     j["progress"] = buf;
+}
+
+/// The latest measurement's angles (degrees) and value.
+std::string latest_text(const brdf::Sample& s) {
+    char buf[200];
+    std::snprintf(buf,
+                  sizeof buf,
+                  "latest measurement: theta_i %.1f, phi_i %.1f, theta_o %.1f, phi_o "
+                  "%.1f deg; BRDF (r g b) %.4g %.4g %.4g 1/sr",
+                  s.theta_i * 180 / brdf::kPi,
+                  s.phi_i * 180 / brdf::kPi,
+                  s.theta_o * 180 / brdf::kPi,
+                  s.phi_o * 180 / brdf::kPi,
+                  s.value[0],
+                  s.value[1],
+                  s.value[2]);
+    return buf;
+}
+
+}  // namespace
+
+std::string LiveServer::Impl::status_json() {
+    Progress pr;
+    pr.done = done.load();
+    pr.planned = planned.load();
+    pr.image = image_mode.load();
+    Clock::time_point t0;
+    std::vector<std::pair<std::size_t, double>> history;
+    std::string report_path_copy;
+    {
+        std::lock_guard<std::mutex> lock(in_mu);
+        pr.state = state;
+        report_path_copy = report_path;
+        t0 = first_done_at;
+        pr.coverage = coverage;
+        pr.target = coverage_target;
+        history = coverage_history;
+    }
+    const std::size_t d = pr.done;
+    const std::size_t p = pr.planned;
+    // Rate over this run's measurements (a resumed campaign starts with some done).
+    const std::size_t d0 = first_done.load();
+    if (d0 != static_cast<std::size_t>(-1) && d > d0) {
+        const double secs = std::chrono::duration<double>(Clock::now() - t0).count();
+        pr.rate_per_s = secs > 0 ? static_cast<double>(d - d0) / secs : 0;
+    }
+    const double left = work_left(pr, history, &pr.eta_basis);
+    const double eta = pr.rate_per_s > 0 ? left / pr.rate_per_s : std::nan("");
+    pr.ended = ended.load();
+    pr.eta_text = pr.state == "running" && !pr.ended ? duration_text(eta) : "-";
+    pr.percent = p > 0 ? 100.0 * static_cast<double>(d) / static_cast<double>(p) : 0.0;
+    nlohmann::json j;
+    j["mode"] = pr.image ? "image" : "point";
+    j["done"] = d;
+    j["planned"] = p;
+    j["percent"] = pr.percent;
+    j["state"] = pr.state;
+    j["ended"] = pr.ended;
+    j["report"] = pr.ended && !report_path_copy.empty() ? "/report.html" : "";
+    j["rate_per_min"] = pr.rate_per_s * 60;
+    j["eta"] = pr.eta_text;
+    j["eta_basis"] = pr.eta_basis;
+    j["elapsed_s"] = std::chrono::duration<double>(Clock::now() - started).count();
+    put_progress(pr, j);
     std::lock_guard<std::mutex> lock(out_mu);
     j["versions"] = out.versions;
     j["fit"] = out.fit;
     j["latest"] = out.latest;
     j["captions"] = {{"coverage", out.coverage_caption}, {"frame", out.frame_caption}};
     return j.dump();
+}
+
+bool LiveServer::Impl::wait_render_interval() {
+    std::unique_lock<std::mutex> lock(wake_mu);
+    wake.wait_for(
+        lock, std::chrono::duration<double>(options.render_interval_s), [&] { return stopping; });
+    return !stopping;
+}
+
+LiveServer::Impl::Incoming LiveServer::Impl::take_new_input(brdf::Dataset& data) {
+    // Only what is new is copied: the campaign thread waits at most for this.
+    Incoming in;
+    std::lock_guard<std::mutex> lock(in_mu);
+    data.samples.insert(data.samples.end(),
+                        samples.begin() + static_cast<long>(data.samples.size()),
+                        samples.end());
+    if (frame) {
+        in.frame = std::move(frame);
+        frame.reset();
+        in.frame_description = this->frame_description;
+    }
+    if (cells) {
+        in.cells = std::move(cells);
+        cells.reset();
+    }
+    return in;
+}
+
+void LiveServer::Impl::refit(const brdf::Dataset& data, LiveFit& live, Rendered& r) {
+    const Clock::time_point now = Clock::now();
+    // The campaign's end asks for one more fit, on every sample, whenever the last one was.
+    const bool final_fit = final_fit_pending.exchange(false);
+    if (data.samples.size() < options.fit_min_samples ||
+        !(final_fit ||
+          (data.samples.size() > live.fitted_at &&
+           now - live.last >= std::chrono::duration<double>(options.fit_interval_s)))) {
+        return;
+    }
+    live.last = now;
+    live.fitted_at = data.samples.size();
+    auto spec = fitting::make_fit_spec(fitting::ModelOptions{});
+    if (!spec) {
+        return;
+    }
+    spec->options.max_samples = options.fit_max_samples;
+    spec->options.num_threads = 1;
+    auto res = fitting::fit(data, *spec);
+    if (res && res->usable()) {
+        live.brdf = brdf::make_analytic_brdf(res->model);
+        char buf[160];
+        std::snprintf(buf,
+                      sizeof buf,
+                      "%son %zu samples: log RMSE (r g b) %.4g %.4g %.4g; %s\n",
+                      final_fit ? "final fit " : "",
+                      data.samples.size(),
+                      res->metrics.log_rmse[0],
+                      res->metrics.log_rmse[1],
+                      res->metrics.log_rmse[2],
+                      res->goodness.represents ? "the model represents the data"
+                                               : "the model does NOT represent the data");
+        r.fit = buf + live.brdf->describe();
+    } else {
+        r.fit = std::string(final_fit ? "final fit" : "fit") + " on " +
+                std::to_string(data.samples.size()) + " samples: " +
+                (res ? "did not converge: " + res->solver.message : res.error().message);
+    }
 }
 
 void LiveServer::Impl::render_loop() {
@@ -376,43 +514,14 @@ void LiveServer::Impl::render_loop() {
     data.source = "live";
     data.has_sigma = true;
     std::uint64_t seen = 0;
-    Clock::time_point last_fit = Clock::now() - std::chrono::hours(1);
-    std::size_t fitted_at = 0;
-    std::unique_ptr<brdf::Brdf> fit;
-    while (true) {
-        {
-            std::unique_lock<std::mutex> lock(wake_mu);
-            wake.wait_for(lock, std::chrono::duration<double>(options.render_interval_s), [&] {
-                return stopping;
-            });
-            if (stopping) {
-                return;
-            }
-        }
+    LiveFit live;
+    while (wait_render_interval()) {
         const std::uint64_t v = version.load();
         if (v == seen) {
             continue;
         }
         seen = v;
-        std::optional<Image> new_frame;
-        std::string frame_description;
-        std::optional<CoverageCells> new_cells;
-        {
-            // Only what is new is copied: the campaign thread waits at most for this.
-            std::lock_guard<std::mutex> lock(in_mu);
-            data.samples.insert(data.samples.end(),
-                                samples.begin() + static_cast<long>(data.samples.size()),
-                                samples.end());
-            if (frame) {
-                new_frame = std::move(frame);
-                frame.reset();
-                frame_description = this->frame_description;
-            }
-            if (cells) {
-                new_cells = std::move(cells);
-                cells.reset();
-            }
-        }
+        Incoming in = take_new_input(data);
         Rendered r;
         {
             std::lock_guard<std::mutex> lock(out_mu);
@@ -421,7 +530,6 @@ void LiveServer::Impl::render_loop() {
         const std::uint64_t n = renders.load() + 1;
         PlotOptions po;
         po.width = options.plot_width;
-        const Clock::time_point now = Clock::now();
         if (image_mode.load() && data.samples.empty()) {
             r.fit = ended.load() ? "The campaign has ended; its table is fitted by gonio fit on "
                                    "the campaign's dataset.csv."
@@ -429,42 +537,7 @@ void LiveServer::Impl::render_loop() {
                                    "when the campaign ends (gonio fit on the campaign's "
                                    "dataset.csv).";
         }
-        // The campaign's end asks for one more fit, on every sample, whenever the last one was.
-        const bool final_fit = final_fit_pending.exchange(false);
-        if (data.samples.size() >= options.fit_min_samples &&
-            (final_fit ||
-             (data.samples.size() > fitted_at &&
-              now - last_fit >= std::chrono::duration<double>(options.fit_interval_s)))) {
-            last_fit = now;
-            fitted_at = data.samples.size();
-            auto spec = fitting::make_fit_spec(fitting::ModelOptions{});
-            if (spec) {
-                spec->options.max_samples = options.fit_max_samples;
-                spec->options.num_threads = 1;
-                auto res = fitting::fit(data, *spec);
-                if (res && res->usable()) {
-                    fit = brdf::make_analytic_brdf(res->model);
-                    char buf[160];
-                    std::snprintf(buf,
-                                  sizeof buf,
-                                  "%son %zu samples: log RMSE (r g b) %.4g %.4g %.4g; %s\n",
-                                  final_fit ? "final fit " : "",
-                                  data.samples.size(),
-                                  res->metrics.log_rmse[0],
-                                  res->metrics.log_rmse[1],
-                                  res->metrics.log_rmse[2],
-                                  res->goodness.represents
-                                      ? "the model represents the data"
-                                      : "the model does NOT represent the data");
-                    r.fit = buf + fit->describe();
-                } else {
-                    r.fit =
-                        std::string(final_fit ? "final fit" : "fit") + " on " +
-                        std::to_string(data.samples.size()) + " samples: " +
-                        (res ? "did not converge: " + res->solver.message : res.error().message);
-                }
-            }
-        }
+        refit(data, live, r);
         auto put = [&](const char* name, const Expected<Image>& img) {
             if (!img) {
                 return;
@@ -476,37 +549,24 @@ void LiveServer::Impl::render_loop() {
             }
         };
         if (!data.samples.empty()) {
-            put("in_plane", plot_in_plane(data, fit.get(), po));
+            put("in_plane", plot_in_plane(data, live.brdf.get(), po));
             put("coverage", plot_coverage(data, po));
             r.coverage_caption =
                 "Coverage: outgoing directions and (theta_h, theta_d) of every measurement so far.";
-            const brdf::Sample& s = data.samples.back();
-            char buf[200];
-            std::snprintf(buf,
-                          sizeof buf,
-                          "latest measurement: theta_i %.1f, phi_i %.1f, theta_o %.1f, phi_o "
-                          "%.1f deg; BRDF (r g b) %.4g %.4g %.4g 1/sr",
-                          s.theta_i * 180 / brdf::kPi,
-                          s.phi_i * 180 / brdf::kPi,
-                          s.theta_o * 180 / brdf::kPi,
-                          s.phi_o * 180 / brdf::kPi,
-                          s.value[0],
-                          s.value[1],
-                          s.value[2]);
-            r.latest = buf;
+            r.latest = latest_text(data.samples.back());
         }
-        if (new_cells) {
-            put("coverage", plot_coverage_cells(*new_cells, {}, po, "so far"));
+        if (in.cells) {
+            put("coverage", plot_coverage_cells(*in.cells, {}, po, "so far"));
             r.coverage_caption =
                 "Coverage of the half/difference table so far: fraction of the phi_d bins of each "
                 "(theta_h, theta_d) cell holding a measured value.";
         }
-        if (new_frame) {
-            put("frame", *new_frame);
-            r.frame_caption = frame_description.empty()
-                                  ? "Latest camera frame (" + std::to_string(new_frame->width) +
-                                        " x " + std::to_string(new_frame->height) + " px)."
-                                  : frame_description;
+        if (in.frame) {
+            put("frame", *in.frame);
+            r.frame_caption = in.frame_description.empty()
+                                  ? "Latest camera frame (" + std::to_string(in.frame->width) +
+                                        " x " + std::to_string(in.frame->height) + " px)."
+                                  : in.frame_description;
         }
         {
             std::lock_guard<std::mutex> lock(out_mu);

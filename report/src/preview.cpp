@@ -277,6 +277,48 @@ static std::vector<std::string> wrap_text(const std::string& text, int width_px)
     return lines;
 }
 
+namespace {
+
+/// Automatic exposure: the median sphere pixel of the whole sheet becomes mid grey.
+double auto_exposure(const std::vector<RadianceImage>& renders) {
+    std::vector<double> lum;
+    for (const RadianceImage& r : renders) {
+        for (std::size_t i = 0; i < r.pixels.size(); ++i) {
+            if (r.covered[i] && (r.hole.empty() || !r.hole[i])) {
+                lum.push_back(luminance(r.pixels[i]));
+            }
+        }
+    }
+    double median = 0;
+    if (!lum.empty()) {
+        std::nth_element(lum.begin(), lum.begin() + lum.size() / 2, lum.end());
+        median = lum[lum.size() / 2];
+    }
+    return median > 0 ? std::clamp(0.18 / median, 0.25, 100.0) : 1.0;
+}
+
+/// The footer: exposure, light direction, axes, and what magenta means when a table has holes.
+std::string preview_footer(double exposure,
+                           const Vec3d& light_dir,
+                           const std::vector<RadianceImage>& renders) {
+    const Vec3d l = light_dir.normalized();
+    char foot[160];
+    std::snprintf(foot,
+                  sizeof foot,
+                  "exposure x%.3g; light toward (%.2f, %.2f, %.2f); x right, y up, z to viewer",
+                  exposure,
+                  l.x(),
+                  l.y(),
+                  l.z());
+    bool holes = false;
+    for (const RadianceImage& r : renders) {
+        holes = holes || !r.hole.empty();
+    }
+    return std::string(foot) + (holes ? "; magenta: table bins not measured" : "");
+}
+
+}  // namespace
+
 Expected<Image> preview_sheet(const brdf::Brdf& a,
                               const std::string& label_a,
                               const brdf::Brdf* b,
@@ -305,8 +347,6 @@ Expected<Image> preview_sheet(const brdf::Brdf& a,
         W, H, "Sphere preview", "one exposure for all pictures; filmic tone curve, sRGB");
     const int cx0 = margin + column / 2;
     const int cx1 = 2 * margin + column + column / 2;
-    const int x0 = cx0 - cell / 2;
-    const int x1 = cx1 - cell / 2;
     draw::text(img,
                "directional light",
                {cx0, header - 8},
@@ -319,7 +359,6 @@ Expected<Image> preview_sheet(const brdf::Brdf& a,
                draw::kTextScale,
                draw::kBlack,
                draw::Align::kCenter);
-    const Color bg{48, 48, 48};
     std::vector<RadianceImage> renders;
     std::vector<int> rows_y;  // top of each row's pictures
     int y = header;
@@ -339,45 +378,16 @@ Expected<Image> preview_sheet(const brdf::Brdf& a,
         rows_y.push_back(y);
         y += cell + margin;
     }
-    double exposure = options.exposure;
-    if (!(exposure > 0)) {
-        // Automatic: the median sphere pixel of the whole sheet becomes mid grey.
-        std::vector<double> lum;
-        for (const RadianceImage& r : renders) {
-            for (std::size_t i = 0; i < r.pixels.size(); ++i) {
-                if (r.covered[i] && (r.hole.empty() || !r.hole[i])) {
-                    lum.push_back(luminance(r.pixels[i]));
-                }
-            }
-        }
-        double median = 0;
-        if (!lum.empty()) {
-            std::nth_element(lum.begin(), lum.begin() + lum.size() / 2, lum.end());
-            median = lum[lum.size() / 2];
-        }
-        exposure = median > 0 ? std::clamp(0.18 / median, 0.25, 100.0) : 1.0;
-    }
+    const double exposure = options.exposure > 0 ? options.exposure : auto_exposure(renders);
+    const Color bg{48, 48, 48};
     for (std::size_t row = 0; row < rows_y.size(); ++row) {
-        const int y = rows_y[row];
-        to_mat(tone_map(renders[2 * row], exposure, bg)).copyTo(img(cv::Rect(x0, y, cell, cell)));
-        to_mat(tone_map(renders[2 * row + 1], exposure, bg))
-            .copyTo(img(cv::Rect(x1, y, cell, cell)));
-    }
-    const Vec3d l = options.light_dir.normalized();
-    char foot[160];
-    std::snprintf(foot,
-                  sizeof foot,
-                  "exposure x%.3g; light toward (%.2f, %.2f, %.2f); x right, y up, z to viewer",
-                  exposure,
-                  l.x(),
-                  l.y(),
-                  l.z());
-    bool holes = false;
-    for (const RadianceImage& r : renders) {
-        holes = holes || !r.hole.empty();
+        const cv::Rect left(cx0 - cell / 2, rows_y[row], cell, cell);
+        const cv::Rect right(cx1 - cell / 2, rows_y[row], cell, cell);
+        to_mat(tone_map(renders[2 * row], exposure, bg)).copyTo(img(left));
+        to_mat(tone_map(renders[2 * row + 1], exposure, bg)).copyTo(img(right));
     }
     draw::text(img,
-               std::string(foot) + (holes ? "; magenta: table bins not measured" : ""),
+               preview_footer(exposure, options.light_dir, renders),
                {W / 2, H - 12},
                0.42,
                draw::kAxis,
