@@ -70,23 +70,37 @@ void record(const cv::Mat& img,
             const std::string& drawn,
             const std::string& asked,
             cv::Rect box,
-            bool vertical) {
+            bool vertical,
+            TextRole role) {
     if (t_recorded != nullptr) {
-        t_recorded->push_back(
-            {drawn, asked, box.x, box.y, box.width, box.height, img.cols, img.rows, vertical});
+        t_recorded->push_back({drawn,
+                               asked,
+                               box.x,
+                               box.y,
+                               box.width,
+                               box.height,
+                               img.cols,
+                               img.rows,
+                               vertical,
+                               role});
     }
 }
 
 }  // namespace
 
-void text(cv::Mat& img,
-          const std::string& s,
-          cv::Point org,
-          double scale,
-          cv::Scalar color,
-          Align align,
-          int thickness) {
-    const FittedText f = fit_text(s, scale, thickness, img.cols - 2 * kEdge);
+namespace {
+
+/// draw::text with the text at most `room` pixels long.
+void text_within(cv::Mat& img,
+                 const std::string& s,
+                 cv::Point org,
+                 double scale,
+                 cv::Scalar color,
+                 Align align,
+                 int thickness,
+                 TextRole role,
+                 int room) {
+    const FittedText f = fit_text(s, scale, thickness, room);
     int x = org.x;
     if (align == Align::kCenter) {
         x -= f.size.width / 2;
@@ -103,10 +117,24 @@ void text(cv::Mat& img,
            f.text,
            s,
            cv::Rect(x, y - f.size.height, f.size.width, f.size.height + f.baseline),
-           false);
+           false,
+           role);
 }
 
-void text_vertical(cv::Mat& img, const std::string& s, cv::Point org, double scale) {
+}  // namespace
+
+void text(cv::Mat& img,
+          const std::string& s,
+          cv::Point org,
+          double scale,
+          cv::Scalar color,
+          Align align,
+          int thickness,
+          TextRole role) {
+    text_within(img, s, org, scale, color, align, thickness, role, img.cols - 2 * kEdge);
+}
+
+void text_vertical(cv::Mat& img, const std::string& s, cv::Point org, double scale, TextRole role) {
     const FittedText f = fit_text(s, scale, 1, img.rows - 2 * kEdge - 4);
     cv::Mat tmp(f.size.height + f.baseline + 4, f.size.width + 4, CV_8UC3, kWhite);
     cv::putText(tmp, f.text, {2, f.size.height + 2}, kFont, f.scale, kBlack, 1, cv::LINE_AA);
@@ -122,7 +150,7 @@ void text_vertical(cv::Mat& img, const std::string& s, cv::Point org, double sca
     }
     rot(cv::Rect(dst.x - x, dst.y - y, dst.width, dst.height)).copyTo(img(dst));
     // The glyphs' box: the rotated picture without its 2-px white margin.
-    record(img, f.text, s, cv::Rect(x + 2, y + 2, rot.cols - 4, rot.rows - 4), true);
+    record(img, f.text, s, cv::Rect(x + 2, y + 2, rot.cols - 4, rot.rows - 4), true, role);
 }
 
 std::vector<double> nice_ticks(double lo, double hi, int target) {
@@ -188,7 +216,9 @@ void Axes::draw(cv::Mat& img, const std::string& x_label, const std::string& y_l
              {p, area.y + area.height + 16},
              kTextScale,
              kBlack,
-             Align::kCenter);
+             Align::kCenter,
+             1,
+             TextRole::kTickLabel);
     }
     std::vector<double> yt;
     if (log_y) {
@@ -215,7 +245,14 @@ void Axes::draw(cv::Mat& img, const std::string& x_label, const std::string& y_l
         }
         cv::line(img, {area.x, p}, {area.x + area.width, p}, kGrid, 1);
         cv::line(img, {area.x - 5, p}, {area.x, p}, kAxis, 1);
-        text(img, format_tick(y), {area.x - 8, p}, kTextScale, kBlack, Align::kRight);
+        text(img,
+             format_tick(y),
+             {area.x - 8, p},
+             kTextScale,
+             kBlack,
+             Align::kRight,
+             1,
+             TextRole::kTickLabel);
     }
     cv::rectangle(img, area, kAxis, 1);
     text(img,
@@ -223,8 +260,14 @@ void Axes::draw(cv::Mat& img, const std::string& x_label, const std::string& y_l
          {area.x + area.width / 2, area.y + area.height + 38},
          kTextScale,
          kBlack,
-         Align::kCenter);
-    text_vertical(img, y_label, {std::max(12, area.x - 62), area.y + area.height / 2});
+         Align::kCenter,
+         1,
+         TextRole::kAxisLabel);
+    text_vertical(img,
+                  y_label,
+                  {std::max(12, area.x - 62), area.y + area.height / 2},
+                  kTextScale,
+                  TextRole::kAxisLabel);
 }
 
 void marker(cv::Mat& img, cv::Point p, cv::Scalar color, int radius) {
@@ -243,17 +286,25 @@ cv::Size legend_size(const std::vector<LegendEntry>& entries) {
 void legend(cv::Mat& img,
             const std::vector<LegendEntry>& entries,
             cv::Point corner,
-            bool anchor_left) {
+            bool anchor_left,
+            int max_width) {
     if (entries.empty()) {
         return;
     }
     const int row = 20;
     const cv::Size size = legend_size(entries);
-    const int box_w = size.width;
+    const int room =
+        max_width > 0 ? std::min(max_width, img.cols - 2 * kEdge) : img.cols - 2 * kEdge;
+    const int box_w = std::min(size.width, room);
     const int box_h = size.height;
-    const cv::Rect box(anchor_left ? corner.x : corner.x - box_w, corner.y, box_w, box_h);
+    // Inside the picture: moved in from an edge rather than cut by it.
+    const int box_x = std::clamp(anchor_left ? corner.x : corner.x - box_w,
+                                 kEdge,
+                                 std::max(kEdge, img.cols - kEdge - box_w));
+    const cv::Rect box(box_x, corner.y, box_w, box_h);
     cv::rectangle(img, box, kWhite, cv::FILLED);
     cv::rectangle(img, box, kAxis, 1);
+    record(img, "", "", box, false, TextRole::kLegendFrame);
     for (std::size_t i = 0; i < entries.size(); ++i) {
         const int y = box.y + 4 + row / 2 + static_cast<int>(i) * row;
         const LegendEntry& e = entries[i];
@@ -263,7 +314,15 @@ void legend(cv::Mat& img,
         if (e.marker) {
             marker(img, {box.x + 22, y}, e.color);
         }
-        text(img, e.label, {box.x + 44, y});
+        text_within(img,
+                    e.label,
+                    {box.x + 44, y},
+                    kTextScale,
+                    kBlack,
+                    Align::kLeft,
+                    1,
+                    TextRole::kText,
+                    box_w - 52);
     }
 }
 
@@ -354,7 +413,14 @@ void colour_bar(cv::Mat& img,
                       static_cast<int>(std::lround((v - lo) / (hi - lo) * area.height));
         cv::line(img, {area.x + area.width, y}, {area.x + area.width + 4, y}, kAxis, 1);
         const std::string s = format_tick(v);
-        text(img, s, {area.x + area.width + 7, y});
+        text(img,
+             s,
+             {area.x + area.width + 7, y},
+             kTextScale,
+             kBlack,
+             Align::kLeft,
+             1,
+             TextRole::kTickLabel);
         widest = std::max(widest, text_width(s));
     }
     if (!label.empty()) {

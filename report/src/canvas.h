@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "gonio/report/plot.h"
+
 namespace gonio::report::draw {
 
 inline const cv::Scalar kBlack(0, 0, 0);
@@ -33,10 +35,15 @@ void text(cv::Mat& img,
           double scale = kTextScale,
           cv::Scalar color = kBlack,
           Align align = Align::kLeft,
-          int thickness = 1);
+          int thickness = 1,
+          TextRole role = TextRole::kText);
 
 /// Text rotated by 90 degrees counter-clockwise, centred on org (for y-axis labels).
-void text_vertical(cv::Mat& img, const std::string& s, cv::Point org, double scale = kTextScale);
+void text_vertical(cv::Mat& img,
+                   const std::string& s,
+                   cv::Point org,
+                   double scale = kTextScale,
+                   TextRole role = TextRole::kText);
 
 /// Width in pixels of a text.
 int text_width(const std::string& s, double scale = kTextScale, int thickness = 1);
@@ -92,11 +99,14 @@ struct LegendEntry {
     bool marker = false;
 };
 
-/// Draws a framed legend whose top-right corner (or top-left with anchor_left) is at corner.
+/// Draws a framed legend whose top-right corner (or top-left with anchor_left) is at corner. The
+/// frame is at most max_width pixels wide (0: the picture's width less its margins), its labels
+/// drawn smaller or shortened to fit, and moved inside the picture rather than cut by its edge.
 void legend(cv::Mat& img,
             const std::vector<LegendEntry>& entries,
             cv::Point corner,
-            bool anchor_left = false);
+            bool anchor_left = false,
+            int max_width = 0);
 
 /// Size in pixels of the legend box legend() draws.
 cv::Size legend_size(const std::vector<LegendEntry>& entries);

@@ -245,8 +245,8 @@ Expected<Image> plot_delta_phi(const brdf::Dataset& data,
         entries.push_back(
             draw_slice(img, ax, slices[k], grid, draw::series_color(static_cast<int>(k))));
     }
-    // Top left: the forward (specular) peak sits at the right end.
-    draw::legend(img, entries, {ax.area.x + 4, ax.area.y + 4}, true);
+    // Top left, inside the plot area: the forward (specular) peak sits at the right end.
+    draw::legend(img, entries, {ax.area.x + 4, ax.area.y + 4}, true, ax.area.width - 8);
     return from_mat(img);
 }
 

@@ -226,6 +226,26 @@ void add_slice_curve(const brdf::Brdf& fit,
     }
 }
 
+/// Which rings get their value written along the baseline: from the outer ring inward, each
+/// whose label keeps 4 px from the label kept outside it (close log rings near the origin would
+/// write over each other; the ring itself is drawn either way).
+std::vector<bool> ring_labels_with_room(const plot_detail::RadialScale& rs, double scale) {
+    std::vector<bool> keep(rs.ticks.size(), false);
+    double left_of_kept = std::numeric_limits<double>::infinity();
+    for (std::size_t k = rs.ticks.size(); k-- > 0;) {
+        const double r = rs.radius(rs.ticks[k]);
+        if (r < 2) {
+            continue;
+        }
+        const double half = 0.5 * draw::text_width(draw::format_tick(rs.ticks[k]), scale);
+        if (std::lround(r) + half + 4 <= left_of_kept) {
+            keep[k] = true;
+            left_of_kept = std::lround(r) - half;
+        }
+    }
+    return keep;
+}
+
 /// The rings with their values along the baseline to the right of the origin, spokes every 15
 /// degrees labelled outside the outer ring, the outer ring and the baseline, and the captions of
 /// the radius and the angle below.
@@ -234,7 +254,10 @@ void draw_polar_grid(cv::Mat& img,
                      int R,
                      const plot_detail::RadialScale& rs,
                      const std::string& radius_caption) {
-    for (double v : rs.ticks) {
+    constexpr double kRingScale = 0.42;
+    const std::vector<bool> labelled = ring_labels_with_room(rs, kRingScale);
+    for (std::size_t k = 0; k < rs.ticks.size(); ++k) {
+        const double v = rs.ticks[k];
         const double r = rs.radius(v);
         if (r < 2) {
             continue;
@@ -248,12 +271,17 @@ void draw_polar_grid(cv::Mat& img,
                     draw::kGrid,
                     1,
                     cv::LINE_AA);
+        if (!labelled[k]) {
+            continue;
+        }
         draw::text(img,
                    draw::format_tick(v),
                    {origin.x + int(std::lround(r)), origin.y + 14},
-                   0.42,
+                   kRingScale,
                    draw::kBlack,
-                   draw::Align::kCenter);
+                   draw::Align::kCenter,
+                   1,
+                   TextRole::kRingLabel);
     }
     for (int a = -90; a <= 90; a += 15) {
         const double s = std::sin(a * kDeg);

@@ -121,16 +121,22 @@ Expected<Image> plot_coverage(const brdf::Dataset& data, const PlotOptions& opti
         W, H, "Coverage of the angular domain - " + plot_detail::short_name(data.source), sub);
     auto colour_of = [](double theta_i) { return draw::sequential(theta_i / (brdf::kPi / 2)); };
 
-    // Left: outgoing directions seen from above the sample.
+    // Left: outgoing directions seen from above the sample. The rings' labels sit at 45 degrees
+    // off the horizontal, the 60 deg ring's below it: the 60 and 90 deg rings are only
+    // R (1 - sin 60 deg) = 0.13 R apart, less than a label's height on a narrow picture.
     const cv::Point c(W / 20 + R, top + R);
     for (int t : {30, 60, 90}) {
         const int r = static_cast<int>(std::lround(R * std::sin(t * kDeg)));
+        const int off = static_cast<int>(std::lround(r * 0.707));
         cv::circle(img, c, r, t == 90 ? draw::kAxis : draw::kGrid, 1, cv::LINE_AA);
         draw::text(img,
                    std::to_string(t) + " deg",
-                   {c.x + int(std::lround(r * 0.707)) + 4, c.y - int(std::lround(r * 0.707)) - 6},
+                   {c.x + off + 4, t == 60 ? c.y + off + 6 : c.y - off - 6},
                    0.5,
-                   draw::kAxis);
+                   draw::kAxis,
+                   draw::Align::kLeft,
+                   1,
+                   TextRole::kRingLabel);
     }
     cv::line(img, {c.x - R, c.y}, {c.x + R, c.y}, draw::kGrid, 1);
     cv::line(img, {c.x, c.y - R}, {c.x, c.y + R}, draw::kGrid, 1);
@@ -174,7 +180,7 @@ Expected<Image> plot_coverage(const brdf::Dataset& data, const PlotOptions& opti
         img, "theta_i [deg]", {bar.x + 8, top - 12}, 0.5, draw::kBlack, draw::Align::kCenter);
     draw::legend(img,
                  {{draw::sequential(0.5), "one measured (wi, wo) pair", false, true}},
-                 {ax.area.x, ax.area.y + ax.area.height + 46},
+                 {ax.area.x, ax.area.y + ax.area.height + 56},
                  true);
     return from_mat(img);
 }

@@ -116,7 +116,11 @@ Expected<Image> plot_coverage_cells(const CoverageCells& cells,
     }
     const int W = std::max(400, options.width);
     const int side = std::min(W - 90 - 150, 560);
-    const int H = 70 + side + 56 + 60;
+    // Below the axes: their labels, then the legend (one row per entry), all inside the picture.
+    const bool has_invalid =
+        std::any_of(cells.fraction.begin(), cells.fraction.end(), [](double f) { return f < 0; });
+    const int legend_rows = 1 + (has_invalid ? 1 : 0) + (holes.empty() ? 0 : 1);
+    const int H = 70 + side + 56 + std::max(60, 20 * legend_rows + 8 + 12);
     char sub[240];
     std::snprintf(sub,
                   sizeof sub,

@@ -1,7 +1,8 @@
 // Every text a picture draws lies inside the picture: every plot kind, the sphere preview and the
 // table coverage, drawn at the narrowest and the default width with long file names and labels,
 // record each text's box (TextRecorder); none may reach past an edge. A text too long for its
-// picture is drawn smaller or shortened in its middle, keeping its start and its end.
+// picture is drawn smaller or shortened in its middle, keeping its start and its end. A legend
+// covers no axis or tick label, and no two ring labels of a polar plot overlap.
 
 #include <gtest/gtest.h>
 
@@ -128,6 +129,95 @@ TEST(PlotText, ALongTitleKeepsItsStartAndItsEnd) {
     EXPECT_NE(title->text.find("..."), std::string::npos) << title->text;
     EXPECT_EQ(title->text.substr(title->text.size() - 4), ".csv") << title->text;
     EXPECT_LE(title->x + title->width, 400);
+}
+
+bool boxes_overlap(const DrawnText& a, const DrawnText& b) {
+    return a.x < b.x + b.width && b.x < a.x + a.width && a.y < b.y + b.height &&
+           b.y < a.y + a.height;
+}
+
+std::string box_of(const DrawnText& t) {
+    return "\"" + t.text + "\" at (" + std::to_string(t.x) + ", " + std::to_string(t.y) + ") " +
+           std::to_string(t.width) + " x " + std::to_string(t.height);
+}
+
+/// The pictures that draw a legend or rings, at the narrowest and the default width and every
+/// BRDF axis scale; `check(what, texts)` sees each picture's recorded boxes.
+template <class Check>
+void for_each_labelled_picture(const Check& check) {
+    const brdf::AnalyticBrdf fit(testing::every_model_type()[0].second);
+    const brdf::Dataset data = grid_samples(fit, 20261207);
+    CoverageCells cells;
+    cells.n_theta_h = 30;
+    cells.n_theta_d = 30;
+    cells.n_phi_d = 60;
+    for (int i = 0; i < 30 * 30; ++i) {
+        cells.fraction.push_back(i % 7 == 0 ? -1.0 : (i % 10) / 10.0);
+    }
+    const std::vector<TableHole> holes = {{10, 20, 30, 40, "shadowed by the sample holder"}};
+    for (int width : {400, 800}) {
+        for (AxisScale scale : {AxisScale::kAuto, AxisScale::kLinear, AxisScale::kLog}) {
+            PlotOptions o;
+            o.width = width;
+            o.scale = scale;
+            const std::string at =
+                " (width " + std::to_string(width) + ", " + axis_scale_name(scale) + ")";
+            TextRecorder rec;
+            const auto run = [&](const std::string& what, const Expected<Image>& img) {
+                ASSERT_TRUE(img) << what << ": " << img.error().message;
+                check(what + at, rec.texts());
+                rec.clear();
+            };
+            run("in-plane", plot_in_plane(data, &fit, o));
+            run("in-plane, fit only", plot_in_plane(brdf::Dataset{}, &fit, o));
+            run("delta phi", plot_delta_phi(data, &fit, o));
+            run("coverage", plot_coverage(data, o));
+            run("coverage cells", plot_coverage_cells(cells, holes, o, "a table"));
+        }
+    }
+}
+
+TEST(PlotText, NoLegendCoversAnAxisOrTickLabel) {
+    std::size_t frames = 0;
+    for_each_labelled_picture([&](const std::string& what, const std::vector<DrawnText>& texts) {
+        for (const DrawnText& legend : texts) {
+            if (legend.role != TextRole::kLegendFrame) {
+                continue;
+            }
+            ++frames;
+            for (const DrawnText& t : texts) {
+                if (t.role != TextRole::kAxisLabel && t.role != TextRole::kTickLabel) {
+                    continue;
+                }
+                EXPECT_FALSE(boxes_overlap(legend, t))
+                    << what << ": the legend's frame " << box_of(legend) << " covers " << box_of(t);
+            }
+        }
+    });
+    // Every picture above has a legend.
+    EXPECT_EQ(frames, 2u * 3u * 5u);
+}
+
+TEST(PlotText, NoTwoRingLabelsOfAPolarPlotOverlap) {
+    std::size_t pictures_with_rings = 0;
+    for_each_labelled_picture([&](const std::string& what, const std::vector<DrawnText>& texts) {
+        std::vector<const DrawnText*> rings;
+        for (const DrawnText& t : texts) {
+            if (t.role == TextRole::kRingLabel) {
+                rings.push_back(&t);
+            }
+        }
+        pictures_with_rings += rings.size() >= 2;
+        for (std::size_t a = 0; a < rings.size(); ++a) {
+            for (std::size_t b = a + 1; b < rings.size(); ++b) {
+                EXPECT_FALSE(boxes_overlap(*rings[a], *rings[b]))
+                    << what << ": ring labels " << box_of(*rings[a]) << " and " << box_of(*rings[b])
+                    << " overlap";
+            }
+        }
+    });
+    // The in-plane plots (with and without data) and the coverage plot label their rings.
+    EXPECT_EQ(pictures_with_rings, 2u * 3u * 3u);
 }
 
 }  // namespace

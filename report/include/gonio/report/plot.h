@@ -41,15 +41,26 @@ struct PlotOptions {
     double angle_tolerance_deg = 2.5;
 };
 
+/// What a recorded box on a picture is.
+enum class TextRole {
+    kText,        ///< a text with no role below (titles, captions, legend labels, ...)
+    kAxisLabel,   ///< an axis's name (below the x axis, rotated left of the y axis)
+    kTickLabel,   ///< the value at a tick of an axis
+    kRingLabel,   ///< the value of a ring of a polar plot
+    kLegendFrame  ///< a legend's framed box (filled: it hides what lies under it); no text
+};
+
 /// A text drawn on a picture: what, where (its box in pixels, glyphs included) and the size of the
 /// picture it was drawn on. A text that would not fit is drawn smaller, then shortened in its
-/// middle ("..."), and moved inside: it is never cut at the picture's edge.
+/// middle ("..."), and moved inside: it is never cut at the picture's edge. A legend's frame is
+/// recorded too (role kLegendFrame, empty text), so that tests can check what it covers.
 struct DrawnText {
     std::string text;   ///< as drawn (shortened when it had to be)
     std::string asked;  ///< as the plot asked for it
     int x = 0, y = 0, width = 0, height = 0;
     int image_width = 0, image_height = 0;
     bool vertical = false;  ///< rotated by 90 degrees (a y-axis or colour-bar label)
+    TextRole role = TextRole::kText;
 };
 
 /// While alive, records every text the pictures drawn on this thread put down (tests check that
@@ -80,7 +91,9 @@ struct PolarLayout {
     std::vector<double> theta_i_deg;  ///< the slices drawn
     std::size_t points_drawn = 0;     ///< measured samples drawn in all slices together
     bool log_scale = false;           ///< the radius scale used (after AxisScale::kAuto)
-    std::vector<double> ring_values;  ///< BRDF values of the labelled rings, 1/sr, inner first
+    /// BRDF values of the rings, 1/sr, inner first; each is labelled along the baseline unless
+    /// its label would overlap the one of the ring outside it (close log rings near the origin).
+    std::vector<double> ring_values;
     /// Measured samples off their slice's theta_i moved onto it by the fit (see plot_in_plane).
     std::size_t moved_to_slice = 0;
     /// With a fit: the largest |log10(marker / curve)| at a marker's in-plane angle.
