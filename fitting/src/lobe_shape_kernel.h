@@ -7,58 +7,44 @@
 #include <cstddef>
 #include <xsimd/xsimd.hpp>
 
-#include "gonio/brdf/microfacet.h"
-#include "gonio/brdf/microfacet_derivatives.h"
+#include "gonio/brdf/lobe_body.h"
 #include "gonio/fitting/lobe_shape_packets.h"
 
 namespace gonio::fitting::detail {
 
-/// S = D G inv_4cc and dS/dalpha = (dD G + D dG) inv_4cc of one packet.
-template <class B>
-inline void lobe_shape_packet(const LobeShapeKind& kind,
-                              const B& alpha,
-                              const B& hxy2,
-                              const B& hz2,
-                              const B& ti,
-                              const B& to,
-                              const B& inv_4cc,
-                              B& S,
-                              B& dS) {
-    const B zero(0.0);
-    B D, dD;
-    if (kind.beckmann) {
-        D = brdf::D_beckmann_from_squares(hxy2, zero, hz2, alpha, alpha);
-        dD = brdf::dD_beckmann_dalpha_from_squares(hxy2, hz2, alpha, D);
-    } else {
-        D = brdf::D_ggx_from_squares(hxy2, zero, hz2, alpha, alpha);
-        dD = brdf::dD_ggx_dalpha_from_squares(hxy2, hz2, alpha, D);
-    }
-    B G(1.0), dG(0.0);
-    if (kind.smith != 0) {
-        const B a2i = alpha * alpha * ti;
-        const B a2o = alpha * alpha * to;
-        B li, lo, dli, dlo;
-        if (kind.beckmann) {
-            li = brdf::lambda_beckmann_from_a2(a2i);
-            lo = brdf::lambda_beckmann_from_a2(a2o);
-            dli = brdf::dlambda_beckmann_dalpha_from_a2(a2i, alpha);
-            dlo = brdf::dlambda_beckmann_dalpha_from_a2(a2o, alpha);
-        } else {
-            li = brdf::lambda_ggx_from_a2(a2i);
-            lo = brdf::lambda_ggx_from_a2(a2o);
-            dli = brdf::dlambda_ggx_dalpha_from_a2(a2i, alpha);
-            dlo = brdf::dlambda_ggx_dalpha_from_a2(a2o, alpha);
-        }
-        if (kind.smith == 1) {
-            G = brdf::G_smith_correlated(li, lo);
-            dG = brdf::dG_smith_correlated(G, dli, dlo);
-        } else {
-            G = brdf::G_smith_separable(li, lo);
-            dG = brdf::dG_smith_separable(G, li, lo, dli, dlo);
-        }
-    }
-    S = D * G * inv_4cc;
-    dS = (dD * G + D * dG) * inv_4cc;
+/// The lobe body's structure (brdf/lobe_body.h) of a kind.
+inline brdf::Distribution kind_distribution(const LobeShapeKind& kind) {
+    return kind.beckmann ? brdf::Distribution::kBeckmann : brdf::Distribution::kGgx;
+}
+inline brdf::Shadowing kind_shadowing(const LobeShapeKind& kind) {
+    return kind.smith == 0   ? brdf::Shadowing::kNone
+           : kind.smith == 1 ? brdf::Shadowing::kSmithCorrelated
+                             : brdf::Shadowing::kSmithSeparable;
+}
+
+/// S = D G inv_4cc of one packet and, with Deriv, dS = dS/dalpha: the lobe body
+/// (brdf/lobe_body.h) on the squares of an isotropic structure.
+template <bool Deriv, class B>
+GONIO_LOBE_INLINE B lobe_shape_packet(const LobeShapeKind& kind,
+                                      double alpha,
+                                      const B& hxy2,
+                                      const B& hz2,
+                                      const B& ti,
+                                      const B& to,
+                                      const B& inv_4cc,
+                                      B* dS) {
+    constexpr double kUnused = 0.0;
+    const brdf::LobeShapeParams<double> p{
+        kind_distribution(kind), kind_shadowing(kind), alpha, alpha, kUnused, kUnused, nullptr};
+    brdf::LobeSquares<B> g;
+    g.isotropic = true;
+    g.hx2 = hxy2;
+    g.hy2 = B(0.0);
+    g.hz2 = hz2;
+    g.wi.x2 = ti;
+    g.wo.x2 = to;
+    g.inv_4cc = inv_4cc;
+    return brdf::lobe_shape<Deriv, brdf::SquaresForm::kTangents, B>(p, g, dS);
 }
 
 template <class Arch>
@@ -70,22 +56,20 @@ void lobe_shape_kernel(const LobeShapeKind& kind,
                        double* dS) {
     using B = xsimd::batch<double, Arch>;
     constexpr std::size_t kW = B::size;
-    const B a(alpha);
     const bool smith = kind.smith != 0;
     std::size_t i = 0;
     for (; i + kW <= n; i += kW) {
         const B ti = smith ? B::load_unaligned(in.tan2_i + i) : B(0.0);
         const B to = smith ? B::load_unaligned(in.tan2_o + i) : B(0.0);
-        B s, ds;
-        lobe_shape_packet(kind,
-                          a,
-                          B::load_unaligned(in.hxy2 + i),
-                          B::load_unaligned(in.hz2 + i),
-                          ti,
-                          to,
-                          B::load_unaligned(in.inv_4cc + i),
-                          s,
-                          ds);
+        B ds;
+        const B s = lobe_shape_packet<true>(kind,
+                                            alpha,
+                                            B::load_unaligned(in.hxy2 + i),
+                                            B::load_unaligned(in.hz2 + i),
+                                            ti,
+                                            to,
+                                            B::load_unaligned(in.inv_4cc + i),
+                                            &ds);
         s.store_unaligned(S + i);
         ds.store_unaligned(dS + i);
     }
@@ -101,16 +85,15 @@ void lobe_shape_kernel(const LobeShapeKind& kind,
             std::copy(in.tan2_i + i, in.tan2_i + n, ti);
             std::copy(in.tan2_o + i, in.tan2_o + n, to);
         }
-        B s, ds;
-        lobe_shape_packet(kind,
-                          a,
-                          B::load_aligned(hxy2),
-                          B::load_aligned(hz2),
-                          B::load_aligned(ti),
-                          B::load_aligned(to),
-                          B::load_aligned(inv),
-                          s,
-                          ds);
+        B ds;
+        const B s = lobe_shape_packet<true>(kind,
+                                            alpha,
+                                            B::load_aligned(hxy2),
+                                            B::load_aligned(hz2),
+                                            B::load_aligned(ti),
+                                            B::load_aligned(to),
+                                            B::load_aligned(inv),
+                                            &ds);
         alignas(64) double so[kW], dso[kW];
         s.store_aligned(so);
         ds.store_aligned(dso);

@@ -31,15 +31,14 @@ void lobe_shape_scalar(const LobeShapeKind& kind,
                        double* dS) {
     const bool smith = kind.smith != 0;
     for (std::size_t i = 0; i < n; ++i) {
-        detail::lobe_shape_packet(kind,
-                                  alpha,
-                                  in.hxy2[i],
-                                  in.hz2[i],
-                                  smith ? in.tan2_i[i] : 0.0,
-                                  smith ? in.tan2_o[i] : 0.0,
-                                  in.inv_4cc[i],
-                                  S[i],
-                                  dS[i]);
+        S[i] = detail::lobe_shape_packet<true>(kind,
+                                               alpha,
+                                               in.hxy2[i],
+                                               in.hz2[i],
+                                               smith ? in.tan2_i[i] : 0.0,
+                                               smith ? in.tan2_o[i] : 0.0,
+                                               in.inv_4cc[i],
+                                               &dS[i]);
     }
 }
 

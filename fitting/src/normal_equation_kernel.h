@@ -15,31 +15,6 @@
 
 namespace gonio::fitting::detail {
 
-/// S = D G inv_4cc of one packet (lobe_shape_packet without the derivative).
-template <class B>
-inline B lobe_shape_value_packet(const LobeShapeKind& kind,
-                                 const B& alpha,
-                                 const B& hxy2,
-                                 const B& hz2,
-                                 const B& ti,
-                                 const B& to,
-                                 const B& inv_4cc) {
-    const B zero(0.0);
-    const B D = kind.beckmann ? brdf::D_beckmann_from_squares(hxy2, zero, hz2, alpha, alpha)
-                              : brdf::D_ggx_from_squares(hxy2, zero, hz2, alpha, alpha);
-    B G(1.0);
-    if (kind.smith != 0) {
-        const B a2i = alpha * alpha * ti;
-        const B a2o = alpha * alpha * to;
-        const B li =
-            kind.beckmann ? brdf::lambda_beckmann_from_a2(a2i) : brdf::lambda_ggx_from_a2(a2i);
-        const B lo =
-            kind.beckmann ? brdf::lambda_beckmann_from_a2(a2o) : brdf::lambda_ggx_from_a2(a2o);
-        G = kind.smith == 1 ? brdf::G_smith_correlated(li, lo) : brdf::G_smith_separable(li, lo);
-    }
-    return D * G * inv_4cc;
-}
-
 /// The per-lane sums of one range: K slots, Deriv: with the normal equations.
 template <class B, int K>
 struct PacketSums {
@@ -65,19 +40,17 @@ inline void fused_packet(const PacketModel& m,
     const B ci = B::load_unaligned(in.cos_i + i);
     B S[kMaxLobes], dS[kMaxLobes];
     for (int l = 0; l < m.lobes; ++l) {
-        if (Deriv) {
-            lobe_shape_packet(m.kind[l], B(m.alpha[l]), hxy2, hz2, ti, to, inv, S[l], dS[l]);
-        } else {
-            S[l] = lobe_shape_value_packet(m.kind[l], B(m.alpha[l]), hxy2, hz2, ti, to, inv);
-        }
+        S[l] = lobe_shape_packet<Deriv>(m.kind[l], m.alpha[l], hxy2, hz2, ti, to, inv, &dS[l]);
     }
+    brdf::FresnelGeometry<B> fg;
+    fg.x5 = x5;
     const B one(1.0);
     for (int c = 0; c < 3; ++c) {
         // f_c and each lobe's F_lc, in the order of prepared_samples.cpp's per-sample sum.
         B F[kMaxLobes];
         B f(m.diffuse[c]);
         for (int l = 0; l < m.lobes; ++l) {
-            F[l] = m.schlick[l] ? brdf::fresnel_schlick_from_pow5(x5, B(m.f0[l][c])) : one;
+            F[l] = brdf::lobe_F<B>(m.fresnel[l], c, fg);
             f += B(m.scale[l][c]) * F[l] * S[l];
         }
         const B arg = f * ci;

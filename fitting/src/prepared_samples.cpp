@@ -13,6 +13,7 @@
 #include "gonio/base/thread_pool.h"
 #include "gonio/brdf/blinn_phong.h"
 #include "gonio/brdf/fresnel.h"
+#include "gonio/brdf/lobe_body.h"
 #include "gonio/brdf/math.h"
 #include "gonio/brdf/microfacet.h"
 #include "gonio/brdf/model_eval.h"
@@ -65,36 +66,65 @@ void parallel_blocks(std::size_t n,
                         });
 }
 
+/// The per-sample arrays a model's structure needs (the others stay empty).
+struct PreparedSamples::GeometryNeeds {
+    bool lobes = false;    ///< 1 / (4 cos_i cos_o): any lobe.
+    bool h = false;        ///< Squares of h: a lobe other than Blinn-Phong.
+    bool bp = false;       ///< log cos theta_h: a Blinn-Phong lobe.
+    bool smith = false;    ///< Squared slopes of wi and wo: Smith shadowing.
+    bool vgroove = false;  ///< The V-groove G.
+    bool schlick = false;  ///< (1 - cos_d)^5: Schlick's Fresnel term.
+    bool exact_f = false;  ///< cos_d: a dielectric or conductor Fresnel term.
+};
+
 PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
                                  const std::vector<brdf::Sample>& samples,
                                  const CostOptions& o)
     : map_(std::move(map)), form_(o.residual), n_(samples.size()) {
+    const GeometryNeeds need = read_structure();
+    assign_slots();
+    choose_passes(samples);
+    allocate(need);
+    parallel_ranges(n_, 0, [&](std::size_t, std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) {
+            prepare_geometry(i, samples[i], need);
+            prepare_residual(i, samples[i], o);
+        }
+    });
+}
+
+PreparedSamples::GeometryNeeds PreparedSamples::read_structure() {
+    GeometryNeeds need;
     const brdf::ModelD& base = map_->base();
-    bool need_h = false, need_bp = false, need_smith = false, need_vg = false;
-    bool need_schlick = false, need_exact_f = false;
+    need.lobes = !base.lobes.empty();
     for (const brdf::Lobe<double>& l : base.lobes) {
         anisotropic_ =
             anisotropic_ || (l.anisotropic && l.distribution != brdf::Distribution::kBlinnPhong);
+        tabulated_ = tabulated_ || l.distribution == brdf::Distribution::kTabulated;
         if (l.distribution == brdf::Distribution::kBlinnPhong) {
-            need_bp = true;
+            need.bp = true;
         } else {
-            need_h = true;
+            need.h = true;
         }
         if (l.shadowing == brdf::Shadowing::kSmithCorrelated ||
             l.shadowing == brdf::Shadowing::kSmithSeparable) {
-            need_smith = true;
+            need.smith = true;
         } else if (l.shadowing == brdf::Shadowing::kVGroove) {
-            need_vg = true;
+            need.vgroove = true;
         }
         if (l.fresnel.type == brdf::FresnelType::kSchlick) {
-            need_schlick = true;
+            need.schlick = true;
         } else if (l.fresnel.type != brdf::FresnelType::kNone) {
-            need_exact_f = true;
+            need.exact_f = true;
         }
     }
-    // Derivative slots: a scalar or shared parameter has its own slot; the three channels of a
-    // per-channel field share one, since channel c of the model depends on such a field through
-    // its component c alone (every RGB field enters the model element-wise).
+    return need;
+}
+
+void PreparedSamples::assign_slots() {
+    // A scalar or shared parameter has its own slot; the three channels of a per-channel field
+    // share one, since channel c of the model depends on such a field through its component c
+    // alone (every RGB field enters the model element-wise).
     const int np = map_->size();
     slot_.assign(np, -1);
     channel_.assign(np, -1);
@@ -115,6 +145,17 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
         }
     }
     GONIO_CHECK(slots_ <= 32);
+    slot_field_.assign(slots_, Field::kDiffuse);
+    slot_lobe_.assign(slots_, -1);
+    for (int k = 0; k < np; ++k) {
+        const ScalarParam& sp = map_->scalars()[map_->free()[k]];
+        slot_field_[slot_[k]] = sp.field;
+        slot_lobe_[slot_[k]] = sp.lobe;
+    }
+}
+
+void PreparedSamples::choose_passes(const std::vector<brdf::Sample>& samples) {
+    const brdf::ModelD& base = map_->base();
     // Analytic derivatives (analytic_sample) cover isotropic lobes with a Schlick or no Fresnel
     // term and the fields diffuse, alpha_x, exponent, gamma (Student-t), scale and f0; other
     // structures use Jets over the derivative slots.
@@ -126,15 +167,10 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
                     (l.fresnel.type == brdf::FresnelType::kSchlick ||
                      l.fresnel.type == brdf::FresnelType::kNone);
     }
-    slot_field_.assign(slots_, Field::kDiffuse);
-    slot_lobe_.assign(slots_, -1);
-    for (int k = 0; k < np; ++k) {
-        const ScalarParam& sp = map_->scalars()[map_->free()[k]];
-        slot_field_[slot_[k]] = sp.field;
-        slot_lobe_[slot_[k]] = sp.lobe;
-        analytic_ = analytic_ && (sp.field == Field::kDiffuse || sp.field == Field::kAlphaX ||
-                                  sp.field == Field::kExponent || sp.field == Field::kGamma ||
-                                  sp.field == Field::kScale || sp.field == Field::kF0);
+    for (const Field f : slot_field_) {
+        analytic_ =
+            analytic_ && (f == Field::kDiffuse || f == Field::kAlphaX || f == Field::kExponent ||
+                          f == Field::kGamma || f == Field::kScale || f == Field::kF0);
     }
     // The fused packet passes (normal_equation_packets.h) take the log residual of isotropic GGX
     // and Beckmann lobes with no or Smith shadowing, in the closed form. They read each sample's
@@ -151,10 +187,9 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
                     l.shadowing == brdf::Shadowing::kSmithCorrelated ||
                     l.shadowing == brdf::Shadowing::kSmithSeparable);
     }
-    for (int k = 0; k < slots_; ++k) {
-        packets_ =
-            packets_ && (slot_field_[k] == Field::kDiffuse || slot_field_[k] == Field::kAlphaX ||
-                         slot_field_[k] == Field::kScale || slot_field_[k] == Field::kF0);
+    for (const Field f : slot_field_) {
+        packets_ = packets_ && (f == Field::kDiffuse || f == Field::kAlphaX || f == Field::kScale ||
+                                f == Field::kF0);
     }
     paths_ = ExposurePaths::of(samples);
     if (paths_) {
@@ -162,353 +197,211 @@ PreparedSamples::PreparedSamples(std::shared_ptr<const ParameterMap> map,
         // closed-form derivatives and the packet passes do not take.
         analytic_ = packets_ = false;
     }
-    auto alloc = [&](std::vector<double>& v, bool need) {
-        if (need) {
+}
+
+void PreparedSamples::allocate(const GeometryNeeds& need) {
+    auto alloc = [&](std::vector<double>& v, bool needed) {
+        if (needed) {
             resize_huge(v, n_);
         }
     };
     alloc(cos_i_, true);
-    alloc(inv_4cc_, !base.lobes.empty());
-    alloc(hx2_, need_h);
-    alloc(hy2_, need_h && anisotropic_);
-    alloc(hz2_, need_h);
-    alloc(log_cos_h_, need_bp);
-    alloc(ti_x_, need_smith);
-    alloc(to_x_, need_smith);
-    alloc(ti_y_, need_smith && anisotropic_);
-    alloc(to_y_, need_smith && anisotropic_);
-    alloc(hxy_, need_h && anisotropic_);
-    alloc(ti_xy_, need_smith && anisotropic_);
-    alloc(to_xy_, need_smith && anisotropic_);
-    alloc(cos_d_, need_exact_f);
-    alloc(omc_d_, need_exact_f);
-    alloc(x5_, need_schlick);
-    alloc(g_vgroove_, need_vg);
+    alloc(inv_4cc_, need.lobes);
+    alloc(hx2_, need.h);
+    alloc(hy2_, need.h && anisotropic_);
+    alloc(hz2_, need.h);
+    alloc(log_cos_h_, need.bp);
+    alloc(ti_x_, need.smith);
+    alloc(to_x_, need.smith);
+    alloc(ti_y_, need.smith && anisotropic_);
+    alloc(to_y_, need.smith && anisotropic_);
+    alloc(hxy_, need.h && anisotropic_);
+    alloc(ti_xy_, need.smith && anisotropic_);
+    alloc(to_xy_, need.smith && anisotropic_);
+    alloc(cos_d_, need.exact_f);
+    alloc(x5_, need.schlick);
+    alloc(g_vgroove_, need.vgroove);
     for (int c = 0; c < 3; ++c) {
         resize_huge(g_d_[c], n_);
         resize_huge(s_[c], n_);
     }
-    const bool any_lobe = !base.lobes.empty();
-    parallel_ranges(n_, 0, [&](std::size_t, std::size_t b, std::size_t e) {
-        for (std::size_t i = b; i < e; ++i) {
-            const brdf::Sample& smp = samples[i];
-            const brdf::Vec3d wi = smp.wi();
-            const brdf::Vec3d wo = smp.wo();
-            const double ci = wi.z();
-            const double co = wo.z();
-            cos_i_[i] = ci;
-            if (any_lobe) {
-                // Callers pass samples above the horizon only (fit() validates
-                // them).
-                inv_4cc_[i] = 1 / (4 * ci * co);
-                const brdf::Vec3d sum = wi + wo;
-                const double len = sum.norm();
-                const brdf::Vec3d h = sum / len;
-                const double cos_d = std::min(len / 2, 1.0);
-                const double omc_d = (wi - wo).squaredNorm() / (4 * (1 + cos_d));
-                if (need_h) {
-                    if (anisotropic_) {
-                        hx2_[i] = h.x() * h.x();
-                        hy2_[i] = h.y() * h.y();
-                        hxy_[i] = h.x() * h.y();
-                    } else {
-                        hx2_[i] = h.x() * h.x() + h.y() * h.y();
-                    }
-                    hz2_[i] = h.z() * h.z();
-                }
-                if (need_bp) {
-                    const double omc_h = (h.x() * h.x() + h.y() * h.y()) / (1 + h.z());
-                    log_cos_h_[i] = h.z() > 0 && omc_h < 1
-                                        ? std::log1p(-omc_h)
-                                        : -std::numeric_limits<double>::infinity();
-                }
-                if (need_smith) {
-                    const double ci2 = ci * ci;
-                    const double co2 = co * co;
-                    if (anisotropic_) {
-                        ti_x_[i] = wi.x() * wi.x() / ci2;
-                        ti_y_[i] = wi.y() * wi.y() / ci2;
-                        to_x_[i] = wo.x() * wo.x() / co2;
-                        to_y_[i] = wo.y() * wo.y() / co2;
-                        ti_xy_[i] = wi.x() * wi.y() / ci2;
-                        to_xy_[i] = wo.x() * wo.y() / co2;
-                    } else {
-                        ti_x_[i] = (wi.x() * wi.x() + wi.y() * wi.y()) / ci2;
-                        to_x_[i] = (wo.x() * wo.x() + wo.y() * wo.y()) / co2;
-                    }
-                }
-                if (need_exact_f) {
-                    cos_d_[i] = cos_d;
-                    omc_d_[i] = omc_d;
-                }
-                if (need_schlick) {
-                    x5_[i] = brdf::pow5(std::clamp(omc_d, 0.0, 1.0));
-                }
-                if (need_vg) {
-                    g_vgroove_[i] = brdf::G_vgroove(wi, wo, h);
-                }
-            }
-            const double sqrt_w = std::sqrt(smp.weight);
-            for (int c = 0; c < 3; ++c) {
-                const double d = smp.value[c];
-                double g_d = d;
-                double dg = 1;  // g'(d)
-                double s = 1;
-                switch (form_) {
-                    case ResidualForm::kAbsolute:
-                        break;
-                    case ResidualForm::kRelative:
-                        // (A value below zero within its noise: zero in the denominator.)
-                        s = 1 / (std::max(d, 0.0) + o.relative_floor);
-                        break;
-                    case ResidualForm::kLog:
-                        g_d = std::log1p(d * ci);
-                        dg = ci / (1 + d * ci);
-                        break;
-                    case ResidualForm::kCosine:
-                        s = ci;
-                        break;
-                    case ResidualForm::kCubeRoot:
-                        g_d = std::cbrt(d + kCbrtOffset);
-                        dg = 1 / (3 * g_d * g_d);
-                        break;
-                }
-                if (o.use_sigma && smp.sigma[c] > 0) {
-                    // Normalised deviation: the residual's first-order standard
-                    // deviation is g'(d) sigma (times s, which cancels).
-                    s = 1 / (dg * smp.sigma[c]);
-                }
-                g_d_[c][i] = g_d;
-                s_[c][i] = s * sqrt_w;
-            }
-        }
-    });
 }
 
-template <class T>
-void PreparedSamples::lobe_squares(std::size_t i,
-                                   const brdf::LobeRotation<T>* rot,
-                                   T out[6]) const {
-    const bool h = !hx2_.empty();
-    const bool smith = !ti_x_.empty();
-    for (int k = 0; k < 6; ++k) {
-        out[k] = T(0);
-    }
-    if (rot == nullptr) {
-        if (h) {
-            out[0] = T(hx2_[i]);
-            out[1] = T(hy2_[i]);
-        }
-        if (smith) {
-            out[2] = T(ti_x_[i]);
-            out[3] = T(ti_y_[i]);
-            out[4] = T(to_x_[i]);
-            out[5] = T(to_y_[i]);
-        }
+void PreparedSamples::prepare_geometry(std::size_t i,
+                                       const brdf::Sample& smp,
+                                       const GeometryNeeds& need) {
+    const brdf::Vec3d wi = smp.wi();
+    const brdf::Vec3d wo = smp.wo();
+    const double ci = wi.z();
+    const double co = wo.z();
+    cos_i_[i] = ci;
+    if (!need.lobes) {
         return;
     }
-    // The sample-frame squares and cross products turned into the lobe's frame.
-    if (h) {
-        brdf::lobe_frame_squares(T(hx2_[i]), T(hy2_[i]), T(hxy_[i]), *rot, out[0], out[1]);
-    }
-    if (smith) {
-        brdf::lobe_frame_squares(T(ti_x_[i]), T(ti_y_[i]), T(ti_xy_[i]), *rot, out[2], out[3]);
-        brdf::lobe_frame_squares(T(to_x_[i]), T(to_y_[i]), T(to_xy_[i]), *rot, out[4], out[5]);
-    }
-}
-
-template <class T>
-T PreparedSamples::shape(brdf::Distribution dist,
-                         brdf::Shadowing shadowing,
-                         const T& ax,
-                         const T& ay,
-                         const T& exponent,
-                         std::size_t i,
-                         const brdf::LobeRotation<T>* rot) const {
-    // Layout: with an anisotropic lobe in the structure the x and y parts are stored apart, and
-    // turned into the lobe's own frame when it has one.
-    const bool aniso = anisotropic_;
-    T sq[6];
-    if (aniso) {
-        lobe_squares(i, rot, sq);
-    }
-    // D, Lambda, G: the brdf/ formula bodies on the precomputed squares (microfacet.h,
-    // blinn_phong.h); both directions are above the horizon, so h_z > 0.
-    const T hx2 = aniso ? sq[0] : T(hx2_.empty() ? 0.0 : hx2_[i]);
-    const T hy2 = aniso ? sq[1] : T(0);
-    T D;
-    switch (dist) {
-        case brdf::Distribution::kGgx:
-            D = brdf::D_ggx_from_squares(hx2, hy2, T(hz2_[i]), ax, ay);
-            break;
-        case brdf::Distribution::kBeckmann:
-            D = brdf::D_beckmann_from_squares(hx2, hy2, T(hz2_[i]), ax, ay);
-            break;
-        case brdf::Distribution::kBlinnPhong:
-        default:
-            if (!std::isfinite(log_cos_h_[i])) {
-                // cos^e(theta_h) underflows to 0 (h at the horizon through rounding).
-                return T(0);
-            }
-            D = brdf::D_blinn_phong_from_log_cos(T(log_cos_h_[i]), exponent);
-            break;
-    }
-    if (D == T(0)) {
-        // Far tail: the lobe contributes exactly zero.
-        return T(0);
-    }
-    // G (brdf/model_eval.h lobe_G); a Blinn-Phong lobe uses Beckmann's Lambda with
-    // alpha = sqrt(2 / (e + 2)).
-    T G(1);
-    if (shadowing == brdf::Shadowing::kSmithCorrelated ||
-        shadowing == brdf::Shadowing::kSmithSeparable) {
-        T bx = ax, by = ay;
-        if (dist == brdf::Distribution::kBlinnPhong) {
-            bx = by = brdf::blinn_phong_equivalent_alpha(exponent);
-        }
-        const T a2i = aniso ? bx * bx * sq[2] + by * by * sq[3] : bx * bx * T(ti_x_[i]);
-        const T a2o = aniso ? bx * bx * sq[4] + by * by * sq[5] : bx * bx * T(to_x_[i]);
-        T li, lo;
-        if (dist == brdf::Distribution::kGgx) {
-            li = brdf::lambda_ggx_from_a2(a2i);
-            lo = brdf::lambda_ggx_from_a2(a2o);
+    // Callers pass samples above the horizon only (fit() validates them).
+    inv_4cc_[i] = 1 / (4 * ci * co);
+    const brdf::Vec3d sum = wi + wo;
+    const double len = sum.norm();
+    const brdf::Vec3d h = sum / len;
+    const double cos_d = std::min(len / 2, 1.0);
+    if (need.h) {
+        if (anisotropic_) {
+            hx2_[i] = h.x() * h.x();
+            hy2_[i] = h.y() * h.y();
+            hxy_[i] = h.x() * h.y();
         } else {
-            li = brdf::lambda_beckmann_from_a2(a2i);
-            lo = brdf::lambda_beckmann_from_a2(a2o);
+            hx2_[i] = h.x() * h.x() + h.y() * h.y();
         }
-        G = shadowing == brdf::Shadowing::kSmithCorrelated ? brdf::G_smith_correlated(li, lo)
-                                                           : brdf::G_smith_separable(li, lo);
-    } else if (shadowing == brdf::Shadowing::kVGroove) {
-        G = T(g_vgroove_[i]);
+        hz2_[i] = h.z() * h.z();
     }
-    return D * G * T(inv_4cc_[i]);
+    if (need.bp) {
+        log_cos_h_[i] = brdf::log_cos_theta_h(h.x() * h.x() + h.y() * h.y(), h.z());
+    }
+    if (need.smith) {
+        const double ci2 = ci * ci;
+        const double co2 = co * co;
+        if (anisotropic_) {
+            ti_x_[i] = wi.x() * wi.x() / ci2;
+            ti_y_[i] = wi.y() * wi.y() / ci2;
+            to_x_[i] = wo.x() * wo.x() / co2;
+            to_y_[i] = wo.y() * wo.y() / co2;
+            ti_xy_[i] = wi.x() * wi.y() / ci2;
+            to_xy_[i] = wo.x() * wo.y() / co2;
+        } else {
+            ti_x_[i] = (wi.x() * wi.x() + wi.y() * wi.y()) / ci2;
+            to_x_[i] = (wo.x() * wo.x() + wo.y() * wo.y()) / co2;
+        }
+    }
+    if (need.exact_f) {
+        cos_d_[i] = cos_d;
+    }
+    if (need.schlick) {
+        // 1 - cos_d without cancellation (brdf/model_eval.h half_geometry).
+        const double omc_d = (wi - wo).squaredNorm() / (4 * (1 + cos_d));
+        x5_[i] = brdf::pow5(std::clamp(omc_d, 0.0, 1.0));
+    }
+    if (need.vgroove) {
+        g_vgroove_[i] = brdf::G_vgroove(wi, wo, h);
+    }
 }
 
-template <class T>
-T PreparedSamples::shape_student_t(brdf::Shadowing shadowing,
-                                   const T& ax,
-                                   const T& ay,
-                                   const T& gamma,
-                                   std::size_t i,
-                                   const brdf::LobeRotation<T>* rot) const {
-    using std::exp;
-    using std::log;
-    using std::log1p;
-    const bool aniso = anisotropic_;
-    T sq[6];
-    if (aniso) {
-        lobe_squares(i, rot, sq);
+void PreparedSamples::prepare_residual(std::size_t i,
+                                       const brdf::Sample& smp,
+                                       const CostOptions& o) {
+    const double ci = cos_i_[i];
+    const double sqrt_w = std::sqrt(smp.weight);
+    for (int c = 0; c < 3; ++c) {
+        const double d = smp.value[c];
+        double g_d = d;
+        double dg = 1;  // g'(d)
+        double s = 1;
+        switch (form_) {
+            case ResidualForm::kAbsolute:
+                break;
+            case ResidualForm::kRelative:
+                // (A value below zero within its noise: zero in the denominator.)
+                s = 1 / (std::max(d, 0.0) + o.relative_floor);
+                break;
+            case ResidualForm::kLog:
+                g_d = std::log1p(d * ci);
+                dg = ci / (1 + d * ci);
+                break;
+            case ResidualForm::kCosine:
+                s = ci;
+                break;
+            case ResidualForm::kCubeRoot:
+                g_d = std::cbrt(d + kCbrtOffset);
+                dg = 1 / (3 * g_d * g_d);
+                break;
+        }
+        if (o.use_sigma && smp.sigma[c] > 0) {
+            // Normalised deviation: the residual's first-order standard deviation is g'(d) sigma
+            // (times s, which cancels).
+            s = 1 / (dg * smp.sigma[c]);
+        }
+        g_d_[c][i] = g_d;
+        s_[c][i] = s * sqrt_w;
     }
-    // D (brdf/student_t.h D_student_t); both directions are above the horizon, so h_z > 0.
-    if (hz2_[i] < 1e-300) {
-        // h at the horizon through rounding: no projected area.
-        return T(0);
-    }
-    const T e =
-        (aniso ? sq[0] / (ax * ax) + sq[1] / (ay * ay) : T(hx2_[i]) / (ax * ax)) / T(hz2_[i]);
-    const T D = exp(-gamma * log1p(e / (gamma - T(1))) - T(2 * std::log(hz2_[i]))) /
-                (T(brdf::kPi) * ax * ay);
-    T G(1);
-    if (shadowing == brdf::Shadowing::kSmithCorrelated ||
-        shadowing == brdf::Shadowing::kSmithSeparable) {
-        const T a2i = aniso ? ax * ax * sq[2] + ay * ay * sq[3] : ax * ax * T(ti_x_[i]);
-        const T a2o = aniso ? ax * ax * sq[4] + ay * ay * sq[5] : ax * ax * T(to_x_[i]);
-        const T li = brdf::lambda_student_t_a2(a2i, gamma);
-        const T lo = brdf::lambda_student_t_a2(a2o, gamma);
-        G = shadowing == brdf::Shadowing::kSmithCorrelated ? T(1) / (T(1) + li + lo)
-                                                           : T(1) / ((T(1) + li) * (T(1) + lo));
-    } else if (shadowing == brdf::Shadowing::kVGroove) {
-        G = T(g_vgroove_[i]);
-    }
-    return D * G * T(inv_4cc_[i]);
 }
+
+/// Sample i's geometry in the form of the lobe body (brdf/lobe_body.h): the stored squares and
+/// squared slopes (tangents), turned into a lobe's frame when it has one.
+class PreparedSamples::SampleSquares {
+  public:
+    SampleSquares(const PreparedSamples& p, std::size_t i) : p_(p), i_(i) {}
+
+    /// In the sample's frame (an isotropic structure holds the sums in the x parts).
+    brdf::LobeSquares<double> squares() const {
+        const std::size_t i = i_;
+        brdf::LobeSquares<double> g;
+        g.isotropic = !p_.anisotropic_;
+        g.hx2 = at(p_.hx2_);
+        g.hy2 = at(p_.hy2_);
+        g.hz2 = at(p_.hz2_);
+        g.log_cos_h = at(p_.log_cos_h_);
+        g.wi = {at(p_.ti_x_), at(p_.ti_y_), 1.0, 0.0};
+        g.wo = {at(p_.to_x_), at(p_.to_y_), 1.0, 0.0};
+        if (p_.tabulated_) {
+            // A tabulated lobe looks its D and Lambda up by cosine.
+            g.cos_h = std::sqrt(g.hz2);
+            g.wi.cos_theta = 1.0 / std::sqrt(1.0 + (g.wi.x2 + g.wi.y2));
+            g.wo.cos_theta = 1.0 / std::sqrt(1.0 + (g.wo.x2 + g.wo.y2));
+        }
+        g.g_vgroove = at(p_.g_vgroove_);
+        g.inv_4cc = p_.inv_4cc_[i];
+        return g;
+    }
+
+    /// In the frame of a lobe turned by r: the sample-frame squares and cross products turned
+    /// (brdf/lobe_orientation.h); an anisotropic structure only.
+    template <class T>
+    brdf::LobeSquares<T> turned(const brdf::LobeRotation<T>& r) const {
+        const std::size_t i = i_;
+        brdf::LobeSquares<T> g;
+        g.isotropic = false;
+        if (!p_.hx2_.empty()) {
+            brdf::lobe_frame_squares(T(p_.hx2_[i]), T(p_.hy2_[i]), T(p_.hxy_[i]), r, g.hx2, g.hy2);
+            g.hz2 = T(p_.hz2_[i]);
+        }
+        if (!p_.ti_x_.empty()) {
+            brdf::lobe_frame_squares(
+                T(p_.ti_x_[i]), T(p_.ti_y_[i]), T(p_.ti_xy_[i]), r, g.wi.x2, g.wi.y2);
+            brdf::lobe_frame_squares(
+                T(p_.to_x_[i]), T(p_.to_y_[i]), T(p_.to_xy_[i]), r, g.wo.x2, g.wo.y2);
+        }
+        g.g_vgroove = T(at(p_.g_vgroove_));
+        g.inv_4cc = T(p_.inv_4cc_[i]);
+        return g;
+    }
+
+    brdf::FresnelGeometry<double> fresnel() const {
+        brdf::FresnelGeometry<double> g;
+        g.x5 = at(p_.x5_);
+        g.cos_d = at(p_.cos_d_);
+        return g;
+    }
+
+  private:
+    /// Sample i of an array the structure needs (0 for one it does not).
+    double at(const std::vector<double>& v) const { return v.empty() ? 0.0 : v[i_]; }
+
+    const PreparedSamples& p_;
+    std::size_t i_;
+};
 
 template <class T>
 brdf::Rgb<T> PreparedSamples::eval(const brdf::Model<T>& m, std::size_t i) const {
     if (paths_ && paths_->swept(i)) {
         return paths_->mean(m, i);
     }
-    brdf::Rgb<T> f = m.has_diffuse ? brdf::Rgb<T>(m.diffuse * T(brdf::kInvPi))
-                                   : brdf::Rgb<T>(brdf::Rgb<T>::Zero());
-    for (const brdf::Lobe<T>& l : m.lobes) {
-        if (l.rgb_roughness) {
-            // RGB-varying roughness (brdf/model_eval.h eval_lanes): the shape of each channel
-            // with that channel's alpha; an isotropic analytic lobe (ParameterMap::make).
-            for (int c = 0; c < 3; ++c) {
-                const T& a = l.alpha_rgb[c];
-                const T S = l.distribution == brdf::Distribution::kStudentT
-                                ? shape_student_t(l.shadowing, a, a, l.gamma, i)
-                                : shape(l.distribution, l.shadowing, a, a, l.exponent, i);
-                if (S == T(0)) {
-                    continue;
-                }
-                T F;
-                switch (l.fresnel.type) {
-                    case brdf::FresnelType::kSchlick:
-                        F = brdf::fresnel_schlick_from_pow5(T(x5_[i]), l.fresnel.f0[c]);
-                        break;
-                    case brdf::FresnelType::kNone:
-                        F = T(1);
-                        break;
-                    default:
-                        F = brdf::eval_fresnel(l.fresnel, T(cos_d_[i]), T(omc_d_[i]))[c];
-                        break;
-                }
-                f[c] += l.scale[c] * F * S;
-            }
-            continue;
-        }
-        // An anisotropic lobe's geometry is turned into its own frame (brdf/lobe_orientation.h).
-        brdf::LobeRotation<T> r{T(1), T(0)};
-        const bool turned = l.anisotropic && l.distribution != brdf::Distribution::kBlinnPhong &&
-                            l.distribution != brdf::Distribution::kTabulated;
-        if (turned) {
-            r = brdf::lobe_rotation_deg(l.orientation_deg);
-        }
-        const brdf::LobeRotation<T>* rot = turned ? &r : nullptr;
-        const T S = l.distribution == brdf::Distribution::kTabulated
-                        ? T(brdf::tabulated_lobe_shape(
-                                *l.table,
-                                l.shadowing,
-                                hz2_[i],
-                                ti_x_.empty() ? 0.0 : ti_x_[i] + (ti_y_.empty() ? 0.0 : ti_y_[i]),
-                                to_x_.empty() ? 0.0 : to_x_[i] + (to_y_.empty() ? 0.0 : to_y_[i]),
-                                g_vgroove_.empty() ? 1.0 : g_vgroove_[i]) *
-                            inv_4cc_[i])
-                    : l.distribution == brdf::Distribution::kStudentT
-                        ? shape_student_t(l.shadowing,
-                                          l.alpha_x,
-                                          l.anisotropic ? l.alpha_y : l.alpha_x,
-                                          l.gamma,
-                                          i,
-                                          rot)
-                        : shape(l.distribution,
-                                l.shadowing,
-                                l.alpha_x,
-                                l.anisotropic ? l.alpha_y : l.alpha_x,
-                                l.exponent,
-                                i,
-                                rot);
-        if (S == T(0)) {
-            continue;
-        }
-        // F (brdf/fresnel.h).
-        brdf::Rgb<T> F;
-        switch (l.fresnel.type) {
-            case brdf::FresnelType::kSchlick: {
-                F = brdf::fresnel_schlick_from_pow5(T(x5_[i]), l.fresnel.f0);
-                break;
-            }
-            case brdf::FresnelType::kNone:
-                F = brdf::Rgb<T>::Constant(T(1));
-                break;
-            default:
-                F = brdf::eval_fresnel(l.fresnel, T(cos_d_[i]), T(omc_d_[i]));
-                break;
-        }
-        f += l.scale * F * S;
+    T f[3];
+    for (int c = 0; c < 3; ++c) {
+        f[c] = m.has_diffuse ? T(m.diffuse[c] * T(brdf::kInvPi)) : T(0);
     }
-    return f;
+    const brdf::Lobe<T>* lobes = m.lobes.data();
+    brdf::add_lobes<brdf::SquaresForm::kTangents>(
+        lobes, lobes + m.lobes.size(), SampleSquares(*this, i), f);
+    return brdf::Rgb<T>(f[0], f[1], f[2]);
 }
 
 double PreparedSamples::g_prime(double m, std::size_t i) const {
@@ -557,25 +450,30 @@ void PreparedSamples::analytic_parts(const brdf::ModelD& m,
         } else if (lobe.distribution == brdf::Distribution::kStudentT) {
             const J2 a(lobe.alpha_x, 0);
             const J2 g(lobe.gamma, 1);
-            const J2 s2 = shape_student_t(lobe.shadowing, a, a, g, i);
+            const J2 e(lobe.exponent);
+            const J2 s2 = brdf::lobe_shape<false, brdf::SquaresForm::kTangents, J2>(
+                brdf::LobeShapeParams<J2>{lobe.distribution, lobe.shadowing, a, a, e, g, nullptr},
+                SampleSquares(*this, i).squares());
             S[l] = s2.a;
             dS[l] = s2.v[0];
             dS_gamma[l] = s2.v[1];
         } else {
-            J1 s;
-            if (lobe.distribution == brdf::Distribution::kBlinnPhong) {
-                const J1 e(lobe.exponent, 0);
-                s = shape(lobe.distribution, lobe.shadowing, J1(0.1), J1(0.1), e, i);
-            } else {
-                const J1 a(lobe.alpha_x, 0);
-                s = shape(lobe.distribution, lobe.shadowing, a, a, J1(lobe.exponent), i);
-            }
+            // The width's slot: alpha, or a Blinn-Phong lobe's exponent.
+            const bool bp = lobe.distribution == brdf::Distribution::kBlinnPhong;
+            const J1 a(lobe.alpha_x, 0);
+            const J1 e = bp ? J1(lobe.exponent, 0) : J1(lobe.exponent);
+            const J1 g(lobe.gamma);
+            const J1 s = brdf::lobe_shape<false, brdf::SquaresForm::kTangents, J1>(
+                brdf::LobeShapeParams<J1>{
+                    lobe.distribution, lobe.shadowing, a, a, e, g, lobe.table.get()},
+                SampleSquares(*this, i).squares());
             S[l] = s.a;
             dS[l] = s.v[0];
         }
-        F[l] = lobe.fresnel.type == brdf::FresnelType::kSchlick
-                   ? brdf::Rgbd(brdf::fresnel_schlick_from_pow5(x5_[i], lobe.fresnel.f0))
-                   : brdf::Rgbd::Ones();
+        const brdf::FresnelGeometry<double> fg = SampleSquares(*this, i).fresnel();
+        for (int c = 0; c < 3; ++c) {
+            F[l][c] = brdf::lobe_F<double>(lobe.fresnel, c, fg);
+        }
         fm += lobe.scale * F[l] * S[l];
     }
     for (int c = 0; c < 3; ++c) {
@@ -626,16 +524,10 @@ bool PreparedSamples::analytic_sample(const brdf::ModelD& m,
     return std::isfinite(r[0]) && std::isfinite(r[1]) && std::isfinite(r[2]);
 }
 
-bool PreparedSamples::analytic_log_run(
-    const brdf::ModelD& m, std::size_t begin, std::size_t end, double* r, double* v) const {
-    // Model values and their derivatives per sample, then the logarithms of the run on packets,
-    // then the residuals r = s (log(1 + f cos_i) - g(d)) and dr/df = s cos_i / (1 + f cos_i).
-    double arg[3 * kRun] = {};
-    double lg[3 * kRun];
-    const std::size_t n = end - begin;
-    // The shapes of the isotropic GGX and Beckmann lobes with no or Smith shadowing for the whole
-    // run on packets (lobe_shape_packets.h); the other lobes sample by sample.
-    RunShapes shapes;
+void PreparedSamples::pack_run_shapes(const brdf::ModelD& m,
+                                      std::size_t begin,
+                                      std::size_t n,
+                                      RunShapes& shapes) const {
     const int nl = static_cast<int>(m.lobes.size());
     for (int l = 0; l < nl && !anisotropic_; ++l) {
         const brdf::Lobe<double>& lobe = m.lobes[l];
@@ -660,86 +552,119 @@ bool PreparedSamples::analytic_log_run(
         lobe_shape_packets(kind, lobe.alpha_x, in, n, shapes.S[l], shapes.dS[l]);
         shapes.packed[l] = true;
     }
-    bool all_packed = true;
-    for (int l = 0; l < nl; ++l) {
-        all_packed = all_packed && shapes.packed[l];
-    }
-    if (all_packed) {
-        // Every shape is on packets: the combination of analytic_parts a channel and a slot at a
-        // time over the run (the same operations in the same order, so the same values), in loops
-        // the compiler turns into packets.
-        const double* x5 = x5_.empty() ? nullptr : x5_.data() + begin;
-        const double* ci = cos_i_.data() + begin;
-        for (int c = 0; c < 3; ++c) {
-            double fc[kRun];
-            const double base = m.has_diffuse ? m.diffuse[c] * brdf::kInvPi : 0.0;
-            for (std::size_t j = 0; j < n; ++j) {
-                fc[j] = base;
-            }
-            for (int l = 0; l < nl; ++l) {
-                const brdf::Lobe<double>& lobe = m.lobes[l];
-                const double sc = lobe.scale[c];
-                const double* S = shapes.S[l];
-                if (lobe.fresnel.type == brdf::FresnelType::kSchlick) {
-                    const double f0 = lobe.fresnel.f0[c];
-                    for (std::size_t j = 0; j < n; ++j) {
-                        fc[j] += sc * brdf::fresnel_schlick_from_pow5(x5[j], f0) * S[j];
-                    }
-                } else {
-                    for (std::size_t j = 0; j < n; ++j) {
-                        fc[j] += sc * 1.0 * S[j];
-                    }
-                }
-            }
-            for (std::size_t j = 0; j < n; ++j) {
-                arg[3 * j + c] = fc[j] * ci[j];
-            }
-            // df_c/d(slot) (analytic_parts' table), before the factor dr_c/df_c below.
-            for (int k = 0; k < slots_; ++k) {
-                const int l = slot_lobe_[k];
-                double* out = v + c * slots_ + k;
-                const std::size_t stride = 3 * slots_;
-                const Field field = slot_field_[k];
-                if (field == Field::kDiffuse) {
-                    for (std::size_t j = 0; j < n; ++j) {
-                        out[j * stride] = brdf::kInvPi;
-                    }
-                    continue;
-                }
-                const bool lobe_field = field == Field::kAlphaX || field == Field::kExponent ||
-                                        field == Field::kScale ||
-                                        (field == Field::kF0 && x5 != nullptr);
-                if (l < 0 || !lobe_field) {
-                    for (std::size_t j = 0; j < n; ++j) {
-                        out[j * stride] = 0;
-                    }
-                    continue;
-                }
-                const brdf::Lobe<double>& lobe = m.lobes[l];
-                const bool schlick = lobe.fresnel.type == brdf::FresnelType::kSchlick;
-                const double sc = lobe.scale[c];
-                const double f0 = schlick ? lobe.fresnel.f0[c] : 1.0;
-                const double* S = shapes.S[l];
-                const double* dS = shapes.dS[l];
+}
+
+void PreparedSamples::combine_packed_run(const brdf::ModelD& m,
+                                         std::size_t begin,
+                                         std::size_t n,
+                                         const RunShapes& shapes,
+                                         double* arg,
+                                         double* v) const {
+    // The combination of analytic_parts a channel and a slot at a time over the run (the same
+    // operations in the same order, so the same values), in loops the compiler turns into
+    // packets.
+    const double* x5 = x5_.empty() ? nullptr : x5_.data() + begin;
+    const double* ci = cos_i_.data() + begin;
+    const int nl = static_cast<int>(m.lobes.size());
+    for (int c = 0; c < 3; ++c) {
+        double fc[kRun];
+        const double base = m.has_diffuse ? m.diffuse[c] * brdf::kInvPi : 0.0;
+        for (std::size_t j = 0; j < n; ++j) {
+            fc[j] = base;
+        }
+        for (int l = 0; l < nl; ++l) {
+            const brdf::Lobe<double>& lobe = m.lobes[l];
+            const double sc = lobe.scale[c];
+            const double* S = shapes.S[l];
+            if (lobe.fresnel.type == brdf::FresnelType::kSchlick) {
+                const double f0 = lobe.fresnel.f0[c];
                 for (std::size_t j = 0; j < n; ++j) {
-                    const double F = schlick ? brdf::fresnel_schlick_from_pow5(x5[j], f0) : 1.0;
-                    double d = 0;
-                    switch (field) {
-                        case Field::kAlphaX:
-                        case Field::kExponent:
-                            d = sc * F * dS[j];
-                            break;
-                        case Field::kScale:
-                            d = F * S[j];
-                            break;
-                        default:  // Field::kF0
-                            d = sc * (1 - x5[j]) * S[j];
-                            break;
-                    }
-                    out[j * stride] = d;
+                    fc[j] += sc * brdf::fresnel_schlick_from_pow5(x5[j], f0) * S[j];
+                }
+            } else {
+                for (std::size_t j = 0; j < n; ++j) {
+                    fc[j] += sc * 1.0 * S[j];
                 }
             }
         }
+        for (std::size_t j = 0; j < n; ++j) {
+            arg[3 * j + c] = fc[j] * ci[j];
+        }
+        for (int k = 0; k < slots_; ++k) {
+            packed_slot_derivatives(m, c, k, begin, n, shapes, v + c * slots_ + k);
+        }
+    }
+}
+
+void PreparedSamples::packed_slot_derivatives(const brdf::ModelD& m,
+                                              int c,
+                                              int k,
+                                              std::size_t begin,
+                                              std::size_t n,
+                                              const RunShapes& shapes,
+                                              double* out) const {
+    // df_c/d(slot k) (analytic_parts' table), before the factor dr_c/df_c; sample j's at
+    // out[j * 3 slots].
+    const double* x5 = x5_.empty() ? nullptr : x5_.data() + begin;
+    const int l = slot_lobe_[k];
+    const std::size_t stride = 3 * slots_;
+    const Field field = slot_field_[k];
+    if (field == Field::kDiffuse) {
+        for (std::size_t j = 0; j < n; ++j) {
+            out[j * stride] = brdf::kInvPi;
+        }
+        return;
+    }
+    const bool lobe_field = field == Field::kAlphaX || field == Field::kExponent ||
+                            field == Field::kScale || (field == Field::kF0 && x5 != nullptr);
+    if (l < 0 || !lobe_field) {
+        for (std::size_t j = 0; j < n; ++j) {
+            out[j * stride] = 0;
+        }
+        return;
+    }
+    const brdf::Lobe<double>& lobe = m.lobes[l];
+    const bool schlick = lobe.fresnel.type == brdf::FresnelType::kSchlick;
+    const double sc = lobe.scale[c];
+    const double f0 = schlick ? lobe.fresnel.f0[c] : 1.0;
+    const double* S = shapes.S[l];
+    const double* dS = shapes.dS[l];
+    for (std::size_t j = 0; j < n; ++j) {
+        const double F = schlick ? brdf::fresnel_schlick_from_pow5(x5[j], f0) : 1.0;
+        double d = 0;
+        switch (field) {
+            case Field::kAlphaX:
+            case Field::kExponent:
+                d = sc * F * dS[j];
+                break;
+            case Field::kScale:
+                d = F * S[j];
+                break;
+            default:  // Field::kF0
+                d = sc * (1 - x5[j]) * S[j];
+                break;
+        }
+        out[j * stride] = d;
+    }
+}
+
+bool PreparedSamples::analytic_log_run(
+    const brdf::ModelD& m, std::size_t begin, std::size_t end, double* r, double* v) const {
+    // Model values and their derivatives per sample, then the logarithms of the run on packets,
+    // then the residuals r = s (log(1 + f cos_i) - g(d)) and dr/df = s cos_i / (1 + f cos_i).
+    double arg[3 * kRun] = {};
+    double lg[3 * kRun];
+    const std::size_t n = end - begin;
+    // The shapes of the isotropic GGX and Beckmann lobes with no or Smith shadowing for the whole
+    // run on packets (lobe_shape_packets.h); the other lobes sample by sample.
+    RunShapes shapes;
+    pack_run_shapes(m, begin, n, shapes);
+    bool all_packed = true;
+    for (std::size_t l = 0; l < m.lobes.size(); ++l) {
+        all_packed = all_packed && shapes.packed[l];
+    }
+    if (all_packed) {
+        combine_packed_run(m, begin, n, shapes, arg, v);
     } else {
         for (std::size_t j = 0; j < n; ++j) {
             const std::size_t i = begin + j;
@@ -777,10 +702,9 @@ void PreparedSamples::packet_setup(const brdf::ModelD& m, PacketModel& pm, Packe
                            : lobe.shadowing == brdf::Shadowing::kSmithSeparable ? 2
                                                                                 : 0;
         pm.alpha[l] = lobe.alpha_x;
-        pm.schlick[l] = lobe.fresnel.type == brdf::FresnelType::kSchlick;
+        pm.fresnel[l] = lobe.fresnel;
         for (int c = 0; c < 3; ++c) {
             pm.scale[l][c] = lobe.scale[c];
-            pm.f0[l][c] = lobe.fresnel.f0[c];
         }
     }
     for (int c = 0; c < 3; ++c) {
@@ -927,9 +851,6 @@ brdf::Model<ceres::Jet<double, K>> PreparedSamples::jet_model(const double* x) c
 template <int K>
 bool PreparedSamples::normal_equations_k(const double* x, NormalEquations& out, int threads) const {
     using J = ceres::Jet<double, K>;
-    using MatK = Eigen::Matrix<double, K, K>;
-    using VecK = Eigen::Matrix<double, K, 1>;
-    const int np = map_->size();
     // The Jet model only where the Jet path runs (no allocation per pass otherwise).
     const brdf::Model<J> m = analytic_ ? brdf::Model<J>{} : jet_model<K>(x);
     const brdf::ModelD md = map_->model<double>(x);
@@ -943,99 +864,138 @@ bool PreparedSamples::normal_equations_k(const double* x, NormalEquations& out, 
         packet_setup(md, pm, pin);
     }
     parallel_blocks(n_, threads, [&](std::size_t blk, std::size_t b, std::size_t e) {
-        if (fused) {
-            // The whole block on packets (normal_equation_packets.h).
-            double* dst = partial.data() + blk * kStride;
-            normal_equation_packets(pm, pin, b, e, K, dst, dst + 3 * K * K, dst + kStride - 2);
-            bool finite = std::isfinite(dst[kStride - 2]);
-            for (std::size_t q = 0; q + 2 < kStride; ++q) {
-                finite = finite && std::isfinite(dst[q]);
-            }
-            dst[kStride - 1] = finite ? 1.0 : 0.0;
+        double* dst = partial.data() + blk * kStride;
+        if (!fused) {
+            block_normal_equations<K>(m, md, b, e, dst);
             return;
         }
-        MatK a[3];
-        VecK bv[3];
-        for (int c = 0; c < 3; ++c) {
-            a[c].setZero();
-            bv[c].setZero();
+        // The whole block on packets (normal_equation_packets.h).
+        normal_equation_packets(pm, pin, b, e, K, dst, dst + 3 * K * K, dst + kStride - 2);
+        bool finite = std::isfinite(dst[kStride - 2]);
+        for (std::size_t q = 0; q + 2 < kStride; ++q) {
+            finite = finite && std::isfinite(dst[q]);
         }
-        double cost = 0;
-        // Closed-form derivatives of the log residual: a run of samples at a time, its
-        // logarithms on packets.
-        const bool runs = analytic_ && form_ == ResidualForm::kLog;
-        double ra[3 * kRun];
-        double va[3 * kRun * 32];
-        for (std::size_t i = b; i < e; ++i) {
-            J r[3];
-            if (runs) {
-                const std::size_t j = (i - b) % kRun;
-                if (j == 0 && !analytic_log_run(md, i, std::min(e, i + kRun), ra, va)) {
-                    cost = std::numeric_limits<double>::infinity();
-                    break;
-                }
-                for (int c = 0; c < 3; ++c) {
-                    r[c].a = ra[3 * j + c];
-                    const double* vc = va + (3 * j + c) * slots_;
-                    for (int k = 0; k < K; ++k) {
-                        r[c].v[k] = k < slots_ ? vc[k] : 0.0;
-                    }
-                }
-            } else if (analytic_) {
-                if (!analytic_sample(md, i, ra, va)) {
-                    cost = std::numeric_limits<double>::infinity();
-                    break;
-                }
-                for (int c = 0; c < 3; ++c) {
-                    r[c].a = ra[c];
-                    for (int k = 0; k < K; ++k) {
-                        r[c].v[k] = k < slots_ ? va[c * slots_ + k] : 0.0;
-                    }
-                }
-            } else {
-                const brdf::Rgb<J> f = eval(m, i);
-                for (int c = 0; c < 3; ++c) {
-                    r[c] = J(s_[c][i]) * (g_of(f[c], i) - J(g_d_[c][i]));
-                }
-            }
-            double s2 = 0;
-            for (int c = 0; c < 3; ++c) {
-                s2 += r[c].a * r[c].a;
-            }
-            double w = 1;
-            if (loss_) {
-                double rho[3];
-                loss_->Evaluate(s2, rho);
-                w = rho[1];
-                s2 = rho[0];
-            }
-            cost += s2;
-            for (int c = 0; c < 3; ++c) {
-                // Upper triangle of w v v^T over the slots in use (Eigen's general rank update
-                // is slow for these small fixed sizes).
-                // (Over all K slots: those beyond slots_ hold zeros, and a fixed bound lets the
-                // compiler unroll.)
-                for (int q = 0; q < K; ++q) {
-                    const double wv = w * r[c].v[q];
-                    for (int p = 0; p <= q; ++p) {
-                        a[c](p, q) += wv * r[c].v[p];
-                    }
-                }
-                bv[c].noalias() += (w * r[c].a) * r[c].v;
-            }
-        }
-        double* dst = partial.data() + blk * kStride;
-        for (int c = 0; c < 3; ++c) {
-            Eigen::Map<MatK>(dst + c * K * K) = a[c];
-            Eigen::Map<VecK>(dst + 3 * K * K + c * K) = bv[c];
-        }
-        dst[kStride - 2] = cost;
-        dst[kStride - 1] = std::isfinite(cost) && a[0].allFinite() && a[1].allFinite() &&
-                                   a[2].allFinite() && bv[0].allFinite() && bv[1].allFinite() &&
-                                   bv[2].allFinite()
-                               ? 1.0
-                               : 0.0;
+        dst[kStride - 1] = finite ? 1.0 : 0.0;
     });
+    return add_block_sums<K>(partial, out);
+}
+
+template <int K>
+void PreparedSamples::block_normal_equations(const brdf::Model<ceres::Jet<double, K>>& m,
+                                             const brdf::ModelD& md,
+                                             std::size_t b,
+                                             std::size_t e,
+                                             double* dst) const {
+    using J = ceres::Jet<double, K>;
+    using MatK = Eigen::Matrix<double, K, K>;
+    using VecK = Eigen::Matrix<double, K, 1>;
+    MatK a[3];
+    VecK bv[3];
+    for (int c = 0; c < 3; ++c) {
+        a[c].setZero();
+        bv[c].setZero();
+    }
+    double cost = 0;
+    // Closed-form derivatives of the log residual: a run of samples at a time, its logarithms on
+    // packets.
+    const bool runs = analytic_ && form_ == ResidualForm::kLog;
+    double ra[3 * kRun];
+    double va[3 * kRun * 32];
+    for (std::size_t i = b; i < e; ++i) {
+        J r[3];
+        if (!sample_residuals<K>(m, md, i, b, e, runs, ra, va, r)) {
+            cost = std::numeric_limits<double>::infinity();
+            break;
+        }
+        double s2 = 0;
+        for (int c = 0; c < 3; ++c) {
+            s2 += r[c].a * r[c].a;
+        }
+        double w = 1;
+        if (loss_) {
+            double rho[3];
+            loss_->Evaluate(s2, rho);
+            w = rho[1];
+            s2 = rho[0];
+        }
+        cost += s2;
+        for (int c = 0; c < 3; ++c) {
+            // Upper triangle of w v v^T over the slots in use (Eigen's general rank update is
+            // slow for these small fixed sizes). (Over all K slots: those beyond slots_ hold
+            // zeros, and a fixed bound lets the compiler unroll.)
+            for (int q = 0; q < K; ++q) {
+                const double wv = w * r[c].v[q];
+                for (int p = 0; p <= q; ++p) {
+                    a[c](p, q) += wv * r[c].v[p];
+                }
+            }
+            bv[c].noalias() += (w * r[c].a) * r[c].v;
+        }
+    }
+    constexpr std::size_t kStride = 3 * K * K + 3 * K + 2;
+    for (int c = 0; c < 3; ++c) {
+        Eigen::Map<MatK>(dst + c * K * K) = a[c];
+        Eigen::Map<VecK>(dst + 3 * K * K + c * K) = bv[c];
+    }
+    dst[kStride - 2] = cost;
+    dst[kStride - 1] = std::isfinite(cost) && a[0].allFinite() && a[1].allFinite() &&
+                               a[2].allFinite() && bv[0].allFinite() && bv[1].allFinite() &&
+                               bv[2].allFinite()
+                           ? 1.0
+                           : 0.0;
+}
+
+template <int K>
+bool PreparedSamples::sample_residuals(const brdf::Model<ceres::Jet<double, K>>& m,
+                                       const brdf::ModelD& md,
+                                       std::size_t i,
+                                       std::size_t b,
+                                       std::size_t e,
+                                       bool runs,
+                                       double* ra,
+                                       double* va,
+                                       ceres::Jet<double, K> r[3]) const {
+    using J = ceres::Jet<double, K>;
+    if (runs) {
+        const std::size_t j = (i - b) % kRun;
+        if (j == 0 && !analytic_log_run(md, i, std::min(e, i + kRun), ra, va)) {
+            return false;
+        }
+        for (int c = 0; c < 3; ++c) {
+            r[c].a = ra[3 * j + c];
+            const double* vc = va + (3 * j + c) * slots_;
+            for (int k = 0; k < K; ++k) {
+                r[c].v[k] = k < slots_ ? vc[k] : 0.0;
+            }
+        }
+        return true;
+    }
+    if (analytic_) {
+        if (!analytic_sample(md, i, ra, va)) {
+            return false;
+        }
+        for (int c = 0; c < 3; ++c) {
+            r[c].a = ra[c];
+            for (int k = 0; k < K; ++k) {
+                r[c].v[k] = k < slots_ ? va[c * slots_ + k] : 0.0;
+            }
+        }
+        return true;
+    }
+    const brdf::Rgb<J> f = eval(m, i);
+    for (int c = 0; c < 3; ++c) {
+        r[c] = J(s_[c][i]) * (g_of(f[c], i) - J(g_d_[c][i]));
+    }
+    return true;
+}
+
+template <int K>
+bool PreparedSamples::add_block_sums(const std::vector<double>& partial,
+                                     NormalEquations& out) const {
+    using MatK = Eigen::Matrix<double, K, K>;
+    using VecK = Eigen::Matrix<double, K, 1>;
+    constexpr std::size_t kStride = 3 * K * K + 3 * K + 2;
+    const int np = map_->size();
     // Block sums added in block order: the same normal equations for every thread count.
     MatK a[3];
     VecK bv[3];
@@ -1058,6 +1018,7 @@ bool PreparedSamples::normal_equations_k(const double* x, NormalEquations& out, 
     for (int c = 0; c < 3; ++c) {
         a[c] = a[c].template selfadjointView<Eigen::Upper>();
     }
+    // The slots' sums to the parameters: a parameter of one channel takes that channel's sums.
     out.jtj = Eigen::MatrixXd::Zero(np, np);
     out.jtr = Eigen::VectorXd::Zero(np);
     for (int c = 0; c < 3; ++c) {
@@ -1090,6 +1051,45 @@ bool PreparedSamples::normal_equations(const double* x, NormalEquations& out, in
     return normal_equations_k<32>(x, out, threads);
 }
 
+bool PreparedSamples::analytic_score_products(const brdf::ModelD& md,
+                                              std::size_t begin,
+                                              std::size_t end,
+                                              Eigen::MatrixXd& outer) const {
+    const int np = map_->size();
+    // g = sum over channels of r_c dr_c/dx straight from the run's derivatives (a parameter
+    // of one channel takes that channel's term only); a non-finite derivative makes g
+    // non-finite.
+    double rr[3 * kRun];
+    double vr[3 * kRun * 32];
+    double gs[3 * 32];  // np <= 3 slots_ (a slot holds at most the three channels)
+    for (std::size_t i = begin; i < end; ++i) {
+        const std::size_t j = (i - begin) % kRun;
+        if (j == 0 && !analytic_log_run(md, i, std::min(end, i + kRun), rr, vr)) {
+            return false;
+        }
+        bool finite = true;
+        for (int k = 0; k < np; ++k) {
+            double sum = 0;
+            for (int c = 0; c < 3; ++c) {
+                if (channel_[k] < 0 || channel_[k] == c) {
+                    sum += rr[3 * j + c] * vr[(3 * j + c) * slots_ + slot_[k]];
+                }
+            }
+            gs[k] = sum;
+            finite = finite && std::isfinite(sum);
+        }
+        if (!finite) {
+            return false;
+        }
+        for (int l = 0; l < np; ++l) {
+            for (int k = 0; k <= l; ++k) {
+                outer(k, l) += gs[k] * gs[l];
+            }
+        }
+    }
+    return true;
+}
+
 template <int K>
 bool PreparedSamples::jets_k(const double* x,
                              std::size_t begin,
@@ -1108,38 +1108,7 @@ bool PreparedSamples::jets_k(const double* x,
     // Beckmann lobes) on packets, as in the normal-equation pass.
     if (analytic_ && form_ == ResidualForm::kLog && outer != nullptr && residuals == nullptr &&
         jacobian == nullptr) {
-        // g = sum over channels of r_c dr_c/dx straight from the run's derivatives (a parameter
-        // of one channel takes that channel's term only); a non-finite derivative makes g
-        // non-finite.
-        double rr[3 * kRun];
-        double vr[3 * kRun * 32];
-        double gs[3 * 32];  // np <= 3 slots_ (a slot holds at most the three channels)
-        for (std::size_t i = begin; i < end; ++i) {
-            const std::size_t j = (i - begin) % kRun;
-            if (j == 0 && !analytic_log_run(md, i, std::min(end, i + kRun), rr, vr)) {
-                return false;
-            }
-            bool finite = true;
-            for (int k = 0; k < np; ++k) {
-                double sum = 0;
-                for (int c = 0; c < 3; ++c) {
-                    if (channel_[k] < 0 || channel_[k] == c) {
-                        sum += rr[3 * j + c] * vr[(3 * j + c) * slots_ + slot_[k]];
-                    }
-                }
-                gs[k] = sum;
-                finite = finite && std::isfinite(sum);
-            }
-            if (!finite) {
-                return false;
-            }
-            for (int l = 0; l < np; ++l) {
-                for (int k = 0; k <= l; ++k) {
-                    (*outer)(k, l) += gs[k] * gs[l];
-                }
-            }
-        }
-        return true;
+        return analytic_score_products(md, begin, end, *outer);
     }
     double ra[3];
     double va[3 * 32] = {};

@@ -5,6 +5,7 @@
 // Beckmann, so its values compare directly with theirs.
 
 #include <cmath>
+#include <limits>
 
 #include "gonio/brdf/math.h"
 
@@ -18,6 +19,20 @@ inline T D_blinn_phong_from_log_cos(const T& log_cos_h, const T& exponent) {
     return (exponent + T(2)) / T(2 * kPi) * exp(exponent * log_cos_h);
 }
 
+/// log cos(theta_h) of a unit h from hxy2 = h_x^2 + h_y^2 and h_z, as log1p(-hxy2 / (1 + h_z))
+/// (1 - cos = sin^2 / (1 + cos): no cancellation near the normal). Edge behaviour: -infinity for
+/// h_z <= 0 and where 1 - cos rounds to 1 or above (cos^e underflows there).
+template <class T>
+inline T log_cos_theta_h(const T& hxy2, const T& h_z) {
+    using std::log1p;
+    const T one_minus_cos = hxy2 / (T(1) + h_z);
+    const auto underflow = mask_or(h_z <= T(0), one_minus_cos >= T(1));
+    // The masked lanes evaluate log1p(0) and are replaced by -infinity below.
+    const T log_cos = log1p(-select(underflow, T(0), one_minus_cos));
+    // Branch of the mask: below the horizon or cos^e underflowing.
+    return select(underflow, T(-std::numeric_limits<double>::infinity()), log_cos);
+}
+
 /// Normalised Blinn-Phong distribution  D(h) = (e + 2) / (2 pi) cos^e(theta_h).
 /// Source: J. F. Blinn, "Models of Light Reflection for Computer Synthesized Pictures", SIGGRAPH
 /// 1977 (the cos^e(theta_h) lobe); normalisation over projected area as in B. Walter et al.,
@@ -28,19 +43,15 @@ inline T D_blinn_phong_from_log_cos(const T& log_cos_h, const T& exponent) {
 /// with pow(h_z, e) the rounding of h_z would be multiplied by e (1e-9 relative at e = 1e7).
 template <class T>
 inline T D_blinn_phong(const Vec3<T>& h, const T& exponent) {
-    using std::log1p;
-    const auto below = h.z() <= T(0);
-    if (all_of(below)) {
-        // Microfacet normals face outward only (and log(0) is -infinity).
+    const T log_cos = log_cos_theta_h(h.x() * h.x() + h.y() * h.y(), h.z());
+    const auto underflow = !(log_cos > T(-std::numeric_limits<double>::infinity()));
+    if (all_of(underflow)) {
+        // Below the horizon (microfacet normals face outward only) or cos^e underflowing.
         return T(0);
     }
-    const T one_minus_cos = (h.x() * h.x() + h.y() * h.y()) / (T(1) + h.z());
-    // Only through rounding at h_z ~ 0: cos^e underflows to 0.
-    const auto underflow = mask_or(below, one_minus_cos >= T(1));
-    // The masked lanes evaluate log1p(0) and are replaced by 0 below.
-    const T log_cos = log1p(-select(underflow, T(0), one_minus_cos));
     // Branch of the mask: below the horizon or cos^e underflowing, D = 0.
-    return select(underflow, T(0), D_blinn_phong_from_log_cos(log_cos, exponent));
+    return select(
+        underflow, T(0), D_blinn_phong_from_log_cos(select(underflow, T(0), log_cos), exponent));
 }
 
 /// The Beckmann slope parameter whose distribution matches the Blinn-Phong one near the normal:

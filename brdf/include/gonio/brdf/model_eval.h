@@ -31,6 +31,7 @@
 #include "gonio/brdf/blinn_phong.h"
 #include "gonio/brdf/fresnel.h"
 #include "gonio/brdf/lambert.h"
+#include "gonio/brdf/lobe_body.h"
 #include "gonio/brdf/lobe_orientation.h"
 #include "gonio/brdf/microfacet.h"
 #include "gonio/brdf/model.h"
@@ -38,12 +39,6 @@
 #include "gonio/brdf/tabulated_ndf.h"
 
 namespace gonio::brdf {
-
-/// Slope parameter along y actually in use (alpha_x for an isotropic lobe).
-template <class T>
-inline const T& lobe_alpha_y(const Lobe<T>& lobe) {
-    return lobe.anisotropic ? lobe.alpha_y : lobe.alpha_x;
-}
 
 /// A direction's components as lanes (double, Jet or packet), without Eigen.
 template <class T>
@@ -88,47 +83,6 @@ inline HalfGeometry<T> half_geometry(const Dir3<T>& wi, const Dir3<T>& wo) {
     return g;
 }
 
-/// The lobe's normal distribution D(h), 1/sr, normalised over projected area; h_z > 0; with
-/// the slope parameters (ax, ay) given by the caller (one channel's alpha of an RGB-roughness
-/// lobe) for the analytic distributions.
-template <class T, class P>
-inline T lobe_D_alpha(const Lobe<P>& lobe, const Dir3<T>& h, const P& ax, const P& ay) {
-    switch (lobe.distribution) {
-        case Distribution::kGgx:
-            return D_ggx_from_squares(sqr(h.x), sqr(h.y), sqr(h.z), T(ax), T(ay));
-        case Distribution::kBeckmann:
-            return D_beckmann_from_squares(sqr(h.x), sqr(h.y), sqr(h.z), T(ax), T(ay));
-        case Distribution::kBlinnPhong:
-            return D_blinn_phong(Vec3<T>(h.x, h.y, h.z), T(lobe.exponent));
-        case Distribution::kStudentT:
-            if constexpr (IsPacket<T>::value) {
-                // Not reached: eval_model_packets evaluates a model with a Student-t lobe lane by
-                // lane (its Lambda's continued fraction iterates a data-dependent number of times).
-                GONIO_CHECK_MSG(false, "Student-t lobe evaluated on packets");
-                return T(0);
-            } else {
-                return D_student_t(Vec3<T>(h.x, h.y, h.z), T(ax), T(ay), T(lobe.gamma));
-            }
-        case Distribution::kTabulated:
-            if constexpr (IsPacket<T>::value) {
-                // Not reached: eval_model_packets evaluates a model with a tabulated lobe lane by
-                // lane (the table is looked up at each lane's value).
-                GONIO_CHECK_MSG(false, "tabulated lobe evaluated on packets");
-                return T(0);
-            } else {
-                GONIO_CHECK_MSG(lobe.table != nullptr, "tabulated lobe without its table");
-                return D_tabulated(*lobe.table, h.z);
-            }
-    }
-    return T(0);
-}
-
-/// The lobe's normal distribution D(h) with its own slope parameters; h_z > 0.
-template <class T, class P>
-inline T lobe_D(const Lobe<P>& lobe, const Dir3<T>& h) {
-    return lobe_D_alpha(lobe, h, lobe.alpha_x, lobe_alpha_y(lobe));
-}
-
 /// The lobe's normal distribution D(h) of a unit h given in the sample's frame, 1/sr; 0 for
 /// h_z <= 0. An anisotropic lobe is evaluated in its own frame (Lobe::orientation_deg).
 template <class T>
@@ -142,151 +96,93 @@ inline T lobe_D(const Lobe<T>& lobe, const Vec3<T>& h) {
     Dir3<T> hs{select(below, T(0), T(h.x())),
                select(below, T(0), T(h.y())),
                select(below, T(1), T(h.z()))};
-    if (lobe.anisotropic) {
+    if (lobe_is_turned(lobe)) {
         hs = in_lobe_frame(hs, lobe_rotation_deg(lobe.orientation_deg));
     }
-    return select(below, T(0), lobe_D(lobe, hs));
+    LobeSquares<T> g;
+    g.hx2 = sqr(hs.x);
+    g.hy2 = sqr(hs.y);
+    g.hz2 = sqr(hs.z);
+    g.cos_h = hs.z;
+    g.log_cos_h = log_cos_theta_h(g.hx2 + g.hy2, hs.z);
+    return select(below,
+                  T(0),
+                  lobe_D_squares<T>(lobe_shape_params(lobe, lobe.alpha_x, lobe_alpha_y(lobe)), g));
 }
 
-/// The Smith Lambda of the lobe's distribution from a2 = alpha(phi)^2 tan^2(theta) with the
-/// slope parameters (ax, ay) (a Blinn-Phong lobe uses Beckmann's with alpha = sqrt(2/(e + 2))).
-template <class T, class P>
-inline T lobe_lambda_alpha(const Lobe<P>& lobe, const Dir3<T>& w, const P& ax, const P& ay) {
-    const T w_z2 = sqr(w.z);
-    switch (lobe.distribution) {
-        case Distribution::kGgx: {
-            const Fraction<T> l = lambda_ggx_fraction(sqr(T(ax) * w.x) + sqr(T(ay) * w.y), w.z);
-            return l.num / l.den;
+/// The per-sample geometry of eval_lanes in the form the lobe body takes (lobe_body.h): the
+/// squares of the half vector and of both directions, in the sample's frame or turned into a
+/// lobe's; the values only some structures need are computed when a lobe of [lobes, lobes_end)
+/// needs them.
+template <class T>
+class DirectionSquares {
+  public:
+    template <class P>
+    DirectionSquares(const Dir3<T>& wi,
+                     const Dir3<T>& wo,
+                     const Lobe<P>* lobes,
+                     const Lobe<P>* lobes_end)
+        : wi_(wi), wo_(wo), g_(half_geometry(wi, wo)), inv_4cc_(T(1) / (T(4) * wi.z * wo.z)) {
+        for (const Lobe<P>* it = lobes; it != lobes_end; ++it) {
+            blinn_phong_ = blinn_phong_ || it->distribution == Distribution::kBlinnPhong;
+            vgroove_ = vgroove_ || it->shadowing == Shadowing::kVGroove;
+            schlick_ = schlick_ || it->fresnel.type == FresnelType::kSchlick;
         }
-        case Distribution::kBeckmann: {
-            const T a2 = (sqr(T(ax) * w.x) + sqr(T(ay) * w.y)) / w_z2;
-            return lambda_beckmann_from_a2(a2);
+        if (vgroove_) {
+            g_vgroove_ = G_vgroove_from_cosines(g_.h.z, wi.z, wo.z, g_.cos_d);
         }
-        case Distribution::kBlinnPhong: {
-            const T alpha = blinn_phong_equivalent_alpha(T(lobe.exponent));
-            return lambda_beckmann_from_a2(sqr(alpha) * (sqr(w.x) + sqr(w.y)) / w_z2);
-        }
-        case Distribution::kStudentT: {
-            if constexpr (IsPacket<T>::value) {
-                // Not reached: see lobe_D.
-                GONIO_CHECK_MSG(false, "Student-t lobe evaluated on packets");
-                return T(0);
-            } else {
-                const T a2 = (sqr(T(ax) * w.x) + sqr(T(ay) * w.y)) / w_z2;
-                return lambda_student_t_a2(a2, T(lobe.gamma));
-            }
-        }
-        case Distribution::kTabulated: {
-            if constexpr (IsPacket<T>::value) {
-                // Not reached: see lobe_D.
-                GONIO_CHECK_MSG(false, "tabulated lobe evaluated on packets");
-                return T(0);
-            } else {
-                GONIO_CHECK_MSG(lobe.table != nullptr, "tabulated lobe without its table");
-                return lambda_tabulated(*lobe.table, w.z);
-            }
+        fresnel_.cos_d = g_.cos_d;
+        if (schlick_) {
+            fresnel_.x5 = pow5(clamp_to(g_.one_minus_cos_d, T(0), T(1)));
         }
     }
-    return T(0);
-}
 
-/// The Smith Lambda of the lobe's distribution from a2 = alpha(phi)^2 tan^2(theta) with the
-/// slope parameters (ax, ay) (a Blinn-Phong lobe uses Beckmann's with alpha = sqrt(2/(e + 2))),
-/// as a fraction: GGX's is t / (2 w_z (w_z + sqrt(w_z^2 + t))) (lambda_ggx_fraction), the
-/// others' the value over 1, so that G divides once for both Lambdas.
-template <class T, class P>
-inline Fraction<T> lobe_lambda_fraction_alpha(const Lobe<P>& lobe,
-                                              const Dir3<T>& w,
-                                              const P& ax,
-                                              const P& ay) {
-    if (lobe.distribution == Distribution::kGgx) {
-        return lambda_ggx_fraction(sqr(T(ax) * w.x) + sqr(T(ay) * w.y), w.z);
+    /// In the sample's frame.
+    LobeSquares<T> squares() const { return of(g_.h, wi_, wo_); }
+
+    /// In the frame of a lobe turned by r about the normal (the cosines are kept).
+    template <class P>
+    LobeSquares<T> turned(const LobeRotation<P>& r) const {
+        return of(in_lobe_frame(g_.h, r), in_lobe_frame(wi_, r), in_lobe_frame(wo_, r));
     }
-    return {lobe_lambda_alpha(lobe, w, ax, ay), T(1)};
-}
 
-/// The Smith Lambda with the lobe's own slope parameters.
-template <class T, class P>
-inline T lobe_lambda(const Lobe<P>& lobe, const Dir3<T>& w) {
-    return lobe_lambda_alpha(lobe, w, lobe.alpha_x, lobe_alpha_y(lobe));
-}
+    const FresnelGeometry<T>& fresnel() const { return fresnel_; }
 
-/// The lobe's shadowing-masking G(wi, wo) for the reflection half geometry g and the slope
-/// parameters (ax, ay); both directions above the horizon.
-template <class T, class P>
-inline T lobe_G_alpha(const Lobe<P>& lobe,
-                      const Dir3<T>& wi,
-                      const Dir3<T>& wo,
-                      const HalfGeometry<T>& g,
-                      const P& ax,
-                      const P& ay) {
-    switch (lobe.shadowing) {
-        case Shadowing::kSmithCorrelated:
-            return G_smith_correlated(lobe_lambda_fraction_alpha(lobe, wi, ax, ay),
-                                      lobe_lambda_fraction_alpha(lobe, wo, ax, ay));
-        case Shadowing::kSmithSeparable:
-            return G_smith_separable(lobe_lambda_fraction_alpha(lobe, wi, ax, ay),
-                                     lobe_lambda_fraction_alpha(lobe, wo, ax, ay));
-        case Shadowing::kVGroove:
-            return G_vgroove_from_cosines(g.h.z, wi.z, wo.z, g.cos_d);
-        case Shadowing::kNone:
-            break;
-    }
-    return T(1);
-}
-
-/// The lobe's shadowing-masking G(wi, wo) with its own slope parameters.
-template <class T, class P>
-inline T lobe_G(const Lobe<P>& lobe,
-                const Dir3<T>& wi,
-                const Dir3<T>& wo,
-                const HalfGeometry<T>& g) {
-    return lobe_G_alpha(lobe, wi, wo, g, lobe.alpha_x, lobe_alpha_y(lobe));
-}
-
-/// D G of a tabulated lobe (the lobe term without F, scale and 1 / (4 cos_i cos_o)) from the
-/// squares the fitting precomputes per sample: cos2_h = cos^2(theta_h), tan2_i and tan2_o the
-/// squared tangents of the two directions, g_vgroove the V-groove G (used for that shadowing
-/// only). The same table lookups as lobe_D and lobe_G; both directions above the horizon.
-inline double tabulated_lobe_shape(const TabulatedNdf& table,
-                                   Shadowing shadowing,
-                                   double cos2_h,
-                                   double tan2_i,
-                                   double tan2_o,
-                                   double g_vgroove) {
-    using std::sqrt;
-    const double D = D_tabulated(table, sqrt(cos2_h));
-    switch (shadowing) {
-        case Shadowing::kSmithCorrelated:
-        case Shadowing::kSmithSeparable: {
-            const double li = lambda_tabulated(table, 1.0 / sqrt(1.0 + tan2_i));
-            const double lo = lambda_tabulated(table, 1.0 / sqrt(1.0 + tan2_o));
-            return D * (shadowing == Shadowing::kSmithCorrelated ? G_smith_correlated(li, lo)
-                                                                 : G_smith_separable(li, lo));
+  private:
+    LobeSquares<T> of(const Dir3<T>& h, const Dir3<T>& wi, const Dir3<T>& wo) const {
+        LobeSquares<T> s;
+        s.hx2 = sqr(h.x);
+        s.hy2 = sqr(h.y);
+        s.hz2 = sqr(h.z);
+        s.cos_h = h.z;
+        if (blinn_phong_) {
+            s.log_cos_h = log_cos_theta_h(s.hx2 + s.hy2, h.z);
         }
-        case Shadowing::kVGroove:
-            return D * g_vgroove;
-        case Shadowing::kNone:
-            break;
+        s.wi = {sqr(wi.x), sqr(wi.y), wi.z, wi.z};
+        s.wo = {sqr(wo.x), sqr(wo.y), wo.z, wo.z};
+        s.g_vgroove = g_vgroove_;
+        s.inv_4cc = inv_4cc_;
+        return s;
     }
-    return D;
-}
+
+    Dir3<T> wi_, wo_;
+    HalfGeometry<T> g_;
+    T inv_4cc_;
+    T g_vgroove_{};
+    FresnelGeometry<T> fresnel_;
+    bool blinn_phong_ = false, vgroove_ = false, schlick_ = false;
+};
 
 /// The Fresnel term of a lobe for channel c at cos_d = wi . h, with one_minus_cos = 1 - cos_d
 /// computed by the caller without cancellation.
 template <class T, class P>
 inline T lobe_F(const Fresnel<P>& f, int c, const T& cos_d, const T& one_minus_cos) {
-    switch (f.type) {
-        case FresnelType::kSchlick:
-            return fresnel_schlick_from_one_minus_cos(one_minus_cos, T(f.f0[c]));
-        case FresnelType::kDielectric:
-            return fresnel_dielectric(cos_d, T(f.eta));
-        case FresnelType::kConductor:
-            return fresnel_conductor(cos_d, T(f.eta_rgb[c]), T(f.k[c]));
-        case FresnelType::kNone:
-            break;
+    FresnelGeometry<T> g;
+    g.cos_d = cos_d;
+    if (f.type == FresnelType::kSchlick) {
+        g.x5 = pow5(clamp_to(one_minus_cos, T(0), T(1)));
     }
-    return T(1);
+    return lobe_F<T>(f, c, g);
 }
 
 /// The whole model at lanes of direction pairs, RGB into out[0..2], 1/sr: diffuse / pi (when
@@ -316,55 +212,8 @@ inline void eval_lanes(const Rgb<P>* diffuse,
         out[c] = diffuse != nullptr ? lambert_from_cosines(T((*diffuse)[c]), wi.z, wo.z) : T(0);
     }
     if (lobes != lobes_end) {
-        const HalfGeometry<T> g = half_geometry(wi, wo);
-        const T inv_4cc = T(1) / (T(4) * wi.z * wo.z);
-        for (const Lobe<P>* it = lobes; it != lobes_end; ++it) {
-            const Lobe<P>& lobe = *it;
-            if (lobe.rgb_roughness) {
-                // RGB-varying roughness: D and G of each channel with that channel's alpha (the
-                // same microfacet form per wavelength band; an isotropic analytic lobe, checked
-                // by the model readers and the fit specs).
-                for (int c = 0; c < 3; ++c) {
-                    const P& a = lobe.alpha_rgb[c];
-                    const T D = lobe_D_alpha(lobe, g.h, a, a);
-                    if (all_of(D == T(0))) {
-                        // No microfacet with this normal at this channel's width.
-                        continue;
-                    }
-                    const T S = D * lobe_G_alpha(lobe, wi, wo, g, a, a) * inv_4cc;
-                    const T F = lobe_F(lobe.fresnel, c, g.cos_d, g.one_minus_cos_d);
-                    out[c] = out[c] + T(lobe.scale[c]) * F * S;
-                }
-                continue;
-            }
-            T D, G;
-            if (lobe.anisotropic) {
-                // D and G in the lobe's own frame, turned by its orientation about the normal
-                // (lobe_orientation.h); F and the cosines do not depend on the turn.
-                const LobeRotation<P> r = lobe_rotation_deg(lobe.orientation_deg);
-                HalfGeometry<T> g_l = g;
-                g_l.h = in_lobe_frame(g.h, r);
-                D = lobe_D(lobe, g_l.h);
-                if (all_of(D == T(0))) {
-                    // No microfacet with this normal: the lobe contributes exactly zero.
-                    continue;
-                }
-                G = lobe_G(lobe, in_lobe_frame(wi, r), in_lobe_frame(wo, r), g_l);
-            } else {
-                D = lobe_D(lobe, g.h);
-                if (all_of(D == T(0))) {
-                    // No microfacet with this normal: the lobe contributes exactly zero (F and G
-                    // are not needed; this also skips them in the far tail of sharp lobes).
-                    continue;
-                }
-                G = lobe_G(lobe, wi, wo, g);
-            }
-            const T S = D * G * inv_4cc;
-            for (int c = 0; c < 3; ++c) {
-                const T F = lobe_F(lobe.fresnel, c, g.cos_d, g.one_minus_cos_d);
-                out[c] = out[c] + T(lobe.scale[c]) * F * S;
-            }
-        }
+        add_lobes<SquaresForm::kComponents>(
+            lobes, lobes_end, DirectionSquares<T>(wi, wo, lobes, lobes_end), out);
     }
     for (int c = 0; c < 3; ++c) {
         // Branch of the mask: at or below the horizon, no reflection.

@@ -117,20 +117,30 @@ inline T beta_cf(const T& x, const T& a, const T& b) {
 /// exp(-gamma log1p(e / (gamma - 1)) - 2 log(h_z^2)) so that neither factor overflows near the
 /// horizon. Edge behaviour: 0 for h_z <= 0 (microfacet normals face outward) and for h_z^2 <
 /// 1e-300 (there h_z D(h) ~ h_z^(2 gamma - 3) -> 0, no projected area; for gamma < 2 D itself
-/// grows without bound toward the horizon). At h = z: 1 / (pi alpha_x alpha_y).
+/// grows without bound toward the horizon). At h = z: 1 / (pi alpha_x alpha_y). From the squared
+/// components of h (an isotropic caller may pass h_x^2 + h_y^2 as hx2 and 0 as hy2).
 template <class T>
-inline T D_student_t(const Vec3<T>& h, const T& alpha_x, const T& alpha_y, const T& gamma) {
+inline T D_student_t_from_squares(
+    const T& hx2, const T& hy2, const T& hz2, const T& alpha_x, const T& alpha_y, const T& gamma) {
     using std::exp;
     using std::log;
     using std::log1p;
-    const T cos2 = sqr(h.z());
-    if (h.z() <= T(0) || cos2 < T(1e-300)) {
-        // Outward normals only; at the horizon through rounding there is no projected area.
+    if (!(hz2 >= T(1e-300))) {
+        // At the horizon through rounding: no projected area.
         return T(0);
     }
-    const T e = (sqr(h.x() / alpha_x) + sqr(h.y() / alpha_y)) / cos2;
-    return exp(-gamma * log1p(e / (gamma - T(1))) - T(2) * log(cos2)) /
-           (T(kPi) * alpha_x * alpha_y);
+    const T e = (hx2 / (alpha_x * alpha_x) + hy2 / (alpha_y * alpha_y)) / hz2;
+    return exp(-gamma * log1p(e / (gamma - T(1))) - T(2) * log(hz2)) / (T(kPi) * alpha_x * alpha_y);
+}
+
+/// D_student_t_from_squares of a unit h given by its components.
+template <class T>
+inline T D_student_t(const Vec3<T>& h, const T& alpha_x, const T& alpha_y, const T& gamma) {
+    if (h.z() <= T(0)) {
+        // Outward normals only.
+        return T(0);
+    }
+    return D_student_t_from_squares(sqr(h.x()), sqr(h.y()), sqr(h.z()), alpha_x, alpha_y, gamma);
 }
 
 /// Smith Lambda of the STD from a2 = (alpha_x^2 w_x^2 + alpha_y^2 w_y^2) / w_z^2 (= alpha(phi)^2

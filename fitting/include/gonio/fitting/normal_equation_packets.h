@@ -19,6 +19,7 @@
 
 #include <cstddef>
 
+#include "gonio/brdf/model.h"
 #include "gonio/fitting/lobe_shape_packets.h"
 
 namespace gonio::fitting {
@@ -39,9 +40,8 @@ struct PacketModel {
     int lobes = 0;
     LobeShapeKind kind[kMaxLobes];
     double alpha[kMaxLobes] = {};
-    bool schlick[kMaxLobes] = {};
+    brdf::Fresnel<double> fresnel[kMaxLobes];  ///< Schlick's or none.
     double scale[kMaxLobes][3] = {};
-    double f0[kMaxLobes][3] = {};
     double diffuse[3] = {};  ///< rho_c / pi (0 without a diffuse term).
     int slots = 0;           ///< At most kMaxSlots.
     PacketSlot slot[kMaxSlots] = {};

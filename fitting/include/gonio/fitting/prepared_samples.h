@@ -117,32 +117,22 @@ class PreparedSamples {
     void set_packets(bool on) { packets_ = on && packets_; }
 
   private:
+    /// The per-sample arrays the structure needs: prepared_samples.cpp.
+    struct GeometryNeeds;
+    // The constructor's stages: the structure's needs (and anisotropic_, tabulated_), the
+    // derivative slots, the passes the structure takes (analytic_, packets_, paths_), the arrays,
+    // and per sample its geometry and its residual form.
+    GeometryNeeds read_structure();
+    void assign_slots();
+    void choose_passes(const std::vector<brdf::Sample>& samples);
+    void allocate(const GeometryNeeds& need);
+    void prepare_geometry(std::size_t i, const brdf::Sample& smp, const GeometryNeeds& need);
+    void prepare_residual(std::size_t i, const brdf::Sample& smp, const CostOptions& o);
+
     template <class T>
     brdf::Rgb<T> eval(const brdf::Model<T>& m, std::size_t i) const;
-    /// D G / (4 cos_i cos_o) of one lobe (0 where D underflows).
-    /// `rot` turns the geometry into the frame of an anisotropic lobe (Lobe::orientation_deg); null
-    /// for a lobe that does not depend on it.
-    template <class T>
-    T shape(brdf::Distribution dist,
-            brdf::Shadowing shadowing,
-            const T& ax,
-            const T& ay,
-            const T& exponent,
-            std::size_t i,
-            const brdf::LobeRotation<T>* rot = nullptr) const;
-    /// The same for a Student-t lobe (brdf/student_t.h), whose D and Lambda also take gamma.
-    template <class T>
-    T shape_student_t(brdf::Shadowing shadowing,
-                      const T& ax,
-                      const T& ay,
-                      const T& gamma,
-                      std::size_t i,
-                      const brdf::LobeRotation<T>* rot = nullptr) const;
-    /// The squared tangent components of h (hx2, hy2) and the squared slopes of wi (ti_x, ti_y)
-    /// and wo (to_x, to_y) of sample i along the axes of the lobe turned by `rot` (the stored
-    /// sample-frame ones when null); an anisotropic structure only.
-    template <class T>
-    void lobe_squares(std::size_t i, const brdf::LobeRotation<T>* rot, T out[6]) const;
+    /// Sample i's geometry as the lobe body takes it (brdf/lobe_body.h): prepared_samples.cpp.
+    class SampleSquares;
     /// dg/dm of the residual form at m.
     double g_prime(double m, std::size_t i) const;
     /// Closed-form residuals r[3] and their derivatives v[c * slots + slot] of sample i:
@@ -171,6 +161,26 @@ class PreparedSamples {
     /// whole run too.
     bool analytic_log_run(
         const brdf::ModelD& m, std::size_t begin, std::size_t end, double* r, double* v) const;
+    // analytic_log_run's stages: the shapes of its packet lobes over n samples from begin; when
+    // every lobe is such, the model values' logarithm arguments arg[3 j + c] and df_c/d(slot) in
+    // v (layout of analytic_log_run) over the run, a channel and a slot at a time.
+    void pack_run_shapes(const brdf::ModelD& m,
+                         std::size_t begin,
+                         std::size_t n,
+                         RunShapes& shapes) const;
+    void combine_packed_run(const brdf::ModelD& m,
+                            std::size_t begin,
+                            std::size_t n,
+                            const RunShapes& shapes,
+                            double* arg,
+                            double* v) const;
+    void packed_slot_derivatives(const brdf::ModelD& m,
+                                 int c,
+                                 int k,
+                                 std::size_t begin,
+                                 std::size_t n,
+                                 const RunShapes& shapes,
+                                 double* out) const;
     template <class T>
     T g_of(const T& m, std::size_t i) const;
     /// The model at its point and the arrays, for the fused packet passes.
@@ -180,6 +190,34 @@ class PreparedSamples {
     brdf::Model<ceres::Jet<double, K>> jet_model(const double* x) const;
     template <int K>
     bool normal_equations_k(const double* x, NormalEquations& out, int threads) const;
+    // normal_equations_k's stages: a block's sums sample by sample into dst (the per-block
+    // layout of normal_equations_k), sample i's residuals with their derivatives as Jets (on the
+    // run of the log residual in ra, va when `runs`), and the blocks' sums added in block order
+    // into `out`.
+    template <int K>
+    void block_normal_equations(const brdf::Model<ceres::Jet<double, K>>& m,
+                                const brdf::ModelD& md,
+                                std::size_t b,
+                                std::size_t e,
+                                double* dst) const;
+    template <int K>
+    bool sample_residuals(const brdf::Model<ceres::Jet<double, K>>& m,
+                          const brdf::ModelD& md,
+                          std::size_t i,
+                          std::size_t b,
+                          std::size_t e,
+                          bool runs,
+                          double* ra,
+                          double* va,
+                          ceres::Jet<double, K> r[3]) const;
+    template <int K>
+    bool add_block_sums(const std::vector<double>& partial, NormalEquations& out) const;
+    /// jets_k's score products alone over [begin, end) with closed-form derivatives of the log
+    /// residual, a run at a time (analytic_log_run): outer += g g^T per sample.
+    bool analytic_score_products(const brdf::ModelD& md,
+                                 std::size_t begin,
+                                 std::size_t end,
+                                 Eigen::MatrixXd& outer) const;
     template <int K>
     bool jets_k(const double* x,
                 std::size_t begin,
@@ -192,6 +230,7 @@ class PreparedSamples {
     ResidualForm form_;
     std::size_t n_ = 0;
     bool anisotropic_ = false;
+    bool tabulated_ = false;  // A tabulated lobe in the structure.
     // Geometry (empty when the structure does not need the field).
     std::vector<double> cos_i_, inv_4cc_;
     std::vector<double> hx2_, hy2_, hz2_;  // hx2_ holds hx^2 + hy^2 for isotropic structures
@@ -201,7 +240,7 @@ class PreparedSamples {
     // Anisotropic structures: the cross products h_x h_y and the slope products of wi and wo,
     // which turn the squares into a lobe's frame (brdf/lobe_orientation.h).
     std::vector<double> hxy_, ti_xy_, to_xy_;
-    std::vector<double> cos_d_, omc_d_, x5_, g_vgroove_;
+    std::vector<double> cos_d_, x5_, g_vgroove_;
     // Residual: r_c = s_c (g(m_c) - g_d_c).
     std::vector<double> g_d_[3], s_[3];
     // Derivative slots (see cost.cpp): slot of each free scalar and its channel (-1 = all).
