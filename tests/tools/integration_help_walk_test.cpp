@@ -167,6 +167,8 @@ TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
               {"--plan", "acquire --plan-only", "acquire --plan-only --plan half-diff"},
               {"--n-theta", "acquire --plan-only", "acquire --plan-only --n-theta 3"},
               {"--n-dphi", "acquire --plan-only", "acquire --plan-only --n-dphi 3"},
+              {"--n-theta", "acquire --plan-only --plan half-diff --n-theta 3", ""},
+              {"--n-dphi", "acquire --plan-only --plan half-diff --n-dphi 3", ""},
               {"--adaptive", "acquire --mode image --adaptive 2", ""},
               {"--adaptive", "acquire --plan-only --anisotropic --adaptive 2", ""},
               {"--anisotropic", "acquire --plan-only", "acquire --plan-only --anisotropic"},

@@ -251,6 +251,18 @@ std::optional<RequestConflict> plan_conflict(const CampaignRequest& r,
         }
         return std::nullopt;
     }
+    if (r.plan_kind == "half-diff") {
+        for (const std::string& f : given) {
+            if (among(f, {"n_theta", "n_dphi"})) {
+                return RequestConflict{f,
+                                       "plan_kind",
+                                       "an option of the uniform plan; the half-diff plan's grid "
+                                       "is its campaign file's plan.n_theta_h, n_theta_d and "
+                                       "n_phi_d"};
+            }
+        }
+        return std::nullopt;
+    }
     if (r.plan_kind != "vndf") {
         return std::nullopt;
     }
