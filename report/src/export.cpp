@@ -643,20 +643,33 @@ std::string pbrt_text(const std::string& name,
     return os.str();
 }
 
+/// The model as a renderer can take it: its name checked, its terms mapped to what the renderer
+/// represents, the result valid.
+Expected<ModelD> exportable(const ModelD& model_in,
+                            const std::string& name,
+                            const char* name_kind,
+                            const char* renderer) {
+    if (auto v = check_name(name, name_kind); !v) {
+        return make_error(v.error().message);
+    }
+    Expected<ModelD> model = representable(model_in, renderer);
+    if (!model) {
+        return make_error(model.error().message);
+    }
+    if (auto v = validate(*model); !v) {
+        return make_error(v.error().message);
+    }
+    return model;
+}
+
 }  // namespace
 
 Expected<RendererExport> export_mitsuba(const ModelD& model_in, const std::string& id) {
-    if (auto v = check_name(id, "material id"); !v) {
-        return make_error(v.error().message);
-    }
-    const Expected<ModelD> model_or = representable(model_in, "Mitsuba 3");
+    const Expected<ModelD> model_or = exportable(model_in, id, "material id", "Mitsuba 3");
     if (!model_or) {
         return make_error(model_or.error().message);
     }
     const ModelD& model = *model_or;
-    if (auto v = validate(model); !v) {
-        return make_error(v.error().message);
-    }
     RendererExport out;
     std::vector<std::string>& notes = out.approximations;
     shadowing_notes(model, Shadowing::kSmithSeparable, "Mitsuba 3", notes);
@@ -689,17 +702,11 @@ Expected<RendererExport> export_mitsuba(const ModelD& model_in, const std::strin
 }
 
 Expected<RendererExport> export_pbrt(const ModelD& model_in, const std::string& name) {
-    if (auto v = check_name(name, "material name"); !v) {
-        return make_error(v.error().message);
-    }
-    const Expected<ModelD> model_or = representable(model_in, "pbrt-v4");
+    const Expected<ModelD> model_or = exportable(model_in, name, "material name", "pbrt-v4");
     if (!model_or) {
         return make_error(model_or.error().message);
     }
     const ModelD& model = *model_or;
-    if (auto v = validate(model); !v) {
-        return make_error(v.error().message);
-    }
     RendererExport out;
     std::vector<std::string>& notes = out.approximations;
     shadowing_notes(model, Shadowing::kSmithCorrelated, "pbrt-v4", notes);
