@@ -1,6 +1,7 @@
 // The dataset and the vndf plan's files from a campaign's journal (campaign.h).
 
 #include "campaign_runner.h"
+#include "gonio/acquisition/point/fit_pass.h"
 
 namespace gonio::acquisition {
 
@@ -79,17 +80,7 @@ Expected<std::vector<brdf::Sample>> campaign_samples(const std::string& dir,
         if (!wanted) {
             continue;
         }
-        brdf::Sample s;
-        const auto si = brdf::cartesian_to_spherical(r.wi);
-        const auto so = brdf::cartesian_to_spherical(r.wo);
-        s.theta_i = si.theta;
-        s.phi_i = si.phi;
-        s.theta_o = so.theta;
-        s.phi_o = so.phi;
-        s.value = r.value;
-        s.sigma = r.sigma;
-        s.weight = r.weight;
-        s.flags = r.flags;
+        brdf::Sample s = sample_of_record(r);
         if (r.has_path) {
             set_exposure_path(r, &s);
         }

@@ -40,6 +40,25 @@ std::vector<JournalRecord> measured_before(const std::vector<JournalRecord>& rec
     return out;
 }
 
+}  // namespace
+
+brdf::Sample sample_of_record(const JournalRecord& r) {
+    brdf::Sample s;
+    const auto si = brdf::cartesian_to_spherical(r.wi);
+    const auto so = brdf::cartesian_to_spherical(r.wo);
+    s.theta_i = si.theta;
+    s.phi_i = si.phi;
+    s.theta_o = so.theta;
+    s.phi_o = so.phi;
+    s.value = r.value;
+    s.sigma = r.sigma;
+    s.weight = r.weight;
+    s.flags = r.flags;
+    return s;
+}
+
+namespace {
+
 /// The records as samples with the stated uncertainty (the error budget at zero rig hours: a
 /// function of the journal alone).
 std::vector<brdf::Sample> samples_of(const std::vector<JournalRecord>& records,
@@ -47,18 +66,7 @@ std::vector<brdf::Sample> samples_of(const std::vector<JournalRecord>& records,
                                      bool isotropic) {
     std::vector<brdf::Sample> samples;
     for (const JournalRecord& r : records) {
-        brdf::Sample s;
-        const auto si = brdf::cartesian_to_spherical(r.wi);
-        const auto so = brdf::cartesian_to_spherical(r.wo);
-        s.theta_i = si.theta;
-        s.phi_i = si.phi;
-        s.theta_o = so.theta;
-        s.phi_o = so.phi;
-        s.value = r.value;
-        s.sigma = r.sigma;
-        s.weight = r.weight;
-        s.flags = r.flags;
-        samples.push_back(s);
+        samples.push_back(sample_of_record(r));
     }
     add_error_budget(rig.error_budget, 0, isotropic, &samples);
     return samples;

@@ -51,6 +51,10 @@ struct FitBatch {
     std::size_t sweeps = 0;  ///< Fly scans: the sweeps the batch was chosen as (0: points).
 };
 
+/// A journal record as a fit sample: its directions as spherical angles, its value, sigma, weight
+/// and flags (its exposure path, where it has one, is the caller's to add).
+brdf::Sample sample_of_record(const JournalRecord& r);
+
 /// What a later batch is chosen from: the measurements of the passes before it, the fit of them
 /// (none when missing or failing; FitBatch::note says why), the chooser's view of both, the
 /// noise s^2 (the median relative variance of the values) and how many configurations the batch
