@@ -1,5 +1,7 @@
 #!/usr/bin/env python3
-"""Prints how many tests the last ctest run skipped, each with the one-line reason the test gave.
+"""Prints how many tests the last ctest run skipped, each with the one-line reason the test gave, and
+every test that failed and then passed when ctest ran it again (--repeat until-pass), with the first
+line of its failure: such a test depends on the machine's load or timing and wants a fix.
 
 usage: ctest_skips.py BUILD_DIR
 
@@ -35,6 +37,24 @@ def gtest_reason(output):
     return None
 
 
+def first_failure_line(output):
+    for line in output.splitlines():
+        if ": Failure" in line or "Expected" in line or "Value of:" in line:
+            return line.strip()
+    return "(its output is above, where ctest printed the failure)"
+
+
+def retried(runs):
+    """(name, output of its first failed run) for each test that failed once and passed later."""
+    first_failure, passed = {}, set()
+    for name, output in runs:
+        if "\nTest Failed." in output:
+            first_failure.setdefault(name, output)
+        elif "Test Passed." in output:
+            passed.add(name)
+    return [(name, out) for name, out in first_failure.items() if name in passed]
+
+
 def main():
     if len(sys.argv) != 2:
         sys.exit(__doc__)
@@ -46,7 +66,8 @@ def main():
         print(f"ctest_skips: {path}: {e.strerror}")
         return
     skipped = []
-    for name, output in tests_in(log):
+    runs = list(tests_in(log))
+    for name, output in runs:
         if "[  SKIPPED ]" in output:
             skipped.append((name, gtest_reason(output) or "(no reason given)"))
             continue
@@ -58,6 +79,11 @@ def main():
     print(f"{len(skipped)} skipped")
     for name, reason in skipped:
         print(f"  {name}: {reason}")
+    flaky = retried(runs)
+    if flaky:
+        print(f"{len(flaky)} passed only when run again (load- or timing-dependent):")
+        for name, output in flaky:
+            print(f"  {name}: {first_failure_line(output)}")
 
 
 if __name__ == "__main__":
