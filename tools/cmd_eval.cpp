@@ -1,6 +1,7 @@
 // gonio eval MODEL_OR_TABLE < dirs.csv > values.csv
 
 #include <CLI/CLI.hpp>
+#include <array>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -19,6 +20,7 @@
 #include "gonio/base/atomic_file.h"
 #include "gonio/base/strings.h"
 #include "gonio/brdf/brdf.h"
+#include "gonio/brdf/direction_rows.h"
 #include "option_checks.h"
 
 namespace {
@@ -99,28 +101,22 @@ std::string parse_row(const std::vector<std::string>& fields,
 /// its place, so that output row k answers input row k.
 constexpr const char* kNanRow = "nan,nan,nan\n";
 
-/// Rows evaluated together: directions as structure of arrays through Brdf::eval_many (an analytic
-/// model on packets); values (or the NaN row of a refused row) printed in input order.
+/// Rows evaluated together (brdf::DirectionRows: Brdf::eval_many, an analytic model on packets);
+/// values (or the NaN row of a refused row) printed in input order.
 class Block {
   public:
     static constexpr std::size_t kRows = 4096;
 
     void add(const double angles[4], std::size_t line_no) {
-        const gonio::brdf::Vec3d wi = gonio::brdf::spherical_to_cartesian(angles[0], angles[1]);
-        const gonio::brdf::Vec3d wo = gonio::brdf::spherical_to_cartesian(angles[2], angles[3]);
-        for (int k = 0; k < 3; ++k) {
-            dir_[k].push_back(wi[k]);
-            dir_[3 + k].push_back(wo[k]);
-        }
+        rows_.add(gonio::brdf::spherical_to_cartesian(angles[0], angles[1]),
+                  gonio::brdf::spherical_to_cartesian(angles[2], angles[3]));
         line_.push_back(line_no);
-        refused_.push_back(false);
     }
 
-    /// A refused row: its place, evaluated at the normal (a valid direction) and printed as NaN.
+    /// A refused row: its place, printed as NaN.
     void add_refused(std::size_t line_no) {
-        const double normal[4] = {0, 0, 0, 0};
-        add(normal, line_no);
-        refused_.back() = true;
+        rows_.add_refused();
+        line_.push_back(line_no);
     }
 
     bool full() const { return line_.size() >= kRows; }
@@ -129,56 +125,37 @@ class Block {
     /// of evaluated rows whose value was not finite (reported by line, printed as NaN).
     template <typename Emit>
     std::size_t flush(const gonio::brdf::Brdf& brdf, Emit&& emit, const std::string& in_name) {
-        evaluate(brdf);
-        text_.clear();
-        std::size_t non_finite = 0;
-        for (std::size_t k = 0; k < line_.size(); ++k) {
-            const double f[3] = {value_[0][k], value_[1][k], value_[2][k]};
-            if (refused_[k]) {
-                text_ += kNanRow;
-                continue;
-            }
-            if (!std::isfinite(f[0]) || !std::isfinite(f[1]) || !std::isfinite(f[2])) {
-                std::fprintf(stderr,
-                             "gonio eval: %s:%zu: non-finite BRDF value (NaN row written)\n",
-                             in_name.c_str(),
-                             line_[k]);
-                text_ += kNanRow;
-                ++non_finite;
-                continue;
-            }
-            append_values(f);
-        }
-        if (!text_.empty()) {
-            emit(text_);
-        }
-        for (std::vector<double>& v : dir_) {
-            v.clear();
-        }
-        line_.clear();
-        refused_.clear();
-        return non_finite;
-    }
-
-  private:
-    void evaluate(const gonio::brdf::Brdf& brdf) {
         const std::size_t n = line_.size();
         for (std::vector<double>& v : value_) {
             v.resize(n);
         }
         double* const values[3] = {value_[0].data(), value_[1].data(), value_[2].data()};
-        brdf.eval_many(n,
-                       {dir_[0].data(),
-                        dir_[1].data(),
-                        dir_[2].data(),
-                        dir_[3].data(),
-                        dir_[4].data(),
-                        dir_[5].data()},
-                       values);
+        const std::vector<std::size_t> non_finite = rows_.evaluate(brdf, values);
+        for (const std::size_t k : non_finite) {
+            std::fprintf(stderr,
+                         "gonio eval: %s:%zu: non-finite BRDF value (NaN row written)\n",
+                         in_name.c_str(),
+                         line_[k]);
+        }
+        text_.clear();
+        for (std::size_t k = 0; k < n; ++k) {
+            if (std::isnan(value_[0][k])) {
+                text_ += kNanRow;  // refused, or not finite
+            } else {
+                append_values({value_[0][k], value_[1][k], value_[2][k]});
+            }
+        }
+        if (!text_.empty()) {
+            emit(text_);
+        }
+        rows_.clear();
+        line_.clear();
+        return non_finite.size();
     }
 
+  private:
     /// %.17g, formatted by to_chars (the same digits as printf's, without its locale).
-    void append_values(const double f[3]) {
+    void append_values(const std::array<double, 3>& f) {
         char buf[3 * 32];
         char* p = buf;
         for (int c = 0; c < 3; ++c) {
@@ -188,10 +165,9 @@ class Block {
         text_.append(buf, static_cast<std::size_t>(p - buf));
     }
 
-    std::vector<double> dir_[6];
+    gonio::brdf::DirectionRows rows_;
     std::vector<double> value_[3];
     std::vector<std::size_t> line_;
-    std::vector<bool> refused_;
     std::string text_;
 };
 

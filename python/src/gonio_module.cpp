@@ -27,6 +27,7 @@
 #include "gonio/brdf/brdf.h"
 #include "gonio/brdf/checks.h"
 #include "gonio/brdf/dataset.h"
+#include "gonio/brdf/direction_rows.h"
 #include "gonio/brdf/material_library.h"
 #include "gonio/brdf/merl.h"
 #include "gonio/brdf/model_json.h"
@@ -167,33 +168,20 @@ std::unique_ptr<Brdf> brdf_from(const py::handle& obj) {
 
 // ---- eval ------------------------------------------------------------------------------------
 
-/// The rows of one eval() call as structure of arrays, evaluated together through
-/// Brdf::eval_many (an analytic model on SIMD packets). A row that cannot be evaluated keeps its
-/// place, as a refused line of `gonio eval` does: a NaN row in the output and a warning naming the
-/// row; only an input without a usable row raises.
+/// The rows of one eval() call, evaluated together (brdf::DirectionRows: Brdf::eval_many, an
+/// analytic model on SIMD packets). A row that cannot be evaluated keeps its place, as a refused
+/// line of `gonio eval` does: a NaN row in the output and a warning naming the row; only an input
+/// without a usable row raises.
 class EvalRows {
   public:
-    explicit EvalRows(std::size_t n) : n_(n) {
-        for (std::vector<double>& d : dir_) {
-            d.reserve(n);
-        }
-        refused_.reserve(n);
-    }
+    explicit EvalRows(std::size_t n) : n_(n) { rows_.reserve(n); }
 
-    void add(const gonio::brdf::Vec3d& wi, const gonio::brdf::Vec3d& wo) {
-        for (int k = 0; k < 3; ++k) {
-            dir_[k].push_back(wi[k]);
-            dir_[3 + k].push_back(wo[k]);
-        }
-        refused_.push_back(0);
-    }
+    void add(const gonio::brdf::Vec3d& wi, const gonio::brdf::Vec3d& wo) { rows_.add(wi, wo); }
 
-    /// The next row cannot be evaluated, for `reason`: evaluated at the normal, written as NaN.
+    /// The next row cannot be evaluated, for `reason`: written as NaN.
     void refuse(std::string reason) {
-        const gonio::brdf::Vec3d normal(0, 0, 1);
-        note(refused_.size(), std::move(reason));
-        add(normal, normal);
-        refused_.back() = 1;
+        note(rows_.size(), std::move(reason));
+        rows_.add_refused();
         ++refused_count_;
     }
 
@@ -217,23 +205,12 @@ class EvalRows {
             py::gil_scoped_release release;
             std::vector<double> values(3 * n_);
             double* const channels[3] = {values.data(), values.data() + n_, values.data() + 2 * n_};
-            brdf.eval_many(n_,
-                           {dir_[0].data(),
-                            dir_[1].data(),
-                            dir_[2].data(),
-                            dir_[3].data(),
-                            dir_[4].data(),
-                            dir_[5].data()},
-                           channels);
+            for (const std::size_t k : rows_.evaluate(brdf, channels)) {
+                note(k, "non-finite BRDF value");
+            }
             for (std::size_t k = 0; k < n_; ++k) {
-                const double f[3] = {channels[0][k], channels[1][k], channels[2][k]};
-                const bool finite =
-                    std::isfinite(f[0]) && std::isfinite(f[1]) && std::isfinite(f[2]);
-                if (refused_[k] == 0 && !finite) {
-                    note(k, "non-finite BRDF value");
-                }
                 for (int c = 0; c < 3; ++c) {
-                    pout[3 * k + c] = refused_[k] == 0 && finite ? f[c] : std::nan("");
+                    pout[3 * k + c] = channels[c][k];
                 }
             }
         }
@@ -269,8 +246,7 @@ class EvalRows {
     }
 
     std::size_t n_;
-    std::vector<double> dir_[6];
-    std::vector<std::uint8_t> refused_;
+    gonio::brdf::DirectionRows rows_;
     std::size_t refused_count_ = 0;
     std::vector<std::pair<std::size_t, std::string>> notes_;
     std::size_t noted_ = 0;
