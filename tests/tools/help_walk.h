@@ -226,17 +226,25 @@ inline std::string word_after(const std::string& text, const std::string& key) {
 }
 
 /// `text` with what changes from run to run whatever the options replaced by placeholders: a
-/// loopback address (127.x.y.z, which `auto` picks afresh) and the port after it, and a
-/// pseudo-terminal's path. Two outcomes are compared in this form, so that a proof that an option
-/// changes the result fails when only the address or port it happened to get differs.
+/// loopback address (127.x.y.z, which `auto` picks afresh) and the port after it, a
+/// pseudo-terminal's path, a file's or folder's path (every absolute path, which names the test's
+/// folder, and the time-stamped name of a campaign folder made without --out), and times. Two
+/// outcomes are compared in this form, so that a proof that an option changes the result fails
+/// when only an address, a port, a path or a time differs: an option that names where to write
+/// is proved by what it wrote there (Proof::written), not by the echo of its name.
 inline std::string normalised(const std::string& text) {
     static const std::regex address(R"(127\.\d+\.\d+\.\d+(:\d+)?)");
-    static const std::regex pty(R"(/dev/pts/\d+)");
     static const std::regex port_word(R"(\bport \d+)");
+    // An absolute path: after a space, a quote, '=', '(' or '[' or at a line's start, up to the
+    // next space, quote, comma or bracket, a trailing ':' or '.' left out (a message's colon).
+    static const std::regex path(R"((^|[\s'"=(\[])/[^\s'",;()<>\[\]]*[^\s'",;()<>\[\].:])");
+    // ISO dates and times (2026-12-07T01:02:03Z, and the folder-name form 2026-12-07T01-02-03).
+    static const std::regex when(R"(\d{4}-\d{2}-\d{2}[T ]\d{2}[:-]\d{2}[:-]\d{2}(\.\d+)?Z?)");
     // Times in a fit report ("time_s": 0.0123), which no two runs share.
     static const std::regex seconds(R"(("\w*time_s"): [-+.0-9eE]+)");
     std::string out = std::regex_replace(text, address, "127.N.N.N:P");
-    out = std::regex_replace(out, pty, "/dev/pts/N");
+    out = std::regex_replace(out, path, "$1PATH");
+    out = std::regex_replace(out, when, "TIME");
     out = std::regex_replace(out, seconds, "$1: T");
     return std::regex_replace(out, port_word, "port P");
 }
@@ -250,13 +258,19 @@ inline void prove(const std::string& command,
     namespace fs = std::filesystem;
     const std::set<std::string> listed = listed_options(command);
     ASSERT_FALSE(listed.empty()) << command;
+    // Each run starts in an empty working folder, the same for every run: a folder a command
+    // names itself (an image campaign's without --out, image-MATERIAL-N) is named alike in two
+    // runs, and nothing is left among the build's files.
+    const fs::path home = fs::current_path();
     auto outcome = [&](const Proof& p, const std::string& line) {
         const std::string args = prepare ? prepare(line) : line;
+        fs::current_path(test_folder("help_walk_cwd", "run", true));
         CliRun r = p.ready.empty() ? run_gonio(args) : run_served(args, p.ready, p.probe);
         for (const std::string& t : p.then) {
             const CliRun next = run_gonio(prepare ? prepare(t) : t);
             r.out += "\n--- " + t + " (" + std::to_string(next.status) + ") ---\n" + next.out;
         }
+        fs::current_path(home);
         return r;
     };
     std::map<std::string, int> proofs;
@@ -307,7 +321,7 @@ inline void prove(const std::string& command,
             EXPECT_NE(normalised(a.out) + std::to_string(a.status),
                       normalised(b.out) + std::to_string(b.status))
                 << p.a << "\n  and\n"
-                << p.b << "\nend the same (addresses and ports aside):\n"
+                << p.b << "\nend the same (addresses, ports, paths and times aside):\n"
                 << a.out;
         }
     }

@@ -326,7 +326,8 @@ TEST(HelpWalk, CameraEveryOptionHonouredOrRefused) {
     prove(
         "camera capture",
         {
-            {"output", c + " " + d + "/a.exr", c + " " + d + "/b.exr"},
+            // The frame goes to the named file.
+            {"output", c + " " + d + "/a.exr", c + " " + d + "/b.exr", "", d + "/a.exr"},
             {"--exposure-us", c + " " + exr, c + " --exposure-us 2500 " + exr, "", exr},
             {"--gain", c + " " + exr, c + " --gain 4 " + exr, "", exr},
             {"--camera-gain", c + " " + exr, c + " --camera-gain 6 " + exr, "", exr},

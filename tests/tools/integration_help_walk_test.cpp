@@ -152,6 +152,10 @@ TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
     const std::string camp = walk_dir() + "/c.json";
     const std::string zoom_rig = std::string(GONIO_SOURCE_DIR) + "/data/rigs/sim-image-zoom.json";
     std::ofstream(camp) << R"({"plan": {"kind": "uniform", "n_theta": 3, "n_dphi": 2}})";
+    // An image campaign of two light positions (its frame limit) to resume.
+    const std::string two_frames = walk_dir() + "/two-frames";
+    const CliRun two = run_gonio("acquire --mode image --max-frames 2 --out " + two_frames);
+    ASSERT_TRUE(fs::exists(two_frames + "/dataset.csv")) << two.out;
     prove("acquire",
           {
               {"campaign", "acquire --mode image " + camp, "", "campaign.json"},
@@ -250,12 +254,14 @@ TEST(HelpWalk, AcquireEveryOptionHonouredOrRefused) {
                    "/served --serve 127.0.0.1:" + std::to_string(busy.port()),
                "acquire --mode image --max-frames 1 --out " + walk_dir() + "/served"},
               {"--serve", "acquire --plan-only --serve 0", ""},
-              // The campaign the --serve proof just ran (one light position, its frame limit),
-              // resumed: read from its folder, with nothing left to measure; a folder that holds
-              // no campaign is refused, naming it.
+              // The campaign the --serve proof just ran (one light position, its frame limit)
+              // and one of two light positions, resumed: each read from its folder, with
+              // nothing left to measure (a command that ignored --resume would run the same new
+              // campaign twice); a folder that holds no campaign is refused, naming it.
               {"--resume",
                "acquire --mode image --resume " + walk_dir() + "/served",
-               "acquire --mode image --resume " + walk_dir() + "/no-campaign"},
+               "acquire --mode image --resume " + two_frames},
+              {"--resume", "acquire --mode image --resume " + walk_dir() + "/no-campaign", ""},
               {"--plan-only", r + " --plan-only", ""},
           });
 }
@@ -377,7 +383,8 @@ TEST(HelpWalk, PlotPreviewReportEveryOptionHonouredOrRefused) {
           {
               {"data", p, "plot " + d + "/s2.csv --out " + plots, "", plots},
               {"--fit", p, p + " --fit " + m2, "", plots},
-              {"--out", p, "plot " + d + "/s.csv --out " + d + "/plots2"},
+              // The pictures go to the named folder, not to the one before.
+              {"--out", p, "plot " + d + "/s.csv --out " + d + "/plots2", "", plots},
               {"--scale", p + " --scale linear", p + " --scale log", "", plots},
               {"--log", p + " --scale linear", p + " --log", "", plots},
               {"--log", p + " --log --scale linear", "", "--log"},
@@ -391,7 +398,7 @@ TEST(HelpWalk, PlotPreviewReportEveryOptionHonouredOrRefused) {
         {
             {"brdf", v, "preview " + m2 + " --out " + png + " --size 24 --samples 12", "", png},
             {"--vs", v, v + " --vs " + m2, "", png},
-            {"--out", v, "preview " + m + " --out " + d + "/q.png --size 24 --samples 12"},
+            {"--out", v, "preview " + m + " --out " + d + "/q.png --size 24 --samples 12", "", png},
             {"--size", v, "preview " + m + " --out " + png + " --size 32 --samples 12", "", png},
             {"--samples", v, "preview " + m + " --out " + png + " --size 24 --samples 48", "", png},
         });
@@ -416,7 +423,12 @@ TEST(HelpWalk, PlotPreviewReportEveryOptionHonouredOrRefused) {
                "report " + camp + " --regenerate --preview-size 24 --preview-samples 48",
                "",
                camp + "/previews"},
-              {"--blender", r, r + " --blender"},
+              // The Blender rendering and its measured difference join the previews.
+              {"--blender",
+               r + " --regenerate",
+               r + " --regenerate --blender",
+               "",
+               camp + "/previews"},
           });
 }
 
