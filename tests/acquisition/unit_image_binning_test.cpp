@@ -1,5 +1,6 @@
 // Half/difference binning: index mapping against the MERL formula, Welford statistics against a
-// two-pass computation, dataset rows and table files read back.
+// two-pass computation, dataset rows and table files read back, and the uncertainty the rows
+// state with a rig's error budget.
 
 #include <gtest/gtest.h>
 
@@ -8,7 +9,9 @@
 #include <filesystem>
 #include <random>
 
+#include "gonio/acquisition/image/bin_uncertainty.h"
 #include "gonio/acquisition/image/image_binning.h"
+#include "gonio/acquisition/point/stated_uncertainty.h"
 #include "gonio/brdf/merl.h"
 
 namespace gonio::acquisition {
@@ -190,6 +193,113 @@ TEST(ImageBinning, CoverageCellsAreFractionsOfValidBins) {
     EXPECT_DOUBLE_EQ(cells[0], 0.0);
     // theta_h and theta_d both near pi/2: no valid bin in the cell.
     EXPECT_DOUBLE_EQ(cells[(l.n_theta_d - 1) * l.n_theta_h + l.n_theta_h - 1], -1.0);
+}
+
+// The uncertainty an image campaign's dataset states per bin (bin_uncertainty.h): the bin's
+// standard error and the rig's error budget through the point path's add_error_budget, the slope
+// from the rows of the neighbouring bins of the table.
+
+/// A table with one sample in each of three bins of a 30 x 30 x 60 layout: A, its neighbour B one
+/// theta_d row up, and C far from both. Values (1/sr) and noise-model variances as given.
+struct BudgetBins {
+    TableLayout layout = coarse_layout(3);
+    BinnedTable table{layout};
+    std::size_t a = layout.index(6, 10, 20);
+    std::size_t b = layout.index(6, 11, 20);
+    std::size_t c = layout.index(20, 3, 45);
+
+    BudgetBins() {
+        add(a, brdf::Rgbd(2.0, 1.0, 0.5), 1e-4);
+        add(b, brdf::Rgbd(2.6, 1.2, 0.5), 4e-4);
+        add(c, brdf::Rgbd(0.1, 0.1, 0.1), 1e-6);
+    }
+    void add(std::size_t bin, const brdf::Rgbd& f, double var) {
+        const std::array<int, 3> i = layout.unflatten(bin);
+        brdf::HalfDiff<double> hd;
+        hd.theta_h = layout.theta_h_centre(i[0]);
+        hd.theta_d = layout.theta_d_centre(i[1]);
+        hd.phi_d = layout.phi_d_centre(i[2]);
+        table.add_to_bin(bin, hd, f, brdf::Rgbd::Constant(var));
+    }
+};
+
+brdf::RigErrorBudget arms_only_budget() {
+    brdf::RigErrorBudget b = brdf::quiet_error_budget();
+    b.profile = "custom";
+    b.light_arm.repeatability_deg = 0.02;
+    b.detector_arm.zero_offset_deg = 0.03;
+    return b;
+}
+
+TEST(ImageBinUncertainty, QuietBudgetStatesTheStandardErrors) {
+    const BudgetBins t;
+    const brdf::Dataset plain = t.table.to_dataset("t", 1, false);
+    const brdf::Dataset stated =
+        stated_dataset(t.table, "t", 1, false, brdf::quiet_error_budget(), 2.0);
+    ASSERT_EQ(stated.samples.size(), 3u);
+    for (std::size_t i = 0; i < 3; ++i) {
+        for (int ch = 0; ch < 3; ++ch) {
+            EXPECT_EQ(stated.samples[i].sigma[ch], plain.samples[i].sigma[ch]) << i << " " << ch;
+            EXPECT_EQ(stated.samples[i].value[ch], plain.samples[i].value[ch]) << i << " " << ch;
+        }
+    }
+    // One sample per bin: the noise model's standard error, sqrt(variance).
+    EXPECT_NEAR(stated.samples[0].sigma[0], 1e-2, 1e-9);
+}
+
+TEST(ImageBinUncertainty, ArmTermsReachABinThroughItsTableNeighbours) {
+    const BudgetBins t;
+    const brdf::RigErrorBudget budget = arms_only_budget();
+    const brdf::Dataset stated = stated_dataset(t.table, "t", 1, false, budget, 0);
+    const brdf::Dataset plain = t.table.to_dataset("t", 1, false);
+    ASSERT_EQ(stated.samples.size(), 3u);  // rows in bin order: a, b, c
+    const brdf::Sample& sa = stated.samples[0];
+    const brdf::Sample& sb = stated.samples[1];
+    const double d = configuration_distance(sa, sb, true);
+    ASSERT_GT(d, 0.01);  // a theta_d row (3 degrees) apart
+    const double u_dir = std::hypot(0.02, 0.03) * brdf::kPi / 180;
+    ASSERT_NEAR(budget_direction_sigma(budget), u_dir, 1e-15);
+    // One sample per bin: the standard error is the noise model's sqrt(variance).
+    EXPECT_NEAR(plain.samples[0].sigma[0], 1e-2, 1e-9);
+    EXPECT_NEAR(plain.samples[1].sigma[0], 2e-2, 1e-9);
+    for (int ch = 0; ch < 3; ++ch) {
+        // A and B see each other: their slope is the difference quotient between them.
+        const double slope = std::abs(sb.value[ch] - sa.value[ch]) / d;
+        EXPECT_NEAR(sa.sigma[ch], std::hypot(plain.samples[0].sigma[ch], slope * u_dir), 1e-15)
+            << ch;
+        EXPECT_NEAR(sb.sigma[ch], std::hypot(plain.samples[1].sigma[ch], slope * u_dir), 1e-15)
+            << ch;
+        // C has no filled neighbouring bin: no slope, its standard error alone (the point path's
+        // nearest configurations would have given it one from A and B).
+        EXPECT_NEAR(stated.samples[2].sigma[ch], plain.samples[2].sigma[ch], 1e-18) << ch;
+    }
+    // The arm term is seen: 0.6 / sr over 3 degrees of theta_d, 0.036 degrees of arm error.
+    EXPECT_GT(sa.sigma[0], 1.1e-2);
+}
+
+TEST(ImageBinUncertainty, RelativeAndStrayLightTermsAsAPointValue) {
+    const BudgetBins t;
+    brdf::RigErrorBudget budget = brdf::reference_error_budget();
+    budget.light_arm = budget.detector_arm = brdf::ArmErrors{};
+    const double hours = 1.5;
+    const brdf::Dataset stated = stated_dataset(t.table, "t", 1, false, budget, hours);
+    const brdf::Dataset plain = t.table.to_dataset("t", 1, false);
+    // The point path's body on the same rows with no slope gives the same sigmas.
+    std::vector<brdf::Sample> point = plain.samples;
+    add_error_budget(budget, hours, false, &point);
+    const double u_rel = brdf::relative_sigma(budget, hours);
+    // 0.15 % twice, 0.15 % of drift, 0.1 % of non-linearity.
+    EXPECT_NEAR(u_rel, std::sqrt(2 * 0.0015 * 0.0015 + 0.0015 * 0.0015 + 0.001 * 0.001), 1e-15);
+    for (std::size_t i = 0; i < 3; ++i) {
+        const brdf::Sample& s = stated.samples[i];
+        const double stray = 2e-4 / brdf::kPi / std::cos(s.theta_i);
+        for (int ch = 0; ch < 3; ++ch) {
+            const double se = plain.samples[i].sigma[ch];
+            const double rel = s.value[ch] * u_rel;
+            EXPECT_NEAR(s.sigma[ch], std::sqrt(se * se + rel * rel + stray * stray), 1e-15);
+            EXPECT_DOUBLE_EQ(s.sigma[ch], point[i].sigma[ch]);
+        }
+    }
 }
 
 }  // namespace

@@ -21,6 +21,7 @@
 
 #include "cli_run.h"
 #include "embedded_rig.h"
+#include "gonio/acquisition/image/bin_uncertainty.h"
 #include "gonio/acquisition/image/image_journal.h"
 #include "gonio/acquisition/shared/campaign_request.h"
 #include "gonio/brdf/analytic_brdf.h"
@@ -29,6 +30,7 @@
 #include "gonio/fitting/fit.h"
 #include "gonio/fitting/spec.h"
 #include "gonio/sim/camera_render.h"
+#include "gonio/sim/sim_rig.h"
 #include "image_test_support.h"
 
 namespace gonio::tools {
@@ -275,6 +277,34 @@ TEST_F(ImageCampaignTest, FitOfTheDatasetRecoversTheMaterial) {
         EXPECT_NEAR(m.lobes[0].scale[c], truth.lobes[0].scale[c], 0.1 * truth.lobes[0].scale[c])
             << "channel " << c;
     }
+}
+
+// The shipped image rig names the quiet profile: the dataset's sigmas are the bins' standard
+// errors, to the bit; the reference budget on the same bins states more for every value.
+TEST_F(ImageCampaignTest, QuietRigStatesTheStandardErrors) {
+    EXPECT_EQ(config_->error_budget.profile, "quiet");
+    const brdf::Dataset stated = acquisition::image_campaign_dataset(*result_, *config_);
+    const brdf::Dataset plain =
+        result_->table.to_dataset("plain", config_->min_count, result_->bracketed);
+    const brdf::Dataset reference =
+        acquisition::stated_dataset(result_->table,
+                                    "reference",
+                                    config_->min_count,
+                                    result_->bracketed,
+                                    brdf::reference_error_budget(),
+                                    acquisition::image_rig_hours(*result_, *config_));
+    ASSERT_EQ(stated.samples.size(), plain.samples.size());
+    ASSERT_EQ(reference.samples.size(), plain.samples.size());
+    ASSERT_GT(plain.samples.size(), 1000u);
+    std::size_t differ = 0, larger = 0;
+    for (std::size_t i = 0; i < plain.samples.size(); ++i) {
+        for (int c = 0; c < 3; ++c) {
+            differ += stated.samples[i].sigma[c] != plain.samples[i].sigma[c] ? 1 : 0;
+            larger += reference.samples[i].sigma[c] > plain.samples[i].sigma[c] ? 1 : 0;
+        }
+    }
+    EXPECT_EQ(differ, 0u);
+    EXPECT_EQ(larger, 3 * plain.samples.size());
 }
 
 TEST_F(ImageCampaignTest, AgreesWithPointMeasurementsThroughTheSameSensor) {
@@ -847,6 +877,195 @@ TEST(ImageCommand, InterruptedCampaignResumesThroughTheCommand) {
     EXPECT_NE(out.find("--grid cannot be combined with --mode point"), std::string::npos) << out;
     std::filesystem::remove_all(dir);
     std::filesystem::remove(model);
+}
+
+// An image campaign on the virtual rig with the reference error budget (docs/error-budget.md):
+// its instrument fluctuates, drifts and points its arms off as a real one does, and the sigmas
+// the campaign's dataset states cover it: the bins' values within 3 sigma of the ground truth,
+// the bins of the highest signal too, where the bins' standard errors alone fall far short.
+
+brdf::ModelD budget_truth() {
+    return image_test::lambert_ggx(brdf::Rgbd(0.30, 0.20, 0.10), 0.25);
+}
+
+constexpr std::uint64_t kBudgetSeed = 606;
+
+/// data/rigs/sim-image.json without its "error_budget": the reference profile, the default.
+std::string reference_rig_json() {
+    std::ifstream in(std::string(GONIO_SOURCE_DIR) + "/data/rigs/sim-image.json");
+    std::stringstream text;
+    text << in.rdbuf();
+    nlohmann::json j = nlohmann::json::parse(text.str());
+    j.erase("error_budget");
+    return j.dump(2);
+}
+
+class ImageBudgetTest : public ::testing::Test {
+  protected:
+    static void SetUpTestSuite() {
+        dir_ = new std::string(std::string(GONIO_BINARY_DIR) + "/test_tools_image/budget_" +
+                               std::to_string(::getpid()));
+        std::filesystem::remove_all(*dir_);
+        std::filesystem::create_directories(*dir_);
+        std::ofstream(*dir_ + "/rig.json") << reference_rig_json();
+        std::ofstream(*dir_ + "/truth.json") << brdf::model_to_json(budget_truth());
+        acquisition::ImageRigOptions o;
+        o.rig_path = *dir_ + "/rig.json";
+        o.brdf_path = *dir_ + "/truth.json";
+        // Enough pixels per bin (hundreds in a 15 x 15 x 30 table) that the brightest bins' standard
+        // errors fall well below the budget's relative terms.
+        o.image_size = 800;
+        o.supersample = 1;
+        o.seed = kBudgetSeed;
+        o.time_scale = 200;
+        auto rig = acquisition::start_image_rig(o, embedded_rig_starter());
+        if (!rig) {
+            error_ = new std::string(rig.error().message);
+            return;
+        }
+        rig_ = rig->release();
+        config_ = new acquisition::ImageCampaignConfig(
+            acquisition::image_campaign_config(rig_->rig, rig_->camera, 6, 0.5, 60));
+        auto r =
+            acquisition::run_image_campaign(acquisition::image_rig_capture(*rig_, 0.0), *config_);
+        if (!r) {
+            error_ = new std::string(r.error().message);
+            return;
+        }
+        result_ = new acquisition::ImageCampaignResult(std::move(*r));
+        if (auto w = acquisition::write_image_campaign(*dir_ + "/run", *result_, *config_); !w) {
+            error_ = new std::string(w.error().message);
+        }
+    }
+    static void TearDownTestSuite() {
+        if (dir_ != nullptr) {
+            std::filesystem::remove_all(*dir_);
+        }
+        delete result_;
+        delete config_;
+        delete rig_;
+        delete error_;
+        delete dir_;
+        result_ = nullptr;
+        error_ = nullptr;
+    }
+    void SetUp() override {
+        ASSERT_EQ(error_, nullptr) << *error_ << " (seed " << kBudgetSeed << ")";
+        ASSERT_NE(result_, nullptr);
+    }
+
+    /// dataset.csv as the campaign wrote it.
+    static brdf::Dataset written() {
+        auto d = brdf::read_dataset_csv(*dir_ + "/run/dataset.csv");
+        EXPECT_TRUE(d) << d.error().message;
+        return d ? *d : brdf::Dataset{};
+    }
+
+    static std::string* dir_;
+    static acquisition::ImageRig* rig_;
+    static acquisition::ImageCampaignConfig* config_;
+    static acquisition::ImageCampaignResult* result_;
+    static std::string* error_;
+};
+
+std::string* ImageBudgetTest::dir_ = nullptr;
+acquisition::ImageRig* ImageBudgetTest::rig_ = nullptr;
+acquisition::ImageCampaignConfig* ImageBudgetTest::config_ = nullptr;
+acquisition::ImageCampaignResult* ImageBudgetTest::result_ = nullptr;
+std::string* ImageBudgetTest::error_ = nullptr;
+
+// The campaign ran the reference profile on the rig and in its dataset; every value (channel by
+// channel, directions at least acos(0.2) from the horizon) against the truth at its directions.
+TEST_F(ImageBudgetTest, StatedSigmasCoverTheTruth) {
+    EXPECT_EQ(config_->error_budget.profile, "reference");
+    EXPECT_EQ(simulator(*rig_)->error_budget().profile, "reference");
+    std::ifstream in(*dir_ + "/run/dataset.json");
+    const nlohmann::json meta = nlohmann::json::parse(in);
+    EXPECT_EQ(meta["stated_uncertainty"]["error_budget"], "reference");
+    // The exposures and the light arm's moves between frames: a minute or two of rig time.
+    const double hours = meta["stated_uncertainty"]["rig_hours_since_white"].get<double>();
+    EXPECT_GT(hours * 3600, result_->exposure_time_s + 1.0);
+    EXPECT_LT(hours, 0.5);
+    const brdf::Dataset d = written();
+    const auto truth = brdf::make_analytic_brdf(budget_truth());
+    std::size_t within = 0, n = 0;
+    for (const brdf::Sample& s : d.samples) {
+        if (s.wi().z() < 0.2 || s.wo().z() < 0.2) {
+            continue;
+        }
+        const brdf::Rgbd f = truth->eval(s.wi(), s.wo());
+        for (int c = 0; c < 3; ++c) {
+            ++n;
+            within += std::abs(s.value[c] - f[c]) <= 3 * s.sigma[c] ? 1 : 0;
+        }
+    }
+    std::printf("all values: %zu of %zu within 3 sigma\n", within, n);
+    ASSERT_GT(n, 3000u);
+    EXPECT_GE(static_cast<double>(within) / n, 0.95) << within << " of " << n;
+}
+
+// The brightest bins, with hundreds of pixels near full well each, have standard errors under
+// 0.1 % of their values: there the instrument's terms (the lamp's 0.15 % per frame and in the
+// white reference, the non-linearity, the arms) are what the values scatter by.
+TEST_F(ImageBudgetTest, HighSignalBinsAreCoveredOnlyWithTheBudget) {
+    const brdf::Dataset d = written();
+    const brdf::Dataset plain = result_->table.to_dataset("plain", config_->min_count, false);
+    ASSERT_EQ(plain.samples.size(), d.samples.size());
+    const auto truth = brdf::make_analytic_brdf(budget_truth());
+    std::size_t n = 0, stated = 0, se_only = 0;
+    for (std::size_t i = 0; i < d.samples.size(); ++i) {
+        const brdf::Sample& s = d.samples[i];
+        if (s.wi().z() < 0.2 || s.wo().z() < 0.2) {
+            continue;
+        }
+        const brdf::Rgbd f = truth->eval(s.wi(), s.wo());
+        for (int c = 0; c < 3; ++c) {
+            const double se = plain.samples[i].sigma[c];
+            if (!(se < 1e-3 * f[c])) {
+                continue;
+            }
+            const double err = std::abs(s.value[c] - f[c]);
+            ++n;
+            stated += err <= 3 * s.sigma[c] ? 1 : 0;
+            se_only += err <= 3 * se ? 1 : 0;
+        }
+    }
+    std::printf(
+        "high-signal values: %zu (stated sigma) and %zu (standard error) of %zu within 3 "
+        "sigma\n",
+        stated,
+        se_only,
+        n);
+    ASSERT_GT(n, 500u);
+    EXPECT_GE(static_cast<double>(stated) / n, 0.95) << stated << " of " << n;
+    // The standard errors alone leave far more outside.
+    EXPECT_LT(static_cast<double>(se_only) / n, 0.75) << se_only << " of " << n;
+}
+
+TEST_F(ImageBudgetTest, FitOfTheDatasetRecoversTheMaterial) {
+    const brdf::Dataset data = written();
+    fitting::ModelOptions mo;
+    mo.distribution = brdf::Distribution::kGgx;
+    mo.fresnel = brdf::FresnelType::kNone;
+    mo.shadowing = brdf::Shadowing::kSmithCorrelated;
+    auto spec = fitting::make_fit_spec(mo);
+    ASSERT_TRUE(spec) << spec.error().message;
+    spec->options.seed = kBudgetSeed;
+    spec->options.num_threads = 1;
+    spec->options.max_samples = 6000;
+    auto fit = fitting::fit(data, *spec);
+    ASSERT_TRUE(fit) << fit.error().message;
+    ASSERT_TRUE(fit->usable()) << fit->solver.message;
+    const brdf::ModelD truth = budget_truth();
+    const brdf::ModelD& m = fit->model;
+    ASSERT_EQ(m.lobes.size(), 1u);
+    std::printf("fit: alpha %.5f (truth %.2f)\n", m.lobes[0].alpha_x, truth.lobes[0].alpha_x);
+    EXPECT_NEAR(m.lobes[0].alpha_x, truth.lobes[0].alpha_x, 0.05 * truth.lobes[0].alpha_x);
+    for (int c = 0; c < 3; ++c) {
+        EXPECT_NEAR(m.diffuse[c], truth.diffuse[c], 0.05 * truth.diffuse[c]) << "channel " << c;
+        EXPECT_NEAR(m.lobes[0].scale[c], truth.lobes[0].scale[c], 0.1 * truth.lobes[0].scale[c])
+            << "channel " << c;
+    }
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
+#include "gonio/acquisition/image/bin_uncertainty.h"
 #include "gonio/acquisition/image/image_campaign.h"
 #include "gonio/base/atomic_file.h"
 #include "gonio/base/strict_json.h"
@@ -9,7 +10,7 @@
 namespace gonio::acquisition {
 namespace {
 
-/// dataset.csv, the table file (isotropic campaigns: table.binary for the MERL layout, else
+/// dataset.csv (bin_uncertainty.h: the rows' sigmas state the rig's error budget), the table file (isotropic campaigns: table.binary for the MERL layout, else
 /// table.gtab) and coverage.png; returns the table file's name ("" when none is written: the
 /// half/difference table has no place for phi_h, so an anisotropic campaign writes its 4-D bins
 /// as the dataset only).
@@ -17,10 +18,7 @@ Expected<std::string> write_data_files(const std::string& base,
                                        const ImageCampaignResult& result,
                                        const ImageCampaignConfig& config) {
     const bool aniso = result.aniso_table.has_value() && result.aniso_coverage.has_value();
-    const brdf::Dataset data =
-        aniso ? result.aniso_table->to_dataset(
-                    "anisotropic image-mode campaign", config.min_count, result.bracketed)
-              : result.table.to_dataset("image-mode campaign", config.min_count, result.bracketed);
+    const brdf::Dataset data = image_campaign_dataset(result, config);
     if (auto r = brdf::write_dataset_csv(base + "dataset.csv", data); !r) {
         return tl::unexpected(r.error());
     }
@@ -144,6 +142,9 @@ void describe_frames(const ImageCampaignResult& result,
     j["holes"] = holes;
     j["captures"] = result.captures;
     j["exposure_time_s"] = result.exposure_time_s;
+    // What the rows' sigmas state beside the bins' standard errors (bin_uncertainty.h).
+    j["stated_uncertainty"] = {{"error_budget", config.error_budget.profile},
+                               {"rig_hours_since_white", image_rig_hours(result, config)}};
 }
 
 }  // namespace

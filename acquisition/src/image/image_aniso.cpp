@@ -198,9 +198,14 @@ brdf::Rgbd AnisoTable::dataset_sigma(std::size_t bin) const {
 
 brdf::Dataset AnisoTable::to_dataset(const std::string& source,
                                      std::uint32_t min_count,
-                                     bool hdr) const {
+                                     bool hdr,
+                                     std::vector<std::size_t>* bins) const {
     return detail::bins_to_dataset(
-        stats_, source, min_count, hdr, [&](std::size_t b, brdf::Sample* s) {
+        stats_,
+        source,
+        min_count,
+        hdr,
+        [&](std::size_t b, brdf::Sample* s) {
             const auto [wi, wo] = representative_directions(b);
             if (!(wi.z() > 0 && wo.z() > 0)) {
                 // A pixel's directions are above the horizon (the exclusion rules); rounding to
@@ -215,7 +220,8 @@ brdf::Dataset AnisoTable::to_dataset(const std::string& source,
             s->phi_o = so.phi;
             s->sigma = dataset_sigma(b);
             return true;
-        });
+        },
+        bins);
 }
 
 namespace {

@@ -120,9 +120,14 @@ brdf::HalfDiff<double> BinnedTable::mean_position(std::size_t bin) const {
 
 brdf::Dataset BinnedTable::to_dataset(const std::string& source,
                                       std::uint32_t min_count,
-                                      bool hdr) const {
+                                      bool hdr,
+                                      std::vector<std::size_t>* bins) const {
     return detail::bins_to_dataset(
-        stats_, source, min_count, hdr, [&](std::size_t b, brdf::Sample* s) {
+        stats_,
+        source,
+        min_count,
+        hdr,
+        [&](std::size_t b, brdf::Sample* s) {
             const auto [wi, wo] = brdf::from_half_diff(mean_position(b));
             if (!(wi.z() > 0 && wo.z() > 0)) {
                 // The mean position of a bin straddling the horizon can fall just below it: such
@@ -138,7 +143,8 @@ brdf::Dataset BinnedTable::to_dataset(const std::string& source,
             s->phi_o = brdf::wrap_pi(so.phi - si.phi);
             s->sigma = standard_error(b);
             return true;
-        });
+        },
+        bins);
 }
 
 brdf::TabulatedBrdf to_tabulated(const BinnedTable& table,

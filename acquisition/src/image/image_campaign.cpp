@@ -126,6 +126,8 @@ ImageCampaignConfig image_campaign_config(const RigConfig& rig,
     cfg.electrons_per_count = rig.noise.e_per_count / rig.capture.gain;
     cfg.read_noise_counts = rig.noise.read_noise_counts * rig.capture.gain;
     cfg.reference_albedo = rig.white_reflectance;
+    cfg.error_budget = rig.error_budget;
+    cfg.dynamics = rig_dynamics(rig);
     cfg.capture_timeout = std::chrono::milliseconds(rig.capture.timeout_ms);
     for (const PlacementConfig& p : rig.placements) {
         cfg.placements.push_back(p.placement);

@@ -144,13 +144,14 @@ inline bool all_finite(std::initializer_list<const float*> arrays, int k = 3) {
 /// A table's dataset: one sample per bin with at least max(min_count, 1) samples whose directions
 /// `row(bin, &sample)` sets (returning false for a bin left out), value = the bin's mean clamped
 /// at zero (noise can push a near-black bin below it; a BRDF is not negative), flags kFlagHdr when
-/// `hdr`.
+/// `hdr`. With `bins`, each row's bin is appended to it.
 template <class Row>
 brdf::Dataset bins_to_dataset(const BinStatistics& stats,
                               const std::string& source,
                               std::uint32_t min_count,
                               bool hdr,
-                              Row row) {
+                              Row row,
+                              std::vector<std::size_t>* bins = nullptr) {
     brdf::Dataset d;
     d.source = source;
     d.has_sigma = true;
@@ -166,6 +167,9 @@ brdf::Dataset bins_to_dataset(const BinStatistics& stats,
         s.value = stats.mean(b).max(0.0);
         s.flags = hdr ? brdf::kFlagHdr : 0u;
         d.samples.push_back(s);
+        if (bins != nullptr) {
+            bins->push_back(b);
+        }
     }
     return d;
 }

@@ -155,7 +155,10 @@ class AnisoTable {
     /// One sample per bin with at least `min_count` samples: full directions (theta_i, phi_i,
     /// theta_o, phi_o) of the representative pixel, value = mean, sigma = dataset_sigma(),
     /// kFlagHdr when `hdr`.
-    brdf::Dataset to_dataset(const std::string& source, std::uint32_t min_count, bool hdr) const;
+    brdf::Dataset to_dataset(const std::string& source,
+                             std::uint32_t min_count,
+                             bool hdr,
+                             std::vector<std::size_t>* bins = nullptr) const;
 
   private:
     AnisoLayout layout_;

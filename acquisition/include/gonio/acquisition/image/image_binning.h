@@ -129,8 +129,13 @@ class BinnedTable {
     std::uint64_t total_samples() const { return stats_.total(); }
 
     /// One dataset sample per filled bin: directions from the bin's mean position (phi_i = 0 by
-    /// isotropy), value = bin mean, sigma = standard_error(), flags kFlagHdr when `hdr`.
-    brdf::Dataset to_dataset(const std::string& source, std::uint32_t min_count, bool hdr) const;
+    /// isotropy), value = bin mean, sigma = standard_error(), flags kFlagHdr when `hdr`; with
+    /// `bins`, each row's bin appended to it. (The campaign's dataset adds the rig's error budget
+    /// to these sigmas: bin_uncertainty.h.)
+    brdf::Dataset to_dataset(const std::string& source,
+                             std::uint32_t min_count,
+                             bool hdr,
+                             std::vector<std::size_t>* bins = nullptr) const;
 
   private:
     TableLayout layout_;

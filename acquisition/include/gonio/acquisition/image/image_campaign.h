@@ -45,8 +45,10 @@
 #include "gonio/acquisition/image/image_planner.h"
 #include "gonio/acquisition/image/placement.h"
 #include "gonio/acquisition/image/sphere_geometry.h"
+#include "gonio/acquisition/shared/kinematics.h"
 #include "gonio/acquisition/shared/rig_config.h"
 #include "gonio/base/error.h"
+#include "gonio/brdf/rig_error_budget.h"
 #include "gonio/devices/axis.h"
 #include "gonio/devices/camera.h"
 
@@ -107,6 +109,12 @@ struct ImageCampaignConfig {
     /// it sees. Anisotropic campaigns use the wide view only. The white reference and the
     /// silhouette are always taken in the wide view.
     std::vector<Placement> placements;
+
+    /// The rig's error budget (rig_error_budget.h), stated in every bin's sigma
+    /// (bin_uncertainty.h); quiet unless the configuration comes from a rig description.
+    brdf::RigErrorBudget error_budget = brdf::quiet_error_budget();
+    /// The axes' speed, acceleration and settle time: the rig time the campaign's moves take.
+    std::array<AxisDynamics, kNumAxes> dynamics{};
 
     double reference_albedo = 0.99;  ///< Lambertian albedo of the white reference sphere.
     double reference_max_theta = 60 * brdf::kPi / 180;  ///< Reference pixels used up to this angle.
