@@ -65,12 +65,14 @@ void publish_campaign(LiveServer& s, std::size_t planned) {
     }
 }
 
-/// Waits (bounded) until /status.json satisfies `ok`; returns the last status read.
+/// Waits (at most 120 s: the final fit is the render thread's, at a lower priority than anything
+/// else on a loaded machine) until /status.json satisfies `ok`; returns the last status read.
 template <class Pred>
 nlohmann::json wait_for_status(int port, Pred ok) {
     httplib::Client cli("127.0.0.1", port);
     nlohmann::json j;
-    for (int i = 0; i < 800; ++i) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+    while (std::chrono::steady_clock::now() < deadline) {
         auto r = cli.Get("/status.json");
         if (r && r->status == 200) {
             j = nlohmann::json::parse(r->body);
