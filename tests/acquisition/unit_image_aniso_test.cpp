@@ -8,7 +8,9 @@
 #include <cmath>
 #include <random>
 
+#include "gonio/acquisition/image/bin_uncertainty.h"
 #include "gonio/acquisition/image/image_aniso.h"
+#include "gonio/acquisition/point/stated_uncertainty.h"
 #include "gonio/brdf/rig_geometry.h"
 
 namespace gonio::acquisition {
@@ -230,6 +232,50 @@ TEST(AnisoPlan, SpinAddsBinsThatNoLightPositionReaches) {
                std::abs(turned[static_cast<std::size_t>(k)].spin_rad);
     };
     EXPECT_LE(move(near), move(best));
+}
+
+// The 4-D table's rows state the arms' terms through the slope to the rows of the bins one step
+// away along each of its four axes (bin_uncertainty.h): P and its phi_h neighbour Q see each
+// other; R, next to P in flat index order (the last phi_h bin of the previous phi_d bin) but a
+// diagonal step away in the table, sees neither.
+TEST(AnisoBudget, ArmTermsReachARowThroughItsGridNeighboursOnly) {
+    const AnisoLayout layout{6, 8, 4, 6};
+    constexpr double kD = kPi / 180;
+    AnisoTable table(layout);
+    std::array<std::size_t, 3> bins{};
+    const double phi_h[3] = {10 * kD, 55 * kD, 350 * kD};
+    const double phi_d[3] = {45 * kD, 45 * kD, 15 * kD};
+    const double value[3] = {1.0, 1.5, 0.2};
+    for (int k = 0; k < 3; ++k) {
+        brdf::HalfDiff<double> hd;
+        hd.theta_h = 30 * kD;
+        hd.phi_h = phi_h[k];
+        hd.theta_d = 30 * kD;
+        hd.phi_d = phi_d[k];
+        const auto [wi, wo] = brdf::from_half_diff(hd);
+        AnisoFrameBins frame(layout);
+        frame.add(wi, wo, brdf::Rgbd::Constant(value[k]), brdf::Rgbd::Constant(1e-4));
+        for (const AnisoBinAggregate& a : frame.aggregates()) {
+            table.merge(a);
+        }
+        bins[static_cast<std::size_t>(k)] = aniso_bin(layout, wi, wo);
+    }
+    ASSERT_EQ(bins[1], bins[0] + 1);  // Q: the next phi_h bin
+    ASSERT_EQ(bins[2], bins[0] - 1);  // R: flat neighbour, grid diagonal
+    brdf::RigErrorBudget budget = brdf::quiet_error_budget();
+    budget.light_arm.repeatability_deg = 2;
+    const brdf::Dataset plain = table.to_dataset("t", 1, false);
+    const brdf::Dataset stated = stated_dataset(table, "t", 1, false, budget, 0);
+    ASSERT_EQ(stated.samples.size(), 3u);  // bin order: R, P, Q
+    const brdf::Sample& r = stated.samples[0];
+    const brdf::Sample& p = stated.samples[1];
+    const brdf::Sample& q = stated.samples[2];
+    const double u_dir = 2 * kD;
+    const double slope = 0.5 / configuration_distance(p, q, false);
+    EXPECT_NEAR(p.sigma[0], std::hypot(plain.samples[1].sigma[0], slope * u_dir), 1e-15);
+    EXPECT_NEAR(q.sigma[0], std::hypot(plain.samples[2].sigma[0], slope * u_dir), 1e-15);
+    EXPECT_GT(p.sigma[0], 1.2 * plain.samples[1].sigma[0]);
+    EXPECT_NEAR(r.sigma[0], plain.samples[0].sigma[0], 1e-18);
 }
 
 }  // namespace
