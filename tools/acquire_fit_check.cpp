@@ -156,13 +156,15 @@ acquisition::PlanFitFn default_plan_fit() {
 acquisition::FitCheckFn default_fit_check() {
     return [](const std::vector<brdf::Sample>& fit,
               const std::vector<brdf::Sample>& holdout,
-              double common_rel_sigma) -> Expected<acquisition::FitCheck> {
+              double common_rel_sigma,
+              bool anisotropic) -> Expected<acquisition::FitCheck> {
         brdf::Dataset ds;
         ds.source = "the campaign's values so far";
         ds.has_sigma = ds.has_weight = ds.has_flags = true;
         ds.samples = fit;
         batch::FitRequest request;
         request.threads = 1;  // the campaign thread waits for it; one core leaves the rig its own
+        request.anisotropic = anisotropic;
         auto run = batch::run_fit(ds, request);
         if (!run) {
             return tl::unexpected(run.error());

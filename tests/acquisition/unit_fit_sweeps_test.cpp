@@ -166,6 +166,121 @@ TEST(FitSweeps, OfTwoSweepsThatTeachAlikeTheNearerGoesFirst) {
     }
 }
 
+FitSweepPool anisotropic_pool_of(const RigConfig& rig, SampleSymmetry symmetry) {
+    FitPlanSpec spec;
+    spec.anisotropic = true;
+    spec.symmetry = symmetry;
+    auto pool = fit_sweep_pool(spec, FlySpec{}, "", rig);
+    EXPECT_TRUE(pool) << pool.error().message;
+    return *pool;
+}
+
+/// The spins of a pool's lines, degrees rounded.
+std::set<long> spins_deg(const FitSweepPool& pool) {
+    std::set<long> out;
+    for (const SweepLine& line : pool.lines) {
+        out.insert(std::lround(line.stand.spin / kDeg));
+    }
+    return out;
+}
+
+TEST(FitSweeps, AnisotropicPoolTurnsTheSampleAndEachLineIsOneSweep) {
+    const RigConfig rig = mono_rig();
+    const FitSweepPool pool = anisotropic_pool_of(rig, SampleSymmetry::kNone);
+    ASSERT_TRUE(pool.anisotropic);
+    // A full turn in 12 spins, 30 deg apart; a 2-fold sample half of it.
+    const std::set<long> turn = spins_deg(pool);
+    ASSERT_EQ(turn.size(), 12u);
+    EXPECT_EQ(*turn.begin(), -165);
+    EXPECT_EQ(*turn.rbegin(), 165);
+    const std::set<long> half = spins_deg(anisotropic_pool_of(rig, SampleSymmetry::kTwoFold));
+    EXPECT_EQ(half, (std::set<long>{-75, -45, -15, 15, 45, 75}));
+    // Every configuration of the pool is a frame of its line (a sweep can take each one).
+    for (std::size_t i = 0; i < pool.pool.configs.size(); ++i) {
+        ASSERT_EQ(pool.lines[pool.line_of[i]].frames[pool.step_of[i]], i) << i;
+    }
+    const RigLimits lim = rig_limits(rig);
+    const auto dyn = rig_dynamics(rig);
+    for (std::size_t l = 0; l < pool.lines.size(); l += 7) {
+        const SweepLine& line = pool.lines[l];
+        // Solved as the runner solves an anisotropic batch (both azimuths kept), the frames of a
+        // line stand at its spin and alike but for one arm: one sweep.
+        std::vector<brdf::RigPosed> poses;
+        brdf::RigPosed prev = line.stand;
+        for (std::size_t i : line.frames) {
+            const PlannedConfig& c = pool.pool.configs[i];
+            ASSERT_FALSE(c.isotropic);
+            auto s = solve(Target{c.wi, c.wo, false, true}, lim, dyn, prev);
+            ASSERT_TRUE(s) << s.error().message;
+            EXPECT_LT((s->wi - c.wi).norm() + (s->wo - c.wo).norm(), 1e-9);
+            EXPECT_NEAR(s->pose.spin, line.stand.spin, 1e-9) << "line " << l;
+            poses.push_back(s->pose);
+            prev = s->pose;
+        }
+        const auto units = plan_fly_units(poses, poses.front(), FlySpec{}, fly_limits_of(rig));
+        ASSERT_EQ(units.size(), 1u) << "line " << l;
+        EXPECT_FALSE(units[0].standing);
+        EXPECT_EQ(units[0].sweep.members.size(), line.frames.size());
+    }
+}
+
+TEST(FitSweeps, AnisotropicChoiceTurnsTheSampleToTheSpinThatTeachesNearerFirst) {
+    const RigConfig rig = mono_rig();
+    const FitSweepPool pool = anisotropic_pool_of(rig, SampleSymmetry::kNone);
+    // Two in-plane lines teach alike, the light at 30 deg with the sample turned to -45 and to
+    // 105 deg: from a rig whose spin stands near either, that one's sweep is chosen first.
+    const FitView fit = one_parameter_view(pool, [](const SweepLine& l, double a) {
+        const long spin = std::lround(l.stand.spin / kDeg);
+        const bool line = std::abs(l.stand.tilt) < 1e-9 &&
+                          std::abs(l.stand.light - 30 * kDeg) < 1e-9 &&
+                          (spin == -45 || spin == 105);
+        return line && a > l.stand.light && a < l.stand.light + 16 * kDeg ? 1.0 : 0.0;
+    });
+    const std::vector<MeasuredForPlan> none;
+    SweepChoiceInput in;
+    in.pool = &pool;
+    in.measured = &none;
+    in.fit = &fit;
+    in.noise_rel_var = 1e-2;
+    in.dyn = rig_dynamics(rig);
+    FitChoiceOptions o;
+    o.count = 4;
+    o.space_share = 0;
+    for (double spin_deg : {-45.0, 105.0}) {
+        in.start = brdf::RigPosed{30 * kDeg, 40 * kDeg, 0, (spin_deg + 10) * kDeg};
+        const SweepChoice c = choose_sweeps(candidates_of_pool(pool), in, o, 120);
+        ASSERT_FALSE(c.frames.chosen.empty());
+        const SweepLine& first = pool.lines[pool.line_of[c.frames.chosen.front()]];
+        EXPECT_NEAR(first.stand.spin, spin_deg * kDeg, 1e-9) << "from the spin at " << spin_deg;
+        EXPECT_NEAR(first.stand.light, 30 * kDeg, 1e-9);
+        EXPECT_EQ(c.frames.reasons.front(), ChoiceReason::kVariance);
+    }
+    // The move to the other spin is paid for: the far sweep costs the spin's turn (150 deg at
+    // 30 deg/s, about 5 s) more than the near one.
+    std::size_t near_line = pool.lines.size(), far_line = pool.lines.size();
+    for (std::size_t l = 0; l < pool.lines.size(); ++l) {
+        const SweepLine& line = pool.lines[l];
+        if (std::abs(line.stand.tilt) < 1e-9 && std::abs(line.stand.light - 30 * kDeg) < 1e-9 &&
+            line.angles.front() > line.stand.light) {
+            const long spin = std::lround(line.stand.spin / kDeg);
+            if (spin == -45) {
+                near_line = l;
+            } else if (spin == 105) {
+                far_line = l;
+            }
+        }
+    }
+    ASSERT_LT(near_line, pool.lines.size());
+    ASSERT_LT(far_line, pool.lines.size());
+    in.start = brdf::RigPosed{30 * kDeg, 40 * kDeg, 0, -45 * kDeg};
+    brdf::RigPosed exit;
+    const double near_s = sweep_cost_s(pool.lines[near_line], 0, 3, in.start, in, &exit);
+    const double far_s = sweep_cost_s(pool.lines[far_line], 0, 3, in.start, in, &exit);
+    EXPECT_NEAR(exit.spin, 105 * kDeg, 1e-9);
+    EXPECT_GT(far_s - near_s, 4.0);
+    EXPECT_LT(far_s - near_s, 7.0);
+}
+
 TEST(FitSweeps, FirstBatchIsSpaceFillingSweeps) {
     const RigConfig rig = mono_rig();
     const FitSweepPool pool = pool_of(rig);

@@ -221,11 +221,6 @@ TEST(AcquireFly, RefusesWhatItCannotHonourWithExitStatus2) {
     std::string out = run_gonio("acquire --fly --mode image --out " + dir, &st);
     EXPECT_EQ(st, 2) << out;
     EXPECT_NE(out.find("--fly"), std::string::npos) << out;
-    out = run_gonio("acquire --fly --plan fit --anisotropic --rig " + mono_rig() + " --out " + dir,
-                    &st);
-    EXPECT_EQ(st, 2) << out;
-    EXPECT_NE(out.find("--fly"), std::string::npos) << out;
-    EXPECT_NE(out.find("--anisotropic"), std::string::npos) << out;
     // The default rig's colour filter changer.
     out = run_gonio("acquire --fly --out " + dir, &st);
     EXPECT_EQ(st, 2) << out;

@@ -23,6 +23,7 @@
 
 extern char** environ;
 
+namespace plan_fit_test {
 namespace {
 
 using gonio::testing::read_text;
@@ -211,3 +212,4 @@ TEST(AcquirePlanFit, KilledInABatchAndResumedMeasuresThatBatchExactly) {
 }
 
 }  // namespace
+}  // namespace plan_fit_test

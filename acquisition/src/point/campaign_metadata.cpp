@@ -238,7 +238,8 @@ Expected<bool> Runner::check_stop_rule(const Plan& plan) {
     }
     std::vector<brdf::Sample> fit, holdout;
     split_holdout(*samples, &fit, &holdout);
-    auto check = hooks_.fit_check(fit, holdout, brdf::common_relative_sigma(rig_.error_budget));
+    auto check = hooks_.fit_check(
+        fit, holdout, brdf::common_relative_sigma(rig_.error_budget), !isotropic_plan(spec_));
     if (!check) {
         // A fit that fails (too few values for the model, say) is no verdict: measure on.
         say("until: no fit at " + std::to_string(samples->size()) +

@@ -176,11 +176,6 @@ void check_combinations(const CampaignSpec& s) {
             "adaptive: the fit plan chooses every batch after the first from the fit "
             "(set \"enabled\": false)");
     }
-    if (s.fly.enabled && s.plan_kind == "fit" && s.fit.anisotropic) {
-        json_fail(
-            "fly: the fit plan's sweeps run along an isotropic sample's lines; an anisotropic "
-            "fit plan measures standing (remove \"fly\")");
-    }
     if (s.plan_kind == "vndf" && s.adaptive) {
         json_fail(
             "adaptive: the vndf plan places its own second pass from the retro-reflection "

@@ -15,10 +15,21 @@ namespace {
 constexpr double kDeg = brdf::kPi / 180;
 /// Tilts of the arm plane away from the sample normal, degrees (0: the plane of incidence).
 constexpr double kLineTiltsDeg[] = {0, 15, 30, 45, 60};
-/// The standing light arm's angles, degrees.
+/// The standing light arm's angles, degrees (an anisotropic pool has them on both sides).
 constexpr double kLineLightDeg[] = {0, 10, 20, 30, 40, 50, 60, 70};
+/// Spins of an anisotropic pool's lines: every 30 deg of the sample's turn, off the ends of the
+/// spin's range (-165 .. 165 deg).
+constexpr double kLineSpinStepDeg = 30;
 /// Travel at cruise speed before the first trigger and after the last frame (fly_plan.cpp).
 constexpr double kCruiseMarginRad = 0.2 * kDeg;
+
+/// Where a line stands: the sample's tilt and spin, the light arm; the detector turns on `side`.
+struct LineStand {
+    double tau = 0;
+    double b = 0;
+    int side = 1;
+    double spin = 0;
+};
 
 /// A frame of a line before the pool is filtered.
 struct LineFrame {
@@ -26,42 +37,90 @@ struct LineFrame {
     PlannedConfig config;
 };
 
-/// The frames of the line (tilt tau, light at b) on one side of the light: every kFitSweepGapRad
-/// of the detector arm beyond the blind zone with both directions within theta_max.
-std::vector<LineFrame> line_frames(
-    double tau, double b, int side, double theta_max, const RigLimits& lim) {
+/// The frames of line `ls` on its side of the light: every kFitSweepGapRad of the detector arm
+/// beyond the blind zone with both directions within theta_max. An isotropic pool's
+/// configurations are canonical triples; an anisotropic one's keep the spin's azimuths.
+std::vector<LineFrame> line_frames(const LineStand& ls,
+                                   double theta_max,
+                                   bool anisotropic,
+                                   const RigLimits& lim) {
     std::vector<LineFrame> out;
     const double cos_max = std::cos(theta_max);
     const int axis = static_cast<int>(AxisRole::kDetector);
-    if (std::cos(b) * std::cos(tau) < cos_max) {
+    if (std::cos(ls.b) * std::cos(ls.tau) < cos_max) {
         return out;  // the light beyond theta_max
     }
     for (int k = 0;; ++k) {
-        const double a = b + side * (lim.blind_angle + k * kFitSweepGapRad);
-        if (std::abs(a) > brdf::kPi / 2 || std::cos(a) * std::cos(tau) < cos_max) {
+        const double a = ls.b + ls.side * (lim.blind_angle + k * kFitSweepGapRad);
+        if (std::abs(a) > brdf::kPi / 2 || std::cos(a) * std::cos(ls.tau) < cos_max) {
             break;  // beyond theta_max: no more frames
         }
-        if (std::abs(a) <= b) {
+        if (std::abs(a) <= std::abs(ls.b)) {
             // The detector nearer the normal than the light: the same configurations as the
             // lines whose light stands there (reciprocity), and the solver would measure them
             // with the arms exchanged and mirrored, a pose away from the line's.
             continue;
         }
         brdf::RigPosed p;
-        p.light = b;
-        p.tilt = tau;
+        p.light = ls.b;
+        p.tilt = ls.tau;
+        p.spin = ls.spin;
         set_axis_angle(&p, axis, a);
         LineFrame f;
         f.angle = a;
         std::tie(f.config.wi, f.config.wo) = brdf::rig_forward(p);
-        f.config.isotropic = true;
+        f.config.isotropic = !anisotropic;
         out.push_back(f);
         if (k > 400) {
             break;
         }
     }
-    if (side < 0) {
+    if (ls.side < 0) {
         std::reverse(out.begin(), out.end());
+    }
+    return out;
+}
+
+/// The spins of an anisotropic pool's lines, radians: a full turn, half of it for a 2-fold
+/// sample (a half turn measures the same); an isotropic pool's lines stand at spin 0.
+std::vector<double> line_spins(const FitPlanSpec& spec) {
+    if (!spec.anisotropic) {
+        return {0.0};
+    }
+    const bool two_fold = spec.symmetry == SampleSymmetry::kTwoFold;
+    const double first = two_fold ? -90 + 0.5 * kLineSpinStepDeg : -180 + 0.5 * kLineSpinStepDeg;
+    const double last = two_fold ? 90 : 180;
+    std::vector<double> out;
+    for (double s = first; s < last; s += kLineSpinStepDeg) {
+        out.push_back(s * kDeg);
+    }
+    return out;
+}
+
+/// Every line's stand. Isotropy and the rig's mirror symmetries make tau >= 0 and b >= 0 enough
+/// for an isotropic sample (b = 0 on one side only). An anisotropic sample's lines turn through
+/// the spins, and its light stands on both sides of the normal (tilting the other way is the same
+/// configuration at the opposite spin), except for a mirror-symmetric sample (b and the spin
+/// mirrored measure the same).
+std::vector<LineStand> line_stands(const FitPlanSpec& spec) {
+    const bool both_sides = spec.anisotropic && spec.symmetry != SampleSymmetry::kMirror;
+    std::vector<LineStand> out;
+    for (double spin : line_spins(spec)) {
+        for (double tau_deg : kLineTiltsDeg) {
+            for (double b_deg : kLineLightDeg) {
+                for (double sign : {1.0, -1.0}) {
+                    if (sign < 0 && (!both_sides || b_deg == 0)) {
+                        continue;
+                    }
+                    for (int side : {1, -1}) {
+                        if (b_deg == 0 && side < 0 && !spec.anisotropic) {
+                            continue;  // the mirror image of the other side
+                        }
+                        out.push_back(LineStand{tau_deg * kDeg, sign * b_deg * kDeg, side, spin});
+                    }
+                }
+            }
+        }
     }
     return out;
 }
@@ -78,13 +137,13 @@ bool keep_frame(const std::optional<Scene>& scene, const RigLimits& lim, Planned
         c->weight *= w;
     }
     const std::array<AxisDynamics, kNumAxes> dyn{};
-    return solve(Target{c->wi, c->wo, true, true}, lim, dyn, brdf::RigPosed{}).has_value();
+    return solve(Target{c->wi, c->wo, c->isotropic, true}, lim, dyn, brdf::RigPosed{}).has_value();
 }
 
-/// Adds the kept frames of one line as lines of consecutive frames (a dropped frame splits it).
+/// Adds the kept frames of one line as lines of consecutive frames (a dropped frame splits it; a
+/// piece of one frame is dropped too).
 void add_line(const std::vector<LineFrame>& frames,
-              double tau,
-              double b,
+              const LineStand& ls,
               const std::optional<Scene>& scene,
               const RigLimits& lim,
               const SweepLine& shape,
@@ -93,6 +152,9 @@ void add_line(const std::vector<LineFrame>& frames,
     auto close = [&]() {
         if (line.frames.size() >= 2) {
             out->lines.push_back(line);
+        } else {
+            // A lone frame is no sweep: it leaves the pool (it was the last one added).
+            out->pool.configs.resize(out->pool.configs.size() - line.frames.size());
         }
         line = shape;
     };
@@ -103,8 +165,9 @@ void add_line(const std::vector<LineFrame>& frames,
             continue;
         }
         if (line.frames.empty()) {
-            line.stand.light = b;
-            line.stand.tilt = tau;
+            line.stand.light = ls.b;
+            line.stand.tilt = ls.tau;
+            line.stand.spin = ls.spin;
             set_axis_angle(&line.stand, line.axis, f.angle);
         }
         c.index = static_cast<std::uint32_t>(out->pool.configs.size());
@@ -293,6 +356,22 @@ void space_sweeps(const std::vector<CandidateForPlan>& candidates,
     }
 }
 
+/// The angle equivalent to `spin` (by whole turns) within `range` nearest to `from` (`spin`
+/// itself when no turn of it lies in the range).
+double nearest_turn(double spin, double from, const AxisRange& range) {
+    const double turn = 2 * brdf::kPi;
+    double best = spin;
+    const double base = spin + turn * std::round((from - spin) / turn);
+    for (int k = -1; k <= 1; ++k) {
+        const double c = base + k * turn;
+        const bool inside = c >= range.min - 1e-12 && c <= range.max + 1e-12;
+        if (inside && std::abs(c - from) < std::abs(best - from)) {
+            best = c;
+        }
+    }
+    return best;
+}
+
 /// Where the rig stood at the last measurement of the passes before `pass` (journal order).
 brdf::RigPosed last_pose(const std::vector<JournalRecord>& records, int pass) {
     brdf::RigPosed p;
@@ -326,11 +405,6 @@ Expected<FitSweepPool> fit_sweep_pool(const FitPlanSpec& spec,
     if (auto ok = check_fit_plan_spec(spec); !ok) {
         return tl::unexpected(ok.error());
     }
-    if (spec.anisotropic) {
-        return make_error(
-            "fly: the fit plan's sweeps are chosen over an isotropic sample's lines; an "
-            "anisotropic fit plan measures standing (leave out --fly)");
-    }
     std::optional<Scene> sc;
     if (!scene.empty()) {
         auto s = read_scene(scene);
@@ -343,27 +417,16 @@ Expected<FitSweepPool> fit_sweep_pool(const FitPlanSpec& spec,
     const FlyLimits fl = fly_limits_of(rig);
     FitSweepPool out;
     out.pool.kind = "fit";
+    out.anisotropic = spec.anisotropic;
+    out.spin_range = lim.range[static_cast<int>(AxisRole::kSpin)];
     SweepLine shape;
     const SweepSpeed v = sweep_speed(kFitSweepGapRad, shape.axis, fly, fl);
     shape.speed = v.speed;
     const double smear = std::min(fly.max_smear_deg * kDeg, 0.25 * kFitSweepGapRad);
     shape.ramp =
         v.speed * v.speed / (2 * fl.dyn[shape.axis].accel) + 0.5 * smear + kCruiseMarginRad;
-    for (double tau_deg : kLineTiltsDeg) {
-        for (double b_deg : kLineLightDeg) {
-            for (int side : {1, -1}) {
-                if (b_deg == 0 && side < 0) {
-                    continue;  // the mirror image of the other side
-                }
-                add_line(line_frames(tau_deg * kDeg, b_deg * kDeg, side, spec.theta_max, lim),
-                         tau_deg * kDeg,
-                         b_deg * kDeg,
-                         sc,
-                         lim,
-                         shape,
-                         &out);
-            }
-        }
+    for (const LineStand& ls : line_stands(spec)) {
+        add_line(line_frames(ls, spec.theta_max, spec.anisotropic, lim), ls, sc, lim, shape, &out);
     }
     out.line_of.assign(out.pool.configs.size(), 0);
     out.step_of.assign(out.pool.configs.size(), 0);
@@ -387,7 +450,11 @@ double sweep_cost_s(const SweepLine& line,
                     const SweepChoiceInput& in,
                     brdf::RigPosed* exit_pose) {
     brdf::RigPosed lo = line.stand, hi = line.stand;
-    lo.spin = hi.spin = at.spin;  // an isotropic sample is measured at any spin
+    // An isotropic sample is measured at any spin; an anisotropic one turns to the line's, the
+    // nearer way round.
+    lo.spin = hi.spin = in.pool->anisotropic
+                            ? nearest_turn(line.stand.spin, at.spin, in.pool->spin_range)
+                            : at.spin;
     set_axis_angle(&lo, line.axis, line.angles[s] - line.ramp);
     set_axis_angle(&hi, line.axis, line.angles[e] + line.ramp);
     const double to_lo = move_time(at, lo, in.dyn);

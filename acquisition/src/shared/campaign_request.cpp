@@ -234,12 +234,6 @@ std::optional<RequestConflict> plan_conflict(const CampaignRequest& r,
         return RequestConflict{
             "fly_smear_deg", "fly", "bounds the smear of fly scans (give --fly)"};
     }
-    if (r.plan_kind == "fit" && r.fly && r.anisotropic) {
-        return RequestConflict{"fly",
-                               "anisotropic",
-                               "the fit plan's sweeps run along an isotropic sample's lines; an "
-                               "anisotropic fit plan measures standing"};
-    }
     if (r.plan_kind == "fit") {
         for (const std::string& f : given) {
             if (among(f, {"n_theta", "n_dphi"}) || (f == "adaptive" && r.adaptive > 0)) {

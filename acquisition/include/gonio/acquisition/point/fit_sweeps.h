@@ -8,9 +8,14 @@
 // kFitSweepGapRad apart on one side of the light (beyond the blind zone, farther from the normal
 // than the light, both directions within the plan's theta_max). Isotropy and the mirror
 // symmetries of the rig make tau >= 0 and b >= 0 enough (b = 0 on one side only); reciprocity
-// makes a light sweep, and a detector nearer the normal, the same lines. Every frame is
-// a candidate of the fit (plans/plan_fit.h); a candidate sweep is a run of consecutive frames of
-// one line (a window), at most kMaxSweepFrames long.
+// makes a light sweep, and a detector nearer the normal, the same lines. An anisotropic sample
+// (FitPlanSpec::anisotropic) is measured at every azimuth: each line stands at one of the spins
+// every 30 deg of a full turn (a half turn for a 2-fold sample), with the light on both sides of
+// the normal (one side for a mirror-symmetric sample), and its frames keep both azimuths. The
+// spin stands during a sweep (it turns directions along small circles, fly_plan.h): the azimuth
+// is resolved by the choice among the spins' lines, each move to another spin counted in the
+// sweep's rig seconds. Every frame is a candidate of the fit (plans/plan_fit.h); a candidate sweep
+// is a run of consecutive frames of one line (a window), at most kMaxSweepFrames long.
 //
 // A batch is chosen greedily: the window of most expected information per second of rig time,
 //   sum over its frames not yet measured of 1/2 ln(1 + (var ln f + misfit) / s^2)
@@ -45,11 +50,11 @@ inline constexpr int kSpaceSweepFrames = 4;
 /// One line of the fly pool.
 struct SweepLine {
     int axis = static_cast<int>(AxisRole::kDetector);  ///< The moving arm.
-    brdf::RigPosed stand;                              ///< The pose of the first frame (spin 0).
-    std::vector<std::size_t> frames;                   ///< Pool positions, in increasing arm angle.
-    std::vector<double> angles;  ///< The moving arm's angle at each frame, rad.
-    double speed = 0;            ///< rad/s, by the smear rule (fly_plan.h).
-    double ramp = 0;             ///< Lead-in (and lead-out) travel, rad.
+    brdf::RigPosed stand;  ///< The pose of the first frame (spin 0 for an isotropic pool).
+    std::vector<std::size_t> frames;  ///< Pool positions, in increasing arm angle.
+    std::vector<double> angles;       ///< The moving arm's angle at each frame, rad.
+    double speed = 0;                 ///< rad/s, by the smear rule (fly_plan.h).
+    double ramp = 0;                  ///< Lead-in (and lead-out) travel, rad.
 };
 
 /// The fly pool: every frame as a configuration (index = position) and the lines through them.
@@ -58,14 +63,16 @@ struct FitSweepPool {
     std::vector<SweepLine> lines;
     std::vector<std::size_t> line_of;  ///< The line of each pool position.
     std::vector<std::size_t> step_of;  ///< Its position along the line.
+    bool anisotropic = false;          ///< The lines stand at their spins (else at any).
+    AxisRange spin_range;              ///< Where the spin axis may turn.
 };
 
 /// The rig's bounds on sweeps (axes, camera readout and exposures).
 FlyLimits fly_limits_of(const RigConfig& rig);
 
-/// The fly pool of an isotropic fit plan: lines within the rig's limits (a frame it cannot reach
-/// or outside the scene's ROI, when `scene` is given, splits its line). Errors: an anisotropic
-/// fit plan (refused: its lines would need the spin), an unreadable scene, no line at all.
+/// The fly pool of a fit plan, isotropic or anisotropic: lines within the rig's limits (a frame it
+/// cannot reach or outside the scene's ROI, when `scene` is given, splits its line). Errors: the
+/// plan's settings out of range, an unreadable scene, no line at all.
 Expected<FitSweepPool> fit_sweep_pool(const FitPlanSpec& spec,
                                       const FlySpec& fly,
                                       const std::string& scene,
@@ -98,8 +105,9 @@ SweepChoice choose_sweeps(const std::vector<CandidateForPlan>& candidates,
                           const FitChoiceOptions& options,
                           int max_frames);
 
-/// Rig seconds of window [s, e] of `line` entered from `at` (at its nearer end): the move, the
-/// sweep's trapezoid with its ramps, the overhead and the readouts of its frames.
+/// Rig seconds of window [s, e] of `line` entered from `at` (at its nearer end): the move (an
+/// anisotropic pool's spin turned to the line's, the nearer way within its range), the sweep's
+/// trapezoid with its ramps, the overhead and the readouts of its frames.
 double sweep_cost_s(const SweepLine& line,
                     std::size_t s,
                     std::size_t e,

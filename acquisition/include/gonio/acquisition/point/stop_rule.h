@@ -51,9 +51,12 @@ struct FitCheck {
 /// Fits `fit` and predicts `holdout` (the front end's fitting library). `common_rel_sigma` is the
 /// relative uncertainty every value shares (the white reference's, rig_error_budget.h): the fit's
 /// amplitudes (diffuse albedo, lobe scales) carry it in full, added to their sigma in quadrature.
+/// `anisotropic`: the campaign measures every azimuth, and the model fitted is anisotropic (its
+/// slopes and orientation each a parameter of the rule).
 using FitCheckFn = std::function<Expected<FitCheck>(const std::vector<brdf::Sample>& fit,
                                                     const std::vector<brdf::Sample>& holdout,
-                                                    double common_rel_sigma)>;
+                                                    double common_rel_sigma,
+                                                    bool anisotropic)>;
 
 /// Whether the rule holds for a check; `why` receives the targets against the values.
 bool rule_holds(const StopRule& rule, const FitCheck& check, std::string* why);

@@ -134,9 +134,7 @@ std::string option_key(const std::string& field);
 ///   file names its own rig; material and brdf exclude each other;
 /// - the vndf plan refuses n_theta, n_dphi (uniform-plan options), adaptive > 0 (it places its
 ///   own second pass) and scene (its RGL file needs every node);
-/// - fly (and fly_smear_deg) is point mode's: image mode refuses it, and the fit plan over an
-///   anisotropic sample (its sweeps run along an isotropic sample's lines); fly_smear_deg needs
-///   fly.
+/// - fly (and fly_smear_deg) is point mode's: image mode refuses it; fly_smear_deg needs fly.
 std::optional<RequestConflict> find_conflict(const CampaignRequest& request);
 
 /// An option the rig description cannot honour (read without starting anything): point mode, fly
