@@ -138,6 +138,12 @@ TEST(ImageMemory, EstimateBoundsWhatThePredictionHolds) {
     ASSERT_TRUE(run);
     EXPECT_GT(run->frame_bytes, 160.0 * 160 * 8);
     EXPECT_GT(run->table_bytes, e->table_bytes + cfg.layout.size() * 64.0);
+    // Per bin: the binned table's statistics (count, mean, m2, model variance, position), a
+    // dataset row, and what stating its uncertainty holds beside it (the row's bin and slope, the
+    // bin's row index: bin_uncertainty.h).
+    const double per_bin = (4 + 24 + 24 + 12 + 12) + sizeof(brdf::Sample) + sizeof(std::size_t) +
+                           sizeof(brdf::Rgbd) + 4;
+    EXPECT_GE(run->table_bytes, e->table_bytes + cfg.layout.size() * per_bin);
 }
 
 TEST(ImageMemory, CandidatesAreBoundedByTheTableNotTheCamera) {

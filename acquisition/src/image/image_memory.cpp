@@ -165,8 +165,10 @@ Expected<ImageMemoryEstimate> estimate_image_memory(const ImageCampaignConfig& c
     e.table_bytes = 8 * bins;
     if (!plan_only) {
         // The binned table (count, mean, m2, model variance, position) and the dataset written
-        // from it, one sample per filled bin at most.
-        e.table_bytes += bins * (4 + 24 + 24 + 12 + 12 + sizeof(brdf::Sample));
+        // from it, one sample per filled bin at most, with its stated uncertainty's working
+        // arrays (bin_uncertainty.h: each row's bin and slope, a row index per bin).
+        e.table_bytes += bins * (4 + 24 + 24 + 12 + 12 + sizeof(brdf::Sample) +
+                                 sizeof(std::size_t) + sizeof(brdf::Rgbd) + 4);
         e.frame_bytes = frame_bytes(cfg, view_pixels, virtual_supersample);
     }
     return e;

@@ -12,7 +12,7 @@
 //   most the valid bins of the theta_d rows one frame spans (or the view's pixels, if fewer):
 //   this part is bounded by the table, not by the camera;
 // - tables: the coverage maps and the prediction's marks; a run adds its binned table and the
-//   dataset written at the end;
+//   dataset written at the end (with its stated uncertainty's working arrays);
 // - frames (a run only): the camera's images (the virtual camera's render and sensor, transfer
 //   and stream buffers, the averaged dark frames of each exposure) and one frame's per-pixel
 //   samples (HDR signal per channel, the samples binned).
