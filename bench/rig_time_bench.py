@@ -14,8 +14,8 @@ GGX, alpha 0.1 x 0.3, turned 30 deg), satin, paper, felt. Plans (families): unif
 pass of 30), uniform-until (10x8 --until sigma=0.01), fit (--plan fit to its budget of 120: a
 curve, one point per batch, each the fit of the measurements before it) and fit-until (--plan fit
 --until sigma=0.01), and fly (stop-and-go against `--fly` on the same plan, on the monochrome
-rig data/rigs/sim4-mono.json: uniform 7x5, uniform 16x2 (in-plane), and the fit plan, which
---fly refuses). The brushed truth runs the anisotropic variants (uniform: --anisotropic;
+rig data/rigs/sim4-mono.json: uniform 7x5, uniform 16x2 (in-plane), and the fit plan; brushed: the
+anisotropic fit plan alone). The brushed truth runs the anisotropic variants (uniform: --anisotropic;
 vndf: --plan vndf --anisotropic; fit: --plan fit --anisotropic; half-diff and adaptive have none)
 and is fitted with --anisotropic.
 
@@ -101,17 +101,16 @@ def plan_runs(family, aniso):
     if family == "fit":
         return [("fit", ["--plan", "fit"] + a, True)]
     if family == "fly":
-        if aniso:
-            return []
         mono = ["--rig", MONO_RIG]
         # Fly scans need the arms to keep pace with the camera: a slower virtual rig (the rig
         # time it records does not depend on the scale).
         fly = ["--fly", "--time-scale", "5"]
         runs = []
-        for label, plan in (("uniform 7x5", ["--n-theta", "7", "--n-dphi", "5", "--adaptive", "0"]),
-                            ("uniform 16x2", ["--n-theta", "16", "--n-dphi", "2", "--adaptive",
-                                              "0"]),
-                            ("fit", ["--plan", "fit"])):
+        plans = ((("fit", ["--plan", "fit", "--anisotropic"]),) if aniso else
+                 (("uniform 7x5", ["--n-theta", "7", "--n-dphi", "5", "--adaptive", "0"]),
+                  ("uniform 16x2", ["--n-theta", "16", "--n-dphi", "2", "--adaptive", "0"]),
+                  ("fit", ["--plan", "fit"])))
+        for label, plan in plans:
             runs.append((label + " mono stop-and-go", mono + plan, False))
             runs.append((label + " mono --fly", mono + plan + fly, False))
         return runs

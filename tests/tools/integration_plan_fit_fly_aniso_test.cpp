@@ -6,7 +6,7 @@
 // (metadata.json rig_time_s) than `--plan fit --anisotropic` stop-and-go on the same truth; killed
 // with SIGKILL while a sweep of a fit-chosen batch runs and resumed, the campaign keeps its stop
 // rule and stops on it, no value is lost or measured twice and that sweep's configurations are
-// measured after the resume.
+// measured after the resume (unless the rule holds inside that batch, which then is the last).
 
 #include <signal.h>
 #include <sys/wait.h>
@@ -232,19 +232,32 @@ TEST(AcquirePlanFitFlyAniso, KilledMidSweepResumesToItsStopRuleLosingAndRepeatin
     for (const auto& m : after) {
         EXPECT_TRUE(pool_once.insert(m.second).second) << "pool configuration " << m.second;
     }
-    // The interrupted sweep's configurations: none measured before the kill, each once after.
+    // The interrupted sweep's configurations: none measured before the kill; after it each
+    // measured once, unless the rule held inside that batch (no later batch was chosen).
+    const nlohmann::json meta = read_json(dir + "/metadata.json");
     const JournalLine& sweep = killed.back();
     std::istringstream members(sweep.text.substr(sweep.text.find(':') + 1));
     const std::set<std::pair<int, int>> done_before(before.begin(), before.end());
     const std::set<std::pair<int, int>> done_after(after.begin(), after.end());
-    int n = 0;
+    std::size_t n = 0, measured = 0;
     for (int index = 0; members >> index; ++n) {
         EXPECT_EQ(done_before.count({sweep.pass, index}), 0u) << index;
-        EXPECT_EQ(done_after.count({sweep.pass, index}), 1u) << index;
+        measured += done_after.count({sweep.pass, index});
     }
-    EXPECT_GE(n, 2) << sweep.text;
+    EXPECT_GE(n, 2u) << sweep.text;
+    const bool later_batch = meta["fit_plan"]["batches"].contains(std::to_string(sweep.pass + 1));
+    if (measured < n) {
+        EXPECT_FALSE(later_batch) << "the interrupted sweep was dropped: " << sweep.text;
+    }
+    std::printf(
+        "killed at %zu values in batch %d; resumed to %zu values, %zu of the sweep's %zu%s\n",
+        before.size(),
+        sweep.pass,
+        after.size(),
+        measured,
+        n,
+        later_batch ? "" : " (the rule held inside that batch)");
     // The resumed run kept the rule and stopped on it, before the budget, on the truth.
-    const nlohmann::json meta = read_json(dir + "/metadata.json");
     ASSERT_EQ(meta["runs"].size(), 2u);
     EXPECT_EQ(meta["runs"][0]["state"], "killed");
     EXPECT_EQ(meta["runs"][1]["stopped"], "target reached") << meta["runs"].dump();
