@@ -20,10 +20,12 @@ if dpkg-query -W -f='${Status}' gonio 2>/dev/null | grep -q installed; then
 fi
 [ ! -e /usr/bin/gonio ] || skip "/usr/bin/gonio exists"
 
+# apt waits for dpkg's lock (a fresh machine's daily apt run may hold it) rather than failing at once.
+apt_get=(apt-get -o DPkg::Lock::Timeout=600)
 work=$(mktemp -d "${TMPDIR:-/tmp}/gonio-deb.XXXXXX")
 cleanup() {
   if dpkg-query -W -f='${Status}' gonio 2>/dev/null | grep -q installed; then
-    apt-get purge -y -qq gonio >/dev/null 2>&1 || true
+    "${apt_get[@]}" purge -y -qq gonio >/dev/null 2>&1 || true
   fi
   rm -rf "$work"
 }
@@ -49,7 +51,7 @@ echo "$contents" | grep ' \./usr/bin/gonio-full$' >/dev/null || fail "the packag
 
 groups_before=$(id -nG root)
 listing >"$work/before"
-(cd "$work/package" && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "./$(basename "$deb")" \
+(cd "$work/package" && DEBIAN_FRONTEND=noninteractive "${apt_get[@]}" install -y -qq "./$(basename "$deb")" \
   >"$work/apt.log" 2>&1) || { cat "$work/apt.log"; fail "apt install ./$(basename "$deb")"; }
 [ ! -e /etc/udev/rules.d/70-gonio-usb3vision.rules ] || fail "the package installed the udev rule itself"
 mkdir -p "$work/run"
@@ -81,12 +83,12 @@ for g in plugdev dialout; do
 done
 
 dpkg -L gonio >"$work/files"
-DEBIAN_FRONTEND=noninteractive apt-get remove -y -qq gonio >"$work/apt.log" 2>&1 || { cat "$work/apt.log"; fail "apt-get remove gonio"; }
+DEBIAN_FRONTEND=noninteractive "${apt_get[@]}" remove -y -qq gonio >"$work/apt.log" 2>&1 || { cat "$work/apt.log"; fail "apt-get remove gonio"; }
 [ ! -e /etc/udev/rules.d/70-gonio-usb3vision.rules ] || fail "the removal left the udev rule"
 while read -r f; do
   [ "$f" = /. ] || [ -d "$f" ] || [ ! -e "$f" ] || fail "the removal left $f"
 done <"$work/files"
-DEBIAN_FRONTEND=noninteractive apt-get purge -y -qq gonio >"$work/apt.log" 2>&1 || { cat "$work/apt.log"; fail "apt-get purge gonio"; }
+DEBIAN_FRONTEND=noninteractive "${apt_get[@]}" purge -y -qq gonio >"$work/apt.log" 2>&1 || { cat "$work/apt.log"; fail "apt-get purge gonio"; }
 listing >"$work/after"
 # Other work on the machine may add files meanwhile; what matters is that none of them is gonio's.
 diff "$work/before" "$work/after" >"$work/diff" || true
