@@ -27,6 +27,8 @@ namespace {
 
 /// GigE Vision Control Protocol port (GigE Vision 2.0, section 7).
 constexpr std::uint16_t kGvcpPort = 3956;
+/// Buffers of a line-triggered stream: the frames of a sweep queue while the host is busy.
+constexpr int kLineStreamBuffers = 64;
 
 /// Takes a GError: its message, and frees it.
 std::string take_message(GError* error) {
@@ -136,6 +138,7 @@ struct AravisCamera::Impl {
     bool streaming = false;  // start_stream() running
     bool auto_modes_off = false;
     std::size_t payload = 0;
+    int buffers = 0;  ///< Buffers the stream was given.
     double exposure_us = 0;
     double gain = 1;
     bool exposure_known = false;
@@ -576,11 +579,20 @@ struct AravisCamera::Impl {
                          nullptr);
         }
         payload = size;
-        for (int i = 0; i < std::max(1, options.n_buffers); ++i) {
+        buffers = std::max(1, options.n_buffers);
+        for (int i = 0; i < buffers; ++i) {
             arv_stream_push_buffer(stream, arv_buffer_new_allocate(payload));
         }
         ++stats.streams_opened;
         return {};
+    }
+
+    /// Gives the stream at least `n` buffers (a line-triggered stream holds the frames of a
+    /// whole sweep while its host is busy).
+    void reserve_buffers(int n) {
+        for (; stream != nullptr && buffers < n; ++buffers) {
+            arv_stream_push_buffer(stream, arv_buffer_new_allocate(payload));
+        }
     }
 
     /// After a capture that got no good frame: stops the acquisition and closes the stream, so
@@ -1435,6 +1447,45 @@ Expected<void> AravisCamera::start_stream() {
     if (auto r = d.start_acquisition(); !r) {
         return r;
     }
+    d.streaming = true;
+    return {};
+}
+
+Expected<void> AravisCamera::start_line_stream(const std::string& line) {
+    auto& d = *impl_;
+    if (!d.has_entry("TriggerMode", "On") || !d.has_entry("TriggerSource", line.c_str())) {
+        return tl::unexpected(d.err("no trigger input: TriggerMode On with TriggerSource " + line +
+                                    " is not among its features"));
+    }
+    if (auto r = d.idle(false); !r) {
+        return r;
+    }
+    const std::pair<const char*, std::string> settings[] = {{"TriggerSelector", "FrameStart"},
+                                                            {"TriggerMode", "On"},
+                                                            {"TriggerSource", line},
+                                                            {"TriggerActivation", "RisingEdge"},
+                                                            {"AcquisitionMode", "Continuous"}};
+    for (const auto& [feature, entry] : settings) {
+        if (std::string(feature) == "TriggerMode" || std::string(feature) == "TriggerSource" ||
+            d.has_entry(feature, entry.c_str())) {
+            if (auto r = d.set_enum(feature, entry.c_str()); !r) {
+                return r;
+            }
+        }
+    }
+    if (!d.exposure_known) {
+        if (auto e = exposure_us()) {
+            d.exposure_us = *e;
+            d.exposure_known = true;
+        }
+    }
+    if (d.stream != nullptr) {
+        d.drain();
+    }
+    if (auto r = d.start_acquisition(); !r) {
+        return r;
+    }
+    d.reserve_buffers(kLineStreamBuffers);
     d.streaming = true;
     return {};
 }

@@ -303,13 +303,15 @@ Expected<json> parse_profile_json(const std::string& json_text, const std::strin
                          "status_bits",
                          "actions",
                          "timeouts",
-                         "alarm_codes"});
+                         "alarm_codes",
+                         "position_compare"});
         const std::pair<const char*, std::vector<std::string>> sections[] = {
             {"registers", {"position", "status", "alarm_code", "probe_start", "probe_end"}},
             {"status_bits", {"moving", "in_position", "homed", "alarm", "homing", "ready"}},
             {"actions", {"move", "home", "stop", "reset_alarm"}},
             {"timeouts", {"response_ms", "retries", "backoff_ms", "poll_ms", "stall_ms"}},
-            {"alarm_codes", {"overtravel", "overload", "deviation"}}};
+            {"alarm_codes", {"overtravel", "overload", "deviation"}},
+            {"position_compare", {"control", "count", "fired", "table", "latches", "entries"}}};
         for (const auto& [section, keys] : sections) {
             if (j.contains(section) && j[section].is_object()) {
                 check_json_keys(j[section], section, keys);
@@ -541,6 +543,40 @@ Expected<void> read_probe_registers(const json& j, const std::string& s, AxisPro
     return {};
 }
 
+/// The position compare block: its five registers and its table size, all or nothing.
+Expected<void> read_position_compare(const json& j, const std::string& s, AxisProfile* p) {
+    if (!j.contains("position_compare")) {
+        return {};
+    }
+    const json& c = j["position_compare"];
+    const std::string cp = s + ": position_compare";
+    if (!c.is_object()) {
+        return make_error(cp + ": expected an object");
+    }
+    PositionCompare& pc = p->compare;
+    for (auto [key, field] : {std::pair<const char*, RegisterField*>{"control", &pc.control},
+                              {"count", &pc.count},
+                              {"fired", &pc.fired},
+                              {"table", &pc.table},
+                              {"latches", &pc.latches}}) {
+        if (!c.contains(key)) {
+            return make_error(cp + "." + key + ": missing");
+        }
+        auto f = get_field(c[key], cp + "." + key);
+        if (!f) {
+            return tl::unexpected(f.error());
+        }
+        *field = *f;
+    }
+    if (auto r = get_opt_int(c, "entries", cp, &pc.entries); !r) {
+        return r;
+    }
+    if (pc.entries < 1 || pc.entries > 1024) {
+        return make_error(cp + ".entries: " + std::to_string(pc.entries) + " not in [1, 1024]");
+    }
+    return {};
+}
+
 /// Every documented address must map to a wire address.
 Expected<void> check_wire_addresses(const AxisProfile& p, const std::string& s) {
     std::vector<std::pair<std::string, int>> addrs = {
@@ -550,6 +586,18 @@ Expected<void> check_wire_addresses(const AxisProfile& p, const std::string& s) 
     if (p.probe_start.present()) {
         addrs.push_back({"registers.probe_start", p.probe_start.address});
         addrs.push_back({"registers.probe_end", p.probe_end.address});
+    }
+    if (p.compare.present()) {
+        const PositionCompare& c = p.compare;
+        addrs.push_back({"position_compare.control", c.control.address});
+        addrs.push_back({"position_compare.count", c.count.address});
+        addrs.push_back({"position_compare.fired", c.fired.address});
+        addrs.push_back({"position_compare.table", c.table.address});
+        addrs.push_back(
+            {"position_compare.table", c.table.address + c.entries * c.table.count() - 1});
+        addrs.push_back({"position_compare.latches", c.latches.address});
+        addrs.push_back({"position_compare.latches",
+                         c.latches.address + 2 * c.entries * c.latches.count() - 1});
     }
     for (const Action* a : {&p.move, &p.home, &p.stop, &p.reset_alarm}) {
         if (a->block.present()) {
@@ -584,7 +632,8 @@ Expected<AxisProfile> parse_axis_profile(const std::string& json_text,
                        read_actions,
                        read_timeouts,
                        read_alarm_codes,
-                       read_probe_registers}) {
+                       read_probe_registers,
+                       read_position_compare}) {
         if (auto r = stage(*j, source_name, &p); !r) {
             return tl::unexpected(r.error());
         }

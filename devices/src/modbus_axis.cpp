@@ -485,6 +485,109 @@ Expected<std::array<double, 2>> ModbusAxis::exposure_latch_deg() {
     return out;
 }
 
+Expected<void> ModbusAxis::arm_position_compare(const std::vector<double>& positions_deg) {
+    const PositionCompare& pc = profile_.compare;
+    if (!pc.present()) {
+        return Axis::arm_position_compare(positions_deg);
+    }
+    if (positions_deg.empty() || positions_deg.size() > static_cast<std::size_t>(pc.entries)) {
+        return tl::unexpected(
+            axis_error("position compare: " + std::to_string(positions_deg.size()) +
+                       " positions, the drive's table holds 1 to " + std::to_string(pc.entries)));
+    }
+    if (auto r = disarm_position_compare(); !r) {
+        return r;
+    }
+    // The table in writes of at most 120 registers (function 16 allows 123).
+    const std::size_t per_write = static_cast<std::size_t>(120 / pc.table.count());
+    for (std::size_t k0 = 0; k0 < positions_deg.size(); k0 += per_write) {
+        std::vector<std::uint16_t> words;
+        for (std::size_t k = k0; k < std::min(positions_deg.size(), k0 + per_write); ++k) {
+            if (!std::isfinite(positions_deg[k])) {
+                return tl::unexpected(axis_error("position compare: a position is not finite"));
+            }
+            const auto w = encode_value(
+                degrees_to_steps(profile_, positions_deg[k]), pc.table.width, profile_.word_order);
+            words.insert(words.end(), w.begin(), w.end());
+        }
+        const int addr = pc.table.address + static_cast<int>(k0) * pc.table.count();
+        if (auto r = bus_->write_registers(
+                unit_, *wire_address(profile_, addr), words, policy_, reg_label(addr));
+            !r) {
+            return r;
+        }
+    }
+    for (const auto& [f, v] : {std::pair<const RegisterField*, std::int64_t>{
+                                   &pc.count, static_cast<std::int64_t>(positions_deg.size())},
+                               {&pc.control, 1}}) {
+        if (auto r = bus_->write_registers(unit_,
+                                           *wire_address(profile_, f->address),
+                                           encode_value(v, f->width, profile_.word_order),
+                                           policy_,
+                                           reg_label(f->address));
+            !r) {
+            return r;
+        }
+    }
+    return {};
+}
+
+Expected<void> ModbusAxis::disarm_position_compare() {
+    const PositionCompare& pc = profile_.compare;
+    if (!pc.present()) {
+        return Axis::disarm_position_compare();
+    }
+    return bus_->write_registers(unit_,
+                                 *wire_address(profile_, pc.control.address),
+                                 encode_value(0, pc.control.width, profile_.word_order),
+                                 policy_,
+                                 reg_label(pc.control.address));
+}
+
+Expected<std::size_t> ModbusAxis::compare_pulses() {
+    const PositionCompare& pc = profile_.compare;
+    if (!pc.present()) {
+        return Axis::compare_pulses();
+    }
+    auto w = bus_->read_registers(unit_,
+                                  *wire_address(profile_, pc.fired.address),
+                                  pc.fired.count(),
+                                  policy_,
+                                  reg_label(pc.fired.address));
+    if (!w) {
+        return tl::unexpected(w.error());
+    }
+    return static_cast<std::size_t>(
+        decode_value(w->data(), pc.fired.width, false, profile_.word_order));
+}
+
+Expected<std::array<double, 2>> ModbusAxis::compare_latch_deg(std::size_t index) {
+    const PositionCompare& pc = profile_.compare;
+    if (!pc.present()) {
+        return Axis::compare_latch_deg(index);
+    }
+    if (index < 1 || index > static_cast<std::size_t>(pc.entries)) {
+        return tl::unexpected(axis_error("position compare: no latch of pulse " +
+                                         std::to_string(index) + " (1 to " +
+                                         std::to_string(pc.entries) + ")"));
+    }
+    const int n = pc.latches.count();
+    const int addr = pc.latches.address + 2 * (static_cast<int>(index) - 1) * n;
+    auto w =
+        bus_->read_registers(unit_, *wire_address(profile_, addr), 2 * n, policy_, reg_label(addr));
+    if (!w) {
+        return tl::unexpected(w.error());
+    }
+    std::array<double, 2> out{};
+    for (int k = 0; k < 2; ++k) {
+        out[static_cast<std::size_t>(k)] = steps_to_degrees(
+            profile_,
+            static_cast<double>(decode_value(
+                w->data() + k * n, pc.latches.width, pc.latches.is_signed, profile_.word_order)));
+    }
+    return out;
+}
+
 Expected<void> ModbusAxis::stop() {
     approach_pending_ = false;
     homing_ = false;

@@ -94,8 +94,11 @@ struct GigeCamera::State {
     std::uint16_t block_id = 0;
     std::uint64_t frames_rendered = 0;
     double exposure_s_rendered = 0;
+    std::uint64_t line_frames = 0;
 
     bool trigger_on() const { return (trigger_control & 1u) != 0; }
+    std::uint32_t trigger_source() const { return (trigger_control >> 8) & 0xFFu; }
+    bool falling_edge() const { return ((trigger_control >> 16) & 0xFFu) == 1; }
     bool tl_locked() const { return (acquisition_control & 1u) != 0; }
     bool single_frame() const { return ((acquisition_control >> 8) & 0xFFu) == 1; }
     devices::PixelFormat format() const {
@@ -457,15 +460,16 @@ std::optional<Status> GigeCamera::write_acquisition_reg_locked(std::uint32_t a,
     State& s = *state_;
     switch (a) {
         case m::kTriggerControl:
-            // Selector FrameStart (0), activation RisingEdge (0), source Software (0), mode bit.
-            if ((v & ~1u) != 0) {
+            // Selector FrameStart (0), activation RisingEdge (0) or FallingEdge (1), source
+            // Software (0) or Line1 (1), mode bit.
+            if ((v & ~0x00010101u) != 0) {
                 return Status::kInvalidParameter;
             }
             s.trigger_control = v;
             s.triggers.clear();
             return Status::kSuccess;
         case m::kTriggerSoftware:
-            if (v != 0 && s.acquiring && s.trigger_on()) {
+            if (v != 0 && s.acquiring && s.trigger_on() && s.trigger_source() == 0) {
                 PendingFrame p;
                 p.scene = scene_ ? scene_() : SceneState{};
                 p.settings = s.settings();
@@ -888,6 +892,40 @@ std::optional<RenderedFrame> GigeCamera::next_frame(Clock::time_point now,
     f.settings = p.settings;
     f.payload = payload_of(counts, devices::bytes_per_pixel(p.settings.format) == 1);
     return f;
+}
+
+bool GigeCamera::line_pulse(Clock::time_point rising,
+                            Clock::duration width,
+                            const std::function<void(Clock::time_point, double)>& on_expose) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    State& s = *state_;
+    if (faults_.disappeared || !s.acquiring || !s.trigger_on() || s.trigger_source() != 1) {
+        return false;
+    }
+    const Clock::time_point start = s.falling_edge() ? rising + width : rising;
+    PendingFrame p;
+    p.settings = s.settings();
+    const double exposure_s = p.settings.exposure_us * 1e-6;
+    if (on_expose) {
+        on_expose(start, exposure_s);
+    }
+    p.scene = line_scene_ ? line_scene_(start) : SceneState{};
+    if (line_path_) {
+        line_path_(start, exposure_s, &p.scene);
+    }
+    p.roi = {static_cast<int>(s.offset_x),
+             static_cast<int>(s.offset_y),
+             static_cast<int>(s.width),
+             static_cast<int>(s.height)};
+    p.timestamp_ns = ticks_locked(start);
+    s.triggers.push_back(p);
+    ++s.line_frames;
+    return true;
+}
+
+std::uint64_t GigeCamera::line_frames() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return state_->line_frames;
 }
 
 std::optional<StreamTarget> GigeCamera::stream_target() const {

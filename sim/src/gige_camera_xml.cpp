@@ -348,9 +348,15 @@ void write_acquisition(XmlWriter& w) {
                   "Frames on trigger (On) or free-running (Off)",
                   {{"Off", 0}, {"On", 1}},
                   "TriggerModeReg");
-    w.enumeration("TriggerSource", "Source of the trigger", {{"Software", 0}}, "TriggerSourceReg");
-    w.enumeration(
-        "TriggerActivation", "Edge that triggers", {{"RisingEdge", 0}}, "TriggerActivationReg");
+    w.enumeration("TriggerSource",
+                  "Source of the trigger: TriggerSoftware, or the trigger input line (wired to a "
+                  "drive's position compare output)",
+                  {{"Software", 0}, {"Line1", 1}},
+                  "TriggerSourceReg");
+    w.enumeration("TriggerActivation",
+                  "Edge of the line pulse that starts the exposure",
+                  {{"RisingEdge", 0}, {"FallingEdge", 1}},
+                  "TriggerActivationReg");
 }
 
 void write_exposure(XmlWriter& w, const std::string& exposure) {

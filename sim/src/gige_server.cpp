@@ -160,6 +160,14 @@ void GigeServer::stop() {
     }
 }
 
+void GigeServer::wake() {
+    {
+        std::lock_guard<std::mutex> lock(wake_mutex_);
+        kicked_ = true;
+    }
+    wake_.notify_all();
+}
+
 void GigeServer::control_loop() {
     std::vector<std::uint8_t> buf(2048);
     pollfd fds[2] = {{gvcp_fd_, POLLIN, 0}, {wake_fd_, POLLIN, 0}};

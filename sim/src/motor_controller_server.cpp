@@ -224,6 +224,23 @@ void MotorControllerServer::latch_exposure(int unit, double exposure_s) const {
     impl_->registers.latch_exposure(unit, exposure_s);
 }
 
+std::vector<ComparePulse> MotorControllerServer::take_pulses(bool* armed) {
+    return impl_->registers.take_pulses(armed);
+}
+
+std::vector<double> MotorControllerServer::path_deg_at(int unit,
+                                                       std::chrono::steady_clock::time_point at,
+                                                       const std::vector<double>& after_s) const {
+    return impl_->registers.path_deg_at(unit, at, after_s);
+}
+
+void MotorControllerServer::latch_pulse(int unit,
+                                        std::size_t index,
+                                        std::chrono::steady_clock::time_point at,
+                                        double exposure_s) const {
+    impl_->registers.latch_pulse(unit, index, at, exposure_s);
+}
+
 Expected<UnitSnapshot> MotorControllerServer::snapshot(int unit) const {
     return impl_->registers.snapshot(unit);
 }

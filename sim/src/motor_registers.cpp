@@ -46,9 +46,23 @@ struct Unit {
     Clock::time_point wall_base;
     double scale = 1;
     double last_decel = 0;
+    std::size_t pulses_taken = 0;  ///< Compare pulses handed to the wire so far.
 
     double now(Clock::time_point wall) const {
         return sim_base + std::chrono::duration<double>(wall - wall_base).count() * scale;
+    }
+    Clock::time_point wall_of(double t) const {
+        return wall_base + std::chrono::duration_cast<Clock::duration>(
+                               std::chrono::duration<double>((t - sim_base) / scale));
+    }
+    int wire_of(const RegisterField& f, int offset) const {
+        return wire(profile, f.address) + offset;
+    }
+    void put_at(int w, int width, std::int64_t v) {
+        const auto words = devices::encode_value(v, width, profile.word_order);
+        for (size_t k = 0; k < words.size(); ++k) {
+            tab[static_cast<size_t>(w) + k] = words[k];
+        }
     }
     void add_field(const RegisterField& f) {
         const int w = wire(profile, f.address);
@@ -134,6 +148,31 @@ struct MotorRegisters::Impl {
         u.put(sb.reg, w);
         u.put(u.profile.alarm_code, m.alarm_code());
         u.put(u.profile.position, m.read_counter_steps());
+        if (u.profile.compare.present()) {
+            u.put(u.profile.compare.fired, static_cast<std::int64_t>(m.pulses_fired(t)));
+        }
+    }
+
+    /// A write to the compare control: 1 arms the table's first `count` entries (the pulse count
+    /// and the latches start afresh), 0 disarms.
+    void compare_control(Unit& u, double t) {
+        const devices::PositionCompare& pc = u.profile.compare;
+        const std::uint32_t v = u.get(pc.control);
+        std::vector<double> steps;
+        if (v == 1) {
+            const int n = std::clamp(static_cast<int>(u.get(pc.count)), 0, pc.entries);
+            for (int k = 0; k < n; ++k) {
+                const int w = u.wire_of(pc.table, k * pc.table.count());
+                steps.push_back(static_cast<double>(devices::decode_value(
+                    u.tab.data() + w, pc.table.width, pc.table.is_signed, u.profile.word_order)));
+            }
+            const int lw = u.wire_of(pc.latches, 0);
+            std::fill(u.tab.begin() + lw,
+                      u.tab.begin() + lw + 2 * pc.entries * pc.latches.count(),
+                      std::uint16_t{0});
+        }
+        u.sim->arm_compare(t, std::move(steps));
+        u.pulses_taken = 0;
     }
 
     void fire(Unit& u, const char* action, double t) {
@@ -181,6 +220,12 @@ struct MotorRegisters::Impl {
         }
         if (!u.has_motor) {
             return;
+        }
+        if (p.compare.present()) {
+            const int cw = wire(p, p.compare.control.address);
+            if (cw < hi && cw + p.compare.control.count() > lo) {
+                compare_control(u, t);
+            }
         }
         const std::pair<const char*, const Action*> actions[] = {
             {"move", &p.move}, {"home", &p.home}, {"stop", &p.stop}, {"reset", &p.reset_alarm}};
@@ -400,12 +445,26 @@ Expected<void> MotorRegisters::add_unit(int unit,
         u->add_field(profile.probe_start);
         u->add_field(profile.probe_end);
     }
+    const devices::PositionCompare& pc = profile.compare;
+    if (pc.present()) {
+        u->add_field(pc.control);
+        u->add_field(pc.count);
+        u->add_field(pc.fired);
+        for (int k = 0; k < pc.entries * pc.table.count(); ++k) {
+            u->regs.insert(u->wire_of(pc.table, k));
+        }
+        for (int k = 0; k < 2 * pc.entries * pc.latches.count(); ++k) {
+            u->regs.insert(u->wire_of(pc.latches, k));
+            u->read_only.insert(u->wire_of(pc.latches, k));
+        }
+    }
     // The drive writes these itself: a client's write is refused (exception 2).
     for (const RegisterField* f : {&profile.position,
                                    &profile.status.reg,
                                    &profile.alarm_code,
                                    &profile.probe_start,
-                                   &profile.probe_end}) {
+                                   &profile.probe_end,
+                                   &pc.fired}) {
         if (!f->present()) {
             continue;
         }
@@ -565,6 +624,82 @@ void MotorRegisters::latch_exposure(int unit, double exposure_s) const {
     const double offset = u->sim->counter_offset();
     u->put(u->profile.probe_start, std::llround(motor[0] + offset));
     u->put(u->profile.probe_end, std::llround(motor[1] + offset));
+}
+
+std::vector<ComparePulse> MotorRegisters::take_pulses(bool* armed) {
+    std::vector<ComparePulse> out;
+    bool any = false;
+    std::lock_guard<std::mutex> lock(impl_->mu);
+    const auto wall = Clock::now();
+    for (auto& [id, u] : impl_->units) {
+        if (!u->has_motor || !u->profile.compare.present()) {
+            continue;
+        }
+        const MotorSim& m = *u->sim;
+        const std::vector<double>& times = m.compare_times();
+        any = any || u->pulses_taken < times.size() || u->get(u->profile.compare.control) == 1;
+        const std::size_t fired = m.pulses_fired(u->now(wall));
+        for (std::size_t k = u->pulses_taken; k < fired; ++k) {
+            out.push_back(ComparePulse{id, k + 1, u->wall_of(times[k])});
+        }
+        u->pulses_taken = std::max(u->pulses_taken, fired);
+    }
+    std::sort(out.begin(), out.end(), [](const ComparePulse& a, const ComparePulse& b) {
+        return a.at < b.at;
+    });
+    if (armed != nullptr) {
+        *armed = any;
+    }
+    return out;
+}
+
+std::vector<double> MotorRegisters::path_deg_at(int unit,
+                                                Clock::time_point at,
+                                                const std::vector<double>& after_s) const {
+    std::lock_guard<std::mutex> lock(impl_->mu);
+    Unit* u = impl_->unit_locked(unit);
+    if (u == nullptr || !u->has_motor) {
+        return std::vector<double>(after_s.size(), std::numeric_limits<double>::quiet_NaN());
+    }
+    const double t0 = u->now(at);
+    std::vector<double> t;
+    t.reserve(after_s.size());
+    for (double a : after_s) {
+        t.push_back(t0 + a);
+    }
+    std::vector<double> out = u->sim->history_steps_at(t);
+    for (double& v : out) {
+        v /= u->spd;
+    }
+    return out;
+}
+
+void MotorRegisters::latch_pulse(int unit,
+                                 std::size_t index,
+                                 Clock::time_point at,
+                                 double exposure_s) const {
+    std::lock_guard<std::mutex> lock(impl_->mu);
+    Unit* u = impl_->unit_locked(unit);
+    if (u == nullptr || !u->has_motor) {
+        return;
+    }
+    const double t0 = u->now(at);
+    std::vector<double> motor;
+    u->sim->history_steps_at({t0, t0 + std::max(0.0, exposure_s)}, &motor);
+    const double offset = u->sim->counter_offset();
+    const std::int64_t c0 = std::llround(motor[0] + offset);
+    const std::int64_t c1 = std::llround(motor[1] + offset);
+    const AxisProfile& p = u->profile;
+    if (p.probe_start.present()) {
+        u->put(p.probe_start, c0);
+        u->put(p.probe_end, c1);
+    }
+    const devices::PositionCompare& pc = p.compare;
+    if (pc.present() && index >= 1 && index <= static_cast<std::size_t>(pc.entries)) {
+        const int k = static_cast<int>(index) - 1;
+        u->put_at(u->wire_of(pc.latches, 2 * k * pc.latches.count()), pc.latches.width, c0);
+        u->put_at(u->wire_of(pc.latches, (2 * k + 1) * pc.latches.count()), pc.latches.width, c1);
+    }
 }
 
 Expected<UnitSnapshot> MotorRegisters::snapshot(int unit) const {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace gonio::sim {
 namespace {
@@ -52,6 +53,7 @@ MotorSim::MotorSim(const MotorSimConfig& cfg, double steps_per_degree)
     // Unreferenced counters start at 0 wherever the stage is; a referenced one reads physical.
     counter_offset_ = cfg.start_homed ? 0 : -pos_;
     homed_ = cfg.start_homed;
+    hist_motor0_ = hist_load0_ = hist_end_ = pos_;
 }
 
 double MotorSim::position_at(double t, double* velocity) const {
@@ -139,6 +141,7 @@ void MotorSim::update(double t) {
             }
             armed_ = Armed::kNone;
             now_ = t;
+            cut_history(t);
             return;
         }
     }
@@ -158,6 +161,7 @@ void MotorSim::update(double t) {
         alarm_ = overtravel_code_;
         homing_ = false;
         now_ = t;
+        cut_history(t);
         return;
     }
     pos_ = p;
@@ -204,6 +208,7 @@ bool MotorSim::start_move(
         pos_ = target;
         apply_backlash(pos_);
     }
+    begin_history(t);
     return true;
 }
 
@@ -218,6 +223,7 @@ bool MotorSim::start_home(double t, double v, double a) {
     move_end_ = 0;
     homing_ = true;
     homed_ = false;
+    begin_history(t);
     if (phases_.empty()) {
         // Already on the switch.
         pos_ = 0;
@@ -243,12 +249,14 @@ void MotorSim::stop(double t, double d) {
         phases_.clear();
         vel_ = 0;
         move_end_ = pos_;
+        begin_history(t);
         return;
     }
     const double dur = std::fabs(vel_) / d;
     phases_ = {{t, pos_, vel_, -sign(vel_) * d, dur}};
     move_start_ = pos_;
     move_end_ = pos_ + vel_ * dur - 0.5 * sign(vel_) * d * dur * dur;
+    begin_history(t);
 }
 
 void MotorSim::reset_alarm() {
@@ -268,6 +276,7 @@ void MotorSim::arm_stall(double fraction, int /*deviation_alarm_code*/) {
 }
 
 void MotorSim::raise_alarm(int code) {
+    cut_history(now_);
     phases_.clear();
     vel_ = 0;
     stalled_ = false;
@@ -289,6 +298,132 @@ std::int64_t MotorSim::read_counter_steps() {
         noise = cfg_.encoder_noise_steps * noise_(rng_);
     }
     return static_cast<std::int64_t>(std::llround(pos_ + counter_offset_ + noise));
+}
+
+void MotorSim::begin_history(double t) {
+    hist_phases_ = phases_;
+    hist_t0_ = t;
+    hist_motor0_ = pos_;
+    hist_load0_ = load_;
+    hist_end_ = phases_.empty() ? pos_ : move_end_;
+    hist_cut_ = false;
+    schedule_compare(t);
+}
+
+void MotorSim::cut_history(double t) {
+    hist_end_ = pos_;
+    hist_cut_t_ = t;
+    hist_cut_ = true;
+    schedule_compare(t);
+}
+
+double MotorSim::history_motor_at(double t) const {
+    if (t <= hist_t0_ || hist_phases_.empty()) {
+        return t <= hist_t0_ ? hist_motor0_ : hist_end_;
+    }
+    if (hist_cut_ && t >= hist_cut_t_) {
+        return hist_end_;
+    }
+    for (const MotionPhase& ph : hist_phases_) {
+        if (t <= ph.t0 + ph.duration) {
+            const double dt = std::max(0.0, t - ph.t0);
+            return ph.p0 + ph.v0 * dt + 0.5 * ph.a * dt * dt;
+        }
+    }
+    return hist_end_;
+}
+
+std::vector<double> MotorSim::history_steps_at(const std::vector<double>& t,
+                                               std::vector<double>* motor_out) const {
+    // The play of apply_backlash(), carried from the move's start through the ends of its phases
+    // (the motor is monotonic within a phase) and the nodes, in time order.
+    const double b = std::fabs(cfg_.backlash_deg * steps_per_degree_);
+    double load = hist_load0_;
+    std::size_t next_end = 0;
+    std::vector<double> out;
+    out.reserve(t.size());
+    for (double ti : t) {
+        for (; next_end < hist_phases_.size(); ++next_end) {
+            const double te = hist_phases_[next_end].t0 + hist_phases_[next_end].duration;
+            if (te >= ti) {
+                break;
+            }
+            const double m = history_motor_at(te);
+            load = std::clamp(load, m - b, m);
+        }
+        const double m = history_motor_at(ti);
+        load = std::clamp(load, m - b, m);
+        out.push_back(ti <= hist_t0_ ? hist_load0_ : load);
+        if (motor_out != nullptr) {
+            motor_out->push_back(m);
+        }
+    }
+    return out;
+}
+
+double MotorSim::history_crossing(double t0, double p) const {
+    const double inf = std::numeric_limits<double>::infinity();
+    const double t_cut = hist_cut_ ? hist_cut_t_ : inf;
+    for (const MotionPhase& ph : hist_phases_) {
+        double a = std::max(t0, ph.t0);
+        double b = std::min(ph.t0 + ph.duration, t_cut);
+        if (!(a <= b)) {
+            continue;
+        }
+        const double pa = history_motor_at(a) - p;
+        const double pb = history_motor_at(b) - p;
+        if (pa == 0) {
+            return a;
+        }
+        if ((pa < 0) == (pb < 0) && pb != 0) {
+            continue;
+        }
+        // Monotonic within the phase: bisection to the instant it passes p.
+        for (int k = 0; k < 100 && b - a > 1e-12; ++k) {
+            const double mid = 0.5 * (a + b);
+            if ((history_motor_at(mid) - p < 0) == (pa < 0)) {
+                a = mid;
+            } else {
+                b = mid;
+            }
+        }
+        return b;
+    }
+    return inf;
+}
+
+void MotorSim::schedule_compare(double t) {
+    // Pulses sent before t stay; the rest follow the history from t (or from the last pulse).
+    std::size_t fired = pulses_fired(t);
+    compare_times_.resize(fired);
+    double from = std::max(t, compare_armed_t_);
+    if (!compare_times_.empty()) {
+        from = std::max(from, compare_times_.back());
+    }
+    for (std::size_t k = fired; k < compare_steps_.size(); ++k) {
+        const double tk = history_crossing(from, compare_steps_[k]);
+        if (!std::isfinite(tk)) {
+            break;
+        }
+        compare_times_.push_back(tk);
+        from = tk;
+    }
+}
+
+void MotorSim::arm_compare(double t, std::vector<double> counter_steps) {
+    update(t);
+    compare_steps_.clear();
+    for (double c : counter_steps) {
+        compare_steps_.push_back(c - counter_offset_);
+    }
+    compare_times_.clear();
+    compare_armed_t_ = t;
+    schedule_compare(t);
+}
+
+std::size_t MotorSim::pulses_fired(double t) const {
+    return static_cast<std::size_t>(
+        std::upper_bound(compare_times_.begin(), compare_times_.end(), t) - compare_times_.begin());
 }
 
 }  // namespace gonio::sim

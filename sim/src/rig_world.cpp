@@ -39,15 +39,30 @@ RigWorld::RigWorld(const MotorControllerServer* server,
 
 SceneState RigWorld::scene() const {
     constexpr double kDeg = brdf::kPi / 180.0;
-    const std::uint64_t n = ++exposures_;
-    if (hook_) {
-        hook_(n);
-    }
     brdf::RigPosed p;
     p.light = server_->position_deg(units_.light) * kDeg;
     p.detector = server_->position_deg(units_.detector) * kDeg;
     p.tilt = server_->position_deg(units_.tilt) * kDeg;
     p.spin = server_->position_deg(units_.spin) * kDeg;
+    return scene_of(p);
+}
+
+SceneState RigWorld::scene_at(std::chrono::steady_clock::time_point at) const {
+    constexpr double kDeg = brdf::kPi / 180.0;
+    auto deg = [&](int unit) { return server_->path_deg_at(unit, at, {0.0})[0] * kDeg; };
+    brdf::RigPosed p;
+    p.light = deg(units_.light);
+    p.detector = deg(units_.detector);
+    p.tilt = deg(units_.tilt);
+    p.spin = deg(units_.spin);
+    return scene_of(p);
+}
+
+SceneState RigWorld::scene_of(const brdf::RigPosed& p) const {
+    const std::uint64_t n = ++exposures_;
+    if (hook_) {
+        hook_(n);
+    }
     SceneState s;
     const auto [wi, wo] = brdf::rig_forward(p);
     s.wi = wi;
@@ -146,23 +161,48 @@ std::pair<brdf::Vec3d, brdf::Vec3d> RigWorld::pose_directions(const brdf::RigPos
 }
 
 void RigWorld::fill_path(double exposure_s, SceneState* scene) const {
-    constexpr double kDeg = brdf::kPi / 180.0;
     scene->path.clear();
     if (!(exposure_s > 0)) {
         return;
     }
-    const int units[4] = {units_.light, units_.detector, units_.tilt, units_.spin};
     // The drives' touch probes latch the exposure's edges (every exposure, as the camera's
     // exposure-active line pulses for each).
-    for (int u : units) {
+    for (int u : {units_.light, units_.detector, units_.tilt, units_.spin}) {
         server_->latch_exposure(u, exposure_s);
     }
+    fill_path_along(
+        exposure_s,
+        [this](int unit, const std::vector<double>& t) { return server_->path_deg(unit, t); },
+        scene);
+}
+
+void RigWorld::fill_path_at(std::chrono::steady_clock::time_point at,
+                            double exposure_s,
+                            SceneState* scene) const {
+    scene->path.clear();
+    if (!(exposure_s > 0)) {
+        return;
+    }
+    for (int u : {units_.light, units_.detector, units_.tilt, units_.spin}) {
+        server_->latch_pulse(u, 0, at, exposure_s);
+    }
+    fill_path_along(
+        exposure_s,
+        [this, at](int unit, const std::vector<double>& t) {
+            return server_->path_deg_at(unit, at, t);
+        },
+        scene);
+}
+
+void RigWorld::fill_path_along(double exposure_s, const UnitPathFn& path, SceneState* scene) const {
+    constexpr double kDeg = brdf::kPi / 180.0;
     if (scene->shape != SampleShape::kFlatPatch) {
         return;
     }
+    const int units[4] = {units_.light, units_.detector, units_.tilt, units_.spin};
     double travel = 0;
     for (int u : units) {
-        const std::vector<double> ends = server_->path_deg(u, {0.0, exposure_s});
+        const std::vector<double> ends = path(u, {0.0, exposure_s});
         if (std::isfinite(ends[0]) && std::isfinite(ends[1])) {
             travel = std::max(travel, std::abs(ends[1] - ends[0]) * kDeg);
         }
@@ -186,7 +226,7 @@ void RigWorld::fill_path(double exposure_s, SceneState* scene) const {
     }
     std::vector<double> deg[4];
     for (int a = 0; a < 4; ++a) {
-        deg[a] = server_->path_deg(units[a], t);
+        deg[a] = path(units[a], t);
     }
     scene->path.reserve(t.size());
     for (std::size_t k = 0; k < t.size(); ++k) {

@@ -266,11 +266,36 @@ SimRig::~SimRig() {
 }
 
 void SimRig::stop() {
+    wire_stop_ = true;
+    if (wire_.joinable()) {
+        wire_.join();
+    }
     if (camera_server_) {
         camera_server_->stop();
     }
     if (motors_) {
         motors_->stop();
+    }
+}
+
+void SimRig::wire_loop() {
+    // The pulse of a compare output, as drives send it: 100 us (simulated) long.
+    constexpr double kPulseWidthS = 100e-6;
+    while (!wire_stop_) {
+        bool armed = false;
+        const std::vector<ComparePulse> pulses = motors_->take_pulses(&armed);
+        for (const ComparePulse& p : pulses) {
+            const auto width = std::chrono::duration_cast<GigeCamera::Clock::duration>(
+                std::chrono::duration<double>(kPulseWidthS / time_scale_));
+            const bool exposed = camera_->line_pulse(
+                p.at, width, [&](GigeCamera::Clock::time_point start, double exposure_s) {
+                    motors_->latch_pulse(p.unit, p.index, start, exposure_s);
+                });
+            if (exposed) {
+                camera_server_->wake();
+            }
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(armed ? 1 : 20));
     }
 }
 
@@ -344,6 +369,13 @@ Expected<std::unique_ptr<SimRig>> SimRig::start(const std::string& rig_json,
     if (!served) {
         return make_error("sim rig: camera server: " + served.error().message);
     }
+    rig->camera_->set_line_scene(
+        [w = rig->world_.get()](GigeCamera::Clock::time_point at) { return w->scene_at(at); },
+        [w = rig->world_.get()](GigeCamera::Clock::time_point at, double e, SceneState* s) {
+            w->fill_path_at(at, e, s);
+        });
+    rig->time_scale_ = time_scale;
+    rig->wire_ = std::thread([r = rig.get()] { r->wire_loop(); });
     return rig;
 }
 

@@ -63,6 +63,38 @@ TEST(GigeCamera, ArvToolWritesReachTheSensorSettings) {
     EXPECT_EQ(arv_value(back.out, "Gain"), "6") << back.out;
 }
 
+// The trigger input: arv-tool writes TriggerMode, TriggerSource and TriggerActivation through the
+// StructReg; a second session reads them back, the register holds the fields where the map says
+// (bit 0 mode, bits 15..8 source, 23..16 activation), and a pulse on Line1 starts a frame only
+// while the camera acquires with that source.
+TEST(GigeCamera, ArvToolSetsTheLineTrigger) {
+    ServedCamera cam(small_camera());
+    const auto r = run("arv-tool-0.8 -a " + cam.ip() +
+                       " control TriggerSelector=FrameStart TriggerMode=On TriggerSource=Line1 "
+                       "TriggerActivation=FallingEdge");
+    ASSERT_EQ(r.status, 0) << r.out;
+    const auto back =
+        run("arv-tool-0.8 -a " + cam.ip() + " control TriggerMode TriggerSource TriggerActivation");
+    ASSERT_EQ(back.status, 0) << back.out;
+    EXPECT_EQ(arv_value(back.out, "TriggerMode"), "On") << back.out;
+    EXPECT_EQ(arv_value(back.out, "TriggerSource"), "Line1") << back.out;
+    EXPECT_EQ(arv_value(back.out, "TriggerActivation"), "FallingEdge") << back.out;
+    RawHost host(cam.ip());
+    std::uint32_t v = 0;
+    ASSERT_EQ(host.read_reg(gonio::sim::gige_map::kTriggerControl, &v), gvcp::Status::kSuccess);
+    EXPECT_EQ(v, 0x00010101u);
+    // Not acquiring: the pulse is ignored.
+    const auto now = gonio::sim::GigeCamera::Clock::now();
+    EXPECT_FALSE(cam.camera->line_pulse(now, std::chrono::microseconds(100), nullptr));
+    // A source the map does not have is refused.
+    EXPECT_NE(host.write_reg(gonio::sim::gige_map::kTriggerControl, 0x00000201u),
+              gvcp::Status::kSuccess);
+    const auto sw = run("arv-tool-0.8 -a " + cam.ip() + " control TriggerSource=Software");
+    ASSERT_EQ(sw.status, 0) << sw.out;
+    ASSERT_EQ(host.read_reg(gonio::sim::gige_map::kTriggerControl, &v), gvcp::Status::kSuccess);
+    EXPECT_EQ(v, 0x00010001u);
+}
+
 TEST(GigeCamera, ArvToolUsesTheAbsNaming) {
     ServedCamera cam(small_camera(ExposureNaming::kAbs));
     const auto r =

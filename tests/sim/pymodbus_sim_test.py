@@ -18,6 +18,10 @@ from pymodbus.client import ModbusTcpClient
 
 GENERIC_STATUS = 40011 - 40001
 GENERIC_POSITION = 40013 - 40001
+COMPARE_CONTROL = 40019 - 40001
+COMPARE_COUNT = 40020 - 40001
+COMPARE_FIRED = 40021 - 40001
+COMPARE_TABLE = 45001 - 40001
 STEPS_PER_DEG = 1000  # data/devices/generic.json
 
 
@@ -63,6 +67,17 @@ def main():
             v &= 0xFFFFFFFF
             return [v & 0xFFFF, v >> 16]
 
+        # The position compare: three entries on the way, written low word first, then armed.
+        table = [-2000, -5000, -9000]
+        r = client.write_registers(COMPARE_TABLE, sum((words(v) for v in table), []), slave=1)
+        assert not r.isError(), r
+        assert not client.write_register(COMPARE_COUNT, len(table), slave=1).isError()
+        assert not client.write_register(COMPARE_CONTROL, 1, slave=1).isError()
+        fired = client.read_holding_registers(COMPARE_FIRED, 1, slave=1)
+        assert not fired.isError() and fired.registers[0] == 0, fired
+        r = client.write_register(COMPARE_FIRED, 5, slave=1)  # the drive's own count
+        assert r.isError() and r.exception_code == 2, r
+
         target = -12500
         block = words(target) + words(30000) + words(60000) + words(60000) + [1]
         r = client.write_registers(0, block, slave=1)
@@ -72,13 +87,16 @@ def main():
             if st & 0b10 and not st & 0b1 and position(client, 1) == target:
                 break
         assert position(client, 1) == target, position(client, 1)
+        fired = client.read_holding_registers(COMPARE_FIRED, 1, slave=1)
+        assert not fired.isError() and fired.registers[0] == len(table), fired
+        assert not client.write_register(COMPARE_CONTROL, 0, slave=1).isError()
 
         # The lamp shutter: coil 0 of unit 5.
         assert not client.write_coil(0, True, slave=5).isError()
         r = client.read_coils(0, 1, slave=5)
         assert not r.isError() and r.bits[0], r
         client.close()
-        print("pymodbus against gonio sim: positions, exceptions 2, move, coil: ok")
+        print("pymodbus against gonio sim: positions, exceptions 2, move, position compare, coil: ok")
     finally:
         sim.send_signal(signal.SIGINT)
         try:

@@ -102,6 +102,7 @@ class AravisCamera : public Camera {
     Expected<void> start_stream() override;
     Expected<Frame> next_frame(std::chrono::milliseconds timeout) override;
     Expected<void> stop_stream() override;
+    Expected<void> start_line_stream(const std::string& line) override;
 
     /// Any PixelFormat entry of the camera by its PFNC name ("Mono12Packed", "BayerRG8").
     Expected<void> set_pixel_format_name(const std::string& name);

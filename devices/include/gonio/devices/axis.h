@@ -6,6 +6,7 @@
 #include <array>
 #include <chrono>
 #include <string>
+#include <vector>
 
 #include "gonio/base/error.h"
 
@@ -79,6 +80,33 @@ class Axis {
         return make_error("axis \"" + name() +
                           "\": its drive latches no exposure positions (no touch probe in its "
                           "register map): fly scans need one");
+    }
+
+    /// Fly scans with a hardware trigger: whether the drive has a position compare output (its
+    /// pulses wired to the camera's trigger input line).
+    virtual bool has_position_compare() const { return false; }
+    /// Writes the compare table (degrees, in the order the arm will pass them) and arms it: the
+    /// drive pulses as its encoder passes each in turn, counting the pulses from 0.
+    virtual Expected<void> arm_position_compare(const std::vector<double>& positions_deg) {
+        (void)positions_deg;
+        return no_compare();
+    }
+    /// Disarms the compare output (no further pulses).
+    virtual Expected<void> disarm_position_compare() { return no_compare(); }
+    /// Pulses sent since armed.
+    virtual Expected<std::size_t> compare_pulses() { return no_compare(); }
+    /// The touch probe's latches of pulse `index` (1-based): the positions (degrees) at the start
+    /// and at the end of the exposure it triggered.
+    virtual Expected<std::array<double, 2>> compare_latch_deg(std::size_t index) {
+        (void)index;
+        return no_compare();
+    }
+
+  private:
+    tl::unexpected<Error> no_compare() const {
+        return make_error("axis \"" + name() +
+                          "\": its drive has no position compare output (no position_compare in "
+                          "its register map)");
     }
 };
 

@@ -110,6 +110,22 @@ struct AlarmCodes {
     int deviation = 3;   ///< Excessive position deviation (stall).
 };
 
+/// Position compare (optional, fly scans; docs/profiles.md, "Position compare"): a table of
+/// counter positions; once armed, the drive sends a pulse on its compare output (wired to the
+/// camera's trigger input line) as its encoder passes each entry in turn, counts the pulses, and
+/// its touch probe latches each pulse's exposure (the camera's exposure-active line) into a table.
+struct PositionCompare {
+    RegisterField control;  ///< Write 1: arm (the count and latches reset), 0: disarm.
+    RegisterField count;    ///< Entries of the table in use.
+    RegisterField fired;    ///< Pulses sent since armed (the drive writes it).
+    RegisterField table;  ///< Entry k (steps, as `position`) at table.address + k * table.count().
+    /// Latch of pulse k (1-based) at latches.address + 2 (k - 1) * latches.count(): the position at
+    /// its exposure's start, then at its end.
+    RegisterField latches;
+    int entries = 0;  ///< Table size.
+    bool present() const { return control.present(); }
+};
+
 struct AxisProfile {
     std::string name;
     std::string description;
@@ -130,6 +146,7 @@ struct AxisProfile {
     /// edge of the camera's exposure-active line, steps (as `position`).
     RegisterField probe_start;
     RegisterField probe_end;
+    PositionCompare compare;
 
     Action move;
     Action home;

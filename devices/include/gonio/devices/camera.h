@@ -73,6 +73,13 @@ class Camera {
     virtual Expected<void> start_stream() = 0;
     virtual Expected<Frame> next_frame(std::chrono::milliseconds timeout) = 0;
     virtual Expected<void> stop_stream() = 0;
+    /// Fly scans with a hardware trigger: starts a stream of frames each exposed on a rising edge
+    /// of the trigger input `line` (GenICam TriggerMode On, TriggerSource `line`,
+    /// TriggerActivation RisingEdge); next_frame() returns them in order, stop_stream() ends it.
+    /// An error when the camera has no such input.
+    virtual Expected<void> start_line_stream(const std::string& line) {
+        return make_error("camera: no trigger input line \"" + line + "\" (TriggerSource)");
+    }
 };
 
 /// The light source and its shutter (dark frames are taken with the shutter closed).

@@ -64,6 +64,11 @@ class ModbusAxis : public Axis {
     Expected<AxisStatus> status() override;
     Expected<double> position_deg() override;
     Expected<std::array<double, 2>> exposure_latch_deg() override;
+    bool has_position_compare() const override { return profile_.compare.present(); }
+    Expected<void> arm_position_compare(const std::vector<double>& positions_deg) override;
+    Expected<void> disarm_position_compare() override;
+    Expected<std::size_t> compare_pulses() override;
+    Expected<std::array<double, 2>> compare_latch_deg(std::size_t index) override;
     Expected<void> stop() override;
     Expected<void> reset_alarm() override;
 

@@ -138,6 +138,23 @@ class GigeCamera {
     /// The stages' path during each exposure (fly scans): called with the exposure time after
     /// the scene is taken. Set it before the camera is used.
     void set_scene_path(ScenePathFn path) { scene_path_ = std::move(path); }
+    /// Line-triggered exposures (TriggerSource Line1): the scene at the exposure's start and its
+    /// path from there (RigWorld::scene_at, fill_path_at). Set them before the camera is used.
+    void set_line_scene(std::function<SceneState(Clock::time_point)> scene,
+                        std::function<void(Clock::time_point, double, SceneState*)> path) {
+        line_scene_ = std::move(scene);
+        line_path_ = std::move(path);
+    }
+    /// A pulse on the trigger input Line1, rising at `rising` and falling `width` later (the
+    /// instants the pulse happened, whenever it is delivered). With TriggerMode On and
+    /// TriggerSource Line1 during acquisition, an exposure starts at the edge TriggerActivation
+    /// names: `on_expose` is called with its start and length (seconds) before the frame is
+    /// queued, and true returned; otherwise the pulse is ignored.
+    bool line_pulse(Clock::time_point rising,
+                    Clock::duration width,
+                    const std::function<void(Clock::time_point, double)>& on_expose);
+    /// Line pulses that started an exposure.
+    std::uint64_t line_frames() const;
     /// Replaces the radiance renderer (an empty function restores the flat-patch default). Frames
     /// exposed from then on use it.
     void set_renderer(RadianceFn renderer);
@@ -200,6 +217,8 @@ class GigeCamera {
     std::shared_ptr<const brdf::Brdf> brdf_;
     SceneFn scene_;
     ScenePathFn scene_path_;
+    std::function<SceneState(Clock::time_point)> line_scene_;
+    std::function<void(Clock::time_point, double, SceneState*)> line_path_;
     RadianceFn renderer_;
     std::unique_ptr<State> state_;
     GigeFaults faults_;
@@ -221,8 +240,10 @@ inline constexpr std::uint32_t kPixelFormat = kFeatureBase + 0x18;
 inline constexpr std::uint32_t kExposureTicks = kFeatureBase + 0x1C;   ///< 100 ns ticks
 inline constexpr std::uint32_t kExposureTickNs = kFeatureBase + 0x20;  ///< RO: 100
 inline constexpr std::uint32_t kGainSelector = kFeatureBase + 0x24;
-inline constexpr std::uint32_t kGainTable = kFeatureBase + 0x28;       ///< [selector] 0.01 dB units
-inline constexpr std::uint32_t kTriggerControl = kFeatureBase + 0x30;  ///< StructReg
+inline constexpr std::uint32_t kGainTable = kFeatureBase + 0x28;  ///< [selector] 0.01 dB units
+/// StructReg: bit 0 TriggerMode, bits 15..8 TriggerSource (0 Software, 1 Line1), bits 23..16
+/// TriggerActivation (0 RisingEdge, 1 FallingEdge), bits 31..24 TriggerSelector (0 FrameStart).
+inline constexpr std::uint32_t kTriggerControl = kFeatureBase + 0x30;
 inline constexpr std::uint32_t kTriggerSoftware = kFeatureBase + 0x34;
 inline constexpr std::uint32_t kAcquisitionStart = kFeatureBase + 0x38;
 inline constexpr std::uint32_t kAcquisitionStop = kFeatureBase + 0x3C;

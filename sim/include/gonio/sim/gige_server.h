@@ -50,6 +50,8 @@ class GigeServer {
     std::string address() const;
     GigeServerStats stats() const;
     GigeCamera& camera() { return *camera_; }
+    /// Wakes the stream thread (a frame was queued other than through GVCP: a line trigger).
+    void wake();
 
   private:
     struct SentFrame;

@@ -83,6 +83,15 @@ class MotorControllerServer {
     /// Latches an exposure of `exposure_s` starting now in a unit's touch probe
     /// (MotorRegisters::latch_exposure).
     void latch_exposure(int unit, double exposure_s) const;
+    /// Position compare (MotorRegisters::take_pulses, path_deg_at, latch_pulse).
+    std::vector<ComparePulse> take_pulses(bool* armed = nullptr);
+    std::vector<double> path_deg_at(int unit,
+                                    std::chrono::steady_clock::time_point at,
+                                    const std::vector<double>& after_s) const;
+    void latch_pulse(int unit,
+                     std::size_t index,
+                     std::chrono::steady_clock::time_point at,
+                     double exposure_s) const;
     Expected<UnitSnapshot> snapshot(int unit) const;
     bool shutter_open(int unit) const;
 

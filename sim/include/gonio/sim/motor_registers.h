@@ -63,6 +63,14 @@ struct UnitSnapshot {
     bool shutter_open = false;
 };
 
+/// A pulse of a drive's position compare output: the `index`-th (1-based) since it was armed,
+/// sent at `at` (the instant the profile passes the table's entry, not when it is noticed).
+struct ComparePulse {
+    int unit = 0;
+    std::size_t index = 0;
+    std::chrono::steady_clock::time_point at;
+};
+
 /// What a transport does with one request.
 struct Reply {
     enum class Kind {
@@ -117,6 +125,23 @@ class MotorRegisters {
     void latch_exposure(int unit, double exposure_s) const;
     Expected<UnitSnapshot> snapshot(int unit) const;
     bool shutter_open(int unit) const;
+
+    /// Position compare: the pulses sent since the last call (by every armed drive, in order);
+    /// `*armed` (when given) says whether any drive's compare is armed.
+    std::vector<ComparePulse> take_pulses(bool* armed = nullptr);
+    /// A unit's load angles (degrees) `after_s[k]` simulated seconds (ascending) after the instant
+    /// `at` (past or future) along its last move (MotorSim::history_steps_at); NaN for an unknown
+    /// unit.
+    std::vector<double> path_deg_at(int unit,
+                                    std::chrono::steady_clock::time_point at,
+                                    const std::vector<double>& after_s) const;
+    /// The touch probe's latches of compare pulse `index` (1-based) of `unit`: the counter at `at`
+    /// and `exposure_s` simulated seconds later, into the latch table's entry and probe_start /
+    /// probe_end. Nothing for a unit without the registers or an index beyond the table.
+    void latch_pulse(int unit,
+                     std::size_t index,
+                     std::chrono::steady_clock::time_point at,
+                     double exposure_s) const;
     /// Requests received for `unit` (0 = all units), including ones answered with exceptions.
     std::uint64_t request_count(int unit = 0) const;
     /// Changes the time scale of every unit (applies from now on).

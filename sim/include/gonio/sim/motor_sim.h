@@ -88,7 +88,30 @@ class MotorSim {
     /// counter = physical motor position + this offset (steps).
     double counter_offset() const { return counter_offset_; }
 
+    /// The load positions (steps) at simulated times `t` (ascending, past or future) along the
+    /// last move started, as the profile ran it (cut where a fault or a limit stopped it);
+    /// `motor` receives the motor's. Before that move's start: where it started.
+    std::vector<double> history_steps_at(const std::vector<double>& t,
+                                         std::vector<double>* motor = nullptr) const;
+
+    /// Position compare: from simulated time `t` on, a pulse as the counter passes each of
+    /// `counter_steps` in turn (either direction). Replaces an earlier table; empty disarms.
+    void arm_compare(double t, std::vector<double> counter_steps);
+    /// The simulated times of the pulses sent so far and of those the move under way will send
+    /// (in order); pulses_fired(t) counts those at or before t.
+    const std::vector<double>& compare_times() const { return compare_times_; }
+    std::size_t pulses_fired(double t) const;
+
   private:
+    /// Records the phases just planned as the move's history (and reschedules the compare).
+    void begin_history(double t);
+    /// Where the history's move was cut at simulated time t (fault, limit switch).
+    void cut_history(double t);
+    double history_motor_at(double t) const;
+    /// The first time >= t0 at which the history's motor passes `p` (steps); +inf when never.
+    double history_crossing(double t0, double p) const;
+    void schedule_compare(double t);
+
     void apply_backlash(double motor);
     double position_at(double t, double* velocity) const;
 
@@ -111,6 +134,18 @@ class MotorSim {
     enum class Armed { kNone, kAlarm, kStall } armed_ = Armed::kNone;
     double armed_fraction_ = 0.5;
     int armed_code_ = 0;
+    // The last move's history: its phases from its start (load and motor there).
+    std::vector<MotionPhase> hist_phases_;
+    double hist_t0_ = 0;
+    double hist_motor0_ = 0;
+    double hist_load0_ = 0;
+    double hist_end_ = 0;
+    double hist_cut_t_ = 0;
+    bool hist_cut_ = false;
+    // Position compare.
+    std::vector<double> compare_steps_;  ///< Motor positions (physical steps) of the table.
+    std::vector<double> compare_times_;
+    double compare_armed_t_ = 0;
     std::mt19937_64 rng_;
     std::normal_distribution<double> noise_{0.0, 1.0};
 };

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -70,6 +71,13 @@ class RigWorld {
     /// changer coil is on.
     SceneState scene() const;
     SceneFn scene_fn() const;
+    /// The state at the instant `at` (past or future): the stages where their profiles had them
+    /// then (the line-triggered exposure of a compare pulse); the coils as they are now.
+    SceneState scene_at(std::chrono::steady_clock::time_point at) const;
+    /// fill_path for an exposure starting at `at`; the drives' touch probes latch its edges.
+    void fill_path_at(std::chrono::steady_clock::time_point at,
+                      double exposure_s,
+                      SceneState* scene) const;
     /// Point mode, fly scans: when a stage moves during an exposure of `exposure_s` that starts
     /// now, fills scene->path with the directions along the stages' trajectory (their profiles as
     /// the drives run them, sampled by composite Gauss-Legendre quadrature in time: pieces of at
@@ -95,6 +103,11 @@ class RigWorld {
     const InstrumentErrors* instrument() const { return instrument_.get(); }
 
   private:
+    using UnitPathFn = std::function<std::vector<double>(int unit, const std::vector<double>&)>;
+    /// The scene of the stages at pose `p` (degrees read from the drives, as radians).
+    SceneState scene_of(const brdf::RigPosed& p) const;
+    /// fill_path's quadrature with the stages' angles from `path` (seconds after the start).
+    void fill_path_along(double exposure_s, const UnitPathFn& path, SceneState* scene) const;
     /// Counts the moves of each arm (a new encoder reading since the last exposure is a move).
     std::array<std::uint64_t, 2> arm_moves(double light_rad, double detector_rad) const;
     /// The directions (wi, wo) of a pose, through the instrument's errors when it has them.

@@ -5,16 +5,19 @@
 // simulated camera (a GigE Vision device on loopback) rendering the mounted BRDF under
 // the rig's geometry, and the world that ties them. It reads the same rig description as
 // acquisition (data/rigs/*.json: axes with role, unit, profile; shutter; reference_changer;
-// filter_wheel: one coil per colour filter) plus its "sim" section:
+// filter_wheel: one coil per colour filter) plus its "sim" section; each drive's position compare
+// output is wired to the camera's trigger input Line1:
 //   "sim": {"material": "red-plastic" | "brdf": "model.json", "time_scale": 20,
 //           "sensor": {"width": 640, "height": 512}, "irradiance_w_m2": 1, "seed": 1,
 //           "initial_deg": {"light": 0, "detector": 45}}
 // and its "error_budget" (brdf/rig_error_budget.h), from which the virtual instrument draws its
 // errors (instrument_errors.h); absent, the reference profile.
 
+#include <atomic>
 #include <memory>
 #include <optional>
 #include <string>
+#include <thread>
 
 #include "gonio/base/error.h"
 #include "gonio/brdf/rig_error_budget.h"
@@ -70,6 +73,13 @@ class SimRig {
 
   private:
     SimRig() = default;
+    /// The wire from the drives' position compare outputs to the camera's trigger input Line1:
+    /// delivers each pulse with the instant it happened (the exposure starts then, whenever this
+    /// thread gets to run); the pulse's drive latches the exposure's edges.
+    void wire_loop();
+    std::thread wire_;
+    std::atomic<bool> wire_stop_{false};
+    double time_scale_ = 1;
     std::unique_ptr<MotorControllerServer> motors_;
     std::shared_ptr<MountedBrdf> mounted_;
     std::shared_ptr<const brdf::Brdf> sample_;
