@@ -429,8 +429,9 @@ void add_run_options(CLI::App* cmd, acq::CampaignRequest& r) {
         r.fly,
         "point mode: fly scans: the arms measure while moving, one arm sweeping at "
         "constant speed through each run of configurations it reaches alone, each value "
-        "the mean over its exposure's path (kept by --resume; not with image mode or a colour "
-        "filter changer)");
+        "the mean over its exposure's path, triggered by the drives' position compare (kept by "
+        "--resume; not with image mode or a colour filter changer whose arms trigger by "
+        "polling)");
     cmd->add_option("--fly-smear",
                     r.fly_smear_deg,
                     "fly scans: the largest arc one exposure may span, degrees (default 1); the "

@@ -76,11 +76,16 @@ inline std::array<double, 4> pose_deg(const RigPosed& p) {
     return {p.light / kDeg, p.detector / kDeg, p.tilt / kDeg, p.spin / kDeg};
 }
 
-/// Why fly scans refuse a rig with a colour filter changer.
+/// Why fly scans refuse a rig with a colour filter changer whose arms trigger by polling.
 inline constexpr const char* kFlyColourRule =
-    "fly scans need a monochrome detector: behind a colour filter changer each colour would be "
-    "exposed on a path of its own, and a dataset row holds one path (use a rig without "
-    "\"filter_wheel\", e.g. data/rigs/sim4-mono.json, or measure standing)";
+    "fly scans behind a colour filter changer need the arms' position compare (one sweep per "
+    "filter, each frame triggered at the same encoder position, so that the three colours share "
+    "one path): this rig's arm axes say \"position_compare\": false (use a rig whose arms have "
+    "it, e.g. data/rigs/sim4.json, or one without \"filter_wheel\", or measure standing)";
+
+/// Largest difference between the latched paths of one configuration's colour frames that still
+/// counts as one path: five steps of the finest shipped profile (1000 steps/deg).
+inline constexpr double kColourPathToleranceDeg = 0.005;
 
 /// The vndf plan's second pass from the retro-reflection measurements among `records`.
 Expected<VndfLayout> vndf_pass_from_records(const std::vector<JournalRecord>& records,
@@ -236,7 +241,19 @@ class Runner {
                                        const PlannedConfig& c,
                                        const Sweep& sw,
                                        const RigPosed& stood,
-                                       const FlyFrame& f);
+                                       const std::vector<const FlyFrame*>& f);
+    /// How the sweeps of arm `axis` are triggered: the rig's axes[].position_compare, else
+    /// whether the drive has one.
+    SweepTrigger sweep_trigger(int axis) const;
+    /// The sweep from its lead-in (where the arm stands at pose `stood`), once per colour filter
+    /// behind a filter changer (the arm back at the lead-in between), else once; all at one
+    /// exposure, carried to the next sweep as its brightest colour's level.
+    Expected<std::vector<SweepFrames>> sweep_filters(const Sweep& sw,
+                                                     const RigPosed& stood,
+                                                     const std::vector<double>& targets_deg);
+    /// The frames of member k of each filter's sweep (empty when some filter missed it).
+    static std::vector<const FlyFrame*> member_frames(const std::vector<SweepFrames>& per_filter,
+                                                      std::size_t k);
 
     std::string dir_;
     RigDevices& dev_;

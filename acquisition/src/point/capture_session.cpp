@@ -57,6 +57,7 @@ Expected<devices::Frame> CaptureSession::grab(double exposure_us) {
         return f;
     }
     ++frames_taken_;
+    last_frame_id_ = f->frame_id;
     // Rig time: the exposure the camera reports it used (else the one asked for).
     exposure_s_taken_ += (f->exposure_us > 0 ? f->exposure_us : exposure_us) * 1e-6;
     // Beyond the linear range (full well) a pixel is as good as clipped.
@@ -78,11 +79,30 @@ Expected<void> CaptureSession::set_moving_exposure(double exposure_us) {
 }
 
 Expected<devices::Frame> CaptureSession::grab_moving() {
-    auto f = camera_->capture(
-        std::chrono::milliseconds(cfg_.timeout_ms + static_cast<int>(moving_exposure_us_ / 1000)));
+    return moving_frame(camera_->capture(
+        std::chrono::milliseconds(cfg_.timeout_ms + static_cast<int>(moving_exposure_us_ / 1000))));
+}
+
+Expected<void> CaptureSession::start_line_frames(const std::string& line) {
+    if (auto r = shutter_->set_shutter_open(true); !r) {
+        return r;
+    }
+    return camera_->start_line_stream(line);
+}
+
+Expected<devices::Frame> CaptureSession::next_line_frame(std::chrono::milliseconds timeout) {
+    return moving_frame(camera_->next_frame(timeout));
+}
+
+Expected<void> CaptureSession::stop_line_frames() {
+    return camera_->stop_stream();
+}
+
+Expected<devices::Frame> CaptureSession::moving_frame(Expected<devices::Frame> f) {
     if (!f) {
         return f;
     }
+    last_frame_id_ = f->frame_id;
     ++moving_frames_;
     if (!(f->exposure_us > 0)) {
         f->exposure_us = moving_exposure_us_;

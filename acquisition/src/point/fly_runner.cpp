@@ -16,18 +16,22 @@ FlyLimits Runner::fly_limits() const {
 
 namespace {
 
-/// Motion time of the units from `start`: the moves into each, the sweeps' trapezoids.
+/// Motion time of the units from `start`: the moves into each, the sweeps' trapezoids, each
+/// sweep run once per colour filter (`filters`) with the arm back at its lead-in in between.
 double fly_motion_s(const std::vector<FlyUnit>& units,
                     const RigPosed& start,
-                    const std::array<AxisDynamics, kNumAxes>& dyn) {
+                    const std::array<AxisDynamics, kNumAxes>& dyn,
+                    int filters) {
     double t = 0;
     RigPosed at = start;
     for (const FlyUnit& u : units) {
         t += move_time(at, u.sweep.stand, dyn);
         at = u.sweep.stand;
         if (!u.standing) {
-            t += trapezoid_time(
-                std::abs(u.sweep.to - u.sweep.from), u.sweep.speed, dyn[u.sweep.axis].accel);
+            const double d = std::abs(u.sweep.to - u.sweep.from);
+            const AxisDynamics& a = dyn[u.sweep.axis];
+            t += filters * trapezoid_time(d, u.sweep.speed, a.accel) +
+                 (filters - 1) * trapezoid_time(d, a.speed, a.accel);
             set_axis_angle(&at, u.sweep.axis, u.sweep.to);
         }
     }
@@ -48,7 +52,7 @@ std::optional<Expected<RunResult>> Runner::measure_fly_pass(
         sweeps += !u.standing;
         swept += u.standing ? 0 : u.sweep.members.size();
     }
-    const double planned_s = fly_motion_s(units, current_, dyn_);
+    const double planned_s = fly_motion_s(units, current_, dyn_, dev_.filter_wheel ? 3 : 1);
     say("pass " + std::to_string(pass) + ": " + std::to_string(pending.size()) +
         " to measure; fly scans: " + std::to_string(sweeps) + " sweeps through " +
         std::to_string(swept) + " configurations, " + std::to_string(pending.size() - swept) +
@@ -119,25 +123,47 @@ Expected<RigPosed> Runner::start_sweep(int pass,
     return read_pose();
 }
 
-Expected<JournalRecord> Runner::fly_record(
-    int pass, const PlannedConfig& c, const Sweep& sw, const RigPosed& stood, const FlyFrame& f) {
-    const double a0 = f.latch_deg[0] * kDeg;
-    const double a1 = f.latch_deg[1] * kDeg;
+Expected<JournalRecord> Runner::fly_record(int pass,
+                                           const PlannedConfig& c,
+                                           const Sweep& sw,
+                                           const RigPosed& stood,
+                                           const std::vector<const FlyFrame*>& f) {
+    const double a0 = f[0]->latch_deg[0] * kDeg;
+    const double a1 = f[0]->latch_deg[1] * kDeg;
     const double lo = std::min(sw.from, sw.to);
     const double hi = std::max(sw.from, sw.to);
     if (!(std::isfinite(a0) && std::isfinite(a1) && std::min(a0, a1) >= lo - 1e-3 &&
           std::max(a0, a1) <= hi + 1e-3)) {
-        return make_error("the drive latched the exposure at " + std::to_string(f.latch_deg[0]) +
-                          " .. " + std::to_string(f.latch_deg[1]) +
-                          " deg, outside the sweep: measured standing");
+        return make_error(
+            "the drive latched the exposure at " + std::to_string(f[0]->latch_deg[0]) + " .. " +
+            std::to_string(f[0]->latch_deg[1]) + " deg, outside the sweep: measured standing");
     }
-    auto rate = session_->rate_of(f.frame);
-    if (!rate) {
-        return tl::unexpected(rate.error());
-    }
-    if (rate->saturated) {
-        ++fly_saturated_;
-        return make_error("saturated at the sweep's exposure: measured standing (HDR)");
+    SignalRate rate;
+    for (std::size_t q = 0; q < f.size(); ++q) {
+        for (int e = 0; e < 2; ++e) {
+            if (!(std::abs(f[q]->latch_deg[e] - f[0]->latch_deg[e]) <= kColourPathToleranceDeg)) {
+                return make_error(
+                    "the colours' exposures were latched on different paths: "
+                    "measured standing");
+            }
+        }
+        auto r = session_->rate_of(f[q]->frame);
+        if (!r) {
+            return tl::unexpected(r.error());
+        }
+        if (r->saturated) {
+            ++fly_saturated_;
+            return make_error("saturated at the sweep's exposure: measured standing (HDR)");
+        }
+        // Behind filter q its colour (a monochrome rig: the one frame's value in all three).
+        for (std::size_t ch = 0; ch < 3; ++ch) {
+            if (f.size() == 1 || ch == q) {
+                rate.rate[ch] = r->rate[ch];
+                rate.sigma[ch] = r->sigma[ch];
+            }
+        }
+        rate.exposure_us = std::max(rate.exposure_us, r->exposure_us);
+        rate.pixels = q == 0 ? r->pixels : std::min(rate.pixels, r->pixels);
     }
     RigPosed p0 = stood, p1 = stood, mid = stood;
     set_axis_angle(&p0, sw.axis, a0);
@@ -145,9 +171,9 @@ Expected<JournalRecord> Runner::fly_record(
     set_axis_angle(&mid, sw.axis, 0.5 * (a0 + a1));
     Shot s;
     s.pose = mid;
-    s.rate = *rate;
+    s.rate = rate;
     std::tie(s.wi, s.wo) = brdf::rig_forward(mid);
-    auto v = rate_to_brdf(white_, rate->rate, rate->sigma, s.wi.z());
+    auto v = rate_to_brdf(white_, rate.rate, rate.sigma, s.wi.z());
     if (!v) {
         return tl::unexpected(v.error());
     }
@@ -160,6 +186,67 @@ Expected<JournalRecord> Runner::fly_record(
     r.path_start_deg = pose_deg(p0);
     r.path_end_deg = pose_deg(p1);
     return r;
+}
+
+SweepTrigger Runner::sweep_trigger(int axis) const {
+    const std::optional<bool>& pc = rig_.axes[axis].position_compare;
+    const bool hardware = pc ? *pc : dev_.axes[axis]->has_position_compare();
+    return hardware ? SweepTrigger::kPositionCompare : SweepTrigger::kPolled;
+}
+
+Expected<std::vector<SweepFrames>> Runner::sweep_filters(const Sweep& sw,
+                                                         const RigPosed& stood,
+                                                         const std::vector<double>& targets_deg) {
+    const int filters = dev_.filter_wheel ? 3 : 1;
+    std::vector<SweepFrames> out;
+    double next_us = std::numeric_limits<double>::infinity();
+    for (int c = 0; c < filters; ++c) {
+        if (dev_.filter_wheel) {
+            if (c > 0) {
+                if (auto m = move_to(stood); !m) {
+                    return tl::unexpected(m.error());
+                }
+            }
+            if (auto f = dev_.filter_wheel->set_filter(c); !f) {
+                return tl::unexpected(f.error());
+            }
+        }
+        double exposure_us = fly_exposure_us_;
+        auto frames = run_sweep(*dev_.axes[sw.axis],
+                                *session_,
+                                sw,
+                                targets_deg,
+                                &exposure_us,
+                                std::chrono::milliseconds(rig_.move_timeout_ms),
+                                sweep_trigger(sw.axis));
+        if (!frames) {
+            return tl::unexpected(frames.error());
+        }
+        clock_->sweep(sw.axis, sw.to - sw.from, sw.speed);
+        current_ = stood;
+        set_axis_angle(&current_, sw.axis, sw.to);
+        next_us = std::min(next_us, exposure_us);
+        out.push_back(std::move(*frames));
+    }
+    fly_exposure_us_ = next_us;
+    return out;
+}
+
+std::vector<const FlyFrame*> Runner::member_frames(const std::vector<SweepFrames>& per_filter,
+                                                   std::size_t k) {
+    std::vector<const FlyFrame*> out;
+    for (const SweepFrames& sf : per_filter) {
+        for (const FlyFrame& f : sf.frames) {
+            if (f.member == k) {
+                out.push_back(&f);
+                break;
+            }
+        }
+    }
+    if (out.size() != per_filter.size()) {
+        out.clear();
+    }
+    return out;
 }
 
 std::optional<Expected<RunResult>> Runner::fly_sweep(
@@ -178,14 +265,8 @@ std::optional<Expected<RunResult>> Runner::fly_sweep(
     if (fly_exposure_us_ <= 0) {
         fly_exposure_us_ = sw.max_exposure_s * 1e6 / 8;
     }
-    Expected<SweepFrames> frames = stood
-                                       ? run_sweep(*dev_.axes[sw.axis],
-                                                   *session_,
-                                                   sw,
-                                                   targets_deg,
-                                                   &fly_exposure_us_,
-                                                   std::chrono::milliseconds(rig_.move_timeout_ms))
-                                       : Expected<SweepFrames>(tl::unexpected(stood.error()));
+    auto frames = stood ? sweep_filters(sw, *stood, targets_deg)
+                        : Expected<std::vector<SweepFrames>>(tl::unexpected(stood.error()));
     ++result_.sweeps;
     if (!frames) {
         // The standing measurements that follow retry, wait out outages or pause.
@@ -197,15 +278,14 @@ std::optional<Expected<RunResult>> Runner::fly_sweep(
         *standing = sw.members;
         return std::nullopt;
     }
-    clock_->sweep(sw.axis, sw.to - sw.from, sw.speed);
-    current_ = *stood;
-    set_axis_angle(&current_, sw.axis, sw.to);
-    for (std::size_t k : frames->missed) {
-        ++fly_missed_;
-        standing->push_back(sw.members[k]);
-    }
-    for (const FlyFrame& f : frames->frames) {
-        const std::size_t i = sw.members[f.member];
+    for (std::size_t k = 0; k < sw.members.size(); ++k) {
+        const std::size_t i = sw.members[k];
+        const std::vector<const FlyFrame*> f = member_frames(*frames, k);
+        if (f.empty()) {
+            ++fly_missed_;
+            standing->push_back(i);
+            continue;
+        }
         auto r = fly_record(pass, *pending[i], sw, *stood, f);
         if (!r) {
             standing->push_back(i);

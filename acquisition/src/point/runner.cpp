@@ -21,8 +21,19 @@ Expected<Plan> Runner::load_campaign() {
     lim_ = rig_limits(rig_);
     dyn_ = rig_dynamics(rig_);
     clock_.emplace(dyn_, rig_.camera_readout_ms / 1000.0);
-    if (spec_.fly.enabled && dev_.filter_wheel) {
-        return make_error(kFlyColourRule);
+    if (spec_.fly.enabled) {
+        for (AxisRole arm : {AxisRole::kLight, AxisRole::kDetector}) {
+            const int a = static_cast<int>(arm);
+            if (rig_.axes[a].position_compare.value_or(false) &&
+                !dev_.axes[a]->has_position_compare()) {
+                return make_error("rig axis \"" + rig_.axes[a].name +
+                                  "\" says \"position_compare\": true, but its drive's register "
+                                  "map has no position compare");
+            }
+            if (dev_.filter_wheel && sweep_trigger(a) == SweepTrigger::kPolled) {
+                return make_error(kFlyColourRule);
+            }
+        }
     }
     if (!spec_.until.empty()) {
         auto rule = parse_stop_rule(spec_.until);

@@ -13,6 +13,7 @@
 #include "gonio/base/data_path.h"
 #include "gonio/base/limits.h"
 #include "gonio/base/strict_json.h"
+#include "gonio/devices/axis_profile.h"
 
 namespace gonio::acquisition {
 
@@ -958,6 +959,39 @@ Expected<void> check_table_factor(const CampaignRequest& r) {
     return {};
 }
 
+namespace {
+
+/// Fly scans on `rig`: an arm that claims a position compare its drive lacks, or a colour filter
+/// changer with an arm that triggers by polling (its colours would each be exposed on a path of
+/// their own).
+std::optional<RequestConflict> fly_rig_conflict(const RigConfig& rig) {
+    for (AxisRole arm : {AxisRole::kLight, AxisRole::kDetector}) {
+        const AxisConfig& ax = rig.axes[static_cast<int>(arm)];
+        auto profile = devices::load_axis_profile(ax.profile);
+        const bool has = profile && profile->compare.present();
+        if (ax.position_compare.value_or(false) && !has) {
+            return RequestConflict{"fly",
+                                   "rig_path",
+                                   "rig " + rig.name + ": axis \"" + ax.name +
+                                       "\" says \"position_compare\": true, but its profile " +
+                                       ax.profile + " has no position compare registers"};
+        }
+        if (rig.filter_wheel && !ax.position_compare.value_or(has)) {
+            return RequestConflict{"fly",
+                                   "rig_path",
+                                   "fly scans behind rig " + rig.name +
+                                       "'s colour filter changer (\"filter_wheel\") need the "
+                                       "arms' position compare, and axis \"" +
+                                       ax.name +
+                                       "\" triggers by polling (\"position_compare\": false): "
+                                       "each colour would be exposed on a path of its own"};
+        }
+    }
+    return std::nullopt;
+}
+
+}  // namespace
+
 std::optional<RequestConflict> find_rig_conflict(const CampaignRequest& r) {
     if (r.mode == CampaignMode::kPoint) {
         // Fly scans (asked for here or in the campaign's description) on the rig it runs on.
@@ -969,16 +1003,7 @@ std::optional<RequestConflict> find_rig_conflict(const CampaignRequest& r) {
             return std::nullopt;
         }
         auto rig = read_rig_config(spec->rig);
-        if (rig && rig->filter_wheel) {
-            return RequestConflict{"fly",
-                                   "rig_path",
-                                   "fly scans need a monochrome detector; rig " + rig->name +
-                                       " has a colour filter changer (\"filter_wheel\"), whose "
-                                       "colours would each be exposed on a path of their own "
-                                       "(give a rig without one, e.g. --rig "
-                                       "data/rigs/sim4-mono.json)"};
-        }
-        return std::nullopt;
+        return rig ? fly_rig_conflict(*rig) : std::nullopt;
     }
     if (r.mode != CampaignMode::kImage || !r.resume_dir.empty() ||
         (r.camera_px <= 0 && r.max_theta_deg <= 0 && !r.no_zoom)) {

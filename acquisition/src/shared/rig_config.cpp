@@ -140,7 +140,8 @@ void check_rig_keys(const json& j) {
                                                 "limits_deg",
                                                 "speed_deg_per_s",
                                                 "accel_deg_per_s2",
-                                                "settle_ms"};
+                                                "settle_ms",
+                                                "position_compare"};
     auto check = [](const json& obj, const std::string& path, const std::set<std::string>& keys) {
         check_json_keys(obj, path, std::vector<std::string>(keys.begin(), keys.end()));
     };
@@ -209,6 +210,12 @@ Expected<void> parse_axis(
     if (!(ax.motion.speed_deg_per_s > 0) || !(ax.motion.accel_deg_per_s2 > 0) ||
         !(ax.motion.settle_ms >= 0)) {
         return make_error(source + ": " + at + ": speed and acceleration must be > 0, settle >= 0");
+    }
+    if (a.contains("position_compare")) {
+        if (!a.at("position_compare").is_boolean()) {
+            return make_error(source + ": " + at + ".position_compare: expected true or false");
+        }
+        ax.position_compare = a.at("position_compare").get<bool>();
     }
     return {};
 }

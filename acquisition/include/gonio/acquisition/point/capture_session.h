@@ -33,6 +33,14 @@ class CaptureSession {
     /// exposure and readout overlap the sweep's motion: counted in moving_frames(), not in
     /// frames_taken() or exposure_s_taken().
     Expected<devices::Frame> grab_moving();
+    /// Fly scans with a hardware trigger: frames exposed on each pulse of the camera's trigger
+    /// input `line` (at the exposure set by set_moving_exposure, shutter open), taken in order
+    /// with next_line_frame() (counted as grab_moving's) until stop_line_frames().
+    Expected<void> start_line_frames(const std::string& line);
+    Expected<devices::Frame> next_line_frame(std::chrono::milliseconds timeout);
+    Expected<void> stop_line_frames();
+    /// The camera's id of the last frame taken (0 before the first).
+    std::uint64_t last_frame_id() const { return last_frame_id_; }
     /// Fly scans: the ROI's level of a frame (black subtracted), for the next frame's exposure.
     Expected<RoiStats> level_of(const devices::Frame& f) const;
     /// Fly scans: the calibrated signal rate of one frame, its dark frame taken (shutter closed,
@@ -59,6 +67,8 @@ class CaptureSession {
 
   private:
     Expected<devices::Frame> grab(double exposure_us);
+    /// grab_moving's accounting of a frame taken while an arm moved.
+    Expected<devices::Frame> moving_frame(Expected<devices::Frame> f);
     Expected<cv::Mat> dark_for(double exposure_us);
     struct Shot {
         devices::Frame frame;
@@ -80,6 +90,7 @@ class CaptureSession {
     double moving_exposure_us_ = 0;
     std::size_t moving_frames_ = 0;
     double moving_exposure_s_ = 0;
+    std::uint64_t last_frame_id_ = 0;
     std::function<void(const devices::Frame&)> frame_observer_;
 };
 

@@ -28,6 +28,10 @@ struct AxisConfig {
     std::string profile = "generic";
     devices::SoftLimits limits;
     devices::Motion motion;
+    /// Fly scans: whether the drive's position compare output is wired to the camera's trigger
+    /// input Line1 ("position_compare"; absent: whether the profile has the registers). false:
+    /// the host polls the encoder and triggers in software.
+    std::optional<bool> position_compare;
 };
 
 /// A Modbus coil that switches something (the lamp shutter, the reference changer).
