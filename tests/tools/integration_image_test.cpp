@@ -44,14 +44,48 @@ brdf::ModelD truth_model() {
 
 constexpr std::uint64_t kSeed = 4242;
 
+/// The text of a shipped rig file, data/rigs/`name`.
+std::string shipped_image_rig_text(const std::string& name) {
+    std::ifstream in(std::string(GONIO_SOURCE_DIR) + "/data/rigs/" + name);
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
+}
+
+// The shipped image rigs run with the reference error budget (docs/error-budget.md), as the
+// point rig does; a quiet rig is a rig file naming "quiet".
+TEST(ImageRigFiles, ShippedImageRigsNameTheReferenceBudget) {
+    for (const char* name : {"sim-image.json", "sim-image-zoom.json", "sim-image-5mp.json"}) {
+        auto rig = acquisition::parse_rig_config(shipped_image_rig_text(name), name);
+        ASSERT_TRUE(rig) << rig.error().message;
+        EXPECT_EQ(rig->error_budget.profile, "reference") << name;
+        EXPECT_EQ(rig->error_budget.lamp_fluctuation,
+                  brdf::reference_error_budget().lamp_fluctuation)
+            << name;
+    }
+}
+
+/// The fixture below compares the bins with the truth and with point measurements at the
+/// detector's noise, and states the bins' standard errors: it runs data/rigs/sim-image.json as a
+/// quiet rig (no instrument term; ImageBudgetTest below runs it as shipped).
+std::string quiet_image_rig_json() {
+    nlohmann::json j = nlohmann::json::parse(shipped_image_rig_text("sim-image.json"));
+    j["error_budget"] = "quiet";
+    return j.dump(2);
+}
+
 class ImageCampaignTest : public ::testing::Test {
   protected:
     static void SetUpTestSuite() {
         truth_ = new std::shared_ptr<const brdf::Brdf>(brdf::make_analytic_brdf(truth_model()));
-        const std::string model =
-            std::string(GONIO_BINARY_DIR) + "/image_truth_" + std::to_string(::getpid()) + ".json";
+        const std::string stem =
+            std::string(GONIO_BINARY_DIR) + "/image_" + std::to_string(::getpid());
+        const std::string model = stem + "_truth.json";
+        const std::string quiet_rig = stem + "_quiet_rig.json";
         std::ofstream(model) << brdf::model_to_json(truth_model());
+        std::ofstream(quiet_rig) << quiet_image_rig_json();
         acquisition::ImageRigOptions o;
+        o.rig_path = quiet_rig;
         o.brdf_path = model;
         o.image_size = 200;
         o.supersample = 1;
@@ -59,6 +93,7 @@ class ImageCampaignTest : public ::testing::Test {
         o.time_scale = 200;
         auto rig = acquisition::start_image_rig(o, embedded_rig_starter());
         std::filesystem::remove(model);
+        std::filesystem::remove(quiet_rig);
         if (!rig) {
             error_ = new std::string(rig.error().message);
             return;
@@ -279,8 +314,8 @@ TEST_F(ImageCampaignTest, FitOfTheDatasetRecoversTheMaterial) {
     }
 }
 
-// The shipped image rig names the quiet profile: the dataset's sigmas are the bins' standard
-// errors, to the bit; the reference budget on the same bins states more for every value.
+// A rig file naming the quiet profile: the dataset's sigmas are the bins' standard errors, to
+// the bit; the reference budget on the same bins states more for every value.
 TEST_F(ImageCampaignTest, QuietRigStatesTheStandardErrors) {
     EXPECT_EQ(config_->error_budget.profile, "quiet");
     const brdf::Dataset stated = acquisition::image_campaign_dataset(*result_, *config_);
@@ -890,12 +925,10 @@ brdf::ModelD budget_truth() {
 
 constexpr std::uint64_t kBudgetSeed = 606;
 
-/// data/rigs/sim-image.json without its "error_budget": the reference profile, the default.
+/// data/rigs/sim-image.json without its "error_budget": the reference profile, the default (the
+/// shipped file names it; ImageRigFiles above).
 std::string reference_rig_json() {
-    std::ifstream in(std::string(GONIO_SOURCE_DIR) + "/data/rigs/sim-image.json");
-    std::stringstream text;
-    text << in.rdbuf();
-    nlohmann::json j = nlohmann::json::parse(text.str());
+    nlohmann::json j = nlohmann::json::parse(shipped_image_rig_text("sim-image.json"));
     j.erase("error_budget");
     return j.dump(2);
 }

@@ -89,13 +89,28 @@ acquisition::ImageCampaignConfig zoom_config_of(const ZoomCampaign& o,
     return cfg;
 }
 
+/// sim-image-zoom.json as a quiet rig (no instrument term), written into `dir`: the test below
+/// compares the wide-only campaign's choices with the zoomed one's frame by frame and the bins with
+/// the truth at their standard errors, which the reference budget's fresh draws per exposure and
+/// per move would blur.
+std::string write_quiet_zoom_rig(const std::string& dir) {
+    std::ifstream in(zoom_rig());
+    nlohmann::json j = nlohmann::json::parse(in);
+    j["error_budget"] = "quiet";
+    const std::string path = dir + "/quiet-rig.json";
+    std::ofstream(path) << j.dump(2);
+    return path;
+}
+
 TEST(ImageZoom, ZoomedPlacementsFillBinsTheWideViewCannot) {
     const std::string dir = zoom_dir("coverage");
     const std::string model = write_truth(dir);
+    const std::string quiet_rig = write_quiet_zoom_rig(dir);
     const auto f = truth();
 
     // The wide view alone.
     ZoomCampaign wide = campaign(model, 5);
+    wide.rig.rig_path = quiet_rig;
     wide.zoom = false;
     double wide_coverage = 0;
     {
@@ -115,6 +130,7 @@ TEST(ImageZoom, ZoomedPlacementsFillBinsTheWideViewCannot) {
 
     // With the zoomed placements, journaled (the journal tells which frame filled which bin).
     ZoomCampaign zoom = campaign(model, 5);
+    zoom.rig.rig_path = quiet_rig;
     const std::string journal = dir + "/frames.journal";
     auto rig = acquisition::start_image_rig(zoom.rig, embedded_rig_starter());
     ASSERT_TRUE(rig) << rig.error().message;
