@@ -1435,20 +1435,7 @@ Expected<void> AravisCamera::start_stream() {
             return r;
         }
     }
-    if (!d.exposure_known) {
-        if (auto e = exposure_us()) {
-            d.exposure_us = *e;
-            d.exposure_known = true;
-        }
-    }
-    if (d.stream != nullptr) {
-        d.drain();
-    }
-    if (auto r = d.start_acquisition(); !r) {
-        return r;
-    }
-    d.streaming = true;
-    return {};
+    return begin_streaming(0);
 }
 
 Expected<void> AravisCamera::start_line_stream(const std::string& line) {
@@ -1473,6 +1460,11 @@ Expected<void> AravisCamera::start_line_stream(const std::string& line) {
             }
         }
     }
+    return begin_streaming(kLineStreamBuffers);
+}
+
+Expected<void> AravisCamera::begin_streaming(int min_buffers) {
+    auto& d = *impl_;
     if (!d.exposure_known) {
         if (auto e = exposure_us()) {
             d.exposure_us = *e;
@@ -1485,7 +1477,7 @@ Expected<void> AravisCamera::start_line_stream(const std::string& line) {
     if (auto r = d.start_acquisition(); !r) {
         return r;
     }
-    d.reserve_buffers(kLineStreamBuffers);
+    d.reserve_buffers(min_buffers);
     d.streaming = true;
     return {};
 }

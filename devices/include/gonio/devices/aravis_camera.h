@@ -124,6 +124,9 @@ class AravisCamera : public Camera {
 
   private:
     explicit AravisCamera(std::unique_ptr<Impl> impl);
+    /// The configured stream's start: the exposure known, stale frames drained, acquisition
+    /// started with at least `min_buffers` buffers queued, and the camera marked streaming.
+    Expected<void> begin_streaming(int min_buffers);
     std::unique_ptr<Impl> impl_;
 };
 
