@@ -74,6 +74,22 @@ void add_table_budget(const brdf::RigErrorBudget& budget,
     add_error_budget(budget, hours_since_white, slopes, &d->samples);
 }
 
+/// The table's dataset with the budget's terms in every sigma, its bins in a grid of `dims`.
+template <typename Table, std::size_t N>
+brdf::Dataset table_stated_dataset(const Table& table,
+                                   const std::array<int, N>& dims,
+                                   bool isotropic,
+                                   const std::string& source,
+                                   std::uint32_t min_count,
+                                   bool hdr,
+                                   const brdf::RigErrorBudget& budget,
+                                   double hours_since_white) {
+    std::vector<std::size_t> bins;
+    brdf::Dataset d = table.to_dataset(source, min_count, hdr, &bins);
+    add_table_budget(budget, hours_since_white, bins, dims, isotropic, &d);
+    return d;
+}
+
 }  // namespace
 
 brdf::Dataset stated_dataset(const BinnedTable& table,
@@ -82,16 +98,15 @@ brdf::Dataset stated_dataset(const BinnedTable& table,
                              bool hdr,
                              const brdf::RigErrorBudget& budget,
                              double hours_since_white) {
-    std::vector<std::size_t> bins;
-    brdf::Dataset d = table.to_dataset(source, min_count, hdr, &bins);
     const TableLayout& l = table.layout();
-    add_table_budget(budget,
-                     hours_since_white,
-                     bins,
-                     std::array<int, 3>{l.n_theta_h, l.n_theta_d, l.n_phi_d},
-                     true,
-                     &d);
-    return d;
+    return table_stated_dataset(table,
+                                std::array<int, 3>{l.n_theta_h, l.n_theta_d, l.n_phi_d},
+                                true,
+                                source,
+                                min_count,
+                                hdr,
+                                budget,
+                                hours_since_white);
 }
 
 brdf::Dataset stated_dataset(const AnisoTable& table,
@@ -100,17 +115,16 @@ brdf::Dataset stated_dataset(const AnisoTable& table,
                              bool hdr,
                              const brdf::RigErrorBudget& budget,
                              double hours_since_white) {
-    std::vector<std::size_t> bins;
-    brdf::Dataset d = table.to_dataset(source, min_count, hdr, &bins);
     const AnisoLayout& l = table.layout();
     // AnisoLayout::index: the isotropic bin (theta_h, theta_d, phi_d) then phi_h fastest.
-    add_table_budget(budget,
-                     hours_since_white,
-                     bins,
-                     std::array<int, 4>{l.n_theta_h, l.n_theta_d, l.n_phi_d, l.n_phi_h},
-                     false,
-                     &d);
-    return d;
+    return table_stated_dataset(table,
+                                std::array<int, 4>{l.n_theta_h, l.n_theta_d, l.n_phi_d, l.n_phi_h},
+                                false,
+                                source,
+                                min_count,
+                                hdr,
+                                budget,
+                                hours_since_white);
 }
 
 double image_rig_hours(const ImageCampaignResult& result, const ImageCampaignConfig& config) {
