@@ -8,25 +8,22 @@
 // rule and stops on it, no value is lost or measured twice and that sweep's configurations are
 // measured after the resume (unless the rule holds inside that batch, which then is the last).
 
-#include <signal.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
-#include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <regex>
 #include <set>
-#include <thread>
+#include <string>
+#include <utility>
+#include <vector>
 
-#include "cli_run.h"
+#include "plan_fit_support.h"
 
 namespace plan_fit_fly_aniso_test {
 namespace {
 
-using gonio::testing::read_text;
 using gonio::testing::run_gonio;
+using namespace gonio::testing::plan_fit;
 
 const char* kBrushed = R"({"diffuse": [0.05, 0.05, 0.05], "lobes": [{"distribution": "ggx",
     "alpha_x": 0.1, "alpha_y": 0.3, "orientation_deg": 30, "shadowing": "smith-correlated",
@@ -37,37 +34,8 @@ const char* kBrushed = R"({"diffuse": [0.05, 0.05, 0.05], "lobes": [{"distributi
 constexpr double kSlopeCap = 0.02;
 constexpr double kOrientationCapDeg = 1.0;
 
-std::string mono_rig_path() {
-    return std::string(GONIO_SOURCE_DIR) + "/data/rigs/sim4-mono.json";
-}
-
 std::string brushed_truth(const std::string& dir) {
-    const std::string p = dir + "_truth.json";
-    std::ofstream(p) << kBrushed;
-    return p;
-}
-
-nlohmann::json read_json(const std::string& path) {
-    const std::string text = read_text(path);
-    return text.empty() ? nlohmann::json() : nlohmann::json::parse(text, nullptr, false);
-}
-
-struct Estimate {
-    double value = NAN;
-    double sigma = NAN;
-};
-
-/// The stop rule's last check of `name` ("lobes[0].alpha_y"): value and sigma.
-Estimate estimate_of(const nlohmann::json& until, const std::string& name) {
-    const std::string params = until["parameters"].get<std::string>();
-    std::smatch m;
-    const std::regex item(std::regex_replace(name, std::regex(R"([\[\].])"), R"(\$&)") +
-                          R"( ([-+0-9.eE]+) \+- ([-+0-9.eE]+))");
-    if (!std::regex_search(params, m, item)) {
-        ADD_FAILURE() << "no " << name << " in " << params;
-        return {};
-    }
-    return {std::stod(m[1]), std::stod(m[2])};
+    return write_truth(dir, kBrushed);
 }
 
 /// The recovered slopes and orientation against the truth: within 3 sigma and within the caps.
@@ -82,41 +50,6 @@ void expect_brushed_truth(const nlohmann::json& until) {
         EXPECT_LE(std::abs(e.value - t), 3 * e.sigma) << name;
         EXPECT_LE(std::abs(e.value - t), cap) << name;
     }
-}
-
-struct JournalLine {
-    std::string type;
-    int pass = 0;
-    int index = 0;
-    std::string text;
-    double spin_deg = 0;
-};
-
-std::vector<JournalLine> lines_of(const std::string& dir) {
-    std::vector<JournalLine> out;
-    std::istringstream in(read_text(dir + "/journal.log"));
-    for (std::string line; std::getline(in, line);) {
-        const auto j = nlohmann::json::parse(line.substr(0, line.find('\t')), nullptr, false);
-        if (j.is_object()) {
-            const bool posed = j.contains("pose_deg") && j["pose_deg"].size() == 4;
-            out.push_back({j.value("type", ""),
-                           j.value("pass", 0),
-                           j.value("index", 0),
-                           j.value("text", ""),
-                           posed ? j["pose_deg"][3].get<double>() : 0.0});
-        }
-    }
-    return out;
-}
-
-std::vector<std::pair<int, int>> measured_of(const std::vector<JournalLine>& lines) {
-    std::vector<std::pair<int, int>> out;
-    for (const JournalLine& l : lines) {
-        if (l.type == "measurement") {
-            out.push_back({l.pass, l.index});
-        }
-    }
-    return out;
 }
 
 /// The spins (degrees, rounded, folded into [0, 360)) the sweeps of the batches after the first
@@ -196,21 +129,7 @@ bool kill_inside_fit_sweep(const std::string& dir, const std::string& truth) {
                                             "5",
                                             "--until",
                                             "sigma=0.02"};
-    const pid_t pid = gonio::testing::spawn_quietly(words);
-    EXPECT_GT(pid, 0);
-    bool inside = false;
-    for (int k = 0; pid > 0 && k < 90000 && !inside; ++k) {
-        const std::vector<JournalLine> lines = lines_of(dir);
-        inside = !lines.empty() && lines.back().type == "sweep" && lines.back().pass >= 1;
-        if (!inside) {
-            std::this_thread::sleep_for(std::chrono::milliseconds(2));
-        }
-    }
-    ::kill(pid, SIGKILL);
-    int status = 0;
-    ::waitpid(pid, &status, 0);
-    EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL) << "status " << status;
-    return inside;
+    return kill_inside_sweep(words, dir, 1);
 }
 
 TEST(AcquirePlanFitFlyAniso, KilledMidSweepResumesToItsStopRuleLosingAndRepeatingNothing) {
@@ -220,18 +139,8 @@ TEST(AcquirePlanFitFlyAniso, KilledMidSweepResumesToItsStopRuleLosingAndRepeatin
     ASSERT_TRUE(kill_inside_fit_sweep(dir, truth)) << "no sweep of a fit-chosen batch";
     const std::vector<JournalLine> killed = lines_of(dir);
     const auto before = measured_of(killed);
-    int st = 0;
-    const std::string out = run_gonio("acquire --resume " + dir, &st);
-    ASSERT_EQ(st, 0) << out;
-    const auto after = measured_of(lines_of(dir));
-    ASSERT_GE(after.size(), before.size());
-    for (std::size_t k = 0; k < before.size(); ++k) {
-        EXPECT_EQ(after[k], before[k]);
-    }
-    std::set<int> pool_once;
-    for (const auto& m : after) {
-        EXPECT_TRUE(pool_once.insert(m.second).second) << "pool configuration " << m.second;
-    }
+    std::vector<std::pair<int, int>> after;
+    ASSERT_NO_FATAL_FAILURE(resume_keeping(dir, before, &after));
     // The interrupted sweep's configurations: none measured before the kill; after it each
     // measured once, unless the rule held inside that batch (no later batch was chosen).
     const nlohmann::json meta = read_json(dir + "/metadata.json");

@@ -5,88 +5,30 @@
 // truth; killed with SIGKILL while a sweep of a fit-chosen batch runs and resumed, no value is
 // lost or measured twice and that sweep's configurations are measured after the resume.
 
-#include <signal.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
-#include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <nlohmann/json.hpp>
-#include <regex>
 #include <set>
-#include <thread>
+#include <string>
+#include <utility>
+#include <vector>
 
-#include "cli_run.h"
+#include "plan_fit_support.h"
 
 extern char** environ;
 
 namespace plan_fit_fly_test {
 namespace {
 
-using gonio::testing::read_text;
 using gonio::testing::run_gonio;
+using namespace gonio::testing::plan_fit;
 
 const char* kGgx005 = R"({"diffuse": [0.02, 0.02, 0.02], "lobes": [{"distribution": "ggx",
     "alpha": 0.05, "shadowing": "smith-correlated",
     "fresnel": {"type": "schlick", "f0": [0.04, 0.04, 0.04]}, "scale": [1, 1, 1]}]})";
 
-std::string mono_rig_path() {
-    return std::string(GONIO_SOURCE_DIR) + "/data/rigs/sim4-mono.json";
-}
-
 std::string ggx_truth(const std::string& dir) {
-    const std::string p = dir + "_truth.json";
-    std::ofstream(p) << kGgx005;
-    return p;
-}
-
-nlohmann::json read_json(const std::string& path) {
-    const std::string text = read_text(path);
-    return text.empty() ? nlohmann::json() : nlohmann::json::parse(text, nullptr, false);
-}
-
-/// The stop rule's check of alpha: value and sigma.
-std::pair<double, double> alpha_of(const nlohmann::json& until) {
-    const std::string params = until["parameters"].get<std::string>();
-    std::smatch m;
-    const std::regex item(R"(lobes\[0\]\.alpha_x ([-+0-9.eE]+) \+- ([-+0-9.eE]+))");
-    if (!std::regex_search(params, m, item)) {
-        ADD_FAILURE() << "no alpha in " << params;
-        return {NAN, NAN};
-    }
-    return {std::stod(m[1]), std::stod(m[2])};
-}
-
-struct JournalLine {
-    std::string type;
-    int pass = 0;
-    int index = 0;
-    std::string text;
-};
-
-std::vector<JournalLine> lines_of(const std::string& dir) {
-    std::vector<JournalLine> out;
-    std::istringstream in(read_text(dir + "/journal.log"));
-    for (std::string line; std::getline(in, line);) {
-        const auto j = nlohmann::json::parse(line.substr(0, line.find('\t')), nullptr, false);
-        if (j.is_object()) {
-            out.push_back({j.value("type", ""),
-                           j.value("pass", 0),
-                           j.value("index", 0),
-                           j.value("text", "")});
-        }
-    }
-    return out;
-}
-
-std::vector<std::pair<int, int>> measured_of(const std::vector<JournalLine>& lines) {
-    std::vector<std::pair<int, int>> out;
-    for (const JournalLine& l : lines) {
-        if (l.type == "measurement") {
-            out.push_back({l.pass, l.index});
-        }
-    }
-    return out;
+    return write_truth(dir, kGgx005);
 }
 
 // The fly run's frames are triggered by the drives' position compare (the rig's default time
@@ -118,7 +60,7 @@ TEST(AcquirePlanFitFly, ReachesTheTargetInLessRigTimeThanStopAndGo) {
         EXPECT_TRUE(b.value()["fitted"].get<bool>()) << b.value().dump();
         EXPECT_GT(b.value()["sweeps"].get<int>(), 0) << b.value().dump();
     }
-    const auto [alpha, sigma] = alpha_of(fly["until"]);
+    const auto [alpha, sigma] = estimate_of(fly["until"], "lobes[0].alpha_x");
     std::printf("fit plan, fly: alpha %.6g +- %.3g (truth 0.05), %d values, rig time %.1f s\n",
                 alpha,
                 sigma,
@@ -142,52 +84,28 @@ TEST(AcquirePlanFitFly, ReachesTheTargetInLessRigTimeThanStopAndGo) {
 TEST(AcquirePlanFitFly, KilledMidSweepAndResumedLosesAndRepeatsNothing) {
     const std::string dir = gonio::testing::test_folder("test_tools_plan_fit_fly", "kill9", false);
     const std::string truth = ggx_truth(dir);
-    std::vector<std::string> words = {GONIO_EXE,
-                                      "acquire",
-                                      "--plan",
-                                      "fit",
-                                      "--fly",
-                                      "--rig",
-                                      mono_rig_path(),
-                                      "--brdf",
-                                      truth,
-                                      "--out",
-                                      dir,
-                                      "--time-scale",
-                                      "5"};
-    const pid_t pid = gonio::testing::spawn_quietly(words);
-    ASSERT_GT(pid, 0);
-    // Killed while a sweep of a batch chosen from the fit (pass 2 or later) runs: its start is
-    // the journal's last line.
-    bool inside = false;
-    for (int k = 0; k < 90000 && !inside; ++k) {  // at most three minutes
-        const std::vector<JournalLine> lines = lines_of(dir);
-        inside = !lines.empty() && lines.back().type == "sweep" && lines.back().pass >= 2;
-        if (!inside) {
-            std::this_thread::sleep_for(std::chrono::milliseconds(2));
-        }
-    }
-    ::kill(pid, SIGKILL);
-    int status = 0;
-    ::waitpid(pid, &status, 0);
-    ASSERT_TRUE(inside) << "no sweep of the third batch within three minutes";
-    ASSERT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL) << "status " << status;
+    const std::vector<std::string> words = {GONIO_EXE,
+                                            "acquire",
+                                            "--plan",
+                                            "fit",
+                                            "--fly",
+                                            "--rig",
+                                            mono_rig_path(),
+                                            "--brdf",
+                                            truth,
+                                            "--out",
+                                            dir,
+                                            "--time-scale",
+                                            "5"};
+    // Killed while a sweep of a batch chosen from the fit (pass 2 or later) runs.
+    ASSERT_TRUE(kill_inside_sweep(words, dir, 2))
+        << "no sweep of the third batch within three minutes";
     const std::vector<JournalLine> killed = lines_of(dir);
     const auto before = measured_of(killed);
-    int st = 0;
-    const std::string out = run_gonio("acquire --resume " + dir, &st);
-    ASSERT_EQ(st, 0) << out;
-    const auto after = measured_of(lines_of(dir));
-    ASSERT_GE(after.size(), before.size());
-    for (std::size_t k = 0; k < before.size(); ++k) {
-        EXPECT_EQ(after[k], before[k]);
-    }
+    std::vector<std::pair<int, int>> after;
+    ASSERT_NO_FATAL_FAILURE(resume_keeping(dir, before, &after));
     const std::set<std::pair<int, int>> unique(after.begin(), after.end());
     EXPECT_EQ(unique.size(), after.size()) << "a configuration measured twice";
-    std::set<int> pool_once;
-    for (const auto& m : after) {
-        EXPECT_TRUE(pool_once.insert(m.second).second) << "pool configuration " << m.second;
-    }
     EXPECT_EQ(after.size(), 120u) << "the budget";
     // The interrupted sweep's configurations, none measured before the kill, all after it, in
     // the batch it belonged to (the resume rebuilt that batch).
