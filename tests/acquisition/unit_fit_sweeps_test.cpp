@@ -83,6 +83,29 @@ FitView one_parameter_view(const FitSweepPool& pool, double (*j_of)(const SweepL
     return v;
 }
 
+/// The choice's input before anything is measured: `fit` over `pool`, the dynamics of `rig`, a
+/// relative noise variance of 1e-2.
+SweepChoiceInput unmeasured_input(const FitSweepPool& pool,
+                                  const FitView& fit,
+                                  const RigConfig& rig) {
+    static const std::vector<MeasuredForPlan> none;
+    SweepChoiceInput in;
+    in.pool = &pool;
+    in.measured = &none;
+    in.fit = &fit;
+    in.noise_rel_var = 1e-2;
+    in.dyn = rig_dynamics(rig);
+    return in;
+}
+
+/// `count` sweeps, `space_share` of them filling space.
+FitChoiceOptions choice_options(int count, double space_share) {
+    FitChoiceOptions o;
+    o.count = count;
+    o.space_share = space_share;
+    return o;
+}
+
 TEST(FitSweeps, ChoosesTheSweepWhereTheFitIsLeastCertain) {
     const RigConfig rig = mono_rig();
     const FitSweepPool pool = pool_of(rig);
@@ -93,17 +116,9 @@ TEST(FitSweeps, ChoosesTheSweepWhereTheFitIsLeastCertain) {
             std::abs(l.stand.tilt) < 1e-9 && std::abs(l.stand.light - 30 * kDeg) < 1e-9;
         return line && std::abs(a + 30 * kDeg) < 8 * kDeg ? 1.0 : 0.0;
     });
-    const std::vector<MeasuredForPlan> none;
-    SweepChoiceInput in;
-    in.pool = &pool;
-    in.measured = &none;
-    in.fit = &fit;
-    in.noise_rel_var = 1e-2;
-    in.dyn = rig_dynamics(rig);
+    SweepChoiceInput in = unmeasured_input(pool, fit, rig);
     in.readout_s = 0.0052;
-    FitChoiceOptions o;
-    o.count = 8;
-    o.space_share = 0.25;
+    const FitChoiceOptions o = choice_options(8, 0.25);
     const SweepChoice c = choose_sweeps(candidates_of_pool(pool), in, o, 120);
     ASSERT_GE(c.sweeps, 2u);
     ASSERT_FALSE(c.frames.chosen.empty());
@@ -146,16 +161,8 @@ TEST(FitSweeps, OfTwoSweepsThatTeachAlikeTheNearerGoesFirst) {
                           std::abs(l.stand.light - 60 * kDeg) < 1e-9;
         return in_plane && pick && a > l.stand.light && a < l.stand.light + 16 * kDeg ? 1.0 : 0.0;
     });
-    const std::vector<MeasuredForPlan> none;
-    SweepChoiceInput in;
-    in.pool = &pool;
-    in.measured = &none;
-    in.fit = &fit;
-    in.noise_rel_var = 1e-2;
-    in.dyn = rig_dynamics(rig);
-    FitChoiceOptions o;
-    o.count = 4;
-    o.space_share = 0;
+    SweepChoiceInput in = unmeasured_input(pool, fit, rig);
+    const FitChoiceOptions o = choice_options(4, 0);
     for (double light_deg : {20.0, 60.0}) {
         in.start = brdf::RigPosed{light_deg * kDeg, (light_deg + 10) * kDeg, 0, 0};
         const SweepChoice c = choose_sweeps(candidates_of_pool(pool), in, o, 120);
@@ -236,16 +243,8 @@ TEST(FitSweeps, AnisotropicChoiceTurnsTheSampleToTheSpinThatTeachesNearerFirst) 
                           (spin == -45 || spin == 105);
         return line && a > l.stand.light && a < l.stand.light + 16 * kDeg ? 1.0 : 0.0;
     });
-    const std::vector<MeasuredForPlan> none;
-    SweepChoiceInput in;
-    in.pool = &pool;
-    in.measured = &none;
-    in.fit = &fit;
-    in.noise_rel_var = 1e-2;
-    in.dyn = rig_dynamics(rig);
-    FitChoiceOptions o;
-    o.count = 4;
-    o.space_share = 0;
+    SweepChoiceInput in = unmeasured_input(pool, fit, rig);
+    const FitChoiceOptions o = choice_options(4, 0);
     for (double spin_deg : {-45.0, 105.0}) {
         in.start = brdf::RigPosed{30 * kDeg, 40 * kDeg, 0, (spin_deg + 10) * kDeg};
         const SweepChoice c = choose_sweeps(candidates_of_pool(pool), in, o, 120);

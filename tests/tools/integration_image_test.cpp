@@ -74,6 +74,36 @@ std::string quiet_image_rig_json() {
     return j.dump(2);
 }
 
+/// One GGX lobe without Fresnel (Smith correlated shadowing) fitted to `data` with `seed`, in
+/// `model`.
+void fit_ggx_one_lobe(const brdf::Dataset& data, std::uint64_t seed, brdf::ModelD* model) {
+    fitting::ModelOptions mo;
+    mo.distribution = brdf::Distribution::kGgx;
+    mo.fresnel = brdf::FresnelType::kNone;
+    mo.shadowing = brdf::Shadowing::kSmithCorrelated;
+    auto spec = fitting::make_fit_spec(mo);
+    ASSERT_TRUE(spec) << spec.error().message;
+    spec->options.seed = seed;
+    spec->options.num_threads = 1;
+    spec->options.max_samples = 6000;
+    auto fit = fitting::fit(data, *spec);
+    ASSERT_TRUE(fit) << fit.error().message;
+    ASSERT_TRUE(fit->usable()) << fit->solver.message;
+    ASSERT_EQ(fit->model.lobes.size(), 1u);
+    *model = fit->model;
+}
+
+/// The fitted one-lobe model against the truth: alpha and the diffuse within 5%, the lobe's
+/// scale within 10%.
+void expect_recovered_material(const brdf::ModelD& m, const brdf::ModelD& truth) {
+    EXPECT_NEAR(m.lobes[0].alpha_x, truth.lobes[0].alpha_x, 0.05 * truth.lobes[0].alpha_x);
+    for (int c = 0; c < 3; ++c) {
+        EXPECT_NEAR(m.diffuse[c], truth.diffuse[c], 0.05 * truth.diffuse[c]) << "channel " << c;
+        EXPECT_NEAR(m.lobes[0].scale[c], truth.lobes[0].scale[c], 0.1 * truth.lobes[0].scale[c])
+            << "channel " << c;
+    }
+}
+
 class ImageCampaignTest : public ::testing::Test {
   protected:
     static void SetUpTestSuite() {
@@ -291,27 +321,9 @@ TEST_F(ImageCampaignTest, BinsMatchGroundTruthWithinNoise) {
 
 TEST_F(ImageCampaignTest, FitOfTheDatasetRecoversTheMaterial) {
     const brdf::Dataset data = result_->table.to_dataset("image campaign", 3, result_->bracketed);
-    fitting::ModelOptions mo;
-    mo.distribution = brdf::Distribution::kGgx;
-    mo.fresnel = brdf::FresnelType::kNone;
-    mo.shadowing = brdf::Shadowing::kSmithCorrelated;
-    auto spec = fitting::make_fit_spec(mo);
-    ASSERT_TRUE(spec) << spec.error().message;
-    spec->options.seed = kSeed;
-    spec->options.num_threads = 1;
-    spec->options.max_samples = 6000;
-    auto fit = fitting::fit(data, *spec);
-    ASSERT_TRUE(fit) << fit.error().message;
-    ASSERT_TRUE(fit->usable()) << fit->solver.message;
-    const brdf::ModelD truth = truth_model();
-    const brdf::ModelD& m = fit->model;
-    ASSERT_EQ(m.lobes.size(), 1u);
-    EXPECT_NEAR(m.lobes[0].alpha_x, truth.lobes[0].alpha_x, 0.05 * truth.lobes[0].alpha_x);
-    for (int c = 0; c < 3; ++c) {
-        EXPECT_NEAR(m.diffuse[c], truth.diffuse[c], 0.05 * truth.diffuse[c]) << "channel " << c;
-        EXPECT_NEAR(m.lobes[0].scale[c], truth.lobes[0].scale[c], 0.1 * truth.lobes[0].scale[c])
-            << "channel " << c;
-    }
+    brdf::ModelD m;
+    ASSERT_NO_FATAL_FAILURE(fit_ggx_one_lobe(data, kSeed, &m));
+    expect_recovered_material(m, truth_model());
 }
 
 // A rig file naming the quiet profile: the dataset's sigmas are the bins' standard errors, to
@@ -1077,28 +1089,11 @@ TEST_F(ImageBudgetTest, HighSignalBinsAreCoveredOnlyWithTheBudget) {
 
 TEST_F(ImageBudgetTest, FitOfTheDatasetRecoversTheMaterial) {
     const brdf::Dataset data = written();
-    fitting::ModelOptions mo;
-    mo.distribution = brdf::Distribution::kGgx;
-    mo.fresnel = brdf::FresnelType::kNone;
-    mo.shadowing = brdf::Shadowing::kSmithCorrelated;
-    auto spec = fitting::make_fit_spec(mo);
-    ASSERT_TRUE(spec) << spec.error().message;
-    spec->options.seed = kBudgetSeed;
-    spec->options.num_threads = 1;
-    spec->options.max_samples = 6000;
-    auto fit = fitting::fit(data, *spec);
-    ASSERT_TRUE(fit) << fit.error().message;
-    ASSERT_TRUE(fit->usable()) << fit->solver.message;
+    brdf::ModelD m;
+    ASSERT_NO_FATAL_FAILURE(fit_ggx_one_lobe(data, kBudgetSeed, &m));
     const brdf::ModelD truth = budget_truth();
-    const brdf::ModelD& m = fit->model;
-    ASSERT_EQ(m.lobes.size(), 1u);
     std::printf("fit: alpha %.5f (truth %.2f)\n", m.lobes[0].alpha_x, truth.lobes[0].alpha_x);
-    EXPECT_NEAR(m.lobes[0].alpha_x, truth.lobes[0].alpha_x, 0.05 * truth.lobes[0].alpha_x);
-    for (int c = 0; c < 3; ++c) {
-        EXPECT_NEAR(m.diffuse[c], truth.diffuse[c], 0.05 * truth.diffuse[c]) << "channel " << c;
-        EXPECT_NEAR(m.lobes[0].scale[c], truth.lobes[0].scale[c], 0.1 * truth.lobes[0].scale[c])
-            << "channel " << c;
-    }
+    expect_recovered_material(m, truth);
 }
 
 }  // namespace
