@@ -263,8 +263,9 @@ def campaign(truth, label, args, curve, work):
     return points
 
 
-def time_to_reach(points, target):
-    """The least rig time among points whose error (vs dense fit) is at most target."""
+def least_time_within(points, target):
+    """The least rig time among (label, n, rig s, errors, stopped) points whose error (vs dense
+    fit) is at most target."""
     ok = [p[2] for p in points if p[3][0] <= target]
     return min(ok) if ok else None
 
@@ -285,8 +286,8 @@ def main():
     ap.add_argument("--quick", action="store_true", help="with --mission: a smoke run (GGX 0.3, "
                     "the uniform and fit plans, two budgets) unless --truth and --plan say more")
     ap.add_argument("--fly-time-scale", type=float, default=5,
-                    help="time scale of the virtual rig in fly scans (the software trigger has to "
-                    "keep pace; the rig time does not depend on it)")
+                    help="time scale of the virtual rig in fly scans (the rig time does not depend "
+                    "on it; an arm that triggers by polling has to keep pace in wall time)")
     ap.add_argument("--reuse", action="store_true", help="with --mission and --out: take the "
                     "finished campaigns already in DIR as they are (run only the missing ones)")
     a = ap.parse_args()
@@ -354,11 +355,11 @@ def report_ratios(tname, per_family):
     ref = [p for p in per_family.get("uniform", []) if p[0].startswith(REFERENCE_GRID)]
     targets = ([("1.5 x uniform 7x5", 1.5 * ref[0][3][0])] if ref else []) + [("1 %", 0.01)]
     for what, target in targets:
-        t_uniform = time_to_reach(per_family.get("uniform", []), target)
-        t_vndf = time_to_reach(per_family.get("vndf", []), target)
+        t_uniform = least_time_within(per_family.get("uniform", []), target)
+        t_vndf = least_time_within(per_family.get("vndf", []), target)
         print("\n%s: rig time to reach %.4f vs dense fit (%s):" % (tname, target, what))
         for fam, pts in per_family.items():
-            t = time_to_reach(pts, target)
+            t = least_time_within(pts, target)
             if t is None:
                 best = min(pts, key=lambda p: p[3][0])
                 print("  %s: not reached (best %.4f at %.0f s)" % (fam, best[3][0], best[2]))

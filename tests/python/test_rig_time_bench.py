@@ -35,6 +35,23 @@ def test_time_to_reach_interpolates_the_best_error_so_far_in_log_log():
     assert rtb.time_to_reach(pts, 0.005, "e") == (None, None)
 
 
+def test_a_run_of_named_plans_reports_each_familys_time_to_an_error(capsys):
+    # (label, measurements, rig s, (vs dense fit, vs truth, alpha), stopped), as run_family gives.
+    per_family = {
+        "uniform": [("uniform 7x5 mono stop-and-go", 105, 126.0, (0.004, 0.004, 0.001), "end"),
+                    ("uniform 16x2 mono stop-and-go", 233, 193.0, (0.002, 0.002, 0.001), "end")],
+        "fit": [("fit mono --fly", 120, 75.0, (0.0015, 0.0015, 0.0003), "end")],
+    }
+    rtb.report_ratios("ggx-0.05", per_family)
+    out = capsys.readouterr().out
+    # 1.5 x the 7x5 grid's 0.004 is 0.006: the 7x5 grid reaches it at 126 s, the fit plan at 75 s.
+    assert "rig time to reach 0.0060" in out
+    assert "uniform: 126 s" in out
+    assert "fit: 75 s (uniform / this 1.68)" in out
+    # 1 %: the same.
+    assert "rig time to reach 0.0100" in out
+
+
 def write_dataset(path, grid, values):
     with open(path, "w", newline="") as f:
         w = csv.writer(f)
