@@ -1,6 +1,7 @@
 // The campaign runner: the campaign loaded, the journal replayed, the passes measured in order, the end of the run (campaign_runner.h).
 
 #include "campaign_runner.h"
+#include "gonio/acquisition/point/fit_pass.h"
 
 namespace gonio::acquisition::campaign_internal {
 
@@ -299,18 +300,7 @@ void Runner::publish_measurement(const JournalRecord& r) const {
     if (!hooks_.on_measurement) {
         return;
     }
-    brdf::Sample smp;
-    const auto si = brdf::cartesian_to_spherical(r.wi);
-    const auto so = brdf::cartesian_to_spherical(r.wo);
-    smp.theta_i = si.theta;
-    smp.phi_i = si.phi;
-    smp.theta_o = so.theta;
-    smp.phi_o = so.phi;
-    smp.value = r.value;
-    smp.sigma = r.sigma;
-    smp.weight = r.weight;
-    smp.flags = r.flags;
-    hooks_.on_measurement(smp, done_.size(), planned_total_);
+    hooks_.on_measurement(sample_of_record(r), done_.size(), planned_total_);
 }
 
 std::optional<Expected<RunResult>> Runner::measure_pass(int pass,
